@@ -1,0 +1,10 @@
+//! One module per `riskctl` subcommand: argument struct (clap) + `run`.
+pub mod ablation;
+pub mod demo;
+pub mod evaluate;
+pub mod events_to_candump;
+pub mod export_model;
+pub mod inspect_model;
+pub mod simulate;
+pub mod ssm;
+pub mod train;

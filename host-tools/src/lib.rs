@@ -1,0 +1,23 @@
+//! Host side of riskscore. Every feature, surrogate, quantised inference and warning decision is
+//! computed by `scorer-core`; this crate only moves data around it, learns parameters and reports.
+//!
+//! - [`ssm_csv`]: streaming CSV scoring of ego/partner pairs (`riskctl ssm`).
+//! - [`events`]: the event-folder format (loading, validation, sequence preparation).
+//! - [`sim`]: the scenario simulator that writes event folders.
+//! - [`comparisons`]: pairwise comparisons, one module per source.
+//! - [`train`]: objective and training (candle) for DRL and MSRA.
+//! - [`eval`]: the proactive-warning evaluation protocol, metrics, reports and plots.
+//! - [`quantize`]: post-training int8 quantisation through the core's requantisation.
+//! - [`export`]: writing and inspecting model blobs.
+//! - [`candump_export`]: event tables as 10 Hz vehicle CAN traffic in candump format.
+//! - [`demo`]: the end-to-end main job.
+pub mod candump_export;
+pub mod comparisons;
+pub mod demo;
+pub mod eval;
+pub mod events;
+pub mod export;
+pub mod quantize;
+pub mod sim;
+pub mod ssm_csv;
+pub mod train;

@@ -1,0 +1,1 @@
+//! PLACEHOLDER: owned by a helper; replaced with the real module.

@@ -1,0 +1,43 @@
+//! `scorer-core`: the risk scoring core that runs on the vehicle's ECU.
+//!
+//! `#![no_std]`, no `alloc`, no `unsafe`, no panics. Every transcendental goes through `libm`, so the
+//! host (training, evaluation, CAN bridge) and the microcontroller compute the same numbers.
+//!
+//! Layers, each in its own module:
+//! - [`state`]: the kinematic state of one road user ([`VehicleState`]).
+//! - [`geometry`]: oriented boxes and the exact box-to-box distance.
+//! - [`features`]: the 13 observation features of an ego/partner pair.
+//! - [`surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
+//! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
+//! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
+//! - [`msra`]: the multi-surrogate risk aggregation `R = sum_k w_k sigmoid(a_k g_k(f_k) + b_k)`.
+//! - [`warning`]: the first-threshold warning rule and a fixed-capacity track table.
+//! - [`crc`]: CRC-32 used by the model blob header.
+//! - [`model`]: the model blob format (header + postcard payload), decoding without allocation.
+#![no_std]
+#![forbid(unsafe_code)]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
+
+pub mod crc;
+pub mod features;
+pub mod geometry;
+pub mod mlp;
+pub mod model;
+pub mod msra;
+pub mod quant;
+pub mod state;
+pub mod surrogates;
+pub mod warning;
+
+pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
+pub use geometry::box_distance;
+pub use state::VehicleState;
+pub use surrogates::{ei, surrogates, tadv, ttc2d, SurrogateKind, Surrogates};

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Idempotent machine set-up for riskscore on Debian: rustup targets/components and apt packages.
+# Quiet when everything is already there. Usage: scripts/setup.sh [test]
+#   (no argument) what the demo needs;  test  also what the test suite needs.
+set -euo pipefail
+want_test=${1:-}
+
+need_targets=()
+if [ "$want_test" = test ]; then
+  for t in thumbv7em-none-eabihf x86_64-unknown-linux-musl; do
+    rustup target list --installed 2>/dev/null | grep -qx "$t" || need_targets+=("$t")
+  done
+  for c in rustfmt clippy; do
+    rustup component list --installed 2>/dev/null | grep -q "^$c" || rustup component add "$c" >/dev/null
+  done
+fi
+if [ ${#need_targets[@]} -gt 0 ]; then
+  echo "setup: adding rust targets ${need_targets[*]}"
+  rustup target add "${need_targets[@]}" >/dev/null
+fi
+
+need_pkgs=()
+if [ "$want_test" = test ]; then
+  # qemu-system-arm: Cortex-M4F firmware parity; qemu-system-x86 + busybox-static + cpio: vcan VM.
+  for p in qemu-system-arm qemu-system-x86 busybox-static cpio gcc; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || need_pkgs+=("$p")
+  done
+fi
+if [ ${#need_pkgs[@]} -gt 0 ]; then
+  echo "setup: installing apt packages ${need_pkgs[*]}"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO=sudo
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends "${need_pkgs[@]}" >/dev/null
+fi

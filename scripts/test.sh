@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# The whole test suite, exactly as CI runs it (.ci/run calls this). Installs what it needs first.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh test
+
+step() { printf '\n==> %s\n' "$*"; }
+
+step "cargo fmt --check"
+cargo fmt --all -- --check
+
+step "cargo clippy (all targets, warnings are errors)"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+
+step "scorer-core for thumbv7em-none-eabihf (release, no_std)"
+cargo build --quiet -p scorer-core --release --target thumbv7em-none-eabihf
+
+step "cargo test (workspace)"
+cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
