@@ -29,6 +29,7 @@
 pub mod crc;
 pub mod features;
 pub mod geometry;
+pub mod gssm;
 pub mod mlp;
 pub mod model;
 pub mod msra;

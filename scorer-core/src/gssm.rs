@@ -1,0 +1,1 @@
+//! PLACEHOLDER: the inference/model-format helper writes this module.
