@@ -11,6 +11,7 @@
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
 //! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
 //! - [`msra`]: the multi-surrogate risk aggregation `R = sum_k w_k sigmoid(a_k g_k(f_k) + b_k)`.
+//! - [`gssm`]: the lognormal spacing model (GSSM / SSRA): `F_S`, intensity, score modes.
 //! - [`warning`]: the first-threshold warning rule and a fixed-capacity track table.
 //! - [`crc`]: CRC-32 used by the model blob header.
 //! - [`model`]: the model blob format (header + postcard payload), decoding without allocation.
@@ -42,3 +43,9 @@ pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
 pub use geometry::box_distance;
 pub use state::VehicleState;
 pub use surrogates::{ei, surrogates, tadv, ttc2d, SurrogateKind, Surrogates};
+
+pub use gssm::{GssmModel, GssmScore};
+pub use mlp::{FloatMlp, QuantMlp};
+pub use model::{decode, encode, Model, ModelError, ModelKind};
+pub use msra::{MsraModel, MsraTerm};
+pub use warning::{FirstThreshold, TrackTable, WarningConfig};

@@ -1,1 +1,438 @@
-//! PLACEHOLDER: the inference/model-format helper writes this module.
+//! Warning decisions: the first-threshold rule of the evaluation protocol, and a fixed-capacity
+//! per-partner track table for live use.
+//!
+//! Time is `u64` microseconds (monotonic, any epoch): integer time never drifts, compares exactly
+//! and covers 584 000 years. CAN timestamps are microseconds already.
+//!
+//! Rule ([`FirstThreshold`], and each track of [`TrackTable`]): the warning turns on at the first
+//! update with `R >= threshold` (inclusive, exactly as evaluation counts an alert; NaN never
+//! triggers). In *latched* mode (evaluation semantics) it then stays on for the life of the track.
+//! In *live* mode it is released at the first update with `R < threshold - hysteresis` once it has
+//! been on for at least `min_on_us`; a later crossing is a new onset.
+//!
+//! Table ([`TrackTable`]): tracks keyed by partner id (`u32`), at most `N`, stored in a
+//! `heapless::Vec` in insertion order (so every operation is deterministic).
+//! - Staleness: a track whose last update is more than `stale_after_us` before `now` is stale. Stale
+//!   tracks are dropped by [`TrackTable::expire`] (also run by every [`TrackTable::update`]) and are
+//!   never reported as warning by the query functions, even before they are dropped.
+//! - Id reuse: an id whose track was dropped (stale, [`TrackTable::remove`], eviction) starts a fresh
+//!   track: no latched warning, no history.
+//! - Table full (after dropping stale tracks): [`FullPolicy::Reject`] returns
+//!   [`WarningError::TableFull`]; [`FullPolicy::EvictLeastRecent`] evicts the least recently updated
+//!   track that is *not* warning (lowest slot on ties) and returns `TableFull` only when every track
+//!   is warning. An active warning is never evicted.
+//! - An update older than its track's last update is rejected ([`WarningError::OutOfOrder`]) and
+//!   changes nothing; a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
+//!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score.
+
+use core::fmt;
+
+/// Microseconds.
+pub type Micros = u64;
+
+/// The evaluation protocol's per-sequence rule: warn at the first update with `R >= threshold`,
+/// then stay warned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstThreshold {
+    threshold: f32,
+    updates: u32,
+    first: Option<u32>,
+}
+
+impl FirstThreshold {
+    /// A fresh sequence.
+    pub const fn new(threshold: f32) -> Self {
+        Self {
+            threshold,
+            updates: 0,
+            first: None,
+        }
+    }
+
+    /// Feeds the next score; returns whether the warning is on after it.
+    pub fn update(&mut self, r: f32) -> bool {
+        if self.first.is_none() && r >= self.threshold {
+            self.first = Some(self.updates);
+        }
+        self.updates = self.updates.saturating_add(1);
+        self.first.is_some()
+    }
+
+    /// Whether the warning has been given.
+    pub fn is_warning(&self) -> bool {
+        self.first.is_some()
+    }
+
+    /// 0-based index of the update that triggered the warning.
+    pub fn first_warning(&self) -> Option<u32> {
+        self.first
+    }
+
+    /// Number of updates fed.
+    pub fn updates(&self) -> u32 {
+        self.updates
+    }
+
+    /// The threshold.
+    pub fn threshold(&self) -> f32 {
+        self.threshold
+    }
+
+    /// Starts a new sequence (same threshold).
+    pub fn reset(&mut self) {
+        *self = Self::new(self.threshold);
+    }
+}
+
+/// Index of the first score `>= threshold` in a sequence (the evaluation's alert frame).
+pub fn first_crossing<I: IntoIterator<Item = f32>>(scores: I, threshold: f32) -> Option<usize> {
+    scores.into_iter().position(|r| r >= threshold)
+}
+
+/// What to do when a new id arrives and the table is full of fresh tracks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FullPolicy {
+    /// Refuse the new id with [`WarningError::TableFull`].
+    Reject,
+    /// Evict the least recently updated non-warning track; refuse only if all tracks warn.
+    EvictLeastRecent,
+}
+
+/// Parameters of the per-track rule and of the table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WarningConfig {
+    /// Warn when `R >= threshold`.
+    pub threshold: f32,
+    /// `true`: latched (evaluation semantics, never released). `false`: live mode.
+    pub latch: bool,
+    /// Live mode: release when `R < threshold - hysteresis` (`>= 0`).
+    pub hysteresis: f32,
+    /// Live mode: a warning stays on at least this long.
+    pub min_on_us: Micros,
+    /// Tracks not updated for longer than this are stale and dropped (`u64::MAX`: never).
+    pub stale_after_us: Micros,
+    /// Table-full behaviour.
+    pub when_full: FullPolicy,
+}
+
+impl WarningConfig {
+    /// Evaluation semantics: latched first-threshold warning, evict-least-recent when full.
+    pub const fn first_threshold(threshold: f32, stale_after_us: Micros) -> Self {
+        Self {
+            threshold,
+            latch: true,
+            hysteresis: 0.0,
+            min_on_us: 0,
+            stale_after_us,
+            when_full: FullPolicy::EvictLeastRecent,
+        }
+    }
+
+    /// Live use: release below `threshold - hysteresis` after at least `min_on_us`.
+    pub const fn live(
+        threshold: f32,
+        hysteresis: f32,
+        min_on_us: Micros,
+        stale_after_us: Micros,
+    ) -> Self {
+        Self {
+            threshold,
+            latch: false,
+            hysteresis,
+            min_on_us,
+            stale_after_us,
+            when_full: FullPolicy::EvictLeastRecent,
+        }
+    }
+
+    /// The threshold must not be NaN; the hysteresis must be finite and `>= 0`.
+    pub fn validate(&self) -> Result<(), WarningError> {
+        if self.threshold.is_nan() {
+            return Err(WarningError::InvalidConfig("threshold is NaN"));
+        }
+        if !(self.hysteresis.is_finite() && self.hysteresis >= 0.0) {
+            return Err(WarningError::InvalidConfig(
+                "hysteresis must be finite and >= 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Rejected table operations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WarningError {
+    /// The score was NaN.
+    NonFiniteScore { id: u32 },
+    /// `now` is earlier than the track's last update.
+    OutOfOrder {
+        id: u32,
+        last_us: Micros,
+        now_us: Micros,
+    },
+    /// No room for a new track (see [`FullPolicy`]).
+    TableFull { id: u32 },
+    /// A [`WarningConfig`] field is invalid.
+    InvalidConfig(&'static str),
+}
+
+impl fmt::Display for WarningError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFiniteScore { id } => write!(f, "track {id}: score is NaN"),
+            Self::OutOfOrder {
+                id,
+                last_us,
+                now_us,
+            } => {
+                write!(
+                    f,
+                    "track {id}: update at {now_us} us is older than the last one at {last_us} us"
+                )
+            }
+            Self::TableFull { id } => write!(f, "track {id}: track table full"),
+            Self::InvalidConfig(why) => write!(f, "invalid warning config: {why}"),
+        }
+    }
+}
+
+impl core::error::Error for WarningError {}
+
+/// What an update changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WarningEvent {
+    /// The warning state did not change.
+    None,
+    /// The warning turned on at this update.
+    Onset,
+    /// The warning was released at this update (live mode only).
+    Release,
+}
+
+/// One partner's warning state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Track {
+    /// Partner id.
+    pub id: u32,
+    /// Time of the track's first update.
+    pub created_us: Micros,
+    /// Time of the last accepted update.
+    pub last_update_us: Micros,
+    /// Last accepted score.
+    pub last_score: f32,
+    /// Whether the warning is on.
+    pub warning: bool,
+    /// When the current warning turned on.
+    pub on_since_us: Option<Micros>,
+    /// When this track first warned (the first-threshold alert time).
+    pub first_warning_us: Option<Micros>,
+    /// Number of accepted updates.
+    pub updates: u32,
+    /// Number of onsets (1 at most when latched).
+    pub onsets: u32,
+}
+
+impl Track {
+    fn new(id: u32, now: Micros) -> Self {
+        Self {
+            id,
+            created_us: now,
+            last_update_us: now,
+            last_score: 0.0,
+            warning: false,
+            on_since_us: None,
+            first_warning_us: None,
+            updates: 0,
+            onsets: 0,
+        }
+    }
+
+    fn is_stale(&self, now: Micros, stale_after: Micros) -> bool {
+        now.saturating_sub(self.last_update_us) > stale_after
+    }
+
+    fn apply(&mut self, cfg: &WarningConfig, now: Micros, r: f32) -> WarningEvent {
+        self.last_update_us = now;
+        self.last_score = r;
+        self.updates = self.updates.saturating_add(1);
+        if !self.warning {
+            if r >= cfg.threshold {
+                self.warning = true;
+                self.on_since_us = Some(now);
+                self.first_warning_us.get_or_insert(now);
+                self.onsets = self.onsets.saturating_add(1);
+                return WarningEvent::Onset;
+            }
+            return WarningEvent::None;
+        }
+        if !cfg.latch {
+            let on_for = now.saturating_sub(self.on_since_us.unwrap_or(now));
+            if r < cfg.threshold - cfg.hysteresis && on_for >= cfg.min_on_us {
+                self.warning = false;
+                self.on_since_us = None;
+                return WarningEvent::Release;
+            }
+        }
+        WarningEvent::None
+    }
+}
+
+/// Result of [`TrackTable::update`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackStatus {
+    /// Whether the partner's warning is on after this update.
+    pub warning: bool,
+    /// What changed.
+    pub event: WarningEvent,
+    /// True when this update created the track (new id, or a reused id after a drop).
+    pub new_track: bool,
+    /// Id of a track evicted to make room, if any.
+    pub evicted: Option<u32>,
+}
+
+/// Up to `N` partner tracks; no allocation.
+#[derive(Clone, Debug)]
+pub struct TrackTable<const N: usize> {
+    config: WarningConfig,
+    tracks: heapless::Vec<Track, N>,
+}
+
+impl<const N: usize> TrackTable<N> {
+    /// An empty table; `Err(InvalidConfig)` for a bad config.
+    pub fn new(config: WarningConfig) -> Result<Self, WarningError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            tracks: heapless::Vec::new(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &WarningConfig {
+        &self.config
+    }
+
+    /// Number of tracks held (stale ones included until the next `expire`/`update`).
+    pub fn len(&self) -> usize {
+        self.tracks.len()
+    }
+
+    /// True when no track is held.
+    pub fn is_empty(&self) -> bool {
+        self.tracks.is_empty()
+    }
+
+    /// Capacity `N`.
+    pub const fn capacity(&self) -> usize {
+        N
+    }
+
+    /// All held tracks in insertion order.
+    pub fn iter(&self) -> impl Iterator<Item = &Track> {
+        self.tracks.iter()
+    }
+
+    /// The track of `id`, if held (possibly stale).
+    pub fn get(&self, id: u32) -> Option<&Track> {
+        self.tracks.iter().find(|t| t.id == id)
+    }
+
+    /// Drops tracks stale at `now`; returns how many.
+    pub fn expire(&mut self, now: Micros) -> usize {
+        let before = self.tracks.len();
+        let stale_after = self.config.stale_after_us;
+        self.tracks.retain(|t| !t.is_stale(now, stale_after));
+        before - self.tracks.len()
+    }
+
+    /// Drops the track of `id`; returns whether it existed.
+    pub fn remove(&mut self, id: u32) -> bool {
+        let before = self.tracks.len();
+        self.tracks.retain(|t| t.id != id);
+        before != self.tracks.len()
+    }
+
+    /// Drops every track.
+    pub fn clear(&mut self) {
+        self.tracks.clear();
+    }
+
+    /// Whether `id` is warning at `now` (false if unknown or stale).
+    pub fn is_warning(&self, id: u32, now: Micros) -> bool {
+        self.get(id)
+            .is_some_and(|t| t.warning && !t.is_stale(now, self.config.stale_after_us))
+    }
+
+    /// Fresh (non-stale) tracks that are warning at `now`, in insertion order.
+    pub fn warnings(&self, now: Micros) -> impl Iterator<Item = &Track> {
+        let stale_after = self.config.stale_after_us;
+        self.tracks
+            .iter()
+            .filter(move |t| t.warning && !t.is_stale(now, stale_after))
+    }
+
+    /// True if any fresh track is warning at `now`.
+    pub fn any_warning(&self, now: Micros) -> bool {
+        self.warnings(now).next().is_some()
+    }
+
+    /// Feeds the score `r` of partner `id` at time `now`: drops stale tracks, finds or creates the
+    /// partner's track, applies the rule. Errors change nothing but the stale-track drop.
+    pub fn update(&mut self, id: u32, now: Micros, r: f32) -> Result<TrackStatus, WarningError> {
+        if r.is_nan() {
+            return Err(WarningError::NonFiniteScore { id });
+        }
+        self.expire(now);
+        let cfg = self.config;
+        if let Some(track) = self.tracks.iter_mut().find(|t| t.id == id) {
+            if now < track.last_update_us {
+                return Err(WarningError::OutOfOrder {
+                    id,
+                    last_us: track.last_update_us,
+                    now_us: now,
+                });
+            }
+            let event = track.apply(&cfg, now, r);
+            return Ok(TrackStatus {
+                warning: track.warning,
+                event,
+                new_track: false,
+                evicted: None,
+            });
+        }
+        let mut evicted = None;
+        if self.tracks.is_full() {
+            if cfg.when_full == FullPolicy::Reject {
+                return Err(WarningError::TableFull { id });
+            }
+            let victim = self
+                .tracks
+                .iter()
+                .filter(|t| !t.warning)
+                .fold(None::<&Track>, |best, t| match best {
+                    Some(b) if b.last_update_us <= t.last_update_us => Some(b),
+                    _ => Some(t),
+                })
+                .map(|t| t.id);
+            match victim {
+                Some(v) => {
+                    self.remove(v);
+                    evicted = Some(v);
+                }
+                None => return Err(WarningError::TableFull { id }),
+            }
+        }
+        let mut track = Track::new(id, now);
+        let event = track.apply(&cfg, now, r);
+        let warning = track.warning;
+        self.tracks
+            .push(track)
+            .map_err(|_| WarningError::TableFull { id })?;
+        Ok(TrackStatus {
+            warning,
+            event,
+            new_track: true,
+            evicted,
+        })
+    }
+}

@@ -1,5 +1,24 @@
-//! Surrogate safety measures. PLACEHOLDER: the surrogate/feature helper replaces the bodies.
+//! Surrogate safety measures of an ego/partner pair, reproducing the published reference
+//! implementations (see `tests/data/golden_README.md` for the conventions and the parity data).
+//!
+//! - [`ttc2d`]: two-dimensional time-to-collision (s). `f32::INFINITY` = no conflict.
+//! - [`tadv`]: time advantage (s). `f32::INFINITY` = no conflict.
+//! - [`ei`]: emergency index (m/s). `f32::NEG_INFINITY` = no conflict.
+//! - [`box_distance`](crate::geometry::box_distance): exact gap between the boxes (m).
+//!
+//! Every function is total: NaN or infinite inputs, zero headings and overflowing intermediate
+//! values give the "no conflict" sentinel (or a finite value), never NaN and never a panic.
+//! TTC2D and TAdv move the vehicles with `(vx, vy)` and use the heading only for the box; EI, like
+//! its reference, moves each vehicle with its speed `|(vx, vy)|` along its heading.
 use crate::state::VehicleState;
+
+mod ei;
+mod tadv;
+mod ttc2d;
+
+pub use ei::ei;
+pub use tadv::tadv;
+pub use ttc2d::ttc2d;
 
 /// Which surrogate an MSRA term (or a baseline) reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -14,27 +33,35 @@ pub enum SurrogateKind {
 /// All surrogates of one pair, computed once and shared by MSRA and baselines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surrogates {
+    /// Exact box-to-box distance (m), 0 when touching or overlapping.
     pub box_distance: f32,
+    /// Two-dimensional time-to-collision (s), `f32::INFINITY` = no conflict.
     pub ttc2d: f32,
+    /// Time advantage (s), `f32::INFINITY` = no conflict.
     pub tadv: f32,
+    /// Emergency index (m/s), `f32::NEG_INFINITY` = no conflict.
     pub ei: f32,
 }
 
-pub fn ttc2d(_ego: &VehicleState, _partner: &VehicleState) -> f32 {
-    f32::INFINITY
-}
-pub fn tadv(_ego: &VehicleState, _partner: &VehicleState) -> f32 {
-    f32::INFINITY
-}
-pub fn ei(_ego: &VehicleState, _partner: &VehicleState) -> f32 {
-    f32::NEG_INFINITY
-}
-
+/// Compute every surrogate of the pair (`ego`, `partner`).
 pub fn surrogates(ego: &VehicleState, partner: &VehicleState) -> Surrogates {
     Surrogates {
         box_distance: crate::geometry::box_distance(ego, partner),
         ttc2d: ttc2d(ego, partner),
         tadv: tadv(ego, partner),
         ei: ei(ego, partner),
+    }
+}
+
+/// The reference's guard against division by zero: values in `[0, 1e-6)` become `1e-6`, values in
+/// `(-1e-6, 0)` become `-1e-6` (so `-0.0` becomes `+1e-6`).
+pub(crate) fn clamp_away_from_zero(x: f32) -> f32 {
+    const EPS: f32 = 1e-6;
+    if (0.0..EPS).contains(&x) {
+        EPS
+    } else if x < 0.0 && x > -EPS {
+        -EPS
+    } else {
+        x
     }
 }

@@ -1,1 +1,0 @@
-//! PLACEHOLDER: the inference/model-format helper writes this module.

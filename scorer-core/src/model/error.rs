@@ -1,0 +1,134 @@
+//! Every way a model blob (or a model built in memory for export) can be rejected.
+
+use core::fmt;
+
+/// Why a model blob could not be decoded, or a model could not be encoded.
+///
+/// Each variant names the offending field (as it is spelled in `docs/model-format.md`) and, where it
+/// applies, the layer/term and element index, so a bad export can be traced to its source.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The blob ends before the header or the declared payload does.
+    Truncated { needed: usize, available: usize },
+    /// The first four bytes are not [`MAGIC`](crate::model::MAGIC).
+    BadMagic([u8; 4]),
+    /// The format version is not one this build reads.
+    UnsupportedVersion(u16),
+    /// The model-kind byte names no known kind.
+    UnknownKind(u8),
+    /// A reserved header field is not zero.
+    ReservedNotZero { offset: usize },
+    /// The feature-schema id is not one this build computes.
+    UnsupportedFeatureSchema(u16),
+    /// Bytes follow the payload (after the declared length, or inside it after the model).
+    TrailingBytes { extra: usize },
+    /// The payload CRC-32 does not match the header.
+    CrcMismatch { stored: u32, computed: u32 },
+    /// The payload is not a valid postcard encoding of the model kind (the postcard error says why).
+    Payload(postcard::Error),
+    /// A list or dimension is larger than the compiled capacity.
+    CapacityExceeded {
+        field: &'static str,
+        len: usize,
+        max: usize,
+    },
+    /// A required list is empty (no inputs, no layers, no terms).
+    Empty { field: &'static str },
+    /// A byte array or list length disagrees with the dimensions it must match.
+    DimensionMismatch {
+        field: &'static str,
+        index: usize,
+        expected: usize,
+        found: usize,
+    },
+    /// A float parameter is NaN, infinite, or larger in magnitude than
+    /// [`MAX_ABS_PARAM`](crate::mlp::MAX_ABS_PARAM).
+    NonFinite { field: &'static str, index: usize },
+    /// A scale that must be strictly positive is zero or negative.
+    NonPositiveScale { field: &'static str, index: usize },
+    /// A feature index is not below [`FEATURE_COUNT`](crate::FEATURE_COUNT).
+    BadFeatureIndex { index: usize, feature: u8 },
+    /// A requantisation pair is outside `multiplier in [2^30, 2^31)`, `shift in [-32, 32]`.
+    BadMultiplier {
+        layer: usize,
+        channel: usize,
+        multiplier: i32,
+        shift: i8,
+    },
+    /// An MSRA clip range is not `lo < hi` with finite bounds.
+    BadClipRange { term: usize },
+    /// An MSRA term reads GSSM but the model embeds no GSSM network.
+    MissingGssm { term: usize },
+    /// The output buffer given to `encode` is too small.
+    BufferTooSmall { needed: usize, available: usize },
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Truncated { needed, available } => {
+                write!(f, "model blob truncated: needs {needed} bytes, has {available}")
+            }
+            Self::BadMagic(m) => write!(f, "not a model blob: magic {m:02x?}, expected \"RSKM\""),
+            Self::UnsupportedVersion(v) => write!(f, "unsupported model format version {v}"),
+            Self::UnknownKind(k) => write!(f, "unknown model kind {k}"),
+            Self::ReservedNotZero { offset } => {
+                write!(f, "reserved header byte at offset {offset} is not zero")
+            }
+            Self::UnsupportedFeatureSchema(s) => write!(f, "unsupported feature schema {s}"),
+            Self::TrailingBytes { extra } => write!(f, "{extra} trailing bytes after the model"),
+            Self::CrcMismatch { stored, computed } => write!(
+                f,
+                "payload CRC-32 mismatch: header says {stored:#010x}, payload has {computed:#010x}"
+            ),
+            Self::Payload(e) => write!(f, "malformed payload: {e}"),
+            Self::CapacityExceeded { field, len, max } => {
+                write!(f, "{field}: length {len} exceeds capacity {max}")
+            }
+            Self::Empty { field } => write!(f, "{field}: must not be empty"),
+            Self::DimensionMismatch {
+                field,
+                index,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{field}[{index}]: expected length {expected}, found {found}"
+            ),
+            Self::NonFinite { field, index } => {
+                write!(f, "{field}[{index}]: non-finite or out-of-range value")
+            }
+            Self::NonPositiveScale { field, index } => {
+                write!(f, "{field}[{index}]: scale must be > 0")
+            }
+            Self::BadFeatureIndex { index, feature } => {
+                write!(f, "inputs[{index}]: feature index {feature} out of range")
+            }
+            Self::BadMultiplier {
+                layer,
+                channel,
+                multiplier,
+                shift,
+            } => write!(
+                f,
+                "layers[{layer}] channel {channel}: invalid requantisation pair ({multiplier}, {shift})"
+            ),
+            Self::BadClipRange { term } => write!(f, "terms[{term}]: clip range must be finite lo < hi"),
+            Self::MissingGssm { term } => {
+                write!(f, "terms[{term}]: reads GSSM but the model embeds no GSSM network")
+            }
+            Self::BufferTooSmall { needed, available } => {
+                write!(f, "output buffer too small: needs {needed} bytes, has {available}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}
+
+impl From<postcard::Error> for ModelError {
+    fn from(e: postcard::Error) -> Self {
+        Self::Payload(e)
+    }
+}

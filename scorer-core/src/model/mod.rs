@@ -1,0 +1,340 @@
+//! The model blob: a fixed 20-byte header and a postcard payload, decoded without allocation.
+//!
+//! Byte-level specification: `docs/model-format.md`. In short (all integers little-endian):
+//!
+//! | offset | size | field                                                     |
+//! |--------|------|-----------------------------------------------------------|
+//! | 0      | 4    | magic `"RSKM"`                                            |
+//! | 4      | 2    | format version (`u16`, [`FORMAT_VERSION`])                |
+//! | 6      | 1    | model kind ([`ModelKind`])                                |
+//! | 7      | 1    | reserved, 0                                               |
+//! | 8      | 2    | feature schema id (`u16`, [`FEATURE_SCHEMA`])            |
+//! | 10     | 2    | reserved, 0                                               |
+//! | 12     | 4    | payload length in bytes (`u32`)                           |
+//! | 16     | 4    | CRC-32/ISO-HDLC of the payload (`u32`, [`crate::crc`])    |
+//! | 20     | n    | payload: postcard encoding of the kind's model struct     |
+//!
+//! [`decode`] checks, in this order: header length, magic, version, kind, reserved bytes, feature
+//! schema, declared payload length against the blob (short: `Truncated`, long: `TrailingBytes`),
+//! CRC, postcard payload (must consume it exactly), then the model's own `validate` (capacities,
+//! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
+//! cannot produce a blob the MCU would reject.
+
+mod bounded;
+mod error;
+
+pub use bounded::BoundedVec;
+pub use error::ModelError;
+
+use crate::features::{features, Features};
+use crate::gssm::GssmModel;
+use crate::mlp::{FloatMlp, QuantMlp};
+use crate::msra::MsraModel;
+use crate::state::VehicleState;
+use crate::surrogates::{surrogates, Surrogates};
+
+/// First four bytes of every model blob.
+pub const MAGIC: [u8; 4] = *b"RSKM";
+/// The format version this build reads and writes.
+pub const FORMAT_VERSION: u16 = 1;
+/// Feature schema id 1: the 13 features of [`crate::FEATURE_NAMES`] in that order, as computed by
+/// [`crate::features()`].
+pub const FEATURE_SCHEMA: u16 = 1;
+/// Length of the fixed header.
+pub const HEADER_LEN: usize = 20;
+
+/// What the payload holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum ModelKind {
+    /// DRL network, int8 ([`QuantMlp`]).
+    DrlInt8 = 1,
+    /// DRL network, f32 ([`FloatMlp`]).
+    DrlF32 = 2,
+    /// MSRA combination ([`MsraModel`]), optionally embedding a GSSM network.
+    Msra = 3,
+    /// GSSM / SSRA lognormal spacing model ([`GssmModel`]).
+    Gssm = 4,
+}
+
+impl ModelKind {
+    /// The kind for a header byte.
+    pub fn from_u8(byte: u8) -> Result<Self, ModelError> {
+        match byte {
+            1 => Ok(Self::DrlInt8),
+            2 => Ok(Self::DrlF32),
+            3 => Ok(Self::Msra),
+            4 => Ok(Self::Gssm),
+            other => Err(ModelError::UnknownKind(other)),
+        }
+    }
+
+    /// Short lowercase name (`drl-int8`, `drl-f32`, `msra`, `gssm`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::DrlInt8 => "drl-int8",
+            Self::DrlF32 => "drl-f32",
+            Self::Msra => "msra",
+            Self::Gssm => "gssm",
+        }
+    }
+}
+
+/// The decoded fixed header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ModelHeader {
+    pub version: u16,
+    pub kind: ModelKind,
+    pub feature_schema: u16,
+    pub payload_len: u32,
+    pub payload_crc: u32,
+}
+
+impl ModelHeader {
+    /// The 20 header bytes.
+    pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
+        let mut h = [0u8; HEADER_LEN];
+        let parts: [&[u8]; 8] = [
+            &MAGIC,
+            &self.version.to_le_bytes(),
+            &[self.kind as u8],
+            &[0],
+            &self.feature_schema.to_le_bytes(),
+            &[0, 0],
+            &self.payload_len.to_le_bytes(),
+            &self.payload_crc.to_le_bytes(),
+        ];
+        let mut dst = h.iter_mut();
+        for byte in parts.iter().flat_map(|p| p.iter()) {
+            if let Some(d) = dst.next() {
+                *d = *byte;
+            }
+        }
+        h
+    }
+}
+
+/// A decoded model, borrowing its weights from the blob.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Model<'a> {
+    DrlInt8(QuantMlp<'a>),
+    DrlF32(FloatMlp<'a>),
+    Msra(MsraModel<'a>),
+    Gssm(GssmModel<'a>),
+}
+
+impl<'a> Model<'a> {
+    /// The kind byte this model is stored under.
+    pub fn kind(&self) -> ModelKind {
+        match self {
+            Self::DrlInt8(_) => ModelKind::DrlInt8,
+            Self::DrlF32(_) => ModelKind::DrlF32,
+            Self::Msra(_) => ModelKind::Msra,
+            Self::Gssm(_) => ModelKind::Gssm,
+        }
+    }
+
+    /// Checks every invariant inference relies on (see each model's `validate`).
+    pub fn validate(&self) -> Result<(), ModelError> {
+        match self {
+            Self::DrlInt8(m) => m.validate(),
+            Self::DrlF32(m) => m.validate(),
+            Self::Msra(m) => m.validate(),
+            Self::Gssm(m) => m.validate(),
+        }
+    }
+
+    /// True when scoring needs the surrogates (MSRA); DRL and GSSM read only the features.
+    pub fn needs_surrogates(&self) -> bool {
+        matches!(self, Self::Msra(_))
+    }
+
+    /// The deployed risk score of one ego/partner pair (larger is riskier). Computes the features,
+    /// and the surrogates only when the model reads them. Finite for every input.
+    pub fn score(&self, ego: &VehicleState, partner: &VehicleState) -> f32 {
+        let f = features(ego, partner);
+        match self {
+            Self::Msra(m) => m.score(&f, &surrogates(ego, partner)),
+            _ => self.score_features(&f),
+        }
+    }
+
+    /// The same score from precomputed features and surrogates.
+    pub fn score_observation(&self, features: &Features, surrogates: &Surrogates) -> f32 {
+        match self {
+            Self::Msra(m) => m.score(features, surrogates),
+            _ => self.score_features(features),
+        }
+    }
+
+    /// Score of a model that reads only features (DRL: output 0; GSSM: its score). For MSRA the
+    /// surrogates are taken as all "no conflict" (use [`Model::score_observation`] instead).
+    pub fn score_features(&self, features: &Features) -> f32 {
+        match self {
+            Self::DrlInt8(m) => m.forward(features)[0],
+            Self::DrlF32(m) => m.forward(features)[0],
+            Self::Gssm(m) => m.score(features),
+            Self::Msra(m) => m.score(
+                features,
+                &Surrogates {
+                    box_distance: f32::INFINITY,
+                    ttc2d: f32::INFINITY,
+                    tadv: f32::INFINITY,
+                    ei: f32::NEG_INFINITY,
+                },
+            ),
+        }
+    }
+}
+
+fn le_u16(bytes: &[u8], at: usize) -> u16 {
+    let b = |i: usize| bytes.get(at + i).copied().unwrap_or(0);
+    u16::from_le_bytes([b(0), b(1)])
+}
+
+fn le_u32(bytes: &[u8], at: usize) -> u32 {
+    let b = |i: usize| bytes.get(at + i).copied().unwrap_or(0);
+    u32::from_le_bytes([b(0), b(1), b(2), b(3)])
+}
+
+/// Parses and checks the 20-byte header (not the payload or its CRC).
+pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
+    if blob.len() < HEADER_LEN {
+        // A blob too short for its magic is reported as bad magic only if the bytes present differ.
+        let present = blob.len().min(MAGIC.len());
+        if blob.get(..present) != MAGIC.get(..present) {
+            let mut m = [0u8; 4];
+            for (d, s) in m.iter_mut().zip(blob) {
+                *d = *s;
+            }
+            return Err(ModelError::BadMagic(m));
+        }
+        return Err(ModelError::Truncated {
+            needed: HEADER_LEN,
+            available: blob.len(),
+        });
+    }
+    let magic = [
+        blob.first().copied().unwrap_or(0),
+        blob.get(1).copied().unwrap_or(0),
+        blob.get(2).copied().unwrap_or(0),
+        blob.get(3).copied().unwrap_or(0),
+    ];
+    if magic != MAGIC {
+        return Err(ModelError::BadMagic(magic));
+    }
+    let version = le_u16(blob, 4);
+    if version != FORMAT_VERSION {
+        return Err(ModelError::UnsupportedVersion(version));
+    }
+    let kind = ModelKind::from_u8(blob.get(6).copied().unwrap_or(0))?;
+    for offset in [7usize, 10, 11] {
+        if blob.get(offset).copied().unwrap_or(0) != 0 {
+            return Err(ModelError::ReservedNotZero { offset });
+        }
+    }
+    let feature_schema = le_u16(blob, 8);
+    if feature_schema != FEATURE_SCHEMA {
+        return Err(ModelError::UnsupportedFeatureSchema(feature_schema));
+    }
+    Ok(ModelHeader {
+        version,
+        kind,
+        feature_schema,
+        payload_len: le_u32(blob, 12),
+        payload_crc: le_u32(blob, 16),
+    })
+}
+
+fn payload<'a, T: serde::Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, ModelError> {
+    let (value, rest) = postcard::take_from_bytes::<T>(bytes)?;
+    if rest.is_empty() {
+        Ok(value)
+    } else {
+        Err(ModelError::TrailingBytes { extra: rest.len() })
+    }
+}
+
+/// Decodes and validates a model blob. Borrows the weights from `blob`; allocates nothing; returns
+/// a typed error (never panics) for any malformed input.
+pub fn decode(blob: &[u8]) -> Result<Model<'_>, ModelError> {
+    let header = decode_header(blob)?;
+    let body = blob.get(HEADER_LEN..).unwrap_or(&[]);
+    let declared = usize::try_from(header.payload_len).unwrap_or(usize::MAX);
+    if body.len() < declared {
+        return Err(ModelError::Truncated {
+            needed: HEADER_LEN.saturating_add(declared),
+            available: blob.len(),
+        });
+    }
+    if body.len() > declared {
+        return Err(ModelError::TrailingBytes {
+            extra: body.len() - declared,
+        });
+    }
+    let computed = crate::crc::crc32(body);
+    if computed != header.payload_crc {
+        return Err(ModelError::CrcMismatch {
+            stored: header.payload_crc,
+            computed,
+        });
+    }
+    let model = match header.kind {
+        ModelKind::DrlInt8 => Model::DrlInt8(payload(body)?),
+        ModelKind::DrlF32 => Model::DrlF32(payload(body)?),
+        ModelKind::Msra => Model::Msra(payload(body)?),
+        ModelKind::Gssm => Model::Gssm(payload(body)?),
+    };
+    model.validate()?;
+    Ok(model)
+}
+
+fn payload_size(model: &Model<'_>) -> Result<usize, ModelError> {
+    let n = match model {
+        Model::DrlInt8(m) => postcard::experimental::serialized_size(m),
+        Model::DrlF32(m) => postcard::experimental::serialized_size(m),
+        Model::Msra(m) => postcard::experimental::serialized_size(m),
+        Model::Gssm(m) => postcard::experimental::serialized_size(m),
+    }?;
+    Ok(n)
+}
+
+/// Exact size in bytes of the blob [`encode`] writes for `model` (header included).
+pub fn encoded_len(model: &Model<'_>) -> Result<usize, ModelError> {
+    Ok(HEADER_LEN + payload_size(model)?)
+}
+
+/// Validates `model` and writes its blob into `out`; returns the number of bytes written.
+pub fn encode(model: &Model<'_>, out: &mut [u8]) -> Result<usize, ModelError> {
+    model.validate()?;
+    let needed = encoded_len(model)?;
+    let available = out.len();
+    let too_small = ModelError::BufferTooSmall { needed, available };
+    let (head, body) = out
+        .split_at_mut_checked(HEADER_LEN)
+        .ok_or(too_small.clone())?;
+    let written = match model {
+        Model::DrlInt8(m) => postcard::to_slice(m, body),
+        Model::DrlF32(m) => postcard::to_slice(m, body),
+        Model::Msra(m) => postcard::to_slice(m, body),
+        Model::Gssm(m) => postcard::to_slice(m, body),
+    }
+    .map_err(|e| match e {
+        postcard::Error::SerializeBufferFull => too_small,
+        other => ModelError::Payload(other),
+    })?;
+    let payload_len = written.len();
+    let header = ModelHeader {
+        version: FORMAT_VERSION,
+        kind: model.kind(),
+        feature_schema: FEATURE_SCHEMA,
+        payload_len: u32::try_from(payload_len).map_err(|_| ModelError::CapacityExceeded {
+            field: "payload",
+            len: payload_len,
+            max: u32::MAX as usize,
+        })?,
+        payload_crc: crate::crc::crc32(written),
+    };
+    head.copy_from_slice(&header.to_bytes());
+    Ok(HEADER_LEN + payload_len)
+}

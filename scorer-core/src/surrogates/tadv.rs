@@ -1,0 +1,183 @@
+//! Time advantage (Laureshyn et al. 2010, https://doi.org/10.1016/j.aap.2010.03.021), with the
+//! conventions of the reference implementation (Jiao, "SSMsOnPlane").
+//!
+//! Crossing motion: for each of the 16 (ego corner `a`, partner corner `b`) pairs, the rays
+//! `a + t v_i` and `b + u v_j` meet where
+//!
+//! ```text
+//! t = cross(b - a, v_j) / cross(v_i, v_j),   u = cross(b - a, v_i) / cross(v_i, v_j)
+//! ```
+//!
+//! and the pair's time advantage is `|t - u|` when the point lies ahead of both (`t, u >= 0`),
+//! else `+inf`. TAdv is the minimum over the 16 pairs.
+//!
+//! Near-parallel motion (angle between `v_i` and `v_j` below 3 deg or above 177 deg, or a vehicle
+//! standing still) falls back to `D / dv`: `D` the exact box distance, and `dv` a signed speed
+//! difference `|v_i| - |v_j|` (ego behind), `|v_j| - |v_i|` (partner behind, same direction) or
+//! `|v_i| + |v_j|` (opposite directions, judged along the ego heading), kept at `|dv| >= 1e-6`.
+//! A negative result (the gap opens) is `+inf`; two stopped vehicles give `D / 1e-6`, about 1e7 s.
+use super::clamp_away_from_zero;
+use crate::geometry::{oriented_box_distance, velocity, OrientedBox};
+use crate::state::VehicleState;
+
+/// 3 degrees: below it (or above 177 degrees) the paths are treated as parallel.
+const PARALLEL_ANGLE: f32 = core::f32::consts::PI / 60.0;
+/// 177 degrees.
+const ANTIPARALLEL_ANGLE: f32 = core::f32::consts::PI * 59.0 / 60.0;
+/// Speeds below this divide as if they were this (the reference's zero-division guard).
+const MIN_SPEED: f32 = 1e-6;
+
+/// Time advantage (s) of the pair; `f32::INFINITY` = no conflict.
+///
+/// Non-finite inputs or a zero heading give `f32::INFINITY`.
+pub fn tadv(ego: &VehicleState, partner: &VehicleState) -> f32 {
+    let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
+        return f32::INFINITY;
+    };
+    let origin = bi.center;
+    let bi = bi.relative_to(origin);
+    let bj = bj.relative_to(origin);
+    let v_i = velocity(ego);
+    let v_j = velocity(partner);
+
+    let cross = v_i.cross(v_j);
+    let angle = libm::atan2f(cross, v_i.dot(v_j)).abs();
+    let parallel = cross == 0.0 || !(PARALLEL_ANGLE..=ANTIPARALLEL_ANGLE).contains(&angle);
+
+    let result = if parallel {
+        parallel_fallback(&bi, &bj, ego, partner)
+    } else {
+        crossing_time_advantage(&bi, &bj, ego, partner, cross)
+    };
+    if result.is_nan() {
+        f32::INFINITY
+    } else {
+        result
+    }
+}
+
+/// Box distance over the signed speed difference (see the module doc).
+fn parallel_fallback(
+    bi: &OrientedBox,
+    bj: &OrientedBox,
+    ego: &VehicleState,
+    partner: &VehicleState,
+) -> f32 {
+    let partner_behind = (bj.center - bi.center).dot(bi.axis) < 0.0;
+    let partner_forward = velocity(partner).dot(bi.axis);
+    let speed_i = velocity(ego).norm();
+    let speed_j = velocity(partner).norm();
+    let closing = if partner_forward < 0.0 {
+        speed_i + speed_j
+    } else if partner_behind {
+        speed_j - speed_i
+    } else {
+        speed_i - speed_j
+    };
+    let ttc = oriented_box_distance(bi, bj) / clamp_away_from_zero(closing);
+    if ttc < 0.0 {
+        f32::INFINITY
+    } else {
+        ttc
+    }
+}
+
+/// Minimum over the 16 corner pairs of the arrival-time difference at their path crossing.
+fn crossing_time_advantage(
+    bi: &OrientedBox,
+    bj: &OrientedBox,
+    ego: &VehicleState,
+    partner: &VehicleState,
+    cross: f32,
+) -> f32 {
+    let v_i = velocity(ego);
+    let v_j = velocity(partner);
+    let speed_i = v_i.norm();
+    let speed_j = v_j.norm();
+    // Time to travel distance `t * |v|` at the guarded speed, as the reference does.
+    let time_i = |t: f32| t * speed_i / speed_i.max(MIN_SPEED);
+    let time_j = |u: f32| u * speed_j / speed_j.max(MIN_SPEED);
+    let mut best = f32::INFINITY;
+    for a in bi.corners() {
+        for b in bj.corners() {
+            let ab = b - a;
+            let t = ab.cross(v_j) / cross;
+            let u = ab.cross(v_i) / cross;
+            if t >= 0.0 && u >= 0.0 {
+                best = best.min((time_i(t) - time_j(u)).abs());
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> VehicleState {
+        VehicleState {
+            x,
+            y,
+            vx,
+            vy,
+            hx,
+            hy,
+            acc: 0.0,
+            length: 4.0,
+            width: 2.0,
+        }
+    }
+
+    #[test]
+    fn right_angle_crossing_is_smallest_corner_arrival_difference() {
+        // Ego eastbound at 10 m/s from x = -30; partner northbound at 10 m/s from y = -20.
+        // Corner pair (front-left of ego, front-right of partner) ... the minimum over corners.
+        let ego = car(-30.0, 0.0, 10.0, 0.0, 1.0, 0.0);
+        let partner = car(0.0, -20.0, 0.0, 10.0, 0.0, 1.0);
+        let t = tadv(&ego, &partner);
+        // Brute force over the same 16 corner rays in f64.
+        let ci = [(-28.0, 1.0), (-28.0, -1.0), (-32.0, 1.0), (-32.0, -1.0)];
+        let cj = [(-1.0, -18.0), (1.0, -18.0), (-1.0, -22.0), (1.0, -22.0)];
+        let mut best = f64::INFINITY;
+        for (ax, ay) in ci {
+            for (bx, by) in cj {
+                // ego ray is horizontal y = ay, partner ray vertical x = bx
+                let ti: f64 = (bx - ax) / 10.0;
+                let tj: f64 = (ay - by) / 10.0;
+                if ti >= 0.0 && tj >= 0.0 {
+                    best = best.min((ti - tj).abs());
+                }
+            }
+        }
+        assert!((t as f64 - best).abs() < 1e-5, "{t} vs {best}");
+    }
+
+    #[test]
+    fn parallel_following_uses_box_gap_over_speed_difference() {
+        let ego = car(0.0, 0.0, 20.0, 0.0, 1.0, 0.0);
+        let lead = car(30.0, 0.0, 10.0, 0.0, 1.0, 0.0);
+        assert!((tadv(&ego, &lead) - 2.6).abs() < 1e-5);
+        // Partner behind and faster: it closes in on the ego.
+        let chaser = car(-30.0, 0.0, 30.0, 0.0, 1.0, 0.0);
+        assert!((tadv(&ego, &chaser) - 2.6).abs() < 1e-5);
+        // Leader pulling away.
+        let away = car(30.0, 0.0, 30.0, 0.0, 1.0, 0.0);
+        assert_eq!(tadv(&ego, &away), f32::INFINITY);
+    }
+
+    #[test]
+    fn both_stopped_gives_huge_finite_value() {
+        let a = car(0.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        let b = car(14.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        let t = tadv(&a, &b);
+        assert!((t - 1.0e7).abs() < 10.0, "{t}");
+    }
+
+    #[test]
+    fn diverging_paths_are_no_conflict() {
+        let ego = car(0.0, 0.0, 10.0, 0.0, 1.0, 0.0);
+        let partner = car(0.0, -20.0, 0.0, -10.0, 0.0, -1.0);
+        assert_eq!(tadv(&ego, &partner), f32::INFINITY);
+    }
+}

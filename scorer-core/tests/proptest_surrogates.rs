@@ -1,0 +1,129 @@
+//! Property tests: features and surrogates are total functions. Whatever the inputs (NaN, +-inf,
+//! huge, zero, subnormal), features are finite and each surrogate is finite or its documented
+//! sentinel (`+inf` for box distance, TTC2D and TAdv; `-inf` for EI), never NaN and never a panic.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+use proptest::prelude::*;
+use scorer_core::geometry::boxes_overlap;
+use scorer_core::{box_distance, ei, features, surrogates, tadv, ttc2d, VehicleState};
+
+/// Any f32, with the nasty values drawn often.
+fn nasty_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        3 => any::<f32>(),
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => Just(f32::MAX),
+        1 => Just(-f32::MAX),
+        1 => Just(1e30f32),
+        1 => Just(-1e30f32),
+        1 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => Just(f32::MIN_POSITIVE),
+        1 => Just(1e-6f32),
+        3 => -100.0f32..100.0,
+    ]
+}
+
+fn nasty_state() -> impl Strategy<Value = VehicleState> {
+    proptest::array::uniform9(nasty_f32()).prop_map(|[x, y, vx, vy, hx, hy, acc, length, width]| {
+        VehicleState {
+            x,
+            y,
+            vx,
+            vy,
+            hx,
+            hy,
+            acc,
+            length,
+            width,
+        }
+    })
+}
+
+/// Plausible road users: positions within 200 m, speeds up to 50 m/s, any heading.
+fn road_user() -> impl Strategy<Value = VehicleState> {
+    (
+        -200.0f32..200.0,
+        -200.0f32..200.0,
+        -50.0f32..50.0,
+        -50.0f32..50.0,
+        0.0f32..core::f32::consts::TAU,
+        1.0f32..20.0,
+        0.5f32..3.0,
+    )
+        .prop_map(|(x, y, vx, vy, angle, length, width)| VehicleState {
+            x,
+            y,
+            vx,
+            vy,
+            hx: libm::cosf(angle),
+            hy: libm::sinf(angle),
+            acc: 0.0,
+            length,
+            width,
+        })
+}
+
+fn check_sentinels(a: &VehicleState, b: &VehicleState) -> Result<(), TestCaseError> {
+    for (k, f) in features(a, b).iter().enumerate() {
+        prop_assert!(f.is_finite(), "feature {k} = {f}");
+    }
+    let d = box_distance(a, b);
+    prop_assert!(d >= 0.0, "box_distance = {d}"); // finite or +inf, never NaN
+    let t = ttc2d(a, b);
+    prop_assert!(t >= 0.0, "ttc2d = {t}");
+    let adv = tadv(a, b);
+    prop_assert!(adv >= 0.0, "tadv = {adv}");
+    let e = ei(a, b);
+    prop_assert!(!e.is_nan() && e != f32::INFINITY, "ei = {e}");
+    let all = surrogates(a, b);
+    prop_assert_eq!(all.box_distance.to_bits(), d.to_bits());
+    prop_assert_eq!(all.ttc2d.to_bits(), t.to_bits());
+    prop_assert_eq!(all.tadv.to_bits(), adv.to_bits());
+    prop_assert_eq!(all.ei.to_bits(), e.to_bits());
+    let _ = boxes_overlap(a, b);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn nasty_inputs_give_finite_values_or_sentinels(a in nasty_state(), b in nasty_state()) {
+        check_sentinels(&a, &b)?;
+    }
+
+    #[test]
+    fn one_nasty_partner_next_to_a_normal_ego(a in road_user(), b in nasty_state()) {
+        check_sentinels(&a, &b)?;
+        check_sentinels(&b, &a)?;
+    }
+
+    #[test]
+    fn plausible_pairs_are_finite_where_they_must_be(a in road_user(), b in road_user()) {
+        check_sentinels(&a, &b)?;
+        let d = box_distance(&a, &b);
+        prop_assert!(d.is_finite());
+        // The gap is symmetric and never more than the centre distance.
+        prop_assert!((d - box_distance(&b, &a)).abs() <= 1e-3, "asymmetric gap");
+        let centres = libm::hypotf(b.x - a.x, b.y - a.y);
+        prop_assert!(d <= centres + 1e-3);
+        // Overlap test and distance agree away from the touching boundary.
+        if d > 1e-3 {
+            prop_assert!(!boxes_overlap(&a, &b));
+        }
+        if boxes_overlap(&a, &b) {
+            prop_assert!(d <= 1e-3);
+        }
+        // A zero gap means the boxes touch: TAdv falls back to 0 / dv or the crossing rule; EI
+        // and TTC2D stay well-defined.
+        prop_assert!(tadv(&a, &b) >= 0.0);
+    }
+}
