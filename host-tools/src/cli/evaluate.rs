@@ -1,7 +1,247 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real subcommand.
-#[derive(clap::Args, Debug)]
-pub struct Args {}
+//! `riskctl evaluate`: score an event folder with model blobs and the surrogate baselines through
+//! the deployed scorer-core path, and report the proactive-warning metrics. No training.
+use std::path::{Path, PathBuf};
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("this subcommand is not built yet")
+use anyhow::{bail, Context};
+use host_tools::eval::plots::{
+    default_trajectory_events, plot_curves, plot_trajectories, trajectory_panels,
+};
+use host_tools::eval::report::write_curves_csv;
+use host_tools::eval::scoring::{model_row_name, row_names};
+use host_tools::eval::{evaluate_methods, observe, Method, Scorer};
+use host_tools::events::{load_events, prepare_sequences, PrepareConfig};
+
+/// What `riskctl evaluate --help` explains after the options.
+const ABOUT_EVALUATION: &str = "\
+Every sequence is scored frame by frame exactly as on the ECU (DRL through the int8 network, MSRA
+through the core's transforms, baselines TTC2D, TAdv, EI through the core's surrogates). A sequence
+is warned at threshold T at its first frame with R >= T up to and including its endpoint; over all
+thresholds (the distinct sequence maxima) this gives A^ROC_90/80 (%), P^PRC_90/80 (%) and mTTI^90_p
+(s). Formulas and edge cases: docs/evaluation.md.
+
+Rows are named from the model (DRL, DRL-f32, MSRA, GSSM, SSRA); when two models share a name each
+row takes its file stem, and --model NAME=FILE sets a name explicitly. The baselines follow.
+
+Output: the Markdown table, or with --json one JSON object (stable schema):
+  {\"events\": {\"crash\": n, \"near_crash\": n, \"safe\": n},
+   \"methods\": [{\"name\", \"A_ROC_90\", \"A_ROC_80\", \"P_PRC_90\", \"P_PRC_80\", \"mTTI_90\"}, ...]}
+percentages 0-100, lead time in seconds, null where undefined. Problems in the event folder are
+listed on stderr; the valid events are still evaluated.
+
+Example:
+  riskctl evaluate --model models/drl-default.rsk --model models/msra-default.rsk \\
+                   --events data/events --out report/";
+
+/// Score an event folder with model files and the TTC2D, TAdv and EI baselines.
+#[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_EVALUATION)]
+pub struct Args {
+    /// Model blob to evaluate (repeatable); `NAME=FILE` names its row.
+    #[arg(long = "model", value_name = "[NAME=]FILE")]
+    models: Vec<String>,
+    /// Event folder (events.csv + frames.csv, see docs/event-format.md).
+    #[arg(long, value_name = "DIR")]
+    events: PathBuf,
+    /// Print one JSON object instead of the Markdown table.
+    #[arg(long)]
+    json: bool,
+    /// Also write results.{md,csv,json}, curves.csv and the ROC, PR and trajectory plots
+    /// (SVG and PNG) into DIR.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
+    /// events of the folder).
+    #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
+    trajectory_events: Vec<String>,
+}
+
+/// A `--model` argument split into an optional row name and the file.
+fn parse_model_spec(spec: &str) -> (Option<String>, PathBuf) {
+    match spec.split_once('=') {
+        Some((name, file))
+            if !name.is_empty() && !name.contains(['/', '\\']) && !file.is_empty() =>
+        {
+            (Some(name.to_owned()), PathBuf::from(file))
+        }
+        _ => (None, PathBuf::from(spec)),
+    }
+}
+
+/// A model file read into memory: optional row name, path, bytes.
+type ModelFile = (Option<String>, PathBuf, Vec<u8>);
+
+/// Reads every model file, so decoding can borrow from the bytes.
+fn read_models(specs: &[String]) -> anyhow::Result<Vec<ModelFile>> {
+    specs
+        .iter()
+        .map(|spec| {
+            let (name, path) = parse_model_spec(spec);
+            let bytes = std::fs::read(&path)
+                .with_context(|| format!("model file {}: cannot read", path.display()))?;
+            Ok((name, path, bytes))
+        })
+        .collect()
+}
+
+const MAX_LISTED_ISSUES: usize = 20;
+
+fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
+    if issues.is_empty() {
+        return;
+    }
+    eprintln!("riskctl: {} {what}:", issues.len());
+    for issue in issues.iter().take(MAX_LISTED_ISSUES) {
+        eprintln!("  {issue}");
+    }
+    if issues.len() > MAX_LISTED_ISSUES {
+        eprintln!("  ... and {} more", issues.len() - MAX_LISTED_ISSUES);
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // Models first: a bad model file is found before a large event folder is read.
+    let files = read_models(&args.models)?;
+    let mut decoded = Vec::with_capacity(files.len());
+    for (name, path, bytes) in &files {
+        let model = scorer_core::model::decode(bytes).map_err(|e| {
+            anyhow::anyhow!("model file {}: not a valid model blob: {e}", path.display())
+        })?;
+        let stem = path.file_stem().map_or_else(
+            || path.display().to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        );
+        decoded.push((name.clone(), model, stem));
+    }
+    let names = row_names(
+        &decoded
+            .iter()
+            .map(|(n, m, stem)| (n.clone(), model_row_name(m), stem.clone()))
+            .collect::<Vec<_>>(),
+    );
+    let mut methods: Vec<Method<'_>> = decoded
+        .into_iter()
+        .zip(names)
+        .map(|((_, model, _), name)| Method {
+            name,
+            scorer: Scorer::Model(model),
+        })
+        .collect();
+    methods.extend(Method::baselines());
+
+    let dir = &args.events;
+    let (set, issues) =
+        load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
+    report_issues(
+        "problem(s) in the event folder (those events are skipped)",
+        &issues,
+    );
+    if set.is_empty() {
+        bail!(
+            "event folder {}: no valid events to evaluate",
+            dir.display()
+        );
+    }
+    let (sequences, prep_issues) = prepare_sequences(&set, &PrepareConfig::default());
+    report_issues(
+        "event(s) yield no sequence under the preparation rules",
+        &prep_issues,
+    );
+    if sequences.is_empty() {
+        bail!(
+            "event folder {}: none of its {} events yields a sequence to evaluate",
+            dir.display(),
+            set.len()
+        );
+    }
+
+    let observed = observe(&sequences);
+    let (report, runs) = evaluate_methods(&observed, &methods)
+        .with_context(|| format!("event folder {}", dir.display()))?;
+
+    if args.json {
+        println!("{}", report.to_json_string());
+    } else {
+        print!("{}", report.to_markdown());
+    }
+
+    if let Some(out) = &args.out {
+        let written = write_outputs(out, &report, &runs, &args.trajectory_events)?;
+        eprintln!(
+            "riskctl: wrote {} files to {}:",
+            written.len(),
+            out.display()
+        );
+        for p in written {
+            eprintln!("  {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+fn write_outputs(
+    out: &Path,
+    report: &host_tools::eval::EvaluationReport,
+    runs: &[host_tools::eval::MethodRun],
+    trajectory_events: &[String],
+) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let mut written = Vec::new();
+    let create = |name: &str| -> anyhow::Result<(PathBuf, std::fs::File)> {
+        let p = out.join(name);
+        let f =
+            std::fs::File::create(&p).with_context(|| format!("{}: cannot create", p.display()))?;
+        Ok((p, f))
+    };
+
+    let (p, f) = create("results.csv")?;
+    report
+        .write_csv(f)
+        .with_context(|| format!("{}: cannot write", p.display()))?;
+    written.push(p);
+    let p = out.join("results.json");
+    std::fs::write(&p, report.to_json_string() + "\n")
+        .with_context(|| format!("{}: cannot write", p.display()))?;
+    written.push(p);
+    let p = out.join("results.md");
+    std::fs::write(&p, report.to_markdown())
+        .with_context(|| format!("{}: cannot write", p.display()))?;
+    written.push(p);
+
+    let curves: Vec<(String, _)> = runs
+        .iter()
+        .map(|r| (r.name.clone(), r.curve.clone()))
+        .collect();
+    let (p, f) = create("curves.csv")?;
+    write_curves_csv(&curves, f).with_context(|| format!("{}: cannot write", p.display()))?;
+    written.push(p);
+    written.extend(plot_curves(out, &curves)?);
+
+    let scored: Vec<(String, Vec<_>)> = runs
+        .iter()
+        .map(|r| (r.name.clone(), r.scored.clone()))
+        .collect();
+    let ids = if trajectory_events.is_empty() {
+        scored
+            .first()
+            .map(|(_, s)| default_trajectory_events(s, 3))
+            .unwrap_or_default()
+    } else {
+        for id in trajectory_events {
+            let known = scored
+                .first()
+                .is_some_and(|(_, s)| s.iter().any(|q| &q.event_id == id && q.endpoint.is_some()));
+            if !known {
+                bail!(
+                    "--trajectory-event {id}: no crash or near-crash sequence with that event id"
+                );
+            }
+        }
+        trajectory_events.to_vec()
+    };
+    if ids.is_empty() {
+        eprintln!("riskctl: no crash events, so no trajectory plot");
+    } else {
+        written.extend(plot_trajectories(out, &trajectory_panels(&scored, &ids))?);
+    }
+    Ok(written)
 }

@@ -1,0 +1,31 @@
+//! The proactive-warning evaluation: protocol, metrics, cross-validation aggregation, reports, plots.
+//!
+//! - [`protocol`]: alert windows, the first-threshold rule, lead times, baseline risk directions.
+//! - [`metrics`]: operating points over all thresholds; A^ROC_alpha, P^PRC_alpha, mTTI^90_p.
+//! - [`report`]: per-method results, mean ± std over folds/seeds; Markdown, CSV and JSON.
+//! - [`plots`]: ROC and PR curves, risk trajectories (SVG and PNG).
+//! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
+//!
+//! The formulas and every edge-case convention are written down in `docs/evaluation.md`.
+pub mod metrics;
+pub mod plots;
+pub mod protocol;
+pub mod report;
+pub mod scoring;
+
+pub use metrics::{
+    evaluate_profiles, evaluate_sequences, warning_curve, warning_curve_reference, Metrics,
+    OperatingPoint, WarningCurve,
+};
+pub use protocol::{
+    AlertProfile, AlertProfileBuilder, Baseline, ProtocolError, ScoredFrame, ScoredSequence,
+    SequenceClass,
+};
+pub use report::{
+    aggregate, CvReport, EvaluationReport, EventCounts, FoldResult, MethodResult, MethodSummary,
+    Stat,
+};
+pub use scoring::{
+    evaluate_methods, evaluate_scored, observe, report_from_profiles, Method, MethodRun,
+    ObservedFrame, ObservedSequence, Scorer,
+};

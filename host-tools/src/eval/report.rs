@@ -1,0 +1,493 @@
+//! Per-method results, their mean ± std over folds and seeds, and the three output formats.
+//!
+//! [`EvaluationReport`] is one evaluation (one event set, e.g. `riskctl evaluate` or one CV fold);
+//! its JSON is the stable `riskctl evaluate --json` schema. [`CvReport`] aggregates
+//! [`FoldResult`]s (5-fold event-level CV × seeds) into `mean ± std`.
+use std::io::Write;
+
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Map, Value};
+
+use super::metrics::{Metrics, WarningCurve, METRIC_KEYS};
+use super::protocol::SequenceClass;
+
+/// How many events of each kind were evaluated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EventCounts {
+    pub crash: usize,
+    pub near_crash: usize,
+    pub safe: usize,
+}
+
+impl EventCounts {
+    pub fn from_classes(classes: impl IntoIterator<Item = SequenceClass>) -> Self {
+        let mut c = EventCounts::default();
+        for class in classes {
+            match class {
+                SequenceClass::Crash => c.crash += 1,
+                SequenceClass::NearCrash => c.near_crash += 1,
+                SequenceClass::Safe => c.safe += 1,
+            }
+        }
+        c
+    }
+
+    pub fn total(&self) -> usize {
+        self.crash + self.near_crash + self.safe
+    }
+
+    fn to_json(self) -> Value {
+        json!({"crash": self.crash, "near_crash": self.near_crash, "safe": self.safe})
+    }
+
+    fn sentence(&self) -> String {
+        format!(
+            "{} events: {} crash, {} near-crash, {} safe",
+            self.total(),
+            self.crash,
+            self.near_crash,
+            self.safe
+        )
+    }
+}
+
+/// One method's metrics on one event set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MethodResult {
+    /// Row name: `DRL`, `MSRA`, `GSSM`, `SSRA`, `TTC2D`, `TAdv`, `EI`, or a model file stem.
+    pub name: String,
+    pub metrics: Metrics,
+}
+
+/// One evaluation of several methods on one event set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EvaluationReport {
+    pub events: EventCounts,
+    pub methods: Vec<MethodResult>,
+}
+
+fn opt_number(x: Option<f64>) -> Value {
+    x.filter(|v| v.is_finite()).map_or(Value::Null, Value::from)
+}
+
+fn metric_object(name: &str, values: impl IntoIterator<Item = (&'static str, Value)>) -> Value {
+    let mut row = Map::new();
+    row.insert("name".into(), Value::from(name));
+    for (k, v) in values {
+        row.insert(k.into(), v);
+    }
+    Value::Object(row)
+}
+
+const HEADER: &str =
+    "| Method | A^ROC_90 (%) | A^ROC_80 (%) | P^PRC_90 (%) | P^PRC_80 (%) | mTTI^90_p (s) |\n\
+     |---|---:|---:|---:|---:|---:|\n";
+
+/// Decimal places per metric column: percentages to 0.1, lead time to 0.01 s.
+const DECIMALS: [usize; 5] = [1, 1, 1, 1, 2];
+
+/// A row of the `--json` output, fields in schema order.
+#[derive(Serialize)]
+struct JsonRow<'a> {
+    name: &'a str,
+    #[serde(rename = "A_ROC_90")]
+    a_roc_90: Option<f64>,
+    #[serde(rename = "A_ROC_80")]
+    a_roc_80: Option<f64>,
+    #[serde(rename = "P_PRC_90")]
+    p_prc_90: Option<f64>,
+    #[serde(rename = "P_PRC_80")]
+    p_prc_80: Option<f64>,
+    #[serde(rename = "mTTI_90")]
+    mtti_90: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct JsonReport<'a> {
+    events: EventCounts,
+    methods: Vec<JsonRow<'a>>,
+}
+
+impl EvaluationReport {
+    fn json_report(&self) -> JsonReport<'_> {
+        let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
+        JsonReport {
+            events: self.events,
+            methods: self
+                .methods
+                .iter()
+                .map(|m| JsonRow {
+                    name: &m.name,
+                    a_roc_90: finite(m.metrics.a_roc_90),
+                    a_roc_80: finite(m.metrics.a_roc_80),
+                    p_prc_90: finite(m.metrics.p_prc_90),
+                    p_prc_80: finite(m.metrics.p_prc_80),
+                    mtti_90: finite(m.metrics.mtti_90),
+                })
+                .collect(),
+        }
+    }
+
+    /// [`Self::to_json`] as pretty-printed text with keys in schema order (`name` first): what
+    /// `riskctl evaluate --json` prints.
+    pub fn to_json_string(&self) -> String {
+        serde_json::to_string_pretty(&self.json_report()).unwrap_or_default()
+    }
+
+    /// The `riskctl evaluate --json` object (stable schema):
+    /// `{"events": {"crash", "near_crash", "safe"}, "methods": [{"name", "A_ROC_90", "A_ROC_80",
+    /// "P_PRC_90", "P_PRC_80", "mTTI_90"}]}`, percentages 0-100, seconds, `null` where undefined.
+    pub fn to_json(&self) -> Value {
+        let methods: Vec<Value> = self
+            .methods
+            .iter()
+            .map(|m| metric_object(&m.name, m.metrics.named().map(|(k, v)| (k, opt_number(v)))))
+            .collect();
+        json!({"events": self.events.to_json(), "methods": methods})
+    }
+
+    /// The Markdown results table (rows = methods), preceded by the event counts.
+    pub fn to_markdown(&self) -> String {
+        let mut out = format!("{}\n\n{HEADER}", self.events.sentence());
+        for m in &self.methods {
+            out.push_str(&format!("| {} |", m.name));
+            for ((_, v), decimals) in m.metrics.named().iter().zip(DECIMALS) {
+                out.push_str(&format!(" {} |", format_value(*v, decimals)));
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// CSV: `method,A_ROC_90,A_ROC_80,P_PRC_90,P_PRC_80,mTTI_90` (empty cell where undefined).
+    pub fn write_csv<W: Write>(&self, writer: W) -> csv::Result<()> {
+        let mut w = csv::Writer::from_writer(writer);
+        let mut header = vec!["method"];
+        header.extend(METRIC_KEYS);
+        w.write_record(&header)?;
+        for m in &self.methods {
+            let mut row = vec![m.name.clone()];
+            row.extend(m.metrics.named().iter().map(|(_, v)| csv_cell(*v)));
+            w.write_record(&row)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+}
+
+fn format_value(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "n/a".to_owned(), |x| format!("{x:.decimals$}"))
+}
+
+fn csv_cell(v: Option<f64>) -> String {
+    v.map_or_else(String::new, |x| x.to_string())
+}
+
+/// The results of one fold of one CV run (one seed).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FoldResult {
+    pub seed: u64,
+    pub fold: usize,
+    pub methods: Vec<MethodResult>,
+}
+
+/// Mean and sample standard deviation (`n - 1`; 0 when `n == 1`) over the runs where a metric is
+/// defined.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stat {
+    pub mean: f64,
+    pub std: f64,
+    /// Number of runs (folds × seeds) in which the metric was defined.
+    pub n: usize,
+}
+
+impl Stat {
+    /// `None` for an empty sample.
+    pub fn of(values: &[f64]) -> Option<Stat> {
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let std = if n > 1 {
+            (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        } else {
+            0.0
+        };
+        Some(Stat { mean, std, n })
+    }
+}
+
+/// One method aggregated over runs, metrics in [`METRIC_KEYS`] order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MethodSummary {
+    pub name: String,
+    pub stats: [Option<Stat>; 5],
+}
+
+/// mean ± std of every method over all folds and seeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CvReport {
+    /// Events of the whole data set (each is in exactly one test fold per seed).
+    pub events: EventCounts,
+    /// Number of fold results aggregated (folds × seeds).
+    pub runs: usize,
+    pub methods: Vec<MethodSummary>,
+}
+
+/// Aggregate per-fold results: each metric's mean ± std over the runs where it is defined (a run
+/// where it is undefined, or where the method is missing, is left out and shows in `Stat::n`).
+/// Methods keep the order in which they first appear.
+pub fn aggregate(events: EventCounts, folds: &[FoldResult]) -> CvReport {
+    let mut names: Vec<&str> = Vec::new();
+    for m in folds.iter().flat_map(|f| &f.methods) {
+        if !names.contains(&m.name.as_str()) {
+            names.push(&m.name);
+        }
+    }
+    let methods = names
+        .iter()
+        .map(|name| {
+            let per_run: Vec<&Metrics> = folds
+                .iter()
+                .filter_map(|f| f.methods.iter().find(|m| m.name == *name))
+                .map(|m| &m.metrics)
+                .collect();
+            let stats = std::array::from_fn(|i| {
+                let values: Vec<f64> = per_run
+                    .iter()
+                    .filter_map(|m| m.named().get(i).and_then(|(_, v)| *v))
+                    .collect();
+                Stat::of(&values)
+            });
+            MethodSummary {
+                name: (*name).to_owned(),
+                stats,
+            }
+        })
+        .collect();
+    CvReport {
+        events,
+        runs: folds.len(),
+        methods,
+    }
+}
+
+impl CvReport {
+    /// Same shape as [`EvaluationReport::to_json`] with the means as values, plus `"runs"` and per
+    /// method `"std"` and `"n"` objects keyed like the metrics.
+    pub fn to_json(&self) -> Value {
+        let methods: Vec<Value> = self
+            .methods
+            .iter()
+            .map(|m| {
+                let mut row = metric_object(
+                    &m.name,
+                    METRIC_KEYS
+                        .iter()
+                        .zip(&m.stats)
+                        .map(|(k, s)| (*k, opt_number(s.map(|s| s.mean)))),
+                );
+                let std: Map<String, Value> = METRIC_KEYS
+                    .iter()
+                    .zip(&m.stats)
+                    .map(|(k, s)| ((*k).to_owned(), opt_number(s.map(|s| s.std))))
+                    .collect();
+                let n: Map<String, Value> = METRIC_KEYS
+                    .iter()
+                    .zip(&m.stats)
+                    .map(|(k, s)| ((*k).to_owned(), Value::from(s.map_or(0, |s| s.n))))
+                    .collect();
+                if let Value::Object(o) = &mut row {
+                    o.insert("std".into(), Value::Object(std));
+                    o.insert("n".into(), Value::Object(n));
+                }
+                row
+            })
+            .collect();
+        json!({"events": self.events.to_json(), "runs": self.runs, "methods": methods})
+    }
+
+    /// The Markdown results table with `mean ± std` cells. A cell defined in fewer than all runs
+    /// carries `(k/n)`.
+    pub fn to_markdown(&self) -> String {
+        let mut out = format!(
+            "{}; mean ± std over {} runs (folds × seeds)\n\n{HEADER}",
+            self.events.sentence(),
+            self.runs
+        );
+        for m in &self.methods {
+            out.push_str(&format!("| {} |", m.name));
+            for (s, d) in m.stats.iter().zip(DECIMALS) {
+                let cell = match s {
+                    None => "n/a".to_owned(),
+                    Some(s) => {
+                        let mut c = format!("{:.d$} ± {:.d$}", s.mean, s.std);
+                        if s.n < self.runs {
+                            c.push_str(&format!(" ({}/{})", s.n, self.runs));
+                        }
+                        c
+                    }
+                };
+                out.push_str(&format!(" {cell} |"));
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// CSV: `method,<key>_mean,<key>_std,<key>_n,...` for the five metrics.
+    pub fn write_csv<W: Write>(&self, writer: W) -> csv::Result<()> {
+        let mut w = csv::Writer::from_writer(writer);
+        let mut header = vec!["method".to_owned()];
+        for k in METRIC_KEYS {
+            header.extend([format!("{k}_mean"), format!("{k}_std"), format!("{k}_n")]);
+        }
+        w.write_record(&header)?;
+        for m in &self.methods {
+            let mut row = vec![m.name.clone()];
+            for s in &m.stats {
+                row.push(csv_cell(s.map(|s| s.mean)));
+                row.push(csv_cell(s.map(|s| s.std)));
+                row.push(s.map_or(0, |s| s.n).to_string());
+            }
+            w.write_record(&row)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+}
+
+/// CSV of every fold result: `seed,fold,method,A_ROC_90,...` (empty cell where undefined).
+pub fn write_folds_csv<W: Write>(folds: &[FoldResult], writer: W) -> csv::Result<()> {
+    let mut w = csv::Writer::from_writer(writer);
+    let mut header = vec!["seed", "fold", "method"];
+    header.extend(METRIC_KEYS);
+    w.write_record(&header)?;
+    for f in folds {
+        for m in &f.methods {
+            let mut row = vec![f.seed.to_string(), f.fold.to_string(), m.name.clone()];
+            row.extend(m.metrics.named().iter().map(|(_, v)| csv_cell(*v)));
+            w.write_record(&row)?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// CSV of every operating point of every method:
+/// `method,threshold,true_positives,false_positives,positives,negatives,tpr,fpr,precision,mean_lead_time`.
+pub fn write_curves_csv<W: Write>(curves: &[(String, WarningCurve)], writer: W) -> csv::Result<()> {
+    let mut w = csv::Writer::from_writer(writer);
+    w.write_record([
+        "method",
+        "threshold",
+        "true_positives",
+        "false_positives",
+        "positives",
+        "negatives",
+        "tpr",
+        "fpr",
+        "precision",
+        "mean_lead_time",
+    ])?;
+    for (name, c) in curves {
+        for p in &c.points {
+            w.write_record([
+                name.clone(),
+                p.threshold.to_string(),
+                p.true_positives.to_string(),
+                p.false_positives.to_string(),
+                c.positives.to_string(),
+                c.negatives.to_string(),
+                csv_cell(c.tpr(p)),
+                csv_cell(c.fpr(p)),
+                csv_cell(p.precision()),
+                csv_cell(p.mean_lead_time()),
+            ])?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stat_of_small_samples() {
+        assert_eq!(Stat::of(&[]), None);
+        let one = Stat::of(&[4.0]).unwrap();
+        assert_eq!((one.mean, one.std, one.n), (4.0, 0.0, 1));
+        // 2, 4, 6: mean 4, sample variance (4 + 0 + 4) / 2 = 4.
+        let three = Stat::of(&[2.0, 4.0, 6.0]).unwrap();
+        assert_eq!((three.mean, three.std, three.n), (4.0, 2.0, 3));
+    }
+
+    #[test]
+    fn single_report_table_prints_values_and_na() {
+        let r = EvaluationReport {
+            events: EventCounts::from_classes([SequenceClass::Crash, SequenceClass::Safe]),
+            methods: vec![MethodResult {
+                name: "EI".into(),
+                metrics: Metrics {
+                    a_roc_90: Some(12.345),
+                    mtti_90: Some(1.234),
+                    ..Metrics::default()
+                },
+            }],
+        };
+        let md = r.to_markdown();
+        assert!(
+            md.starts_with("2 events: 1 crash, 0 near-crash, 1 safe"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| EI | 12.3 | n/a | n/a | n/a | 1.23 |"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn cv_json_and_csv_carry_mean_std_and_n() {
+        let m = Metrics {
+            a_roc_90: Some(90.0),
+            ..Metrics::default()
+        };
+        let folds: Vec<FoldResult> = [80.0, 100.0]
+            .iter()
+            .enumerate()
+            .map(|(fold, a)| FoldResult {
+                seed: 7,
+                fold,
+                methods: vec![MethodResult {
+                    name: "DRL".into(),
+                    metrics: Metrics {
+                        a_roc_90: Some(*a),
+                        ..m
+                    },
+                }],
+            })
+            .collect();
+        let cv = aggregate(EventCounts::default(), &folds);
+        let v = cv.to_json();
+        assert_eq!(v["runs"], 2);
+        assert_eq!(v["methods"][0]["A_ROC_90"], 90.0);
+        assert_eq!(v["methods"][0]["std"]["A_ROC_90"], 200f64.sqrt());
+        assert_eq!(v["methods"][0]["n"]["A_ROC_90"], 2);
+        assert!(v["methods"][0]["P_PRC_90"].is_null());
+        let mut csv = Vec::new();
+        cv.write_csv(&mut csv).unwrap();
+        let csv = String::from_utf8(csv).unwrap();
+        let mut lines = csv.lines();
+        assert!(lines
+            .next()
+            .unwrap()
+            .starts_with("method,A_ROC_90_mean,A_ROC_90_std,A_ROC_90_n,"));
+        assert!(lines.next().unwrap().starts_with("DRL,90,14.14"));
+        let mut folds_csv = Vec::new();
+        write_folds_csv(&folds, &mut folds_csv).unwrap();
+        assert_eq!(String::from_utf8(folds_csv).unwrap().lines().count(), 3);
+    }
+}

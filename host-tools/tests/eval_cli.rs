@@ -1,0 +1,377 @@
+//! `riskctl evaluate` end to end on a small hand-built event folder: the JSON schema, agreement
+//! with the library, the output files, and clear errors for bad models and folders.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::float_cmp)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use host_tools::eval::{evaluate_methods, observe, Method, Scorer};
+use host_tools::events::{
+    load_events, prepare_sequences, write_events, Dims, Event, EventKind, EventSet, Frame,
+    PrepareConfig,
+};
+use scorer_core::model::{encode, encoded_len, BoundedVec, Model};
+use scorer_core::msra::{MsraModel, MsraTerm};
+use scorer_core::{SurrogateKind, VehicleState};
+
+const DIMS: Dims = Dims {
+    length_ego: 4.5,
+    width_ego: 1.8,
+    length_sur: 4.8,
+    width_sur: 1.9,
+};
+
+fn car(x: f64, vx: f64, acc: f64, length: f32, width: f32) -> VehicleState {
+    VehicleState {
+        x: x as f32,
+        y: 0.0,
+        vx: vx as f32,
+        vy: 0.0,
+        hx: 1.0,
+        hy: 0.0,
+        acc: acc as f32,
+        length,
+        width,
+    }
+}
+
+/// Ego at `v` m/s and a partner `gap(t)` metres (bumper to bumper) ahead moving at `v_sur(t)`.
+fn event(
+    id: String,
+    kind: EventKind,
+    t_end: f64,
+    t_impact: Option<f64>,
+    ego: impl Fn(f64) -> (f64, f64, f64),
+    sur: impl Fn(f64) -> (f64, f64),
+) -> Event {
+    let n = (t_end * 10.0).round() as usize;
+    let frames = (0..=n)
+        .map(|k| {
+            let time = k as f64 / 10.0;
+            let (xe, ve, ae) = ego(time);
+            let (xs, vs) = sur(time);
+            Frame {
+                time,
+                ego: car(xe, ve, ae, DIMS.length_ego, DIMS.width_ego),
+                sur: car(xs, vs, 0.0, DIMS.length_sur, DIMS.width_sur),
+            }
+        })
+        .collect();
+    Event {
+        id,
+        kind,
+        t_start: 0.0,
+        t_end,
+        t_impact,
+        dims: DIMS,
+        frames,
+    }
+}
+
+/// 6 rear-end crashes into a stopped car (impact at 5 s), 4 near-crashes braking to a stop 1 m
+/// short, 8 safe car-following events at equal speed.
+fn event_set() -> EventSet {
+    let half = f64::from(DIMS.length_ego + DIMS.length_sur) / 2.0;
+    let mut events = Vec::new();
+    for i in 0..6 {
+        let v = 8.0 + 2.0 * f64::from(i);
+        let x_sur = 5.0 * v + half; // contact at t = 5 s
+        events.push(event(
+            format!("crash{i}"),
+            EventKind::Crash,
+            5.5,
+            Some(5.0),
+            move |t| (v * t, v, 0.0),
+            move |_| (x_sur, 0.0),
+        ));
+    }
+    for i in 0..4 {
+        let v = 10.0 + 2.0 * f64::from(i);
+        let a = 6.0;
+        let t_stop = v / a;
+        let x_sur = v * v / (2.0 * a) + 1.0 + half + 10.0; // stops 1 m short after 10 m cruising
+        let t_cruise = 10.0 / v;
+        let t_end = (t_cruise + t_stop + 0.5).min(6.0);
+        events.push(event(
+            format!("near{i}"),
+            EventKind::NearCrash,
+            (t_end * 10.0).floor() / 10.0,
+            Some(((t_cruise + t_stop) * 10.0).round() / 10.0),
+            move |t| {
+                if t <= t_cruise {
+                    (v * t, v, 0.0)
+                } else {
+                    let s = (t - t_cruise).min(t_stop);
+                    (10.0 + v * s - 0.5 * a * s * s, (v - a * s).max(0.0), -a)
+                }
+            },
+            move |_| (x_sur, 0.0),
+        ));
+    }
+    for i in 0..8 {
+        let v = 12.0 + f64::from(i);
+        let gap = 30.0 + 3.0 * f64::from(i);
+        events.push(event(
+            format!("safe{i}"),
+            EventKind::Safe,
+            4.0,
+            None,
+            move |t| (v * t, v, 0.0),
+            move |t| (v * t + gap + half, v),
+        ));
+    }
+    EventSet { events }
+}
+
+fn msra_ttc_blob(a: f32) -> Vec<u8> {
+    let term = MsraTerm {
+        kind: SurrogateKind::Ttc2d,
+        weight: 1.0,
+        a,
+        b: 2.0,
+        lo: 0.0,
+        hi: 10.0,
+    };
+    let model = Model::Msra(MsraModel {
+        terms: BoundedVec::from_slice(&[term]).unwrap(),
+        gssm: None,
+    });
+    let mut buf = vec![0u8; encoded_len(&model).unwrap()];
+    let n = encode(&model, &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    events: PathBuf,
+    model: PathBuf,
+    root: PathBuf,
+}
+
+fn fixture() -> Fixture {
+    let dir = tempfile::tempdir().unwrap();
+    let events = dir.path().join("events");
+    write_events(&events, &event_set()).unwrap();
+    let model = dir.path().join("msra-ttc.rsk");
+    std::fs::write(&model, msra_ttc_blob(-1.0)).unwrap();
+    Fixture {
+        root: dir.path().to_path_buf(),
+        _dir: dir,
+        events,
+        model,
+    }
+}
+
+fn riskctl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_riskctl"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+#[test]
+fn json_output_follows_the_schema_and_matches_the_library() {
+    let fx = fixture();
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&fx.events),
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        v["events"],
+        serde_json::json!({"crash": 6, "near_crash": 4, "safe": 8})
+    );
+    let names: Vec<&str> = v["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["MSRA", "TTC2D", "TAdv", "EI"]);
+    for m in v["methods"].as_array().unwrap() {
+        let mut keys: Vec<&str> = m.as_object().unwrap().keys().map(String::as_str).collect();
+        keys.sort_unstable();
+        assert_eq!(
+            keys,
+            ["A_ROC_80", "A_ROC_90", "P_PRC_80", "P_PRC_90", "mTTI_90", "name"]
+        );
+    }
+    // Every conflict has a finite TTC and every safe pair none: TTC2D separates perfectly.
+    let ttc = &v["methods"][1];
+    assert_eq!(ttc["A_ROC_90"], 100.0);
+    assert_eq!(ttc["P_PRC_90"], 100.0);
+    let mtti = ttc["mTTI_90"].as_f64().unwrap();
+    assert!(mtti > 0.0 && mtti <= 4.5 + 1e-9, "mTTI {mtti}");
+
+    // The CLI reports exactly what the library computes on the same folder.
+    let (set, issues) = load_events(&fx.events).unwrap();
+    assert!(issues.is_empty(), "{issues:?}");
+    let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
+    assert!(prep.is_empty(), "{prep:?}");
+    let blob = std::fs::read(&fx.model).unwrap();
+    let mut methods = vec![Method {
+        name: "MSRA".into(),
+        scorer: Scorer::Model(scorer_core::model::decode(&blob).unwrap()),
+    }];
+    methods.extend(Method::baselines());
+    let (report, _) = evaluate_methods(&observe(&seqs), &methods).unwrap();
+    assert_eq!(report.to_json(), v);
+}
+
+#[test]
+fn markdown_table_by_default_and_files_with_out() {
+    let fx = fixture();
+    let out_dir = fx.root.join("report");
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&fx.events),
+        "--out",
+        p(&out_dir),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let table = String::from_utf8(out.stdout).unwrap();
+    assert!(table.contains("| Method | A^ROC_90 (%)"), "{table}");
+    assert!(
+        table.contains("| TTC2D | 100.0 | 100.0 | 100.0 | 100.0 |"),
+        "{table}"
+    );
+    for name in [
+        "results.csv",
+        "results.json",
+        "results.md",
+        "curves.csv",
+        "roc.svg",
+        "roc.png",
+        "pr.svg",
+        "pr.png",
+        "trajectories.svg",
+        "trajectories.png",
+    ] {
+        let path = out_dir.join(name);
+        let meta = std::fs::metadata(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(meta.len() > 100, "{name} is nearly empty");
+    }
+    let svg = std::fs::read_to_string(out_dir.join("roc.svg")).unwrap();
+    assert!(
+        svg.contains("<svg") && svg.contains("TTC2D"),
+        "labels are drawn"
+    );
+    let png = std::fs::read(out_dir.join("trajectories.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let traj = std::fs::read_to_string(out_dir.join("trajectories.svg")).unwrap();
+    for id in ["crash0", "crash1", "crash2"] {
+        assert!(traj.contains(id), "trajectory panel for {id}");
+    }
+    let curves = std::fs::read_to_string(out_dir.join("curves.csv")).unwrap();
+    assert!(curves.starts_with("method,threshold,true_positives"));
+}
+
+#[test]
+fn rows_sharing_a_kind_take_their_file_stems() {
+    let fx = fixture();
+    let second = fx.root.join("msra-steep.rsk");
+    std::fs::write(&second, msra_ttc_blob(-3.0)).unwrap();
+    let named = format!("Custom={}", p(&second));
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--model",
+        p(&second),
+        "--model",
+        &named,
+        "--events",
+        p(&fx.events),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let names: Vec<&str> = v["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["msra-ttc", "msra-steep", "Custom", "TTC2D", "TAdv", "EI"]
+    );
+}
+
+#[test]
+fn corrupt_and_missing_models_are_refused_with_the_reason() {
+    let fx = fixture();
+    let bad = fx.root.join("bad.rsk");
+    std::fs::write(&bad, b"not a model at all, just text").unwrap();
+    let out = riskctl(&["evaluate", "--model", p(&bad), "--events", p(&fx.events)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.rsk") && err.contains("magic"), "{err}");
+
+    let mut blob = msra_ttc_blob(-1.0);
+    let last = blob.len() - 1;
+    blob[last] ^= 0x5a;
+    std::fs::write(&bad, &blob).unwrap();
+    let out = riskctl(&["evaluate", "--model", p(&bad), "--events", p(&fx.events)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.rsk") && err.to_lowercase().contains("crc"),
+        "{err}"
+    );
+
+    let missing = fx.root.join("nope.rsk");
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&missing),
+        "--events",
+        p(&fx.events),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nope.rsk"));
+}
+
+#[test]
+fn bad_event_folders_are_named() {
+    let fx = fixture();
+    let missing = fx.root.join("no-such-folder");
+    let out = riskctl(&["evaluate", "--events", p(&missing)]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-folder"));
+
+    // A folder with one broken row: the problem is listed, the good events are still evaluated.
+    let events_csv = fx.events.join("events.csv");
+    let text = std::fs::read_to_string(&events_csv).unwrap();
+    let broken = text.replacen(",safe,", ",sideswipe,", 1);
+    std::fs::write(&events_csv, broken).unwrap();
+    let out = riskctl(&["evaluate", "--events", p(&fx.events), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("events.csv") && err.contains("sideswipe"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["events"]["safe"], 7);
+    assert_eq!(v["methods"].as_array().unwrap().len(), 3, "baselines only");
+}
