@@ -1,21 +1,21 @@
-//! Emergency index (Cheng et al. 2025, the "EmergencyIndex" reference as adapted by Jiao for GSSM),
-//! with `D_safe = 0` and no range filter.
+//! Emergency index (Cheng et al., reference code github.com/AutoChengh/EmergencyIndex, as adapted
+//! by Jiao for GSSM), with `D_safe = 0` and no range filter.
 //!
 //! Each vehicle moves with its speed `|v| = |(vx, vy)|` along its unit heading `h` (not with
-//! `(vx, vy)`). With `d = p_j - p_i` and `w = |v_j| h_j - |v_i| h_i`:
+//! `(vx, vy)`). With `d = p_j - p_i` and `u = |v_j| h_j - |v_i| h_i`:
 //!
 //! ```text
-//! closing   = -dot(d / |d|, w)                    (0 when d = 0), rounded to 2 decimals
+//! closing   = -dot(d / |d|, u)                    (0 when d = 0), rounded to 2 decimals
 //! conflict  = closing > 0 and (paths cross ahead of both boxes or near-parallel overlap)
-//! theta     = w / |w|
-//! TDM       = -dot(d, theta) / |w|                  (time to the closest approach)
+//! theta     = u / |u|
+//! TDM       = -dot(d, theta) / |u|                  (time to the closest approach)
 //! InDepth   = D_safe - (|cross(d, theta)| - r_i - r_j),
-//!             r = l/2 |cross(h, theta)| + w/2 |dot(h, theta)|   (box half extent across theta)
+//!             r = length/2 |cross(h, theta)| + width/2 |dot(h, theta)|  (half extent across theta)
 //! EI        = InDepth / TDM                         (-inf when there is no conflict)
 //! ```
 //!
 //! "Paths cross": the heading lines meet at `P = p_i + t h_i` and, widened by the crossing-zone
-//! extents `w / |sin(dh)|`, the zone is ahead of each vehicle's rear. "Near-parallel overlap": the
+//! extents `width / |sin(dh)|`, the zone is ahead of each vehicle's rear. "Near-parallel overlap": the
 //! headings differ by at most `gamma = 0.01396` rad modulo pi, the boxes overlap laterally, and one
 //! is ahead of the other (or they overlap longitudinally by the reference's rotated-axis test).
 use crate::geometry::{position, unit_heading, velocity, Vec2};
@@ -112,9 +112,9 @@ pub fn ei(ego: &VehicleState, partner: &VehicleState) -> f32 {
         return f32::NEG_INFINITY;
     };
     let d = b.p - a.p;
-    let w = b.h.scale(b.speed) - a.h.scale(a.speed);
+    let u = b.h.scale(b.speed) - a.h.scale(a.speed);
     let dist = d.norm();
-    let closing = if dist != 0.0 { -d.dot(w) / dist } else { 0.0 };
+    let closing = if dist != 0.0 { -d.dot(u) / dist } else { 0.0 };
     if !closing_after_rounding(closing) {
         return f32::NEG_INFINITY;
     }
@@ -123,9 +123,9 @@ pub fn ei(ego: &VehicleState, partner: &VehicleState) -> f32 {
     if !(crossing || parallel) {
         return f32::NEG_INFINITY;
     }
-    let w_norm = w.norm();
-    let theta = w.scale(1.0 / w_norm);
-    let tdm = -d.dot(theta) / w_norm;
+    let u_norm = u.norm();
+    let theta = u.scale(1.0 / u_norm);
+    let tdm = -d.dot(theta) / u_norm;
     let miss_distance = d.cross(theta).abs();
     let min_future_distance =
         miss_distance - (a.half_extent_across(theta) + b.half_extent_across(theta));
