@@ -1,1 +1,633 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real module.
+//! The main job (`riskctl demo`): simulate the default data set, build comparisons, train DRL and
+//! MSRA under 5-fold event-level CV (fold models scored through the deployed int8/core path), print
+//! the table against the TTC2D/TAdv/EI baselines, quantise, export the final models (trained on all
+//! events), write plots, and say where everything went, with stage times.
+//!
+//! Output layout under the out folder:
+//! - `data/`: the simulated event folder (`events.csv`, `frames.csv`, ...);
+//! - `report/`: `results.{md,csv,json}` (mean ± std over folds), `folds.csv`, `curves.csv`
+//!   (pooled out-of-fold operating points), `training.json` (comparisons, training, quantisation and
+//!   stage statistics);
+//! - `models/`: `drl.rsk` (int8), `drl-f32.rsk`, `msra.rsk`, and their checkpoints `drl.json`,
+//!   `msra.json`;
+//! - `plots/`: `roc`, `pr`, `trajectories` (SVG and PNG).
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+use serde_json::json;
+
+use crate::comparisons::{from_sequences, TrainingSequence};
+use crate::eval::{self, plots, CvReport, EventCounts, ScoredSequence};
+use crate::events::{self, PrepareConfig, Sequence};
+use crate::export::{self, Checkpoint, CheckpointModel, DrlFormat};
+use crate::quantize::{self, Agreement};
+use crate::sim::{self, SimConfig};
+use crate::train::cv::{self, CvOptions, FoldOutcome};
+use crate::train::{self, Progress, TrainConfig, TrainedDrl, TrainedMsra};
+
+/// What the demo runs on and where it writes.
+#[derive(Clone, Debug)]
+pub struct DemoOptions {
+    pub out: PathBuf,
+    pub config: TrainConfig,
+    /// Simulator seed of the default data set.
+    pub sim_seed: u64,
+    /// Number of simulated events.
+    pub events: usize,
+    /// Use this event folder instead of simulating.
+    pub data: Option<PathBuf>,
+    pub folds: usize,
+    /// Cross-validation repetitions (fold assignment and training seeds `seed + k`).
+    pub seeds: usize,
+    pub progress: Progress,
+}
+
+impl Default for DemoOptions {
+    fn default() -> Self {
+        let sim = SimConfig::default();
+        DemoOptions {
+            out: PathBuf::from("out"),
+            config: TrainConfig::default(),
+            sim_seed: sim.seed,
+            events: sim.events,
+            data: None,
+            folds: 5,
+            seeds: 3,
+            progress: Progress::Bar,
+        }
+    }
+}
+
+/// Demo failures (each names the stage and, where it applies, the file).
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    #[error("simulation: {0}")]
+    Sim(#[from] sim::SimError),
+    #[error("loading events: {0}")]
+    Events(#[from] events::EventsError),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("cross-validation: {0}")]
+    Cv(#[from] cv::CvError),
+    #[error("final training: {0}")]
+    Train(#[from] train::TrainError),
+    #[error("export: {0}")]
+    Export(#[from] export::ExportError),
+    #[error("evaluation: {0}")]
+    Eval(#[from] eval::ProtocolError),
+    #[error("plots: {0}")]
+    Plot(#[from] plots::PlotError),
+    #[error("{path}: writing CSV: {source}")]
+    Csv { path: String, source: csv::Error },
+    #[error("{0} contains no usable sequences")]
+    NoSequences(String),
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
+    move |source| DemoError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// One claim of the acceptance criteria, checked on the fold means.
+#[derive(Clone, Debug, Serialize)]
+pub struct Claim {
+    pub method: String,
+    pub baseline: String,
+    pub metric: String,
+    pub method_mean: Option<f64>,
+    pub baseline_mean: Option<f64>,
+    pub holds: bool,
+}
+
+/// What the demo did, measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct DemoSummary {
+    /// `(stage, seconds)` in execution order.
+    pub stages: Vec<(String, f64)>,
+    pub events: String,
+    pub sequences: usize,
+    pub pairs_per_second: f64,
+    pub drl_epochs_per_second: f64,
+    pub msra_epochs_per_second: f64,
+    /// int8 vs f32 DRL agreement of the final model on all observations.
+    pub final_agreement: Agreement,
+    pub claims: Vec<Claim>,
+    #[serde(skip)]
+    pub cv: Option<CvReport>,
+    pub files: Vec<PathBuf>,
+}
+
+impl DemoSummary {
+    pub fn total_seconds(&self) -> f64 {
+        self.stages.iter().map(|(_, s)| s).sum()
+    }
+}
+
+/// Mean of a metric for a method in a CV report (`metric` = index in table order: 0 A_ROC_90,
+/// 1 A_ROC_80, 2 P_PRC_90, 3 P_PRC_80, 4 mTTI_90).
+pub fn cv_mean(report: &CvReport, method: &str, metric: usize) -> Option<f64> {
+    report
+        .methods
+        .iter()
+        .find(|m| m.name == method)
+        .and_then(|m| m.stats.get(metric).copied().flatten())
+        .map(|s| s.mean)
+}
+
+/// The acceptance claims: DRL beats each baseline on A_ROC_90, P_PRC_90 and mTTI_90; MSRA beats
+/// each of its inputs on the same metrics (fold means, strictly greater).
+pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim> {
+    let metrics = [(0usize, "A_ROC_90"), (2, "P_PRC_90"), (4, "mTTI_90")];
+    let mut claims = Vec::new();
+    let mut add = |method: &str, baseline: &str| {
+        for (i, name) in metrics {
+            let m = cv_mean(report, method, i);
+            let b = cv_mean(report, baseline, i);
+            claims.push(Claim {
+                method: method.into(),
+                baseline: baseline.into(),
+                metric: name.into(),
+                method_mean: m,
+                baseline_mean: b,
+                holds: match (m, b) {
+                    (Some(m), Some(b)) => m > b,
+                    (Some(_), None) => true,
+                    _ => false,
+                },
+            });
+        }
+    };
+    for b in ["TTC2D", "TAdv", "EI"] {
+        add("DRL", b);
+    }
+    for b in msra_inputs {
+        add("MSRA", b);
+    }
+    claims
+}
+
+/// The final models: trained on every sequence, quantised and exported.
+pub struct FinalModels {
+    pub drl: TrainedDrl,
+    pub msra: TrainedMsra,
+    pub agreement: Agreement,
+    pub pairs_per_second: f64,
+}
+
+/// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`.
+pub fn train_and_export(
+    train: &[TrainingSequence],
+    augmentation: Option<&[TrainingSequence]>,
+    config: &TrainConfig,
+    dir: &Path,
+    meta: serde_json::Value,
+    progress: Progress,
+) -> Result<(FinalModels, Vec<PathBuf>), DemoError> {
+    fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let prepared = train::prepare_comparisons(train, augmentation, config);
+    let drl = train::train_drl(train, &prepared, config, progress)?;
+    let msra = train::train_msra(train, &prepared, config, progress)?;
+    let q = quantize::quantize(&drl.params, &drl.calibration)
+        .map_err(|e| DemoError::Export(e.into()))?;
+    let obs = train::calibration_observations(train, usize::MAX);
+    let agreement =
+        quantize::verify(&drl.params, &q, &obs).map_err(|e| DemoError::Export(e.into()))?;
+    let mut files = Vec::new();
+    let drl_ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        json!({"model": "DRL", "meta": meta, "training": drl.report, "comparisons": prepared.fit.stats}),
+    );
+    let msra_ck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: msra.params.clone(),
+        },
+        json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
+    );
+    for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
+        let p = dir.join(name);
+        ck.save(&p)?;
+        files.push(p);
+    }
+    for (name, blob) in [
+        ("drl.rsk", export::export(&drl_ck, DrlFormat::Int8)?),
+        ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
+        ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
+    ] {
+        let p = dir.join(name);
+        export::write_blob(&p, &blob)?;
+        files.push(p);
+    }
+    Ok((
+        FinalModels {
+            drl,
+            msra,
+            agreement,
+            pairs_per_second: prepared.fit.stats.pairs_per_second(),
+        },
+        files,
+    ))
+}
+
+/// Load an event folder and prepare its sequences (problems are reported on stderr, valid events
+/// are kept).
+pub fn load_sequences(dir: &Path) -> Result<(Vec<Sequence>, String), DemoError> {
+    let (set, issues) = events::load_events(dir)?;
+    for issue in issues.iter().take(20) {
+        eprintln!("warning: {issue}");
+    }
+    if issues.len() > 20 {
+        eprintln!("warning: ... and {} more problems", issues.len() - 20);
+    }
+    let (seqs, skipped) = events::prepare_sequences(&set, &PrepareConfig::default());
+    for s in skipped.iter().take(5) {
+        eprintln!("note: {s}");
+    }
+    if skipped.len() > 5 {
+        eprintln!("note: ... {} events yield no sequence", skipped.len());
+    }
+    if seqs.is_empty() {
+        return Err(DemoError::NoSequences(dir.display().to_string()));
+    }
+    let counts = set.counts();
+    Ok((seqs, counts.to_string()))
+}
+
+fn write_csv_file(
+    path: &Path,
+    f: impl FnOnce(fs::File) -> csv::Result<()>,
+) -> Result<(), DemoError> {
+    let file = fs::File::create(path).map_err(io_err(path))?;
+    f(file).map_err(|source| DemoError::Csv {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Pool every fold's out-of-fold scored sequences per method (each event appears once, scored by
+/// the model that did not see it).
+pub fn pooled_runs(folds: &[FoldOutcome]) -> Vec<(String, Vec<ScoredSequence>)> {
+    let mut pooled: Vec<(String, Vec<ScoredSequence>)> = Vec::new();
+    for f in folds {
+        for run in &f.runs {
+            match pooled.iter_mut().find(|(n, _)| *n == run.name) {
+                Some((_, seqs)) => seqs.extend(run.scored.iter().cloned()),
+                None => pooled.push((run.name.clone(), run.scored.clone())),
+            }
+        }
+    }
+    pooled
+}
+
+/// Write the CV report files into `dir`; returns the paths.
+pub fn write_cv_reports(
+    dir: &Path,
+    report: &CvReport,
+    folds: &[FoldOutcome],
+) -> Result<Vec<PathBuf>, DemoError> {
+    fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let mut files = Vec::new();
+    let md = dir.join("results.md");
+    fs::write(&md, report.to_markdown()).map_err(io_err(&md))?;
+    files.push(md);
+    let js = dir.join("results.json");
+    let text = serde_json::to_string_pretty(&report.to_json()).unwrap_or_default();
+    fs::write(&js, text).map_err(io_err(&js))?;
+    files.push(js);
+    let csvp = dir.join("results.csv");
+    write_csv_file(&csvp, |f| report.write_csv(f))?;
+    files.push(csvp);
+    let results: Vec<_> = folds.iter().map(|f| f.result.clone()).collect();
+    let fp = dir.join("folds.csv");
+    write_csv_file(&fp, |f| eval::report::write_folds_csv(&results, f))?;
+    files.push(fp);
+    Ok(files)
+}
+
+/// Run the demo. Prints progress and the table on stdout/stderr as it goes.
+pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
+    let mut stages: Vec<(String, f64)> = Vec::new();
+    let mut files: Vec<PathBuf> = Vec::new();
+    fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
+
+    // 1. Data.
+    let t0 = Instant::now();
+    let data_dir = match &opts.data {
+        Some(d) => d.clone(),
+        None => {
+            let dir = opts.out.join("data");
+            let cfg = SimConfig {
+                seed: opts.sim_seed,
+                events: opts.events,
+                progress: opts.progress == Progress::Bar,
+                ..SimConfig::default()
+            };
+            eprintln!(
+                "[1/6] simulating {} events (seed {}) into {}",
+                cfg.events,
+                cfg.seed,
+                dir.display()
+            );
+            sim::simulate_to_dir(&dir, &cfg)?;
+            dir
+        }
+    };
+    let (seqs, counts) = load_sequences(&data_dir)?;
+    stages.push(("simulate + load".into(), t0.elapsed().as_secs_f64()));
+    eprintln!("      events: {counts}; {} sequences", seqs.len());
+
+    // 2. Cross-validation (comparisons, training, quantisation, export, evaluation per fold).
+    let t0 = Instant::now();
+    let seeds = opts.seeds.max(1);
+    eprintln!(
+        "[2/6] {}-fold event-level cross-validation x {seeds} seeds: comparisons, DRL + MSRA training, int8, evaluation",
+        opts.folds
+    );
+    let mut folds: Vec<FoldOutcome> = Vec::new();
+    let mut first_seed_folds = 0;
+    for k in 0..seeds {
+        let mut config = opts.config.clone();
+        config.seed = opts.config.seed.wrapping_add(k as u64);
+        let cv_opts = CvOptions {
+            folds: opts.folds,
+            seed: config.seed,
+            progress: opts.progress,
+            ..CvOptions::default()
+        };
+        let run = cv::cross_validate(&seqs, None, &config, &cv_opts)?;
+        if k == 0 {
+            first_seed_folds = run.len();
+        }
+        folds.extend(run);
+        eprintln!(
+            "      seed {} done ({:.1} s)",
+            config.seed,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    let cv_seconds = t0.elapsed().as_secs_f64();
+    stages.push(("cross-validation".into(), cv_seconds));
+    let events_counts = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let results: Vec<_> = folds.iter().map(|f| f.result.clone()).collect();
+    let report = eval::aggregate(events_counts, &results);
+
+    // 3. Report.
+    let t0 = Instant::now();
+    eprintln!("[3/6] writing the reports");
+    let report_dir = opts.out.join("report");
+    files.extend(write_cv_reports(&report_dir, &report, &folds)?);
+    // Pooled out-of-fold scores of the first seed: every event exactly once.
+    let pooled = pooled_runs(&folds[..first_seed_folds]);
+    let (_, pooled_runs) = eval::evaluate_scored(pooled.clone())?;
+    let curves: Vec<_> = pooled_runs
+        .iter()
+        .map(|r| (r.name.clone(), r.curve.clone()))
+        .collect();
+    let mp = report_dir.join("sequence_maxima.csv");
+    write_csv_file(&mp, |f| write_sequence_maxima(&pooled, f))?;
+    files.push(mp);
+    let cp = report_dir.join("curves.csv");
+    write_csv_file(&cp, |f| eval::report::write_curves_csv(&curves, f))?;
+    files.push(cp);
+    stages.push(("report".into(), t0.elapsed().as_secs_f64()));
+    println!();
+    println!(
+        "Results: {}-fold event-level CV x {} seeds on {} (mean ± std over folds and seeds; DRL = deployed int8 network)",
+        opts.folds,
+        opts.seeds.max(1),
+        data_dir.display()
+    );
+    println!();
+    println!("{}", report.to_markdown());
+
+    // 4. Final models on all data.
+    let t0 = Instant::now();
+    eprintln!("[4/6] training the final DRL and MSRA on all events, quantising, exporting");
+    let all = from_sequences(&seqs);
+    let model_dir = opts.out.join("models");
+    let meta = json!({
+        "data": data_dir.display().to_string(),
+        "sim_seed": opts.sim_seed,
+        "events": counts,
+        "config_seed": opts.config.seed,
+    });
+    let (finals, model_files) =
+        train_and_export(&all, None, &opts.config, &model_dir, meta, opts.progress)?;
+    files.extend(model_files);
+    stages.push(("final models + export".into(), t0.elapsed().as_secs_f64()));
+
+    // 5. Plots.
+    let t0 = Instant::now();
+    eprintln!("[5/6] plots (pooled out-of-fold scores of the first seed)");
+    let plot_dir = opts.out.join("plots");
+    fs::create_dir_all(&plot_dir).map_err(io_err(&plot_dir))?;
+    let plotted: Vec<(String, eval::WarningCurve)> = curves
+        .iter()
+        .filter(|(n, _)| n != "DRL-f32")
+        .cloned()
+        .collect();
+    files.extend(plots::plot_curves(&plot_dir, &plotted)?);
+    let traj_methods: Vec<_> = pooled
+        .iter()
+        .filter(|(n, _)| n != "DRL-f32")
+        .cloned()
+        .collect();
+    let crash_ids = traj_methods
+        .first()
+        .map(|(_, s)| plots::default_trajectory_events(s, 3))
+        .unwrap_or_default();
+    let panels = plots::trajectory_panels(&traj_methods, &crash_ids);
+    files.extend(plots::plot_trajectories(&plot_dir, &panels)?);
+    stages.push(("plots".into(), t0.elapsed().as_secs_f64()));
+
+    // 6. Summary.
+    eprintln!("[6/6] summary");
+    let pairs_per_second = mean(folds.iter().map(|f| f.comparisons.pairs_per_second()));
+    let drl_eps = mean(
+        folds
+            .iter()
+            .filter_map(|f| f.drl.as_ref().map(|r| r.epochs_per_second)),
+    );
+    let msra_eps = mean(
+        folds
+            .iter()
+            .filter_map(|f| f.msra.as_ref().map(|r| r.epochs_per_second)),
+    );
+    let msra_inputs: Vec<String> = opts
+        .config
+        .msra
+        .surrogates
+        .iter()
+        .filter_map(|n| crate::train::msra::parse_surrogate(n))
+        .map(|k| crate::train::msra::surrogate_name(k).to_string())
+        .collect();
+    let claims = acceptance_claims(&report, &msra_inputs);
+    let training = json!({
+        "folds": folds.iter().map(|f| json!({
+            "seed": f.result.seed,
+            "fold": f.fold,
+            "comparisons": f.comparisons,
+            "drl": f.drl,
+            "msra": f.msra,
+            "msra_params": f.msra_params,
+            "int8_agreement": f.agreement,
+            "times": f.times,
+        })).collect::<Vec<_>>(),
+        "final": {
+            "drl": finals.drl.report,
+            "msra": finals.msra.report,
+            "msra_params": finals.msra.params,
+            "int8_agreement": finals.agreement,
+            "calibration": finals.drl.calibration,
+            "pairs_per_second": finals.pairs_per_second,
+        },
+        "stages": stages,
+        "claims": claims,
+        "pairs_per_second": pairs_per_second,
+        "drl_epochs_per_second": drl_eps,
+        "msra_epochs_per_second": msra_eps,
+    });
+    let tp = report_dir.join("training.json");
+    fs::write(
+        &tp,
+        serde_json::to_string_pretty(&training).unwrap_or_default(),
+    )
+    .map_err(io_err(&tp))?;
+    files.push(tp);
+
+    let summary = DemoSummary {
+        stages,
+        events: counts,
+        sequences: seqs.len(),
+        pairs_per_second,
+        drl_epochs_per_second: drl_eps,
+        msra_epochs_per_second: msra_eps,
+        final_agreement: finals.agreement,
+        claims,
+        cv: Some(report),
+        files,
+    };
+    print_summary(&summary, opts, &data_dir);
+    Ok(summary)
+}
+
+/// Per method and sequence: the maximum out-of-fold score inside the alert window and when it
+/// occurred relative to the endpoint (what decides whether and how early a sequence is warned).
+pub fn write_sequence_maxima<W: std::io::Write>(
+    pooled: &[(String, Vec<ScoredSequence>)],
+    writer: W,
+) -> csv::Result<()> {
+    let mut w = csv::Writer::from_writer(writer);
+    w.write_record([
+        "method",
+        "event_id",
+        "class",
+        "max_score",
+        "time_of_max_to_endpoint",
+    ])?;
+    for (name, seqs) in pooled {
+        for s in seqs {
+            let best = s
+                .frames
+                .iter()
+                .filter(|f| eval::protocol::in_alert_window(s.endpoint, f.time))
+                .filter(|f| !f.score.is_nan())
+                .fold(None::<(f32, f64)>, |acc, f| match acc {
+                    Some((m, _)) if m >= f.score => acc,
+                    _ => Some((f.score, f.time)),
+                });
+            let (max, at) = match best {
+                Some((m, t)) => (
+                    m.to_string(),
+                    s.endpoint
+                        .map_or(String::new(), |e| format!("{:.2}", t - e)),
+                ),
+                None => (String::new(), String::new()),
+            };
+            w.write_record([
+                name.as_str(),
+                s.event_id.as_str(),
+                s.class.as_str(),
+                max.as_str(),
+                at.as_str(),
+            ])?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = values.collect();
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
+}
+
+fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
+    if let Some(cv) = &s.cv {
+        println!("Float vs int8 DRL (fold means; DRL-f32 = same network before quantisation):");
+        for name in ["DRL-f32", "DRL"] {
+            let m: Vec<String> = (0..5).map(|i| fmt_opt(cv_mean(cv, name, i))).collect();
+            println!(
+                "  {name:<8} A_ROC_90 {}  A_ROC_80 {}  P_PRC_90 {}  P_PRC_80 {}  mTTI_90 {} s",
+                m[0], m[1], m[2], m[3], m[4]
+            );
+        }
+        println!(
+            "  final model on all observations: corr {:.5}, mean |int8 - f32| {:.4} (score std {:.3})",
+            s.final_agreement.correlation,
+            s.final_agreement.mean_abs_error,
+            s.final_agreement.float_std
+        );
+    }
+    println!();
+    println!("Acceptance (fold means, strictly better):");
+    for c in &s.claims {
+        println!(
+            "  [{}] {} {} {} vs {} {}",
+            if c.holds { "ok" } else { "FAIL" },
+            c.method,
+            c.metric,
+            fmt_opt(c.method_mean),
+            c.baseline,
+            fmt_opt(c.baseline_mean)
+        );
+    }
+    println!();
+    println!(
+        "Throughput: {:.0} comparison pairs/s, DRL {:.1} epochs/s, MSRA {:.1} epochs/s",
+        s.pairs_per_second, s.drl_epochs_per_second, s.msra_epochs_per_second
+    );
+    println!("Stage times:");
+    for (name, secs) in &s.stages {
+        println!("  {name:<24} {secs:>7.1} s");
+    }
+    println!("  {:<24} {:>7.1} s", "total", s.total_seconds());
+    println!();
+    println!("Where everything went:");
+    println!("  event data     {}", data_dir.display());
+    println!("  reports        {}", opts.out.join("report").display());
+    println!("  models         {}", opts.out.join("models").display());
+    println!("  plots          {}", opts.out.join("plots").display());
+    println!(
+        "  next: riskctl inspect-model {}   |   riskctl evaluate --model {} --events DIR",
+        opts.out.join("models/drl.rsk").display(),
+        opts.out.join("models/drl.rsk").display()
+    );
+}

@@ -1,1 +1,311 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real module.
+//! Trained checkpoints (JSON of float parameters) and the model blobs the ECU loads.
+//!
+//! A checkpoint is what `riskctl train` writes and `riskctl export-model` reads:
+//!
+//! ```json
+//! { "format": "riskscore-checkpoint", "version": 1,
+//!   "model": { "kind": "drl", "params": { "scaler": {"mean": [13], "std": [13]},
+//!                                          "layers": [{"inputs": 13, "outputs": 32,
+//!                                                      "weight": [out*in, row-major], "bias": [out]}, ...] },
+//!              "calibration": { "input": {"min": .., "max": ..}, "hidden": [{"min", "max"}, ...],
+//!                               "observations": n, "clip_fraction": p } }
+//!          | { "kind": "msra", "params": { "terms": [{"surrogate": "ttc2d", "lo", "hi", "w", "a", "b"}, ...] } },
+//!   "meta": { free-form provenance: data folder, seed, config, metrics } }
+//! ```
+//!
+//! The DRL checkpoint carries its activation calibration (measured on the training observations at
+//! training time), so exporting needs no data. Blobs are written by `scorer_core::model::encode` and
+//! checked by decoding them again ([`inspect`]).
+use std::fmt::Write as _;
+use std::path::Path;
+
+use scorer_core::model::{self, BoundedVec, Model, ModelError, HEADER_LEN};
+use scorer_core::msra::{MsraModel, MsraTerm};
+use serde::{Deserialize, Serialize};
+
+use crate::quantize::{self, Calibration, FloatBuffers, QuantisedDrl};
+use crate::train::drl::DrlParams;
+use crate::train::msra::{parse_surrogate, MsraParams};
+
+pub const CHECKPOINT_FORMAT: &str = "riskscore-checkpoint";
+pub const CHECKPOINT_VERSION: u32 = 1;
+
+/// The float parameters of one trained model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum CheckpointModel {
+    Drl {
+        params: DrlParams,
+        calibration: Calibration,
+    },
+    Msra {
+        params: MsraParams,
+    },
+}
+
+/// A trained model and its provenance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    pub format: String,
+    pub version: u32,
+    pub model: CheckpointModel,
+    #[serde(default)]
+    pub meta: serde_json::Value,
+}
+
+/// Export and checkpoint failures.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a riskscore checkpoint: {message}")]
+    BadCheckpoint { path: String, message: String },
+    #[error("MSRA term {term}: unknown surrogate {name:?}")]
+    UnknownSurrogate { term: usize, name: String },
+    #[error("{0}")]
+    Quantize(#[from] quantize::QuantizeError),
+    #[error("the model does not encode: {0}")]
+    Model(ModelError),
+    #[error("{what} is only available for DRL checkpoints")]
+    NotDrl { what: &'static str },
+}
+
+impl Checkpoint {
+    pub fn new(model: CheckpointModel, meta: serde_json::Value) -> Checkpoint {
+        Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            version: CHECKPOINT_VERSION,
+            model,
+            meta,
+        }
+    }
+
+    pub fn kind_name(&self) -> &'static str {
+        match self.model {
+            CheckpointModel::Drl { .. } => "drl",
+            CheckpointModel::Msra { .. } => "msra",
+        }
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), ExportError> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| ExportError::BadCheckpoint {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(path, text).map_err(|source| ExportError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+
+    pub fn load(path: &Path) -> Result<Checkpoint, ExportError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ExportError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let c: Checkpoint =
+            serde_json::from_str(&text).map_err(|e| ExportError::BadCheckpoint {
+                path: p.clone(),
+                message: format!("line {}, column {}: {e}", e.line(), e.column()),
+            })?;
+        if c.format != CHECKPOINT_FORMAT || c.version != CHECKPOINT_VERSION {
+            return Err(ExportError::BadCheckpoint {
+                path: p,
+                message: format!(
+                    "format {:?} version {} (expected {CHECKPOINT_FORMAT:?} version {CHECKPOINT_VERSION})",
+                    c.format, c.version
+                ),
+            });
+        }
+        Ok(c)
+    }
+}
+
+/// Numeric format of an exported DRL network.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DrlFormat {
+    /// The deployed int8 network (default).
+    #[default]
+    Int8,
+    /// The f32 network (parity/reference).
+    F32,
+}
+
+fn encode_model(m: &Model<'_>) -> Result<Vec<u8>, ExportError> {
+    let len = model::encoded_len(m).map_err(ExportError::Model)?;
+    let mut buf = vec![0u8; len];
+    let n = model::encode(m, &mut buf).map_err(ExportError::Model)?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// The core's MSRA model of float parameters.
+pub fn msra_terms(params: &MsraParams) -> Result<BoundedVec<MsraTerm, 4>, ExportError> {
+    let mut terms = Vec::new();
+    for (k, t) in params.terms.iter().enumerate() {
+        let kind = parse_surrogate(&t.surrogate).ok_or_else(|| ExportError::UnknownSurrogate {
+            term: k,
+            name: t.surrogate.clone(),
+        })?;
+        terms.push(MsraTerm {
+            kind,
+            weight: t.w,
+            a: t.a,
+            b: t.b,
+            lo: t.lo,
+            hi: t.hi,
+        });
+    }
+    BoundedVec::from_slice(&terms).map_err(ExportError::Model)
+}
+
+/// The blob of an MSRA model.
+pub fn msra_blob(params: &MsraParams) -> Result<Vec<u8>, ExportError> {
+    let m = MsraModel {
+        terms: msra_terms(params)?,
+        gssm: None,
+    };
+    encode_model(&Model::Msra(m))
+}
+
+/// The blob of a quantised DRL network.
+pub fn drl_int8_blob(q: &QuantisedDrl) -> Result<Vec<u8>, ExportError> {
+    encode_model(&Model::DrlInt8(q.as_core()?))
+}
+
+/// The blob of a float DRL network.
+pub fn drl_f32_blob(params: &DrlParams) -> Result<Vec<u8>, ExportError> {
+    let fb = FloatBuffers::from_params(params);
+    let blob = encode_model(&Model::DrlF32(fb.as_core()?))?;
+    Ok(blob)
+}
+
+/// Export a checkpoint as a model blob (DRL: quantised with its stored calibration unless `F32`).
+pub fn export(checkpoint: &Checkpoint, drl_format: DrlFormat) -> Result<Vec<u8>, ExportError> {
+    match &checkpoint.model {
+        CheckpointModel::Drl {
+            params,
+            calibration,
+        } => match drl_format {
+            DrlFormat::Int8 => drl_int8_blob(&quantize::quantize(params, calibration)?),
+            DrlFormat::F32 => drl_f32_blob(params),
+        },
+        CheckpointModel::Msra { params } => msra_blob(params),
+    }
+}
+
+/// Write `blob` to `path` (creating parent folders).
+pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ExportError> {
+    if let Some(parent) = path.parent() {
+        if !parent.as_os_str().is_empty() {
+            std::fs::create_dir_all(parent).map_err(|source| ExportError::Io {
+                path: parent.display().to_string(),
+                source,
+            })?;
+        }
+    }
+    std::fs::write(path, blob).map_err(|source| ExportError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Decode a blob (header, CRC, payload, validation) and describe it for humans.
+pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
+    let header = model::decode_header(blob)?;
+    let decoded = model::decode(blob)?;
+    let mut s = String::new();
+    let _ = writeln!(s, "header");
+    let _ = writeln!(s, "  magic           RSKM");
+    let _ = writeln!(s, "  format version  {}", header.version);
+    let _ = writeln!(
+        s,
+        "  kind            {} ({})",
+        header.kind.name(),
+        header.kind as u8
+    );
+    let _ = writeln!(
+        s,
+        "  feature schema  {} ({} features)",
+        header.feature_schema,
+        scorer_core::FEATURE_COUNT
+    );
+    let _ = writeln!(s, "  payload         {} bytes", header.payload_len);
+    let _ = writeln!(
+        s,
+        "  payload CRC-32  {:#010x} (verified)",
+        header.payload_crc
+    );
+    let _ = writeln!(
+        s,
+        "size\n  total           {} bytes ({} header + {} payload)",
+        blob.len(),
+        HEADER_LEN,
+        header.payload_len
+    );
+    let _ = writeln!(s, "parameters");
+    match &decoded {
+        Model::DrlInt8(m) => {
+            let mut dims = vec![m.inputs.len().to_string()];
+            let mut macs = 0usize;
+            let mut weights = 0usize;
+            let mut in_dim = m.inputs.len();
+            for l in m.layers.iter() {
+                dims.push(l.out_dim.to_string());
+                macs += usize::from(l.out_dim) * in_dim;
+                weights += l.weights.len();
+                in_dim = usize::from(l.out_dim);
+            }
+            let _ = writeln!(s, "  network         int8 MLP {}", dims.join("-"));
+            let _ = writeln!(s, "  inputs          {} features", m.inputs.len());
+            let _ = writeln!(s, "  input zero pt   {}", m.input_zero_point);
+            let _ = writeln!(s, "  int8 weights    {weights}");
+            let _ = writeln!(s, "  MACs/partner    {macs}");
+            for (i, l) in m.layers.iter().enumerate() {
+                let w: Vec<i8> = l.weights.iter().map(|&b| b as i8).collect();
+                let (lo, hi) = w
+                    .iter()
+                    .fold((i8::MAX, i8::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                let _ = writeln!(
+                    s,
+                    "  layer {i}         out {:>2}, relu {}, weights [{lo}, {hi}], output zero point {}",
+                    l.out_dim, l.relu, l.output_zero_point
+                );
+            }
+            let _ = writeln!(s, "  output scales   {:?}", m.output_scales.as_slice());
+        }
+        Model::DrlF32(m) => {
+            let mut dims = vec![m.inputs.len().to_string()];
+            let mut params = 0usize;
+            for l in m.layers.iter() {
+                dims.push(l.out_dim.to_string());
+                params += (l.weights.len() + l.bias.len()) / 4;
+            }
+            let _ = writeln!(s, "  network         f32 MLP {}", dims.join("-"));
+            let _ = writeln!(s, "  parameters      {params}");
+        }
+        Model::Msra(m) => {
+            let _ = writeln!(s, "  terms           {}", m.terms.len());
+            for (k, t) in m.terms.iter().enumerate() {
+                let _ = writeln!(
+                    s,
+                    "  term {k}          {:?}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
+                    t.kind, t.weight, t.a, t.b, t.lo, t.hi
+                );
+            }
+            let _ = writeln!(s, "  embedded GSSM   {}", m.gssm.is_some());
+        }
+        Model::Gssm(_) => {
+            let _ = writeln!(s, "  GSSM lognormal spacing model");
+        }
+    }
+    let _ = writeln!(
+        s,
+        "integrity         OK (decoded, CRC and validation passed)"
+    );
+    Ok(s)
+}

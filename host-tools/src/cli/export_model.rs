@@ -1,7 +1,47 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real subcommand.
-#[derive(clap::Args, Debug)]
-pub struct Args {}
+//! `riskctl export-model`: a trained checkpoint to the core's model blob.
+use std::path::PathBuf;
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("this subcommand is not built yet")
+use anyhow::Context;
+use host_tools::export::{self, Checkpoint, DrlFormat};
+
+/// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob.
+///
+/// DRL is quantised to int8 with the activation calibration stored in the checkpoint (measured on
+/// the training observations), using scorer-core's own requantisation; `--f32` writes the float
+/// network instead. MSRA is written as is. The blob is decoded again (header, CRC, validation)
+/// before the command succeeds.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Checkpoint written by `riskctl train` (JSON).
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// Output blob (conventionally `*.rsk`).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Export DRL as the f32 network instead of int8.
+    #[arg(long)]
+    pub f32: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let ck = Checkpoint::load(&args.checkpoint)?;
+    let format = if args.f32 {
+        DrlFormat::F32
+    } else {
+        DrlFormat::Int8
+    };
+    let blob = export::export(&ck, format)
+        .with_context(|| format!("{}: cannot export", args.checkpoint.display()))?;
+    let summary = export::inspect(&blob)
+        .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
+    export::write_blob(&args.out, &blob)?;
+    println!(
+        "{} ({}) -> {} ({} bytes)",
+        args.checkpoint.display(),
+        ck.kind_name(),
+        args.out.display(),
+        blob.len()
+    );
+    print!("{summary}");
+    Ok(())
 }

@@ -1,7 +1,23 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real subcommand.
-#[derive(clap::Args, Debug)]
-pub struct Args {}
+//! `riskctl inspect-model`: describe a model blob and check its integrity.
+use std::path::PathBuf;
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("this subcommand is not built yet")
+use anyhow::Context;
+
+/// Print a model blob's header, sizes and parameter summary, and check its integrity (magic,
+/// version, kind, feature schema, payload length, CRC-32, and the model's own validation).
+/// Exits with an error naming the problem when any check fails.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Model blob (`*.rsk`).
+    pub file: PathBuf,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let blob = std::fs::read(&args.file)
+        .with_context(|| format!("{}: cannot read", args.file.display()))?;
+    let text = host_tools::export::inspect(&blob)
+        .map_err(|e| anyhow::anyhow!("{}: integrity check failed: {e}", args.file.display()))?;
+    println!("{}", args.file.display());
+    print!("{text}");
+    Ok(())
 }

@@ -1,7 +1,120 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real subcommand.
-#[derive(clap::Args, Debug)]
-pub struct Args {}
+//! `riskctl train`: build comparisons and train DRL and MSRA on an event folder.
+use std::path::PathBuf;
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("this subcommand is not built yet")
+use anyhow::Context;
+use host_tools::comparisons::from_sequences;
+use host_tools::demo;
+use host_tools::train::{Progress, TrainConfig};
+use serde_json::json;
+
+/// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs.
+///
+/// The events are split by event into fit and validation parts (early stopping); comparisons are
+/// built from the fit part only. Writes into --out: drl.json and msra.json (float checkpoints, see
+/// docs/training.md), drl.rsk (int8, calibrated on the training observations), drl-f32.rsk and
+/// msra.rsk (model blobs for scorer-core, the bridge and the firmware).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Event folder (events.csv + frames.csv).
+    #[arg(long)]
+    pub events: PathBuf,
+    /// Training configuration (TOML); default: the built-in defaults (= configs/train.toml).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Output folder for checkpoints and blobs.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A second event folder (e.g. simulated) whose comparisons form the simulation source.
+    #[arg(long)]
+    pub augment: Option<PathBuf>,
+    /// Override the training seed of the configuration.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// No progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut config = match &args.config {
+        Some(p) => TrainConfig::load(p)?,
+        None => TrainConfig::default(),
+    };
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    let (seqs, counts) = demo::load_sequences(&args.events)?;
+    eprintln!(
+        "{}: {counts}; {} sequences",
+        args.events.display(),
+        seqs.len()
+    );
+    let augmentation = match &args.augment {
+        Some(dir) => {
+            let (aug, c) = demo::load_sequences(dir)?;
+            eprintln!(
+                "{} (augmentation): {c}; {} sequences",
+                dir.display(),
+                aug.len()
+            );
+            Some(from_sequences(&aug))
+        }
+        None => None,
+    };
+    let progress = if args.quiet {
+        Progress::Hidden
+    } else {
+        Progress::Bar
+    };
+    let meta = json!({
+        "data": args.events.display().to_string(),
+        "augmentation": args.augment.as_ref().map(|p| p.display().to_string()),
+        "events": counts,
+        "config": config,
+    });
+    let started = std::time::Instant::now();
+    let (finals, files) = demo::train_and_export(
+        &from_sequences(&seqs),
+        augmentation.as_deref(),
+        &config,
+        &args.out,
+        meta,
+        progress,
+    )
+    .context("training failed")?;
+    let d = &finals.drl.report;
+    let m = &finals.msra.report;
+    println!(
+        "comparisons: {} fit pairs, {} validation pairs, {:.0} pairs/s",
+        d.pairs, d.validation_pairs, finals.pairs_per_second
+    );
+    println!(
+        "DRL : {} epochs (best {}), {:.1} epochs/s, final validation loss {}",
+        d.epochs,
+        d.best_epoch,
+        d.epochs_per_second,
+        d.history
+            .get(d.best_epoch.saturating_sub(1))
+            .and_then(|e| e.validation)
+            .map_or("n/a".into(), |v| format!("{:.4}", v.total))
+    );
+    println!(
+        "MSRA: {} epochs (best {}), {:.1} epochs/s",
+        m.epochs, m.best_epoch, m.epochs_per_second
+    );
+    for t in &finals.msra.params.terms {
+        println!(
+            "      {:<6} w = {:+.3}  a = {:+.4}  b = {:+.3}  clip [{}, {}]",
+            t.surrogate, t.w, t.a, t.b, t.lo, t.hi
+        );
+    }
+    println!(
+        "int8 vs f32 DRL on the training observations: corr {:.5}, mean |diff| {:.4}, max |diff| {:.4}",
+        finals.agreement.correlation, finals.agreement.mean_abs_error, finals.agreement.max_abs_error
+    );
+    println!("wrote ({:.1} s):", started.elapsed().as_secs_f64());
+    for f in files {
+        println!("  {}", f.display());
+    }
+    Ok(())
 }

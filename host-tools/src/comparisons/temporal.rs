@@ -1,0 +1,90 @@
+//! Temporal comparisons: inside a conflict sequence, a later state is riskier than an earlier one.
+//!
+//! A pair is `(o_t2 over o_t1)` with `t1 < t2 <= t_impact` and `dmin <= t2 - t1 <= dmax`. Sequences
+//! are drawn uniformly, then `t2` uniformly among the frames that have at least one valid `t1`, then
+//! `t1` uniformly among the valid ones. The weight `a_i` is the time-to-impact difference
+//! `(t_impact - t1) - (t_impact - t2) = t2 - t1`, normalised by its mean over the source.
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::{
+    normalise_mean_one, Origin, Pair, Source, SourceStats, TableBuilder, TemporalConfig,
+    TrainingSequence,
+};
+
+/// `(j, lo, hi)`: frame `j` and the range `lo..hi` of its valid earlier frames.
+type FrameRange = (usize, usize, usize);
+
+/// For each usable frame `j` (at or before the endpoint), the range `lo..hi` of frames `i` with
+/// `dmin <= t_j - t_i <= dmax`.
+fn valid_ranges(s: &TrainingSequence, dmin: f64, dmax: f64) -> Vec<FrameRange> {
+    let n = s.frames_up_to_endpoint();
+    let mut out = Vec::new();
+    for j in 0..n {
+        let tj = s.times[j];
+        // times are increasing: frames with t_i <= tj - dmin and t_i >= tj - dmax.
+        let hi = s.times[..j].partition_point(|&t| t <= tj - dmin + 1e-9);
+        let lo = s.times[..j].partition_point(|&t| t < tj - dmax - 1e-9);
+        if lo < hi {
+            out.push((j, lo, hi));
+        }
+    }
+    out
+}
+
+pub(crate) fn build(
+    seqs: &[TrainingSequence],
+    origin: Origin,
+    config: &TemporalConfig,
+    target: usize,
+    tag: Source,
+    tb: &mut TableBuilder,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<Pair>, SourceStats) {
+    let mut stats = SourceStats {
+        requested: target,
+        ..SourceStats::default()
+    };
+    if target == 0 {
+        return (Vec::new(), stats);
+    }
+    let candidates: Vec<(usize, Vec<FrameRange>)> = seqs
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_conflict())
+        .map(|(i, s)| (i, valid_ranges(s, config.dmin, config.dmax)))
+        .filter(|(_, r)| !r.is_empty())
+        .collect();
+    stats.rejected = seqs
+        .iter()
+        .filter(|s| s.is_conflict())
+        .count()
+        .saturating_sub(candidates.len());
+    if candidates.is_empty() {
+        return (Vec::new(), stats);
+    }
+    let mut pairs = Vec::with_capacity(target);
+    let mut weights = Vec::with_capacity(target);
+    for _ in 0..target {
+        let (si, ranges) = &candidates[rng.random_range(0..candidates.len())];
+        let (j, lo, hi) = ranges[rng.random_range(0..ranges.len())];
+        let i = rng.random_range(lo..hi);
+        let s = &seqs[*si];
+        let dt = (s.times[j] - s.times[i]) as f32;
+        let winner = tb.frame(origin, seqs, *si, j);
+        let loser = tb.frame(origin, seqs, *si, i);
+        pairs.push(Pair {
+            winner,
+            loser,
+            source: tag,
+            weight: 0.0,
+        });
+        weights.push(dt);
+    }
+    normalise_mean_one(&mut weights);
+    for (p, w) in pairs.iter_mut().zip(weights) {
+        p.weight = w;
+    }
+    stats.built = pairs.len();
+    (pairs, stats)
+}

@@ -1,0 +1,245 @@
+//! MSRA: `R = sum_k w_k * sigmoid(a_k * g_k(f_k) + b_k)` over surrogates `f_k` (TTC2D, TAdv, EI),
+//! where `g_k = scorer_core::msra::transform` is the core's finite transform with clip range
+//! `[lo_k, hi_k]` (so `+inf` TTC and `-inf` EI never reach the arithmetic).
+//!
+//! The transformed surrogates are precomputed once per observation. For conditioning, training
+//! works on `z_k = (g_k - m_k) / s_k` (mean and standard deviation of `g_k` on the training frames)
+//! with parameters `a'_k, b'_k`; [`Msra::params`] converts back exactly:
+//! `a_k = a'_k / s_k`, `b_k = b'_k - a'_k m_k / s_k`. Initialisation points every term in its risk
+//! direction (smaller TTC/TAdv, larger EI is riskier), read off the transform itself.
+use candle_core::{DType, Device, Tensor, Var};
+use scorer_core::{SurrogateKind, Surrogates};
+use serde::{Deserialize, Serialize};
+
+use super::RiskModel;
+use crate::comparisons::{ObservationTable, TrainingSequence};
+
+/// Parse a surrogate name (`ttc2d`, `tadv`, `ei`; case-insensitive).
+pub fn parse_surrogate(name: &str) -> Option<SurrogateKind> {
+    match name.trim().to_ascii_lowercase().as_str() {
+        "ttc2d" | "ttc" => Some(SurrogateKind::Ttc2d),
+        "tadv" => Some(SurrogateKind::Tadv),
+        "ei" => Some(SurrogateKind::Ei),
+        _ => None,
+    }
+}
+
+/// Display name of a surrogate as used in reports (`TTC2D`, `TAdv`, `EI`, `GSSM`).
+pub fn surrogate_name(kind: SurrogateKind) -> &'static str {
+    match kind {
+        SurrogateKind::Ttc2d => "TTC2D",
+        SurrogateKind::Tadv => "TAdv",
+        SurrogateKind::Ei => "EI",
+        SurrogateKind::Gssm => "GSSM",
+    }
+}
+
+/// The raw value of surrogate `kind` in a precomputed set (GSSM is not a geometric surrogate and
+/// is not available here).
+pub fn raw_surrogate(kind: SurrogateKind, s: &Surrogates) -> f32 {
+    match kind {
+        SurrogateKind::Ttc2d => s.ttc2d,
+        SurrogateKind::Tadv => s.tadv,
+        SurrogateKind::Ei => s.ei,
+        SurrogateKind::Gssm => f32::NAN,
+    }
+}
+
+/// Clip range `[lo, hi]` of the transform of each surrogate (TTC2D and TAdv in s, EI in m/s).
+pub fn default_range(kind: SurrogateKind) -> (f32, f32) {
+    match kind {
+        SurrogateKind::Ttc2d | SurrogateKind::Tadv => (0.0, 10.0),
+        SurrogateKind::Ei => (0.0, 20.0),
+        SurrogateKind::Gssm => (0.0, 1.0),
+    }
+}
+
+/// The core transform `g_k` of one raw surrogate.
+pub fn transformed(kind: SurrogateKind, raw: f32, lo: f32, hi: f32) -> f32 {
+    scorer_core::msra::transform(kind, raw, lo, hi)
+}
+
+/// One MSRA term's float parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MsraTermParams {
+    /// `ttc2d`, `tadv` or `ei`.
+    pub surrogate: String,
+    pub lo: f32,
+    pub hi: f32,
+    pub w: f32,
+    pub a: f32,
+    pub b: f32,
+}
+
+impl MsraTermParams {
+    pub fn kind(&self) -> Option<SurrogateKind> {
+        parse_surrogate(&self.surrogate)
+    }
+}
+
+/// Float MSRA parameters (the checkpoint content).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MsraParams {
+    pub terms: Vec<MsraTermParams>,
+}
+
+/// The trainable MSRA model.
+pub struct Msra {
+    kinds: Vec<SurrogateKind>,
+    ranges: Vec<(f32, f32)>,
+    centre: Vec<f32>,
+    spread: Vec<f32>,
+    w: Var,
+    a: Var,
+    b: Var,
+}
+
+/// Slope sign of `g_k` as a function of the raw surrogate (+1 increasing, -1 decreasing).
+fn transform_slope_sign(kind: SurrogateKind, lo: f32, hi: f32) -> f32 {
+    let (x0, x1) = (lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo));
+    let (g0, g1) = (transformed(kind, x0, lo, hi), transformed(kind, x1, lo, hi));
+    if g1 >= g0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// +1 when a larger raw value is riskier (EI), -1 when smaller is riskier (TTC2D, TAdv).
+fn risk_direction(kind: SurrogateKind) -> f32 {
+    match kind {
+        SurrogateKind::Ei | SurrogateKind::Gssm => 1.0,
+        SurrogateKind::Ttc2d | SurrogateKind::Tadv => -1.0,
+    }
+}
+
+impl Msra {
+    /// A model over `kinds` with the default clip ranges, its input normalisation fitted on the
+    /// frames of `seqs` (surrogates computed by scorer-core).
+    pub fn new(kinds: &[SurrogateKind], seqs: &[TrainingSequence]) -> candle_core::Result<Msra> {
+        let surrogates = seqs.iter().flat_map(|s| {
+            s.ego
+                .iter()
+                .zip(&s.partner)
+                .map(|(e, p)| scorer_core::surrogates(e, p))
+        });
+        Self::fitted(kinds, surrogates)
+    }
+
+    /// Same, with the normalisation fitted on the rows of an observation table.
+    pub fn from_table(
+        kinds: &[SurrogateKind],
+        table: &ObservationTable,
+    ) -> candle_core::Result<Msra> {
+        Self::fitted(kinds, table.surrogates.iter().copied())
+    }
+
+    fn fitted(
+        kinds: &[SurrogateKind],
+        surrogates: impl Iterator<Item = Surrogates>,
+    ) -> candle_core::Result<Msra> {
+        let ranges: Vec<(f32, f32)> = kinds.iter().map(|&k| default_range(k)).collect();
+        let mut sum = vec![0f64; kinds.len()];
+        let mut sq = vec![0f64; kinds.len()];
+        let mut n = 0usize;
+        for surr in surrogates {
+            n += 1;
+            for (k, (&kind, &(lo, hi))) in kinds.iter().zip(&ranges).enumerate() {
+                let g = transformed(kind, raw_surrogate(kind, &surr), lo, hi) as f64;
+                sum[k] += g;
+                sq[k] += g * g;
+            }
+        }
+        let mut centre = vec![0f32; kinds.len()];
+        let mut spread = vec![1f32; kinds.len()];
+        for k in 0..kinds.len() {
+            if n > 0 {
+                let m = sum[k] / n as f64;
+                let sd = (sq[k] / n as f64 - m * m).max(0.0).sqrt();
+                centre[k] = m as f32;
+                spread[k] = if sd > 1e-6 { sd as f32 } else { 1.0 };
+            }
+        }
+        let init_a: Vec<f32> = kinds
+            .iter()
+            .zip(&ranges)
+            .map(|(&k, &(lo, hi))| risk_direction(k) * transform_slope_sign(k, lo, hi))
+            .collect();
+        let k = kinds.len();
+        Ok(Msra {
+            kinds: kinds.to_vec(),
+            ranges,
+            centre,
+            spread,
+            w: Var::from_vec(vec![1.0f32; k], k, &Device::Cpu)?,
+            a: Var::from_vec(init_a, k, &Device::Cpu)?,
+            b: Var::zeros(k, DType::F32, &Device::Cpu)?,
+        })
+    }
+
+    pub fn kinds(&self) -> &[SurrogateKind] {
+        &self.kinds
+    }
+
+    /// The parameters in the deployed form (`a_k`, `b_k` on the transformed surrogate itself).
+    pub fn params(&self) -> candle_core::Result<MsraParams> {
+        let w = self.w.as_tensor().to_vec1::<f32>()?;
+        let a = self.a.as_tensor().to_vec1::<f32>()?;
+        let b = self.b.as_tensor().to_vec1::<f32>()?;
+        let terms = (0..self.kinds.len())
+            .map(|k| {
+                let (m, s) = (self.centre[k], self.spread[k]);
+                MsraTermParams {
+                    surrogate: match self.kinds[k] {
+                        SurrogateKind::Ttc2d => "ttc2d",
+                        SurrogateKind::Tadv => "tadv",
+                        SurrogateKind::Ei => "ei",
+                        SurrogateKind::Gssm => "gssm",
+                    }
+                    .to_string(),
+                    lo: self.ranges[k].0,
+                    hi: self.ranges[k].1,
+                    w: w[k],
+                    a: a[k] / s,
+                    b: b[k] - a[k] * m / s,
+                }
+            })
+            .collect();
+        Ok(MsraParams { terms })
+    }
+}
+
+impl RiskModel for Msra {
+    fn name(&self) -> &str {
+        "MSRA"
+    }
+
+    fn input_width(&self) -> usize {
+        self.kinds.len()
+    }
+
+    fn encode(&self, table: &ObservationTable) -> Vec<f32> {
+        let mut rows = Vec::with_capacity(table.len() * self.kinds.len());
+        for s in &table.surrogates {
+            for (k, (&kind, &(lo, hi))) in self.kinds.iter().zip(&self.ranges).enumerate() {
+                let g = transformed(kind, raw_surrogate(kind, s), lo, hi);
+                let z = (g - self.centre[k]) / self.spread[k];
+                rows.push(if z.is_finite() { z } else { 0.0 });
+            }
+        }
+        rows
+    }
+
+    fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
+        let z = inputs
+            .broadcast_mul(self.a.as_tensor())?
+            .broadcast_add(self.b.as_tensor())?;
+        candle_nn::ops::sigmoid(&z)?
+            .broadcast_mul(self.w.as_tensor())?
+            .sum(1)
+    }
+
+    fn vars(&self) -> Vec<Var> {
+        vec![self.w.clone(), self.a.clone(), self.b.clone()]
+    }
+}

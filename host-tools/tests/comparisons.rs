@@ -1,0 +1,338 @@
+//! Comparison construction: temporal ordering, training-partition only, determinism, weights, and
+//! physics counterfactuals that scorer-core agrees are riskier.
+use host_tools::comparisons::{
+    self, physics, ComparisonConfig, RowOrigin, SequenceClass, Source, TrainingSequence,
+};
+use scorer_core::VehicleState;
+
+fn car(x: f32, y: f32, v: f32) -> VehicleState {
+    VehicleState {
+        x,
+        y,
+        vx: v,
+        vy: 0.0,
+        hx: 1.0,
+        hy: 0.0,
+        acc: 0.0,
+        length: 4.5,
+        width: 1.8,
+    }
+}
+
+/// A rear-end approach at 10 Hz: the ego closes on a slower leader and touches it at `t_impact`.
+fn conflict(id: usize, closing: f32, lateral: f32) -> TrainingSequence {
+    let t_impact = 6.0f64;
+    let v_ego = 14.0 + id as f32 % 5.0;
+    let mut s = TrainingSequence {
+        event_id: format!("c{id}"),
+        class: SequenceClass::Conflict { endpoint: t_impact },
+        times: vec![],
+        ego: vec![],
+        partner: vec![],
+    };
+    for k in 15..=65 {
+        let t = k as f64 * 0.1;
+        let x_e = v_ego * t as f32;
+        let gap = closing * (t_impact - t) as f32; // box distance along x
+        s.times.push(t);
+        s.ego.push(car(x_e, 0.0, v_ego));
+        s.partner
+            .push(car(x_e + 4.5 + gap, lateral, v_ego - closing));
+    }
+    s
+}
+
+/// Steady following at a comfortable gap, possibly in the next lane.
+fn safe(id: usize) -> TrainingSequence {
+    let v = 12.0 + id as f32 % 7.0;
+    let gap = 25.0 + 3.0 * (id % 5) as f32;
+    let lateral = if id.is_multiple_of(2) { 0.0 } else { 3.5 };
+    let mut s = TrainingSequence {
+        event_id: format!("s{id}"),
+        class: SequenceClass::Safe,
+        times: vec![],
+        ego: vec![],
+        partner: vec![],
+    };
+    for k in 0..50 {
+        let t = k as f64 * 0.1;
+        let x_e = v * t as f32;
+        s.times.push(t);
+        s.ego.push(car(x_e, 0.0, v));
+        s.partner.push(car(x_e + 4.5 + gap, lateral, v));
+    }
+    s
+}
+
+fn dataset() -> Vec<TrainingSequence> {
+    let mut v = Vec::new();
+    for i in 0..12 {
+        v.push(conflict(i, 5.0 + i as f32 * 0.6, 0.1 * (i % 6) as f32));
+        v.push(safe(i));
+    }
+    v
+}
+
+fn small_config() -> ComparisonConfig {
+    let mut c = ComparisonConfig::default();
+    c.temporal.pairs = 600;
+    c.cross_sequence.pairs = 600;
+    c.physics.pairs = 400;
+    c.simulation.pairs = 300;
+    c
+}
+
+fn frame_of(set: &comparisons::ComparisonSet, row: u32) -> (bool, usize, usize) {
+    match set.table.origins[row as usize] {
+        RowOrigin::Frame {
+            augmentation,
+            sequence,
+            frame,
+        } => (augmentation, sequence as usize, frame as usize),
+        other => panic!("row {row} is not a frame: {other:?}"),
+    }
+}
+
+#[test]
+fn temporal_pairs_are_ordered_within_one_conflict_sequence() {
+    let seqs = dataset();
+    let cfg = small_config();
+    let set = comparisons::build(&seqs, None, &cfg, 7);
+    let temporal: Vec<_> = set
+        .pairs
+        .iter()
+        .filter(|p| p.source == Source::Temporal)
+        .collect();
+    assert_eq!(temporal.len(), 600);
+    let mut weight_sum = 0.0f64;
+    for p in &temporal {
+        let (_, sw, fw) = frame_of(&set, p.winner);
+        let (_, sl, fl) = frame_of(&set, p.loser);
+        assert_eq!(sw, sl, "temporal pair across sequences");
+        let s = &seqs[sw];
+        let endpoint = s
+            .endpoint()
+            .expect("temporal pairs come from conflict sequences");
+        let (t2, t1) = (s.times[fw], s.times[fl]);
+        assert!(
+            t1 < t2 && t2 <= endpoint + 1e-9,
+            "t1 {t1} t2 {t2} endpoint {endpoint}"
+        );
+        let dt = t2 - t1;
+        assert!(
+            dt >= cfg.temporal.dmin - 1e-9 && dt <= cfg.temporal.dmax + 1e-9,
+            "dt {dt}"
+        );
+        weight_sum += p.weight as f64;
+    }
+    // a_i is the time-to-impact difference normalised by its mean: mean 1, proportional to dt.
+    assert!((weight_sum / temporal.len() as f64 - 1.0).abs() < 1e-4);
+    let ratio = |p: &&comparisons::Pair| {
+        let (_, s, fw) = frame_of(&set, p.winner);
+        let (_, _, fl) = frame_of(&set, p.loser);
+        p.weight as f64 / (seqs[s].times[fw] - seqs[s].times[fl])
+    };
+    let r0 = ratio(&temporal[0]);
+    for p in &temporal {
+        assert!((ratio(p) - r0).abs() < 1e-3 * r0);
+    }
+}
+
+#[test]
+fn cross_sequence_pairs_put_a_conflict_frame_over_a_safe_frame() {
+    let seqs = dataset();
+    let set = comparisons::build(&seqs, None, &small_config(), 7);
+    let cross: Vec<_> = set
+        .pairs
+        .iter()
+        .filter(|p| p.source == Source::CrossSequence)
+        .collect();
+    assert_eq!(cross.len(), 600);
+    let mut conflict_events = std::collections::BTreeSet::new();
+    for p in cross {
+        let (_, sw, fw) = frame_of(&set, p.winner);
+        let (_, sl, _) = frame_of(&set, p.loser);
+        assert!(seqs[sw].is_conflict());
+        assert!(!seqs[sl].is_conflict());
+        assert!(seqs[sw].times[fw] <= seqs[sw].endpoint().unwrap() + 1e-9);
+        assert_eq!(p.weight, 1.0);
+        conflict_events.insert(sw);
+    }
+    // Uniform over events: with 600 draws every one of the 12 conflict events appears.
+    assert_eq!(conflict_events.len(), 12);
+}
+
+#[test]
+fn only_the_sequences_passed_in_are_used() {
+    let all = dataset();
+    // Hold out every third event as "test": the build never sees them.
+    let train: Vec<TrainingSequence> = all
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % 3 != 0)
+        .map(|(_, s)| s.clone())
+        .collect();
+    let held: std::collections::BTreeSet<String> = all
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % 3 == 0)
+        .map(|(_, s)| s.event_id.clone())
+        .collect();
+    let set = comparisons::build(&train, None, &small_config(), 3);
+    assert!(!set.pairs.is_empty());
+    for origin in &set.table.origins {
+        if let RowOrigin::Frame { sequence, .. } = origin {
+            let id = &train[*sequence as usize].event_id;
+            assert!(!held.contains(id), "held-out event {id} used");
+        }
+    }
+    // Anchors come from training conflict sequences only, inside / before the impact window.
+    for &row in &set.anchors.impact {
+        let (_, s, f) = frame_of(&set, row);
+        let endpoint = train[s].endpoint().unwrap();
+        assert!((train[s].times[f] - endpoint).abs() <= 0.2 + 1e-9);
+    }
+    for &row in &set.anchors.upper {
+        let (_, s, f) = frame_of(&set, row);
+        assert!(train[s].times[f] < train[s].endpoint().unwrap() - 0.2);
+    }
+    assert!(!set.anchors.impact.is_empty() && !set.anchors.upper.is_empty());
+}
+
+#[test]
+fn construction_is_deterministic_and_seeded() {
+    let seqs = dataset();
+    let aug: Vec<TrainingSequence> = dataset().into_iter().rev().collect();
+    let a = comparisons::build(&seqs, Some(&aug), &small_config(), 11);
+    let b = comparisons::build(&seqs, Some(&aug), &small_config(), 11);
+    let c = comparisons::build(&seqs, Some(&aug), &small_config(), 12);
+    assert_eq!(a.pairs, b.pairs);
+    assert_eq!(a.table.features, b.table.features);
+    assert_eq!(a.anchors, b.anchors);
+    assert_ne!(a.pairs, c.pairs);
+    // Sources are independent streams: dropping physics leaves the temporal pairs unchanged.
+    let d = comparisons::build(
+        &seqs,
+        Some(&aug),
+        &small_config().restricted_to(&[Source::Temporal]),
+        11,
+    );
+    let rows = |s: &comparisons::ComparisonSet| -> Vec<_> {
+        s.pairs
+            .iter()
+            .filter(|p| p.source == Source::Temporal)
+            .map(|p| {
+                (
+                    s.table.origins[p.winner as usize],
+                    s.table.origins[p.loser as usize],
+                    p.weight,
+                )
+            })
+            .collect()
+    };
+    assert_eq!(rows(&a), rows(&d));
+    assert_eq!(d.pairs_of(Source::Physics), 0);
+}
+
+#[test]
+fn augmentation_pairs_come_from_the_second_folder_and_are_tagged() {
+    let seqs = dataset();
+    let aug = dataset();
+    let set = comparisons::build(&seqs, Some(&aug), &small_config(), 5);
+    let sim: Vec<_> = set
+        .pairs
+        .iter()
+        .filter(|p| p.source == Source::Simulation)
+        .collect();
+    assert!(sim.len() >= 290, "{}", sim.len());
+    for p in &sim {
+        let o = set.table.origins[p.loser as usize];
+        match o {
+            RowOrigin::Frame { augmentation, .. } => assert!(augmentation),
+            other => panic!("unexpected loser origin {other:?}"),
+        }
+    }
+    // No augmentation folder: no simulation pairs even with a non-zero target.
+    let none = comparisons::build(&seqs, None, &small_config(), 5);
+    assert_eq!(none.pairs_of(Source::Simulation), 0);
+}
+
+#[test]
+fn physics_counterfactuals_are_riskier_per_the_core() {
+    let seqs = dataset();
+    let cfg = small_config();
+    let set = comparisons::build(&seqs, None, &cfg, 9);
+    let phys: Vec<_> = set
+        .pairs
+        .iter()
+        .filter(|p| p.source == Source::Physics)
+        .collect();
+    assert_eq!(phys.len(), 400);
+    let mut strictly_closer = 0;
+    for p in &phys {
+        assert_eq!(
+            set.table.origins[p.winner as usize],
+            RowOrigin::Counterfactual { of: p.loser }
+        );
+        let w = set.table.surrogates[p.winner as usize];
+        let l = set.table.surrogates[p.loser as usize];
+        assert!(w.box_distance > 0.0, "counterfactual in contact");
+        assert!(w.box_distance <= l.box_distance + 1e-5);
+        assert!(w.ttc2d <= l.ttc2d * (1.0 + 1e-4) + 1e-4 || w.ttc2d <= l.ttc2d);
+        assert!(w.tadv <= l.tadv * (1.0 + 1e-4) + 1e-4 || w.tadv <= l.tadv);
+        assert!(w.ei >= l.ei - 1e-4 * (1.0 + l.ei.abs()) || w.ei >= l.ei);
+        if w.box_distance < l.box_distance {
+            strictly_closer += 1;
+        }
+    }
+    // Gap and size perturbations (half of all) shrink the box distance strictly.
+    assert!(strictly_closer >= phys.len() / 2, "{strictly_closer}");
+    let mean = phys.iter().map(|p| p.weight as f64).sum::<f64>() / phys.len() as f64;
+    assert!((mean - 1.0).abs() < 1e-3, "{mean}");
+}
+
+#[test]
+fn each_perturbation_changes_its_variable_in_the_risky_direction() {
+    let cfg = ComparisonConfig::default().physics;
+    let ego = car(0.0, 0.0, 15.0);
+    let partner = car(20.0, 1.0, 10.0);
+    let before = scorer_core::surrogates(&ego, &partner);
+    for kind in physics::Perturbation::ALL {
+        let cf = physics::perturb(&ego, &partner, kind, 0.5, &cfg).expect("admissible");
+        let after = scorer_core::surrogates(&ego, &cf.partner);
+        assert!(cf.magnitude > 0.0);
+        assert!(
+            physics::is_riskier(&ego, &partner, &cf, &before, &after, &cfg),
+            "{kind:?}"
+        );
+        match kind {
+            physics::Perturbation::Gap => assert!(after.box_distance < before.box_distance),
+            physics::Perturbation::ClosingSpeed => {
+                assert!(cf.partner.vx < partner.vx);
+                assert!(after.ttc2d < before.ttc2d);
+            }
+            physics::Perturbation::LateralClearance => {
+                assert!(cf.partner.y.abs() < partner.y.abs())
+            }
+            physics::Perturbation::Size => {
+                assert!(cf.partner.length > partner.length && cf.partner.width > partner.width);
+                assert!(after.box_distance < before.box_distance);
+            }
+        }
+    }
+    // A state in contact admits no gap counterfactual.
+    let touching = car(4.5, 0.0, 10.0);
+    assert!(physics::perturb(&ego, &touching, physics::Perturbation::Gap, 0.5, &cfg).is_none());
+}
+
+#[test]
+fn build_statistics_report_rates() {
+    let seqs = dataset();
+    let set = comparisons::build(&seqs, None, &small_config(), 1);
+    assert_eq!(set.stats.pairs(), set.pairs.len());
+    assert_eq!(set.stats.observations, set.table.len());
+    assert!(set.stats.pairs_per_second() > 0.0);
+    for (source, s) in &set.stats.per_source {
+        assert!(s.built <= s.requested, "{source:?}");
+    }
+}
