@@ -17,6 +17,7 @@ pub mod demo;
 pub mod eval;
 pub mod events;
 pub mod export;
+pub mod gssm;
 pub mod quantize;
 pub mod sim;
 pub mod ssm_csv;

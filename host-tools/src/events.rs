@@ -1,1 +1,0 @@
-//! PLACEHOLDER: owned by a helper; replaced with the real module.

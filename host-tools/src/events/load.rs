@@ -1,0 +1,655 @@
+//! Loading an event folder with full validation: every problem becomes a [`LoadIssue`] naming file,
+//! line and column, and every event without a problem is kept.
+//!
+//! Policy: an event with any problem (in its `events.csv` row or in any of its frames) is dropped
+//! as a whole, because a trajectory with a hole or a wrong sample would silently distort features,
+//! sequences and lead times. All of its problems are still reported, not just the first.
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use super::{derive_partner_acceleration, FRAME_COLUMNS};
+use super::{Dims, Event, EventKind, EventSet, Frame, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE};
+use scorer_core::VehicleState;
+
+/// A heading whose norm is within this distance of 1 is normalised silently; further off is an
+/// issue (it is then not a heading but a data error, e.g. swapped columns).
+pub const HEADING_TOLERANCE: f64 = 0.02;
+/// Tolerance (s) when comparing frame times with `t_start`, `t_end` and `t_impact`.
+pub const TIME_TOLERANCE: f64 = 1e-3;
+
+/// A problem that stops a folder from being read at all.
+#[derive(Debug, thiserror::Error)]
+pub enum EventsError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: line {line}: {source}", path.display())]
+    Csv {
+        path: PathBuf,
+        line: u64,
+        #[source]
+        source: csv::Error,
+    },
+    #[error("{}: line 1: missing required column `{column}`", path.display())]
+    MissingColumn { path: PathBuf, column: &'static str },
+}
+
+/// One validation problem. Display: `file:line: column `c`: event `id`: problem`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadIssue {
+    pub file: PathBuf,
+    /// 1-based line in `file` (the header is line 1).
+    pub line: u64,
+    /// The offending column, when the problem is about one field.
+    pub column: Option<String>,
+    /// The event concerned (dropped as a whole), when known.
+    pub event_id: Option<String>,
+    pub problem: IssueProblem,
+}
+
+impl std::fmt::Display for LoadIssue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:", self.file.display(), self.line)?;
+        if let Some(c) = &self.column {
+            write!(f, " column `{c}`:")?;
+        }
+        if let Some(id) = &self.event_id {
+            write!(f, " event `{id}`:")?;
+        }
+        write!(f, " {}", self.problem)
+    }
+}
+
+/// What is wrong. Every variant except [`IssueProblem::UnknownEvent`] drops the named event.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IssueProblem {
+    #[error("row has {found} fields, the header has {expected}")]
+    RowLength { found: usize, expected: usize },
+    #[error("row is not valid CSV/UTF-8: {0}")]
+    BadRow(String),
+    #[error("empty event_id")]
+    EmptyEventId,
+    #[error("event_id already used on line {first_line}; both rows are dropped")]
+    DuplicateEventId { first_line: u64 },
+    #[error("unknown kind `{0}` (expected crash, near_crash or safe)")]
+    UnknownKind(String),
+    #[error("`{0}` is not a number")]
+    BadNumber(String),
+    #[error("`{0}` is not finite")]
+    NonFinite(String),
+    #[error("conflict event without t_impact")]
+    MissingImpactTime,
+    #[error("safe event with a t_impact")]
+    ImpactTimeOnSafe,
+    #[error("t_end {t_end} is not after t_start {t_start}")]
+    EmptyInterval { t_start: f64, t_end: f64 },
+    #[error("t_impact {t_impact} outside [t_start {t_start}, t_end {t_end}]")]
+    ImpactOutsideEvent {
+        t_impact: f64,
+        t_start: f64,
+        t_end: f64,
+    },
+    #[error("dimension {0} is not positive")]
+    NonPositiveDimension(f32),
+    #[error("{frames} frame(s) for an event that is not in events.csv")]
+    UnknownEvent { frames: usize },
+    #[error("time {time} repeats the frame on line {previous_line}")]
+    DuplicateTime { time: f64, previous_line: u64 },
+    #[error("time {time} is before the previous frame's {previous} (line {previous_line})")]
+    UnsortedTime {
+        time: f64,
+        previous: f64,
+        previous_line: u64,
+    },
+    #[error("heading norm {norm} is not 1 (tolerance {HEADING_TOLERANCE})")]
+    HeadingNotUnit { norm: f64 },
+    #[error("frame time {time} outside [t_start {t_start}, t_end {t_end}]")]
+    FrameOutsideEvent { time: f64, t_start: f64, t_end: f64 },
+    #[error("event has no frames")]
+    NoFrames,
+    #[error("t_impact {t_impact} is before the first frame ({first})")]
+    ImpactBeforeFrames { t_impact: f64, first: f64 },
+}
+
+struct Pending {
+    event: Event,
+    line: u64,
+    ok: bool,
+    last_frame_line: u64,
+}
+
+/// Loads and validates the event folder `dir` (`events.csv` + `frames.csv`).
+///
+/// Returns the valid events in `events.csv` order and one issue per problem found. Only problems
+/// that make a whole file unreadable (missing file, missing column, I/O error) are errors. Rows are
+/// streamed, so memory is the kept frames plus one id table.
+pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError> {
+    let mut issues = Vec::new();
+    let events_path = dir.join(EVENTS_FILE);
+    let frames_path = dir.join(FRAMES_FILE);
+
+    let mut pending: Vec<Pending> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
+    // Ids whose events.csv row was bad: their frames are skipped without further noise.
+    let mut rejected: HashMap<String, ()> = HashMap::new();
+    read_events(
+        &events_path,
+        &mut pending,
+        &mut index,
+        &mut rejected,
+        &mut issues,
+    )?;
+    read_frames(&frames_path, &mut pending, &index, &rejected, &mut issues)?;
+
+    let mut events = Vec::with_capacity(pending.len());
+    for mut p in pending {
+        if !p.ok {
+            continue;
+        }
+        let ev = &p.event;
+        let issue = |problem| LoadIssue {
+            file: events_path.clone(),
+            line: p.line,
+            column: None,
+            event_id: Some(ev.id.clone()),
+            problem,
+        };
+        match (ev.frames.first(), ev.t_impact) {
+            (None, _) => {
+                issues.push(issue(IssueProblem::NoFrames));
+                p.ok = false;
+            }
+            (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE => {
+                let mut i = issue(IssueProblem::ImpactBeforeFrames {
+                    t_impact,
+                    first: first.time,
+                });
+                i.column = Some("t_impact".into());
+                issues.push(i);
+                p.ok = false;
+            }
+            _ => {}
+        }
+        if p.ok {
+            p.event.frames.shrink_to_fit();
+            events.push(p.event);
+        }
+    }
+    Ok((EventSet { events }, issues))
+}
+
+fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
+    let file = File::open(path).map_err(|source| EventsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(csv::ReaderBuilder::new()
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(BufReader::with_capacity(1 << 20, file)))
+}
+
+fn column_map(
+    path: &Path,
+    rdr: &mut csv::Reader<BufReader<File>>,
+    required: &[&'static str],
+) -> Result<(Vec<usize>, csv::StringRecord), EventsError> {
+    let headers = rdr
+        .headers()
+        .map_err(|source| EventsError::Csv {
+            path: path.to_path_buf(),
+            line: 1,
+            source,
+        })?
+        .clone();
+    let cols = required
+        .iter()
+        .map(|&name| {
+            headers
+                .iter()
+                .position(|h| h == name)
+                .ok_or(EventsError::MissingColumn {
+                    path: path.to_path_buf(),
+                    column: name,
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((cols, headers))
+}
+
+/// Reads one record; `Ok(None)` at end of file, `Err(issue)` for a malformed row.
+fn next_record(
+    path: &Path,
+    rdr: &mut csv::Reader<BufReader<File>>,
+    rec: &mut csv::ByteRecord,
+    expected: usize,
+    id_col: usize,
+) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
+    let line = rdr.position().line();
+    match rdr.read_byte_record(rec) {
+        Ok(false) => Ok(None),
+        Ok(true) => {
+            let line = rec.position().map_or(line, |p| p.line());
+            if rec.len() != expected {
+                Ok(Some(Err(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: None,
+                    event_id: rec
+                        .get(id_col)
+                        .filter(|s| !s.is_empty())
+                        .map(|s| String::from_utf8_lossy(s).into_owned()),
+                    problem: IssueProblem::RowLength {
+                        found: rec.len(),
+                        expected,
+                    },
+                })))
+            } else {
+                Ok(Some(Ok(line)))
+            }
+        }
+        Err(e) if matches!(e.kind(), csv::ErrorKind::Io(_)) => Err(EventsError::Csv {
+            path: path.to_path_buf(),
+            line,
+            source: e,
+        }),
+        Err(e) => {
+            let line = e.position().map_or(line, |p| p.line());
+            Ok(Some(Err(LoadIssue {
+                file: path.to_path_buf(),
+                line,
+                column: None,
+                event_id: None,
+                problem: IssueProblem::BadRow(e.to_string()),
+            })))
+        }
+    }
+}
+
+fn field_str(b: &[u8]) -> &str {
+    std::str::from_utf8(b).unwrap_or("\u{fffd}")
+}
+
+/// Field parser that records an issue per bad field.
+struct Fields<'a> {
+    path: &'a Path,
+    line: u64,
+    id: &'a str,
+    rec: &'a csv::ByteRecord,
+    cols: &'a [usize],
+    names: &'a [&'static str],
+    issues: Vec<LoadIssue>,
+}
+
+impl Fields<'_> {
+    /// The field as text; invalid UTF-8 becomes U+FFFD and then fails to parse as a number.
+    fn raw(&self, i: usize) -> &str {
+        field_str(self.rec.get(self.cols[i]).unwrap_or(b""))
+    }
+    fn push(&mut self, i: usize, problem: IssueProblem) {
+        self.issues.push(LoadIssue {
+            file: self.path.to_path_buf(),
+            line: self.line,
+            column: Some(self.names[i].to_owned()),
+            event_id: Some(self.id.to_owned()),
+            problem,
+        });
+    }
+    fn f64(&mut self, i: usize) -> f64 {
+        let s = self.raw(i);
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::NonFinite(s));
+                f64::NAN
+            }
+            Err(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::BadNumber(s));
+                f64::NAN
+            }
+        }
+    }
+    fn f32(&mut self, i: usize) -> f32 {
+        let s = self.raw(i);
+        match s.parse::<f32>() {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::NonFinite(s));
+                f32::NAN
+            }
+            Err(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::BadNumber(s));
+                f32::NAN
+            }
+        }
+    }
+    /// A unit heading from columns `ix`, `iy`: normalised when within tolerance, else an issue.
+    fn heading(&mut self, ix: usize, iy: usize) -> (f32, f32) {
+        let (hx, hy) = (self.f32(ix), self.f32(iy));
+        if !(hx.is_finite() && hy.is_finite()) {
+            return (hx, hy);
+        }
+        let norm = f64::from(hx).hypot(f64::from(hy));
+        if (norm - 1.0).abs() > HEADING_TOLERANCE {
+            self.push(ix, IssueProblem::HeadingNotUnit { norm });
+            (f32::NAN, f32::NAN)
+        } else if (norm - 1.0).abs() > 1e-5 {
+            ((f64::from(hx) / norm) as f32, (f64::from(hy) / norm) as f32)
+        } else {
+            // Already unit to f32 precision: keep the exact values (write/load round-trips bit-exactly).
+            (hx, hy)
+        }
+    }
+}
+
+fn read_events(
+    path: &Path,
+    pending: &mut Vec<Pending>,
+    index: &mut HashMap<String, usize>,
+    rejected: &mut HashMap<String, ()>,
+    issues: &mut Vec<LoadIssue>,
+) -> Result<(), EventsError> {
+    let mut rdr = open(path)?;
+    let (cols, headers) = column_map(path, &mut rdr, &EVENT_COLUMNS)?;
+    let mut rec = csv::ByteRecord::new();
+    let mut first_line: HashMap<String, u64> = HashMap::new();
+    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0])? {
+        let line = match r {
+            Ok(line) => line,
+            Err(issue) => {
+                if let Some(id) = &issue.event_id {
+                    rejected.insert(id.clone(), ());
+                }
+                issues.push(issue);
+                continue;
+            }
+        };
+        let id = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b"")).into_owned();
+        let mut f = Fields {
+            path,
+            line,
+            id: &id,
+            rec: &rec,
+            cols: &cols,
+            names: &EVENT_COLUMNS,
+            issues: Vec::new(),
+        };
+        if id.is_empty() {
+            f.push(0, IssueProblem::EmptyEventId);
+        }
+        let kind = EventKind::parse(f.raw(1));
+        if kind.is_none() {
+            let k = f.raw(1).to_owned();
+            f.push(1, IssueProblem::UnknownKind(k));
+        }
+        let t_start = f.f64(2);
+        let t_end = f.f64(3);
+        let t_impact = if f.raw(4).is_empty() {
+            None
+        } else {
+            Some(f.f64(4))
+        };
+        let dims = Dims {
+            length_ego: f.f32(5),
+            width_ego: f.f32(6),
+            length_sur: f.f32(7),
+            width_sur: f.f32(8),
+        };
+        for (i, v) in [
+            dims.length_ego,
+            dims.width_ego,
+            dims.length_sur,
+            dims.width_sur,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if v.is_finite() && v <= 0.0 {
+                f.push(5 + i, IssueProblem::NonPositiveDimension(v));
+            }
+        }
+        if t_start.is_finite() && t_end.is_finite() && t_end <= t_start {
+            f.push(3, IssueProblem::EmptyInterval { t_start, t_end });
+        }
+        match (kind, t_impact) {
+            (Some(k), None) if k.is_conflict() => f.push(4, IssueProblem::MissingImpactTime),
+            (Some(EventKind::Safe), Some(_)) => f.push(4, IssueProblem::ImpactTimeOnSafe),
+            (_, Some(t))
+                if t.is_finite()
+                    && t_start.is_finite()
+                    && t_end.is_finite()
+                    && (t < t_start - TIME_TOLERANCE || t > t_end + TIME_TOLERANCE) =>
+            {
+                f.push(
+                    4,
+                    IssueProblem::ImpactOutsideEvent {
+                        t_impact: t,
+                        t_start,
+                        t_end,
+                    },
+                )
+            }
+            _ => {}
+        }
+        let row_issues = std::mem::take(&mut f.issues);
+        if !id.is_empty() {
+            if let Some(&first) = first_line.get(&id) {
+                issues.push(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: Some("event_id".into()),
+                    event_id: Some(id.clone()),
+                    problem: IssueProblem::DuplicateEventId { first_line: first },
+                });
+                if let Some(i) = index.remove(&id) {
+                    pending[i].ok = false;
+                }
+                rejected.insert(id.clone(), ());
+                issues.extend(row_issues);
+                continue;
+            }
+            first_line.insert(id.clone(), line);
+        }
+        let ok = row_issues.is_empty();
+        issues.extend(row_issues);
+        match kind {
+            Some(kind) if ok => {
+                index.insert(id.clone(), pending.len());
+                pending.push(Pending {
+                    event: Event {
+                        id,
+                        kind,
+                        t_start,
+                        t_end,
+                        t_impact,
+                        dims,
+                        frames: Vec::new(),
+                    },
+                    line,
+                    ok: true,
+                    last_frame_line: 0,
+                });
+            }
+            _ => {
+                rejected.insert(id, ());
+            }
+        }
+    }
+    // Events removed from the index as duplicates stay in `pending` with ok = false.
+    Ok(())
+}
+
+fn read_frames(
+    path: &Path,
+    pending: &mut [Pending],
+    index: &HashMap<String, usize>,
+    rejected: &HashMap<String, ()>,
+    issues: &mut Vec<LoadIssue>,
+) -> Result<(), EventsError> {
+    let mut rdr = open(path)?;
+    let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
+    let acc_sur_col = headers.iter().position(|h| h == "acc_sur");
+    let mut rec = csv::ByteRecord::new();
+    // Unknown ids: first line and frame count, reported once each.
+    let mut unknown: HashMap<String, (u64, usize)> = HashMap::new();
+    let mut current: Option<(String, usize)> = None;
+    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0])? {
+        let line = match r {
+            Ok(line) => line,
+            Err(issue) => {
+                if let Some(i) = issue.event_id.as_deref().and_then(|id| index.get(id)) {
+                    pending[*i].ok = false;
+                }
+                issues.push(issue);
+                continue;
+            }
+        };
+        let id_text = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b""));
+        let id: &str = &id_text;
+        // Frames usually come grouped by event: remember the last lookup.
+        let slot = match &current {
+            Some((cid, slot)) if cid == id => Some(*slot),
+            _ => {
+                let slot = index.get(id).copied();
+                if let Some(s) = slot {
+                    current = Some((id.to_owned(), s));
+                }
+                slot
+            }
+        };
+        let Some(slot) = slot else {
+            if !rejected.contains_key(id) {
+                unknown
+                    .entry(id.to_owned())
+                    .and_modify(|e| e.1 += 1)
+                    .or_insert((line, 1));
+            }
+            continue;
+        };
+        let p = &mut pending[slot];
+        let mut f = Fields {
+            path,
+            line,
+            id: &p.event.id,
+            rec: &rec,
+            cols: &cols,
+            names: &FRAME_COLUMNS,
+            issues: Vec::new(),
+        };
+        let time = f.f64(1);
+        let (hx_e, hy_e) = f.heading(6, 7);
+        let (hx_s, hy_s) = f.heading(13, 14);
+        let d = p.event.dims;
+        let ego = VehicleState {
+            x: f.f32(2),
+            y: f.f32(3),
+            vx: f.f32(4),
+            vy: f.f32(5),
+            hx: hx_e,
+            hy: hy_e,
+            acc: f.f32(8),
+            length: d.length_ego,
+            width: d.width_ego,
+        };
+        let mut sur = VehicleState {
+            x: f.f32(9),
+            y: f.f32(10),
+            vx: f.f32(11),
+            vy: f.f32(12),
+            hx: hx_s,
+            hy: hy_s,
+            acc: 0.0,
+            length: d.length_sur,
+            width: d.width_sur,
+        };
+        if let Some(c) = acc_sur_col {
+            let s = field_str(rec.get(c).unwrap_or(b""));
+            match s.parse::<f32>() {
+                Ok(v) if v.is_finite() => sur.acc = v,
+                Ok(_) => f.issues.push(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: Some("acc_sur".into()),
+                    event_id: Some(p.event.id.clone()),
+                    problem: IssueProblem::NonFinite(s.to_owned()),
+                }),
+                Err(_) => f.issues.push(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: Some("acc_sur".into()),
+                    event_id: Some(p.event.id.clone()),
+                    problem: IssueProblem::BadNumber(s.to_owned()),
+                }),
+            }
+        }
+        if time.is_finite() {
+            if let Some(prev) = p.event.frames.last() {
+                if time == prev.time {
+                    f.push(
+                        1,
+                        IssueProblem::DuplicateTime {
+                            time,
+                            previous_line: p.last_frame_line,
+                        },
+                    );
+                } else if time < prev.time {
+                    f.push(
+                        1,
+                        IssueProblem::UnsortedTime {
+                            time,
+                            previous: prev.time,
+                            previous_line: p.last_frame_line,
+                        },
+                    );
+                }
+            }
+            let (t0, t1) = (p.event.t_start, p.event.t_end);
+            if time < t0 - TIME_TOLERANCE || time > t1 + TIME_TOLERANCE {
+                f.push(
+                    1,
+                    IssueProblem::FrameOutsideEvent {
+                        time,
+                        t_start: t0,
+                        t_end: t1,
+                    },
+                );
+            }
+        }
+        if f.issues.is_empty() {
+            let newer = p.event.frames.last().is_none_or(|prev| time > prev.time);
+            if newer {
+                p.event.frames.push(Frame { time, ego, sur });
+                p.last_frame_line = line;
+            }
+        } else {
+            p.ok = false;
+            issues.append(&mut f.issues);
+        }
+    }
+    let mut unknown: Vec<_> = unknown.into_iter().collect();
+    unknown.sort_by_key(|(_, (line, _))| *line);
+    for (id, (line, frames)) in unknown {
+        issues.push(LoadIssue {
+            file: path.to_path_buf(),
+            line,
+            column: Some("event_id".into()),
+            event_id: Some(id),
+            problem: IssueProblem::UnknownEvent { frames },
+        });
+    }
+    if acc_sur_col.is_none() {
+        for p in pending.iter_mut().filter(|p| p.ok) {
+            derive_partner_acceleration(&mut p.event.frames);
+        }
+    }
+    Ok(())
+}

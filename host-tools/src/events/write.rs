@@ -1,0 +1,121 @@
+//! Writing event folders. Numbers are written in Rust's shortest round-trip form, so a folder
+//! written here loads back bit-exactly (f32 states, f64 times).
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use super::load::EventsError;
+use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLUMNS};
+
+/// Streams events into a folder: one `events.csv` row and the frames of each event as it comes,
+/// so a writer of 100,000 events holds one event at a time.
+pub struct EventWriter {
+    dir: PathBuf,
+    events: csv::Writer<BufWriter<File>>,
+    frames: csv::Writer<BufWriter<File>>,
+    buf: String,
+}
+
+fn io_err(path: &Path, e: std::io::Error) -> EventsError {
+    EventsError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    }
+}
+
+fn csv_err(path: &Path, e: csv::Error) -> EventsError {
+    EventsError::Csv {
+        path: path.to_path_buf(),
+        line: 0,
+        source: e,
+    }
+}
+
+impl EventWriter {
+    /// Creates `dir` (and parents) and both files with their headers, replacing existing files.
+    pub fn create(dir: &Path) -> Result<Self, EventsError> {
+        std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+        let open = |name: &str| -> Result<csv::Writer<BufWriter<File>>, EventsError> {
+            let path = dir.join(name);
+            let f = File::create(&path).map_err(|e| io_err(&path, e))?;
+            Ok(csv::Writer::from_writer(BufWriter::with_capacity(
+                1 << 20,
+                f,
+            )))
+        };
+        let mut events = open(EVENTS_FILE)?;
+        let mut frames = open(FRAMES_FILE)?;
+        events
+            .write_record(EVENT_COLUMNS)
+            .map_err(|e| csv_err(&dir.join(EVENTS_FILE), e))?;
+        frames
+            .write_record(FRAME_COLUMNS)
+            .map_err(|e| csv_err(&dir.join(FRAMES_FILE), e))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            events,
+            frames,
+            buf: String::new(),
+        })
+    }
+
+    /// Appends one event (its `events.csv` row and all its frames). The partner acceleration
+    /// (`sur.acc`) is not part of the format and is not written.
+    pub fn write_event(&mut self, ev: &Event) -> Result<(), EventsError> {
+        let ep = self.dir.join(EVENTS_FILE);
+        let fp = self.dir.join(FRAMES_FILE);
+        let d = ev.dims;
+        let t_impact = ev.t_impact.map(|t| t.to_string()).unwrap_or_default();
+        self.events
+            .write_record([
+                ev.id.as_str(),
+                ev.kind.as_str(),
+                &ev.t_start.to_string(),
+                &ev.t_end.to_string(),
+                &t_impact,
+                &d.length_ego.to_string(),
+                &d.width_ego.to_string(),
+                &d.length_sur.to_string(),
+                &d.width_sur.to_string(),
+            ])
+            .map_err(|e| csv_err(&ep, e))?;
+        for fr in &ev.frames {
+            let w = &mut self.frames;
+            w.write_field(&ev.id).map_err(|e| csv_err(&fp, e))?;
+            let (e, s) = (&fr.ego, &fr.sur);
+            self.buf.clear();
+            let _ = write!(self.buf, "{}", fr.time);
+            w.write_field(&self.buf).map_err(|e| csv_err(&fp, e))?;
+            for v in [
+                e.x, e.y, e.vx, e.vy, e.hx, e.hy, e.acc, s.x, s.y, s.vx, s.vy, s.hx, s.hy,
+            ] {
+                self.buf.clear();
+                let _ = write!(self.buf, "{v}");
+                w.write_field(&self.buf).map_err(|e| csv_err(&fp, e))?;
+            }
+            w.write_record(None::<&[u8]>).map_err(|e| csv_err(&fp, e))?;
+        }
+        Ok(())
+    }
+
+    /// Flushes both files.
+    pub fn finish(mut self) -> Result<(), EventsError> {
+        self.events
+            .flush()
+            .map_err(|e| io_err(&self.dir.join(EVENTS_FILE), e))?;
+        self.frames
+            .flush()
+            .map_err(|e| io_err(&self.dir.join(FRAMES_FILE), e))?;
+        Ok(())
+    }
+}
+
+/// Writes `set` as an event folder in `dir` (created if needed; existing files are replaced).
+pub fn write_events(dir: &Path, set: &EventSet) -> Result<(), EventsError> {
+    let mut w = EventWriter::create(dir)?;
+    for ev in set {
+        w.write_event(ev)?;
+    }
+    w.finish()
+}
