@@ -33,9 +33,7 @@ use core::ffi::c_char;
 use core::mem::{align_of, size_of};
 
 use scorer_core::model::{self, Model, ModelError, ModelKind};
-use scorer_core::warning::{
-    FullPolicy, TrackTable, WarningConfig, WarningError, WarningEvent,
-};
+use scorer_core::warning::{FullPolicy, TrackTable, WarningConfig, WarningError, WarningEvent};
 use scorer_core::{features, surrogates, VehicleState, FEATURE_COUNT};
 
 /// Version of this C ABI; bumped on any incompatible change of the header.
@@ -646,8 +644,7 @@ pub unsafe extern "C" fn riskscore_score_pair(
         let f = features(&ego, &partner);
         let s = surrogates(&ego, &partner);
         let score = |m: &Option<Model<'static>>| {
-            m.as_ref()
-                .map_or(f32::NAN, |m| m.score_observation(&f, &s))
+            m.as_ref().map_or(f32::NAN, |m| m.score_observation(&f, &s))
         };
         let result = RiskscorePairResult {
             features: f,
@@ -878,7 +875,9 @@ unsafe fn checked(context: *const RiskscoreContext) -> Result<*const Context, Ri
 /// # Safety
 /// `context` is NULL or a context initialised by `riskscore_init`, not aliased for the returned
 /// lifetime (the C API is not re-entrant on one context).
-unsafe fn context_ref<'a>(context: *const RiskscoreContext) -> Result<&'a Context, RiskscoreStatus> {
+unsafe fn context_ref<'a>(
+    context: *const RiskscoreContext,
+) -> Result<&'a Context, RiskscoreStatus> {
     // SAFETY: caller contract; `checked` verified non-null, alignment and the init magic, so the
     // bytes hold a `Context` written by `init_context`.
     unsafe { checked(context).map(|p| &*p) }
@@ -886,7 +885,9 @@ unsafe fn context_ref<'a>(context: *const RiskscoreContext) -> Result<&'a Contex
 
 /// # Safety
 /// As [`context_ref`], and writable.
-unsafe fn context_mut<'a>(context: *mut RiskscoreContext) -> Result<&'a mut Context, RiskscoreStatus> {
+unsafe fn context_mut<'a>(
+    context: *mut RiskscoreContext,
+) -> Result<&'a mut Context, RiskscoreStatus> {
     // SAFETY: as in `context_ref`; the caller owns the block mutably for the call.
     unsafe { checked(context).map(|p| &mut *(p as *mut Context)) }
 }
@@ -938,4 +939,3 @@ fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
     // SAFETY: an argument-less C function that the integrator provides and that never returns.
     unsafe { riskscore_panic() }
 }
-

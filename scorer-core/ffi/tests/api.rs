@@ -1,0 +1,144 @@
+//! Rust-side checks of the C ABI contract that the C test (tests/c/ffi_test.c) cannot see easily.
+use scorer_ffi::*;
+
+#[path = "../../../tests/firmware/test_models.rs"]
+#[allow(dead_code)]
+mod test_models;
+
+fn config() -> RiskscoreWarningConfig {
+    RiskscoreWarningConfig {
+        threshold: 0.5,
+        hysteresis: 0.05,
+        min_on_us: 0,
+        stale_after_us: 1_000_000,
+        latch: 0,
+        evict_when_full: 1,
+    }
+}
+
+fn context() -> Box<RiskscoreContext> {
+    Box::new(RiskscoreContext {
+        opaque: [0; RISKSCORE_CONTEXT_WORDS],
+    })
+}
+
+const EGO: RiskscoreVehicleState = RiskscoreVehicleState {
+    x: 0.0,
+    y: 0.0,
+    vx: 0.0,
+    vy: 20.0,
+    hx: 0.0,
+    hy: 1.0,
+    acc: 0.0,
+    length: 4.5,
+    width: 1.8,
+};
+const LEAD: RiskscoreVehicleState = RiskscoreVehicleState {
+    y: 30.0,
+    vy: 10.0,
+    ..EGO
+};
+
+#[test]
+fn every_status_code_round_trips_and_is_described() {
+    let unknown = unsafe { std::ffi::CStr::from_ptr(riskscore_status_str(-1)) };
+    let mut seen = std::collections::HashSet::new();
+    for code in 0..=21 {
+        let status = RiskscoreStatus::from_code(code).expect("codes 0..=21 are all defined");
+        assert_eq!(status as i32, code);
+        let text = unsafe { std::ffi::CStr::from_ptr(riskscore_status_str(code)) };
+        assert_ne!(text, unknown, "code {code} has no description");
+        assert!(
+            seen.insert(text.to_owned()),
+            "code {code} shares its description"
+        );
+    }
+    assert_eq!(RiskscoreStatus::from_code(22), None);
+}
+
+#[test]
+fn failed_load_keeps_the_previous_model_and_scores_match_the_core() {
+    let blob: &'static [u8] = Box::leak(test_models::drl_int8().into_boxed_slice());
+    let mut ctx = context();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
+    unsafe {
+        assert_eq!(
+            riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_load_model(ctx, blob.as_ptr(), blob.len(), std::ptr::null_mut()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_score_pair(ctx, &EGO, &LEAD, r.as_mut_ptr()),
+            RiskscoreStatus::Ok
+        );
+    }
+    let before = unsafe { r.assume_init() };
+
+    let mut corrupt = blob.to_vec();
+    let last = corrupt.len() - 1;
+    corrupt[last] ^= 1;
+    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    unsafe {
+        assert_eq!(
+            riskscore_load_model(ctx, corrupt.as_ptr(), corrupt.len(), info.as_mut_ptr()),
+            RiskscoreStatus::ModelCrcMismatch
+        );
+        assert_eq!(info.assume_init().kind, RiskscoreModelKind::DrlInt8);
+        assert_eq!(
+            riskscore_score_pair(ctx, &EGO, &LEAD, r.as_mut_ptr()),
+            RiskscoreStatus::Ok
+        );
+    }
+    let after = unsafe { r.assume_init() };
+    assert_eq!(before.drl_score.to_bits(), after.drl_score.to_bits());
+
+    // Same numbers as the core called directly.
+    let model = scorer_core::model::decode(blob).expect("decode");
+    let ego = scorer_core::VehicleState {
+        x: EGO.x,
+        y: EGO.y,
+        vx: EGO.vx,
+        vy: EGO.vy,
+        hx: EGO.hx,
+        hy: EGO.hy,
+        acc: EGO.acc,
+        length: EGO.length,
+        width: EGO.width,
+    };
+    let lead = scorer_core::VehicleState {
+        y: LEAD.y,
+        vy: LEAD.vy,
+        ..ego
+    };
+    assert_eq!(
+        after.drl_score.to_bits(),
+        model.score(&ego, &lead).to_bits()
+    );
+    assert_eq!(after.features, scorer_core::features(&ego, &lead));
+}
+
+#[test]
+fn truncated_blob_reports_needed_and_available_bytes() {
+    // Three bytes: not even a header, so the kind is unknown too.
+    let blob = test_models::drl_int8();
+    let mut ctx = context();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    unsafe {
+        assert_eq!(
+            riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_load_model(ctx, blob.as_ptr(), 3, info.as_mut_ptr()),
+            RiskscoreStatus::ModelTruncated
+        );
+        let info = info.assume_init();
+        assert_eq!((info.expected, info.found), (20, 3));
+        assert_eq!(info.kind, RiskscoreModelKind::None);
+    }
+}

@@ -1,0 +1,284 @@
+//! The C ABI from C: builds `libscorer_ffi.a` (panic = abort), compiles tests/c/ffi_test.c with gcc
+//! (`-Wall -Wextra -Werror -pedantic`) against the checked-in header, and runs it on the golden
+//! data. The C program checks every error path and the golden features/surrogates itself; this test
+//! then compares every number it printed bit for bit with `scorer-core` on the host, and replays its
+//! warning sequence through a host `TrackTable`.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use scorer_core::model;
+use scorer_core::warning::{TrackTable, WarningConfig, WarningEvent};
+use scorer_core::{features, surrogates, VehicleState};
+
+#[path = "../firmware/test_models.rs"]
+#[allow(dead_code)]
+mod test_models;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
+}
+
+/// `models/<name>-default.rsk` when shipped, else the deterministic stand-in (same rule as the
+/// firmware build script).
+fn model_blob(root: &Path, name: &str) -> Vec<u8> {
+    let shipped = root.join(format!("models/{name}-default.rsk"));
+    if shipped.exists() {
+        return std::fs::read(&shipped).unwrap_or_else(|e| panic!("{}: {e}", shipped.display()));
+    }
+    match name {
+        "drl" => test_models::drl_int8(),
+        _ => test_models::msra(),
+    }
+}
+
+fn run(cmd: &mut Command, what: &str) -> std::process::Output {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what}: cannot run {cmd:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "{what} failed ({}):\n{}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn bits(tok: &str) -> u32 {
+    u32::from_str_radix(tok, 16).unwrap_or_else(|e| panic!("bad hex {tok:?}: {e}"))
+}
+
+fn golden_states(root: &Path) -> Vec<(usize, VehicleState, VehicleState)> {
+    let path = root.join("tests/data/golden_surrogates.csv");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |n: &str| {
+        header
+            .iter()
+            .position(|h| *h == n)
+            .unwrap_or_else(|| panic!("no column {n}"))
+    };
+    let names = ["x", "y", "vx", "vy", "hx", "hy", "acc", "length", "width"];
+    let cols: Vec<usize> = ["i", "j"]
+        .iter()
+        .flat_map(|s| names.iter().map(move |f| format!("{f}_{s}")))
+        .map(|n| col(&n))
+        .collect();
+    lines
+        .enumerate()
+        .map(|(i, line)| {
+            let f: Vec<&str> = line.split(',').collect();
+            let v: Vec<f32> = cols
+                .iter()
+                .map(|&c| {
+                    f[c].parse()
+                        .unwrap_or_else(|e| panic!("line {}: {e}", i + 2))
+                })
+                .collect();
+            let st = |o: usize| VehicleState {
+                x: v[o],
+                y: v[o + 1],
+                vx: v[o + 2],
+                vy: v[o + 3],
+                hx: v[o + 4],
+                hy: v[o + 5],
+                acc: v[o + 6],
+                length: v[o + 7],
+                width: v[o + 8],
+            };
+            (i + 2, st(0), st(9))
+        })
+        .collect()
+}
+
+#[test]
+fn c_program_links_staticlib_and_matches_host() {
+    let root = repo_root();
+    let out_dir = root.join("target/ffi-c");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+
+    // 1. The static library, exactly as a C integrator builds it.
+    run(
+        Command::new(&cargo)
+            .current_dir(&root)
+            .args(["rustc", "--quiet", "-p", "scorer-ffi", "--release", "--lib"])
+            .args(["--crate-type", "staticlib", "--target-dir"])
+            .arg(&out_dir)
+            .args(["--", "-C", "panic=abort"])
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS")
+            .env_remove("CARGO_TARGET_DIR"),
+        "building libscorer_ffi.a",
+    );
+    let lib = out_dir.join("release/libscorer_ffi.a");
+    assert!(lib.exists(), "{} missing after the build", lib.display());
+
+    // 2. The C program (strict C11, warnings are errors).
+    let exe = out_dir.join("ffi_test");
+    run(
+        Command::new("gcc")
+            .args([
+                "-std=c11",
+                "-D_DEFAULT_SOURCE",
+                "-O2",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+            ])
+            .args([
+                "-pedantic",
+                "-Wconversion",
+                "-Wno-sign-conversion",
+                "-Wno-float-conversion",
+            ])
+            .arg("-I")
+            .arg(root.join("scorer-core/ffi/include"))
+            .arg(root.join("tests/c/ffi_test.c"))
+            .arg(&lib)
+            .args([
+                "-lgcc_s",
+                "-lutil",
+                "-lrt",
+                "-lpthread",
+                "-lm",
+                "-ldl",
+                "-lc",
+                "-o",
+            ])
+            .arg(&exe),
+        "compiling tests/c/ffi_test.c with gcc",
+    );
+
+    // 3. Inputs: model blobs and a threshold inside the score range (median of the first rows).
+    let drl_blob = model_blob(&root, "drl");
+    let msra_blob = model_blob(&root, "msra");
+    let drl = model::decode(&drl_blob).expect("DRL blob decodes");
+    let msra = model::decode(&msra_blob).expect("MSRA blob decodes");
+    let states = golden_states(&root);
+    let mut sample: Vec<f32> = states
+        .iter()
+        .take(101)
+        .map(|(_, e, p)| drl.score(e, p))
+        .collect();
+    sample.sort_by(f32::total_cmp);
+    let threshold = sample[sample.len() / 2];
+    let drl_path = out_dir.join("drl.rsk");
+    let msra_path = out_dir.join("msra.rsk");
+    std::fs::write(&drl_path, &drl_blob).expect("write drl.rsk");
+    std::fs::write(&msra_path, &msra_blob).expect("write msra.rsk");
+
+    let output = Command::new(&exe)
+        .arg(root.join("tests/data/golden_surrogates.csv"))
+        .arg(&drl_path)
+        .arg(&msra_path)
+        .arg(format!("{threshold}"))
+        .output()
+        .expect("running ffi_test");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success(),
+        "the C test failed ({}):\n{}",
+        output.status,
+        stderr
+    );
+    eprint!(
+        "{}",
+        stderr
+            .lines()
+            .filter(|l| l.starts_with("golden"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    eprintln!();
+    assert_eq!(stdout.lines().last(), Some("OK"), "C test did not finish");
+
+    // 4. Bit-exact against the host core.
+    let by_line: std::collections::HashMap<usize, (VehicleState, VehicleState)> =
+        states.iter().map(|(l, e, p)| (*l, (*e, *p))).collect();
+    let cfg_line = stdout
+        .lines()
+        .find(|l| l.starts_with("C "))
+        .expect("C config line");
+    let c: Vec<&str> = cfg_line.split(' ').collect();
+    let config = WarningConfig::live(
+        f32::from_bits(bits(c[2])),
+        f32::from_bits(bits(c[4])),
+        100_000,
+        1_000_000,
+    );
+    assert_eq!(
+        config.threshold.to_bits(),
+        threshold.to_bits(),
+        "threshold passed to C"
+    );
+    let mut table = TrackTable::<32>::new(config).expect("config");
+    let (mut rows, mut onsets, mut releases) = (0, 0, 0);
+    let mut last_drl = 0u32;
+    for line in stdout.lines() {
+        let t: Vec<&str> = line.split(' ').collect();
+        match t[0] {
+            "P" => {
+                rows += 1;
+                let n: usize = t[1].parse().expect("line number");
+                let (ego, partner) = by_line[&n];
+                let f = features(&ego, &partner);
+                let s = surrogates(&ego, &partner);
+                let host: Vec<f32> = f
+                    .iter()
+                    .copied()
+                    .chain([s.box_distance, s.ttc2d, s.tadv, s.ei])
+                    .chain([
+                        drl.score_observation(&f, &s),
+                        msra.score_observation(&f, &s),
+                    ])
+                    .collect();
+                for (k, (tok, h)) in t[2..].iter().zip(&host).enumerate() {
+                    assert_eq!(
+                        bits(tok),
+                        h.to_bits(),
+                        "golden line {n}: value {k} via C = {:e}, host core = {h:e}",
+                        f32::from_bits(bits(tok))
+                    );
+                }
+                assert_eq!(t.len() - 2, host.len(), "golden line {n}: value count");
+                last_drl = host[17].to_bits();
+            }
+            "T" => {
+                let id: u32 = t[1].parse().expect("id");
+                let now: u64 = t[2].parse().expect("now");
+                assert_eq!(bits(t[3]), last_drl, "track update fed a different score");
+                let st = table
+                    .update(id, now, f32::from_bits(bits(t[3])))
+                    .expect("host update");
+                let event = match st.event {
+                    WarningEvent::None => 0,
+                    WarningEvent::Onset => 1,
+                    WarningEvent::Release => 2,
+                };
+                let evicted = st.evicted.unwrap_or(u32::MAX);
+                let expected = format!(
+                    "{} {} {} {}",
+                    u8::from(st.warning),
+                    event,
+                    u8::from(st.new_track),
+                    evicted
+                );
+                assert_eq!(t[4..].join(" "), expected, "warning decision at {line}");
+                onsets += usize::from(st.event == WarningEvent::Onset);
+                releases += usize::from(st.event == WarningEvent::Release);
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(rows, states.len(), "every golden row scored through C");
+    assert!(
+        onsets > 0 && releases > 0,
+        "warning sequence without onset/release"
+    );
+}
