@@ -9,6 +9,7 @@
 //! - [`eval`]: the proactive-warning evaluation protocol, metrics, reports and plots.
 //! - [`quantize`]: post-training int8 quantisation through the core's requantisation.
 //! - [`export`]: writing and inspecting model blobs.
+//! - [`gssm`]: GSSM, SSRA and MSRA over GSSM (fit, align, combine, studies).
 //! - [`candump_export`]: event tables as 10 Hz vehicle CAN traffic in candump format.
 //! - [`demo`]: the end-to-end main job.
 pub mod candump_export;

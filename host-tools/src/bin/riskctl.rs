@@ -32,6 +32,8 @@ enum Command {
     ExportModel(cli::export_model::Args),
     /// Print a model blob's header, sizes and parameter summary, and check its integrity.
     InspectModel(cli::inspect_model::Args),
+    /// GSSM, SSRA and MSRA over GSSM: fit, align, msra, ship, cv, augmentation.
+    Gssm(cli::gssm::Args),
     /// Encode an event folder as 10 Hz vehicle CAN traffic in candump -L format.
     EventsToCandump(cli::events_to_candump::Args),
     /// The main job: simulate, train under 5-fold CV, evaluate, quantise, export, plot.
@@ -48,6 +50,7 @@ fn main() -> std::process::ExitCode {
         Command::Ablation(a) => cli::ablation::run(a),
         Command::ExportModel(a) => cli::export_model::run(a),
         Command::InspectModel(a) => cli::inspect_model::run(a),
+        Command::Gssm(a) => cli::gssm::run(a),
         Command::EventsToCandump(a) => cli::events_to_candump::run(a),
         Command::Demo(a) => cli::demo::run(a),
     };

@@ -17,8 +17,15 @@ use host_tools::train::{Progress, TrainConfig};
 /// Without --events the default simulated data set is generated into <out>/data first. This is
 /// slow in full (sources x fractions x folds trainings): limit it with --sources, --fractions,
 /// --folds and --models. Writes <out>/ablation.csv and <out>/ablation.md incrementally.
+///
+/// `riskctl ablation sim-augmentation --real DIR --sim DIR` runs the simulation-augmentation study
+/// instead (simulated comparisons alone, real alone, real + increasing simulated amounts, at a small
+/// and a large real budget).
 #[derive(clap::Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct Args {
+    #[command(subcommand)]
+    pub study: Option<Study>,
     /// Event folder; default: simulate the default data set into <out>/data.
     #[arg(long)]
     pub events: Option<PathBuf>,
@@ -52,7 +59,18 @@ pub struct Args {
     pub quiet: bool,
 }
 
+/// Studies other than the source/fraction grid.
+#[derive(clap::Subcommand, Debug)]
+pub enum Study {
+    /// Simulated comparisons alone, real alone, and real + 0.5x/1x/2x simulated pairs, at a small
+    /// and a large real budget (DRL or SSRA).
+    SimAugmentation(super::gssm::AugmentationArgs),
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(Study::SimAugmentation(study)) = args.study {
+        return super::gssm::run_augmentation(study);
+    }
     let config = match &args.config {
         Some(p) => TrainConfig::load(p)?,
         None => TrainConfig::default(),

@@ -4,6 +4,7 @@ pub mod demo;
 pub mod evaluate;
 pub mod events_to_candump;
 pub mod export_model;
+pub mod gssm;
 pub mod inspect_model;
 pub mod simulate;
 pub mod ssm;
