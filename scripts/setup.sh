@@ -22,7 +22,7 @@ fi
 need_pkgs=()
 if [ "$want_test" = test ]; then
   # qemu-system-arm: Cortex-M4F firmware parity; qemu-system-x86 + busybox-static + cpio: vcan VM.
-  for p in qemu-system-arm qemu-system-x86 busybox-static cpio gcc; do
+  for p in qemu-system-arm qemu-system-x86 busybox-static cpio gcc binutils; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || need_pkgs+=("$p")
   done
 fi

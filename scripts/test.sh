@@ -15,5 +15,8 @@ cargo clippy --workspace --all-targets --quiet -- -D warnings
 step "scorer-core for thumbv7em-none-eabihf (release, no_std)"
 cargo build --quiet -p scorer-core --release --target thumbv7em-none-eabihf
 
+step "ECU firmware crate: fmt + clippy (outside the workspace; its tests run in cargo test)"
+tests/firmware/run-tests.sh --lint-only
+
 step "cargo test (workspace)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt

@@ -1,1 +1,46 @@
-//! PLACEHOLDER: owned by the CAN helper.
+//! `can-bridge`: scores vehicle CAN traffic through `scorer-core` and puts protected warnings back
+//! on the bus. Live on SocketCAN, or offline from candump logs; both run the same [`engine`].
+//!
+//! - [`map`]: the map file (which DBC signals feed the scorer), compiled against a DBC.
+//! - [`engine`]: frames in, scored tracks / warning frames / warning events out (no I/O, no clock).
+//! - [`model_file`]: loading and checking a model blob.
+//! - [`logfile`]: reading candump -L logs with line-numbered problems.
+//! - [`events_out`]: JSON Lines warning events and the status line.
+//! - [`check`]: bridge vs offline evaluation on an exported event folder.
+//! - [`socket`], [`live`], [`replay`], [`monitor`]: SocketCAN (Linux).
+//!
+//! The CAN wire format (DBC signals, candump lines, E2E protection) lives in `can-codec`.
+#[cfg(feature = "check")]
+pub mod check;
+pub mod engine;
+pub mod events_out;
+pub mod live;
+pub mod logfile;
+pub mod map;
+pub mod model_file;
+pub mod monitor;
+pub mod replay;
+pub mod socket;
+
+pub use engine::{Engine, EngineConfig, Output, Stats};
+pub use map::{CompiledMap, MapFile};
+pub use model_file::ModelFile;
+
+/// Default warning threshold when `--threshold` is not given, by model kind: DRL is trained to
+/// put impact states at r* = 4 and earlier conflict states under u, so half of r* is a neutral
+/// start; MSRA scores lie in [0, sum |w_k|] and GSSM in [0, 1], so half of the range.
+pub fn default_threshold(model: &scorer_core::model::Model<'_>) -> f32 {
+    use scorer_core::model::Model;
+    match model {
+        Model::DrlInt8(_) | Model::DrlF32(_) => 2.0,
+        Model::Msra(m) => {
+            0.5 * m
+                .terms
+                .as_slice()
+                .iter()
+                .map(|t| t.weight.abs())
+                .sum::<f32>()
+        }
+        Model::Gssm(_) => 0.5,
+    }
+}

@@ -1,1 +1,586 @@
-fn main() {}
+//! `can-bridge`: the command line over the bridge library. Each subcommand is one function here.
+use anyhow::{Context, Result};
+#[cfg(feature = "check")]
+use can_bridge::check;
+use can_bridge::engine::{Engine, EngineConfig, Output};
+use can_bridge::events_out::{EventWriter, ProblemPrinter};
+use can_bridge::map::{CompiledMap, MapFile, DEFAULT_MAP};
+use can_bridge::model_file::ModelFile;
+use can_bridge::{live, logfile, monitor, replay};
+use can_codec::Database;
+use clap::{Args, Parser, Subcommand};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+/// Score vehicle CAN traffic with a riskscore model and put protected warnings back on the bus.
+///
+/// Live: `can-bridge --iface vcan0 --model models/drl-default.rsk` (same as `can-bridge live ...`).
+/// Logs: `score-log` scores a candump -L log offline, `replay` plays one onto an interface,
+/// `check` compares the bridge with `riskctl evaluate` on an exported event folder.
+///
+/// Inputs are decoded with a DBC (default: the project's can-bridge/dbc/riskscore.dbc) through a
+/// map file that names the signals (default: can-bridge/maps/riskscore.toml). Exit codes: 0 done,
+/// 1 bad input or configuration (model, DBC, map, files), 2 CAN interface missing or gone,
+/// 3 (`monitor --strict`) a warning frame failed its E2E check.
+#[derive(Parser, Debug)]
+#[command(name = "can-bridge", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Score live traffic on a SocketCAN interface (the default command).
+    Live(LiveArgs),
+    /// Send a candump -L log onto an interface with its original timing (canplayer semantics).
+    Replay(ReplayArgs),
+    /// Score a candump -L log offline (no CAN socket); same engine and results as live.
+    ScoreLog(ScoreLogArgs),
+    /// Receive the bridge's warning frames on a second socket: verify their E2E protection (CRC,
+    /// alive counter), log them as candump -L, measure trigger-frame-to-warning latency.
+    Monitor(MonitorArgs),
+    /// Per-event warnings of the bridge and the `riskctl evaluate` metrics for a log made by
+    /// `riskctl events-to-candump`.
+    #[cfg(feature = "check")]
+    Check(CheckArgs),
+}
+
+/// Model, decoding and warning options shared by every scoring command.
+#[derive(Args, Debug, Clone)]
+struct ScoringArgs {
+    /// Model blob (.rsk) written by `riskctl export-model`; refused at start if corrupt or
+    /// built for another feature schema.
+    #[arg(long)]
+    model: PathBuf,
+    /// DBC file of the bus (default: the project's riskscore.dbc).
+    #[arg(long)]
+    dbc: Option<PathBuf>,
+    /// Map file naming the DBC signals of each input (default: the project's map; see
+    /// docs/can-bridge.md for the format).
+    #[arg(long)]
+    map: Option<PathBuf>,
+    /// Warn when the score is >= this (default: 2.0 for DRL = r*/2, half the score range for
+    /// MSRA/GSSM).
+    #[arg(long)]
+    threshold: Option<f32>,
+    /// Warning level 2 (urgent) when the score is >= this.
+    #[arg(long)]
+    urgent: Option<f32>,
+    /// Release a warning when the score falls below threshold - hysteresis.
+    #[arg(long, default_value_t = 0.0)]
+    hysteresis: f32,
+    /// A warning stays on at least this long (ms).
+    #[arg(long, default_value_t = 500)]
+    min_on_ms: u64,
+    /// Inputs older than this are stale (not scored); tracks not updated for this long are dropped
+    /// and their warnings released (ms).
+    #[arg(long, default_value_t = 500)]
+    stale_ms: u64,
+    /// Latch warnings for the life of a track (evaluation semantics) instead of releasing them.
+    #[arg(long)]
+    latch: bool,
+    /// Print at most this many per-frame problems (decode errors, stale data, ...) on stderr.
+    #[arg(long, default_value_t = 20)]
+    max_problems: u64,
+}
+
+#[derive(Args, Debug)]
+struct LiveArgs {
+    /// SocketCAN interface, e.g. can0 or vcan0.
+    #[arg(long)]
+    iface: String,
+    #[command(flatten)]
+    scoring: ScoringArgs,
+    /// Write JSON Lines warning events here instead of stdout.
+    #[arg(long)]
+    events_out: Option<PathBuf>,
+    /// Also write one JSON line per scored track update.
+    #[arg(long)]
+    all_scores: bool,
+    /// Seconds between status lines on stderr.
+    #[arg(long, default_value_t = 1.0)]
+    status_every: f64,
+    /// No status lines.
+    #[arg(long)]
+    no_status: bool,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Stop after this many seconds without a received frame.
+    #[arg(long)]
+    idle_exit: Option<f64>,
+}
+
+#[derive(Args, Debug)]
+struct ReplayArgs {
+    /// candump -L log to send.
+    #[arg(long)]
+    log: PathBuf,
+    /// Interface to send on.
+    #[arg(long)]
+    iface: String,
+    /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
+    #[arg(long, default_value = "1.0")]
+    rate: replay::Rate,
+}
+
+#[derive(Args, Debug)]
+struct MonitorArgs {
+    /// Interface to listen on.
+    #[arg(long)]
+    iface: String,
+    /// DBC file (default: the project's).
+    #[arg(long)]
+    dbc: Option<PathBuf>,
+    /// Map file naming the warning message and the trigger message (default: the project's).
+    #[arg(long)]
+    map: Option<PathBuf>,
+    /// Write received warning frames as candump -L lines here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Stop after this many seconds without a frame.
+    #[arg(long)]
+    idle_exit: Option<f64>,
+    /// Exit with code 3 when any warning frame failed its E2E check.
+    #[arg(long)]
+    strict: bool,
+}
+
+#[derive(Args, Debug)]
+struct ScoreLogArgs {
+    /// candump -L log to score.
+    #[arg(long)]
+    log: PathBuf,
+    #[command(flatten)]
+    scoring: ScoringArgs,
+    /// Write JSON Lines warning events here instead of stdout.
+    #[arg(long)]
+    events_out: Option<PathBuf>,
+    /// Also write one JSON line per scored track update.
+    #[arg(long)]
+    all_scores: bool,
+    /// Write the RISK_WARNING frames the bridge would send, as a candump -L log.
+    #[arg(long)]
+    warnings_out: Option<PathBuf>,
+    /// Interface name for --warnings-out lines.
+    #[arg(long, default_value = "vcan0")]
+    warnings_iface: String,
+    /// Print decode throughput (frames/s) with the summary.
+    #[arg(long)]
+    bench: bool,
+}
+
+#[cfg(feature = "check")]
+#[derive(Args, Debug)]
+struct CheckArgs {
+    /// candump -L log written by `riskctl events-to-candump` (or a recording of its replay).
+    #[arg(long)]
+    log: PathBuf,
+    /// The event folder the log was made from.
+    #[arg(long)]
+    events: PathBuf,
+    #[command(flatten)]
+    scoring: ScoringArgs,
+    /// Print the metrics as the `riskctl evaluate --json` object (same schema).
+    #[arg(long)]
+    json: bool,
+    /// Pause between events used by events-to-candump (s).
+    #[arg(long, default_value_t = host_tools::candump_export::DEFAULT_GAP_US as f64 / 1e6)]
+    gap: f64,
+    /// Write the event set as the bridge decoded it (an event folder); `riskctl evaluate --events`
+    /// on it gives exactly this command's metrics.
+    #[arg(long)]
+    decoded_events_out: Option<PathBuf>,
+    /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
+    #[arg(long)]
+    per_event_out: Option<PathBuf>,
+}
+
+/// Exit code 2: the CAN interface is missing or went away.
+struct InterfaceError(anyhow::Error);
+
+/// `can-bridge --iface ...` means `can-bridge live --iface ...`.
+fn args_with_default_command() -> Vec<std::ffi::OsString> {
+    let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let starts_with_option = argv.get(1).is_some_and(|a| {
+        let a = a.to_string_lossy();
+        a.starts_with('-') && !matches!(a.as_ref(), "-h" | "--help" | "-V" | "--version")
+    });
+    if starts_with_option {
+        argv.insert(1, "live".into());
+    }
+    argv
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse_from(args_with_default_command());
+    let result = match cli.command {
+        Command::Live(a) => run_live(a),
+        Command::Replay(a) => run_replay(a),
+        Command::Monitor(a) => run_monitor(a),
+        Command::ScoreLog(a) => run_score_log(a).map_err(Failure::Input),
+        #[cfg(feature = "check")]
+        Command::Check(a) => run_check(a).map_err(Failure::Input),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(e)) => {
+            eprintln!("can-bridge: error: {e:#}");
+            ExitCode::from(1)
+        }
+        Err(Failure::Interface(InterfaceError(e))) => {
+            eprintln!("can-bridge: error: {e:#}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Protection(e)) => {
+            eprintln!("can-bridge: error: {e:#}");
+            ExitCode::from(3)
+        }
+    }
+}
+
+enum Failure {
+    Input(anyhow::Error),
+    Interface(InterfaceError),
+    Protection(anyhow::Error),
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Failure::Input(e)
+    }
+}
+
+impl From<can_bridge::model_file::ModelFileError> for Failure {
+    fn from(e: can_bridge::model_file::ModelFileError) -> Self {
+        Failure::Input(e.into())
+    }
+}
+
+fn load_map(args: &ScoringArgs) -> Result<CompiledMap> {
+    let db = match &args.dbc {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("reading DBC {}", p.display()))?;
+            Database::parse(&text).with_context(|| format!("DBC {}", p.display()))?
+        }
+        None => Database::parse(can_codec::project::PROJECT_DBC).context("project DBC")?,
+    };
+    let map = match &args.map {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("reading map {}", p.display()))?;
+            MapFile::parse(&text).with_context(|| format!("map {}", p.display()))?
+        }
+        None => MapFile::parse(DEFAULT_MAP).context("default map")?,
+    };
+    CompiledMap::compile(&map, &db).with_context(|| {
+        format!(
+            "map {} against DBC {}",
+            args.map
+                .as_ref()
+                .map_or("(default)".into(), |p| p.display().to_string()),
+            args.dbc
+                .as_ref()
+                .map_or("(project)".into(), |p| p.display().to_string())
+        )
+    })
+}
+
+fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig> {
+    let threshold = match args.threshold {
+        Some(t) => t,
+        None => can_bridge::default_threshold(&model.model()?),
+    };
+    anyhow::ensure!(threshold.is_finite(), "--threshold must be finite");
+    anyhow::ensure!(args.stale_ms > 0, "--stale-ms must be > 0");
+    Ok(EngineConfig {
+        threshold,
+        urgent: args.urgent,
+        hysteresis: args.hysteresis,
+        min_on_us: args.min_on_ms * 1000,
+        stale_us: args.stale_ms * 1000,
+        latch: args.latch,
+    })
+}
+
+fn open_events(path: &Option<PathBuf>, all_scores: bool) -> Result<EventWriter> {
+    let out: Box<dyn Write> = match path {
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+        )),
+        None => Box::new(std::io::stdout()),
+    };
+    Ok(EventWriter::new(out, all_scores))
+}
+
+fn run_live(args: LiveArgs) -> Result<(), Failure> {
+    let model_file = ModelFile::load(&args.scoring.model)?;
+    let map = load_map(&args.scoring)?;
+    let config = engine_config(&args.scoring, &model_file)?;
+    let mut engine = Engine::new(model_file.model()?, map, config).map_err(anyhow::Error::from)?;
+    let mut events = open_events(&args.events_out, args.all_scores)?;
+    let mut problems = ProblemPrinter::new(args.scoring.max_problems);
+    let secs = |s: Option<f64>| {
+        s.filter(|s| s.is_finite() && *s > 0.0)
+            .map(Duration::from_secs_f64)
+    };
+    let opts = live::LiveOptions {
+        iface: args.iface.clone(),
+        status_every: Duration::from_secs_f64(args.status_every.max(0.05)),
+        duration: secs(args.duration),
+        idle_exit: secs(args.idle_exit),
+        status: !args.no_status,
+    };
+    eprintln!(
+        "can-bridge: live on {} with {} ({}), threshold {}",
+        args.iface,
+        args.scoring.model.display(),
+        model_file.kind().name(),
+        config.threshold
+    );
+    match live::run(&mut engine, &opts, &mut events, &mut problems) {
+        Ok((reason, stats)) => {
+            eprintln!("can-bridge: stopped ({reason:?}); {}", summary(&stats));
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("can-bridge: {}", summary(engine.stats()));
+            Err(Failure::Interface(InterfaceError(e.into())))
+        }
+    }
+}
+
+fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
+    let scoring = ScoringArgs {
+        model: PathBuf::new(),
+        dbc: args.dbc.clone(),
+        map: args.map.clone(),
+        threshold: None,
+        urgent: None,
+        hysteresis: 0.0,
+        min_on_ms: 0,
+        stale_ms: 1,
+        latch: false,
+        max_problems: 0,
+    };
+    let map = load_map(&scoring)?;
+    let mut out: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p)
+                .with_context(|| format!("creating {}", p.display()))
+                .map_err(Failure::Input)?,
+        )),
+        None => Box::new(std::io::sink()),
+    };
+    let secs = |s: Option<f64>| {
+        s.filter(|s| s.is_finite() && *s > 0.0)
+            .map(Duration::from_secs_f64)
+    };
+    let opts = monitor::MonitorOptions {
+        iface: args.iface,
+        duration: secs(args.duration),
+        idle_exit: secs(args.idle_exit),
+    };
+    let report = monitor::run(&map, &opts, &mut out)
+        .map_err(|e| Failure::Interface(InterfaceError(e.into())))?;
+    out.flush()
+        .context("writing --out")
+        .map_err(Failure::Input)?;
+    eprintln!("{}", report.summary());
+    if args.strict && !report.all_protected_ok() {
+        return Err(Failure::Protection(anyhow::anyhow!(
+            "warning frames failed their E2E check"
+        )));
+    }
+    Ok(())
+}
+
+fn summary(s: &can_bridge::Stats) -> String {
+    format!(
+        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full",
+        s.frames, s.scored, s.warning_frames, s.decode_errors, s.stale_drops, s.invalid_objects,
+        s.reordered, s.duplicates, s.unknown_ids, s.remote_frames, s.error_frames, s.bus_off,
+        s.tracks_dropped, s.table_full
+    )
+}
+
+fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
+    match replay::replay(&args.log, &args.iface, args.rate) {
+        Ok(s) => {
+            for (line, why) in s.bad_lines.iter().take(20) {
+                eprintln!(
+                    "{}:{line}: not a candump -L frame line: {why}",
+                    args.log.display()
+                );
+            }
+            for (line, why) in s.refused.iter().take(20) {
+                eprintln!("{}:{line}: frame not sent: {why}", args.log.display());
+            }
+            eprintln!(
+                "replay: {} frames sent in {:.3} s, {} refused, {} bad lines, max lateness {:.3} ms",
+                s.sent,
+                s.elapsed.as_secs_f64(),
+                s.refused.len(),
+                s.bad_lines.len(),
+                s.max_late.as_secs_f64() * 1e3
+            );
+            Ok(())
+        }
+        Err(replay::ReplayError::Socket(e)) => Err(Failure::Interface(InterfaceError(e.into()))),
+        Err(e) => Err(Failure::Input(e.into())),
+    }
+}
+
+fn run_score_log(args: ScoreLogArgs) -> Result<()> {
+    let model_file = ModelFile::load(&args.scoring.model)?;
+    let map = load_map(&args.scoring)?;
+    let config = engine_config(&args.scoring, &model_file)?;
+    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let mut events = open_events(&args.events_out, args.all_scores)?;
+    let mut problems = ProblemPrinter::new(args.scoring.max_problems);
+    let mut warnings: Option<std::io::BufWriter<std::fs::File>> = match &args.warnings_out {
+        Some(p) => Some(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+        )),
+        None => None,
+    };
+    let mut io_error: Option<std::io::Error> = None;
+    let mut line = String::new();
+    let started = Instant::now();
+    // --bench: time from handing a frame to the engine to its warning frame (compute latency).
+    let mut warn_latency_ns: Vec<u64> = Vec::new();
+    let bench = args.bench;
+    let report = logfile::for_each_frame(&args.log, |_, rec| {
+        let frame_start = bench.then(Instant::now);
+        engine.process(rec.timestamp_us, &rec.frame, &mut |o: Output| {
+            if let (Output::WarningFrame { .. }, Some(t0)) = (&o, frame_start) {
+                warn_latency_ns.push(t0.elapsed().as_nanos() as u64);
+            }
+            if let (Output::WarningFrame { t_us, frame, .. }, Some(w)) = (&o, warnings.as_mut()) {
+                line.clear();
+                can_codec::format_line(&mut line, *t_us, &args.warnings_iface, frame);
+                line.push('\n');
+                if let Err(e) = w.write_all(line.as_bytes()) {
+                    io_error.get_or_insert(e);
+                }
+            }
+            if let Err(e) = events.handle(&o) {
+                io_error.get_or_insert(e);
+            }
+            problems.handle(&o);
+        });
+    })
+    .with_context(|| format!("reading {}", args.log.display()))?;
+    let elapsed = started.elapsed().as_secs_f64();
+    if let Some(e) = io_error {
+        return Err(anyhow::Error::from(e).context("writing outputs"));
+    }
+    if let Some(mut w) = warnings {
+        w.flush().context("writing --warnings-out")?;
+    }
+    report.print_bad_lines(&args.log, 20);
+    let stats = engine.stats();
+    eprintln!("score-log: {} lines; {}", report.lines, summary(stats));
+    if problems.suppressed > 0 {
+        eprintln!(
+            "score-log: {} more per-frame problems not printed",
+            problems.suppressed
+        );
+    }
+    if args.bench {
+        eprintln!(
+            "score-log: {:.0} frames/s ({} frames in {:.3} s, one thread, parse + decode + score)",
+            report.frames as f64 / elapsed.max(1e-9),
+            report.frames,
+            elapsed
+        );
+        warn_latency_ns.sort_unstable();
+        let q = |p: f64| {
+            let n = warn_latency_ns.len();
+            (n > 0).then(|| warn_latency_ns[((p * n as f64).ceil() as usize).clamp(1, n) - 1])
+        };
+        if let (Some(p50), Some(p99)) = (q(0.5), q(0.99)) {
+            eprintln!(
+                "score-log: trigger frame -> warning frame in the engine: p50 {:.2} us, p99 {:.2} us ({} warning frames)",
+                p50 as f64 / 1e3,
+                p99 as f64 / 1e3,
+                warn_latency_ns.len()
+            );
+        }
+    }
+    Ok(())
+}
+
+#[cfg(feature = "check")]
+fn run_check(args: CheckArgs) -> Result<()> {
+    let model_file = ModelFile::load(&args.scoring.model)?;
+    let map = load_map(&args.scoring)?;
+    let config = engine_config(&args.scoring, &model_file)?;
+    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let (set, issues) = host_tools::events::load_events(&args.events)
+        .with_context(|| format!("loading events from {}", args.events.display()))?;
+    for issue in issues.iter().take(20) {
+        eprintln!("warning: {issue}");
+    }
+    anyhow::ensure!(
+        args.gap.is_finite() && args.gap >= 0.0,
+        "--gap must be >= 0"
+    );
+    let model = model_file.model()?;
+    let report = check::check(
+        &args.log,
+        &set,
+        &mut engine,
+        host_tools::eval::scoring::model_row_name(&model),
+        (args.gap * 1e6).round() as u64,
+    )?;
+    report.log.print_bad_lines(&args.log, 20);
+    if let Some(dir) = &args.decoded_events_out {
+        check::write_decoded_events(dir, &report.decoded)
+            .with_context(|| format!("writing {}", dir.display()))?;
+    }
+    if let Some(p) = &args.per_event_out {
+        write_verdicts(p, &report)?;
+    }
+    let (tp, pos, fa, neg) = report.warning_counts();
+    let missing: usize = report
+        .verdicts
+        .iter()
+        .map(|v| v.frames - v.scored.min(v.frames))
+        .sum();
+    let note = format!(
+        "check: threshold {}: warned in time on {tp}/{pos} conflict events, false alarms on {fa}/{neg} safe events; {} event frames not scored by the bridge, {} bridge outputs not traced to an event; {}",
+        report.threshold,
+        missing,
+        report.untraced,
+        summary(&report.stats)
+    );
+    if args.json {
+        println!("{}", report.report.to_json());
+        eprintln!("{note}");
+    } else {
+        println!("{}", report.verdict_table());
+        println!("{note}\n");
+        println!("{}", report.report.to_markdown());
+    }
+    Ok(())
+}
+
+#[cfg(feature = "check")]
+fn write_verdicts(path: &std::path::Path, report: &check::CheckReport) -> Result<()> {
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+    );
+    for v in &report.verdicts {
+        writeln!(w, "{}", serde_json::to_string(v)?)?;
+    }
+    w.flush()?;
+    Ok(())
+}

@@ -1,0 +1,692 @@
+//! The scoring engine: CAN frames in, scored tracks, warning frames and warning events out.
+//!
+//! Socket-free and clock-free: every call carries the frame's timestamp (kernel receive time live,
+//! log time offline), so live, replay and offline scoring run exactly this code and give the same
+//! results for the same frames.
+//!
+//! Per frame: input messages (by id, from the map) are decoded; ego fields update the ego state,
+//! object fields the state of the track named by the message's track-id signal. The trigger message
+//! completes a track update: the track is scored through `scorer-core` ([`Model::score`]) with the
+//! ego at the origin heading +x, its warning state updated in the core's [`TrackTable`], and a
+//! protected warning frame produced while it warns.
+//!
+//! Data quality rules (each counted in [`Stats`], never a panic, never blocking other tracks):
+//! - unknown ids and remote frames are ignored; error frames are counted (bus-off separately);
+//! - a frame whose length differs from the DBC, or with a non-finite or out-of-DBC-range signal,
+//!   is dropped whole (decode error), the rest of the bus is unaffected;
+//! - a frame older than the newest frame seen is dropped (reordered); a second trigger for a track
+//!   at the same timestamp is dropped (duplicate);
+//! - a track is scored only if the ego motion and the object's position and velocity are at most
+//!   `stale_us` old (else: stale drop); a track not updated for `stale_us` is dropped from the table
+//!   and its warning released, so nothing is ever warned on stale data;
+//! - an object whose valid flag is 0 is not scored and its track is dropped.
+use crate::map::{
+    CompiledMap, EgoField, InputMessage, ObjField, VelocityFrame, EGO_FIELDS, OBJ_FIELDS,
+};
+use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind, SignalError};
+use scorer_core::model::Model;
+use scorer_core::warning::{TrackTable, WarningConfig, WarningError, WarningEvent};
+use scorer_core::VehicleState;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Track ids are small integers chosen by a sensor, not by an attacker: a multiplicative hash is
+/// enough and several times cheaper than SipHash on the per-frame path.
+#[derive(Default)]
+struct TrackIdHasher(u64);
+
+impl Hasher for TrackIdHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ u64::from(*b)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.0 = (u64::from(v) ^ 0x5555_5555).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+type TrackMap<V> = HashMap<u32, V, BuildHasherDefault<TrackIdHasher>>;
+
+/// Most tracks held at once (radars report up to 64-100 objects).
+pub const MAX_TRACKS: usize = 128;
+
+/// Speed (m/s) above which a partner's heading may be taken from its velocity.
+pub const HEADING_FROM_VELOCITY_MIN_SPEED: f32 = 0.5;
+
+/// Warning and data-freshness parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineConfig {
+    /// Warn when the score is `>= threshold`.
+    pub threshold: f32,
+    /// Level 2 ("urgent") when the score is `>= urgent`.
+    pub urgent: Option<f32>,
+    /// Release when the score falls below `threshold - hysteresis` (live mode).
+    pub hysteresis: f32,
+    /// A warning stays on at least this long (live mode).
+    pub min_on_us: u64,
+    /// Data older than this is stale; tracks not updated for this long are dropped.
+    pub stale_us: u64,
+    /// Latched warnings (evaluation semantics): never released while the track lives.
+    pub latch: bool,
+}
+
+impl EngineConfig {
+    pub fn new(threshold: f32) -> Self {
+        Self {
+            threshold,
+            urgent: None,
+            hysteresis: 0.0,
+            min_on_us: 500_000,
+            stale_us: 500_000,
+            latch: false,
+        }
+    }
+
+    fn warning_config(&self) -> WarningConfig {
+        if self.latch {
+            WarningConfig::first_threshold(self.threshold, self.stale_us)
+        } else {
+            WarningConfig::live(
+                self.threshold,
+                self.hysteresis,
+                self.min_on_us,
+                self.stale_us,
+            )
+        }
+    }
+}
+
+/// Counters over everything the engine has seen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Stats {
+    pub frames: u64,
+    /// Frames of an input message that decoded cleanly.
+    pub decoded: u64,
+    pub scored: u64,
+    pub unknown_ids: u64,
+    pub remote_frames: u64,
+    pub decode_errors: u64,
+    pub stale_drops: u64,
+    pub invalid_objects: u64,
+    pub reordered: u64,
+    pub duplicates: u64,
+    pub error_frames: u64,
+    pub bus_off: u64,
+    pub warning_frames: u64,
+    pub tracks_dropped: u64,
+    pub table_full: u64,
+}
+
+impl Stats {
+    /// Bus errors as the status line reports them.
+    pub fn bus_errors(&self) -> u64 {
+        self.error_frames
+    }
+}
+
+/// One scored track update.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Observation {
+    pub t_us: u64,
+    pub track: u32,
+    pub ego: VehicleState,
+    pub partner: VehicleState,
+    pub score: f32,
+    pub warning: bool,
+    pub level: u8,
+}
+
+/// Why a warning turned off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReleaseReason {
+    /// The score fell below the release level.
+    Score,
+    /// The track stopped updating.
+    Stale,
+    /// The sensor flagged the object invalid.
+    Invalid,
+    /// The table was full and the track was evicted.
+    Evicted,
+}
+
+impl ReleaseReason {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Score => "score",
+            Self::Stale => "stale",
+            Self::Invalid => "invalid",
+            Self::Evicted => "evicted",
+        }
+    }
+}
+
+/// What the engine produces.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Output {
+    /// A track was scored.
+    Scored(Observation),
+    /// A protected warning frame to send.
+    WarningFrame { t_us: u64, track: u32, frame: Frame },
+    /// A track's warning turned on.
+    WarningOn {
+        t_us: u64,
+        track: u32,
+        score: f32,
+        level: u8,
+    },
+    /// A track's warning turned off.
+    WarningOff {
+        t_us: u64,
+        track: u32,
+        score: f32,
+        reason: ReleaseReason,
+    },
+    /// A frame was dropped; `reason` says why (for diagnostics, rate-limited by the caller).
+    Problem { t_us: u64, reason: String },
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Stamped {
+    value: f64,
+    t_us: u64,
+}
+
+#[derive(Clone, Debug, Default)]
+struct ObjectSlots {
+    values: [Option<Stamped>; OBJ_FIELDS],
+    last_trigger_us: Option<u64>,
+    last_heading: Option<(f32, f32)>,
+    last_seen_us: u64,
+}
+
+/// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
+pub struct Engine<'m> {
+    model: Model<'m>,
+    map: CompiledMap,
+    config: EngineConfig,
+    table: TrackTable<MAX_TRACKS>,
+    ego: [Option<Stamped>; EGO_FIELDS],
+    objects: TrackMap<ObjectSlots>,
+    protector: E2eProtector,
+    newest_us: Option<u64>,
+    last_cleanup_us: u64,
+    /// No track can be stale before this time (skips scanning the table on every update).
+    next_expiry_us: u64,
+    stats: Stats,
+}
+
+/// The engine refused its configuration.
+#[derive(Debug, thiserror::Error)]
+#[error("warning configuration: {0}")]
+pub struct ConfigError(String);
+
+impl<'m> Engine<'m> {
+    pub fn new(
+        model: Model<'m>,
+        map: CompiledMap,
+        config: EngineConfig,
+    ) -> Result<Self, ConfigError> {
+        let table =
+            TrackTable::new(config.warning_config()).map_err(|e| ConfigError(e.to_string()))?;
+        let protector = E2eProtector::new(E2eConfig {
+            data_id: map.warning.data_id,
+            crc_byte: map.warning.crc_byte,
+            counter_byte: map.warning.counter_byte,
+            max_delta: 3,
+        });
+        Ok(Self {
+            model,
+            map,
+            config,
+            table,
+            ego: [None; EGO_FIELDS],
+            objects: TrackMap::default(),
+            protector,
+            newest_us: None,
+            last_cleanup_us: 0,
+            next_expiry_us: 0,
+            stats: Stats::default(),
+        })
+    }
+
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    pub fn map(&self) -> &CompiledMap {
+        &self.map
+    }
+
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    /// Tracks currently held (fresh or not yet expired).
+    pub fn track_count(&self) -> usize {
+        self.table.len()
+    }
+
+    /// Processes one frame received at `t_us`.
+    pub fn process(&mut self, t_us: u64, frame: &Frame, out: &mut impl FnMut(Output)) {
+        self.stats.frames += 1;
+        if let Some(newest) = self.newest_us {
+            if t_us < newest {
+                self.stats.reordered += 1;
+                out(Output::Problem {
+                    t_us,
+                    reason: format!(
+                        "frame {} at {t_us} us is older than the newest frame ({newest} us): dropped",
+                        frame.id
+                    ),
+                });
+                return;
+            }
+        }
+        self.newest_us = Some(t_us);
+        match frame.kind {
+            FrameKind::Error { class } => {
+                self.stats.error_frames += 1;
+                if frame.is_bus_off() {
+                    self.stats.bus_off += 1;
+                }
+                out(Output::Problem {
+                    t_us,
+                    reason: format!(
+                        "error frame (class 0x{class:08X}{})",
+                        if frame.is_bus_off() { ", bus-off" } else { "" }
+                    ),
+                });
+                return;
+            }
+            FrameKind::Remote { .. } => {
+                self.stats.remote_frames += 1;
+                return;
+            }
+            FrameKind::Data { .. } | FrameKind::Fd { .. } => {}
+        }
+        let Some(index) = self.map.inputs.iter().position(|m| m.spec.id == frame.id) else {
+            self.stats.unknown_ids += 1;
+            return;
+        };
+        let msg = &self.map.inputs[index];
+        let is_trigger = msg.is_trigger
+            && match (msg.trigger_mux, msg.spec.multiplexor) {
+                (Some(want), Some(m)) => msg.spec.signals[m].raw(frame.data()).ok() == Some(want),
+                _ => true,
+            };
+        let decoded = decode_message(msg, frame.data())
+            .map_err(|reason| format!("{} ({}): {reason}: frame dropped", msg.spec.name, frame.id));
+        match decoded {
+            Err(reason) => {
+                self.stats.decode_errors += 1;
+                out(Output::Problem { t_us, reason });
+            }
+            Ok(decoded) => {
+                self.stats.decoded += 1;
+                for (field, value) in decoded.ego.iter().take(decoded.n_ego) {
+                    self.ego[*field as usize] = Some(Stamped {
+                        value: *value,
+                        t_us,
+                    });
+                }
+                if let Some(track) = decoded.track {
+                    let slots = self.objects.entry(track).or_default();
+                    slots.last_seen_us = t_us;
+                    for (field, value) in decoded.object.iter().take(decoded.n_object) {
+                        slots.values[*field as usize] = Some(Stamped {
+                            value: *value,
+                            t_us,
+                        });
+                    }
+                    if is_trigger {
+                        self.score_track(track, t_us, out);
+                    }
+                }
+            }
+        }
+        if t_us.saturating_sub(self.last_cleanup_us) >= 1_000_000 {
+            self.tick(t_us, out);
+        }
+    }
+
+    /// Drops tracks that went stale by `now_us` (releasing their warnings) and forgets old object
+    /// data. Called by `process` about once per second of frame time; call it from a timer when
+    /// the bus is quiet.
+    pub fn tick(&mut self, now_us: u64, out: &mut impl FnMut(Output)) {
+        self.last_cleanup_us = now_us;
+        self.expire(now_us, out);
+        let keep = self.config.stale_us.saturating_mul(4).max(5_000_000);
+        self.objects
+            .retain(|_, o| now_us.saturating_sub(o.last_seen_us) <= keep);
+    }
+
+    fn expire(&mut self, now_us: u64, out: &mut impl FnMut(Output)) {
+        let stale = self.config.stale_us;
+        if now_us <= self.next_expiry_us {
+            return;
+        }
+        let mut dropped = 0u64;
+        for t in self.table.iter() {
+            if now_us.saturating_sub(t.last_update_us) > stale {
+                dropped += 1;
+                if t.warning {
+                    out(Output::WarningOff {
+                        t_us: now_us,
+                        track: t.id,
+                        score: t.last_score,
+                        reason: ReleaseReason::Stale,
+                    });
+                }
+            }
+        }
+        self.stats.tracks_dropped += dropped;
+        self.table.expire(now_us);
+        self.next_expiry_us = self
+            .table
+            .iter()
+            .map(|t| t.last_update_us.saturating_add(stale))
+            .min()
+            .unwrap_or(u64::MAX);
+    }
+
+    fn fresh(&self, v: Option<Stamped>, t_us: u64) -> Option<f64> {
+        v.filter(|s| t_us.saturating_sub(s.t_us) <= self.config.stale_us)
+            .map(|s| s.value)
+    }
+
+    fn score_track(&mut self, track: u32, t_us: u64, out: &mut impl FnMut(Output)) {
+        let Some(slots) = self.objects.get(&track).cloned() else {
+            return;
+        };
+        if slots.last_trigger_us == Some(t_us) {
+            self.stats.duplicates += 1;
+            out(Output::Problem {
+                t_us,
+                reason: format!("track {track}: second update at the same timestamp: dropped"),
+            });
+            return;
+        }
+        let has = self.map.has_obj_field;
+        let obj = |f: ObjField| slots.values[f as usize];
+        if has[ObjField::Valid as usize] {
+            match self.fresh(obj(ObjField::Valid), t_us) {
+                Some(v) if v != 0.0 => {}
+                None => {
+                    self.stats.stale_drops += 1;
+                    out(Output::Problem {
+                        t_us,
+                        reason: format!("track {track}: valid flag missing or stale: not scored"),
+                    });
+                    return;
+                }
+                Some(_) => {
+                    self.stats.invalid_objects += 1;
+                    if let Some(t) = self.table.get(track) {
+                        if t.warning {
+                            out(Output::WarningOff {
+                                t_us,
+                                track,
+                                score: t.last_score,
+                                reason: ReleaseReason::Invalid,
+                            });
+                        }
+                        self.table.remove(track);
+                        self.stats.tracks_dropped += 1;
+                    }
+                    return;
+                }
+            }
+        }
+        let ego_vx = self.fresh(self.ego[EgoField::VelLong as usize], t_us);
+        let kin = [
+            ObjField::PosX,
+            ObjField::PosY,
+            ObjField::VelX,
+            ObjField::VelY,
+        ]
+        .map(|f| self.fresh(obj(f), t_us));
+        let (Some(ego_vx), [Some(px), Some(py), Some(vx), Some(vy)]) = (ego_vx, kin) else {
+            self.stats.stale_drops += 1;
+            out(Output::Problem {
+                t_us,
+                reason: format!("track {track}: ego motion or object position/velocity missing or stale: not scored"),
+            });
+            return;
+        };
+        let ego_opt = |f: EgoField, default: f64| -> f64 {
+            self.fresh(self.ego[f as usize], t_us).unwrap_or(default)
+        };
+        let ego_vy = ego_opt(EgoField::VelLat, 0.0);
+        let ego_acc = ego_opt(EgoField::Accel, 0.0);
+        let ego_len =
+            self.ego[EgoField::Length as usize].map_or(self.map.ego_defaults.0, |s| s.value as f32);
+        let ego_wid =
+            self.ego[EgoField::Width as usize].map_or(self.map.ego_defaults.1, |s| s.value as f32);
+        let ego = VehicleState {
+            x: 0.0,
+            y: 0.0,
+            vx: ego_vx as f32,
+            vy: ego_vy as f32,
+            hx: 1.0,
+            hy: 0.0,
+            acc: ego_acc as f32,
+            length: ego_len,
+            width: ego_wid,
+        };
+        let (abs_vx, abs_vy) = match self.map.velocity {
+            VelocityFrame::Relative => ((vx + ego_vx) as f32, (vy + ego_vy) as f32),
+            VelocityFrame::Absolute => (vx as f32, vy as f32),
+        };
+        let heading_valid = !has[ObjField::HeadingValid as usize]
+            || self
+                .fresh(obj(ObjField::HeadingValid), t_us)
+                .is_some_and(|v| v != 0.0);
+        let heading = match self.fresh(obj(ObjField::Heading), t_us) {
+            Some(h) if heading_valid => Some((libm::cos(h) as f32, libm::sin(h) as f32)),
+            _ => {
+                let speed = libm::hypotf(abs_vx, abs_vy);
+                (speed >= HEADING_FROM_VELOCITY_MIN_SPEED).then(|| (abs_vx / speed, abs_vy / speed))
+            }
+        };
+        let (hx, hy) = heading.or(slots.last_heading).unwrap_or((1.0, 0.0));
+        let partner = VehicleState {
+            x: px as f32,
+            y: py as f32,
+            vx: abs_vx,
+            vy: abs_vy,
+            hx,
+            hy,
+            acc: self.fresh(obj(ObjField::Accel), t_us).unwrap_or(0.0) as f32,
+            length: obj(ObjField::Length).map_or(self.map.object_defaults.0, |s| s.value as f32),
+            width: obj(ObjField::Width).map_or(self.map.object_defaults.1, |s| s.value as f32),
+        };
+        if let Some(s) = self.objects.get_mut(&track) {
+            s.last_trigger_us = Some(t_us);
+            s.last_heading = Some((hx, hy));
+        }
+        if !(ego.is_finite()
+            && partner.is_finite()
+            && ego.length > 0.0
+            && ego.width > 0.0
+            && partner.length > 0.0
+            && partner.width > 0.0)
+        {
+            self.stats.decode_errors += 1;
+            out(Output::Problem {
+                t_us,
+                reason: format!("track {track}: state not finite or non-positive size: not scored"),
+            });
+            return;
+        }
+        let score = self.model.score(&ego, &partner);
+        // Release warnings of tracks that went stale before this update.
+        self.expire(t_us, out);
+        let status = match self.table.update(track, t_us, score) {
+            Ok(s) => s,
+            Err(WarningError::TableFull { .. }) => {
+                self.stats.table_full += 1;
+                out(Output::Problem {
+                    t_us,
+                    reason: format!("track {track}: track table full ({MAX_TRACKS}): not scored"),
+                });
+                return;
+            }
+            Err(e) => {
+                self.stats.decode_errors += 1;
+                out(Output::Problem {
+                    t_us,
+                    reason: e.to_string(),
+                });
+                return;
+            }
+        };
+        if let Some(evicted) = status.evicted {
+            self.stats.tracks_dropped += 1;
+            let _ = evicted;
+        }
+        self.next_expiry_us = self
+            .next_expiry_us
+            .min(t_us.saturating_add(self.config.stale_us));
+        self.stats.scored += 1;
+        let level = if status.warning {
+            match self.config.urgent {
+                Some(u) if score >= u => 2,
+                _ => 1,
+            }
+        } else {
+            0
+        };
+        match status.event {
+            WarningEvent::Onset => out(Output::WarningOn {
+                t_us,
+                track,
+                score,
+                level,
+            }),
+            WarningEvent::Release => out(Output::WarningOff {
+                t_us,
+                track,
+                score,
+                reason: ReleaseReason::Score,
+            }),
+            WarningEvent::None => {}
+        }
+        out(Output::Scored(Observation {
+            t_us,
+            track,
+            ego,
+            partner,
+            score,
+            warning: status.warning,
+            level,
+        }));
+        if status.warning {
+            match self.warning_frame(track, score, level) {
+                Ok(frame) => {
+                    self.stats.warning_frames += 1;
+                    out(Output::WarningFrame { t_us, track, frame });
+                }
+                Err(reason) => out(Output::Problem {
+                    t_us,
+                    reason: format!("track {track}: warning frame not encodable: {reason}"),
+                }),
+            }
+        }
+    }
+
+    fn warning_frame(&mut self, track: u32, score: f32, level: u8) -> Result<Frame, String> {
+        let w = &self.map.warning;
+        let mut data = [0u8; can_codec::frame::MAX_DATA_LEN];
+        let payload = &mut data[..w.spec.size];
+        let put = |index: usize, value: f64, payload: &mut [u8]| -> Result<(), String> {
+            let s = &w.spec.signals[index];
+            let value = if s.has_range() {
+                value.clamp(s.min, s.max)
+            } else {
+                value
+            };
+            s.encode(value, payload)
+                .map_err(|e| format!("{}: {e}", s.name))
+        };
+        put(w.track_id, f64::from(track), payload)?;
+        put(w.level, f64::from(level), payload)?;
+        put(w.score, f64::from(score), payload)?;
+        self.protector
+            .protect(payload)
+            .ok_or_else(|| "payload too short for E2E protection".to_string())?;
+        let frame = if w.spec.size <= 8 {
+            Frame::data_frame(w.spec.id, payload)
+        } else {
+            Frame::fd_frame(w.spec.id, 0, payload)
+        };
+        frame.ok_or_else(|| "invalid frame length".to_string())
+    }
+}
+
+struct Decoded {
+    ego: [(EgoField, f64); EGO_FIELDS],
+    n_ego: usize,
+    object: [(ObjField, f64); OBJ_FIELDS],
+    n_object: usize,
+    track: Option<u32>,
+}
+
+fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded, String> {
+    let spec = &msg.spec;
+    let expected = spec.size;
+    let len_ok = data.len() == expected
+        || (expected > 8
+            && can_codec::frame::is_valid_fd_len(data.len())
+            && data.len() >= expected);
+    if !len_ok {
+        return Err(format!(
+            "wrong DLC: {} bytes, DBC says {expected}",
+            data.len()
+        ));
+    }
+    let read = |signal: usize| -> Result<Option<f64>, String> {
+        let s = &spec.signals[signal];
+        match spec.value(signal, data) {
+            Ok(None) => Ok(None),
+            Ok(Some(v)) => s
+                .check_range(v)
+                .map(Some)
+                .map_err(|e| format!("signal {}: {e}", s.name)),
+            Err(SignalError::NotFinite) => Err(format!("signal {}: not finite", s.name)),
+            Err(e) => Err(format!("signal {}: {e}", s.name)),
+        }
+    };
+    let mut d = Decoded {
+        ego: [(EgoField::VelLong, 0.0); EGO_FIELDS],
+        n_ego: 0,
+        object: [(ObjField::PosX, 0.0); OBJ_FIELDS],
+        n_object: 0,
+        track: None,
+    };
+    for slot in &msg.ego {
+        if let Some(v) = read(slot.signal)? {
+            d.ego[d.n_ego] = (slot.field, slot.apply(v));
+            d.n_ego += 1;
+        }
+    }
+    if let Some(id_signal) = msg.track_id {
+        let Some(id) = read(id_signal)? else {
+            return Ok(d);
+        };
+        if !(id >= 0.0 && id <= f64::from(u32::MAX) && id.fract() == 0.0) {
+            return Err(format!("track id {id} is not a non-negative integer"));
+        }
+        d.track = Some(id as u32);
+        for slot in &msg.object {
+            if let Some(v) = read(slot.signal)? {
+                d.object[d.n_object] = (slot.field, slot.apply(v));
+                d.n_object += 1;
+            }
+        }
+    }
+    Ok(d)
+}

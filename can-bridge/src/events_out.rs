@@ -1,0 +1,111 @@
+//! The bridge's human- and machine-readable outputs: JSON Lines warning events and the status line.
+use crate::engine::{Output, Stats};
+use std::io::Write;
+
+/// Seconds with microsecond precision, as JSON numbers.
+fn seconds(t_us: u64) -> f64 {
+    t_us as f64 / 1e6
+}
+
+/// The JSON Lines record of a warning transition (`None` for other outputs, or for every scored
+/// observation when `all_scores` is set).
+pub fn json_event(output: &Output, all_scores: bool) -> Option<serde_json::Value> {
+    match output {
+        Output::WarningOn {
+            t_us,
+            track,
+            score,
+            level,
+        } => Some(serde_json::json!({
+            "t": seconds(*t_us), "track": track, "score": score, "warning": true, "level": level,
+        })),
+        Output::WarningOff {
+            t_us,
+            track,
+            score,
+            reason,
+        } => Some(serde_json::json!({
+            "t": seconds(*t_us), "track": track, "score": score, "warning": false,
+            "reason": reason.as_str(),
+        })),
+        Output::Scored(o) if all_scores => Some(serde_json::json!({
+            "t": seconds(o.t_us), "track": o.track, "score": o.score, "warning": o.warning,
+            "level": o.level, "scored": true,
+        })),
+        _ => None,
+    }
+}
+
+/// Writes JSON Lines events; flushes every line so a reader (or a killed process) loses nothing.
+pub struct EventWriter {
+    out: Box<dyn Write>,
+    pub all_scores: bool,
+    pub written: u64,
+}
+
+impl EventWriter {
+    pub fn new(out: Box<dyn Write>, all_scores: bool) -> Self {
+        Self {
+            out,
+            all_scores,
+            written: 0,
+        }
+    }
+
+    pub fn handle(&mut self, output: &Output) -> std::io::Result<()> {
+        if let Some(v) = json_event(output, self.all_scores) {
+            writeln!(self.out, "{v}")?;
+            self.out.flush()?;
+            self.written += 1;
+        }
+        Ok(())
+    }
+}
+
+/// Rate-limited printing of per-frame problems on stderr.
+pub struct ProblemPrinter {
+    pub limit: u64,
+    pub printed: u64,
+    pub suppressed: u64,
+}
+
+impl ProblemPrinter {
+    pub fn new(limit: u64) -> Self {
+        Self {
+            limit,
+            printed: 0,
+            suppressed: 0,
+        }
+    }
+
+    pub fn handle(&mut self, output: &Output) {
+        if let Output::Problem { t_us, reason } = output {
+            if self.printed < self.limit {
+                eprintln!("can-bridge: {:.6}: {reason}", seconds(*t_us));
+                self.printed += 1;
+            } else {
+                self.suppressed += 1;
+            }
+        }
+    }
+}
+
+/// The periodic status line: rates since the previous line plus totals.
+pub fn status_line(now: &Stats, prev: &Stats, elapsed_s: f64, tracks: usize) -> String {
+    let rate = if elapsed_s > 0.0 {
+        (now.frames - prev.frames) as f64 / elapsed_s
+    } else {
+        0.0
+    };
+    format!(
+        "status: {rate:.0} frames/s, {tracks} tracks, {} scored, {} warning frames, {} decode errors, {} stale drops, {} bus errors ({} bus-off), {} unknown ids, {} reordered",
+        now.scored,
+        now.warning_frames,
+        now.decode_errors,
+        now.stale_drops,
+        now.bus_errors(),
+        now.bus_off,
+        now.unknown_ids,
+        now.reordered,
+    )
+}

@@ -1,0 +1,64 @@
+//! Loading a model blob for the bridge: read, decode, validate, or refuse with the reason.
+use scorer_core::model::{decode, Model, ModelKind};
+use std::path::{Path, PathBuf};
+
+/// A model file that decoded and validated. Holds the bytes the decoded model borrows from.
+#[derive(Debug)]
+pub struct ModelFile {
+    pub path: PathBuf,
+    bytes: Vec<u8>,
+    kind: ModelKind,
+}
+
+/// Why a model file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    #[error("model file {path}: cannot read: {cause}")]
+    Read {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+    #[error("model file {path}: refused: {reason}")]
+    Refused { path: PathBuf, reason: String },
+}
+
+impl ModelFile {
+    /// Reads and checks a model file (header, CRC, payload, every invariant inference relies on).
+    pub fn load(path: &Path) -> Result<Self, ModelFileError> {
+        let bytes = std::fs::read(path).map_err(|cause| ModelFileError::Read {
+            path: path.to_path_buf(),
+            cause,
+        })?;
+        Self::from_bytes(path, bytes)
+    }
+
+    /// Checks an in-memory blob (`path` is only used in messages).
+    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<Self, ModelFileError> {
+        let refused = |reason: String| ModelFileError::Refused {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let kind = {
+            let model = decode(&bytes).map_err(|e| refused(e.to_string()))?;
+            model.validate().map_err(|e| refused(e.to_string()))?;
+            model.kind()
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            bytes,
+            kind,
+        })
+    }
+
+    pub fn kind(&self) -> ModelKind {
+        self.kind
+    }
+
+    /// The decoded model (the blob was checked at load, so this cannot fail in practice).
+    pub fn model(&self) -> Result<Model<'_>, ModelFileError> {
+        decode(&self.bytes).map_err(|e| ModelFileError::Refused {
+            path: self.path.clone(),
+            reason: e.to_string(),
+        })
+    }
+}

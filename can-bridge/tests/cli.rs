@@ -1,0 +1,161 @@
+//! The `can-bridge` command line: exit codes, line-numbered log problems, outputs.
+mod common;
+use can_codec::{project, E2eChecker, E2eConfig};
+use common::*;
+use std::process::Command;
+
+fn bridge() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+}
+
+fn write_model(dir: &std::path::Path) -> std::path::PathBuf {
+    let p = dir.join("model.rsk");
+    std::fs::write(&p, msra_blob()).unwrap();
+    p
+}
+
+#[test]
+fn score_log_reads_real_candump_lines_and_reports_the_rest_by_line_number() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let db = project_db();
+    let mut lines = vec![
+        "(1700000000.000000) can0 18FEF100#0102030405060708 R".to_string(),
+        "# a comment is not a frame".to_string(),
+        "(1700000000.000100) can0 7FF#R".to_string(),
+        "(1700000000.000200) can0 123##1AABBCCDDEEFF001122334455".to_string(),
+        "(1700000000.000300) can0 20000004#0004000000000000".to_string(),
+        "(1700000000.000400) can0 123###00".to_string(),
+        String::new(),
+    ];
+    let mut t = 1_700_000_000_001_000u64;
+    for k in 0..10 {
+        for f in Cycle::closing(7, 30.0 - 2.0 * k as f64).frames(&db) {
+            let mut s = String::new();
+            can_codec::format_line(&mut s, t, "can0", &f);
+            lines.push(format!("{s} T"));
+            t += 200;
+        }
+        t += 100_000;
+    }
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, lines.join("\n")).unwrap();
+    let warnings = tmp.path().join("w.log");
+    let events = tmp.path().join("e.jsonl");
+    let out = bridge()
+        .args(["score-log", "--threshold", "1.5", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .arg("--warnings-out")
+        .arg(&warnings)
+        .arg("--events-out")
+        .arg(&events)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("drive.log:2: not a candump -L frame line"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("drive.log:6: not a candump -L frame line: CAN XL"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("1 error frames"), "{stderr}");
+    assert!(stderr.contains("2 unknown ids, 1 remote"), "{stderr}");
+    assert!(stderr.contains("10 scored"), "{stderr}");
+
+    let text = std::fs::read_to_string(&warnings).unwrap();
+    let mut checker = E2eChecker::new(E2eConfig {
+        data_id: project::WARNING_DATA_ID,
+        crc_byte: 0,
+        counter_byte: 1,
+        max_delta: 1,
+    });
+    let mut n = 0;
+    for line in text.lines() {
+        let rec = can_codec::parse_line(line).unwrap();
+        assert_eq!(rec.frame.id, can_codec::CanId::Standard(0x080));
+        assert!(matches!(
+            checker.check(rec.frame.data()),
+            can_codec::E2eStatus::Initial | can_codec::E2eStatus::Ok
+        ));
+        n += 1;
+    }
+    assert!(n > 0);
+    let ev = std::fs::read_to_string(&events).unwrap();
+    let first: serde_json::Value = serde_json::from_str(ev.lines().next().unwrap()).unwrap();
+    assert_eq!(first["track"], 7);
+    assert_eq!(first["warning"], true);
+}
+
+#[test]
+fn corrupt_model_is_refused_with_exit_code_1() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = tmp.path().join("bad.rsk");
+    let mut blob = msra_blob();
+    blob[0] = b'X';
+    std::fs::write(&model, blob).unwrap();
+    let log = tmp.path().join("x.log");
+    std::fs::write(&log, "").unwrap();
+    let out = bridge()
+        .arg("score-log")
+        .arg("--log")
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("bad.rsk") && stderr.contains("refused"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn live_on_a_missing_interface_exits_2_with_a_clear_message() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let out = bridge()
+        .args(["--iface", "rskcan-none0", "--duration", "1", "--model"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("interface rskcan-none0"), "{stderr}");
+}
+
+#[test]
+fn bad_map_is_refused_naming_the_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let map = tmp.path().join("map.toml");
+    std::fs::write(
+        &map,
+        can_bridge::map::DEFAULT_MAP.replace("\"ObjPosX\"", "\"PosX\""),
+    )
+    .unwrap();
+    let log = tmp.path().join("x.log");
+    std::fs::write(&log, "").unwrap();
+    let out = bridge()
+        .arg("score-log")
+        .arg("--log")
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .arg("--map")
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("object.pos_x") && stderr.contains("PosX"),
+        "{stderr}"
+    );
+}
