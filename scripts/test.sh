@@ -20,3 +20,11 @@ tests/firmware/run-tests.sh --lint-only
 
 step "cargo test (workspace)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
+
+step "vcan VM tests (SocketCAN in QEMU; Debian kernel cached in .cache/vm)"
+tests/vm/run.sh
+
+# One closing line over every cargo test binary (the VM and firmware checks above fail the run on
+# their own).
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i) ~ /^passed;?$/) p += $(i-1); if ($(i) ~ /^failed;?$/) f += $(i-1) } }
+     END { printf "\ncargo tests: %d passed, %d failed\n", p, f }' target/test-output.txt

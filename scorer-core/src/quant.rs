@@ -10,7 +10,8 @@
 //!   to the `i32` range. There is no intermediate (double) rounding as in the gemmlowp
 //!   `SaturatingRoundingDoublingHighMul` + `RoundingDivideByPOT` pair.
 //! - Every float-to-integer conversion here ([`quantize_input`], [`quantize_weight`],
-//!   [`quantize_bias`]) uses `libm::roundf`, which is also round half away from zero, then clamps.
+//!   [`quantize_bias`]) rounds half away from zero exactly as `libm::roundf`, then clamps
+//!   ([`quantize_input`] computes the same bits without calling it; a test checks they agree).
 //! - Activations are asymmetric int8: `real = scale * (q - zero_point)`. Weights are symmetric int8
 //!   per output channel in `[-127, 127]`: `real = scale_j * q`. Biases are int32 in the accumulator
 //!   scale `input_scale * weight_scale_j`.
@@ -121,7 +122,20 @@ pub fn quantize_input(x: f32, mul: f32, add: f32, zero_point: i8) -> i8 {
     if v.is_nan() {
         return zero_point;
     }
-    libm::roundf(v).clamp(-128.0, 127.0) as i8
+    // `roundf(v).clamp(-128, 127)`, cheaper (this runs per input on the MCU): clamping first is
+    // the same because the bounds are integers and rounding is monotone; then `t = trunc(c)` is
+    // exact and so is `c - t` (Sterbenz), and a fraction of magnitude >= 0.5 rounds away from 0.
+    let c = v.clamp(-128.0, 127.0);
+    let t = c as i32;
+    let fraction = c - t as f32;
+    let rounded = if fraction >= 0.5 {
+        t + 1
+    } else if fraction <= -0.5 {
+        t - 1
+    } else {
+        t
+    };
+    rounded as i8
 }
 
 /// Folds `z = (x - mean) / std` followed by `q = z / scale + zero_point` into `q = x * mul + add`:
@@ -332,6 +346,34 @@ mod tests {
         assert_eq!(quantize_input(0.5, 1.0, 0.0, 0), 1);
         assert_eq!(quantize_input(-0.5, 1.0, 0.0, 0), -1);
         assert_eq!(quantize_input(2.5, 1.0, 0.0, 0), 3);
+    }
+
+    #[test]
+    fn input_quantisation_is_roundf_then_clamp() {
+        let check = |v: f32| {
+            if !v.is_nan() {
+                let reference = libm::roundf(v).clamp(-128.0, 127.0) as i8;
+                assert_eq!(quantize_input(v, 1.0, 0.0, 7), reference, "{v:e}");
+            }
+        };
+        // Integers and half-integers (ties) in [-300, 300] and their 3 nearest neighbours per side.
+        for k in -600i32..=600 {
+            let centre = k as f32 * 0.5;
+            check(centre);
+            let (mut up, mut down) = (centre, centre);
+            for _ in 0..3 {
+                up = libm::nextafterf(up, f32::INFINITY);
+                down = libm::nextafterf(down, f32::NEG_INFINITY);
+                check(up);
+                check(down);
+            }
+        }
+        // A stride over all bit patterns: huge, tiny, subnormal, infinite values.
+        for bits in (0..=u32::MAX).step_by(4099) {
+            check(f32::from_bits(bits));
+        }
+        check(f32::INFINITY);
+        check(f32::NEG_INFINITY);
     }
 
     #[test]

@@ -210,6 +210,11 @@ pub enum WarningEvent {
 }
 
 /// One partner's warning state.
+///
+/// 56 bytes on 32- and 64-bit targets: the two optional times are stored as plain `u64` and are
+/// meaningful only when their flag says so (`on_since_us` while `warning`, `first_warning_us` once
+/// `onsets > 0`), so no `Option<u64>` (16 bytes each) and no sentinel that a real time could
+/// collide with. Read them with [`Track::on_since_us`] and [`Track::first_warning_us`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Track {
     /// Partner id.
@@ -222,15 +227,18 @@ pub struct Track {
     pub last_score: f32,
     /// Whether the warning is on.
     pub warning: bool,
-    /// When the current warning turned on.
-    pub on_since_us: Option<Micros>,
-    /// When this track first warned (the first-threshold alert time).
-    pub first_warning_us: Option<Micros>,
+    /// When the current warning turned on; valid while `warning`, else 0.
+    on_since: Micros,
+    /// When this track first warned; valid once `onsets > 0`, else 0.
+    first_warning: Micros,
     /// Number of accepted updates.
     pub updates: u32,
     /// Number of onsets (1 at most when latched).
     pub onsets: u32,
 }
+
+// The ECU budget is 64 bytes per track (docs/ecu.md); 56 on 32- and 64-bit targets.
+const _: () = assert!(core::mem::size_of::<Track>() <= 64);
 
 impl Track {
     fn new(id: u32, now: Micros) -> Self {
@@ -240,11 +248,21 @@ impl Track {
             last_update_us: now,
             last_score: 0.0,
             warning: false,
-            on_since_us: None,
-            first_warning_us: None,
+            on_since: 0,
+            first_warning: 0,
             updates: 0,
             onsets: 0,
         }
+    }
+
+    /// When the current warning turned on (`None` while not warning).
+    pub fn on_since_us(&self) -> Option<Micros> {
+        self.warning.then_some(self.on_since)
+    }
+
+    /// When this track first warned, the first-threshold alert time (`None` if it never warned).
+    pub fn first_warning_us(&self) -> Option<Micros> {
+        (self.onsets > 0).then_some(self.first_warning)
     }
 
     fn is_stale(&self, now: Micros, stale_after: Micros) -> bool {
@@ -258,18 +276,21 @@ impl Track {
         if !self.warning {
             if r >= cfg.threshold {
                 self.warning = true;
-                self.on_since_us = Some(now);
-                self.first_warning_us.get_or_insert(now);
+                self.on_since = now;
+                if self.onsets == 0 {
+                    self.first_warning = now;
+                }
+                // Saturating: never returns to 0, so `first_warning` stays valid.
                 self.onsets = self.onsets.saturating_add(1);
                 return WarningEvent::Onset;
             }
             return WarningEvent::None;
         }
         if !cfg.latch {
-            let on_for = now.saturating_sub(self.on_since_us.unwrap_or(now));
+            let on_for = now.saturating_sub(self.on_since);
             if r < cfg.threshold - cfg.hysteresis && on_for >= cfg.min_on_us {
                 self.warning = false;
-                self.on_since_us = None;
+                self.on_since = 0;
                 return WarningEvent::Release;
             }
         }

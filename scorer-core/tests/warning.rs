@@ -68,7 +68,7 @@ fn latched_table_follows_first_threshold_per_track() {
         assert!(a.warning && a.event == WarningEvent::None);
     }
     let tr = t.get(1).unwrap();
-    assert_eq!(tr.first_warning_us, Some(100 * MS));
+    assert_eq!(tr.first_warning_us(), Some(100 * MS));
     assert_eq!((tr.onsets, tr.updates), (1, 5));
     assert!(t.is_warning(1, 400 * MS));
     let ids: Vec<u32> = t.warnings(400 * MS).map(|tr| tr.id).collect();
@@ -98,8 +98,8 @@ fn live_mode_hysteresis_and_minimum_on_time() {
     assert_eq!(ev(&mut t, 600, 0.6), WarningEvent::Onset);
     let tr = t.get(7).unwrap();
     assert_eq!(tr.onsets, 2);
-    assert_eq!(tr.first_warning_us, Some(0));
-    assert_eq!(tr.on_since_us, Some(600 * MS));
+    assert_eq!(tr.first_warning_us(), Some(0));
+    assert_eq!(tr.on_since_us(), Some(600 * MS));
     // The minimum on-time counts from the new onset.
     assert_eq!(ev(&mut t, 800, 0.0), WarningEvent::None);
     assert_eq!(ev(&mut t, 900, 0.0), WarningEvent::Release);
@@ -133,7 +133,7 @@ fn reused_id_after_drop_starts_fresh() {
     assert!(s.new_track && !s.warning);
     let tr = t.get(9).unwrap();
     assert_eq!(
-        (tr.created_us, tr.first_warning_us, tr.updates),
+        (tr.created_us, tr.first_warning_us(), tr.updates),
         (500 * MS, None, 1)
     );
     // Explicit removal.

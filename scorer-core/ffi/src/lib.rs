@@ -728,8 +728,8 @@ pub unsafe extern "C" fn riskscore_track_get(
             last_score: t.last_score,
             created_us: t.created_us,
             last_update_us: t.last_update_us,
-            on_since_us: opt_us(t.on_since_us),
-            first_warning_us: opt_us(t.first_warning_us),
+            on_since_us: opt_us(t.on_since_us()),
+            first_warning_us: opt_us(t.first_warning_us()),
             updates: t.updates,
             onsets: t.onsets,
         };
