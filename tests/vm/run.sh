@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# SocketCAN tests over vcan in a throw-away QEMU VM (Debian kernel, busybox initramfs, TCG).
+# The one entry point for scripts/test.sh. Idempotent; caches the kernel under .cache/vm/.
+# Checks: a corrupt model is refused; a simulated drive replayed over vcan gives exactly the
+# offline warnings (frame for frame, E2E counters included), verified by a second socket; faults
+# on the bus are counted without disturbing healthy tracks; a vanishing or missing interface ends
+# the bridge with exit code 2 and a clear message. See tests/vm/README.md.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+# shellcheck source=tests/vm/lib.sh
+. tests/vm/lib.sh
+started=$(date +%s)
+failures=()
+check() { # check DESCRIPTION COMMAND...
+  local what=$1; shift
+  if "$@"; then vm_say "ok: $what"; else vm_say "FAILED: $what"; failures+=("$what"); fi
+}
+
+vm_check_tools
+SHARE=$PWD/target/vm/run
+rm -rf "$SHARE" && mkdir -p "$SHARE/bin" "$SHARE/fixtures" "$SHARE/out"
+
+vm_say "building (host tools + static can-bridge for $VM_TARGET)"
+cargo build --quiet -p host-tools --bin riskctl || vm_fail "building riskctl failed"
+cargo build --quiet -p can-bridge --bin can-bridge --example vm_fixtures || vm_fail "building can-bridge failed"
+RISKCTL=target/debug/riskctl
+BRIDGE=target/debug/can-bridge
+cp "$(vm_build_bridge debug)" "$SHARE/bin/can-bridge"
+
+vm_say "simulating a drive and encoding it as CAN traffic"
+FIX=$SHARE/fixtures
+"$RISKCTL" simulate --out "$FIX/events" --events 16 --seed 4 --threads 1 >/dev/null \
+  || vm_fail "riskctl simulate failed"
+"$RISKCTL" events-to-candump --events "$FIX/events" --out "$FIX/drive.log" >/dev/null \
+  || vm_fail "riskctl events-to-candump failed"
+model_arg=()
+[ -f models/drl-default.rsk ] && model_arg=(--model models/drl-default.rsk)
+target/debug/examples/vm_fixtures --out "$FIX" --drive "$FIX/drive.log" "${model_arg[@]}" \
+  || vm_fail "writing fixtures failed"
+T=$(cat "$FIX/threshold.txt")
+
+vm_kernel
+vm_initramfs
+cp tests/vm/guest.sh "$SHARE/guest.sh"
+vm_say "booting the VM (TCG; timeout ${VM_TIMEOUT}s)"
+guest_rc=0
+vm_boot "$SHARE" || guest_rc=$?
+if [ "$guest_rc" -ne 0 ]; then
+  tail -n 30 "$SHARE/console.log" >&2 || true
+  [ -f "$SHARE/guest.log" ] && tail -n 30 "$SHARE/guest.log" >&2
+  vm_fail "the VM run did not complete (guest exit $guest_rc; logs in ${SHARE#$PWD/})"
+fi
+O=$SHARE/out
+rc() { cat "$O/$1.rc" 2>/dev/null || echo missing; }
+has() { grep -q -- "$2" "$O/$1"; }
+frames_of() { awk '{print $3}' "$1"; }
+events_without_time() { sed -e 's/"t":[-0-9.e+]*,//' "$1"; }
+count() { grep -o "$2 [0-9]*\|[0-9]* $2" "$1" | grep -o '[0-9]*' | head -n1; }
+
+# 1. corrupt model
+check "corrupt model refused at start (exit 1, reason given)" \
+  bash -c "[ \"$(rc corrupt)\" = 1 ] && grep -q 'refused' '$O/corrupt.err'"
+
+# 2. live == offline
+"$BRIDGE" score-log --log "$FIX/drive.log" --model "$FIX/model.rsk" --threshold "$T" --min-on-ms 0 \
+  --warnings-out "$O/offline-warnings.log" --events-out "$O/offline-events.jsonl" 2> "$O/offline.err" \
+  || vm_fail "offline score-log failed: $(tail -n 3 "$O/offline.err")"
+check "replay and live bridge exited cleanly" \
+  bash -c "[ \"$(rc replay)\" = 0 ] && [ \"$(rc live-bridge)\" = 0 ]"
+check "second socket verified every warning frame's CRC and alive counter" \
+  bash -c "[ \"$(rc live-monitor)\" = 0 ]"
+n_off=$(wc -l < "$O/offline-warnings.log")
+n_live=$(wc -l < "$O/live-warnings.log" 2>/dev/null || echo 0)
+check "the drive produced warnings (offline: $n_off frames)" test "$n_off" -gt 0
+check "live warning frames over vcan == offline (payload, counter and CRC; $n_live vs $n_off)" \
+  cmp -s <(frames_of "$O/offline-warnings.log") <(frames_of "$O/live-warnings.log")
+# Onsets and score releases come in the same order; a stale release happens when the (compressed,
+# 20x) live clock says so, so the events are compared as a set.
+check "live warning events == offline (track, score, on/off, reason)" \
+  cmp -s <(events_without_time "$O/offline-events.jsonl" | sort) <(events_without_time "$O/live-events.jsonl" | sort)
+
+# 3. faults
+"$BRIDGE" score-log --log "$FIX/faults.log" --model "$FIX/model.rsk" --threshold 1.5 --min-on-ms 0 \
+  --warnings-out "$O/faults-offline-warnings.log" 2> "$O/faults-offline.err" >/dev/null \
+  || vm_fail "offline score-log of faults.log failed"
+check "bridge and monitor survived the faults" \
+  bash -c "[ \"$(rc faults-bridge)\" = 0 ] && [ \"$(rc faults-monitor)\" = 0 ]"
+check "faults counted: wrong DLC + out-of-range (decode errors), error frames incl. bus-off, stale drops" \
+  bash -c "grep -q ' 2 decode errors' '$O/faults-bridge.err' && grep -Eq '[1-9][0-9]* stale drops' '$O/faults-bridge.err' && grep -q ' 2 error frames (1 bus-off)' '$O/faults-bridge.err'"
+check "kernel filters kept unknown ids and remote frames away from the bridge" \
+  bash -c "grep -q ' 0 unknown ids, 0 remote' '$O/faults-bridge.err'"
+check "healthy track kept warning through the faults (live == offline)" \
+  bash -c "[ -s '$O/faults-warnings.log' ] && cmp -s <(awk '{print \$3}' '$O/faults-offline-warnings.log') <(awk '{print \$3}' '$O/faults-warnings.log')"
+
+# 4./5. interface gone / missing
+check "interface deleted under the bridge: exit 2, clear message" \
+  bash -c "[ \"$(rc gone)\" = 2 ] && grep -q 'went away' '$O/gone.err'"
+check "interface missing at start: exit 2, clear message" \
+  bash -c "[ \"$(rc missing)\" = 2 ] && grep -q 'vcan0' '$O/missing.err'"
+
+elapsed=$(( $(date +%s) - started ))
+if [ ${#failures[@]} -gt 0 ]; then
+  vm_say "logs: ${SHARE#$PWD/}/out/ (guest: ${SHARE#$PWD/}/guest.log)"
+  vm_fail "${#failures[@]} vcan check(s) failed: ${failures[*]}"
+fi
+vm_say "all vcan checks passed in ${elapsed}s ($n_live warning frames live == offline)"
