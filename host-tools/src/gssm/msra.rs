@@ -337,12 +337,7 @@ impl RiskModel for MsraGssm {
     }
 
     fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
-        let z = inputs
-            .broadcast_mul(self.a.as_tensor())?
-            .broadcast_add(self.b.as_tensor())?;
-        candle_nn::ops::sigmoid(&z)?
-            .broadcast_mul(self.w.as_tensor())?
-            .sum(1)
+        crate::train::msra::msra_forward(inputs, &self.w, &self.a, &self.b)
     }
 
     fn vars(&self) -> Vec<Var> {

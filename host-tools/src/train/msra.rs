@@ -231,15 +231,27 @@ impl RiskModel for Msra {
     }
 
     fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
-        let z = inputs
-            .broadcast_mul(self.a.as_tensor())?
-            .broadcast_add(self.b.as_tensor())?;
-        candle_nn::ops::sigmoid(&z)?
-            .broadcast_mul(self.w.as_tensor())?
-            .sum(1)
+        msra_forward(inputs, &self.w, &self.a, &self.b)
     }
 
     fn vars(&self) -> Vec<Var> {
         vec![self.w.clone(), self.a.clone(), self.b.clone()]
     }
+}
+
+/// The MSRA sum `R = sum_k w_k * sigmoid(a_k * x_k + b_k)` over a batch of transformed,
+/// standardised surrogate rows (`[batch, terms]` -> `[batch]`): shared by every MSRA
+/// parameterisation (with or without a GSSM term).
+pub(crate) fn msra_forward(
+    inputs: &Tensor,
+    w: &Var,
+    a: &Var,
+    b: &Var,
+) -> candle_core::Result<Tensor> {
+    let z = inputs
+        .broadcast_mul(a.as_tensor())?
+        .broadcast_add(b.as_tensor())?;
+    candle_nn::ops::sigmoid(&z)?
+        .broadcast_mul(w.as_tensor())?
+        .sum(1)
 }
