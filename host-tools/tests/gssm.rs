@@ -13,46 +13,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use scorer_core::gssm::{GssmScore, S_INDEX};
-use scorer_core::{Features, Model, SurrogateKind, Surrogates, VehicleState, FEATURE_COUNT};
+use scorer_core::{Features, Model, SurrogateKind, Surrogates, FEATURE_COUNT};
+
+mod common;
+use common::{car, conflict};
 
 #[path = "../src/cli/gssm.rs"]
 #[allow(dead_code)]
 mod cli_gssm;
-
-fn car(x: f32, y: f32, v: f32) -> VehicleState {
-    VehicleState {
-        x,
-        y,
-        vx: v,
-        vy: 0.0,
-        hx: 1.0,
-        hy: 0.0,
-        acc: 0.0,
-        length: 4.5,
-        width: 1.8,
-    }
-}
-
-fn conflict(id: usize, closing: f32) -> TrainingSequence {
-    let t_impact = 6.0f64;
-    let v_ego = 14.0 + id as f32 % 5.0;
-    let mut s = TrainingSequence {
-        event_id: format!("c{id}"),
-        class: SequenceClass::Conflict { endpoint: t_impact },
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
-    for k in 15..=65 {
-        let t = k as f64 * 0.1;
-        let x_e = v_ego * t as f32;
-        let gap = closing * (t_impact - t) as f32;
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v_ego));
-        s.partner.push(car(x_e + 4.5 + gap, 0.0, v_ego - closing));
-    }
-    s
-}
 
 /// Safe following: the gap grows with speed (about 1.5 s headway plus 8 m), with slow oscillation.
 fn safe(id: usize) -> TrainingSequence {
@@ -78,7 +46,7 @@ fn safe(id: usize) -> TrainingSequence {
 
 fn dataset(n: usize) -> Vec<TrainingSequence> {
     (0..n)
-        .flat_map(|i| [conflict(i, 4.0 + (i % 8) as f32), safe(i)])
+        .flat_map(|i| [conflict(i, 4.0 + (i % 8) as f32, 0.0), safe(i)])
         .collect()
 }
 

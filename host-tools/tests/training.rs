@@ -7,42 +7,10 @@ use host_tools::comparisons::{
 };
 use host_tools::train::config::{ObjectiveConfig, OptimiserConfig};
 use host_tools::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
-use scorer_core::{SurrogateKind, Surrogates, VehicleState, FEATURE_COUNT};
+use scorer_core::{SurrogateKind, Surrogates, FEATURE_COUNT};
 
-fn car(x: f32, y: f32, v: f32) -> VehicleState {
-    VehicleState {
-        x,
-        y,
-        vx: v,
-        vy: 0.0,
-        hx: 1.0,
-        hy: 0.0,
-        acc: 0.0,
-        length: 4.5,
-        width: 1.8,
-    }
-}
-
-fn conflict(id: usize, closing: f32) -> TrainingSequence {
-    let t_impact = 6.0f64;
-    let v_ego = 14.0 + id as f32 % 5.0;
-    let mut s = TrainingSequence {
-        event_id: format!("c{id}"),
-        class: SequenceClass::Conflict { endpoint: t_impact },
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
-    for k in 15..=65 {
-        let t = k as f64 * 0.1;
-        let x_e = v_ego * t as f32;
-        let gap = closing * (t_impact - t) as f32;
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v_ego));
-        s.partner.push(car(x_e + 4.5 + gap, 0.0, v_ego - closing));
-    }
-    s
-}
+mod common;
+use common::{car, conflict};
 
 fn safe(id: usize) -> TrainingSequence {
     let v = 12.0 + id as f32 % 7.0;
@@ -66,7 +34,7 @@ fn safe(id: usize) -> TrainingSequence {
 
 fn dataset(n: usize) -> Vec<TrainingSequence> {
     (0..n)
-        .flat_map(|i| [conflict(i, 5.0 + (i % 8) as f32), safe(i)])
+        .flat_map(|i| [conflict(i, 5.0 + (i % 8) as f32, 0.0), safe(i)])
         .collect()
 }
 
