@@ -197,10 +197,10 @@ fn bench_core(c: &mut Criterion) {
             }
         })
     });
-    g.bench_function("drl_int8_from_features", |b| {
+    g.bench_function("drl_int8_from_observation", |b| {
         b.iter(|| {
-            for f in &feats {
-                black_box(drl.score_features(black_box(f)));
+            for (f, s) in feats.iter().zip(&surs) {
+                black_box(drl.score_observation(black_box(f), black_box(s)));
             }
         })
     });

@@ -7,6 +7,7 @@
 //! - [`state`]: the kinematic state of one road user ([`VehicleState`]).
 //! - [`geometry`]: oriented boxes and the exact box-to-box distance.
 //! - [`features`]: the 13 observation features of an ego/partner pair.
+//! - [`encoding`]: the DRL input encoding (versioned transform of features + box distance).
 //! - [`surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
 //! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
@@ -28,6 +29,7 @@
 )]
 
 pub mod crc;
+pub mod encoding;
 pub mod features;
 pub mod geometry;
 pub mod gssm;
@@ -39,6 +41,9 @@ pub mod state;
 pub mod surrogates;
 pub mod warning;
 
+pub use encoding::{
+    drl_inputs, drl_inputs_of_pair, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES,
+};
 pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
 pub use geometry::box_distance;
 pub use state::VehicleState;

@@ -1,7 +1,7 @@
 //! The DRL risk network: an int8 path (deployed) and an f32 path (parity, GSSM) over one structure.
 //!
-//! Structure (both paths): a *feature selection* (which of the 13 features feed the input, in which
-//! order), a per-input standardisation, up to [`MAX_LAYERS`] dense layers of width at most
+//! Structure (both paths): an *input selection* (which entries of the 13-wide input vector feed the
+//! network, in which order: for DRL the [`crate::encoding`] inputs, for GSSM the features), a per-input standardisation, up to [`MAX_LAYERS`] dense layers of width at most
 //! [`MAX_WIDTH`], each optionally followed by ReLU, and 1 or [`MAX_OUTPUTS`] outputs. Only stack
 //! buffers of `MAX_WIDTH` activations are used. Parameters are borrowed little-endian byte slices
 //! (`&'a [u8]`) straight out of the model blob, read with `chunks_exact`/`get`, never indexed.
@@ -34,8 +34,10 @@ pub const MAX_LAYERS: usize = 4;
 pub const MAX_WIDTH: usize = 64;
 /// Maximum number of network outputs (DRL uses 1; GSSM uses 2: `mu`, `log sigma^2`).
 pub const MAX_OUTPUTS: usize = 2;
-/// Maximum number of selected input features.
+/// Maximum number of selected inputs (the input vector's width: the 13 features for GSSM, the 13
+/// DRL inputs of [`crate::encoding`] for DRL).
 pub const MAX_INPUTS: usize = FEATURE_COUNT;
+const _: () = assert!(crate::encoding::DRL_INPUT_COUNT == FEATURE_COUNT);
 /// Largest magnitude accepted for any float parameter (weights, biases, standardisation, scales).
 pub const MAX_ABS_PARAM: f32 = 1.0e9;
 /// Every f32 activation (standardised inputs included) is clamped to `+-ACTIVATION_LIMIT`, which with

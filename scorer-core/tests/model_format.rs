@@ -181,7 +181,7 @@ fn worked_example_matches_the_spec() {
         })
         .unwrap();
     let m = Model::DrlF32(FloatMlp {
-        inputs: BoundedVec::from_slice(&[12]).unwrap(),
+        inputs: BoundedVec::from_slice(&[8]).unwrap(),
         input_scale: BoundedVec::from_slice(&[0.1]).unwrap(),
         input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
         layers,
@@ -196,11 +196,11 @@ fn worked_example_matches_the_spec() {
             "0100",
             "02",
             "00",
-            "0100",
+            "0200",
             "0000",
             "19000000",
-            "d6148ed5",
-            "010c",
+            "898a88bc",
+            "0108",
             "01cdcccc3d",
             "01000080bf",
             "01",
@@ -210,11 +210,61 @@ fn worked_example_matches_the_spec() {
             "040000003f"
         )
     );
-    // R = w * (s * 0.1 - 1) + b = 1.5 - 0.1 s
-    let mut f = [0.0f32; 13];
-    f[12] = 5.0;
-    let r = model::decode(&blob).unwrap().score_features(&f);
+    // R = w * (x * 0.1 - 1) + b = 1.5 - 0.1 x, x = log_gap = ln(0.5 + gap): 1.0 at x = 5.
+    let Model::DrlF32(net) = model::decode(&blob).unwrap() else {
+        panic!("kind")
+    };
+    let mut x = [0.0f32; 13];
+    x[8] = 5.0;
+    let r = net.forward(&x)[0];
     assert!((r - 1.0).abs() < 1e-6, "{r}");
+    // The same through the deployed entry point: a gap of e^5 - 0.5 m.
+    let gap = libm::expf(5.0) - 0.5;
+    let sur = scorer_core::Surrogates {
+        box_distance: gap,
+        ttc2d: f32::INFINITY,
+        tadv: f32::INFINITY,
+        ei: f32::NEG_INFINITY,
+    };
+    let r = model::decode(&blob)
+        .unwrap()
+        .score_observation(&[0.0; 13], &sur);
+    assert!((r - 1.0).abs() < 1e-5, "{r}");
+}
+
+/// A DRL blob of input schema 1 (the raw features, before the DRL input encoding) is refused with
+/// a message that says why, never scored with the wrong inputs.
+#[test]
+fn drl_blob_of_the_old_input_schema_is_refused() {
+    let mut blob = valid_drl_blob();
+    blob[8] = 1;
+    let err = model::decode(&blob).unwrap_err();
+    assert_eq!(
+        err,
+        ModelError::WrongInputSchema {
+            kind: "drl-int8",
+            found: 1,
+            expected: 2
+        }
+    );
+    let text = err.to_string();
+    assert!(text.contains("retrain or re-export"), "{text}");
+    // And MSRA/GSSM blobs must not claim the DRL encoding.
+    let fx = Fixtures::new();
+    for m in fx.models() {
+        if matches!(m, Model::Msra(_) | Model::Gssm(_)) {
+            let mut blob = encode_vec(&m);
+            blob[8] = 2;
+            assert!(matches!(
+                model::decode(&blob),
+                Err(ModelError::WrongInputSchema {
+                    found: 2,
+                    expected: 1,
+                    ..
+                })
+            ));
+        }
+    }
 }
 
 #[test]

@@ -333,7 +333,8 @@ proptest! {
             let blob = wrap(kind, &bytes);
             if let Ok(m) = model::decode(&blob) {
                 let x: Features = [1.0; FEATURE_COUNT];
-                prop_assert!(m.score_features(&x).is_finite());
+                let sur = scorer_core::Surrogates { box_distance: 1.0, ttc2d: 1.0, tadv: 1.0, ei: 1.0 };
+                prop_assert!(m.score_observation(&x, &sur).is_finite());
             };
         }
     }

@@ -417,6 +417,14 @@ fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> RiskscoreStatus 
             info.found = u32::from(*s);
             RiskscoreStatus::ModelUnsupportedFeatureSchema
         }
+        ModelError::WrongInputSchema {
+            found, expected, ..
+        } => {
+            field("input_schema");
+            info.found = u32::from(*found);
+            info.expected = u32::from(*expected);
+            RiskscoreStatus::ModelUnsupportedFeatureSchema
+        }
         ModelError::TrailingBytes { extra } => {
             info.found = sat_u32(*extra);
             RiskscoreStatus::ModelTrailingBytes
@@ -535,7 +543,7 @@ pub extern "C" fn riskscore_status_str(status: i32) -> *const c_char {
         Some(RiskscoreStatus::ModelUnsupportedVersion) => b"unsupported model format version\0",
         Some(RiskscoreStatus::ModelUnknownKind) => b"unknown model kind\0",
         Some(RiskscoreStatus::ModelReservedNotZero) => b"model header reserved byte not zero\0",
-        Some(RiskscoreStatus::ModelUnsupportedFeatureSchema) => b"unsupported feature schema\0",
+        Some(RiskscoreStatus::ModelUnsupportedFeatureSchema) => b"unsupported input schema (a DRL model of an older input encoding: retrain or re-export it)\0",
         Some(RiskscoreStatus::ModelTrailingBytes) => b"trailing bytes after the model\0",
         Some(RiskscoreStatus::ModelCrcMismatch) => b"model payload CRC mismatch\0",
         Some(RiskscoreStatus::ModelMalformedPayload) => b"malformed model payload\0",

@@ -19,8 +19,15 @@ pub enum ModelError {
     UnknownKind(u8),
     /// A reserved header field is not zero.
     ReservedNotZero { offset: usize },
-    /// The feature-schema id is not one this build computes.
+    /// The input-schema id is not one this build computes.
     UnsupportedFeatureSchema(u16),
+    /// The input schema is known but not the one this build scores the model kind with (e.g. a
+    /// DRL blob trained on the raw features, schema 1, before the DRL input encoding 2).
+    WrongInputSchema {
+        kind: &'static str,
+        found: u16,
+        expected: u16,
+    },
     /// Bytes follow the payload (after the declared length, or inside it after the model).
     TrailingBytes { extra: usize },
     /// The payload CRC-32 does not match the header.
@@ -76,7 +83,17 @@ impl fmt::Display for ModelError {
             Self::ReservedNotZero { offset } => {
                 write!(f, "reserved header byte at offset {offset} is not zero")
             }
-            Self::UnsupportedFeatureSchema(s) => write!(f, "unsupported feature schema {s}"),
+            Self::UnsupportedFeatureSchema(s) => write!(f, "unsupported input schema {s}"),
+            Self::WrongInputSchema {
+                kind,
+                found,
+                expected,
+            } => write!(
+                f,
+                "{kind} model expects input schema {found}, but this build scores {kind} with \
+                 input schema {expected}; retrain or re-export it with this version (scoring it \
+                 would feed it the wrong inputs)"
+            ),
             Self::TrailingBytes { extra } => write!(f, "{extra} trailing bytes after the model"),
             Self::CrcMismatch { stored, computed } => write!(
                 f,

@@ -8,14 +8,14 @@
 //! | 4      | 2    | format version (`u16`, [`FORMAT_VERSION`])                |
 //! | 6      | 1    | model kind ([`ModelKind`])                                |
 //! | 7      | 1    | reserved, 0                                               |
-//! | 8      | 2    | feature schema id (`u16`, [`FEATURE_SCHEMA`])            |
+//! | 8      | 2    | input schema id (`u16`, [`ModelKind::input_schema`])      |
 //! | 10     | 2    | reserved, 0                                               |
 //! | 12     | 4    | payload length in bytes (`u32`)                           |
 //! | 16     | 4    | CRC-32/ISO-HDLC of the payload (`u32`, [`crate::crc`])    |
 //! | 20     | n    | payload: postcard encoding of the kind's model struct     |
 //!
-//! [`decode`] checks, in this order: header length, magic, version, kind, reserved bytes, feature
-//! schema, declared payload length against the blob (short: `Truncated`, long: `TrailingBytes`),
+//! [`decode`] checks, in this order: header length, magic, version, kind, reserved bytes, input
+//! schema (the one the kind is scored with in this build), declared payload length against the blob (short: `Truncated`, long: `TrailingBytes`),
 //! CRC, postcard payload (must consume it exactly), then the model's own `validate` (capacities,
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
@@ -26,7 +26,9 @@ mod error;
 pub use bounded::BoundedVec;
 pub use error::ModelError;
 
+use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
 use crate::features::{features, Features};
+use crate::geometry::box_distance;
 use crate::gssm::GssmModel;
 use crate::mlp::{FloatMlp, QuantMlp};
 use crate::msra::MsraModel;
@@ -37,9 +39,12 @@ use crate::surrogates::{surrogates, Surrogates};
 pub const MAGIC: [u8; 4] = *b"RSKM";
 /// The format version this build reads and writes.
 pub const FORMAT_VERSION: u16 = 1;
-/// Feature schema id 1: the 13 features of [`crate::FEATURE_NAMES`] in that order, as computed by
-/// [`crate::features()`].
+/// Input schema id 1: the 13 features of [`crate::FEATURE_NAMES`] in that order, as computed by
+/// [`crate::features()`] (with the surrogates, for MSRA). MSRA and GSSM blobs are scored with it.
 pub const FEATURE_SCHEMA: u16 = 1;
+/// Input schema id 2: the DRL input encoding of [`crate::encoding`]. DRL blobs are scored with it;
+/// a DRL blob of schema 1 (the raw features, before that encoding existed) is refused.
+pub const DRL_INPUT_SCHEMA: u16 = DRL_INPUT_ENCODING;
 /// Length of the fixed header.
 pub const HEADER_LEN: usize = 20;
 
@@ -66,6 +71,14 @@ impl ModelKind {
             3 => Ok(Self::Msra),
             4 => Ok(Self::Gssm),
             other => Err(ModelError::UnknownKind(other)),
+        }
+    }
+
+    /// The input schema this build scores the kind with (header bytes 8-9).
+    pub fn input_schema(self) -> u16 {
+        match self {
+            Self::DrlInt8 | Self::DrlF32 => DRL_INPUT_SCHEMA,
+            Self::Msra | Self::Gssm => FEATURE_SCHEMA,
         }
     }
 
@@ -150,39 +163,26 @@ impl<'a> Model<'a> {
     }
 
     /// The deployed risk score of one ego/partner pair (larger is riskier). Computes the features,
-    /// and the surrogates only when the model reads them. Finite for every input.
+    /// plus the box distance for DRL and the surrogates for MSRA, only what the model reads.
+    /// Finite for every input.
     pub fn score(&self, ego: &VehicleState, partner: &VehicleState) -> f32 {
         let f = features(ego, partner);
         match self {
+            Self::DrlInt8(m) => m.forward(&drl_inputs(&f, box_distance(ego, partner)))[0],
+            Self::DrlF32(m) => m.forward(&drl_inputs(&f, box_distance(ego, partner)))[0],
             Self::Msra(m) => m.score(&f, &surrogates(ego, partner)),
-            _ => self.score_features(&f),
+            Self::Gssm(m) => m.score(&f),
         }
     }
 
-    /// The same score from precomputed features and surrogates.
+    /// The same score from precomputed features and surrogates (DRL reads the box distance of
+    /// `surrogates`, MSRA all of them, GSSM none).
     pub fn score_observation(&self, features: &Features, surrogates: &Surrogates) -> f32 {
         match self {
+            Self::DrlInt8(m) => m.forward(&drl_inputs(features, surrogates.box_distance))[0],
+            Self::DrlF32(m) => m.forward(&drl_inputs(features, surrogates.box_distance))[0],
             Self::Msra(m) => m.score(features, surrogates),
-            _ => self.score_features(features),
-        }
-    }
-
-    /// Score of a model that reads only features (DRL: output 0; GSSM: its score). For MSRA the
-    /// surrogates are taken as all "no conflict" (use [`Model::score_observation`] instead).
-    pub fn score_features(&self, features: &Features) -> f32 {
-        match self {
-            Self::DrlInt8(m) => m.forward(features)[0],
-            Self::DrlF32(m) => m.forward(features)[0],
             Self::Gssm(m) => m.score(features),
-            Self::Msra(m) => m.score(
-                features,
-                &Surrogates {
-                    box_distance: f32::INFINITY,
-                    ttc2d: f32::INFINITY,
-                    tadv: f32::INFINITY,
-                    ei: f32::NEG_INFINITY,
-                },
-            ),
         }
     }
 }
@@ -234,8 +234,15 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
         }
     }
     let feature_schema = le_u16(blob, 8);
-    if feature_schema != FEATURE_SCHEMA {
+    if feature_schema != FEATURE_SCHEMA && feature_schema != DRL_INPUT_SCHEMA {
         return Err(ModelError::UnsupportedFeatureSchema(feature_schema));
+    }
+    if feature_schema != kind.input_schema() {
+        return Err(ModelError::WrongInputSchema {
+            kind: kind.name(),
+            found: feature_schema,
+            expected: kind.input_schema(),
+        });
     }
     Ok(ModelHeader {
         version,
@@ -327,7 +334,7 @@ pub fn encode(model: &Model<'_>, out: &mut [u8]) -> Result<usize, ModelError> {
     let header = ModelHeader {
         version: FORMAT_VERSION,
         kind: model.kind(),
-        feature_schema: FEATURE_SCHEMA,
+        feature_schema: model.kind().input_schema(),
         payload_len: u32::try_from(payload_len).map_err(|_| ModelError::CapacityExceeded {
             field: "payload",
             len: payload_len,

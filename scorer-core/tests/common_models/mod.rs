@@ -274,7 +274,8 @@ pub fn wrap(kind: u8, payload: &[u8]) -> Vec<u8> {
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.push(kind);
     out.push(0);
-    out.extend_from_slice(&FEATURE_SCHEMA.to_le_bytes());
+    let schema = scorer_core::ModelKind::from_u8(kind).map_or(FEATURE_SCHEMA, |k| k.input_schema());
+    out.extend_from_slice(&schema.to_le_bytes());
     out.extend_from_slice(&[0, 0]);
     out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
     out.extend_from_slice(&scorer_core::crc::crc32(payload).to_le_bytes());

@@ -1,5 +1,5 @@
 //! Footprint probe: the smallest Rust integration of the deployed DRL path. Decodes the embedded
-//! int8 DRL blob and runs features -> int8 network -> track table for one partner, without the C
+//! int8 DRL blob and runs DRL input encoding -> int8 network -> track table for one partner, without the C
 //! ABI, the surrogates or the other model kinds' inference (model decoding still links the
 //! deserialisers of every kind). tests/firmware/measure reads its section sizes.
 #![no_std]
@@ -15,7 +15,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use scorer_core::model::{self, Model};
 use scorer_core::warning::{TrackTable, WarningConfig};
-use scorer_core::{features, VehicleState};
+use scorer_core::{drl_inputs_of_pair, VehicleState};
 
 static DRL_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/drl.rsk"));
 static EGO: VehicleState = VehicleState {
@@ -61,7 +61,7 @@ fn main() -> ! {
         )
     };
     let score = match model::decode(DRL_BLOB) {
-        Ok(Model::DrlInt8(net)) => Some(net.forward(&features(&ego, &partner))[0]),
+        Ok(Model::DrlInt8(net)) => Some(net.forward(&drl_inputs_of_pair(&ego, &partner))[0]),
         _ => None,
     };
     let config = WarningConfig::live(0.5, 0.05, 500_000, 1_000_000);
