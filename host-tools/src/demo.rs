@@ -1,13 +1,17 @@
-//! The main job (`riskctl demo`): simulate the default data set, build comparisons, train DRL and
-//! MSRA under 5-fold event-level CV (fold models scored through the deployed int8/core path), print
-//! the table against the TTC2D/TAdv/EI baselines, quantise, export the final models (trained on all
+//! The main job (`riskctl demo`): simulate the default data set, add the real safe driving of the
+//! committed NGSIM extract, build comparisons, train DRL and MSRA under 5-fold event-level CV (fold
+//! models scored through the deployed int8/core path), print the table against the TTC2D/TAdv/EI
+//! baselines, run the transfer benchmark ([`crate::transfer`]: another simulator seed and mix plus
+//! real recordings held out by scenario file), quantise, export the final models (trained on all
 //! events), write plots, and say where everything went, with stage times.
 //!
 //! Output layout under the out folder:
 //! - `data/`: the simulated event folder (`events.csv`, `frames.csv`, ...);
+//! - `transfer-data/`: the simulated test folder of the transfer benchmark;
 //! - `report/`: `results.{md,csv,json}` (mean ± std over folds), `folds.csv`, `curves.csv`
 //!   (pooled out-of-fold operating points), `training.json` (comparisons, training, quantisation and
-//!   stage statistics);
+//!   stage statistics), `transfer/` (the transfer benchmark's `results.{md,csv,json}`, `folds.csv`,
+//!   `splits.json`);
 //! - `models/`: `drl.rsk` (int8), `drl-f32.rsk`, `msra.rsk`, and their checkpoints `drl.json`,
 //!   `msra.json`;
 //! - `plots/`: `roc`, `pr`, `trajectories` (SVG and PNG).
@@ -22,6 +26,7 @@ use crate::comparisons::{from_sequences, TrainingSequence};
 use crate::eval::{self, plots, CvReport, EventCounts, ScoredSequence};
 use crate::events::{self, PrepareConfig, Sequence};
 use crate::export::{self, Checkpoint, CheckpointModel, DrlFormat};
+use crate::gssm::GssmConfig;
 use crate::quantize::{self, Agreement};
 use crate::sim::{self, SimConfig};
 use crate::train::cv::{self, CvOptions, FoldOutcome};
@@ -41,8 +46,54 @@ pub struct DemoOptions {
     pub folds: usize,
     /// Cross-validation repetitions (fold assignment and training seeds `seed + k`).
     pub seeds: usize,
+    /// Real normal-driving event folder added to the training data (safe sequences) and used by
+    /// the transfer benchmark (held out by scenario file). `None`: simulation only.
+    pub real: Option<PathBuf>,
+    /// The transfer benchmark's test simulation; `None` skips the benchmark.
+    pub transfer: Option<TransferSettings>,
+    /// GSSM / SSRA settings of the transfer benchmark.
+    pub gssm: GssmConfig,
     pub progress: Progress,
 }
+
+/// The transfer benchmark's simulated test folder: another seed and another event mix.
+#[derive(Clone, Debug)]
+pub struct TransferSettings {
+    pub test_seed: u64,
+    pub test_mix: sim::Mix,
+    pub test_events: usize,
+}
+
+impl Default for TransferSettings {
+    fn default() -> Self {
+        TransferSettings {
+            test_seed: 2,
+            test_mix: sim::Mix {
+                crash: 100.0,
+                near_crash: 60.0,
+                safe: 150.0,
+            },
+            test_events: 310,
+        }
+    }
+}
+
+/// The committed real-driving extract, if it can be found: `data/ngsim-us101-safe` under the current
+/// folder, else next to this crate's sources (a checkout run from elsewhere).
+pub fn default_real_data() -> Option<PathBuf> {
+    let candidates = [
+        PathBuf::from(REAL_DATA),
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(REAL_DATA),
+    ];
+    candidates
+        .into_iter()
+        .find(|p| p.join(events::EVENTS_FILE).is_file())
+}
+
+/// Where the committed NGSIM US-101 extract of real safe interactions lives in the repository.
+pub const REAL_DATA: &str = "data/ngsim-us101-safe";
 
 impl Default for DemoOptions {
     fn default() -> Self {
@@ -55,6 +106,9 @@ impl Default for DemoOptions {
             data: None,
             folds: 5,
             seeds: 3,
+            real: default_real_data(),
+            transfer: Some(TransferSettings::default()),
+            gssm: GssmConfig::default(),
             progress: Progress::Bar,
         }
     }
@@ -86,6 +140,8 @@ pub enum DemoError {
     Csv { path: String, source: csv::Error },
     #[error("{0} contains no usable sequences")]
     NoSequences(String),
+    #[error("{0}")]
+    Transfer(#[from] crate::transfer::TransferError),
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
@@ -119,6 +175,8 @@ pub struct DemoSummary {
     /// int8 vs f32 DRL agreement of the final model on all observations.
     pub final_agreement: Agreement,
     pub claims: Vec<Claim>,
+    /// The same claims on the transfer benchmark (empty when it did not run).
+    pub transfer_claims: Vec<Claim>,
     #[serde(skip)]
     pub cv: Option<CvReport>,
     pub files: Vec<PathBuf>,
@@ -142,10 +200,26 @@ pub fn cv_mean(report: &CvReport, method: &str, metric: usize) -> Option<f64> {
 }
 
 /// The acceptance claims: DRL beats each baseline on A_ROC_90, P_PRC_90 and mTTI_90; MSRA beats
-/// each of its inputs on the same metrics (fold means, strictly greater).
+/// each of its inputs on the same metrics (fold means, strictly greater); where the report has SSRA
+/// and GSSM rows (the transfer benchmark), SSRA is at least GSSM on A_ROC_90 and P_PRC_90.
 pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim> {
     let metrics = [(0usize, "A_ROC_90"), (2, "P_PRC_90"), (4, "mTTI_90")];
     let mut claims = Vec::new();
+    let has = |name: &str| report.methods.iter().any(|m| m.name == name);
+    if has("SSRA") && has("GSSM") {
+        for (i, name) in [(0usize, "A_ROC_90"), (2, "P_PRC_90")] {
+            let m = cv_mean(report, "SSRA", i);
+            let b = cv_mean(report, "GSSM", i);
+            claims.push(Claim {
+                method: "SSRA".into(),
+                baseline: "GSSM".into(),
+                metric: format!("{name} (>=)"),
+                method_mean: m,
+                baseline_mean: b,
+                holds: matches!((m, b), (Some(m), Some(b)) if m >= b),
+            });
+        }
+    }
     let mut add = |method: &str, baseline: &str| {
         for (i, name) in metrics {
             let m = cv_mean(report, method, i);
@@ -341,9 +415,27 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             dir
         }
     };
-    let (seqs, counts) = load_sequences(&data_dir)?;
+    let (sim_seqs, sim_counts) = load_sequences(&data_dir)?;
+    eprintln!(
+        "      simulated events: {sim_counts}; {} sequences",
+        sim_seqs.len()
+    );
+    let mut seqs = sim_seqs.clone();
+    let mut real_seqs = Vec::new();
+    let mut counts = sim_counts;
+    if let Some(real) = &opts.real {
+        let (r, real_counts) = load_sequences(real)?;
+        eprintln!(
+            "      real recordings {}: {real_counts}; {} safe sequences from {} scenario files",
+            real.display(),
+            r.len(),
+            crate::transfer::sequences_per_scenario(&r).len()
+        );
+        counts = format!("{counts} + real {real_counts}");
+        real_seqs = r;
+        seqs.extend(real_seqs.iter().cloned());
+    }
     stages.push(("simulate + load".into(), t0.elapsed().as_secs_f64()));
-    eprintln!("      events: {counts}; {} sequences", seqs.len());
 
     // 2. Cross-validation (comparisons, training, quantisation, export, evaluation per fold).
     let t0 = Instant::now();
@@ -409,6 +501,55 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     println!();
     println!("{}", report.to_markdown());
 
+    // Transfer benchmark: another simulator seed and mix, real scenario files held out.
+    let mut transfer_claims = Vec::new();
+    if let (Some(settings), false) = (&opts.transfer, real_seqs.is_empty()) {
+        let t0 = Instant::now();
+        let dir = opts.out.join("transfer-data");
+        let cfg = SimConfig {
+            seed: settings.test_seed,
+            events: settings.test_events,
+            mix: settings.test_mix,
+            progress: opts.progress == Progress::Bar,
+            ..SimConfig::default()
+        };
+        eprintln!(
+            "[3b]  transfer benchmark: test simulation seed {} mix {:.0}/{:.0}/{:.0} into {}, real scenario files held out",
+            cfg.seed,
+            cfg.mix.crash,
+            cfg.mix.near_crash,
+            cfg.mix.safe,
+            dir.display()
+        );
+        sim::simulate_to_dir(&dir, &cfg)?;
+        let (test_sim, _) = load_sequences(&dir)?;
+        let data = crate::transfer::TransferData {
+            train_sim: sim_seqs.clone(),
+            test_sim,
+            real: real_seqs.clone(),
+        };
+        let topts = crate::transfer::TransferOptions {
+            folds: opts.folds,
+            seeds: opts.seeds,
+            progress: opts.progress,
+        };
+        let result = crate::transfer::run(&data, &opts.config, &opts.gssm, &topts)?;
+        let tdir = report_dir.join("transfer");
+        files.extend(write_transfer_report(&tdir, &result)?);
+        println!(
+            "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
+            opts.sim_seed,
+            settings.test_seed,
+            opts.folds,
+            opts.seeds.max(1)
+        );
+        println!();
+        println!("{}", result.report.to_markdown());
+        let msra_inputs = msra_input_names(&opts.config);
+        transfer_claims = acceptance_claims(&result.report, &msra_inputs);
+        stages.push(("transfer benchmark".into(), t0.elapsed().as_secs_f64()));
+    }
+
     // 4. Final models on all data.
     let t0 = Instant::now();
     eprintln!("[4/6] training the final DRL and MSRA on all events, quantising, exporting");
@@ -416,6 +557,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let model_dir = opts.out.join("models");
     let meta = json!({
         "data": data_dir.display().to_string(),
+        "real": opts.real.as_ref().map(|p| p.display().to_string()),
         "sim_seed": opts.sim_seed,
         "events": counts,
         "config_seed": opts.config.seed,
@@ -462,14 +604,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             .iter()
             .filter_map(|f| f.msra.as_ref().map(|r| r.epochs_per_second)),
     );
-    let msra_inputs: Vec<String> = opts
-        .config
-        .msra
-        .surrogates
-        .iter()
-        .filter_map(|n| crate::train::msra::parse_surrogate(n))
-        .map(|k| crate::train::msra::surrogate_name(k).to_string())
-        .collect();
+    let msra_inputs = msra_input_names(&opts.config);
     let claims = acceptance_claims(&report, &msra_inputs);
     let training = json!({
         "folds": folds.iter().map(|f| json!({
@@ -492,6 +627,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         },
         "stages": stages,
         "claims": claims,
+        "transfer_claims": transfer_claims,
         "pairs_per_second": pairs_per_second,
         "drl_epochs_per_second": drl_eps,
         "msra_epochs_per_second": msra_eps,
@@ -513,6 +649,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         msra_epochs_per_second: msra_eps,
         final_agreement: finals.agreement,
         claims,
+        transfer_claims,
         cv: Some(report),
         files,
     };
@@ -566,6 +703,44 @@ pub fn write_sequence_maxima<W: std::io::Write>(
     Ok(())
 }
 
+/// Display names of the surrogates MSRA combines (its "inputs" for the claims).
+pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
+    config
+        .msra
+        .surrogates
+        .iter()
+        .filter_map(|n| crate::train::msra::parse_surrogate(n))
+        .map(|k| crate::train::msra::surrogate_name(k).to_string())
+        .collect()
+}
+
+/// Write the transfer benchmark's report files into `dir`; returns the paths.
+pub fn write_transfer_report(
+    dir: &Path,
+    result: &crate::transfer::TransferResult,
+) -> Result<Vec<PathBuf>, DemoError> {
+    fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let mut files = Vec::new();
+    let md = dir.join("results.md");
+    fs::write(&md, result.report.to_markdown()).map_err(io_err(&md))?;
+    files.push(md);
+    let js = dir.join("results.json");
+    let text = serde_json::to_string_pretty(&result.report.to_json()).unwrap_or_default();
+    fs::write(&js, text).map_err(io_err(&js))?;
+    files.push(js);
+    let csvp = dir.join("results.csv");
+    write_csv_file(&csvp, |f| result.report.write_csv(f))?;
+    files.push(csvp);
+    let fp = dir.join("folds.csv");
+    write_csv_file(&fp, |f| eval::report::write_folds_csv(&result.folds, f))?;
+    files.push(fp);
+    let sp = dir.join("splits.json");
+    let text = serde_json::to_string_pretty(&result.splits).unwrap_or_default();
+    fs::write(&sp, text).map_err(io_err(&sp))?;
+    files.push(sp);
+    Ok(files)
+}
+
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
     let v: Vec<f64> = values.collect();
     if v.is_empty() {
@@ -577,6 +752,23 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
 
 fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
+}
+
+/// Print claims as `[ok]` / `[FAIL]` lines under a title.
+pub fn print_claims(title: &str, claims: &[Claim]) {
+    println!("{title}");
+    for c in claims {
+        println!(
+            "  [{}] {} {} {} vs {} {}",
+            if c.holds { "ok" } else { "FAIL" },
+            c.method,
+            c.metric,
+            fmt_opt(c.method_mean),
+            c.baseline,
+            fmt_opt(c.baseline_mean)
+        );
+    }
+    println!();
 }
 
 fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
@@ -597,19 +789,16 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
         );
     }
     println!();
-    println!("Acceptance (fold means, strictly better):");
-    for c in &s.claims {
-        println!(
-            "  [{}] {} {} {} vs {} {}",
-            if c.holds { "ok" } else { "FAIL" },
-            c.method,
-            c.metric,
-            fmt_opt(c.method_mean),
-            c.baseline,
-            fmt_opt(c.baseline_mean)
+    print_claims(
+        "Acceptance, in distribution (fold means, strictly better):",
+        &s.claims,
+    );
+    if !s.transfer_claims.is_empty() {
+        print_claims(
+            "Acceptance, transfer benchmark (fold means, strictly better unless marked >=):",
+            &s.transfer_claims,
         );
     }
-    println!();
     println!(
         "Throughput: {:.0} comparison pairs/s, DRL {:.1} epochs/s, MSRA {:.1} epochs/s",
         s.pairs_per_second, s.drl_epochs_per_second, s.msra_epochs_per_second

@@ -3,8 +3,8 @@
 //! A checkpoint is what `riskctl train` writes and `riskctl export-model` reads:
 //!
 //! ```json
-//! { "format": "riskscore-checkpoint", "version": 1,
-//!   "model": { "kind": "drl", "params": { "scaler": {"mean": [13], "std": [13]},
+//! { "format": "riskscore-checkpoint", "version": 2,
+//!   "model": { "kind": "drl", "params": { "scaler": {"mean": [13], "std": [13]},   (over the DRL inputs, encoding 2)
 //!                                          "layers": [{"inputs": 13, "outputs": 32,
 //!                                                      "weight": [out*in, row-major], "bias": [out]}, ...] },
 //!              "calibration": { "input": {"min": .., "max": ..}, "hidden": [{"min", "max"}, ...],
@@ -28,7 +28,9 @@ use crate::train::drl::DrlParams;
 use crate::train::msra::{parse_surrogate, MsraParams};
 
 pub const CHECKPOINT_FORMAT: &str = "riskscore-checkpoint";
-pub const CHECKPOINT_VERSION: u32 = 1;
+/// Version 2: the DRL scaler and network read the core's DRL input encoding 2 (version 1 read the
+/// raw features and is refused: its network would be fed the wrong inputs).
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// The float parameters of one trained model.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -228,12 +230,12 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         header.kind.name(),
         header.kind as u8
     );
-    let _ = writeln!(
-        s,
-        "  feature schema  {} ({} features)",
-        header.feature_schema,
-        scorer_core::FEATURE_COUNT
-    );
+    let schema = if header.feature_schema == model::DRL_INPUT_SCHEMA {
+        "DRL input encoding: scorer_core::encoding"
+    } else {
+        "the 13 features"
+    };
+    let _ = writeln!(s, "  input schema    {} ({schema})", header.feature_schema);
     let _ = writeln!(s, "  payload         {} bytes", header.payload_len);
     let _ = writeln!(
         s,
@@ -261,7 +263,11 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
                 in_dim = usize::from(l.out_dim);
             }
             let _ = writeln!(s, "  network         int8 MLP {}", dims.join("-"));
-            let _ = writeln!(s, "  inputs          {} features", m.inputs.len());
+            let _ = writeln!(
+                s,
+                "  inputs          {} (DRL input encoding)",
+                m.inputs.len()
+            );
             let _ = writeln!(s, "  input zero pt   {}", m.input_zero_point);
             let _ = writeln!(s, "  int8 weights    {weights}");
             let _ = writeln!(s, "  MACs/partner    {macs}");

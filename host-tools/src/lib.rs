@@ -23,3 +23,4 @@ pub mod quantize;
 pub mod sim;
 pub mod ssm_csv;
 pub mod train;
+pub mod transfer;

@@ -1,7 +1,7 @@
 //! Post-training int8 quantisation of a DRL network, through the core's own quantisation functions.
 //!
 //! Scheme (the one `scorer_core::mlp::QuantMlp` runs, conventions in `scorer_core::quant`):
-//! - input tensor: asymmetric int8 per tensor over the calibrated range of the standardised features;
+//! - input tensor: asymmetric int8 per tensor over the calibrated range of the standardised DRL inputs;
 //!   the standardisation is folded into the input quantisation (`quant::fold_standardisation`);
 //! - weights: symmetric int8 per output channel (`quant::symmetric_scale`, `quant::quantize_weight`);
 //! - biases: int32 in the accumulator scale `s_in * s_w[j]` (`quant::quantize_bias`);
@@ -16,7 +16,7 @@
 use candle_core::{Device, Tensor};
 use scorer_core::mlp::{FloatLayer, FloatMlp, QuantLayer, QuantMlp};
 use scorer_core::model::BoundedVec;
-use scorer_core::{quant, Features, FEATURE_COUNT};
+use scorer_core::{quant, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
 use crate::train::drl::{Drl, DrlParams};
@@ -69,10 +69,10 @@ fn quantile_range(values: &mut [f32], clip_fraction: f64) -> Range {
     }
 }
 
-/// Measure activation ranges of `params` on `observations` (features computed by scorer-core).
+/// Measure activation ranges of `params` on `observations` (DRL inputs computed by scorer-core).
 pub fn calibrate(
     params: &DrlParams,
-    observations: &[Features],
+    observations: &[DrlInputs],
     clip_fraction: f64,
 ) -> Result<Calibration, QuantizeError> {
     if observations.is_empty() {
@@ -128,7 +128,7 @@ pub struct QuantisedDrl {
     pub input_mul: Vec<f32>,
     pub input_add: Vec<f32>,
     pub input_zero_point: i8,
-    /// Scale of the int8 input tensor (of the standardised features).
+    /// Scale of the int8 input tensor (of the standardised DRL inputs).
     pub input_scale: f32,
     pub layers: Vec<QuantisedLayer>,
     pub output_scales: Vec<f32>,
@@ -337,7 +337,7 @@ pub struct Agreement {
 pub fn verify(
     params: &DrlParams,
     q: &QuantisedDrl,
-    observations: &[Features],
+    observations: &[DrlInputs],
 ) -> Result<Agreement, QuantizeError> {
     let fb = FloatBuffers::from_params(params);
     let float = fb.as_core()?;

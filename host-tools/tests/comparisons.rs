@@ -151,11 +151,20 @@ fn only_the_sequences_passed_in_are_used() {
             assert!(!held.contains(id), "held-out event {id} used");
         }
     }
-    // Anchors come from training conflict sequences only, inside / before the impact window.
+    // Anchors come from training conflict sequences only, inside / before the impact window, and
+    // never after the endpoint (the fixtures run 0.5 s past it, when a near-crash pair opens).
+    assert!(train.iter().any(|s| s
+        .endpoint()
+        .is_some_and(|e| s.times.iter().any(|&t| t > e + 0.05))));
     for &row in &set.anchors.impact {
         let (_, s, f) = frame_of(&set, row);
         let endpoint = train[s].endpoint().unwrap();
-        assert!((train[s].times[f] - endpoint).abs() <= 0.2 + 1e-9);
+        let t = train[s].times[f];
+        assert!(
+            t <= endpoint + 1e-6,
+            "impact anchor {t} after endpoint {endpoint}"
+        );
+        assert!(endpoint - t <= 0.2 + 1e-9);
     }
     for &row in &set.anchors.upper {
         let (_, s, f) = frame_of(&set, row);
@@ -300,4 +309,48 @@ fn build_statistics_report_rates() {
     for (source, s) in &set.stats.per_source {
         assert!(s.built <= s.requested, "{source:?}");
     }
+}
+
+/// Cross-sequence pairs with `closest_fraction = 1` always use the safe sequence's closest approach
+/// (smallest box gap per scorer-core); with 0, uniform frames (and the closest one only by chance).
+#[test]
+fn cross_sequence_safe_frames_at_closest_approach() {
+    let mut seqs = dataset();
+    // Make each safe sequence close in and open again, so its closest approach is one inner frame.
+    for s in seqs.iter_mut().filter(|s| !s.is_conflict()) {
+        let n = s.times.len();
+        for (k, p) in s.partner.iter_mut().enumerate() {
+            p.x -= 20.0 * (1.0 - (k as f32 - n as f32 / 2.0).abs() / (n as f32 / 2.0));
+        }
+    }
+    let closest = |s: &TrainingSequence| {
+        (0..s.len())
+            .min_by(|&a, &b| {
+                scorer_core::box_distance(&s.ego[a], &s.partner[a])
+                    .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
+            })
+            .unwrap()
+    };
+    let at_closest = |fraction: f64| {
+        let mut c = small_config();
+        c.cross_sequence.closest_fraction = fraction;
+        let set = comparisons::build(&seqs, None, &c, 5);
+        let cross: Vec<_> = set
+            .pairs
+            .iter()
+            .filter(|p| p.source == Source::CrossSequence)
+            .collect();
+        assert!(!cross.is_empty());
+        let hits = cross
+            .iter()
+            .filter(|p| {
+                let (_, s, f) = frame_of(&set, p.loser);
+                assert!(!seqs[s].is_conflict());
+                f == closest(&seqs[s])
+            })
+            .count();
+        hits as f64 / cross.len() as f64
+    };
+    assert_eq!(at_closest(1.0), 1.0);
+    assert!(at_closest(0.0) < 0.2);
 }

@@ -14,10 +14,63 @@ fn tiny_config() -> TrainConfig {
     c
 }
 
+/// A small "real recordings" folder: calm following in three scenario files, named the way
+/// `riskctl import commonroad` names its events.
+fn write_real(dir: &std::path::Path) {
+    use host_tools::events::{Dims, Event, EventKind, EventWriter, Frame};
+    let mut w = EventWriter::create(dir).unwrap();
+    for sc in 0..3 {
+        for k in 0..4 {
+            let v = 10.0 + k as f32;
+            let gap = 8.0 + 3.0 * k as f32;
+            let state = |x: f32| scorer_core::VehicleState {
+                x,
+                vx: v,
+                hx: 1.0,
+                length: 4.5,
+                width: 1.8,
+                ..Default::default()
+            };
+            let frames: Vec<Frame> = (0..30)
+                .map(|i| {
+                    let t = i as f64 * 0.1;
+                    let x = v * t as f32;
+                    Frame {
+                        time: t,
+                        ego: state(x),
+                        sur: state(x + 4.5 + gap),
+                    }
+                })
+                .collect();
+            w.write_event(&Event {
+                id: format!("REC-{sc}/{k}-{}@0#0", 50 + k),
+                kind: EventKind::Safe,
+                t_start: 0.0,
+                t_end: 2.9,
+                t_impact: None,
+                dims: Dims {
+                    length_ego: 4.5,
+                    width_ego: 1.8,
+                    length_sur: 4.5,
+                    width_sur: 1.8,
+                },
+                frames,
+            })
+            .unwrap();
+        }
+    }
+    w.finish().unwrap();
+}
+
 #[test]
 fn tiny_demo_runs_end_to_end_and_writes_everything() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
+    let real = dir.path().join("real");
+    write_real(&real);
+    let mut gssm = host_tools::gssm::GssmConfig::default();
+    gssm.fit.max_epochs = 3;
+    gssm.ssra.max_epochs = 2;
     let opts = DemoOptions {
         out: out.clone(),
         config: tiny_config(),
@@ -26,6 +79,12 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         data: None,
         folds: 3,
         seeds: 1,
+        real: Some(real),
+        transfer: Some(demo::TransferSettings {
+            test_events: 40,
+            ..demo::TransferSettings::default()
+        }),
+        gssm,
         progress: Progress::Hidden,
     };
     let summary = demo::run(&opts).unwrap();
@@ -39,6 +98,11 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "report/curves.csv",
         "report/sequence_maxima.csv",
         "report/training.json",
+        "report/transfer/results.md",
+        "report/transfer/results.json",
+        "report/transfer/folds.csv",
+        "report/transfer/splits.json",
+        "transfer-data/events.csv",
         "models/drl.rsk",
         "models/drl-f32.rsk",
         "models/msra.rsk",
@@ -68,8 +132,11 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         serde_json::from_str(&std::fs::read_to_string(out.join("report/results.json")).unwrap())
             .unwrap();
     assert!(json["methods"].as_array().unwrap().len() >= 6);
-    // The claims are computed from the table, one per (method, baseline, metric).
+    // The claims are computed from the table, one per (method, baseline, metric); the transfer
+    // benchmark adds SSRA >= GSSM on two metrics.
     assert_eq!(summary.claims.len(), 3 * 3 + 3 * 3);
+    assert_eq!(summary.transfer_claims.len(), 3 * 3 + 3 * 3 + 2);
+    assert!(stage_names_of(&summary).contains(&"transfer benchmark"));
     assert!(summary.pairs_per_second > 0.0 && summary.drl_epochs_per_second > 0.0);
     assert!(
         summary.final_agreement.correlation > 0.99,
@@ -87,7 +154,11 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     assert_eq!(export::export(&ck, export::DrlFormat::Int8).unwrap(), blob);
     let msra = std::fs::read(out.join("models/msra.rsk")).unwrap();
     assert!(scorer_core::model::decode(&msra).is_ok());
-    let stage_names: Vec<&str> = summary.stages.iter().map(|(n, _)| n.as_str()).collect();
+    let stage_names = stage_names_of(&summary);
     assert_eq!(stage_names[0], "simulate + load");
     assert!(stage_names.contains(&"cross-validation"));
+}
+
+fn stage_names_of(summary: &demo::DemoSummary) -> Vec<&str> {
+    summary.stages.iter().map(|(n, _)| n.as_str()).collect()
 }

@@ -432,7 +432,8 @@ fn cli_ship_writes_three_decodable_models_on_a_simulated_folder() {
     cli_gssm::run(cli_gssm::Args {
         command: cli_gssm::Command::Ship(cli_gssm::ShipArgs {
             common: cli_gssm::Common {
-                events,
+                events: vec![events],
+                normal: None,
                 config: Some(train_toml),
                 gssm_config: Some(gssm_toml),
                 seed: Some(1),

@@ -313,8 +313,14 @@ fn drl_forward_matches_the_core_float_network() {
     let core = scorer_core::model::decode(&blob).unwrap();
     let set = comparisons::build(&seqs, None, &ComparisonConfig::default().scaled(0.02), 1);
     let float = train::score_table(&model, &set.table).unwrap();
-    for (k, f) in set.table.features.iter().enumerate() {
-        let c = core.score_features(f);
+    for (k, (f, s)) in set
+        .table
+        .features
+        .iter()
+        .zip(&set.table.surrogates)
+        .enumerate()
+    {
+        let c = core.score_observation(f, s);
         assert!(
             (c - float[k]).abs() < 1e-4 * (1.0 + c.abs()),
             "{c} vs {}",

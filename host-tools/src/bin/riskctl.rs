@@ -38,6 +38,9 @@ enum Command {
     EventsToCandump(cli::events_to_candump::Args),
     /// The main job: simulate, train under 5-fold CV, evaluate, quantise, export, plot.
     Demo(cli::demo::Args),
+    /// Benchmarks on data the models were not trained on: `transfer` (another simulator seed and
+    /// mix, real recordings held out by scenario file).
+    Benchmark(cli::benchmark::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -53,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::Gssm(a) => cli::gssm::run(a),
         Command::EventsToCandump(a) => cli::events_to_candump::run(a),
         Command::Demo(a) => cli::demo::run(a),
+        Command::Benchmark(a) => cli::benchmark::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,16 +2,20 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::demo::{self, DemoOptions};
+use host_tools::demo::{self, DemoOptions, TransferSettings};
+use host_tools::sim::Mix;
 use host_tools::train::{Progress, TrainConfig};
 
-/// Simulate the default data set, train DRL and MSRA under 5-fold event-level cross-validation,
-/// print the results table against TTC2D, TAdv and EI, quantise and export the final models, and
-/// write plots.
+/// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
+/// (data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the
+/// results table against TTC2D, TAdv and EI, run the transfer benchmark (train on this simulator
+/// seed + part of the real scenario files, test on another seed and event mix + the held-out real
+/// files), quantise and export the final models, and write plots.
 ///
-/// Everything goes under --out (default ./out): data/ (the simulated events), report/
-/// (results.md/csv/json, folds.csv, curves.csv, training.json), models/ (drl.rsk, drl-f32.rsk,
-/// msra.rsk and their JSON checkpoints), plots/ (ROC, PR, risk trajectories as SVG and PNG).
+/// Everything goes under --out (default ./out): data/ (the simulated events), transfer-data/ (the
+/// transfer test simulation), report/ (results.md/csv/json, folds.csv, curves.csv, training.json,
+/// transfer/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
+/// risk trajectories as SVG and PNG).
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Output folder.
@@ -38,6 +42,22 @@ pub struct Args {
     /// Cross-validation repetitions with seeds seed, seed+1, ... (fold assignment and training).
     #[arg(long, default_value_t = 3)]
     pub seeds: usize,
+    /// Real normal-driving event folder added to training (safe sequences) and used by the transfer
+    /// benchmark; default: the committed extract data/ngsim-us101-safe when it is found.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_real")]
+    pub real: Option<PathBuf>,
+    /// Simulation only: no real recordings (and no transfer benchmark).
+    #[arg(long)]
+    pub no_real: bool,
+    /// Skip the transfer benchmark.
+    #[arg(long)]
+    pub no_transfer: bool,
+    /// Simulator seed of the transfer benchmark's test folder.
+    #[arg(long, default_value_t = TransferSettings::default().test_seed)]
+    pub transfer_seed: u64,
+    /// Event mix crash,near_crash,safe of the transfer benchmark's test folder.
+    #[arg(long, value_name = "C,N,S", default_value = "100,60,150")]
+    pub transfer_mix: Mix,
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
@@ -59,6 +79,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         data: args.data,
         folds: args.folds,
         seeds: args.seeds,
+        real: if args.no_real {
+            None
+        } else {
+            match args.real {
+                Some(dir) => Some(dir),
+                None => host_tools::demo::default_real_data(),
+            }
+        },
+        transfer: (!args.no_transfer).then(|| TransferSettings {
+            test_seed: args.transfer_seed,
+            test_mix: args.transfer_mix,
+            ..TransferSettings::default()
+        }),
+        gssm: host_tools::gssm::GssmConfig::default(),
         progress: if args.quiet {
             Progress::Hidden
         } else {

@@ -4,7 +4,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use host_tools::comparisons::from_sequences;
+use host_tools::comparisons::{from_sequences, TrainingSequence};
 use host_tools::events::{load_events, prepare_sequences, PrepareConfig, Sequence};
 use host_tools::export::write_blob;
 use host_tools::gssm::msra::{configuration_name, parse_configuration, row_name as msra_row_name};
@@ -48,9 +48,14 @@ pub enum Command {
 /// Data and configuration shared by the subcommands.
 #[derive(clap::Args, Debug)]
 pub struct Common {
-    /// Event folder (events.csv + frames.csv).
+    /// Event folder (events.csv + frames.csv); repeat to train on several, e.g. simulated
+    /// conflicts plus real safe driving (`--events out/data --events data/ngsim-us101-safe`).
+    #[arg(long, value_name = "DIR", required = true)]
+    pub events: Vec<PathBuf>,
+    /// Real normal-driving event folder: the GSSM is fitted on its safe sequences (a model of
+    /// normal interactions, as the original GSSM). Default: the safe sequences of `--events`.
     #[arg(long, value_name = "DIR")]
-    pub events: PathBuf,
+    pub normal: Option<PathBuf>,
     /// Training configuration TOML (comparisons, objective, optimiser); defaults when absent.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -194,6 +199,26 @@ fn load_configs(
     Ok((train, gssm))
 }
 
+/// Prepared sequences of every folder, concatenated.
+fn load_all(dirs: &[PathBuf]) -> anyhow::Result<Vec<Sequence>> {
+    let mut out = Vec::new();
+    for d in dirs {
+        out.extend(load_sequences(d)?);
+    }
+    Ok(out)
+}
+
+/// The sequences the GSSM is fitted on: `--normal` when given, else the training sequences.
+fn normal_sequences(
+    common: &Common,
+    train: &[TrainingSequence],
+) -> anyhow::Result<Vec<TrainingSequence>> {
+    match &common.normal {
+        Some(dir) => Ok(from_sequences(&load_sequences(dir)?)),
+        None => Ok(train.to_vec()),
+    }
+}
+
 /// Prepared sequences of an event folder; problems are reported on stderr and their events skipped.
 fn load_sequences(dir: &Path) -> anyhow::Result<Vec<Sequence>> {
     let (set, issues) =
@@ -252,9 +277,9 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
-    let seqs = from_sequences(&load_sequences(&a.common.events)?);
+    let seqs = from_sequences(&load_all(&a.common.events)?);
     let g = fit_gssm(
-        &seqs,
+        &normal_sequences(&a.common, &seqs)?,
         cfg.optimiser.validation_fraction,
         cfg.seed,
         &gcfg.fit,
@@ -280,7 +305,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
         a.common.seed,
     )?;
     let gssm = read_gssm(&a.gssm)?;
-    let seqs = from_sequences(&load_sequences(&a.common.events)?);
+    let seqs = from_sequences(&load_all(&a.common.events)?);
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let s = align_ssra(&gssm, &prepared, &cfg, &gcfg.ssra, progress())?;
     println!(
@@ -309,7 +334,7 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
     )?;
     let kinds = parse_configuration(&a.terms).map_err(anyhow::Error::msg)?;
     let gssm = read_gssm(&a.gssm)?;
-    let seqs = from_sequences(&load_sequences(&a.common.events)?);
+    let seqs = from_sequences(&load_all(&a.common.events)?);
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let m = align_msra_gssm(
         &kinds,
@@ -331,9 +356,9 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         a.common.seed,
     )?;
     let kinds = parse_configuration(&gcfg.msra.shipped).map_err(anyhow::Error::msg)?;
-    let seqs = from_sequences(&load_sequences(&a.common.events)?);
+    let seqs = from_sequences(&load_all(&a.common.events)?);
     let g = fit_gssm(
-        &seqs,
+        &normal_sequences(&a.common, &seqs)?,
         cfg.optimiser.validation_fraction,
         cfg.seed,
         &gcfg.fit,
@@ -358,7 +383,8 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
     write(&a.out_dir.join("msra-gssm.rsk"), &msra_blob)?;
     print_weights(&msra_row_name(&kinds), &m.params.weights());
     let summary = serde_json::json!({
-        "events": a.common.events.display().to_string(),
+        "events": a.common.events.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "normal": a.common.normal.as_ref().map(|p| p.display().to_string()),
         "sequences": seqs.len(),
         "seed": cfg.seed,
         "gssm": {"shape": g.params.shape(), "parameters": g.params.parameter_count(),
@@ -393,7 +419,11 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         .iter()
         .map(|c| parse_configuration(c).map_err(anyhow::Error::msg))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let seqs = load_sequences(&a.common.events)?;
+    let seqs = load_all(&a.common.events)?;
+    let normal = match &a.common.normal {
+        Some(dir) => Some(from_sequences(&load_sequences(dir)?)),
+        None => None,
+    };
     let options = CvOptions {
         folds: a.folds.max(2),
         seeds: if a.seeds.is_empty() {
@@ -404,7 +434,7 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         configurations,
         baselines: true,
     };
-    let result = cross_validate(&seqs, &cfg, &gcfg, &options, progress())?;
+    let result = cross_validate(&seqs, normal.as_deref(), &cfg, &gcfg, &options, progress())?;
     if a.json {
         println!(
             "{}",

@@ -1,5 +1,6 @@
 //! One module per `riskctl` subcommand: argument struct (clap) + `run`.
 pub mod ablation;
+pub mod benchmark;
 pub mod demo;
 pub mod evaluate;
 pub mod events_to_candump;

@@ -27,39 +27,17 @@ pub struct Args {
     pub events: usize,
     /// Relative weights crash,near_crash,safe of the mix.
     #[arg(long, value_name = "C,N,S", default_value = "70,110,130")]
-    pub mix: String,
+    pub mix: Mix,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-}
-
-fn parse_mix(s: &str) -> anyhow::Result<Mix> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--mix `{s}`: expected three numbers C,N,S"))?;
-    match v[..] {
-        [crash, near_crash, safe]
-            if v.iter().all(|x| x.is_finite() && *x >= 0.0) && v.iter().sum::<f64>() > 0.0 =>
-        {
-            Ok(Mix {
-                crash,
-                near_crash,
-                safe,
-            })
-        }
-        _ => anyhow::bail!(
-            "--mix `{s}`: expected three non-negative weights C,N,S with a positive sum"
-        ),
-    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = SimConfig {
         seed: args.seed,
         events: args.events,
-        mix: parse_mix(&args.mix)?,
+        mix: args.mix,
         threads: args.threads,
         progress: std::io::stderr().is_terminal(),
         ..SimConfig::default()

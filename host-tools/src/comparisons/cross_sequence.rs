@@ -2,7 +2,10 @@
 //!
 //! Draws a conflict sequence and a safe sequence uniformly over events, then a frame of each
 //! uniformly over time (conflict frames at or before the endpoint, i.e. inside the alert window).
-//! Every pair has weight `a_i = 1`.
+//! With probability `closest_fraction` the safe frame is instead the safe sequence's closest
+//! approach (smallest box gap, by scorer-core): the moment of a safe interaction that looks most
+//! like danger, and the one whose score sets the warning threshold (a sequence warns on its
+//! maximum). Uniform safe frames alone are mostly easy negatives. Every pair has weight `a_i = 1`.
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
@@ -12,6 +15,7 @@ pub(crate) fn build(
     seqs: &[TrainingSequence],
     origin: Origin,
     target: usize,
+    closest_fraction: f64,
     tag: Source,
     tb: &mut TableBuilder,
     rng: &mut ChaCha8Rng,
@@ -30,11 +34,11 @@ pub(crate) fn build(
         .map(|(i, s)| (i, s.frames_up_to_endpoint()))
         .filter(|&(_, n)| n > 0)
         .collect();
-    let safes: Vec<(usize, usize)> = seqs
+    let safes: Vec<(usize, usize, usize)> = seqs
         .iter()
         .enumerate()
         .filter(|(_, s)| !s.is_conflict() && !s.is_empty())
-        .map(|(i, s)| (i, s.len()))
+        .map(|(i, s)| (i, s.len(), closest_approach(s)))
         .collect();
     if conflicts.is_empty() || safes.is_empty() {
         stats.rejected = target;
@@ -43,9 +47,13 @@ pub(crate) fn build(
     let mut pairs = Vec::with_capacity(target);
     for _ in 0..target {
         let (ci, cn) = conflicts[rng.random_range(0..conflicts.len())];
-        let (si, sn) = safes[rng.random_range(0..safes.len())];
+        let (si, sn, closest) = safes[rng.random_range(0..safes.len())];
         let cf = rng.random_range(0..cn);
-        let sf = rng.random_range(0..sn);
+        let sf = if rng.random_bool(closest_fraction.clamp(0.0, 1.0)) {
+            closest
+        } else {
+            rng.random_range(0..sn)
+        };
         let winner = tb.frame(origin, seqs, ci, cf);
         let loser = tb.frame(origin, seqs, si, sf);
         pairs.push(Pair {
@@ -57,4 +65,18 @@ pub(crate) fn build(
     }
     stats.built = pairs.len();
     (pairs, stats)
+}
+
+/// Index of the frame with the smallest box gap (the first on ties; 0 for an empty sequence).
+fn closest_approach(s: &TrainingSequence) -> usize {
+    s.ego
+        .iter()
+        .zip(&s.partner)
+        .map(|(e, p)| scorer_core::box_distance(e, p))
+        .enumerate()
+        .fold(
+            (0, f32::INFINITY),
+            |best, (i, d)| if d < best.1 { (i, d) } else { best },
+        )
+        .0
 }

@@ -291,7 +291,7 @@ impl Default for TemporalConfig {
             pairs: 4000,
             beta: 1.0,
             dmin: 0.3,
-            dmax: 3.0,
+            dmax: 1.5,
         }
     }
 }
@@ -302,6 +302,9 @@ impl Default for TemporalConfig {
 pub struct CrossSequenceConfig {
     pub pairs: usize,
     pub beta: f32,
+    /// Fraction of pairs whose safe frame is the safe sequence's closest approach (smallest box
+    /// gap) instead of a uniform frame.
+    pub closest_fraction: f64,
 }
 
 impl Default for CrossSequenceConfig {
@@ -309,6 +312,7 @@ impl Default for CrossSequenceConfig {
         CrossSequenceConfig {
             pairs: 4000,
             beta: 1.0,
+            closest_fraction: 1.0,
         }
     }
 }
@@ -448,6 +452,12 @@ impl ComparisonConfig {
             return Err(format!(
                 "comparisons.temporal: need 0 < dmin <= dmax, got dmin = {}, dmax = {}",
                 t.dmin, t.dmax
+            ));
+        }
+        let c = self.cross_sequence.closest_fraction;
+        if !(0.0..=1.0).contains(&c) {
+            return Err(format!(
+                "comparisons.cross_sequence.closest_fraction: need 0 <= x <= 1, got {c}"
             ));
         }
         let p = &self.physics;
@@ -596,6 +606,7 @@ pub fn build(
         train,
         Origin::Primary,
         config.cross_sequence.pairs,
+        config.cross_sequence.closest_fraction,
         Source::CrossSequence,
         &mut tb,
         &mut rng,
@@ -645,8 +656,10 @@ pub fn build(
     }
 }
 
-/// Impact-window states (`|t - t_impact| <= tol`) and earlier conflict states (`t < t_impact - tol`)
-/// of the training conflict sequences, each subsampled deterministically to its maximum.
+/// Impact-window states (`t_impact - tol <= t <= t_impact`) and earlier conflict states
+/// (`t < t_impact - tol`) of the training conflict sequences, each subsampled deterministically to
+/// its maximum. Frames after the endpoint are never anchors: a near-crash pair is already opening
+/// there, and pulling such states to `r*` teaches the model that separating is dangerous.
 fn collect_anchors(
     train: &[TrainingSequence],
     config: &AnchorConfig,
@@ -661,9 +674,12 @@ fn collect_anchors(
             continue;
         };
         for (fi, &t) in s.times.iter().enumerate() {
-            if (t - endpoint).abs() <= config.impact_tolerance + 1e-9 {
+            if t > endpoint + crate::events::TIME_EPS {
+                continue;
+            }
+            if endpoint - t <= config.impact_tolerance + 1e-9 {
                 impact.push((si, fi));
-            } else if t < endpoint {
+            } else {
                 upper.push((si, fi));
             }
         }

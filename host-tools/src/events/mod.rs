@@ -22,7 +22,7 @@ pub use folds::{kfold_by_event, Folds, Labelled};
 pub use load::{load_events, EventsError, IssueProblem, LoadIssue};
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_sequences, safe_rules_hold, PrepareConfig,
-    PrepareIssue, Sequence,
+    PrepareIssue, Sequence, TIME_EPS,
 };
 pub use write::{write_events, EventWriter};
 

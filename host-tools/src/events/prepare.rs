@@ -34,8 +34,10 @@ impl Default for PrepareConfig {
     }
 }
 
-/// Slack (s) for comparing sampled times with window bounds.
-const EPS: f64 = 1e-6;
+/// Slack (s) for comparing sampled times with window bounds (the alert window's inclusive end,
+/// the anchor window, the sequence cuts).
+pub const TIME_EPS: f64 = 1e-6;
+const EPS: f64 = TIME_EPS;
 
 /// A prepared sequence: what training and evaluation consume.
 #[derive(Clone, Debug, PartialEq)]

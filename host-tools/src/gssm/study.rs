@@ -84,9 +84,79 @@ fn evaluate_blobs(
     Ok(report.methods)
 }
 
-/// K-fold event-level CV of GSSM (intensity), SSRA and the MSRA configurations, per seed.
+/// What [`train_fold`] trained and how its models scored the test sequences.
+pub struct GssmFold {
+    pub methods: Vec<crate::eval::report::MethodResult>,
+    pub detail: FoldDetail,
+}
+
+/// One fold: fit the GSSM on the safe sequences of `normal` (real normal driving, as the original
+/// GSSM is fitted; the training sequences themselves when `None`), align it to SSRA with the
+/// comparisons of `train`, train the MSRA configurations over it, and score `test` through the
+/// deployed path. `cfg.seed` seeds everything.
+pub fn train_fold(
+    train: &[TrainingSequence],
+    normal: Option<&[TrainingSequence]>,
+    test: &[ObservedSequence],
+    cfg: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &CvOptions,
+    progress: Progress,
+) -> Result<GssmFold, GssmError> {
+    let prepared = train::prepare_comparisons(train, None, cfg);
+    let gssm = fit_gssm(
+        normal.unwrap_or(train),
+        cfg.optimiser.validation_fraction,
+        cfg.seed,
+        &gssm_config.fit,
+        progress,
+    )?;
+    let ssra = align_ssra(&gssm.params, &prepared, cfg, &gssm_config.ssra, progress)?;
+    let mut blobs = vec![
+        (
+            "GSSM".to_string(),
+            gssm.params.gssm_blob(GssmScore::Intensity)?,
+        ),
+        ("SSRA".to_string(), ssra.blob()?),
+    ];
+    let mut msra_weights = Vec::new();
+    for kinds in &options.configurations {
+        let m = align_msra_gssm(
+            kinds,
+            &gssm.params,
+            train,
+            &prepared,
+            cfg,
+            gssm_config.msra.learning_rate,
+            progress,
+        )?;
+        let name = msra_row_name(kinds);
+        msra_weights.push((name.clone(), m.params.weights()));
+        blobs.push((name, m.params.blob()?));
+    }
+    let methods = evaluate_blobs(test, &blobs, options.baselines)?;
+    Ok(GssmFold {
+        methods,
+        detail: FoldDetail {
+            seed: cfg.seed,
+            fold: 0,
+            gssm: gssm.report,
+            ssra_epochs: ssra.report.epochs,
+            ssra_best_epoch: ssra.report.best_epoch,
+            ssra_kept_initial: ssra.kept_initial,
+            ssra_validation_before: ssra.initial_validation.map(|p| p.total),
+            ssra_validation_after: ssra.final_validation.map(|p| p.total),
+            msra: msra_weights,
+        },
+    })
+}
+
+/// K-fold event-level CV of GSSM (intensity), SSRA and the MSRA configurations, per seed. With
+/// `normal`, every fold's GSSM is fitted on those (real, normal-driving) sequences instead of the
+/// fold's own safe sequences.
 pub fn cross_validate(
     seqs: &[Sequence],
+    normal: Option<&[TrainingSequence]>,
     train_config: &TrainConfig,
     gssm_config: &GssmConfig,
     options: &CvOptions,
@@ -101,53 +171,24 @@ pub fn cross_validate(
             let test = observe(&pick(seqs, &folds.test(fold)));
             let mut cfg = train_config.clone();
             cfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
-            let prepared = train::prepare_comparisons(&train_seqs, None, &cfg);
-            let gssm = fit_gssm(
+            let out = train_fold(
                 &train_seqs,
-                cfg.optimiser.validation_fraction,
-                cfg.seed,
-                &gssm_config.fit,
+                normal,
+                &test,
+                &cfg,
+                gssm_config,
+                options,
                 progress,
             )?;
-            let ssra = align_ssra(&gssm.params, &prepared, &cfg, &gssm_config.ssra, progress)?;
-            let mut blobs = vec![
-                (
-                    "GSSM".to_string(),
-                    gssm.params.gssm_blob(GssmScore::Intensity)?,
-                ),
-                ("SSRA".to_string(), ssra.blob()?),
-            ];
-            let mut msra_weights = Vec::new();
-            for kinds in &options.configurations {
-                let m = align_msra_gssm(
-                    kinds,
-                    &gssm.params,
-                    &train_seqs,
-                    &prepared,
-                    &cfg,
-                    gssm_config.msra.learning_rate,
-                    progress,
-                )?;
-                let name = msra_row_name(kinds);
-                msra_weights.push((name.clone(), m.params.weights()));
-                blobs.push((name, m.params.blob()?));
-            }
-            let methods = evaluate_blobs(&test, &blobs, options.baselines)?;
             folds_out.push(FoldResult {
                 seed,
                 fold,
-                methods,
+                methods: out.methods,
             });
             details.push(FoldDetail {
                 seed,
                 fold,
-                gssm: gssm.report,
-                ssra_epochs: ssra.report.epochs,
-                ssra_best_epoch: ssra.report.best_epoch,
-                ssra_kept_initial: ssra.kept_initial,
-                ssra_validation_before: ssra.initial_validation.map(|p| p.total),
-                ssra_validation_after: ssra.final_validation.map(|p| p.total),
-                msra: msra_weights,
+                ..out.detail
             });
         }
     }

@@ -57,6 +57,33 @@ impl Default for Mix {
     }
 }
 
+impl std::str::FromStr for Mix {
+    type Err = String;
+
+    /// `C,N,S`: three non-negative finite weights (crash, near-crash, safe) with a positive sum.
+    fn from_str(s: &str) -> Result<Mix, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|p| p.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("mix `{s}`: expected three numbers C,N,S ({e})"))?;
+        match v[..] {
+            [crash, near_crash, safe]
+                if v.iter().all(|x| x.is_finite() && *x >= 0.0) && v.iter().sum::<f64>() > 0.0 =>
+            {
+                Ok(Mix {
+                    crash,
+                    near_crash,
+                    safe,
+                })
+            }
+            _ => Err(format!(
+                "mix `{s}`: expected three non-negative finite weights C,N,S with a positive sum"
+            )),
+        }
+    }
+}
+
 impl Mix {
     /// Event counts for `n` events (largest remainder; exact for the default 310).
     pub fn counts(&self, n: usize) -> KindCounts {

@@ -25,7 +25,7 @@ impl Default for ObjectiveConfig {
     fn default() -> Self {
         ObjectiveConfig {
             lambda_impact: 0.1,
-            lambda_upper: 0.1,
+            lambda_upper: 0.0,
             r_star: 4.0,
             u: 3.0,
         }

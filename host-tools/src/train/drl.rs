@@ -1,4 +1,5 @@
-//! DRL: the risk score is an MLP over the 13 observation features, standardised with the mean and
+//! DRL: the risk score is an MLP over the core's DRL input encoding (`scorer_core::encoding`: the
+//! 13 inputs derived from the features and the box distance), standardised with the mean and
 //! standard deviation of the training frames.
 //!
 //! Default shape 13-32-16-1 (ReLU hidden layers, linear output): 944 multiply-accumulates, which the
@@ -8,13 +9,13 @@ use candle_core::{Device, Tensor, Var};
 use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use scorer_core::{Features, FEATURE_COUNT};
+use scorer_core::{drl_inputs, drl_inputs_of_pair, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
 use super::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
 
-/// Feature standardisation `z = (x - mean) / std`.
+/// Standardisation of the DRL inputs, `z = (x - mean) / std`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureScaler {
     pub mean: Vec<f32>,
@@ -22,15 +23,15 @@ pub struct FeatureScaler {
 }
 
 impl FeatureScaler {
-    /// Mean and standard deviation of every finite feature over all frames of the sequences
-    /// (features computed by scorer-core). Degenerate features get `std = 1`.
+    /// Mean and standard deviation of every finite DRL input over all frames of the sequences
+    /// (inputs computed by scorer-core). Degenerate inputs get `std = 1`.
     pub fn fit(seqs: &[TrainingSequence]) -> FeatureScaler {
         let mut sum = [0f64; FEATURE_COUNT];
         let mut sq = [0f64; FEATURE_COUNT];
         let mut n = [0usize; FEATURE_COUNT];
         for s in seqs {
             for (e, p) in s.ego.iter().zip(&s.partner) {
-                let f = scorer_core::features(e, p);
+                let f = drl_inputs_of_pair(e, p);
                 for k in 0..FEATURE_COUNT {
                     if f[k].is_finite() {
                         sum[k] += f[k] as f64;
@@ -64,8 +65,8 @@ impl FeatureScaler {
         -self.mean[k] / self.std[k]
     }
 
-    /// Standardised features, through the core's own `standardise` (NaN maps to the mean, 0).
-    pub fn apply(&self, f: &Features) -> [f32; FEATURE_COUNT] {
+    /// Standardised inputs, through the core's own `standardise` (NaN maps to the mean, 0).
+    pub fn apply(&self, f: &DrlInputs) -> [f32; FEATURE_COUNT] {
         let mut z = [0f32; FEATURE_COUNT];
         for k in 0..FEATURE_COUNT {
             z[k] = scorer_core::mlp::standardise(f[k], self.scale(k), self.offset(k));
@@ -179,8 +180,8 @@ impl RiskModel for Drl {
 
     fn encode(&self, table: &ObservationTable) -> Vec<f32> {
         let mut rows = Vec::with_capacity(table.len() * FEATURE_COUNT);
-        for f in &table.features {
-            rows.extend_from_slice(&self.scaler.apply(f));
+        for (f, s) in table.features.iter().zip(&table.surrogates) {
+            rows.extend_from_slice(&self.scaler.apply(&drl_inputs(f, s.box_distance)));
         }
         rows
     }

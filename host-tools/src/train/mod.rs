@@ -482,11 +482,11 @@ pub struct TrainedMsra {
     pub report: TrainReport,
 }
 
-/// Features of the frames of `seqs`, evenly strided down to at most `max` observations.
+/// DRL inputs of the frames of `seqs`, evenly strided down to at most `max` observations.
 pub fn calibration_observations(
     seqs: &[TrainingSequence],
     max: usize,
-) -> Vec<scorer_core::Features> {
+) -> Vec<scorer_core::DrlInputs> {
     let total: usize = seqs.iter().map(|s| s.len()).sum();
     let stride = total.div_ceil(max.max(1)).max(1);
     let mut out = Vec::with_capacity(total / stride + 1);
@@ -494,7 +494,7 @@ pub fn calibration_observations(
     for s in seqs {
         for (e, p) in s.ego.iter().zip(&s.partner) {
             if i.is_multiple_of(stride) {
-                out.push(scorer_core::features(e, p));
+                out.push(scorer_core::drl_inputs_of_pair(e, p));
             }
             i += 1;
         }
