@@ -10,6 +10,7 @@
 //! - [`quantize`]: post-training int8 quantisation through the core's requantisation.
 //! - [`export`]: writing and inspecting model blobs.
 //! - [`gssm`]: GSSM, SSRA and MSRA over GSSM (fit, align, combine, studies).
+//! - [`import`]: recorded data from other formats (CommonRoad scenarios) as event folders.
 //! - [`candump_export`]: event tables as 10 Hz vehicle CAN traffic in candump format.
 //! - [`demo`]: the end-to-end main job.
 pub mod candump_export;
@@ -19,6 +20,7 @@ pub mod eval;
 pub mod events;
 pub mod export;
 pub mod gssm;
+pub mod import;
 pub mod quantize;
 pub mod sim;
 pub mod ssm_csv;

@@ -34,6 +34,8 @@ enum Command {
     InspectModel(cli::inspect_model::Args),
     /// GSSM, SSRA and MSRA over GSSM: fit, align, msra, ship, cv, augmentation.
     Gssm(cli::gssm::Args),
+    /// Import recorded data (CommonRoad scenarios) as an event folder of real safe interactions.
+    Import(cli::import::Args),
     /// Encode an event folder as 10 Hz vehicle CAN traffic in candump -L format.
     EventsToCandump(cli::events_to_candump::Args),
     /// The main job: simulate, train under 5-fold CV, evaluate, quantise, export, plot.
@@ -54,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::ExportModel(a) => cli::export_model::run(a),
         Command::InspectModel(a) => cli::inspect_model::run(a),
         Command::Gssm(a) => cli::gssm::run(a),
+        Command::Import(a) => cli::import::run(a),
         Command::EventsToCandump(a) => cli::events_to_candump::run(a),
         Command::Demo(a) => cli::demo::run(a),
         Command::Benchmark(a) => cli::benchmark::run(a),

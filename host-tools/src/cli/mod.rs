@@ -6,6 +6,7 @@ pub mod evaluate;
 pub mod events_to_candump;
 pub mod export_model;
 pub mod gssm;
+pub mod import;
 pub mod inspect_model;
 pub mod simulate;
 pub mod ssm;

@@ -15,6 +15,8 @@ pub struct EventWriter {
     events: csv::Writer<BufWriter<File>>,
     frames: csv::Writer<BufWriter<File>>,
     buf: String,
+    /// Also write the optional `acc_sur` column (partner acceleration known from the source).
+    partner_acc: bool,
 }
 
 fn io_err(path: &Path, e: std::io::Error) -> EventsError {
@@ -35,6 +37,17 @@ fn csv_err(path: &Path, e: csv::Error) -> EventsError {
 impl EventWriter {
     /// Creates `dir` (and parents) and both files with their headers, replacing existing files.
     pub fn create(dir: &Path) -> Result<Self, EventsError> {
+        Self::open(dir, false)
+    }
+
+    /// Like [`EventWriter::create`], but `frames.csv` also gets the optional `acc_sur` column,
+    /// written from `sur.acc`: for sources that record the partner's acceleration, so the loader
+    /// uses it instead of deriving it from the partner's velocity.
+    pub fn create_with_partner_acceleration(dir: &Path) -> Result<Self, EventsError> {
+        Self::open(dir, true)
+    }
+
+    fn open(dir: &Path, partner_acc: bool) -> Result<Self, EventsError> {
         std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
         let open = |name: &str| -> Result<csv::Writer<BufWriter<File>>, EventsError> {
             let path = dir.join(name);
@@ -49,19 +62,22 @@ impl EventWriter {
         events
             .write_record(EVENT_COLUMNS)
             .map_err(|e| csv_err(&dir.join(EVENTS_FILE), e))?;
+        let extra: &[&str] = if partner_acc { &["acc_sur"] } else { &[] };
         frames
-            .write_record(FRAME_COLUMNS)
+            .write_record(FRAME_COLUMNS.iter().chain(extra))
             .map_err(|e| csv_err(&dir.join(FRAMES_FILE), e))?;
         Ok(Self {
             dir: dir.to_path_buf(),
             events,
             frames,
             buf: String::new(),
+            partner_acc,
         })
     }
 
     /// Appends one event (its `events.csv` row and all its frames). The partner acceleration
-    /// (`sur.acc`) is not part of the format and is not written.
+    /// (`sur.acc`) is written only by a writer made with
+    /// [`EventWriter::create_with_partner_acceleration`].
     pub fn write_event(&mut self, ev: &Event) -> Result<(), EventsError> {
         let ep = self.dir.join(EVENTS_FILE);
         let fp = self.dir.join(FRAMES_FILE);
@@ -92,6 +108,11 @@ impl EventWriter {
             ] {
                 self.buf.clear();
                 let _ = write!(self.buf, "{v}");
+                w.write_field(&self.buf).map_err(|e| csv_err(&fp, e))?;
+            }
+            if self.partner_acc {
+                self.buf.clear();
+                let _ = write!(self.buf, "{}", s.acc);
                 w.write_field(&self.buf).map_err(|e| csv_err(&fp, e))?;
             }
             w.write_record(None::<&[u8]>).map_err(|e| csv_err(&fp, e))?;

@@ -1,0 +1,184 @@
+//! `riskctl import`: recorded data in other formats to event folders.
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use host_tools::events::PrepareConfig;
+use host_tools::import::commonroad::{import_to_dir, EgoChoice, ImportSummary, InteractionRules};
+
+/// Import recorded data as an event folder.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(clap::Subcommand, Debug)]
+pub enum Command {
+    /// Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
+    Commonroad(CommonRoadArgs),
+}
+
+const ABOUT_COMMONROAD: &str = "\
+Rules (docs/real-data.md):
+  Road users: <dynamicObstacle> (2020a) or 2018b <obstacle> with <role>dynamic</role>, of a vehicle
+  type (car, truck, bus, taxi, priorityVehicle, motorcycle, bicycle) with one <rectangle> shape and
+  a recorded <trajectory>. Static, environment and phantom obstacles, other types, other shapes,
+  planning problems and the road network are ignored (counted in the summary).
+  Conversion: time = step x timeStepSize; box centre = position; heading = (cos, sin) of
+  orientation; (vx, vy) = velocity x heading; acc_ego / acc_sur = recorded acceleration (derived
+  from the velocity when absent); box size from the rectangle.
+  Near: both recorded at a step, boxes not overlapping (an overlap is a recording artefact: that
+  step is dropped and the interaction split there), box gap <= --max-gap and lateral centre
+  offset across either heading <= --max-lateral. An interaction is a run of consecutive near
+  steps; its ego is chosen by --ego. Each interaction is cut by the safe-sequence rules (both
+  |acc| <= --max-acc, pieces of --min-duration to --max-duration s) into `safe` events with id
+  {scenario}/{ego}-{partner}@{first step}#{piece}; the scenario id (file stem) comes first, so
+  data can be split by scenario file.
+Errors name the file, line, obstacle and element (e.g. `x.xml:812: <dynamicObstacle id=42>
+<state> #3: missing <velocity>`); the malformed road user or file is skipped, the rest written.
+
+Example:
+  riskctl import commonroad --out data/ngsim-us101-safe ../shared/data/ngsim-us101/";
+
+/// Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
+#[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_COMMONROAD)]
+pub struct CommonRoadArgs {
+    /// Output event folder (created; existing event files are replaced).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Scenario files and folders (searched recursively for *.xml).
+    #[arg(value_name = "FILE_OR_DIR", required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Largest gap between the two boxes for a step to count as near (m).
+    #[arg(long, default_value_t = 30.0)]
+    pub max_gap: f32,
+    /// Largest lateral centre offset across either road user's heading (m); 5 = same or
+    /// adjacent lane on 3.7 m lanes.
+    #[arg(long, default_value_t = 5.0)]
+    pub max_lateral: f32,
+    /// Ego of an interaction: `both` (both orders, two mirror-image events: the scorer rates
+    /// every surrounding road user, ahead or behind) or `follower` (only the road user with the
+    /// partner ahead on average; half the data).
+    #[arg(long, default_value = "both", value_parser = ["both", "follower"])]
+    pub ego: String,
+    /// Shortest safe sequence (s).
+    #[arg(long, default_value_t = PrepareConfig::default().safe_min_duration)]
+    pub min_duration: f64,
+    /// Longest safe sequence (s); longer calm stretches are split.
+    #[arg(long, default_value_t = PrepareConfig::default().safe_max_duration)]
+    pub max_duration: f64,
+    /// Largest |longitudinal acceleration| of either road user in a safe sequence (m/s^2).
+    #[arg(long, default_value_t = PrepareConfig::default().safe_max_abs_acc)]
+    pub max_acc: f32,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        Command::Commonroad(a) => commonroad(a),
+    }
+}
+
+fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
+    let positive = |name: &str, v: f64| -> anyhow::Result<()> {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("--{name} must be a positive number, got {v}");
+        }
+        Ok(())
+    };
+    positive("max-gap", f64::from(a.max_gap))?;
+    positive("max-lateral", f64::from(a.max_lateral))?;
+    positive("min-duration", a.min_duration)?;
+    positive("max-duration", a.max_duration)?;
+    positive("max-acc", f64::from(a.max_acc))?;
+    if a.max_duration < a.min_duration {
+        bail!(
+            "--max-duration {} is below --min-duration {}",
+            a.max_duration,
+            a.min_duration
+        );
+    }
+    let rules = InteractionRules {
+        max_gap: a.max_gap,
+        max_lateral: a.max_lateral,
+        ego: if a.ego == "both" {
+            EgoChoice::Both
+        } else {
+            EgoChoice::Follower
+        },
+        safe: PrepareConfig {
+            safe_min_duration: a.min_duration,
+            safe_max_duration: a.max_duration,
+            safe_max_abs_acc: a.max_acc,
+            ..PrepareConfig::default()
+        },
+    };
+    let s = import_to_dir(&a.inputs, &a.out, &rules)
+        .with_context(|| format!("importing into {}", a.out.display()))?;
+    for issue in &s.issues {
+        eprintln!("riskctl: skipped: {issue}");
+    }
+    print_summary(&s, &a);
+    if s.files == 0 {
+        bail!("no scenario file could be read");
+    }
+    Ok(())
+}
+
+fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
+    let c = &s.counts;
+    println!(
+        "read {} scenario files, {} road users in {:.1} s",
+        s.files,
+        s.road_users,
+        s.elapsed.as_secs_f64()
+    );
+    let ignored: Vec<String> = s.ignored.iter().map(|(k, v)| format!("{v} {k}")).collect();
+    if !ignored.is_empty() {
+        println!("ignored road users: {}", ignored.join(", "));
+    }
+    if !s.issues.is_empty() {
+        println!("skipped (malformed, listed on stderr): {}", s.issues.len());
+    }
+    println!(
+        "pairs recorded together: {}, interacting: {}; interactions: {} ({} frames, ego: {})",
+        c.pairs_overlapping_in_time,
+        c.pairs_interacting,
+        c.interactions,
+        c.interaction_frames,
+        a.ego
+    );
+    println!(
+        "overlapping boxes (recording artefacts) dropped: {} pair-frames",
+        c.overlap_frames
+    );
+    println!(
+        "wrote {} safe sequences with {} frames to {} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length)",
+        c.sequences,
+        c.frames,
+        a.out.display(),
+        a.max_acc,
+        a.min_duration,
+        a.max_duration
+    );
+    for (name, pick) in [("min box gap", 0usize), ("min centre distance", 1)] {
+        let mut v: Vec<f32> = s
+            .closeness
+            .iter()
+            .map(|p| if pick == 0 { p.0 } else { p.1 })
+            .collect();
+        if v.is_empty() {
+            continue;
+        }
+        v.sort_by(f32::total_cmp);
+        let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+        println!(
+            "{name} per sequence (m): min {:.2}, 10% {:.2}, median {:.2}, 90% {:.2}, max {:.2}",
+            q(0.0),
+            q(0.1),
+            q(0.5),
+            q(0.9),
+            q(1.0)
+        );
+    }
+}

@@ -1,0 +1,159 @@
+//! Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
+//!
+//! - [`xml`]: reading a scenario file into the tracks of its road users ([`read_scenario`]).
+//! - [`pairs`]: which pairs interact and the safe sequences their interactions yield
+//!   ([`safe_interactions`], [`InteractionRules`]).
+//! - here: importing files and folders into one event folder ([`import_to_dir`]).
+//!
+//! Rules, conversions and limitations: docs/real-data.md.
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use crate::events::{EventWriter, EventsError};
+
+pub mod pairs;
+pub mod xml;
+
+pub use pairs::{
+    interaction_id, safe_interactions, step_time, vehicle_state, EgoChoice, InteractionRules,
+    PairCounts, SafeInteraction,
+};
+pub use xml::{
+    parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track, TrackState,
+};
+
+/// The scenario id (file stem) an imported event comes from: the part of its id before the
+/// first `/`. `None` for ids without one (not written by this importer).
+///
+/// Use it to split real data by scenario file, never by frame or event.
+pub fn scenario_of_event_id(event_id: &str) -> Option<&str> {
+    event_id
+        .split_once('/')
+        .map(|(s, _)| s)
+        .filter(|s| !s.is_empty())
+}
+
+/// What an import read, skipped and wrote.
+#[derive(Clone, Debug, Default)]
+pub struct ImportSummary {
+    /// Scenario files read (at least partly).
+    pub files: usize,
+    /// Road users imported (tracks).
+    pub road_users: usize,
+    /// Road users not imported on purpose, by reason.
+    pub ignored: BTreeMap<Ignored, usize>,
+    /// Files or road users skipped because something is malformed (file, line, element).
+    pub issues: Vec<Issue>,
+    pub counts: PairCounts,
+    /// Smallest box gap and centre distance of every written event (m), in event order.
+    pub closeness: Vec<(f32, f32)>,
+    pub elapsed: Duration,
+}
+
+/// The scenario files named by `inputs`: files as given, folders searched recursively for
+/// `*.xml`, each folder's entries in name order.
+pub fn scenario_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, EventsError> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), EventsError> {
+        let io = |e| EventsError::Io {
+            path: dir.to_path_buf(),
+            source: e,
+        };
+        let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(io)?
+            .map(|e| e.map(|e| e.path()))
+            .collect::<Result<_, _>>()
+            .map_err(io)?;
+        entries.sort();
+        for p in entries {
+            if p.is_dir() {
+                walk(&p, out)?;
+            } else if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
+                out.push(p);
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    for p in inputs {
+        if p.is_dir() {
+            walk(p, &mut out)?;
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+/// Imports every scenario of `inputs` (files or folders) into the event folder `out`.
+///
+/// Every interaction's safe sequences become `safe` events (with the partner's recorded
+/// acceleration in `acc_sur`). Problems in a file skip that file or road user and are listed in
+/// [`ImportSummary::issues`]; everything valid is still written. Two inputs with the same file
+/// stem would give clashing event ids: the second is skipped with an issue. Errors only when the
+/// output cannot be written or a folder cannot be listed.
+pub fn import_to_dir(
+    inputs: &[PathBuf],
+    out: &Path,
+    rules: &InteractionRules,
+) -> Result<ImportSummary, EventsError> {
+    let started = Instant::now();
+    let files = scenario_files(inputs)?;
+    let mut writer = EventWriter::create_with_partner_acceleration(out)?;
+    let mut summary = ImportSummary::default();
+    let mut seen: HashMap<String, PathBuf> = HashMap::new();
+    for path in &files {
+        let scenario = match read_scenario(path) {
+            Ok(s) => s,
+            Err(issue) => {
+                summary.issues.push(issue);
+                continue;
+            }
+        };
+        if let Some(first) = seen.get(&scenario.id) {
+            summary.issues.push(Issue {
+                file: path.display().to_string(),
+                line: 1,
+                context: String::new(),
+                problem: Problem::DuplicateScenario {
+                    id: scenario.id.clone(),
+                    first: first.display().to_string(),
+                },
+            });
+            continue;
+        }
+        seen.insert(scenario.id.clone(), path.clone());
+        summary.files += 1;
+        summary.road_users += scenario.tracks.len();
+        for (_, why) in &scenario.ignored {
+            *summary.ignored.entry(why.clone()).or_default() += 1;
+        }
+        summary.issues.extend(scenario.issues.iter().cloned());
+        let (found, counts) = safe_interactions(&scenario, rules);
+        summary.counts.add(&counts);
+        for s in found {
+            writer.write_event(&s.event)?;
+            summary.closeness.push((s.min_gap, s.min_centre_distance));
+        }
+    }
+    writer.finish()?;
+    summary.elapsed = started.elapsed();
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenario_id_is_the_part_before_the_first_slash() {
+        let id = interaction_id("USA_US101-1_1_T-1", "484", "489", 12);
+        assert_eq!(scenario_of_event_id(&id), Some("USA_US101-1_1_T-1"));
+        assert_eq!(
+            scenario_of_event_id(&format!("{id}#0")),
+            Some("USA_US101-1_1_T-1")
+        );
+        assert_eq!(scenario_of_event_id("sim-17"), None);
+        assert_eq!(scenario_of_event_id("/x"), None);
+    }
+}

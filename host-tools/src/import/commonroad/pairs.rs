@@ -1,0 +1,307 @@
+//! Which recorded road users interact, and the safe sequences their interactions yield.
+//!
+//! Rules (docs/real-data.md):
+//! 1. Two road users are *near* at a time step when both are recorded at it, their boxes do not
+//!    overlap (an overlap is a recording artefact, not a crash: that frame is dropped and the
+//!    interaction is split there), the gap between the boxes is at most `max_gap`, and the
+//!    lateral centre offset measured across either one's heading is at most `max_lateral`.
+//! 2. An *interaction* is a maximal run of consecutive time steps (no missing step) on which the
+//!    pair is near.
+//! 3. The ego of an interaction is chosen by [`EgoChoice`]; the other road user is the partner.
+//! 4. Each interaction is cut with [`cut_safe_sequences`] (the library's safe-sequence rules:
+//!    both |acc| <= `safe_max_abs_acc`, pieces of `safe_min_duration` to `safe_max_duration`).
+use scorer_core::geometry::{box_distance, boxes_overlap};
+use scorer_core::VehicleState;
+
+use super::xml::{Scenario, Track, TrackState};
+use crate::events::{cut_safe_sequences, Dims, Event, EventKind, Frame, PrepareConfig};
+
+/// Who is the ego of an interaction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EgoChoice {
+    /// The road user behind: the partner's centre lies ahead along the ego's heading, averaged
+    /// over the interaction (a forward-warning system's view of its leader, cut-in or merging
+    /// neighbour). One event per interaction.
+    Follower,
+    /// Both orders: two events per interaction, mirror images of each other.
+    Both,
+}
+
+impl EgoChoice {
+    /// The CLI spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EgoChoice::Follower => "follower",
+            EgoChoice::Both => "both",
+        }
+    }
+}
+
+/// The interaction rules; [`Default`] gives the documented defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InteractionRules {
+    /// Largest gap between the two boxes (m); default 30.
+    pub max_gap: f32,
+    /// Largest lateral offset of the centres across either heading (m); default 5 (same or
+    /// adjacent lane on a freeway with 3.7 m lanes).
+    pub max_lateral: f32,
+    /// Default [`EgoChoice::Both`]: the scorer rates every surrounding road user, so the
+    /// partner-behind view is as real an observation as the follower's.
+    pub ego: EgoChoice,
+    /// The safe-sequence rules (`safe_min_duration`, `safe_max_duration`, `safe_max_abs_acc`).
+    pub safe: PrepareConfig,
+}
+
+impl Default for InteractionRules {
+    fn default() -> Self {
+        Self {
+            max_gap: 30.0,
+            max_lateral: 5.0,
+            ego: EgoChoice::Both,
+            safe: PrepareConfig::default(),
+        }
+    }
+}
+
+/// Counts of one scenario's (or a whole import's) pair extraction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PairCounts {
+    /// Pairs of imported road users recorded at a common time step.
+    pub pairs_overlapping_in_time: usize,
+    /// Pairs with at least one interaction.
+    pub pairs_interacting: usize,
+    /// Interactions (runs of near time steps).
+    pub interactions: usize,
+    /// Time steps (per pair) on which the two boxes overlap: dropped, interaction split there.
+    pub overlap_frames: usize,
+    /// Frames of all interactions, per ego order.
+    pub interaction_frames: usize,
+    /// Safe sequences written, and their frames.
+    pub sequences: usize,
+    pub frames: usize,
+}
+
+impl PairCounts {
+    pub fn add(&mut self, o: &PairCounts) {
+        self.pairs_overlapping_in_time += o.pairs_overlapping_in_time;
+        self.pairs_interacting += o.pairs_interacting;
+        self.interactions += o.interactions;
+        self.overlap_frames += o.overlap_frames;
+        self.interaction_frames += o.interaction_frames;
+        self.sequences += o.sequences;
+        self.frames += o.frames;
+    }
+}
+
+/// A safe event and how close its two road users came.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SafeInteraction {
+    pub event: Event,
+    /// Smallest box gap over the event's frames (m).
+    pub min_gap: f32,
+    /// Smallest centre distance over the event's frames (m).
+    pub min_centre_distance: f32,
+}
+
+/// The event id of a sequence: `{scenario}/{ego}-{partner}@{first step}#{piece}`.
+///
+/// The part before the first `/` is the scenario id (the file stem), so data can be split by
+/// scenario file ([`super::scenario_of_event_id`]).
+pub fn interaction_id(scenario: &str, ego: &str, partner: &str, first_step: i64) -> String {
+    format!("{scenario}/{ego}-{partner}@{first_step}")
+}
+
+/// The road-user state at one recorded state (velocity and heading from the recorded heading).
+pub fn vehicle_state(s: &TrackState, length: f32, width: f32) -> VehicleState {
+    let (sin, cos) = s.orientation.sin_cos();
+    VehicleState {
+        x: s.x as f32,
+        y: s.y as f32,
+        vx: (s.speed * cos) as f32,
+        vy: (s.speed * sin) as f32,
+        hx: cos as f32,
+        hy: sin as f32,
+        acc: s.acc as f32,
+        length,
+        width,
+    }
+}
+
+/// Seconds of a time step: `step x dt`, rounded to 1 us so that e.g. step 30 at 0.1 s is 3 s,
+/// not 3.0000000000000004 (exact, short numbers in `frames.csv`).
+pub fn step_time(step: i64, dt: f64) -> f64 {
+    (step as f64 * dt * 1e6).round() / 1e6
+}
+
+/// Lateral offset of `b`'s centre across `a`'s heading (m).
+fn lateral_offset(a: &VehicleState, b: &VehicleState) -> f32 {
+    ((b.x - a.x) * -a.hy + (b.y - a.y) * a.hx).abs()
+}
+
+/// Offset of `b`'s centre along `a`'s heading (m), positive ahead.
+fn longitudinal_offset(a: &VehicleState, b: &VehicleState) -> f32 {
+    (b.x - a.x) * a.hx + (b.y - a.y) * a.hy
+}
+
+/// The safe interactions of one scenario, in a stable order (tracks in file order, pairs by
+/// first track, interactions in time).
+pub fn safe_interactions(
+    scenario: &Scenario,
+    rules: &InteractionRules,
+) -> (Vec<SafeInteraction>, PairCounts) {
+    let mut out = Vec::new();
+    let mut counts = PairCounts::default();
+    let tracks = &scenario.tracks;
+    for (i, a) in tracks.iter().enumerate() {
+        for b in &tracks[i + 1..] {
+            pair_interactions(scenario, a, b, rules, &mut out, &mut counts);
+        }
+    }
+    (out, counts)
+}
+
+/// One recorded time step of a pair: both states, on the scenario clock.
+struct PairStep {
+    step: i64,
+    a: VehicleState,
+    b: VehicleState,
+}
+
+fn pair_interactions(
+    scenario: &Scenario,
+    a: &Track,
+    b: &Track,
+    rules: &InteractionRules,
+    out: &mut Vec<SafeInteraction>,
+    counts: &mut PairCounts,
+) {
+    let (first, last) = match (
+        a.states.first(),
+        a.states.last(),
+        b.states.first(),
+        b.states.last(),
+    ) {
+        (Some(a0), Some(a1), Some(b0), Some(b1)) => (a0.step.max(b0.step), a1.step.min(b1.step)),
+        _ => return,
+    };
+    if first > last {
+        return;
+    }
+    counts.pairs_overlapping_in_time += 1;
+    let mut run: Vec<PairStep> = Vec::new();
+    let mut interacting = false;
+    let (mut i, mut j) = (0, 0);
+    while i < a.states.len() && j < b.states.len() {
+        let (sa, sb) = (&a.states[i], &b.states[j]);
+        if sa.step < sb.step {
+            i += 1;
+            continue;
+        }
+        if sb.step < sa.step {
+            j += 1;
+            continue;
+        }
+        let (va, vb) = (
+            vehicle_state(sa, a.length, a.width),
+            vehicle_state(sb, b.length, b.width),
+        );
+        let overlap = boxes_overlap(&va, &vb);
+        counts.overlap_frames += usize::from(overlap);
+        let near = !overlap
+            && box_distance(&va, &vb) <= rules.max_gap
+            && lateral_offset(&va, &vb).max(lateral_offset(&vb, &va)) <= rules.max_lateral;
+        let contiguous = run.last().is_none_or(|p| p.step + 1 == sa.step);
+        if !near || !contiguous {
+            interacting |= emit(scenario, a, b, &run, rules, out, counts);
+            run.clear();
+        }
+        if near {
+            run.push(PairStep {
+                step: sa.step,
+                a: va,
+                b: vb,
+            });
+        }
+        i += 1;
+        j += 1;
+    }
+    interacting |= emit(scenario, a, b, &run, rules, out, counts);
+    counts.pairs_interacting += usize::from(interacting);
+}
+
+/// Cuts one interaction (a run of near steps) into safe sequences for the chosen ego order(s).
+/// Returns whether the run was an interaction at all (non-empty).
+fn emit(
+    scenario: &Scenario,
+    a: &Track,
+    b: &Track,
+    run: &[PairStep],
+    rules: &InteractionRules,
+    out: &mut Vec<SafeInteraction>,
+    counts: &mut PairCounts,
+) -> bool {
+    let Some(first) = run.first() else {
+        return false;
+    };
+    counts.interactions += 1;
+    let a_follows = || {
+        let ahead: f64 = run
+            .iter()
+            .map(|p| f64::from(longitudinal_offset(&p.a, &p.b)))
+            .sum();
+        ahead >= 0.0
+    };
+    let orders: &[bool] = match rules.ego {
+        EgoChoice::Both => &[true, false],
+        EgoChoice::Follower if a_follows() => &[true],
+        EgoChoice::Follower => &[false],
+    };
+    for &a_is_ego in orders {
+        let (ego, partner) = if a_is_ego { (a, b) } else { (b, a) };
+        let frames: Vec<Frame> = run
+            .iter()
+            .map(|p| {
+                let (e, s) = if a_is_ego { (p.a, p.b) } else { (p.b, p.a) };
+                Frame {
+                    time: step_time(p.step, scenario.dt),
+                    ego: e,
+                    sur: s,
+                }
+            })
+            .collect();
+        counts.interaction_frames += frames.len();
+        let id = interaction_id(&scenario.id, &ego.id, &partner.id, first.step);
+        for seq in cut_safe_sequences(&id, &frames, &[], &rules.safe) {
+            let (Some(f0), Some(f1)) = (seq.frames.first(), seq.frames.last()) else {
+                continue;
+            };
+            let (t_start, t_end) = (f0.time, f1.time);
+            let (mut min_gap, mut min_centre) = (f32::INFINITY, f32::INFINITY);
+            for f in &seq.frames {
+                min_gap = min_gap.min(box_distance(&f.ego, &f.sur));
+                min_centre = min_centre.min((f.sur.x - f.ego.x).hypot(f.sur.y - f.ego.y));
+            }
+            counts.sequences += 1;
+            counts.frames += seq.frames.len();
+            out.push(SafeInteraction {
+                event: Event {
+                    id: seq.event_id,
+                    kind: EventKind::Safe,
+                    t_start,
+                    t_end,
+                    t_impact: None,
+                    dims: Dims {
+                        length_ego: ego.length,
+                        width_ego: ego.width,
+                        length_sur: partner.length,
+                        width_sur: partner.width,
+                    },
+                    frames: seq.frames,
+                },
+                min_gap,
+                min_centre_distance: min_centre,
+            });
+        }
+    }
+    true
+}

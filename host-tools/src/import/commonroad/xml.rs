@@ -1,0 +1,460 @@
+//! Reading a CommonRoad scenario file (XML) into the recorded tracks of its road users.
+//!
+//! Supported layouts (the element names decide, not the version attribute):
+//! - 2020a (what CommonRoad's own tools still write as XML in their 2023 releases, and the
+//!   NGSIM/highD benchmark files): `<commonRoad timeStepSize=…>` with `<dynamicObstacle id=…>`
+//!   children holding `<type>`, `<shape><rectangle>`, `<initialState>` and `<trajectory><state>…`.
+//! - 2018b: the same states, but obstacles are `<obstacle id=…>` with `<role>dynamic</role>`.
+//!
+//! Ignored (counted, never an error): `<staticObstacle>`, 2018b static obstacles,
+//! `<environmentObstacle>`, `<phantomObstacle>`, `<planningProblem>`, lanelets and traffic rules,
+//! road users of a type that is not a vehicle (pedestrian, train, unknown, …), non-rectangular
+//! shapes and obstacles with an `<occupancySet>` prediction instead of a recorded `<trajectory>`.
+//! A malformed road user is skipped with an [`Issue`] naming the file, line, obstacle id and
+//! element; the rest of the file is still read.
+use std::path::Path;
+
+use roxmltree::{Document, Node};
+
+/// Vehicle types whose tracks are imported (CommonRoad `obstacleTypeDynamic` spelling).
+pub const VEHICLE_TYPES: [&str; 7] = [
+    "car",
+    "truck",
+    "bus",
+    "taxi",
+    "priorityVehicle",
+    "motorcycle",
+    "bicycle",
+];
+
+/// One recorded state of a road user (box centre, SI units, world frame of the scenario).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackState {
+    /// Integer time step; seconds = step x the scenario's `timeStepSize`.
+    pub step: i64,
+    pub x: f64,
+    pub y: f64,
+    /// Heading (rad), counter-clockwise from the x axis.
+    pub orientation: f64,
+    /// Speed along the heading (m/s).
+    pub speed: f64,
+    /// Acceleration along the heading (m/s^2): recorded, or derived when the file has none.
+    pub acc: f64,
+}
+
+/// The recorded trajectory of one road user.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    pub id: String,
+    pub kind: String,
+    pub length: f32,
+    pub width: f32,
+    /// Strictly increasing in `step` (gaps are possible).
+    pub states: Vec<TrackState>,
+}
+
+/// Why a road user of a file is not imported (not an error: recorded on purpose).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Ignored {
+    /// `<staticObstacle>` or 2018b `<role>static</role>`.
+    Static,
+    /// `<environmentObstacle>` / `<phantomObstacle>`.
+    Environment,
+    /// A type outside [`VEHICLE_TYPES`] (the type is kept).
+    Type(String),
+    /// A shape other than one `<rectangle>`.
+    NotRectangle,
+    /// An `<occupancySet>` prediction, not a recorded trajectory.
+    NoTrajectory,
+}
+
+impl std::fmt::Display for Ignored {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Ignored::Static => f.write_str("static obstacle"),
+            Ignored::Environment => f.write_str("environment/phantom obstacle"),
+            Ignored::Type(t) => write!(f, "type `{t}`"),
+            Ignored::NotRectangle => f.write_str("shape is not one rectangle"),
+            Ignored::NoTrajectory => f.write_str("occupancy set, no trajectory"),
+        }
+    }
+}
+
+/// A scenario file's road users.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scenario {
+    /// The file stem: the scenario id used in event ids.
+    pub id: String,
+    /// `commonRoadVersion` attribute (empty when absent).
+    pub version: String,
+    /// `timeStepSize` (s).
+    pub dt: f64,
+    pub tracks: Vec<Track>,
+    /// Road users deliberately not imported, with the reason.
+    pub ignored: Vec<(String, Ignored)>,
+    /// Road users skipped because an element is malformed.
+    pub issues: Vec<Issue>,
+}
+
+/// What is wrong in a file.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Problem {
+    #[error("cannot read the file: {0}")]
+    Io(String),
+    #[error("not well-formed XML: {0}")]
+    Xml(String),
+    #[error("root element is <{0}>, not <commonRoad>")]
+    NotCommonRoad(String),
+    #[error("missing attribute `{0}`")]
+    MissingAttribute(&'static str),
+    #[error("attribute `{attribute}`: `{text}` is not a positive number")]
+    BadAttribute {
+        attribute: &'static str,
+        text: String,
+    },
+    #[error("missing <{0}>")]
+    Missing(&'static str),
+    #[error("`{0}` is not a finite number")]
+    BadNumber(String),
+    #[error("`{0}` is not an integer time step")]
+    BadStep(String),
+    #[error("an interval (intervalStart/intervalEnd) is not a recorded value; need <exact>")]
+    Interval,
+    #[error("must be > 0, got {0}")]
+    NonPositive(f64),
+    #[error("a rectangle shifted or rotated against the state (<center>/<orientation>) is not supported")]
+    OffsetRectangle,
+    #[error("scenario id `{id}` was already imported from {first}; event ids would clash (file skipped)")]
+    DuplicateScenario { id: String, first: String },
+    #[error("time step {step} does not follow step {previous} of the previous state")]
+    StepOrder { step: i64, previous: i64 },
+}
+
+/// A problem, located: `file:line: <dynamicObstacle id=42> <state> #3 <velocity>: missing <exact>`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}:{line}: {context}{problem}")]
+pub struct Issue {
+    /// The file name as given (path).
+    pub file: String,
+    /// 1-based line of the element (1 for file-level problems).
+    pub line: u32,
+    /// Where in the file: the obstacle and the element path, each followed by ": ", or empty.
+    pub context: String,
+    pub problem: Problem,
+}
+
+/// Reads and parses one scenario file. `Err` only when the file as a whole is unusable
+/// (unreadable, not XML, not a CommonRoad scenario, no valid `timeStepSize`).
+pub fn read_scenario(path: &Path) -> Result<Scenario, Issue> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| Issue {
+        file: name.clone(),
+        line: 1,
+        context: String::new(),
+        problem: Problem::Io(e.to_string()),
+    })?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| name.clone());
+    parse_scenario(&text, &name, &stem)
+}
+
+/// Parses scenario XML `text`; `file` names it in issues, `id` becomes [`Scenario::id`].
+pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issue> {
+    let doc = Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        Issue {
+            file: file.to_string(),
+            line: pos.row,
+            context: String::new(),
+            problem: Problem::Xml(e.to_string()),
+        }
+    })?;
+    let root = doc.root_element();
+    let file_issue = |problem| Issue {
+        file: file.to_string(),
+        line: line_of(&doc, root),
+        context: "<commonRoad>: ".into(),
+        problem,
+    };
+    if root.tag_name().name() != "commonRoad" {
+        return Err(Issue {
+            context: String::new(),
+            ..file_issue(Problem::NotCommonRoad(root.tag_name().name().into()))
+        });
+    }
+    let dt_text = root
+        .attribute("timeStepSize")
+        .ok_or_else(|| file_issue(Problem::MissingAttribute("timeStepSize")))?;
+    let dt = dt_text
+        .trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| {
+            file_issue(Problem::BadAttribute {
+                attribute: "timeStepSize",
+                text: dt_text.into(),
+            })
+        })?;
+    let mut scenario = Scenario {
+        id: id.to_string(),
+        version: root.attribute("commonRoadVersion").unwrap_or("").into(),
+        dt,
+        tracks: Vec::new(),
+        ignored: Vec::new(),
+        issues: Vec::new(),
+    };
+    for node in root.children().filter(Node::is_element) {
+        let obstacle_id = node.attribute("id").unwrap_or("?").to_string();
+        match node.tag_name().name() {
+            "dynamicObstacle" => {}
+            "obstacle" => match child_text(node, "role") {
+                Some("dynamic") => {}
+                _ => {
+                    scenario.ignored.push((obstacle_id, Ignored::Static));
+                    continue;
+                }
+            },
+            "staticObstacle" => {
+                scenario.ignored.push((obstacle_id, Ignored::Static));
+                continue;
+            }
+            "environmentObstacle" | "phantomObstacle" => {
+                scenario.ignored.push((obstacle_id, Ignored::Environment));
+                continue;
+            }
+            _ => continue,
+        }
+        let at = Locator {
+            doc: &doc,
+            file,
+            obstacle: format!("<{} id={}> ", node.tag_name().name(), obstacle_id),
+        };
+        match read_obstacle(node, dt, &at) {
+            Ok(Ok(track)) => scenario.tracks.push(track),
+            Ok(Err(why)) => scenario.ignored.push((obstacle_id, why)),
+            Err(issue) => scenario.issues.push(issue),
+        }
+    }
+    Ok(scenario)
+}
+
+/// Builds located issues for one obstacle.
+struct Locator<'a, 'input> {
+    doc: &'a Document<'input>,
+    file: &'a str,
+    obstacle: String,
+}
+
+impl Locator<'_, '_> {
+    fn issue(&self, node: Node, path: &str, problem: Problem) -> Issue {
+        let sep = if path.is_empty() { "" } else { " " };
+        Issue {
+            file: self.file.to_string(),
+            line: line_of(self.doc, node),
+            context: format!("{}{sep}{path}: ", self.obstacle.trim_end()),
+            problem,
+        }
+    }
+}
+
+fn line_of(doc: &Document, node: Node) -> u32 {
+    doc.text_pos_at(node.range().start).row
+}
+
+fn child<'a, 'input>(node: Node<'a, 'input>, name: &str) -> Option<Node<'a, 'input>> {
+    node.children()
+        .find(|c| c.is_element() && c.tag_name().name() == name)
+}
+
+fn child_text<'a>(node: Node<'a, '_>, name: &str) -> Option<&'a str> {
+    child(node, name).and_then(|c| c.text()).map(str::trim)
+}
+
+/// `Ok(Ok(track))`, `Ok(Err(reason))` for a road user not imported on purpose, `Err` for a
+/// malformed one.
+fn read_obstacle(node: Node, dt: f64, at: &Locator) -> Result<Result<Track, Ignored>, Issue> {
+    let kind = child_text(node, "type").unwrap_or("").to_string();
+    if !VEHICLE_TYPES.contains(&kind.as_str()) {
+        return Ok(Err(Ignored::Type(kind)));
+    }
+    let shape =
+        child(node, "shape").ok_or_else(|| at.issue(node, "", Problem::Missing("shape")))?;
+    let shapes: Vec<Node> = shape.children().filter(Node::is_element).collect();
+    let rect = match shapes.as_slice() {
+        [r] if r.tag_name().name() == "rectangle" => *r,
+        _ => return Ok(Err(Ignored::NotRectangle)),
+    };
+    let length = positive(rect, "length", "<shape> <rectangle>", at)?;
+    let width = positive(rect, "width", "<shape> <rectangle>", at)?;
+    let shifted = child(rect, "center").is_some_and(|c| {
+        ["x", "y"]
+            .iter()
+            .any(|k| child_text(c, k).and_then(|t| t.parse::<f64>().ok()) != Some(0.0))
+    }) || child_text(rect, "orientation")
+        .is_some_and(|t| t.parse::<f64>().ok() != Some(0.0));
+    if shifted {
+        return Err(at.issue(rect, "<shape> <rectangle>", Problem::OffsetRectangle));
+    }
+    let Some(trajectory) = child(node, "trajectory") else {
+        if child(node, "occupancySet").is_some() {
+            return Ok(Err(Ignored::NoTrajectory));
+        }
+        return Err(at.issue(node, "", Problem::Missing("trajectory")));
+    };
+    let initial = child(node, "initialState")
+        .ok_or_else(|| at.issue(node, "", Problem::Missing("initialState")))?;
+    let mut states = vec![read_state(initial, "<initialState>", at)?];
+    for (k, s) in trajectory
+        .children()
+        .filter(|c| c.is_element() && c.tag_name().name() == "state")
+        .enumerate()
+    {
+        let path = format!("<state> #{}", k + 1);
+        let st = read_state(s, &path, at)?;
+        let previous = states
+            .last()
+            .map_or(i64::MIN, |p: &(TrackState, bool)| p.0.step);
+        if st.0.step <= previous {
+            return Err(at.issue(
+                s,
+                &path,
+                Problem::StepOrder {
+                    step: st.0.step,
+                    previous,
+                },
+            ));
+        }
+        states.push(st);
+    }
+    derive_missing_acceleration(&mut states, dt);
+    Ok(Ok(Track {
+        id: node.attribute("id").unwrap_or("?").to_string(),
+        kind,
+        length: length as f32,
+        width: width as f32,
+        states: states.into_iter().map(|(s, _)| s).collect(),
+    }))
+}
+
+fn positive(node: Node, name: &'static str, path: &str, at: &Locator) -> Result<f64, Issue> {
+    let c = child(node, name).ok_or_else(|| at.issue(node, path, Problem::Missing(name)))?;
+    let text = c.text().unwrap_or("").trim();
+    let v = text
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            at.issue(
+                c,
+                &format!("{path} <{name}>"),
+                Problem::BadNumber(text.into()),
+            )
+        })?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(at.issue(c, &format!("{path} <{name}>"), Problem::NonPositive(v)))
+    }
+}
+
+/// The `<exact>` text of a value element; `None` when the element is absent.
+fn exact<'a, 'i>(
+    state: Node<'a, 'i>,
+    name: &'static str,
+    path: &str,
+    at: &Locator,
+) -> Result<Option<(Node<'a, 'i>, &'a str)>, Issue> {
+    let Some(el) = child(state, name) else {
+        return Ok(None);
+    };
+    match child(el, "exact") {
+        Some(e) => Ok(Some((e, e.text().unwrap_or("").trim()))),
+        None if child(el, "intervalStart").is_some() => {
+            Err(at.issue(el, &format!("{path} <{name}>"), Problem::Interval))
+        }
+        None => Err(at.issue(el, &format!("{path} <{name}>"), Problem::Missing("exact"))),
+    }
+}
+
+fn number(node: Node, text: &str, path: &str, at: &Locator) -> Result<f64, Issue> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| at.issue(node, path, Problem::BadNumber(text.into())))
+}
+
+/// One state; the flag says whether the acceleration was recorded.
+fn read_state(s: Node, path: &str, at: &Locator) -> Result<(TrackState, bool), Issue> {
+    let point =
+        child(s, "position").ok_or_else(|| at.issue(s, path, Problem::Missing("position")))?;
+    let point = child(point, "point").ok_or_else(|| {
+        at.issue(
+            point,
+            &format!("{path} <position>"),
+            Problem::Missing("point"),
+        )
+    })?;
+    let coord = |k: &'static str| -> Result<f64, Issue> {
+        let p = format!("{path} <position> <point>");
+        let c = child(point, k).ok_or_else(|| at.issue(point, &p, Problem::Missing(k)))?;
+        number(c, c.text().unwrap_or("").trim(), &format!("{p} <{k}>"), at)
+    };
+    let (x, y) = (coord("x")?, coord("y")?);
+    let required = |name: &'static str| -> Result<f64, Issue> {
+        let (node, text) =
+            exact(s, name, path, at)?.ok_or_else(|| at.issue(s, path, Problem::Missing(name)))?;
+        number(node, text, &format!("{path} <{name}> <exact>"), at)
+    };
+    let orientation = required("orientation")?;
+    let speed = required("velocity")?;
+    let (time_node, time_text) =
+        exact(s, "time", path, at)?.ok_or_else(|| at.issue(s, path, Problem::Missing("time")))?;
+    let step = time_text.parse::<i64>().map_err(|_| {
+        at.issue(
+            time_node,
+            &format!("{path} <time> <exact>"),
+            Problem::BadStep(time_text.into()),
+        )
+    })?;
+    let acc = match exact(s, "acceleration", path, at)? {
+        Some((node, text)) => Some(number(
+            node,
+            text,
+            &format!("{path} <acceleration> <exact>"),
+            at,
+        )?),
+        None => None,
+    };
+    Ok((
+        TrackState {
+            step,
+            x,
+            y,
+            orientation,
+            speed,
+            acc: acc.unwrap_or(0.0),
+        },
+        acc.is_some(),
+    ))
+}
+
+/// Fills the acceleration of states recorded without one: the time derivative of the speed,
+/// central differences between the neighbouring states (one-sided at the ends).
+fn derive_missing_acceleration(states: &mut [(TrackState, bool)], dt: f64) {
+    let n = states.len();
+    for i in 0..n {
+        if states[i].1 || n < 2 {
+            continue;
+        }
+        let (a, b) = match i {
+            0 => (0, 1),
+            i if i + 1 == n => (i - 1, i),
+            i => (i - 1, i + 1),
+        };
+        let seconds = (states[b].0.step - states[a].0.step) as f64 * dt;
+        states[i].0.acc = (states[b].0.speed - states[a].0.speed) / seconds;
+    }
+}
