@@ -77,11 +77,10 @@ pub struct TransferResult {
     pub splits: Vec<FoldSplit>,
 }
 
-/// The scenario (recording file) a real sequence came from: the event id up to its first `/`
-/// (the convention of `riskctl import`; a sequence without one is its own scenario).
-pub fn scenario_of(event_id: &str) -> &str {
-    event_id.split_once('/').map_or(event_id, |(s, _)| s)
-}
+/// The scenario (recording file) a real sequence came from: [`crate::events::fold_group`] (the
+/// event id up to its first `/`, as `riskctl import` writes it; an id without one is its own
+/// scenario).
+pub use crate::events::fold_group as scenario_of;
 
 /// Deal the scenario files of `real` into `folds` groups, shuffled by `seed`.
 fn scenario_groups(real: &[Sequence], folds: usize, seed: u64) -> Vec<Vec<String>> {

@@ -643,6 +643,26 @@ fn folds_are_by_event_stratified_and_seeded() {
     let f = kfold_by_event(&seqs, 2, 1);
     assert!(seqs.len() >= 3);
     assert!((1..seqs.len() - 1).all(|i| f.fold_of(i) == f.fold_of(0)));
+    // Events of one recording (`recording/...` ids, as `riskctl import` writes them) share a fold,
+    // whatever the seed; ids without a `/` are their own group.
+    let mut rec_events = Vec::new();
+    for r in 0..6 {
+        for k in 0..4 {
+            rec_events.push(event(&format!("REC{r}/{k}-9@0#{k}"), EventKind::Safe, 2, None, |_| 0.0));
+        }
+    }
+    rec_events.push(event("lone", EventKind::Safe, 2, None, |_| 0.0));
+    for seed in 0..5 {
+        let f = kfold_by_event(&rec_events, 3, seed);
+        for r in 0..6 {
+            let first = f.fold_of(4 * r);
+            assert!((0..4).all(|k| f.fold_of(4 * r + k) == first), "seed {seed}");
+        }
+        let used: std::collections::BTreeSet<usize> = (0..24).map(|i| f.fold_of(i)).collect();
+        assert!(used.len() > 1, "recordings are spread over folds");
+    }
+    assert_eq!(host_tools::events::fold_group("REC1/3-9@0#0"), "REC1");
+    assert_eq!(host_tools::events::fold_group("e7"), "e7");
 }
 
 #[test]

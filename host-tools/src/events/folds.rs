@@ -62,9 +62,29 @@ impl Folds {
     }
 }
 
+/// The recording an event id belongs to: the part before the first `/` (`riskctl import` writes
+/// `{scenario}/{ego}-{partner}@{step}#{n}`). `None` for ids without one (simulated events, most
+/// user data): each such event is its own recording.
+pub fn recording_of_event_id(event_id: &str) -> Option<&str> {
+    event_id
+        .split_once('/')
+        .map(|(s, _)| s)
+        .filter(|s| !s.is_empty())
+}
+
+/// The unit that must never be split across folds: the recording of [`recording_of_event_id`],
+/// else the event itself.
+pub fn fold_group(event_id: &str) -> &str {
+    recording_of_event_id(event_id).unwrap_or(event_id)
+}
+
 /// Splits `items` into `k` folds by event, stratified by kind, deterministic for `seed`.
 ///
-/// Distinct event ids of each kind are shuffled (ChaCha8 seeded with `seed`) and dealt round-robin;
+/// Events of one recording (ids `recording/...`, see [`fold_group`]) always share a fold: the two
+/// ego views of one real interaction, or consecutive pieces of it, are near-duplicates and would
+/// leak between training and test otherwise.
+///
+/// Distinct groups of each kind are shuffled (ChaCha8 seeded with `seed`) and dealt round-robin;
 /// each kind starts dealing where the previous kind stopped, so fold sizes differ by at most one
 /// event overall. An id that appears with several kinds is stratified by its first item's kind.
 /// `k` is clamped to at least 1.
@@ -73,9 +93,10 @@ pub fn kfold_by_event<T: Labelled>(items: &[T], k: usize, seed: u64) -> Folds {
     let mut first_kind: HashMap<&str, EventKind> = HashMap::new();
     let mut ids: [Vec<&str>; 3] = Default::default();
     for it in items {
-        if let std::collections::hash_map::Entry::Vacant(e) = first_kind.entry(it.event_id()) {
+        let group = fold_group(it.event_id());
+        if let std::collections::hash_map::Entry::Vacant(e) = first_kind.entry(group) {
             e.insert(it.kind());
-            ids[kind_index(it.kind())].push(it.event_id());
+            ids[kind_index(it.kind())].push(group);
         }
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -90,7 +111,10 @@ pub fn kfold_by_event<T: Labelled>(items: &[T], k: usize, seed: u64) -> Folds {
     }
     Folds {
         k,
-        fold_of: items.iter().map(|it| fold_of_id[it.event_id()]).collect(),
+        fold_of: items
+            .iter()
+            .map(|it| fold_of_id[fold_group(it.event_id())])
+            .collect(),
     }
 }
 

@@ -18,7 +18,7 @@ mod load;
 mod prepare;
 mod write;
 
-pub use folds::{kfold_by_event, Folds, Labelled};
+pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{load_events, EventsError, IssueProblem, LoadIssue};
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_sequences, safe_rules_hold, PrepareConfig,

@@ -23,16 +23,9 @@ pub use xml::{
     parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track, TrackState,
 };
 
-/// The scenario id (file stem) an imported event comes from: the part of its id before the
-/// first `/`. `None` for ids without one (not written by this importer).
-///
-/// Use it to split real data by scenario file, never by frame or event.
-pub fn scenario_of_event_id(event_id: &str) -> Option<&str> {
-    event_id
-        .split_once('/')
-        .map(|(s, _)| s)
-        .filter(|s| !s.is_empty())
-}
+/// The scenario id (file stem) an imported event comes from (the event-format convention
+/// [`crate::events::recording_of_event_id`]: the part of its id before the first `/`).
+pub use crate::events::recording_of_event_id as scenario_of_event_id;
 
 /// What an import read, skipped and wrote.
 #[derive(Clone, Debug, Default)]
