@@ -290,7 +290,7 @@ fn load_dbcs(paths: &[PathBuf]) -> Result<Database> {
         for m in &one.messages {
             if let Some((name, first)) = origin.get(&m.id) {
                 anyhow::bail!(
-                    "message id {} is defined twice: `{name}` in {} and `{}` in {}",
+                    "message id 0x{} is defined twice: `{name}` in {} and `{}` in {}",
                     m.id,
                     first.display(),
                     m.name,
@@ -302,7 +302,7 @@ fn load_dbcs(paths: &[PathBuf]) -> Result<Database> {
             origin.insert(m.id, (m.name.clone(), p));
         }
         db.merge(one)
-            .map_err(|id| anyhow::anyhow!("message id {id} is defined twice"))?;
+            .map_err(|id| anyhow::anyhow!("message id 0x{id} is defined twice"))?;
     }
     Ok(db)
 }

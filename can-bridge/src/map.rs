@@ -425,7 +425,7 @@ fn unique_message<'a>(
         return Err(field_error(
             field,
             format!(
-                "message `{name}` is defined twice in the DBC files ({} and {}): rename one",
+                "message `{name}` is defined twice in the DBC files (0x{} and 0x{}): rename one",
                 first.id, second.id
             ),
         ));
@@ -521,7 +521,7 @@ fn message_slot<'a>(
 
 fn source(r: &SignalRef, spec: &MessageSpec) -> String {
     format!(
-        "signal `{}` of message `{}` ({})",
+        "signal `{}` of message `{}` (0x{})",
         r.signal, spec.name, spec.id
     )
 }
