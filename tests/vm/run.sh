@@ -108,10 +108,16 @@ check "real radar map: replay, live bridge and monitor exited cleanly (E2E verif
   bash -c "[ \"$(rc radar-replay)\" = 0 ] && [ \"$(rc radar-bridge)\" = 0 ] && [ \"$(rc radar-monitor)\" = 0 ]"
 n_radar=$(wc -l < "$O/radar-offline-warnings.log")
 check "real radar map: the scene warns (offline: $n_radar frames at threshold $RT)" test "$n_radar" -gt 0
-check "real radar map: live warning frames over vcan == offline (payload, counter, CRC)" \
-  cmp -s <(frames_of "$O/radar-offline-warnings.log") <(frames_of "$O/radar-warnings.log")
-check "real radar map: live warning events == offline (incl. the new_object release)" \
-  bash -c "grep -q new_object '$O/radar-offline-events.jsonl' && cmp -s <(sed -e 's/\"t\":[-0-9.e+]*,//' '$O/radar-offline-events.jsonl' | sort) <(sed -e 's/\"t\":[-0-9.e+]*,//' '$O/radar-events.jsonl' | sort)"
+# The cut-in's lateral speed is derived from its motion over 200 ms of *receive* time: live, the
+# replay's timing jitter changes it a little, so scores (and the warning payloads that carry them)
+# are not bit-equal to offline; which tracks warn, when (in frames) and why must be.
+warn_tracks() { awk '{ split($3, a, "#"); print substr(a[2], 5, 2) }' "$1"; }
+events_without_score() { sed -e 's/"t":[-0-9.e+]*,//' -e 's/"score":[-0-9.e+]*,//' "$1"; }
+export -f events_without_score
+check "real radar map: live warning frames over vcan carry the offline tracks in the offline order" \
+  cmp -s <(warn_tracks "$O/radar-offline-warnings.log") <(warn_tracks "$O/radar-warnings.log")
+check "real radar map: live warning events == offline (track, on/off, level, reason incl. new_object)" \
+  bash -c "grep -q new_object '$O/radar-offline-events.jsonl' && cmp -s <(events_without_score '$O/radar-offline-events.jsonl') <(events_without_score '$O/radar-events.jsonl')"
 check "real radar map: start-up report names the derived lateral speed" \
   grep -q "object.vel_y: DERIVED" "$O/radar-bridge.err"
 
