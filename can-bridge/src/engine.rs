@@ -19,9 +19,20 @@
 //! - a track is scored only if the ego motion and the object's position and velocity are at most
 //!   `stale_us` old (else: stale drop); a track not updated for `stale_us` is dropped from the table
 //!   and its warning released, so nothing is ever warned on stale data;
-//! - an object whose valid flag is 0 is not scored and its track is dropped.
+//! - an object whose valid flag is 0 is not scored and its track is dropped (an invalid slot's
+//!   other signals are not even read: empty radar slots often carry out-of-range filler);
+//! - an object whose `new_track` flag is 1 starts a fresh track in its slot: the old object's
+//!   warning is released (`new_object`) and nothing of its state is carried over;
+//! - a required input that has not arrived (ego speed, object position, a mapped velocity) is
+//!   named once with its signal and message, not per frame.
+//!
+//! Object kinematics (bridge logic, documented in docs/can-bridge.md): Cartesian or polar
+//! positions in the sensor frame, rotated and shifted by the sensor mounting into the ego frame;
+//! velocity components the sensor does not send are taken from the track's own motion (position
+//! change over the map's window) or are zero; relative velocities get the ego velocity added.
 use crate::map::{
-    CompiledMap, EgoField, InputMessage, ObjField, VelocityFrame, EGO_FIELDS, OBJ_FIELDS,
+    CompiledMap, EgoField, InputMessage, MissingVelocity, ObjField, PositionKind, VelocityFrame,
+    EGO_FIELDS, OBJ_FIELDS,
 };
 use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind, SignalError};
 use scorer_core::model::Model;
@@ -119,6 +130,10 @@ pub struct Stats {
     pub warning_frames: u64,
     pub tracks_dropped: u64,
     pub table_full: u64,
+    /// Updates not scored because a velocity derived from the track's motion is not yet known.
+    pub motion_pending: u64,
+    /// Slots whose `new_track` flag started a fresh track.
+    pub new_objects: u64,
 }
 
 impl Stats {
@@ -151,6 +166,8 @@ pub enum ReleaseReason {
     Invalid,
     /// The table was full and the track was evicted.
     Evicted,
+    /// The sensor reported a new object in the track's slot.
+    NewObject,
 }
 
 impl ReleaseReason {
@@ -160,6 +177,7 @@ impl ReleaseReason {
             Self::Stale => "stale",
             Self::Invalid => "invalid",
             Self::Evicted => "evicted",
+            Self::NewObject => "new_object",
         }
     }
 }
@@ -195,12 +213,24 @@ struct Stamped {
     t_us: u64,
 }
 
+/// A track's own motion: the position at the start of the current window and the velocity
+/// measured over the last complete window (ego frame, relative to the ego).
+#[derive(Clone, Copy, Debug)]
+struct Motion {
+    anchor_us: u64,
+    anchor: (f64, f64),
+    velocity: Option<(f64, f64)>,
+}
+
 #[derive(Clone, Debug, Default)]
 struct ObjectSlots {
     values: [Option<Stamped>; OBJ_FIELDS],
     last_trigger_us: Option<u64>,
     last_heading: Option<(f32, f32)>,
     last_seen_us: u64,
+    motion: Option<Motion>,
+    /// A missing input of this track has been reported (once, until it arrives).
+    waiting_reported: bool,
 }
 
 /// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
@@ -216,6 +246,8 @@ pub struct Engine<'m> {
     last_cleanup_us: u64,
     /// No track can be stale before this time (skips scanning the table on every update).
     next_expiry_us: u64,
+    /// The missing ego speed has been reported (once, until it arrives).
+    ego_waiting: bool,
     stats: Stats,
 }
 
@@ -249,6 +281,7 @@ impl<'m> Engine<'m> {
             newest_us: None,
             last_cleanup_us: 0,
             next_expiry_us: 0,
+            ego_waiting: false,
             stats: Stats::default(),
         })
     }
@@ -334,6 +367,12 @@ impl<'m> Engine<'m> {
                     });
                 }
                 if let Some(track) = decoded.track {
+                    let new_object = decoded.object[..decoded.n_object]
+                        .iter()
+                        .any(|(f, v)| *f == ObjField::NewTrack && *v != 0.0);
+                    if new_object {
+                        self.restart_track(track, t_us, out);
+                    }
                     let slots = self.objects.entry(track).or_default();
                     slots.last_seen_us = t_us;
                     for (field, value) in decoded.object.iter().take(decoded.n_object) {
@@ -350,6 +389,42 @@ impl<'m> Engine<'m> {
         }
         if t_us.saturating_sub(self.last_cleanup_us) >= 1_000_000 {
             self.tick(t_us, out);
+        }
+    }
+
+    /// A new object in `track`'s slot: release the old object's warning and forget its state.
+    fn restart_track(&mut self, track: u32, t_us: u64, out: &mut impl FnMut(Output)) {
+        self.stats.new_objects += 1;
+        self.end_track(track, t_us, ReleaseReason::NewObject, out);
+        if let Some(o) = self.objects.get_mut(&track) {
+            *o = ObjectSlots::default();
+        }
+    }
+
+    /// Drops `track` from the warning table (releasing its warning for `reason`) and forgets
+    /// the motion and heading it had built up.
+    fn end_track(
+        &mut self,
+        track: u32,
+        t_us: u64,
+        reason: ReleaseReason,
+        out: &mut impl FnMut(Output),
+    ) {
+        if let Some(t) = self.table.get(track) {
+            if t.warning {
+                out(Output::WarningOff {
+                    t_us,
+                    track,
+                    score: t.last_score,
+                    reason,
+                });
+            }
+            self.table.remove(track);
+            self.stats.tracks_dropped += 1;
+        }
+        if let Some(o) = self.objects.get_mut(&track) {
+            o.motion = None;
+            o.last_heading = None;
         }
     }
 
@@ -425,38 +500,112 @@ impl<'m> Engine<'m> {
                 }
                 Some(_) => {
                     self.stats.invalid_objects += 1;
-                    if let Some(t) = self.table.get(track) {
-                        if t.warning {
-                            out(Output::WarningOff {
-                                t_us,
-                                track,
-                                score: t.last_score,
-                                reason: ReleaseReason::Invalid,
-                            });
-                        }
-                        self.table.remove(track);
-                        self.stats.tracks_dropped += 1;
-                    }
+                    self.end_track(track, t_us, ReleaseReason::Invalid, out);
                     return;
                 }
             }
         }
-        let ego_vx = self.fresh(self.ego[EgoField::VelLong as usize], t_us);
-        let kin = [
-            ObjField::PosX,
-            ObjField::PosY,
-            ObjField::VelX,
-            ObjField::VelY,
-        ]
-        .map(|f| self.fresh(obj(f), t_us));
-        let (Some(ego_vx), [Some(px), Some(py), Some(vx), Some(vy)]) = (ego_vx, kin) else {
+        let Some(ego_vx) = self.fresh(self.ego[EgoField::VelLong as usize], t_us) else {
             self.stats.stale_drops += 1;
-            out(Output::Problem {
-                t_us,
-                reason: format!("track {track}: ego motion or object position/velocity missing or stale: not scored"),
-            });
+            if !self.ego_waiting {
+                self.ego_waiting = true;
+                out(Output::Problem {
+                    t_us,
+                    reason: format!(
+                        "waiting for ego.vel_long: {} not received in the last {} ms; no track is scored until it arrives (reported once)",
+                        self.map.ego_source[EgoField::VelLong as usize],
+                        self.config.stale_us / 1000
+                    ),
+                });
+            }
             return;
         };
+        self.ego_waiting = false;
+        let (pos_fields, vel_fields) = match self.map.position {
+            PositionKind::Cartesian => ([ObjField::PosX, ObjField::PosY], ObjField::VelX),
+            PositionKind::Polar => ([ObjField::Range, ObjField::Azimuth], ObjField::RangeRate),
+        };
+        let required = pos_fields
+            .into_iter()
+            .chain([vel_fields, ObjField::VelX, ObjField::VelY])
+            .filter(|f| has[*f as usize]);
+        for f in required {
+            if self.fresh(obj(f), t_us).is_none() {
+                self.stats.stale_drops += 1;
+                let o = self.objects.entry(track).or_default();
+                if !o.waiting_reported {
+                    o.waiting_reported = true;
+                    out(Output::Problem {
+                        t_us,
+                        reason: format!(
+                            "track {track}: waiting for {}: {} not received in the last {} ms; not scored until it arrives (reported once)",
+                            f.name(),
+                            self.map.obj_source[f as usize],
+                            self.config.stale_us / 1000
+                        ),
+                    });
+                }
+                return;
+            }
+        }
+        let stale_us = self.config.stale_us;
+        let value = |f: ObjField| {
+            obj(f)
+                .filter(|s| t_us.saturating_sub(s.t_us) <= stale_us)
+                .map(|s| s.value)
+        };
+        let mount = self.map.mount;
+        // Position and line of sight in the sensor frame.
+        let (p_sensor, line_of_sight) = match self.map.position {
+            PositionKind::Cartesian => (
+                (
+                    value(ObjField::PosX).unwrap_or(0.0),
+                    value(ObjField::PosY).unwrap_or(0.0),
+                ),
+                None,
+            ),
+            PositionKind::Polar => {
+                let r = value(ObjField::Range).unwrap_or(0.0);
+                let az = value(ObjField::Azimuth).unwrap_or(0.0);
+                let (c, s) = (libm::cos(az), libm::sin(az));
+                ((r * c, r * s), Some((c, s)))
+            }
+        };
+        let (px, py) = mount.place(p_sensor);
+        let window = self.map.motion_window_us;
+        let derive = self.map.missing_velocity == Some(MissingVelocity::TrackMotion);
+        let derived = if derive {
+            let o = self.objects.entry(track).or_default();
+            o.waiting_reported = false;
+            update_motion(&mut o.motion, t_us, (px, py), window, stale_us)
+        } else {
+            if let Some(o) = self.objects.get_mut(&track) {
+                o.waiting_reported = false;
+            }
+            None
+        };
+        let complete = has[ObjField::VelX as usize] && has[ObjField::VelY as usize];
+        if derive && !complete && derived.is_none() {
+            self.stats.motion_pending += 1;
+            return;
+        }
+        let d = mount.unrotate(derived.unwrap_or((0.0, 0.0)));
+        let v_sensor = match (line_of_sight, value(ObjField::RangeRate)) {
+            _ if complete => (
+                value(ObjField::VelX).unwrap_or(0.0),
+                value(ObjField::VelY).unwrap_or(0.0),
+            ),
+            (Some((c, s)), Some(rr)) => {
+                // Radial from the sensor, tangential from the track's motion (or zero).
+                let tangential = -d.0 * s + d.1 * c;
+                (rr * c - tangential * s, rr * s + tangential * c)
+            }
+            _ => (
+                value(ObjField::VelX).unwrap_or(d.0),
+                value(ObjField::VelY).unwrap_or(d.1),
+            ),
+        };
+        let (vx, vy) = mount.rotate(v_sensor);
         let ego_opt = |f: EgoField, default: f64| -> f64 {
             self.fresh(self.ego[f as usize], t_us).unwrap_or(default)
         };
@@ -648,10 +797,11 @@ fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded, String> {
             data.len()
         ));
     }
-    let read = |signal: usize| -> Result<Option<f64>, String> {
+    let read = |signal: usize, check_range: bool| -> Result<Option<f64>, String> {
         let s = &spec.signals[signal];
         match spec.value(signal, data) {
             Ok(None) => Ok(None),
+            Ok(Some(v)) if !check_range && v.is_finite() => Ok(Some(v)),
             Ok(Some(v)) => s
                 .check_range(v)
                 .map(Some)
@@ -668,25 +818,66 @@ fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded, String> {
         track: None,
     };
     for slot in &msg.ego {
-        if let Some(v) = read(slot.signal)? {
+        if let Some(v) = read(slot.signal, slot.check_range)? {
             d.ego[d.n_ego] = (slot.field, slot.apply(v));
             d.n_ego += 1;
         }
     }
-    if let Some(id_signal) = msg.track_id {
-        let Some(id) = read(id_signal)? else {
-            return Ok(d);
-        };
-        if !(id >= 0.0 && id <= f64::from(u32::MAX) && id.fract() == 0.0) {
-            return Err(format!("track id {id} is not a non-negative integer"));
+    let track = match (msg.track_id, msg.slot) {
+        (Some(id_signal), _) => {
+            let Some(id) = read(id_signal, true)? else {
+                return Ok(d);
+            };
+            if !(id >= 0.0 && id <= f64::from(u32::MAX) && id.fract() == 0.0) {
+                return Err(format!("track id {id} is not a non-negative integer"));
+            }
+            id as u32
         }
-        d.track = Some(id as u32);
-        for slot in &msg.object {
-            if let Some(v) = read(slot.signal)? {
-                d.object[d.n_object] = (slot.field, slot.apply(v));
-                d.n_object += 1;
+        (None, Some(slot)) => slot,
+        (None, None) => return Ok(d),
+    };
+    d.track = Some(track);
+    for slot in &msg.object {
+        if let Some(v) = read(slot.signal, slot.check_range)? {
+            let v = slot.apply(v);
+            d.object[d.n_object] = (slot.field, v);
+            d.n_object += 1;
+            // An invalid object's other signals are filler: not read, never a decode error.
+            if slot.field == ObjField::Valid && v == 0.0 {
+                break;
             }
         }
     }
     Ok(d)
+}
+
+/// Advances a track's motion window with the position `p` at `t_us`; returns the velocity over
+/// the last complete window. A gap longer than the window plus the staleness limit restarts it.
+fn update_motion(
+    motion: &mut Option<Motion>,
+    t_us: u64,
+    p: (f64, f64),
+    window_us: u64,
+    stale_us: u64,
+) -> Option<(f64, f64)> {
+    let restart = Motion {
+        anchor_us: t_us,
+        anchor: p,
+        velocity: None,
+    };
+    let m = match motion {
+        Some(m) if t_us >= m.anchor_us && t_us - m.anchor_us <= window_us + stale_us => m,
+        _ => {
+            *motion = Some(restart);
+            return None;
+        }
+    };
+    let dt_us = t_us - m.anchor_us;
+    if dt_us >= window_us {
+        let dt = dt_us as f64 / 1e6;
+        m.velocity = Some(((p.0 - m.anchor.0) / dt, (p.1 - m.anchor.1) / dt));
+        m.anchor_us = t_us;
+        m.anchor = p;
+    }
+    m.velocity
 }

@@ -55,11 +55,13 @@ struct ScoringArgs {
     /// built for another feature schema.
     #[arg(long)]
     model: PathBuf,
-    /// DBC file of the bus (default: the project's riskscore.dbc).
+    /// DBC file of the bus; repeat for several (e.g. the radar's, the chassis DBC for the ego
+    /// speed and `builtin:riskscore` for the warning message). An id defined in two files is an
+    /// error. Default: the project's riskscore.dbc (`builtin:riskscore`).
     #[arg(long)]
-    dbc: Option<PathBuf>,
+    dbc: Vec<PathBuf>,
     /// Map file naming the DBC signals of each input (default: the project's map; see
-    /// docs/can-bridge.md for the format).
+    /// docs/can-bridge.md, "Bring your own vehicle").
     #[arg(long)]
     map: Option<PathBuf>,
     /// Warn when the score is >= this (default: 2.0 for DRL = r*/2, half the score range for
@@ -132,9 +134,9 @@ struct MonitorArgs {
     /// Interface to listen on.
     #[arg(long)]
     iface: String,
-    /// DBC file (default: the project's).
+    /// DBC file(s), as for the bridge (default: the project's).
     #[arg(long)]
-    dbc: Option<PathBuf>,
+    dbc: Vec<PathBuf>,
     /// Map file naming the warning message and the trigger message (default: the project's).
     #[arg(long)]
     map: Option<PathBuf>,
@@ -263,15 +265,50 @@ impl From<can_bridge::model_file::ModelFileError> for Failure {
     }
 }
 
-fn load_map(args: &ScoringArgs) -> Result<CompiledMap> {
-    let db = match &args.dbc {
-        Some(p) => {
+/// The project DBC, compiled in, as a `--dbc` argument.
+const BUILTIN_DBC: &str = "builtin:riskscore";
+
+/// Every `--dbc` file as one database; an id defined in two files names both.
+fn load_dbcs(paths: &[PathBuf]) -> Result<Database> {
+    let builtin = [PathBuf::from(BUILTIN_DBC)];
+    let paths = if paths.is_empty() {
+        &builtin[..]
+    } else {
+        paths
+    };
+    let mut db = Database::default();
+    let mut origin: std::collections::HashMap<can_codec::CanId, (String, &PathBuf)> =
+        std::collections::HashMap::new();
+    for p in paths {
+        let one = if p.as_os_str() == BUILTIN_DBC {
+            Database::parse(can_codec::project::PROJECT_DBC).context("project DBC")?
+        } else {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("reading DBC {}", p.display()))?;
             Database::parse(&text).with_context(|| format!("DBC {}", p.display()))?
+        };
+        for m in &one.messages {
+            if let Some((name, first)) = origin.get(&m.id) {
+                anyhow::bail!(
+                    "message id 0x{} is defined twice: `{name}` in {} and `{}` in {}",
+                    m.id,
+                    first.display(),
+                    m.name,
+                    p.display()
+                );
+            }
         }
-        None => Database::parse(can_codec::project::PROJECT_DBC).context("project DBC")?,
-    };
+        for m in &one.messages {
+            origin.insert(m.id, (m.name.clone(), p));
+        }
+        db.merge(one)
+            .map_err(|id| anyhow::anyhow!("message id 0x{id} is defined twice"))?;
+    }
+    Ok(db)
+}
+
+fn load_map(args: &ScoringArgs) -> Result<CompiledMap> {
+    let db = load_dbcs(&args.dbc)?;
     let map = match &args.map {
         Some(p) => {
             let text = std::fs::read_to_string(p)
@@ -286,11 +323,24 @@ fn load_map(args: &ScoringArgs) -> Result<CompiledMap> {
             args.map
                 .as_ref()
                 .map_or("(default)".into(), |p| p.display().to_string()),
-            args.dbc
-                .as_ref()
-                .map_or("(project)".into(), |p| p.display().to_string())
+            if args.dbc.is_empty() {
+                "(project)".to_string()
+            } else {
+                args.dbc
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            }
         )
     })
+}
+
+/// Says where every scorer input comes from and which are derived or defaulted.
+fn print_inputs(map: &CompiledMap) {
+    for line in map.input_report() {
+        eprintln!("can-bridge: input {line}");
+    }
 }
 
 fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig> {
@@ -323,6 +373,7 @@ fn open_events(path: &Option<PathBuf>, all_scores: bool) -> Result<EventWriter> 
 fn run_live(args: LiveArgs) -> Result<(), Failure> {
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
+    print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config).map_err(anyhow::Error::from)?;
     let mut events = open_events(&args.events_out, args.all_scores)?;
@@ -404,10 +455,10 @@ fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
 
 fn summary(s: &can_bridge::Stats) -> String {
     format!(
-        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full",
+        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
         s.frames, s.scored, s.warning_frames, s.decode_errors, s.stale_drops, s.invalid_objects,
         s.reordered, s.duplicates, s.unknown_ids, s.remote_frames, s.error_frames, s.bus_off,
-        s.tracks_dropped, s.table_full
+        s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending
     )
 }
 
@@ -441,6 +492,7 @@ fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
 fn run_score_log(args: ScoreLogArgs) -> Result<()> {
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
+    print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config)?;
     let mut events = open_events(&args.events_out, args.all_scores)?;
@@ -522,6 +574,7 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
 fn run_check(args: CheckArgs) -> Result<()> {
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
+    print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config)?;
     let (set, issues) = host_tools::events::load_events(&args.events)

@@ -159,3 +159,60 @@ fn bad_map_is_refused_naming_the_field() {
         "{stderr}"
     );
 }
+
+#[test]
+fn several_dbc_files_make_one_bus_and_a_doubly_defined_id_names_both_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let maps = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps");
+    let honda = maps.join("dbc/acura_ilx_2016_nidec.dbc");
+    let log = maps.join("scenes/honda_nidec.log");
+    let run = |dbcs: &[&std::path::Path]| {
+        let mut cmd = bridge();
+        cmd.args(["score-log", "--threshold", "1.5", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg("--map")
+            .arg(maps.join("honda_nidec_radar.toml"));
+        for d in dbcs {
+            cmd.arg("--dbc").arg(d);
+        }
+        cmd.output().unwrap()
+    };
+    // The radar's DBC plus the project's (for RISK_WARNING): decodes and warns.
+    let out = run(&[&honda, std::path::Path::new("builtin:riskscore")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("can-bridge: input object.vel_y: DERIVED"),
+        "{stderr}"
+    );
+    assert!(stderr.contains(" 0 decode errors"), "{stderr}");
+    // Without the project DBC the warning message is missing: the map error names it.
+    let out = run(&[&honda]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("warning.message") && stderr.contains("RISK_WARNING"),
+        "{stderr}"
+    );
+    // A second file defining one of the radar's ids: refused, both files named.
+    let clash = tmp.path().join("chassis.dbc");
+    std::fs::write(
+        &clash,
+        "VERSION \"\"\n\nBU_: X\n\nBO_ 768 WHEEL_SPEEDS: 8 X\n SG_ WHEEL_SPEED_FL : 7|15@0+ (0.01,0) [0|250] \"kph\" X\n",
+    )
+    .unwrap();
+    let out = run(&[&honda, &clash, std::path::Path::new("builtin:riskscore")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("defined twice")
+            && stderr.contains("VEHICLE_STATE")
+            && stderr.contains("acura_ilx_2016_nidec.dbc")
+            && stderr.contains("WHEEL_SPEEDS")
+            && stderr.contains("chassis.dbc"),
+        "{stderr}"
+    );
+}

@@ -52,6 +52,21 @@ $B replay --log "$F/faults.log" --iface vcan0 --rate 1 2> "$O/faults-replay.err"
 wait $BR; echo $? > "$O/faults-bridge.rc"
 wait $MON; echo $? > "$O/faults-monitor.rc"
 
+echo "guest: 3b. a real radar's DBC (Honda Nidec track slots) through its map file, live at real time"
+R="--dbc $F/acura_ilx_2016_nidec.dbc --dbc builtin:riskscore --map $F/honda_nidec_radar.toml"
+# shellcheck disable=SC2086
+$B monitor --iface vcan0 $R --out "$O/radar-warnings.log" --idle-exit 3 --strict 2> "$O/radar-monitor.err" &
+MON=$!
+# shellcheck disable=SC2086
+$B live --iface vcan0 --model "$F/model.rsk" $R --threshold "$(cat "$F/radar-threshold.txt")" --min-on-ms 0 \
+   --events-out "$O/radar-events.jsonl" --idle-exit 3 --no-status 2> "$O/radar-bridge.err" &
+BR=$!
+wait_for "$O/radar-monitor.err" "listening" && wait_for "$O/radar-bridge.err" "listening"
+$B replay --log "$F/honda_nidec.log" --iface vcan0 --rate 1 2> "$O/radar-replay.err"
+echo $? > "$O/radar-replay.rc"
+wait $BR; echo $? > "$O/radar-bridge.rc"
+wait $MON; echo $? > "$O/radar-monitor.rc"
+
 echo "guest: 4. the interface disappears under the live bridge"
 $B live --iface vcan0 --model "$F/model.rsk" --no-status > /dev/null 2> "$O/gone.err" &
 BR=$!

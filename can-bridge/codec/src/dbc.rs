@@ -214,6 +214,23 @@ impl Database {
         Ok(Self { messages, by_id })
     }
 
+    /// Adds the messages of `other` (another DBC file of the same bus). `Err(id)`: both define
+    /// `id`; nothing is added then.
+    pub fn merge(&mut self, other: Database) -> Result<(), CanId> {
+        if let Some(m) = other
+            .messages
+            .iter()
+            .find(|m| self.by_id.contains_key(&m.id))
+        {
+            return Err(m.id);
+        }
+        for m in other.messages {
+            self.by_id.insert(m.id, self.messages.len());
+            self.messages.push(m);
+        }
+        Ok(())
+    }
+
     pub fn message_by_id(&self, id: CanId) -> Option<&MessageSpec> {
         self.by_id.get(&id).and_then(|i| self.messages.get(*i))
     }
