@@ -349,6 +349,7 @@ impl CompiledMap {
                 });
             }
         }
+        check_signal_use(&inputs)?;
         let warning = compile_warning(&map.warning, db)?;
         if inputs.iter().any(|m| m.spec.id == warning.spec.id) {
             return Err(MapError::Field {
@@ -382,6 +383,86 @@ impl CompiledMap {
     pub fn input_ids(&self) -> Vec<CanId> {
         self.inputs.iter().map(|m| m.spec.id).collect()
     }
+}
+
+/// Widest signal accepted for a flag field (`valid`, `heading_valid`: 0 = no, else yes); wider
+/// signals are measurements, not flags, and mapping one is a typo.
+pub const MAX_FLAG_BITS: u8 = 8;
+
+/// Refuses a signal that feeds two fields (or a field and the track id), and a flag field mapped
+/// to a float or to a signal wider than [`MAX_FLAG_BITS`].
+fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> {
+    fn ego_name(f: EgoField) -> &'static str {
+        match f {
+            EgoField::VelLong => "ego.vel_long",
+            EgoField::VelLat => "ego.vel_lat",
+            EgoField::Accel => "ego.accel",
+            EgoField::YawRate => "ego.yaw_rate",
+            EgoField::Length => "ego.length",
+            EgoField::Width => "ego.width",
+        }
+    }
+    fn obj_name(f: ObjField) -> &'static str {
+        match f {
+            ObjField::PosX => "object.pos_x",
+            ObjField::PosY => "object.pos_y",
+            ObjField::VelX => "object.vel_x",
+            ObjField::VelY => "object.vel_y",
+            ObjField::Accel => "object.accel",
+            ObjField::Heading => "object.heading",
+            ObjField::HeadingValid => "object.heading_valid",
+            ObjField::Valid => "object.valid",
+            ObjField::Length => "object.length",
+            ObjField::Width => "object.width",
+        }
+    }
+    for msg in inputs {
+        let mut uses: Vec<(usize, String)> = Vec::new();
+        uses.extend(
+            msg.ego
+                .iter()
+                .map(|s| (s.signal, ego_name(s.field).to_string())),
+        );
+        uses.extend(
+            msg.object
+                .iter()
+                .map(|s| (s.signal, obj_name(s.field).to_string())),
+        );
+        if let Some(t) = msg.track_id {
+            uses.push((t, format!("object.track_id.{}", msg.spec.name)));
+        }
+        for (i, (signal, field)) in uses.iter().enumerate() {
+            if let Some((_, first)) = uses[..i].iter().find(|(s, _)| s == signal) {
+                return Err(MapError::Field {
+                    field: field.clone(),
+                    reason: format!(
+                        "signal `{}.{}` already feeds `{first}`; one signal feeds one field",
+                        msg.spec.name, msg.spec.signals[*signal].name
+                    ),
+                });
+            }
+        }
+        for slot in &msg.object {
+            if !matches!(slot.field, ObjField::Valid | ObjField::HeadingValid) {
+                continue;
+            }
+            let s = &msg.spec.signals[slot.signal];
+            let integer = matches!(
+                s.kind,
+                can_codec::ValueKind::Unsigned | can_codec::ValueKind::Signed
+            );
+            if !integer || s.size > MAX_FLAG_BITS {
+                return Err(MapError::Field {
+                    field: obj_name(slot.field).into(),
+                    reason: format!(
+                        "a flag must be an integer signal of at most {MAX_FLAG_BITS} bits; `{}.{}` is a {}-bit {:?} signal",
+                        msg.spec.name, s.name, s.size, s.kind
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 fn compile_warning(w: &WarningMap, db: &Database) -> Result<WarningSlots, MapError> {
