@@ -437,4 +437,40 @@ SIG_VALTYPE_ 2147484160 Speed : 1;
             Err(DbcError::BadMessage { .. })
         ));
     }
+
+    #[test]
+    fn impossible_definitions_are_refused_and_located() {
+        let base = "VERSION \"\"\n\nBU_:\n\nBO_ 256 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|10] \"\" X\n";
+        let cases = [
+            (base.replace("[0|10]", "[10|0]"), 6, "min > max"),
+            (base.replace("BO_ 256", "BO_ 2048"), 5, "standard (11-bit)"),
+            (
+                base.replace("BO_ 256", "BO_ 4294967295"),
+                5,
+                "extended (29-bit)",
+            ),
+            (base.replace(": 8 X", ": 9 X"), 5, "size 9"),
+            (base.replace("SG_ S :", "SG_ S ::"), 6, "DBC syntax"),
+        ];
+        for (text, line, why) in cases {
+            let err = Database::parse(&text).unwrap_err();
+            assert!(err.to_string().contains(why), "{why}: {err}");
+            assert_eq!(
+                SourceLines::scan(&text).line_of(&err),
+                Some(line),
+                "{why}: {err}"
+            );
+        }
+        assert!(Database::parse(&base.replace(": 8 X", ": 64 X")).is_ok());
+    }
+
+    #[test]
+    fn byte_order_mark_and_latin1_comments_are_read() {
+        let mut bytes = b"\xEF\xBB\xBFVERSION \"\"\n\nBU_:\n\nBO_ 256 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|10] \"\" X\n".to_vec();
+        bytes.extend_from_slice(b"\nCM_ SG_ 256 S \"Vitesse du v\xe9hicule\";\n");
+        let text = dbc_text(&bytes);
+        let db = Database::parse(&text).unwrap();
+        assert_eq!(db.messages.len(), 1);
+        assert!(text.contains("v\u{e9}hicule"));
+    }
 }
