@@ -173,14 +173,17 @@ impl LoadIssue {
     }
 }
 
+/// A kind of problem in one file.
+type KindKey = (PathBuf, &'static str);
+
 /// The issues of one load, bounded: the first [`KEPT_PER_KIND`] of each kind per file are kept,
 /// the others counted, so millions of bad rows cost a counter, not memory.
 #[derive(Default)]
 struct Issues {
     kept: Vec<LoadIssue>,
     /// (file, kind) -> (problems not kept, first line not kept).
-    more: Vec<((PathBuf, &'static str), (u64, u64))>,
-    per_kind: HashMap<(PathBuf, &'static str), usize>,
+    more: Vec<(KindKey, (u64, u64))>,
+    per_kind: HashMap<KindKey, usize>,
 }
 
 impl Issues {
