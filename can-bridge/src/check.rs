@@ -13,7 +13,8 @@
 //! and JSON are identical, number for number.
 use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
-use host_tools::candump_export::{ExportOptions, Layout};
+use can_codec::output::AtomicFile;
+use host_tools::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
 use host_tools::eval::scoring::evaluate_scored;
 use host_tools::eval::{EvaluationReport, ScoredFrame, ScoredSequence};
 use host_tools::events::{
@@ -63,24 +64,64 @@ pub enum CheckError {
     Io(#[from] std::io::Error),
     #[error("the log has no frames")]
     EmptyLog,
+    #[error("the bridge scored no track update in the log, so it cannot be matched to the event folder (is this a log written by `riskctl events-to-candump`?)")]
+    NothingScored,
+    #[error("the log and the event folder do not belong together: {0}")]
+    Mismatch(String),
     #[error("evaluation: {0}")]
     Protocol(#[from] host_tools::eval::ProtocolError),
 }
 
-fn first_timestamp(log: &Path) -> Result<Option<u64>, std::io::Error> {
-    use std::io::BufRead;
-    let reader = std::io::BufReader::new(std::fs::File::open(log)?);
-    for line in reader.lines() {
-        if let Ok(rec) = can_codec::parse_line(&line?) {
-            return Ok(Some(rec.timestamp_us));
+/// Scored updates sampled when testing a candidate alignment.
+const ALIGNMENT_SAMPLE: usize = 512;
+/// Scored updates whose timestamps propose candidate alignments.
+const ALIGNMENT_SEEDS: usize = 16;
+/// A traced update whose decoded partner position differs from the event's by more than this
+/// (m; the DBC resolution is 1 mm) does not show the event's content.
+const CONTENT_TOLERANCE_M: f64 = 0.01;
+
+/// The log's time offset: `log time = offset + exporter time from 0`. Found from the content (the
+/// track ids and trigger timestamps of the scored updates), not from the first line, so missing,
+/// corrupt or unrelated frames at the start do not shift the timeline. Returns the offset and how
+/// many of `scored` it traces.
+fn align(
+    scored: &[(u32, u64)],
+    layout: &Layout,
+    index: &HashMap<(u32, u64), (usize, usize)>,
+) -> Option<(u64, usize)> {
+    let step = (scored.len() / ALIGNMENT_SAMPLE).max(1);
+    let sample: Vec<(u32, u64)> = scored.iter().step_by(step).copied().collect();
+    let mut candidates: Vec<u64> = Vec::new();
+    for &(track, t) in scored.iter().take(ALIGNMENT_SEEDS) {
+        for p in layout.placements.iter().filter(|p| p.track_id == track) {
+            for c in &p.cycle_us {
+                if let Some(off) = t.checked_sub(c + TRIGGER_OFFSET_US) {
+                    candidates.push(off);
+                }
+            }
         }
     }
-    Ok(None)
+    candidates.sort_unstable();
+    candidates.dedup();
+    let hits = |off: u64, obs: &[(u32, u64)]| {
+        obs.iter()
+            .filter(|(track, t)| {
+                t.checked_sub(off)
+                    .is_some_and(|rel| index.contains_key(&(*track, rel)))
+            })
+            .count()
+    };
+    let best = candidates
+        .into_iter()
+        .map(|off| (hits(off, &sample), off))
+        .max_by_key(|(n, off)| (*n, std::cmp::Reverse(*off)))?;
+    Some((best.1, hits(best.1, scored)))
 }
 
 /// Runs the bridge over `log` and evaluates it against `set`. `gap_us` must be the exporter's
-/// pause between events; the timeline starts at the log's first frame. `row_name` is the
-/// model's row in the table (`host_tools::eval::scoring::model_row_name`, as `riskctl evaluate`).
+/// pause between events; the log's timeline is aligned on its content ([`align`]). `row_name` is
+/// the model's row in the table (`host_tools::eval::scoring::model_row_name`, as `riskctl
+/// evaluate`). A log that does not trace to the folder is an error, not empty metrics.
 pub fn check(
     log: &Path,
     set: &EventSet,
@@ -88,44 +129,81 @@ pub fn check(
     row_name: &str,
     gap_us: u64,
 ) -> Result<CheckReport, CheckError> {
-    let start_us = first_timestamp(log)?.ok_or(CheckError::EmptyLog)?;
     let layout = Layout::new(
         set,
         &ExportOptions {
             iface: String::new(),
-            start_us,
+            start_us: 0,
             gap_us,
         },
     );
     let index = layout.trigger_index();
+    let mut observations: Vec<crate::engine::Observation> = Vec::new();
+    let mut onsets: Vec<(u32, u64)> = Vec::new();
+    let mut collect = |o: Output| match o {
+        Output::Scored(obs) => observations.push(obs),
+        Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
+        _ => {}
+    };
+    let log_report = for_each_frame(log, |_, rec| {
+        engine.process(rec.timestamp_us, &rec.frame, &mut collect);
+    })?;
+    engine.finish(&mut collect);
+    if log_report.frames == 0 {
+        return Err(CheckError::EmptyLog);
+    }
+    if observations.is_empty() {
+        return Err(CheckError::NothingScored);
+    }
+    let keys: Vec<(u32, u64)> = observations.iter().map(|o| (o.track, o.t_us)).collect();
+    let (offset, traced) = align(&keys, &layout, &index).unwrap_or((0, 0));
+    if traced * 2 < observations.len() {
+        return Err(CheckError::Mismatch(format!(
+            "at best {traced} of the {} scored track updates fall on an event frame of the folder's timeline (gap {} s)",
+            observations.len(),
+            gap_us as f64 / 1e6
+        )));
+    }
+    let trace = |track: u32, t_us: u64| {
+        t_us.checked_sub(offset)
+            .and_then(|rel| index.get(&(track, rel)).copied())
+    };
     // Per event: decoded frames with the bridge's score, first onset time.
     let mut decoded: Vec<Vec<(EventFrame, f32)>> = vec![Vec::new(); set.events.len()];
     let mut onset: Vec<Option<f64>> = vec![None; set.events.len()];
     let mut untraced = 0usize;
-    let log_report = for_each_frame(log, |_, rec| {
-        engine.process(rec.timestamp_us, &rec.frame, &mut |o| match o {
-            Output::Scored(obs) => match index.get(&(obs.track, obs.t_us)) {
-                Some(&(k, i)) => {
-                    let time = set.events[k].frames[i].time;
-                    decoded[k].push((
-                        EventFrame {
-                            time,
-                            ego: obs.ego,
-                            sur: obs.partner,
-                        },
-                        obs.score,
-                    ));
-                }
-                None => untraced += 1,
+    let mut content_mismatch = 0usize;
+    for obs in &observations {
+        let Some((k, i)) = trace(obs.track, obs.t_us) else {
+            untraced += 1;
+            continue;
+        };
+        let frame = &set.events[k].frames[i];
+        let expected = to_ego_frame(frame);
+        if (f64::from(obs.partner.x) - expected.pos_x).abs() > CONTENT_TOLERANCE_M
+            || (f64::from(obs.partner.y) - expected.pos_y).abs() > CONTENT_TOLERANCE_M
+        {
+            content_mismatch += 1;
+        }
+        decoded[k].push((
+            EventFrame {
+                time: frame.time,
+                ego: obs.ego,
+                sur: obs.partner,
             },
-            Output::WarningOn { t_us, track, .. } => {
-                if let Some(&(k, i)) = index.get(&(track, t_us)) {
-                    onset[k].get_or_insert(set.events[k].frames[i].time);
-                }
-            }
-            _ => {}
-        });
-    })?;
+            obs.score,
+        ));
+    }
+    if content_mismatch * 100 > traced {
+        return Err(CheckError::Mismatch(format!(
+            "{content_mismatch} of {traced} scored track updates carry another partner position than their event frame (more than {CONTENT_TOLERANCE_M} m off)"
+        )));
+    }
+    for (track, t_us) in onsets {
+        if let Some((k, i)) = trace(track, t_us) {
+            onset[k].get_or_insert(set.events[k].frames[i].time);
+        }
+    }
 
     let mut verdicts = Vec::with_capacity(set.events.len());
     let mut decoded_events = Vec::new();
@@ -217,7 +295,7 @@ pub fn check(
 /// round-trip form, so reading the folder back gives bit-identical states.
 pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    let mut ev_out = std::io::BufWriter::new(std::fs::File::create(dir.join("events.csv"))?);
+    let mut ev_out = AtomicFile::create(&dir.join(host_tools::events::EVENTS_FILE))?;
     writeln!(ev_out, "{}", host_tools::events::EVENT_COLUMNS.join(","))?;
     for e in &set.events {
         let d = &e.dims;
@@ -235,8 +313,7 @@ pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
             d.width_sur
         )?;
     }
-    ev_out.flush()?;
-    let mut fr_out = std::io::BufWriter::new(std::fs::File::create(dir.join("frames.csv"))?);
+    let mut fr_out = AtomicFile::create(&dir.join(host_tools::events::FRAMES_FILE))?;
     writeln!(
         fr_out,
         "{},acc_sur",
@@ -267,7 +344,9 @@ pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
             )?;
         }
     }
-    fr_out.flush()
+    // Both files or neither: a failure above leaves the folder as it was.
+    ev_out.commit()?;
+    fr_out.commit()
 }
 
 impl CheckReport {

@@ -14,8 +14,10 @@
 //! - unknown ids and remote frames are ignored; error frames are counted (bus-off separately);
 //! - a frame whose length differs from the DBC, or with a non-finite or out-of-DBC-range signal,
 //!   is dropped whole (decode error), the rest of the bus is unaffected;
-//! - a frame older than the newest frame seen is dropped (reordered); a second trigger for a track
-//!   at the same timestamp is dropped (duplicate);
+//! - a frame up to 1 s older than the newest frame seen is dropped (reordered); a frame far off the
+//!   timeline is dropped alone unless the following frames confirm a new log segment
+//!   ([`crate::timeline`]); a second trigger for a track at the same timestamp is dropped
+//!   (duplicate);
 //! - a track is scored only if the ego motion and the object's position and velocity are at most
 //!   `stale_us` old (else: stale drop); a track not updated for `stale_us` is dropped from the table
 //!   and its warning released, so nothing is ever warned on stale data;
@@ -34,6 +36,7 @@ use crate::map::{
     CompiledMap, EgoField, InputMessage, MissingVelocity, ObjField, PositionKind, VelocityFrame,
     EGO_FIELDS, OBJ_FIELDS,
 };
+use crate::timeline::{Action, Timeline};
 use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind, SignalError};
 use scorer_core::model::Model;
 use scorer_core::warning::{TrackTable, WarningConfig, WarningError, WarningEvent};
@@ -124,6 +127,10 @@ pub struct Stats {
     pub stale_drops: u64,
     pub invalid_objects: u64,
     pub reordered: u64,
+    /// Frames dropped because their timestamp was far off the log's timeline (a glitch).
+    pub out_of_window: u64,
+    /// New log segments started (timestamp jumps confirmed by the following frames).
+    pub segments: u64,
     pub duplicates: u64,
     pub error_frames: u64,
     pub bus_off: u64,
@@ -242,7 +249,7 @@ pub struct Engine<'m> {
     ego: [Option<Stamped>; EGO_FIELDS],
     objects: TrackMap<ObjectSlots>,
     protector: E2eProtector,
-    newest_us: Option<u64>,
+    timeline: Timeline,
     last_cleanup_us: u64,
     /// No track can be stale before this time (skips scanning the table on every update).
     next_expiry_us: u64,
@@ -278,7 +285,7 @@ impl<'m> Engine<'m> {
             ego: [None; EGO_FIELDS],
             objects: TrackMap::default(),
             protector,
-            newest_us: None,
+            timeline: Timeline::default(),
             last_cleanup_us: 0,
             next_expiry_us: 0,
             ego_waiting: false,
@@ -303,23 +310,87 @@ impl<'m> Engine<'m> {
         self.table.len()
     }
 
-    /// Processes one frame received at `t_us`.
+    /// Processes one frame received at `t_us` (in timestamp order; see [`crate::timeline`] for
+    /// late frames and jumps).
     pub fn process(&mut self, t_us: u64, frame: &Frame, out: &mut impl FnMut(Output)) {
         self.stats.frames += 1;
-        if let Some(newest) = self.newest_us {
-            if t_us < newest {
+        let step = self.timeline.admit(t_us, frame);
+        if !step.dropped.is_empty() {
+            self.drop_out_of_window(&step.dropped, out);
+        }
+        match step.action {
+            Action::Process => self.process_in_order(t_us, frame, out),
+            Action::Late { newest_us } => {
                 self.stats.reordered += 1;
                 out(Output::Problem {
                     t_us,
                     reason: format!(
-                        "frame {} at {t_us} us is older than the newest frame ({newest} us): dropped",
+                        "frame {} at {t_us} us is older than the newest frame ({newest_us} us): dropped",
                         frame.id
                     ),
                 });
-                return;
+            }
+            Action::Held => {}
+            Action::NewSegment(held) => {
+                self.start_segment(held[0].0, out);
+                for (t, f) in &held {
+                    self.process_in_order(*t, f, out);
+                }
             }
         }
-        self.newest_us = Some(t_us);
+    }
+
+    /// End of input: frames held for a jump that was never confirmed are dropped and counted.
+    pub fn finish(&mut self, out: &mut impl FnMut(Output)) {
+        let held = self.timeline.finish();
+        self.drop_out_of_window(&held, out);
+    }
+
+    #[cold]
+    fn drop_out_of_window(&mut self, dropped: &[(u64, Frame)], out: &mut impl FnMut(Output)) {
+        let newest = self.timeline.newest_us().unwrap_or(0);
+        for (t, f) in dropped {
+            self.stats.out_of_window += 1;
+            out(Output::Problem {
+                t_us: *t,
+                reason: format!(
+                    "frame {} at {t} us is far outside the log's timeline (newest frame {newest} us) and no frame follows it: dropped",
+                    f.id
+                ),
+            });
+        }
+    }
+
+    /// A new log segment from `t_us`: every track is dropped (warnings released as stale) and the
+    /// ego and object data forgotten, because they belong to another time.
+    #[cold]
+    fn start_segment(&mut self, t_us: u64, out: &mut impl FnMut(Output)) {
+        self.stats.segments += 1;
+        for t in self.table.iter() {
+            self.stats.tracks_dropped += 1;
+            if t.warning {
+                out(Output::WarningOff {
+                    t_us,
+                    track: t.id,
+                    score: t.last_score,
+                    reason: ReleaseReason::Stale,
+                });
+            }
+        }
+        self.table.expire(u64::MAX);
+        self.ego = [None; EGO_FIELDS];
+        self.objects.clear();
+        self.last_cleanup_us = t_us;
+        self.next_expiry_us = 0;
+        out(Output::Problem {
+            t_us,
+            reason: format!(
+                "timestamps jump to {t_us} us: a new log segment starts, all tracks dropped"
+            ),
+        });
+    }
+
+    fn process_in_order(&mut self, t_us: u64, frame: &Frame, out: &mut impl FnMut(Output)) {
         match frame.kind {
             FrameKind::Error { class } => {
                 self.stats.error_frames += 1;

@@ -1,5 +1,6 @@
 //! The bridge's human- and machine-readable outputs: JSON Lines warning events and the status line.
 use crate::engine::{Output, Stats};
+use can_codec::output::AtomicFile;
 use std::io::Write;
 
 /// Seconds with microsecond precision, as JSON numbers.
@@ -36,15 +37,52 @@ pub fn json_event(output: &Output, all_scores: bool) -> Option<serde_json::Value
     }
 }
 
+/// Where an output stream goes.
+pub enum Sink {
+    Stdout(std::io::Stdout),
+    /// Offline runs: a file that replaces its destination only when the run succeeds.
+    Atomic(AtomicFile),
+    /// Live runs: a file written as it goes, so a reader can follow it.
+    Streaming(std::io::BufWriter<std::fs::File>),
+}
+
+impl Sink {
+    /// Flushes, and for [`Sink::Atomic`] renames the file into place.
+    pub fn finish(self) -> std::io::Result<()> {
+        match self {
+            Self::Stdout(mut s) => s.flush(),
+            Self::Atomic(f) => f.commit(),
+            Self::Streaming(mut f) => f.flush(),
+        }
+    }
+}
+
+impl Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Self::Stdout(s) => s.write(buf),
+            Self::Atomic(f) => f.write(buf),
+            Self::Streaming(f) => f.write(buf),
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Self::Stdout(s) => s.flush(),
+            Self::Atomic(f) => f.flush(),
+            Self::Streaming(f) => f.flush(),
+        }
+    }
+}
+
 /// Writes JSON Lines events; flushes every line so a reader (or a killed process) loses nothing.
 pub struct EventWriter {
-    out: Box<dyn Write>,
+    out: Sink,
     pub all_scores: bool,
     pub written: u64,
 }
 
 impl EventWriter {
-    pub fn new(out: Box<dyn Write>, all_scores: bool) -> Self {
+    pub fn new(out: Sink, all_scores: bool) -> Self {
         Self {
             out,
             all_scores,
@@ -59,6 +97,11 @@ impl EventWriter {
             self.written += 1;
         }
         Ok(())
+    }
+
+    /// Ends the stream (see [`Sink::finish`]).
+    pub fn finish(self) -> std::io::Result<()> {
+        self.out.finish()
     }
 }
 
@@ -98,7 +141,7 @@ pub fn status_line(now: &Stats, prev: &Stats, elapsed_s: f64, tracks: usize) -> 
         0.0
     };
     format!(
-        "status: {rate:.0} frames/s, {tracks} tracks, {} scored, {} warning frames, {} decode errors, {} stale drops, {} bus errors ({} bus-off), {} unknown ids, {} reordered",
+        "status: {rate:.0} frames/s, {tracks} tracks, {} scored, {} warning frames, {} decode errors, {} stale drops, {} bus errors ({} bus-off), {} unknown ids, {} reordered, {} off the timeline",
         now.scored,
         now.warning_frames,
         now.decode_errors,
@@ -107,5 +150,6 @@ pub fn status_line(now: &Stats, prev: &Stats, elapsed_s: f64, tracks: usize) -> 
         now.bus_off,
         now.unknown_ids,
         now.reordered,
+        now.out_of_window,
     )
 }

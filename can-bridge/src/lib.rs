@@ -2,8 +2,10 @@
 //! on the bus. Live on SocketCAN, or offline from candump logs; both run the same [`engine`].
 //!
 //! - [`map`]: the map file (which DBC signals feed the scorer), compiled against a DBC.
+//! - [`cli_values`]: range and finiteness checks of numeric command-line options.
 //! - [`engine`]: frames in, scored tracks / warning frames / warning events out (no I/O, no clock).
 //! - [`model_file`]: loading and checking a model blob.
+//! - [`timeline`]: late frames, timestamp glitches and new log segments.
 //! - [`logfile`]: reading candump -L logs with line-numbered problems.
 //! - [`events_out`]: JSON Lines warning events and the status line.
 //! - [`check`]: bridge vs offline evaluation on an exported event folder.
@@ -12,6 +14,7 @@
 //! The CAN wire format (DBC signals, candump lines, E2E protection) lives in `can-codec`.
 #[cfg(feature = "check")]
 pub mod check;
+pub mod cli_values;
 pub mod engine;
 pub mod events_out;
 pub mod live;
@@ -21,6 +24,7 @@ pub mod model_file;
 pub mod monitor;
 pub mod replay;
 pub mod socket;
+pub mod timeline;
 
 pub use engine::{Engine, EngineConfig, Output, Stats};
 pub use map::{CompiledMap, MapFile};

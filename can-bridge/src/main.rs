@@ -3,10 +3,11 @@ use anyhow::{Context, Result};
 #[cfg(feature = "check")]
 use can_bridge::check;
 use can_bridge::engine::{Engine, EngineConfig, Output};
-use can_bridge::events_out::{EventWriter, ProblemPrinter};
+use can_bridge::events_out::{EventWriter, ProblemPrinter, Sink};
 use can_bridge::map::{CompiledMap, MapFile, DEFAULT_MAP};
 use can_bridge::model_file::ModelFile;
-use can_bridge::{live, logfile, monitor, replay};
+use can_bridge::{cli_values, live, logfile, monitor, replay};
+use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
 use can_codec::Database;
 use clap::{Args, Parser, Subcommand};
 use std::io::Write;
@@ -66,20 +67,20 @@ struct ScoringArgs {
     map: Option<PathBuf>,
     /// Warn when the score is >= this (default: 2.0 for DRL = r*/2, half the score range for
     /// MSRA/GSSM).
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::finite_f32)]
     threshold: Option<f32>,
     /// Warning level 2 (urgent) when the score is >= this.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::finite_f32)]
     urgent: Option<f32>,
-    /// Release a warning when the score falls below threshold - hysteresis.
-    #[arg(long, default_value_t = 0.0)]
+    /// Release a warning when the score falls below threshold - hysteresis (>= 0).
+    #[arg(long, default_value_t = 0.0, value_parser = cli_values::non_negative_f32)]
     hysteresis: f32,
-    /// A warning stays on at least this long (ms).
-    #[arg(long, default_value_t = 500)]
+    /// A warning stays on at least this long (ms, 0..=3600000).
+    #[arg(long, default_value_t = 500, value_parser = cli_values::ms)]
     min_on_ms: u64,
     /// Inputs older than this are stale (not scored); tracks not updated for this long are dropped
-    /// and their warnings released (ms).
-    #[arg(long, default_value_t = 500)]
+    /// and their warnings released (ms, 1..=3600000).
+    #[arg(long, default_value_t = 500, value_parser = cli_values::positive_ms)]
     stale_ms: u64,
     /// Latch warnings for the life of a track (evaluation semantics) instead of releasing them.
     #[arg(long)]
@@ -103,16 +104,16 @@ struct LiveArgs {
     #[arg(long)]
     all_scores: bool,
     /// Seconds between status lines on stderr.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = cli_values::positive_seconds)]
     status_every: f64,
     /// No status lines.
     #[arg(long)]
     no_status: bool,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::positive_seconds)]
     duration: Option<f64>,
     /// Stop after this many seconds without a received frame.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::positive_seconds)]
     idle_exit: Option<f64>,
 }
 
@@ -144,10 +145,10 @@ struct MonitorArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::positive_seconds)]
     duration: Option<f64>,
     /// Stop after this many seconds without a frame.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::positive_seconds)]
     idle_exit: Option<f64>,
     /// Exit with code 3 when any warning frame failed its E2E check.
     #[arg(long)]
@@ -176,6 +177,18 @@ struct ScoreLogArgs {
     /// Print decode throughput (frames/s) with the summary.
     #[arg(long)]
     bench: bool,
+    #[command(flatten)]
+    loss: LossArgs,
+}
+
+/// How much of a log may be lost before the run fails.
+#[derive(Args, Debug, Clone, Copy)]
+struct LossArgs {
+    /// Fail (exit 1) when more than this fraction of the log's lines is lost: lines that are not
+    /// frames, not UTF-8 or too long, and frames dropped as late or off the timeline. Every loss
+    /// is reported by line either way; 0 fails on any loss.
+    #[arg(long, default_value_t = 0.01, value_parser = cli_values::fraction)]
+    max_lost: f64,
 }
 
 #[cfg(feature = "check")]
@@ -193,7 +206,7 @@ struct CheckArgs {
     #[arg(long)]
     json: bool,
     /// Pause between events used by events-to-candump (s).
-    #[arg(long, default_value_t = host_tools::candump_export::DEFAULT_GAP_US as f64 / 1e6)]
+    #[arg(long, default_value_t = host_tools::candump_export::DEFAULT_GAP_US as f64 / 1e6, value_parser = cli_values::seconds)]
     gap: f64,
     /// Write the event set as the bridge decoded it (an event folder); `riskctl evaluate --events`
     /// on it gives exactly this command's metrics.
@@ -202,6 +215,8 @@ struct CheckArgs {
     /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
     #[arg(long)]
     per_event_out: Option<PathBuf>,
+    #[command(flatten)]
+    loss: LossArgs,
 }
 
 /// Exit code 2: the CAN interface is missing or went away.
@@ -221,7 +236,18 @@ fn args_with_default_command() -> Vec<std::ffi::OsString> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse_from(args_with_default_command());
+    // Usage errors exit 1 (bad input), not clap's 2, which means "CAN interface missing" here.
+    let cli = match Cli::try_parse_from(args_with_default_command()) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
     let result = match cli.command {
         Command::Live(a) => run_live(a),
         Command::Replay(a) => run_replay(a),
@@ -283,9 +309,7 @@ fn load_dbcs(paths: &[PathBuf]) -> Result<Database> {
         let one = if p.as_os_str() == BUILTIN_DBC {
             Database::parse(can_codec::project::PROJECT_DBC).context("project DBC")?
         } else {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("reading DBC {}", p.display()))?;
-            Database::parse(&text).with_context(|| format!("DBC {}", p.display()))?
+            Database::load(p)?
         };
         for m in &one.messages {
             if let Some((name, first)) = origin.get(&m.id) {
@@ -349,7 +373,6 @@ fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig> 
         None => can_bridge::default_threshold(&model.model()?),
     };
     anyhow::ensure!(threshold.is_finite(), "--threshold must be finite");
-    anyhow::ensure!(args.stale_ms > 0, "--stale-ms must be > 0");
     Ok(EngineConfig {
         threshold,
         urgent: args.urgent,
@@ -360,14 +383,62 @@ fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig> 
     })
 }
 
-fn open_events(path: &Option<PathBuf>, all_scores: bool) -> Result<EventWriter> {
-    let out: Box<dyn Write> = match path {
-        Some(p) => Box::new(std::io::BufWriter::new(
+/// JSON Lines events to stdout or `path`: offline (`atomic`) through a temporary file renamed at
+/// the end of a successful run, live written as it goes.
+fn open_events(path: &Option<PathBuf>, all_scores: bool, atomic: bool) -> Result<EventWriter> {
+    let out = match path {
+        Some(p) if atomic => Sink::Atomic(
+            AtomicFile::create(p).with_context(|| format!("creating {}", p.display()))?,
+        ),
+        Some(p) => Sink::Streaming(std::io::BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
         )),
-        None => Box::new(std::io::stdout()),
+        None => Sink::Stdout(std::io::stdout()),
     };
     Ok(EventWriter::new(out, all_scores))
+}
+
+/// The files a scoring command reads, named by their option.
+fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
+    let mut v: Vec<NamedPath<'_>> = vec![("--model", args.model.as_path())];
+    for p in args.dbc.iter().filter(|p| p.as_os_str() != BUILTIN_DBC) {
+        v.push(("--dbc", p.as_path()));
+    }
+    if let Some(p) = &args.map {
+        v.push(("--map", p.as_path()));
+    }
+    v
+}
+
+/// Prints what the log lost (by line) and fails when it is more than `--max-lost` of its lines.
+fn account_losses(
+    log: &std::path::Path,
+    report: &logfile::LogReport,
+    stats: &can_bridge::Stats,
+    loss: LossArgs,
+) -> Result<()> {
+    report.print_bad_lines(log);
+    let lost = report.bad_lines() as u64 + stats.reordered + stats.out_of_window;
+    let total = report.lines.saturating_sub(report.blank) as u64;
+    if lost == 0 {
+        return Ok(());
+    }
+    let share = lost as f64 / total.max(1) as f64;
+    let what = format!(
+        "{}: lost {lost} of {total} lines ({:.3}%): {} unreadable lines, {} late frames, {} frames off the timeline",
+        log.display(),
+        share * 100.0,
+        report.bad_lines(),
+        stats.reordered,
+        stats.out_of_window
+    );
+    anyhow::ensure!(
+        share <= loss.max_lost,
+        "{what}; more than --max-lost {}",
+        loss.max_lost
+    );
+    eprintln!("can-bridge: {what} (within --max-lost {})", loss.max_lost);
+    Ok(())
 }
 
 fn run_live(args: LiveArgs) -> Result<(), Failure> {
@@ -376,7 +447,13 @@ fn run_live(args: LiveArgs) -> Result<(), Failure> {
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config).map_err(anyhow::Error::from)?;
-    let mut events = open_events(&args.events_out, args.all_scores)?;
+    let outputs: Vec<NamedPath<'_>> = args
+        .events_out
+        .iter()
+        .map(|p| ("--events-out", p.as_path()))
+        .collect();
+    refuse_overlaps(&scoring_inputs(&args.scoring), &outputs).map_err(anyhow::Error::from)?;
+    let mut events = open_events(&args.events_out, args.all_scores, false)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     let secs = |s: Option<f64>| {
         s.filter(|s| s.is_finite() && *s > 0.0)
@@ -422,6 +499,10 @@ fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
         max_problems: 0,
     };
     let map = load_map(&scoring)?;
+    if let Some(out) = &args.out {
+        let inputs = scoring_inputs(&scoring);
+        refuse_overlaps(&inputs[1..], &[("--out", out.as_path())]).map_err(anyhow::Error::from)?;
+    }
     let mut out: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(std::io::BufWriter::new(
             std::fs::File::create(p)
@@ -455,33 +536,42 @@ fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
 
 fn summary(s: &can_bridge::Stats) -> String {
     format!(
-        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
+        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
         s.frames, s.scored, s.warning_frames, s.decode_errors, s.stale_drops, s.invalid_objects,
-        s.reordered, s.duplicates, s.unknown_ids, s.remote_frames, s.error_frames, s.bus_off,
-        s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending
+        s.reordered, s.out_of_window, s.segments + 1, s.duplicates, s.unknown_ids, s.remote_frames,
+        s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending
     )
 }
 
 fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
     match replay::replay(&args.log, &args.iface, args.rate) {
         Ok(s) => {
-            for (line, why) in s.bad_lines.iter().take(20) {
-                eprintln!(
-                    "{}:{line}: not a candump -L frame line: {why}",
-                    args.log.display()
-                );
-            }
-            for (line, why) in s.refused.iter().take(20) {
+            s.log.print_bad_lines(&args.log);
+            for (line, why) in &s.refused {
                 eprintln!("{}:{line}: frame not sent: {why}", args.log.display());
+            }
+            if s.refused_total > s.refused.len() as u64 {
+                eprintln!(
+                    "{}: ... {} more frames not sent",
+                    args.log.display(),
+                    s.refused_total - s.refused.len() as u64
+                );
             }
             eprintln!(
                 "replay: {} frames sent in {:.3} s, {} refused, {} bad lines, max lateness {:.3} ms",
                 s.sent,
                 s.elapsed.as_secs_f64(),
-                s.refused.len(),
-                s.bad_lines.len(),
+                s.refused_total,
+                s.log.bad_lines(),
                 s.max_late.as_secs_f64() * 1e3
             );
+            let lost = s.refused_total + s.log.bad_lines() as u64;
+            if lost > 0 {
+                return Err(Failure::Input(anyhow::anyhow!(
+                    "{}: {lost} lines were not sent (listed above)",
+                    args.log.display()
+                )));
+            }
             Ok(())
         }
         Err(replay::ReplayError::Socket(e)) => Err(Failure::Interface(InterfaceError(e.into()))),
@@ -495,12 +585,22 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config)?;
-    let mut events = open_events(&args.events_out, args.all_scores)?;
+    let mut inputs = scoring_inputs(&args.scoring);
+    inputs.push(("--log", args.log.as_path()));
+    let outputs: Vec<NamedPath<'_>> = [
+        ("--events-out", &args.events_out),
+        ("--warnings-out", &args.warnings_out),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+    .collect();
+    refuse_overlaps(&inputs, &outputs)?;
+    let mut events = open_events(&args.events_out, args.all_scores, true)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
-    let mut warnings: Option<std::io::BufWriter<std::fs::File>> = match &args.warnings_out {
-        Some(p) => Some(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
-        )),
+    let mut warnings: Option<AtomicFile> = match &args.warnings_out {
+        Some(p) => {
+            Some(AtomicFile::create(p).with_context(|| format!("creating {}", p.display()))?)
+        }
         None => None,
     };
     let mut io_error: Option<std::io::Error> = None;
@@ -509,35 +609,35 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
     // --bench: time from handing a frame to the engine to its warning frame (compute latency).
     let mut warn_latency_ns: Vec<u64> = Vec::new();
     let bench = args.bench;
+    let mut handle = |o: Output, frame_start: Option<Instant>| {
+        if let (Output::WarningFrame { .. }, Some(t0)) = (&o, frame_start) {
+            warn_latency_ns.push(t0.elapsed().as_nanos() as u64);
+        }
+        if let (Output::WarningFrame { t_us, frame, .. }, Some(w)) = (&o, warnings.as_mut()) {
+            line.clear();
+            can_codec::format_line(&mut line, *t_us, &args.warnings_iface, frame);
+            line.push('\n');
+            if let Err(e) = w.write_all(line.as_bytes()) {
+                io_error.get_or_insert(e);
+            }
+        }
+        if let Err(e) = events.handle(&o) {
+            io_error.get_or_insert(e);
+        }
+        problems.handle(&o);
+    };
     let report = logfile::for_each_frame(&args.log, |_, rec| {
         let frame_start = bench.then(Instant::now);
         engine.process(rec.timestamp_us, &rec.frame, &mut |o: Output| {
-            if let (Output::WarningFrame { .. }, Some(t0)) = (&o, frame_start) {
-                warn_latency_ns.push(t0.elapsed().as_nanos() as u64);
-            }
-            if let (Output::WarningFrame { t_us, frame, .. }, Some(w)) = (&o, warnings.as_mut()) {
-                line.clear();
-                can_codec::format_line(&mut line, *t_us, &args.warnings_iface, frame);
-                line.push('\n');
-                if let Err(e) = w.write_all(line.as_bytes()) {
-                    io_error.get_or_insert(e);
-                }
-            }
-            if let Err(e) = events.handle(&o) {
-                io_error.get_or_insert(e);
-            }
-            problems.handle(&o);
+            handle(o, frame_start)
         });
     })
     .with_context(|| format!("reading {}", args.log.display()))?;
+    engine.finish(&mut |o: Output| handle(o, None));
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(e) = io_error {
         return Err(anyhow::Error::from(e).context("writing outputs"));
     }
-    if let Some(mut w) = warnings {
-        w.flush().context("writing --warnings-out")?;
-    }
-    report.print_bad_lines(&args.log, 20);
     let stats = engine.stats();
     eprintln!("score-log: {} lines; {}", report.lines, summary(stats));
     if problems.suppressed > 0 {
@@ -567,6 +667,11 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
             );
         }
     }
+    account_losses(&args.log, &report, stats, args.loss)?;
+    if let Some(w) = warnings {
+        w.commit().context("writing --warnings-out")?;
+    }
+    events.finish().context("writing --events-out")?;
     Ok(())
 }
 
@@ -577,15 +682,33 @@ fn run_check(args: CheckArgs) -> Result<()> {
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let event_files = [
+        args.events.join(host_tools::events::EVENTS_FILE),
+        args.events.join(host_tools::events::FRAMES_FILE),
+    ];
+    let mut inputs = scoring_inputs(&args.scoring);
+    inputs.push(("--log", args.log.as_path()));
+    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    let decoded_files = args.decoded_events_out.as_ref().map(|d| {
+        [
+            d.join(host_tools::events::EVENTS_FILE),
+            d.join(host_tools::events::FRAMES_FILE),
+        ]
+    });
+    let mut outputs: Vec<NamedPath<'_>> = decoded_files
+        .iter()
+        .flatten()
+        .map(|p| ("--decoded-events-out", p.as_path()))
+        .collect();
+    if let Some(p) = &args.per_event_out {
+        outputs.push(("--per-event-out", p.as_path()));
+    }
+    refuse_overlaps(&inputs, &outputs)?;
     let (set, issues) = host_tools::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     for issue in issues.iter().take(20) {
         eprintln!("warning: {issue}");
     }
-    anyhow::ensure!(
-        args.gap.is_finite() && args.gap >= 0.0,
-        "--gap must be >= 0"
-    );
     let model = model_file.model()?;
     let report = check::check(
         &args.log,
@@ -593,8 +716,15 @@ fn run_check(args: CheckArgs) -> Result<()> {
         &mut engine,
         host_tools::eval::scoring::model_row_name(&model),
         (args.gap * 1e6).round() as u64,
-    )?;
-    report.log.print_bad_lines(&args.log, 20);
+    )
+    .with_context(|| {
+        format!(
+            "--log {} with --events {}",
+            args.log.display(),
+            args.events.display()
+        )
+    })?;
+    account_losses(&args.log, &report.log, &report.stats, args.loss)?;
     if let Some(dir) = &args.decoded_events_out {
         check::write_decoded_events(dir, &report.decoded)
             .with_context(|| format!("writing {}", dir.display()))?;
@@ -628,12 +758,11 @@ fn run_check(args: CheckArgs) -> Result<()> {
 
 #[cfg(feature = "check")]
 fn write_verdicts(path: &std::path::Path, report: &check::CheckReport) -> Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+    let mut w = AtomicFile::create(path).with_context(|| format!("creating {}", path.display()))?;
     for v in &report.verdicts {
         writeln!(w, "{}", serde_json::to_string(v)?)?;
     }
-    w.flush()?;
+    w.commit()
+        .with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }

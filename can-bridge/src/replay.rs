@@ -1,8 +1,8 @@
 //! `can-bridge replay`: send a candump log onto an interface with its original timing (canplayer
 //! semantics: frame `i` leaves at `start + (t_i - t_0) / rate`; frames whose time has passed, or
 //! that go back in time, leave at once).
+use crate::logfile::{for_each_frame_in, LogReport};
 use crate::socket::{self, SocketError};
-use std::io::BufRead;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -34,12 +34,24 @@ impl std::str::FromStr for Rate {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ReplaySummary {
     pub sent: u64,
-    /// Frames the kernel refused (e.g. error frames on some drivers), by line.
+    /// The first frames the kernel refused (e.g. error frames on some drivers), by line.
     pub refused: Vec<(usize, String)>,
-    pub bad_lines: Vec<(usize, String)>,
+    /// Every refused frame.
+    pub refused_total: u64,
+    /// Lines, frames and the lines that were not frames.
+    pub log: LogReport,
     pub elapsed: Duration,
     /// Largest lateness of a frame against its schedule.
     pub max_late: Duration,
+}
+
+impl ReplaySummary {
+    fn refuse(&mut self, line: usize, why: String) {
+        self.refused_total += 1;
+        if self.refused.len() < crate::logfile::KEPT_PER_KIND {
+            self.refused.push((line, why));
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -86,19 +98,11 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
     let mut summary = ReplaySummary::default();
     let start = Instant::now();
     let mut t0: Option<u64> = None;
-    for (n, line) in reader.lines().enumerate() {
-        let line_no = n + 1;
-        let line = line.map_err(read_err)?;
-        if line.trim().is_empty() {
-            continue;
+    let mut fatal: Option<SocketError> = None;
+    let log_report = for_each_frame_in(reader, |line_no, rec| {
+        if fatal.is_some() {
+            return;
         }
-        let rec = match can_codec::parse_line(&line) {
-            Ok(r) => r,
-            Err(e) => {
-                summary.bad_lines.push((line_no, e.to_string()));
-                continue;
-            }
-        };
         if let Rate::Factor(r) = rate {
             let t0 = *t0.get_or_insert(rec.timestamp_us);
             let offset_us = rec.timestamp_us.saturating_sub(t0) as f64 / r;
@@ -108,19 +112,20 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
             summary.max_late = summary.max_late.max(late);
         }
         let Some(frame) = socket::to_socketcan(&rec.frame) else {
-            summary
-                .refused
-                .push((line_no, "not representable as a socket frame".into()));
-            continue;
+            summary.refuse(line_no, "not representable as a socket frame".into());
+            return;
         };
         match socket::send(&sock, iface, &frame) {
             Ok(()) => summary.sent += 1,
-            Err(SocketError::Io { cause, .. }) => {
-                summary.refused.push((line_no, cause.to_string()))
-            }
-            Err(e) => return Err(e.into()),
+            Err(SocketError::Io { cause, .. }) => summary.refuse(line_no, cause.to_string()),
+            Err(e) => fatal = Some(e),
         }
+    })
+    .map_err(read_err)?;
+    if let Some(e) = fatal {
+        return Err(e.into());
     }
+    summary.log = log_report;
     summary.elapsed = start.elapsed();
     Ok(summary)
 }

@@ -43,7 +43,14 @@ fn score_log_reads_real_candump_lines_and_reports_the_rest_by_line_number() {
     let warnings = tmp.path().join("w.log");
     let events = tmp.path().join("e.jsonl");
     let out = bridge()
-        .args(["score-log", "--threshold", "1.5", "--log"])
+        .args([
+            "score-log",
+            "--threshold",
+            "1.5",
+            "--max-lost",
+            "0.05",
+            "--log",
+        ])
         .arg(&log)
         .arg("--model")
         .arg(&model)

@@ -677,10 +677,19 @@ fn good_events_survive_many_bad_ones() {
     ev += "late_good,near_crash,0,2,1.5,4,2,4,2\n";
     fr += &rows("late_good", 21);
     let (set, issues, _d) = load(&ev, &fr);
-    assert_eq!(issues.len(), 50);
-    assert!(issues
+    // The first 20 of a kind are listed, the other 30 counted in one issue.
+    assert_eq!(issues.len(), 21);
+    assert_eq!(issues.iter().map(|i| i.count()).sum::<u64>(), 50);
+    assert!(issues[..20]
         .iter()
         .all(|i| i.problem == IssueProblem::MissingImpactTime));
+    assert_eq!(
+        issues[20].problem,
+        IssueProblem::MoreOfKind {
+            kind: "MissingImpactTime",
+            more: 30
+        }
+    );
     assert_eq!(ids(&set), ["c1", "s1", "late_good"]);
     assert_eq!(set.get("late_good").unwrap().frames.len(), 21);
 }

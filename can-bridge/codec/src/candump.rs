@@ -55,6 +55,23 @@ pub enum LineError {
     Trailing(String),
 }
 
+impl LineError {
+    /// A stable name of the kind of error (for per-kind counts).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Empty => "empty line",
+            Self::BadTimestamp(_) => "bad timestamp",
+            Self::MissingIface => "missing interface",
+            Self::MissingFrame => "missing frame",
+            Self::NoSeparator(_) => "no `#` separator",
+            Self::BadId(_) => "bad CAN id",
+            Self::BadData(..) => "bad payload",
+            Self::CanXl => "CAN XL",
+            Self::Trailing(_) => "trailing field",
+        }
+    }
+}
+
 /// Parses one line of a `candump -L` log.
 pub fn parse_line(line: &str) -> Result<LogRecord<'_>, LineError> {
     let mut fields = line.split_ascii_whitespace();

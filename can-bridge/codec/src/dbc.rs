@@ -10,6 +10,22 @@ use crate::frame::CanId;
 use crate::signal::{ByteOrder, SignalError, SignalSpec, ValueKind};
 use std::collections::HashMap;
 
+/// A DBC file that could not be used: the file, the line (when known) and why.
+#[derive(Debug, thiserror::Error)]
+pub enum DbcFileError {
+    #[error("DBC {}: {source}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("DBC {}{}: {error}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Invalid {
+        path: std::path::PathBuf,
+        line: Option<usize>,
+        error: DbcError,
+    },
+}
+
 /// Why a DBC file could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum DbcError {
@@ -103,10 +119,116 @@ pub struct Database {
     by_id: HashMap<CanId, usize>,
 }
 
+/// DBC bytes as text: a UTF-8 byte-order mark is dropped, and a file that is not UTF-8 is read as
+/// Latin-1 (vendor DBC files are often Windows-1252/Latin-1, with accents in comments; the
+/// syntax itself is ASCII, so nothing that matters for decoding changes).
+pub fn dbc_text(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    match std::str::from_utf8(bytes) {
+        Ok(text) => std::borrow::Cow::Borrowed(text),
+        Err(_) => std::borrow::Cow::Owned(bytes.iter().map(|&b| char::from(b)).collect()),
+    }
+}
+
+/// Where messages and signals are defined in the text (1-based lines), for error messages.
+#[derive(Default)]
+struct SourceLines {
+    /// `BO_` lines: (line, id as written, name).
+    messages: Vec<(usize, u64, String)>,
+    /// `SG_` lines: (line, message name, signal name).
+    signals: Vec<(usize, String, String)>,
+}
+
+impl SourceLines {
+    fn scan(text: &str) -> Self {
+        let mut out = Self::default();
+        let mut current = String::new();
+        for (n, line) in text.lines().enumerate() {
+            let mut words = line.split_whitespace();
+            match words.next() {
+                Some("BO_") => {
+                    let id = words.next().and_then(|w| w.parse::<u64>().ok());
+                    let name = words.next().unwrap_or("").trim_end_matches(':').to_string();
+                    current = name.clone();
+                    if let Some(id) = id {
+                        out.messages.push((n + 1, id, name));
+                    }
+                }
+                Some("SG_") => {
+                    let name = words.next().unwrap_or("").to_string();
+                    out.signals.push((n + 1, current.clone(), name));
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    fn line_of(&self, error: &DbcError) -> Option<usize> {
+        match error {
+            DbcError::BadSignal {
+                message, signal, ..
+            } => self
+                .signals
+                .iter()
+                .find(|(_, m, s)| m == message && s == signal)
+                .map(|x| x.0),
+            DbcError::BadMessage { message, .. } => self
+                .messages
+                .iter()
+                .find(|(_, _, m)| m == message)
+                .map(|x| x.0),
+            DbcError::Syntax(text) => text
+                .split_once("--> ")
+                .and_then(|(_, rest)| rest.split(':').next())
+                .and_then(|l| l.trim().parse().ok()),
+        }
+    }
+}
+
+/// Payload sizes a CAN or CAN FD frame can have.
+fn is_frame_size(size: u64) -> bool {
+    size <= 8 || matches!(size, 12 | 16 | 20 | 24 | 32 | 48 | 64)
+}
+
 impl Database {
-    /// Parses DBC text.
+    /// Reads and parses the DBC file at `path` (see [`dbc_text`] for encodings); errors name the
+    /// file and line.
+    pub fn load(path: &std::path::Path) -> Result<Self, DbcFileError> {
+        let bytes = std::fs::read(path).map_err(|source| DbcFileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let text = dbc_text(&bytes);
+        Self::parse(&text).map_err(|error| DbcFileError::Invalid {
+            path: path.to_path_buf(),
+            line: SourceLines::scan(&text).line_of(&error),
+            error,
+        })
+    }
+
+    /// Parses DBC text. Refuses what no bus can carry (ids outside 11/29 bits, payload sizes that
+    /// are no CAN/CAN FD length, signal ranges with min > max) rather than decode it wrongly.
     pub fn parse(text: &str) -> Result<Self, DbcError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let dbc = can_dbc::Dbc::try_from(text).map_err(|e| DbcError::Syntax(e.to_string()))?;
+        // can-dbc masks an id's bits 29-30 away; check the ids as written.
+        for (_, raw, name) in SourceLines::scan(text).messages {
+            const EXTENDED: u64 = 1 << 31;
+            let ok = if raw & EXTENDED != 0 {
+                raw & !EXTENDED <= 0x1FFF_FFFF
+            } else {
+                raw <= 0x7FF
+            };
+            if !ok && name != "VECTOR__INDEPENDENT_SIG_MSG" {
+                return Err(DbcError::BadMessage {
+                    message: name,
+                    reason: format!(
+                        "id {raw} is neither a standard (11-bit) id nor 0x80000000 + an extended (29-bit) id"
+                    ),
+                });
+            }
+        }
         let mut messages = Vec::with_capacity(dbc.messages.len());
         for m in &dbc.messages {
             let id = match m.id {
@@ -125,10 +247,13 @@ impl Database {
             }
             let size = usize::try_from(m.size)
                 .ok()
-                .filter(|s| *s <= crate::frame::MAX_DATA_LEN)
+                .filter(|_| is_frame_size(m.size))
                 .ok_or_else(|| DbcError::BadMessage {
                     message: m.name.clone(),
-                    reason: format!("size {} is above 64 bytes", m.size),
+                    reason: format!(
+                        "size {} bytes is no CAN (0-8) or CAN FD (12, 16, 20, 24, 32, 48, 64) payload length",
+                        m.size
+                    ),
                 })?;
             let mut signals = Vec::with_capacity(m.signals.len());
             let mut multiplexor = None;
@@ -167,6 +292,12 @@ impl Database {
                     numeric(&s.max),
                 )
                 .ok_or_else(|| bad("invalid size, float width or factor"))?;
+                if spec.min > spec.max {
+                    return Err(bad(&format!(
+                        "range [{}|{}] has min > max",
+                        spec.min, spec.max
+                    )));
+                }
                 if spec.bytes_needed() > size {
                     return Err(bad("extends past the end of the message"));
                 }
@@ -322,5 +453,41 @@ SIG_VALTYPE_ 2147484160 Speed : 1;
             Database::parse(dup),
             Err(DbcError::BadMessage { .. })
         ));
+    }
+
+    #[test]
+    fn impossible_definitions_are_refused_and_located() {
+        let base = "VERSION \"\"\n\nBU_:\n\nBO_ 256 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|10] \"\" X\n";
+        let cases = [
+            (base.replace("[0|10]", "[10|0]"), 6, "min > max"),
+            (base.replace("BO_ 256", "BO_ 2048"), 5, "standard (11-bit)"),
+            (
+                base.replace("BO_ 256", "BO_ 4294967295"),
+                5,
+                "extended (29-bit)",
+            ),
+            (base.replace(": 8 X", ": 9 X"), 5, "size 9"),
+            (base.replace("SG_ S :", "SG_ S ::"), 6, "DBC syntax"),
+        ];
+        for (text, line, why) in cases {
+            let err = Database::parse(&text).unwrap_err();
+            assert!(err.to_string().contains(why), "{why}: {err}");
+            assert_eq!(
+                SourceLines::scan(&text).line_of(&err),
+                Some(line),
+                "{why}: {err}"
+            );
+        }
+        assert!(Database::parse(&base.replace(": 8 X", ": 64 X")).is_ok());
+    }
+
+    #[test]
+    fn byte_order_mark_and_latin1_comments_are_read() {
+        let mut bytes = b"\xEF\xBB\xBFVERSION \"\"\n\nBU_:\n\nBO_ 256 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|10] \"\" X\n".to_vec();
+        bytes.extend_from_slice(b"\nCM_ SG_ 256 S \"Vitesse du v\xe9hicule\";\n");
+        let text = dbc_text(&bytes);
+        let db = Database::parse(&text).unwrap();
+        assert_eq!(db.messages.len(), 1);
+        assert!(text.contains("v\u{e9}hicule"));
     }
 }

@@ -7,16 +7,19 @@
 //! - [`dbc`]: a DBC file (parsed by `can-dbc`) compiled into messages and signals, with
 //!   multiplexing.
 //! - [`e2e`]: end-to-end protection (4-bit alive counter + CRC-8 SAE J1850 over data id and payload).
+//! - [`output`]: output files written through a temporary file, and refused when they name an
+//!   input.
 //! - [`project`]: the project's own DBC and the names the bridge and exporter use.
 pub mod candump;
 pub mod dbc;
 pub mod e2e;
 pub mod frame;
+pub mod output;
 pub mod project;
 pub mod signal;
 
 pub use candump::{format_line, parse_line, Direction, LineError, LogRecord};
-pub use dbc::{Database, DbcError, MessageSpec};
+pub use dbc::{Database, DbcError, DbcFileError, MessageSpec};
 pub use e2e::{crc8_sae_j1850, E2eChecker, E2eConfig, E2eProtector, E2eStatus};
 pub use frame::{CanId, Frame, FrameKind};
 pub use signal::{ByteOrder, SignalError, SignalSpec, ValueKind};

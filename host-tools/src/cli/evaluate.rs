@@ -129,12 +129,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     methods.extend(Method::baselines());
 
     let dir = &args.events;
+    if let Some(out) = &args.out {
+        refuse_output_overlaps(&files, dir, out)?;
+    }
     let (set, issues) =
         load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
-    report_issues(
-        "problem(s) in the event folder (those events are skipped)",
-        &issues,
-    );
+    // The loader keeps the first problems of each kind (and counts the rest), so all are listed.
+    if !issues.is_empty() {
+        let total: u64 = issues.iter().map(|i| i.count()).sum();
+        eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
+        for issue in &issues {
+            eprintln!("  {issue}");
+        }
+    }
     if set.is_empty() {
         bail!(
             "event folder {}: no valid events to evaluate",
@@ -175,6 +182,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             eprintln!("  {}", p.display());
         }
     }
+    Ok(())
+}
+
+/// Refuses an `--out` folder whose result files would overwrite a model or event file.
+fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> anyhow::Result<()> {
+    let event_files = [
+        events.join(host_tools::events::EVENTS_FILE),
+        events.join(host_tools::events::FRAMES_FILE),
+    ];
+    let mut inputs: Vec<(&str, &Path)> =
+        models.iter().map(|m| ("--model", m.1.as_path())).collect();
+    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    let result_files: Vec<PathBuf> = ["results.csv", "results.json", "results.md", "curves.csv"]
+        .iter()
+        .map(|n| out.join(n))
+        .collect();
+    let outputs: Vec<(&str, &Path)> = result_files
+        .iter()
+        .map(|p| ("--out", p.as_path()))
+        .collect();
+    can_codec::output::refuse_overlaps(&inputs, &outputs)?;
     Ok(())
 }
 

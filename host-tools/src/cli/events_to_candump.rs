@@ -1,5 +1,6 @@
 //! `riskctl events-to-candump`: an event folder as 10 Hz CAN traffic in candump -L format.
 use anyhow::Context;
+use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
 use host_tools::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US};
 use std::path::PathBuf;
 
@@ -20,42 +21,56 @@ pub struct Args {
     /// Interface name written into each line.
     #[arg(long, default_value = "vcan0")]
     pub iface: String,
-    /// Timestamp of the first frame, seconds since the epoch.
-    #[arg(long, default_value_t = DEFAULT_START_US as f64 / 1e6)]
+    /// Timestamp of the first frame, seconds since the epoch (0 to 1e10).
+    #[arg(long, default_value_t = DEFAULT_START_US as f64 / 1e6, value_parser = start_seconds)]
     pub start: f64,
-    /// Pause between events, seconds.
-    #[arg(long, default_value_t = DEFAULT_GAP_US as f64 / 1e6)]
+    /// Pause between events, seconds (0 to 1e6).
+    #[arg(long, default_value_t = DEFAULT_GAP_US as f64 / 1e6, value_parser = gap_seconds)]
     pub gap: f64,
 }
 
+fn seconds_in(s: &str, max: f64) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=max).contains(&v) => Ok(v),
+        Ok(_) => Err(format!("`{s}` is outside [0, {max}] s")),
+        Err(_) => Err(format!("`{s}` is not a number")),
+    }
+}
+
+/// Log start: up to 1e10 s (year 2286), so microsecond timestamps stay exact in `u64`.
+fn start_seconds(s: &str) -> Result<f64, String> {
+    seconds_in(s, 1e10)
+}
+
+/// Pause between events: up to 1e6 s (11 days).
+fn gap_seconds(s: &str) -> Result<f64, String> {
+    seconds_in(s, 1e6)
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.start.is_finite() && args.start >= 0.0,
-        "--start must be >= 0"
-    );
-    anyhow::ensure!(
-        args.gap.is_finite() && args.gap >= 0.0,
-        "--gap must be >= 0"
-    );
+    let inputs = [
+        args.events.join(host_tools::events::EVENTS_FILE),
+        args.events.join(host_tools::events::FRAMES_FILE),
+    ];
+    let inputs: Vec<NamedPath<'_>> = inputs.iter().map(|p| ("--events", p.as_path())).collect();
+    refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
     let (set, issues) = host_tools::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
-    for issue in issues.iter().take(20) {
+    // The loader keeps the first problems of each kind and counts the rest.
+    for issue in &issues {
         eprintln!("warning: {issue}");
-    }
-    if issues.len() > 20 {
-        eprintln!(
-            "warning: ... {} more problems in the event folder",
-            issues.len() - 20
-        );
     }
     let opts = ExportOptions {
         iface: args.iface,
         start_us: (args.start * 1e6).round() as u64,
         gap_us: (args.gap * 1e6).round() as u64,
     };
-    let file = std::fs::File::create(&args.out)
+    // Written under a temporary name and renamed at the end: a failed run leaves no half log.
+    let mut file = AtomicFile::create(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let summary = write_candump(&set, &opts, file)
+    let summary = write_candump(&set, &opts, &mut file)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    file.commit()
         .with_context(|| format!("writing {}", args.out.display()))?;
     for s in summary.skipped.iter().take(20) {
         eprintln!(

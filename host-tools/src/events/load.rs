@@ -18,6 +18,17 @@ use scorer_core::VehicleState;
 pub const HEADING_TOLERANCE: f64 = 0.02;
 /// Tolerance (s) when comparing frame times with `t_start`, `t_end` and `t_impact`.
 pub const TIME_TOLERANCE: f64 = 1e-3;
+/// Physical range of a box length (m), inclusive: a pedestrian's box (0.5 m) to a long truck or
+/// articulated bus (25.25 m in the EU) with margin; the same range as the CAN signals
+/// (`EgoLength`, `ObjLength`), so every loadable event can be sent over the bus.
+pub const LENGTH_RANGE_M: (f32, f32) = (0.5, 30.0);
+/// Physical range of a box width (m), inclusive: a pedestrian or cyclist (0.3 m) to an oversize
+/// load (5 m); the CAN signals' range too.
+pub const WIDTH_RANGE_M: (f32, f32) = (0.3, 5.0);
+/// Largest speed (m/s, magnitude of the velocity) of any road user: 360 km/h.
+pub const MAX_SPEED_M_S: f32 = 100.0;
+/// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
+pub const KEPT_PER_KIND: usize = 20;
 
 /// A problem that stops a folder from being read at all.
 #[derive(Debug, thiserror::Error)]
@@ -96,6 +107,12 @@ pub enum IssueProblem {
     },
     #[error("dimension {0} is not positive")]
     NonPositiveDimension(f32),
+    #[error("dimension {value} m is outside the physical range [{min}, {max}] m")]
+    ImplausibleDimension { value: f32, min: f32, max: f32 },
+    #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
+    ImplausibleSpeed { speed: f32 },
+    #[error("... and {more} more `{kind}` problems in this file (not listed)")]
+    MoreOfKind { kind: &'static str, more: u64 },
     #[error("{frames} frame(s) for an event that is not in events.csv")]
     UnknownEvent { frames: usize },
     #[error("time {time} repeats the frame on line {previous_line}")]
@@ -116,6 +133,93 @@ pub enum IssueProblem {
     ImpactBeforeFrames { t_impact: f64, first: f64 },
 }
 
+impl IssueProblem {
+    /// A stable name of the kind of problem (the variant).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::RowLength { .. } => "RowLength",
+            Self::BadRow(_) => "BadRow",
+            Self::EmptyEventId => "EmptyEventId",
+            Self::DuplicateEventId { .. } => "DuplicateEventId",
+            Self::UnknownKind(_) => "UnknownKind",
+            Self::BadNumber(_) => "BadNumber",
+            Self::NonFinite(_) => "NonFinite",
+            Self::MissingImpactTime => "MissingImpactTime",
+            Self::ImpactTimeOnSafe => "ImpactTimeOnSafe",
+            Self::EmptyInterval { .. } => "EmptyInterval",
+            Self::ImpactOutsideEvent { .. } => "ImpactOutsideEvent",
+            Self::NonPositiveDimension(_) => "NonPositiveDimension",
+            Self::ImplausibleDimension { .. } => "ImplausibleDimension",
+            Self::ImplausibleSpeed { .. } => "ImplausibleSpeed",
+            Self::MoreOfKind { .. } => "MoreOfKind",
+            Self::UnknownEvent { .. } => "UnknownEvent",
+            Self::DuplicateTime { .. } => "DuplicateTime",
+            Self::UnsortedTime { .. } => "UnsortedTime",
+            Self::HeadingNotUnit { .. } => "HeadingNotUnit",
+            Self::FrameOutsideEvent { .. } => "FrameOutsideEvent",
+            Self::NoFrames => "NoFrames",
+            Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
+        }
+    }
+}
+
+impl LoadIssue {
+    /// How many problems this issue stands for (more than 1 for [`IssueProblem::MoreOfKind`]).
+    pub fn count(&self) -> u64 {
+        match self.problem {
+            IssueProblem::MoreOfKind { more, .. } => more,
+            _ => 1,
+        }
+    }
+}
+
+/// A kind of problem in one file.
+type KindKey = (PathBuf, &'static str);
+
+/// The issues of one load, bounded: the first [`KEPT_PER_KIND`] of each kind per file are kept,
+/// the others counted, so millions of bad rows cost a counter, not memory.
+#[derive(Default)]
+struct Issues {
+    kept: Vec<LoadIssue>,
+    /// (file, kind) -> (problems not kept, first line not kept).
+    more: Vec<(KindKey, (u64, u64))>,
+    per_kind: HashMap<KindKey, usize>,
+}
+
+impl Issues {
+    fn push(&mut self, issue: LoadIssue) {
+        let key = (issue.file.clone(), issue.problem.kind());
+        let n = self.per_kind.entry(key.clone()).or_insert(0);
+        *n += 1;
+        if *n <= KEPT_PER_KIND {
+            self.kept.push(issue);
+        } else if let Some(m) = self.more.iter_mut().find(|m| m.0 == key) {
+            m.1 .0 += 1;
+        } else {
+            self.more.push((key, (1, issue.line)));
+        }
+    }
+
+    fn extend(&mut self, issues: impl IntoIterator<Item = LoadIssue>) {
+        for i in issues {
+            self.push(i);
+        }
+    }
+
+    fn finish(mut self) -> Vec<LoadIssue> {
+        for ((file, kind), (more, line)) in self.more {
+            self.kept.push(LoadIssue {
+                file,
+                line,
+                column: None,
+                event_id: None,
+                problem: IssueProblem::MoreOfKind { kind, more },
+            });
+        }
+        self.kept
+    }
+}
+
 struct Pending {
     event: Event,
     line: u64,
@@ -129,7 +233,7 @@ struct Pending {
 /// that make a whole file unreadable (missing file, missing column, I/O error) are errors. Rows are
 /// streamed, so memory is the kept frames plus one id table.
 pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError> {
-    let mut issues = Vec::new();
+    let mut issues = Issues::default();
     let events_path = dir.join(EVENTS_FILE);
     let frames_path = dir.join(FRAMES_FILE);
 
@@ -180,7 +284,7 @@ pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError
             events.push(p.event);
         }
     }
-    Ok((EventSet { events }, issues))
+    Ok((EventSet { events }, issues.finish()))
 }
 
 fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
@@ -356,7 +460,7 @@ fn read_events(
     pending: &mut Vec<Pending>,
     index: &mut HashMap<String, usize>,
     rejected: &mut HashMap<String, ()>,
-    issues: &mut Vec<LoadIssue>,
+    issues: &mut Issues,
 ) -> Result<(), EventsError> {
     let mut rdr = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &EVENT_COLUMNS)?;
@@ -413,8 +517,18 @@ fn read_events(
         .into_iter()
         .enumerate()
         {
+            let (min, max) = if i % 2 == 0 {
+                LENGTH_RANGE_M
+            } else {
+                WIDTH_RANGE_M
+            };
             if v.is_finite() && v <= 0.0 {
                 f.push(5 + i, IssueProblem::NonPositiveDimension(v));
+            } else if v.is_finite() && !(min..=max).contains(&v) {
+                f.push(
+                    5 + i,
+                    IssueProblem::ImplausibleDimension { value: v, min, max },
+                );
             }
         }
         if t_start.is_finite() && t_end.is_finite() && t_end <= t_start {
@@ -493,7 +607,7 @@ fn read_frames(
     pending: &mut [Pending],
     index: &HashMap<String, usize>,
     rejected: &HashMap<String, ()>,
-    issues: &mut Vec<LoadIssue>,
+    issues: &mut Issues,
 ) -> Result<(), EventsError> {
     let mut rdr = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
@@ -571,6 +685,12 @@ fn read_frames(
             length: d.length_sur,
             width: d.width_sur,
         };
+        for (state, col) in [(&ego, 4), (&sur, 11)] {
+            let speed = state.vx.hypot(state.vy);
+            if speed.is_finite() && speed > MAX_SPEED_M_S {
+                f.push(col, IssueProblem::ImplausibleSpeed { speed });
+            }
+        }
         if let Some(c) = acc_sur_col {
             let s = field_str(rec.get(c).unwrap_or(b""));
             match s.parse::<f32>() {
@@ -632,7 +752,7 @@ fn read_frames(
             }
         } else {
             p.ok = false;
-            issues.append(&mut f.issues);
+            issues.extend(f.issues.drain(..));
         }
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();

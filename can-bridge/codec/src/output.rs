@@ -1,0 +1,204 @@
+//! Writing output files without ever destroying input data: every output is written to a
+//! temporary file next to its destination and renamed over it only when the run succeeded, and
+//! an output path that names one of the run's inputs is refused before anything is opened.
+//!
+//! Used by every command that writes files (`can-bridge score-log`/`check`, `riskctl
+//! events-to-candump`/`evaluate`), so the rules are the same everywhere. Limitations: the
+//! same-file test compares device and inode on Unix (symlinks and hard links are seen through);
+//! elsewhere it compares canonical paths.
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+/// An output path that would overwrite one of the inputs (or another output).
+#[derive(Debug, thiserror::Error)]
+#[error("{output_flag} {} is the same file as {input_flag} {}: refusing to overwrite it", output.display(), input.display())]
+pub struct SamePathError {
+    pub output_flag: String,
+    pub output: PathBuf,
+    pub input_flag: String,
+    pub input: PathBuf,
+}
+
+/// `(flag, path)` of a file a command reads or writes, e.g. `("--log", drive.log)`.
+pub type NamedPath<'a> = (&'a str, &'a Path);
+
+fn same_existing_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        matches!(
+            (a.canonicalize(), b.canonicalize()),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
+}
+
+/// The path with its parent directory canonicalised (the file itself need not exist), for
+/// comparing two outputs that are not written yet.
+fn normalised(p: &Path) -> PathBuf {
+    let parent = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let parent = parent.canonicalize().unwrap_or(parent);
+    match p.file_name() {
+        Some(name) => parent.join(name),
+        None => parent,
+    }
+}
+
+/// Refuses when an output names the same file as an input, or two outputs name the same file.
+/// Directory inputs and outputs (event folders) are passed as the files inside them.
+pub fn refuse_overlaps(
+    inputs: &[NamedPath<'_>],
+    outputs: &[NamedPath<'_>],
+) -> Result<(), SamePathError> {
+    let err = |o: &NamedPath<'_>, i: &NamedPath<'_>| SamePathError {
+        output_flag: o.0.to_string(),
+        output: o.1.to_path_buf(),
+        input_flag: i.0.to_string(),
+        input: i.1.to_path_buf(),
+    };
+    for (n, o) in outputs.iter().enumerate() {
+        for i in inputs {
+            if same_existing_file(o.1, i.1) || normalised(o.1) == normalised(i.1) {
+                return Err(err(o, i));
+            }
+        }
+        for other in &outputs[..n] {
+            if normalised(o.1) == normalised(other.1) || same_existing_file(o.1, other.1) {
+                return Err(err(o, other));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A file written under a temporary name in the destination's directory and renamed over the
+/// destination by [`AtomicFile::commit`]. Dropped without `commit` (an error, a panic), the
+/// temporary file is removed and the destination is untouched.
+pub struct AtomicFile {
+    file: Option<io::BufWriter<File>>,
+    tmp: PathBuf,
+    dest: PathBuf,
+}
+
+impl AtomicFile {
+    /// Creates the temporary file `.NAME.tmp-PID` next to `dest`.
+    pub fn create(dest: &Path) -> io::Result<Self> {
+        let name = dest.file_name().ok_or_else(|| {
+            io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
+        })?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(".tmp-{}", std::process::id()));
+        let tmp = dest.with_file_name(tmp_name);
+        let file = File::create(&tmp)?;
+        Ok(Self {
+            file: Some(io::BufWriter::with_capacity(1 << 16, file)),
+            tmp,
+            dest: dest.to_path_buf(),
+        })
+    }
+
+    /// The final path.
+    pub fn path(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Flushes, syncs and renames the temporary file over the destination.
+    pub fn commit(mut self) -> io::Result<()> {
+        let w = self.file.take().expect("AtomicFile committed once");
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&self.tmp, &self.dest)
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.file.as_mut().expect("open").write(buf)
+    }
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        self.file.as_mut().expect("open").write_all(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.as_mut().expect("open").flush()
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmpdir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("can-codec-output-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn commit_replaces_and_drop_leaves_the_destination_untouched() {
+        let d = tmpdir("commit");
+        let dest = d.join("out.log");
+        std::fs::write(&dest, "old").unwrap();
+        {
+            let mut f = AtomicFile::create(&dest).unwrap();
+            f.write_all(b"half").unwrap();
+            // dropped: a failed run
+        }
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "old");
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "temporary file left behind"
+        );
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"new").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn overlapping_paths_are_refused_through_links_and_dots() {
+        let d = tmpdir("overlap");
+        let input = d.join("drive.log");
+        std::fs::write(&input, "x").unwrap();
+        let dotted = d.join(".").join("drive.log");
+        let e = refuse_overlaps(&[("--log", &input)], &[("--events-out", &dotted)]).unwrap_err();
+        assert!(e.to_string().contains("--events-out"), "{e}");
+        #[cfg(unix)]
+        {
+            let link = d.join("link.log");
+            std::os::unix::fs::symlink(&input, &link).unwrap();
+            assert!(refuse_overlaps(&[("--log", &input)], &[("--out", &link)]).is_err());
+        }
+        let a = d.join("a.jsonl");
+        assert!(refuse_overlaps(&[], &[("--events-out", &a), ("--warnings-out", &a)]).is_err());
+        let b = d.join("b.jsonl");
+        assert!(refuse_overlaps(
+            &[("--log", &input)],
+            &[("--events-out", &a), ("--warnings-out", &b)]
+        )
+        .is_ok());
+    }
+}

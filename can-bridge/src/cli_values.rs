@@ -1,0 +1,107 @@
+//! Value parsers for numeric command-line options: every number is checked for range and
+//! finiteness when the command line is parsed, so `--stale-ms 18446744073709552` or `--urgent nan`
+//! are refused with the option's name instead of wrapping or poisoning comparisons.
+
+/// Longest duration option in milliseconds (one hour): longer staleness or hold times make no
+/// sense for a collision warning, and `ms * 1000` stays far from `u64` overflow.
+pub const MAX_MS: u64 = 3_600_000;
+/// Longest duration option in seconds (about 31 years): above it `Duration` conversion and
+/// microsecond arithmetic lose meaning.
+pub const MAX_SECONDS: f64 = 1e9;
+
+fn number<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.trim()
+        .parse::<T>()
+        .map_err(|_| format!("`{s}` is not a number"))
+}
+
+/// A finite `f32` (thresholds: any sign, scores of some models are negative).
+pub fn finite_f32(s: &str) -> Result<f32, String> {
+    let v: f32 = number(s)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is not finite"))
+    }
+}
+
+/// A finite `f32 >= 0`.
+pub fn non_negative_f32(s: &str) -> Result<f32, String> {
+    let v = finite_f32(s)?;
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is negative"))
+    }
+}
+
+/// Milliseconds in `1..=MAX_MS`.
+pub fn positive_ms(s: &str) -> Result<u64, String> {
+    let v: u64 = number(s)?;
+    if (1..=MAX_MS).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} ms is outside 1..={MAX_MS} ms"))
+    }
+}
+
+/// Milliseconds in `0..=MAX_MS`.
+pub fn ms(s: &str) -> Result<u64, String> {
+    let v: u64 = number(s)?;
+    if v <= MAX_MS {
+        Ok(v)
+    } else {
+        Err(format!("{v} ms is above {MAX_MS} ms"))
+    }
+}
+
+/// Seconds, finite, in `(0, MAX_SECONDS]`.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = number(s)?;
+    if v.is_finite() && v > 0.0 && v <= MAX_SECONDS {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is not a duration in (0, {MAX_SECONDS}] s"))
+    }
+}
+
+/// Seconds, finite, in `[0, MAX_SECONDS]`.
+pub fn seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = number(s)?;
+    if v.is_finite() && (0.0..=MAX_SECONDS).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is not a duration in [0, {MAX_SECONDS}] s"))
+    }
+}
+
+/// A fraction in `[0, 1]`.
+pub fn fraction(s: &str) -> Result<f64, String> {
+    let v: f64 = number(s)?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is not a fraction in [0, 1]"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refuses_overflow_nan_and_out_of_range() {
+        assert!(positive_ms("18446744073709552").is_err());
+        assert!(positive_ms("0").is_err());
+        assert_eq!(positive_ms("500"), Ok(500));
+        assert!(finite_f32("nan").is_err());
+        assert!(finite_f32("inf").is_err());
+        assert_eq!(finite_f32("-1.5"), Ok(-1.5));
+        assert!(non_negative_f32("-0.1").is_err());
+        assert!(positive_seconds("0").is_err());
+        assert!(positive_seconds("1e300").is_err());
+        assert!(seconds("-1").is_err());
+        assert!(fraction("1.5").is_err());
+        assert!(fraction("NaN").is_err());
+    }
+}

@@ -1,0 +1,181 @@
+//! Which frames the engine processes, by timestamp: in order, late (dropped), or the start of a
+//! new log segment.
+//!
+//! A single frame with a wrong timestamp must not poison the timeline, and a log that jumps in
+//! time (recordings concatenated, a bus or logger restarted, a clock step) must not turn into
+//! thousands of "late" frames. Rules, with `newest` the newest frame processed:
+//! - `newest <= t <= newest + FORWARD_WINDOW_US`: processed.
+//! - `newest - LATE_WINDOW_US <= t < newest`: a late frame, dropped (`reordered`).
+//! - anything else opens a *candidate segment*: the frame is held, not processed. Frames that
+//!   continue the candidate (in order, each within the forward window of the previous one) are held
+//!   too; at [`CONFIRM_FRAMES`] held frames the candidate is confirmed: a new segment starts (the
+//!   engine forgets its tracks) and the held frames are processed in order, none lost. A frame that
+//!   fits the current timeline first refutes the candidate: the held frames were glitches and are
+//!   dropped, each counted (`out of window`).
+//!
+//! Limitation: a new segment shorter than [`CONFIRM_FRAMES`] frames at the end of a log cannot be
+//! told from a glitch and is dropped (counted); live, the first frames after a jump wait for
+//! [`CONFIRM_FRAMES`] frames (under a millisecond on a loaded bus).
+use can_codec::Frame;
+
+/// Largest forward step (us) taken as the same timeline (above the exporter's 2 s event gap and
+/// ordinary quiet periods of a bus).
+pub const FORWARD_WINDOW_US: u64 = 5_000_000;
+/// Largest backward step (us) taken as a late frame rather than a jump.
+pub const LATE_WINDOW_US: u64 = 1_000_000;
+/// Consecutive frames that confirm a jump as a new segment.
+pub const CONFIRM_FRAMES: usize = 4;
+
+/// What to do with a frame.
+#[derive(Debug, PartialEq)]
+pub enum Action {
+    /// In order: process it.
+    Process,
+    /// Late (at most [`LATE_WINDOW_US`] before the newest frame): drop it.
+    Late { newest_us: u64 },
+    /// Held while a candidate segment is open.
+    Held,
+    /// A new segment is confirmed: forget the old state, then process these frames in order (the
+    /// current frame is the last).
+    NewSegment(Vec<(u64, Frame)>),
+}
+
+/// The verdict on one frame: frames dropped as glitches (usually none), then the action.
+#[derive(Debug, PartialEq)]
+pub struct Step {
+    pub dropped: Vec<(u64, Frame)>,
+    pub action: Action,
+}
+
+impl Step {
+    fn only(action: Action) -> Self {
+        Self {
+            dropped: Vec::new(),
+            action,
+        }
+    }
+}
+
+/// The timeline state.
+#[derive(Clone, Debug, Default)]
+pub struct Timeline {
+    newest_us: Option<u64>,
+    held: Vec<(u64, Frame)>,
+}
+
+impl Timeline {
+    /// The newest timestamp processed.
+    pub fn newest_us(&self) -> Option<u64> {
+        self.newest_us
+    }
+
+    /// Decides on the frame `frame` stamped `t_us`.
+    #[inline]
+    pub fn admit(&mut self, t_us: u64, frame: &Frame) -> Step {
+        let Some(newest) = self.newest_us else {
+            self.newest_us = Some(t_us);
+            return Step::only(Action::Process);
+        };
+        let in_window = t_us >= newest && t_us - newest <= FORWARD_WINDOW_US;
+        if self.held.is_empty() {
+            if in_window {
+                self.newest_us = Some(t_us);
+                return Step::only(Action::Process);
+            }
+            if t_us < newest && newest - t_us <= LATE_WINDOW_US {
+                return Step::only(Action::Late { newest_us: newest });
+            }
+            self.held.push((t_us, *frame));
+            return Step::only(Action::Held);
+        }
+        self.admit_with_candidate(t_us, frame, newest, in_window)
+    }
+
+    #[cold]
+    fn admit_with_candidate(
+        &mut self,
+        t_us: u64,
+        frame: &Frame,
+        newest: u64,
+        in_window: bool,
+    ) -> Step {
+        let last = self.held.last().map_or(0, |h| h.0);
+        if t_us >= last && t_us - last <= FORWARD_WINDOW_US {
+            self.held.push((t_us, *frame));
+            if self.held.len() < CONFIRM_FRAMES {
+                return Step::only(Action::Held);
+            }
+            self.newest_us = Some(t_us);
+            return Step::only(Action::NewSegment(std::mem::take(&mut self.held)));
+        }
+        let dropped = std::mem::take(&mut self.held);
+        if in_window {
+            self.newest_us = Some(t_us);
+            return Step {
+                dropped,
+                action: Action::Process,
+            };
+        }
+        if t_us < newest && newest - t_us <= LATE_WINDOW_US {
+            return Step {
+                dropped,
+                action: Action::Late { newest_us: newest },
+            };
+        }
+        self.held.push((t_us, *frame));
+        Step {
+            dropped,
+            action: Action::Held,
+        }
+    }
+
+    /// End of input: frames still held are dropped (a candidate that was never confirmed).
+    pub fn finish(&mut self) -> Vec<(u64, Frame)> {
+        std::mem::take(&mut self.held)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use can_codec::CanId;
+
+    fn f() -> Frame {
+        Frame::data_frame(CanId::Standard(0x100), &[0]).unwrap()
+    }
+
+    #[test]
+    fn a_single_far_future_frame_is_dropped_alone() {
+        let mut tl = Timeline::default();
+        assert_eq!(tl.admit(1_000, &f()).action, Action::Process);
+        assert_eq!(tl.admit(1_000_000_000_000, &f()).action, Action::Held);
+        let s = tl.admit(1_100, &f());
+        assert_eq!(s.dropped.len(), 1);
+        assert_eq!(s.action, Action::Process);
+        assert_eq!(
+            tl.admit(900, &f()).action,
+            Action::Late { newest_us: 1_100 }
+        );
+        assert_eq!(tl.newest_us(), Some(1_100));
+    }
+
+    #[test]
+    fn a_jump_back_or_forward_confirmed_by_following_frames_is_a_new_segment() {
+        for start in [1_000_000_000u64, 10_000_000] {
+            let mut tl = Timeline::default();
+            assert_eq!(tl.admit(200_000_000, &f()).action, Action::Process);
+            for k in 0..CONFIRM_FRAMES as u64 - 1 {
+                assert_eq!(tl.admit(start + k, &f()).action, Action::Held);
+            }
+            match tl.admit(start + 10, &f()).action {
+                Action::NewSegment(held) => {
+                    assert_eq!(held.len(), CONFIRM_FRAMES);
+                    assert_eq!(held[0].0, start);
+                }
+                other => panic!("{other:?}"),
+            }
+            assert_eq!(tl.newest_us(), Some(start + 10));
+            assert!(tl.finish().is_empty());
+        }
+    }
+}

@@ -1,0 +1,398 @@
+//! Nothing lost without saying so: timestamp glitches and jumps, unreadable and over-long lines,
+//! outputs that would overwrite inputs, numeric options, DBC and map mistakes (issue #10, part 2).
+mod common;
+use can_bridge::engine::{Engine, EngineConfig, Output};
+use can_bridge::map::{CompiledMap, MapFile, DEFAULT_MAP};
+use can_bridge::ModelFile;
+use can_codec::{Database, Frame};
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bridge() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+}
+
+fn write_model(dir: &Path) -> PathBuf {
+    let p = dir.join("model.rsk");
+    std::fs::write(&p, msra_blob()).unwrap();
+    p
+}
+
+/// `cycles` 10 Hz cycles of two tracks (one closing, one receding), 5 frames each per track.
+fn drive(db: &Database, cycles: usize, t0: u64) -> Vec<(u64, Frame)> {
+    let mut out = Vec::new();
+    let mut t = t0;
+    for k in 0..cycles {
+        let gap = 60.0 - (k % 200) as f64 * 0.25;
+        for c in [Cycle::closing(3, gap), Cycle::receding(9)] {
+            for f in c.frames(db) {
+                out.push((t, f));
+                t += 100;
+            }
+        }
+        t += 100_000 - 1_000;
+    }
+    out
+}
+
+fn to_log(frames: &[(u64, Frame)]) -> String {
+    let mut s = String::new();
+    for (t, f) in frames {
+        can_codec::format_line(&mut s, *t, "can0", f);
+        s.push('\n');
+    }
+    s
+}
+
+struct Run {
+    scored: Vec<(u32, u64)>,
+    stats: can_bridge::Stats,
+}
+
+fn run_engine(frames: &[(u64, Frame)]) -> Run {
+    let model_file = ModelFile::from_bytes(Path::new("m.rsk"), msra_blob()).unwrap();
+    let (_db, map) = CompiledMap::project_default().unwrap();
+    let mut engine = Engine::new(model_file.model().unwrap(), map, EngineConfig::new(1.5)).unwrap();
+    let mut scored = Vec::new();
+    let mut collect = |o: Output| {
+        if let Output::Scored(obs) = o {
+            scored.push((obs.track, obs.t_us));
+        }
+    };
+    for (t, f) in frames {
+        engine.process(*t, f, &mut collect);
+    }
+    engine.finish(&mut collect);
+    Run {
+        scored,
+        stats: *engine.stats(),
+    }
+}
+
+const T0: u64 = 1_700_000_000_000_000;
+
+#[test]
+fn one_frame_a_million_seconds_ahead_costs_that_frame_only() {
+    let db = project_db();
+    let clean = drive(&db, 1200, T0);
+    let mut glitched = clean.clone();
+    let (t, f) = glitched[3000];
+    glitched.insert(3000, (t + 1_000_000_000_000, f));
+    let (a, b) = (run_engine(&clean), run_engine(&glitched));
+    assert_eq!(b.stats.out_of_window, 1);
+    assert_eq!(b.stats.reordered, 0);
+    assert_eq!(b.stats.segments, 0);
+    assert_eq!(
+        a.scored, b.scored,
+        "every update of the clean log is scored"
+    );
+    assert_eq!(a.scored.len(), 2400);
+
+    // The same log through score-log: exit 0 (1 of 12,001 lines), the loss named.
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("glitch.log");
+    std::fs::write(&log, to_log(&glitched)).unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .arg("--events-out")
+        .arg(tmp.path().join("e.jsonl"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("2400 scored"), "{stderr}");
+    assert!(stderr.contains("1 off the timeline"), "{stderr}");
+    assert!(stderr.contains("lost 1 of 12001 lines"), "{stderr}");
+    // With --max-lost 0 the same loss fails the run.
+    let out = bridge()
+        .args(["score-log", "--max-lost", "0", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+}
+
+#[test]
+fn a_jump_back_of_100_s_starts_a_new_segment_and_loses_nothing() {
+    let db = project_db();
+    let first = drive(&db, 600, T0);
+    let end = first.last().unwrap().0;
+    // Recordings concatenated: the second starts 100 s before the first ended.
+    let second = drive(&db, 600, end - 100_000_000);
+    let mut log = first.clone();
+    log.extend(second);
+    let r = run_engine(&log);
+    assert_eq!(r.stats.reordered, 0);
+    assert_eq!(r.stats.out_of_window, 0);
+    assert_eq!(r.stats.segments, 1);
+    assert_eq!(r.scored.len(), 2400, "{:?}", r.stats);
+    // A forward jump of an hour (a logger paused) is a new segment too.
+    let mut log = first;
+    log.extend(drive(&db, 600, end + 3_600_000_000));
+    let r = run_engine(&log);
+    assert_eq!((r.stats.segments, r.stats.out_of_window), (1, 0));
+    assert_eq!(r.scored.len(), 2400);
+}
+
+#[test]
+fn a_run_that_loses_too_much_fails_with_a_summary_and_writes_no_output() {
+    let db = project_db();
+    let mut text = String::new();
+    for (i, line) in to_log(&drive(&db, 100, T0)).lines().enumerate() {
+        text.push_str(line);
+        text.push('\n');
+        if i % 10 == 0 {
+            text.push_str("garbage\n");
+        }
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("bad.log");
+    std::fs::write(&log, &text).unwrap();
+    let warnings = tmp.path().join("w.log");
+    std::fs::write(&warnings, "previous run\n").unwrap();
+    let out = bridge()
+        .args(["score-log", "--threshold", "1.5", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .arg("--warnings-out")
+        .arg(&warnings)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("bad.log:2: not a candump -L frame line"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("lost 100 of 1100 lines"), "{stderr}");
+    assert!(stderr.contains("more than --max-lost 0.01"), "{stderr}");
+    assert!(stderr.contains("80 more lines skipped"), "{stderr}");
+    // The failed run left the previous output as it was, and no temporary file.
+    assert_eq!(
+        std::fs::read_to_string(&warnings).unwrap(),
+        "previous run\n"
+    );
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 3);
+}
+
+#[test]
+fn non_utf8_and_over_long_lines_are_skipped_by_line_and_the_rest_is_kept() {
+    let db = project_db();
+    let text = to_log(&drive(&db, 500, T0));
+    let mut bytes = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        bytes.extend_from_slice(line.as_bytes());
+        if i == 10 {
+            bytes.extend_from_slice(b" \xe9t\xe9");
+        }
+        bytes.push(b'\n');
+        if i == 20 {
+            bytes.extend(std::iter::repeat_n(b'7', 200 << 20 >> 4));
+            bytes.push(b'\n');
+        }
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("mixed.log");
+    std::fs::write(&log, &bytes).unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("mixed.log:11: not UTF-8"), "{stderr}");
+    assert!(
+        stderr.contains("mixed.log:22: line of 13107200 bytes is longer than the 4096-byte limit"),
+        "{stderr}"
+    );
+    // Line 11 was an EGO_MOTION frame of the first cycle: that cycle is stale, all others score.
+    assert!(stderr.contains("lost 2 of 5001 lines"), "{stderr}");
+}
+
+#[test]
+fn a_file_without_line_breaks_is_refused_quickly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = bridge()
+        .args(["score-log", "--log", "/dev/zero", "--model"])
+        .arg(write_model(tmp.path()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("/dev/zero") && stderr.contains("no line break"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn outputs_that_name_an_input_are_refused_and_the_input_is_untouched() {
+    let db = project_db();
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("drive.log");
+    let text = to_log(&drive(&db, 20, T0));
+    std::fs::write(&log, &text).unwrap();
+    let model = write_model(tmp.path());
+    for flag in ["--warnings-out", "--events-out"] {
+        let out = bridge()
+            .args(["score-log", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg(flag)
+            .arg(tmp.path().join(".").join("drive.log"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains(flag) && stderr.contains("same file as --log"),
+            "{stderr}"
+        );
+        assert_eq!(std::fs::read_to_string(&log).unwrap(), text);
+    }
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .arg("--events-out")
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(std::fs::read(&model).unwrap(), msra_blob());
+}
+
+#[test]
+fn numeric_options_are_validated_when_parsed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let log = tmp.path().join("x.log");
+    std::fs::write(&log, "").unwrap();
+    for (flag, value) in [
+        ("--stale-ms", "18446744073709552"),
+        ("--stale-ms", "0"),
+        ("--urgent", "nan"),
+        ("--threshold", "inf"),
+        ("--hysteresis", "-1"),
+        ("--min-on-ms", "99999999999"),
+        ("--max-lost", "2"),
+    ] {
+        let out = bridge()
+            .args(["score-log", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg(format!("{flag}={value}"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag} {value}: {stderr}");
+        assert!(stderr.contains(flag), "{stderr}");
+    }
+}
+
+#[test]
+fn impossible_dbc_content_is_refused_with_file_and_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let log = tmp.path().join("x.log");
+    std::fs::write(&log, "").unwrap();
+    let project = can_codec::project::PROJECT_DBC;
+    let line_of = |needle: &str| project.lines().position(|l| l.contains(needle)).unwrap() + 1;
+    let cases = [
+        (
+            project.replace("[0.5|30] \"m\"", "[30|0.5] \"m\""),
+            line_of("SG_ EgoLength"),
+            "min > max",
+        ),
+        (
+            project.replace("BO_ 256 EGO_MOTION", "BO_ 4294967295 EGO_MOTION"),
+            line_of("BO_ 256 EGO_MOTION"),
+            "extended (29-bit) id",
+        ),
+        (
+            project.replace("BO_ 257 EGO_SIZE: 4", "BO_ 257 EGO_SIZE: 9"),
+            line_of("BO_ 257 EGO_SIZE"),
+            "size 9 bytes",
+        ),
+    ];
+    for (text, line, why) in cases {
+        let dbc = tmp.path().join("bad.dbc");
+        std::fs::write(&dbc, text).unwrap();
+        let out = bridge()
+            .args(["score-log", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg("--dbc")
+            .arg(&dbc)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!("bad.dbc:{line}:")) && stderr.contains(why),
+            "{why}: {stderr}"
+        );
+    }
+    // Harmless: a byte-order mark and a Latin-1 comment (vendor files carry both).
+    let mut bytes = b"\xEF\xBB\xBF".to_vec();
+    bytes.extend_from_slice(project.as_bytes());
+    bytes.extend_from_slice(b"\nCM_ BO_ 256 \"Vitesse du v\xe9hicule\";\n");
+    let dbc = tmp.path().join("vendor.dbc");
+    std::fs::write(&dbc, bytes).unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .arg("--dbc")
+        .arg(&dbc)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+}
+
+#[test]
+fn a_signal_mapped_twice_or_a_wide_signal_as_a_flag_is_refused() {
+    let db = project_db();
+    let twice = DEFAULT_MAP.replace(
+        "pos_y = { message = \"OBJECT_POSITION\", signal = \"ObjPosY\" }",
+        "pos_y = { message = \"OBJECT_POSITION\", signal = \"ObjPosX\" }",
+    );
+    assert_ne!(twice, DEFAULT_MAP);
+    let err = CompiledMap::compile(&MapFile::parse(&twice).unwrap(), &db).unwrap_err();
+    assert!(
+        err.to_string().contains("object.pos_y") && err.to_string().contains("object.pos_x"),
+        "{err}"
+    );
+    // A 16-bit measurement (the object length) as the valid flag.
+    let wide = DEFAULT_MAP
+        .replace(
+            "valid = { message = \"OBJECT_POSITION\", signal = \"ObjValid\" }",
+            "valid = { message = \"OBJECT_SIZE\", signal = \"ObjLength\" }",
+        )
+        .replace(
+            "length = { message = \"OBJECT_SIZE\", signal = \"ObjLength\" }\n",
+            "",
+        );
+    assert_ne!(wide, DEFAULT_MAP);
+    let err = CompiledMap::compile(&MapFile::parse(&wide).unwrap(), &db).unwrap_err();
+    assert!(
+        err.to_string().contains("object.valid") && err.to_string().contains("16-bit"),
+        "{err}"
+    );
+}
