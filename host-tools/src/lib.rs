@@ -2,6 +2,8 @@
 //! computed by `scorer-core`; this crate only moves data around it, learns parameters and reports.
 //!
 //! - [`ssm_csv`]: streaming CSV scoring of ego/partner pairs (`riskctl ssm`).
+//! - [`arrow_kernel`] (feature `arrow`): surrogates, features and model scores over Arrow batches.
+//! - [`parquet_io`] (feature `parquet`): Parquet input and output for `riskctl ssm` / `score`.
 //! - [`events`]: the event-folder format (loading, validation, sequence preparation).
 //! - [`sim`]: the scenario simulator that writes event folders.
 //! - [`comparisons`]: pairwise comparisons, one module per source.
@@ -12,6 +14,8 @@
 //! - [`gssm`]: GSSM, SSRA and MSRA over GSSM (fit, align, combine, studies).
 //! - [`candump_export`]: event tables as 10 Hz vehicle CAN traffic in candump format.
 //! - [`demo`]: the end-to-end main job.
+#[cfg(feature = "arrow")]
+pub mod arrow_kernel;
 pub mod candump_export;
 pub mod comparisons;
 pub mod demo;
@@ -19,6 +23,8 @@ pub mod eval;
 pub mod events;
 pub mod export;
 pub mod gssm;
+#[cfg(feature = "parquet")]
+pub mod parquet_io;
 pub mod quantize;
 pub mod sim;
 pub mod ssm_csv;

@@ -6,6 +6,9 @@ pub mod events_to_candump;
 pub mod export_model;
 pub mod gssm;
 pub mod inspect_model;
+pub mod output;
+#[cfg(feature = "parquet")]
+pub mod score;
 pub mod simulate;
 pub mod ssm;
 pub mod train;
