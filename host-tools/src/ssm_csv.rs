@@ -11,15 +11,31 @@
 //! as large as UTM eastings/northings (f32 alone resolves 0.5 m at 5,000 km).
 //!
 //! Every number comes from `scorer-core` ([`scorer_core::surrogates`], [`scorer_core::features`]);
-//! this module only parses, validates and writes. It holds one record at a time, so memory does not
-//! grow with the file.
+//! this module only parses, validates and writes.
+//!
+//! The file is processed as a pipeline of chunks of whole records (see [`split`]): the calling
+//! thread reads and cuts the input and writes the results in input order, worker threads parse,
+//! score and format whole chunks. At most a fixed number of chunks is in flight, so memory does
+//! not grow with the file, and the output is byte for byte what a one-row-at-a-time writer
+//! produces.
 //!
 //! A bad row (missing or empty field, unparsable number, non-finite or out-of-f32-range value,
-//! zero heading vector, negative length or width, wrong number of fields) is reported with its
-//! line number and column and skipped; in strict mode the first one stops the run.
+//! zero heading vector, negative length or width, wrong number of fields, a line over the length
+//! cap, a quoted field that is never closed) is reported with its line number (and column where
+//! there is one) and skipped; in strict mode the first one stops the run. Pass-through columns are
+//! copied byte for byte, whatever their encoding.
 use scorer_core::geometry::unit_heading;
 use scorer_core::{features, surrogates, VehicleState, FEATURE_NAMES};
-use std::io::{Read, Write};
+
+mod number;
+mod pipeline;
+pub mod split;
+
+pub use number::{parse_plain_decimal, push_f32};
+#[cfg(feature = "parquet")]
+pub(crate) use pipeline::{for_each_record, push_field, read_header, record_reader, FieldBuf};
+pub use pipeline::{score_csv, SsmOptions, SsmSummary};
+pub use split::DEFAULT_MAX_RECORD_BYTES;
 
 /// The per-vehicle input fields, in [`VehicleState`] order; columns are `<field>_i` / `<field>_j`.
 pub const STATE_FIELDS: [&str; 9] = ["x", "y", "vx", "vy", "hx", "hy", "acc", "length", "width"];
@@ -40,12 +56,15 @@ pub enum SsmError {
     },
     #[error("the input is empty (no header line)")]
     EmptyInput,
+    #[error("header (line {line}): {problem}")]
+    BadHeader {
+        line: u64,
+        problem: split::SplitProblem,
+    },
     #[error("{0}")]
     BadRow(RowError),
-    #[error("reading CSV")]
-    Read(#[source] csv::Error),
-    #[error("writing CSV")]
-    Write(#[source] csv::Error),
+    #[error("reading input")]
+    Read(#[source] std::io::Error),
     #[error("writing output")]
     Io(#[from] std::io::Error),
 }
@@ -69,6 +88,63 @@ pub enum RowProblem {
     FieldCount { found: usize, expected: usize },
     #[error("malformed CSV: {0}")]
     Csv(String),
+    #[error("line longer than {limit} bytes (skipped to the next line)")]
+    TooLong { limit: usize },
+    #[error("quoted field not closed (by the end of the input or within {limit} bytes); reading resumes on the next line")]
+    UnterminatedQuote { limit: usize },
+}
+
+impl RowProblem {
+    /// A short name of the kind of problem, the same for every row with it (for summaries).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            RowProblem::Missing => "missing field",
+            RowProblem::Unparsable(_) => "not a number",
+            RowProblem::NotFinite(_) => "not finite",
+            RowProblem::OutOfRange(_) => "outside the f32 range",
+            RowProblem::NegativeSize(_) => "negative size",
+            RowProblem::ZeroHeading(..) => "zero heading",
+            RowProblem::FieldCount { .. } => "too many fields",
+            RowProblem::Csv(_) => "malformed CSV",
+            RowProblem::TooLong { .. } => "line too long",
+            RowProblem::UnterminatedQuote { .. } => "unterminated quote",
+        }
+    }
+}
+
+impl From<split::SplitProblem> for RowProblem {
+    fn from(p: split::SplitProblem) -> Self {
+        match p {
+            split::SplitProblem::TooLong { limit } => RowProblem::TooLong { limit },
+            split::SplitProblem::UnterminatedQuote { limit } => {
+                RowProblem::UnterminatedQuote { limit }
+            }
+        }
+    }
+}
+
+/// The fields of one parsed CSV record, as bytes (pass-through columns need not be UTF-8).
+pub trait RowFields {
+    fn field_count(&self) -> usize;
+    fn field(&self, k: usize) -> Option<&[u8]>;
+}
+
+impl RowFields for csv::StringRecord {
+    fn field_count(&self) -> usize {
+        self.len()
+    }
+    fn field(&self, k: usize) -> Option<&[u8]> {
+        self.get(k).map(str::as_bytes)
+    }
+}
+
+impl RowFields for csv::ByteRecord {
+    fn field_count(&self) -> usize {
+        self.len()
+    }
+    fn field(&self, k: usize) -> Option<&[u8]> {
+        self.get(k)
+    }
 }
 
 /// A rejected row: its 1-based line number in the input, the column at fault and why.
@@ -160,17 +236,17 @@ impl PairColumns {
 
     /// Parse and validate the ego and partner states of one record. Positions are returned
     /// relative to the ego's centre (the ego is at the origin).
-    pub fn parse_pair(
+    pub fn parse_pair<F: RowFields + ?Sized>(
         &self,
-        record: &csv::StringRecord,
+        record: &F,
         line: u64,
     ) -> Result<(VehicleState, VehicleState), RowError> {
-        if record.len() > self.names.len() {
+        if record.field_count() > self.names.len() {
             return Err(RowError {
                 line,
                 column: None,
                 problem: RowProblem::FieldCount {
-                    found: record.len(),
+                    found: record.field_count(),
                     expected: self.names.len(),
                 },
             });
@@ -182,7 +258,7 @@ impl PairColumns {
             .iter()
             .chain(self.partner.iter())
             .copied()
-            .filter(|&k| k >= record.len())
+            .filter(|&k| k >= record.field_count())
             .min();
         if let Some(k) = first_missing {
             return Err(RowError {
@@ -193,9 +269,38 @@ impl PairColumns {
         }
         let ego = self.parse_state(record, &self.ego, line)?;
         let partner = self.parse_state(record, &self.partner, line)?;
-        // Both positions relative to the ego, subtracted in f64: every measure depends only on
-        // relative positions, and this keeps centimetres even for UTM-sized world coordinates,
-        // which f32 alone would round to half a metre.
+        self.build_pair(ego, partner, line)
+    }
+
+    /// Validate the 2 x 9 values of a pair (already parsed, in [`STATE_FIELDS`] order) and build
+    /// the two states. Both positions are made relative to the ego, subtracted in f64: every
+    /// measure depends only on relative positions, and this keeps centimetres even for UTM-sized
+    /// world coordinates, which f32 alone would round to half a metre.
+    pub fn pair_from_values(
+        &self,
+        ego: [f64; 9],
+        partner: [f64; 9],
+        line: u64,
+    ) -> Result<(VehicleState, VehicleState), RowError> {
+        for (values, columns) in [(&ego, &self.ego), (&partner, &self.partner)] {
+            for ((&v, &k), field) in values.iter().zip(columns).zip(STATE_FIELDS) {
+                check_value(v, field).map_err(|problem| RowError {
+                    line,
+                    column: self.names.get(k).cloned(),
+                    problem,
+                })?;
+            }
+        }
+        self.build_pair(ego, partner, line)
+    }
+
+    /// The two states from checked values, positions relative to the ego.
+    fn build_pair(
+        &self,
+        ego: [f64; 9],
+        partner: [f64; 9],
+        line: u64,
+    ) -> Result<(VehicleState, VehicleState), RowError> {
         let origin = (ego[0], ego[1]);
         Ok((
             self.to_state(ego, origin, &self.ego, line)?,
@@ -203,10 +308,23 @@ impl PairColumns {
         ))
     }
 
-    /// Parse the nine values of one vehicle (f64, each finite and within the f32 range).
-    fn parse_state(
+    /// Parse and validate the values of one record (as in the input, positions not yet relative).
+    pub fn parse_values<F: RowFields + ?Sized>(
         &self,
-        record: &csv::StringRecord,
+        record: &F,
+        line: u64,
+    ) -> Result<([f64; 9], [f64; 9]), RowError> {
+        self.parse_pair(record, line)?;
+        Ok((
+            self.parse_state(record, &self.ego, line)?,
+            self.parse_state(record, &self.partner, line)?,
+        ))
+    }
+
+    /// Parse the nine values of one vehicle (f64; validated by [`Self::pair_from_values`]).
+    fn parse_state<F: RowFields + ?Sized>(
+        &self,
+        record: &F,
         columns: &[usize; 9],
         line: u64,
     ) -> Result<[f64; 9], RowError> {
@@ -217,22 +335,32 @@ impl PairColumns {
                 column: self.names.get(k).cloned(),
                 problem,
             };
-            let raw = record.get(k).map(str::trim).unwrap_or("");
+            let bytes = record.field(k).unwrap_or_default();
+            // Most values are plain decimals: parsed exactly as below, without the detour.
+            if let Some(wide) = number::parse_plain_decimal(bytes) {
+                if let Err(problem) = check_value(wide, field) {
+                    let raw = String::from_utf8_lossy(bytes);
+                    return Err(err(with_text(problem, &raw)));
+                }
+                *slot = wide;
+                continue;
+            }
+            let raw = match std::str::from_utf8(bytes) {
+                Ok(text) => text.trim(),
+                Err(_) => {
+                    return Err(err(RowProblem::Unparsable(
+                        String::from_utf8_lossy(bytes).into_owned(),
+                    )))
+                }
+            };
             if raw.is_empty() {
                 return Err(err(RowProblem::Missing));
             }
             let wide: f64 = raw
                 .parse()
                 .map_err(|_| err(RowProblem::Unparsable(raw.to_string())))?;
-            if !wide.is_finite() {
-                return Err(err(RowProblem::NotFinite(raw.to_string())));
-            }
-            if !(wide as f32).is_finite() {
-                return Err(err(RowProblem::OutOfRange(raw.to_string())));
-            }
-            if (field == "length" || field == "width") && wide < 0.0 {
-                return Err(err(RowProblem::NegativeSize(raw.to_string())));
-            }
+            // The value's own text in messages, as the user wrote it.
+            check_value(wide, field).map_err(|problem| err(with_text(problem, raw)))?;
             *slot = wide;
         }
         Ok(v)
@@ -279,6 +407,32 @@ impl PairColumns {
     }
 }
 
+/// Check one input value: finite, within the f32 range, and >= 0 for a size. The problem names
+/// the value as formatted from f64 (callers with the original text substitute it).
+pub fn check_value(wide: f64, field: &str) -> Result<(), RowProblem> {
+    let text = || wide.to_string();
+    if !wide.is_finite() {
+        return Err(RowProblem::NotFinite(text()));
+    }
+    if !(wide as f32).is_finite() {
+        return Err(RowProblem::OutOfRange(text()));
+    }
+    if (field == "length" || field == "width") && wide < 0.0 {
+        return Err(RowProblem::NegativeSize(text()));
+    }
+    Ok(())
+}
+
+/// `problem` with the offending value spelled as in the input.
+fn with_text(problem: RowProblem, raw: &str) -> RowProblem {
+    match problem {
+        RowProblem::NotFinite(_) => RowProblem::NotFinite(raw.to_string()),
+        RowProblem::OutOfRange(_) => RowProblem::OutOfRange(raw.to_string()),
+        RowProblem::NegativeSize(_) => RowProblem::NegativeSize(raw.to_string()),
+        other => other,
+    }
+}
+
 /// A value as written to the output: `inf`, `-inf`, `nan`, or the shortest decimal that reads
 /// back to the same f32.
 pub fn format_value(v: f32) -> String {
@@ -289,17 +443,11 @@ pub fn format_value(v: f32) -> String {
 
 /// [`format_value`] into a reused buffer (cleared first).
 pub fn write_value(buf: &mut String, v: f32) {
-    use std::fmt::Write as _;
-    buf.clear();
-    if v == f32::INFINITY {
-        buf.push_str("inf");
-    } else if v == f32::NEG_INFINITY {
-        buf.push_str("-inf");
-    } else if v.is_nan() {
-        buf.push_str("nan");
-    } else {
-        let _ = write!(buf, "{v}");
-    }
+    let mut bytes = std::mem::take(buf).into_bytes();
+    bytes.clear();
+    push_f32(&mut bytes, v);
+    // push_f32 writes ASCII only.
+    *buf = String::from_utf8(bytes).unwrap_or_default();
 }
 
 /// The computed columns of one pair, in output order (surrogates, then features).
@@ -314,109 +462,6 @@ pub fn computed_values(ego: &VehicleState, partner: &VehicleState) -> [f32; 17] 
     out
 }
 
-/// Options of one run.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SsmOptions {
-    /// Stop at the first bad row with [`SsmError::BadRow`] instead of skipping it.
-    pub strict: bool,
-}
-
-/// Row counts of a finished run.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct SsmSummary {
-    pub rows_ok: u64,
-    pub rows_bad: u64,
-    /// Computed column names that the input already had (both copies are in the output: the
-    /// input's, passed through, and the computed one after it).
-    pub duplicated_columns: Vec<String>,
-}
-
-/// Stream `input` to `output`, calling `on_bad_row` for every skipped row.
-///
-/// The output is flushed before returning. In strict mode the first bad row is returned as
-/// [`SsmError::BadRow`] (rows before it have been written).
-pub fn score_csv<R: Read, W: Write>(
-    input: R,
-    output: W,
-    options: SsmOptions,
-    mut on_bad_row: impl FnMut(&RowError),
-) -> Result<SsmSummary, SsmError> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .from_reader(input);
-    let mut writer = csv::WriterBuilder::new().flexible(true).from_writer(output);
-    let mut record = csv::StringRecord::new();
-
-    if !reader.read_record(&mut record).map_err(SsmError::Read)? {
-        return Err(SsmError::EmptyInput);
-    }
-    let columns = PairColumns::from_header(&record)?;
-    writer
-        .write_record(columns.output_header())
-        .map_err(SsmError::Write)?;
-
-    let mut summary = SsmSummary {
-        duplicated_columns: columns.clashing_output_columns(),
-        ..SsmSummary::default()
-    };
-    let mut out_record = csv::StringRecord::new();
-    let mut number = String::new();
-    loop {
-        let line_hint = reader.position().line();
-        let parsed = match reader.read_record(&mut record) {
-            Ok(false) => break,
-            Ok(true) => {
-                let line = record.position().map_or(line_hint, |p| p.line());
-                if record.iter().all(|f| f.trim().is_empty()) {
-                    continue; // blank line
-                }
-                columns.parse_pair(&record, line)
-            }
-            Err(e) => {
-                let line = e.position().map_or(line_hint, |p| p.line());
-                match e.kind() {
-                    csv::ErrorKind::Utf8 { .. } | csv::ErrorKind::UnequalLengths { .. } => {
-                        Err(RowError {
-                            line,
-                            column: None,
-                            problem: RowProblem::Csv(e.to_string()),
-                        })
-                    }
-                    _ => return Err(SsmError::Read(e)),
-                }
-            }
-        };
-        match parsed {
-            Ok((ego, partner)) => {
-                out_record.clear();
-                for field in record.iter() {
-                    out_record.push_field(field);
-                }
-                for _ in record.len()..columns.names.len() {
-                    out_record.push_field("");
-                }
-                for v in computed_values(&ego, &partner) {
-                    write_value(&mut number, v);
-                    out_record.push_field(&number);
-                }
-                writer.write_record(&out_record).map_err(SsmError::Write)?;
-                summary.rows_ok += 1;
-            }
-            Err(bad) => {
-                summary.rows_bad += 1;
-                if options.strict {
-                    writer.flush()?;
-                    return Err(SsmError::BadRow(bad));
-                }
-                on_bad_row(&bad);
-            }
-        }
-    }
-    writer.flush()?;
-    Ok(summary)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -427,9 +472,15 @@ mod tests {
         let input = format!("{HEADER}\n{body}");
         let mut out = Vec::new();
         let mut bad = Vec::new();
-        let r = score_csv(input.as_bytes(), &mut out, SsmOptions { strict }, |e| {
-            bad.push(e.clone())
-        });
+        let r = score_csv(
+            input.as_bytes(),
+            &mut out,
+            SsmOptions {
+                strict,
+                ..SsmOptions::default()
+            },
+            |e| bad.push(e.clone()),
+        );
         (r, String::from_utf8(out).unwrap(), bad)
     }
 
@@ -534,7 +585,10 @@ mod tests {
         let r = score_csv(
             input.as_bytes(),
             &mut out,
-            SsmOptions { strict: true },
+            SsmOptions {
+                strict: true,
+                ..SsmOptions::default()
+            },
             |_| {},
         )
         .unwrap();

@@ -648,7 +648,13 @@ fn folds_are_by_event_stratified_and_seeded() {
     let mut rec_events = Vec::new();
     for r in 0..6 {
         for k in 0..4 {
-            rec_events.push(event(&format!("REC{r}/{k}-9@0#{k}"), EventKind::Safe, 2, None, |_| 0.0));
+            rec_events.push(event(
+                &format!("REC{r}/{k}-9@0#{k}"),
+                EventKind::Safe,
+                2,
+                None,
+                |_| 0.0,
+            ));
         }
     }
     rec_events.push(event("lone", EventKind::Safe, 2, None, |_| 0.0));

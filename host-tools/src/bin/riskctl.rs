@@ -26,6 +26,9 @@ enum Command {
     Train(cli::train::Args),
     /// Score an event folder with model files and the baselines; print the metrics table.
     Evaluate(cli::evaluate::Args),
+    /// Per-frame risk scores of every event under each model, with TTC2D/TAdv/EI (CSV/Parquet).
+    #[cfg(feature = "parquet")]
+    Score(cli::score::Args),
     /// Train on each comparison source alone and in combination, over training fractions.
     Ablation(cli::ablation::Args),
     /// Quantise (DRL) and write a trained model as a model blob for the ECU.
@@ -52,6 +55,8 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(a) => cli::simulate::run(a),
         Command::Train(a) => cli::train::run(a),
         Command::Evaluate(a) => cli::evaluate::run(a),
+        #[cfg(feature = "parquet")]
+        Command::Score(a) => cli::score::run(a),
         Command::Ablation(a) => cli::ablation::run(a),
         Command::ExportModel(a) => cli::export_model::run(a),
         Command::InspectModel(a) => cli::inspect_model::run(a),

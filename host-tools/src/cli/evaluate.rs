@@ -68,10 +68,10 @@ fn parse_model_spec(spec: &str) -> (Option<String>, PathBuf) {
 }
 
 /// A model file read into memory: optional row name, path, bytes.
-type ModelFile = (Option<String>, PathBuf, Vec<u8>);
+pub type ModelFile = (Option<String>, PathBuf, Vec<u8>);
 
 /// Reads every model file, so decoding can borrow from the bytes.
-fn read_models(specs: &[String]) -> anyhow::Result<Vec<ModelFile>> {
+pub fn read_models(specs: &[String]) -> anyhow::Result<Vec<ModelFile>> {
     specs
         .iter()
         .map(|spec| {
@@ -85,7 +85,7 @@ fn read_models(specs: &[String]) -> anyhow::Result<Vec<ModelFile>> {
 
 const MAX_LISTED_ISSUES: usize = 20;
 
-fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
+pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
     if issues.is_empty() {
         return;
     }
@@ -98,11 +98,11 @@ fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
     }
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    // Models first: a bad model file is found before a large event folder is read.
-    let files = read_models(&args.models)?;
+/// Decodes model files and names each (as the rows of `riskctl evaluate`, and the columns of
+/// `riskctl score`).
+pub fn named_models(files: &[ModelFile]) -> anyhow::Result<Vec<Method<'_>>> {
     let mut decoded = Vec::with_capacity(files.len());
-    for (name, path, bytes) in &files {
+    for (name, path, bytes) in files {
         let model = scorer_core::model::decode(bytes).map_err(|e| {
             anyhow::anyhow!("model file {}: not a valid model blob: {e}", path.display())
         })?;
@@ -118,7 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|(n, m, stem)| (n.clone(), model_row_name(m), stem.clone()))
             .collect::<Vec<_>>(),
     );
-    let mut methods: Vec<Method<'_>> = decoded
+    let methods: Vec<Method<'_>> = decoded
         .into_iter()
         .zip(names)
         .map(|((_, model, _), name)| Method {
@@ -126,6 +126,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             scorer: Scorer::Model(model),
         })
         .collect();
+    Ok(methods)
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // Models first: a bad model file is found before a large event folder is read.
+    let files = read_models(&args.models)?;
+    let mut methods = named_models(&files)?;
     methods.extend(Method::baselines());
 
     let dir = &args.events;

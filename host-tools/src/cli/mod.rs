@@ -8,6 +8,9 @@ pub mod export_model;
 pub mod gssm;
 pub mod import;
 pub mod inspect_model;
+pub mod output;
+#[cfg(feature = "parquet")]
+pub mod score;
 pub mod simulate;
 pub mod ssm;
 pub mod train;

@@ -1,9 +1,14 @@
 //! `riskctl ssm`: surrogate safety measures and features for a CSV of ego/partner pairs.
 use anyhow::Context;
-use host_tools::ssm_csv::{score_csv, SsmError, SsmOptions};
+use host_tools::ssm_csv::{
+    score_csv, RowError, SsmError, SsmOptions, SsmSummary, DEFAULT_MAX_RECORD_BYTES,
+};
+use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+
+use super::output::{is_dash, write_output};
 
 const AFTER_LONG_HELP: &str = "\
 INPUT COLUMNS (header names matched case-insensitively, any order):
@@ -30,15 +35,30 @@ OUTPUT COLUMNS (appended after the input columns):
 BAD ROWS:
   A row with a missing or empty pair field, a value that is not a finite number, a zero
   heading vector, a negative length/width, or too many fields is reported on stderr with its
-  line number and column, and skipped. With --strict the first bad row stops the run with
-  exit status 1 and no output file is left behind. A summary (rows ok / rows bad) is
-  printed on stderr at the end.
+  line number and column, and skipped. So is a line longer than --max-line-bytes (default
+  1 MiB; skipped without being held in memory) and a quoted field that is never closed (only
+  the line where it starts is lost; reading resumes on the next line). Line numbers count
+  every line of the file, blank ones included. Pass-through columns are copied byte for byte,
+  in any encoding.
 
-  The file is streamed one row at a time, so memory use does not depend on its size. A
-  regular output file is written to <OUTPUT>.partial and renamed when complete.
+  The first --show-bad messages of each kind of problem are printed (default 10), then a
+  count per kind. With --strict the first bad row stops the run with exit status 1 and no
+  output file is left behind. A summary (rows ok / rows bad) is printed on stderr at the end.
+
+  The file is streamed in chunks of whole rows, scored in parallel (--threads, default one
+  per core) and written in input order, so memory use does not depend on its size. A regular
+  output file is written to <OUTPUT>.partial and renamed when complete.
+
+PARQUET:
+  An input or output path ending in .parquet is Apache Parquet, anything else CSV (any mix).
+  Same columns: the input columns, then the 17 computed ones (Float32). From CSV, the 18 pair
+  columns become Float64 and every other column a string; from Parquet the pair columns may be
+  Float64, Float32, Int64 or Int32 and other columns keep their type. Bad rows are reported
+  with their row number (Parquet input). The Parquet path runs on one thread.
 
 EXAMPLES:
   riskctl ssm --input pairs.csv --output pairs_ssm.csv
+  riskctl ssm --input pairs.parquet --output pairs_ssm.parquet
   riskctl ssm --input pairs.csv --output pairs_ssm.csv --strict
   zcat pairs.csv.gz | riskctl ssm --input - --output - | less -S";
 
@@ -46,19 +66,24 @@ EXAMPLES:
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = AFTER_LONG_HELP)]
 pub struct Args {
-    /// Input CSV with the x_i ... width_j pair columns; '-' reads standard input.
+    /// Input CSV (or .parquet) with the x_i ... width_j pair columns; '-' reads standard input.
     #[arg(long, short, value_name = "FILE")]
     pub input: PathBuf,
-    /// Output CSV (input columns + surrogates + f_ features); '-' writes standard output.
+    /// Output CSV (or .parquet): input columns + surrogates + f_ features; '-' writes stdout.
     #[arg(long, short, value_name = "FILE")]
     pub output: PathBuf,
     /// Stop with an error (exit status 1) at the first bad row instead of skipping it.
     #[arg(long)]
     pub strict: bool,
-}
-
-fn is_dash(p: &Path) -> bool {
-    p.as_os_str() == "-"
+    /// Longest accepted line (bytes); longer lines are reported and skipped.
+    #[arg(long, value_name = "BYTES", default_value_t = DEFAULT_MAX_RECORD_BYTES)]
+    pub max_line_bytes: usize,
+    /// Messages printed per kind of bad row; the rest are counted in the summary.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub show_bad: u64,
+    /// Worker threads (0 = one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub threads: usize,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -67,54 +92,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.input.display().to_string()
     };
-    let input: Box<dyn Read> = if is_dash(&args.input) {
-        Box::new(std::io::stdin().lock())
-    } else {
-        let f = File::open(&args.input)
-            .with_context(|| format!("cannot open input {}", args.input.display()))?;
-        Box::new(BufReader::new(f))
-    };
     let options = SsmOptions {
         strict: args.strict,
+        max_record_bytes: args.max_line_bytes,
+        threads: args.threads,
     };
-
-    let summary = if is_dash(&args.output) {
-        let out = std::io::stdout().lock();
-        match stream(input, out, options, &input_name) {
-            Ok(summary) => summary,
-            // The reader of our stdout went away (`| head`): stop quietly, like other filters.
-            Err(e) if is_broken_pipe(&e) => return Ok(()),
-            Err(e) => return Err(e),
+    let mut report = BadRowReport::new(args.show_bad);
+    let columnar = is_parquet(&args.input) || is_parquet(&args.output);
+    let summary = write_output(&args.output, |out| {
+        if columnar {
+            return run_columnar(&args, out, options, &input_name, &mut report);
         }
-    } else if is_special_file(&args.output) {
-        // A device or pipe (e.g. /dev/null): write straight into it, nothing to rename.
-        let file = std::fs::OpenOptions::new()
-            .write(true)
-            .open(&args.output)
-            .with_context(|| format!("cannot open output {}", args.output.display()))?;
-        stream(input, BufWriter::new(file), options, &input_name)?
-    } else {
-        let partial = partial_path(&args.output);
-        let file = File::create(&partial)
-            .with_context(|| format!("cannot create output {}", partial.display()))?;
-        match stream(input, BufWriter::new(file), options, &input_name) {
-            Ok(summary) => {
-                std::fs::rename(&partial, &args.output).with_context(|| {
-                    format!(
-                        "cannot move {} to {}",
-                        partial.display(),
-                        args.output.display()
-                    )
-                })?;
-                summary
-            }
-            Err(e) => {
-                // Never leave a half-written file that looks like a result.
-                let _ = std::fs::remove_file(&partial);
-                return Err(e);
-            }
-        }
+        let input: Box<dyn Read> = if is_dash(&args.input) {
+            Box::new(std::io::stdin().lock())
+        } else {
+            Box::new(
+                File::open(&args.input)
+                    .with_context(|| format!("cannot open input {}", args.input.display()))?,
+            )
+        };
+        stream(input, out, options, &input_name, &mut report)
+    })?;
+    // None: our stdout reader went away (`| head`); stop quietly, like other filters.
+    let Some(summary) = summary else {
+        return Ok(());
     };
+    report.print_hidden(&input_name);
     if !summary.duplicated_columns.is_empty() {
         eprintln!(
             "riskctl ssm: note: the input already has column(s) {}; the output keeps the input's \
@@ -136,27 +139,102 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// True when the error comes from writing to a closed pipe.
-fn is_broken_pipe(e: &anyhow::Error) -> bool {
-    let broken = |io: &std::io::Error| io.kind() == std::io::ErrorKind::BrokenPipe;
-    e.chain().any(|cause| {
-        cause.downcast_ref::<std::io::Error>().is_some_and(broken)
-            || cause
-                .downcast_ref::<csv::Error>()
-                .is_some_and(|c| matches!(c.kind(), csv::ErrorKind::Io(io) if broken(io)))
+fn is_parquet(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"))
+}
+
+/// Parquet in and/or out, through the Arrow kernel.
+#[cfg(feature = "parquet")]
+fn run_columnar(
+    args: &Args,
+    out: Box<dyn Write + Send>,
+    options: SsmOptions,
+    input_name: &str,
+    report: &mut BadRowReport,
+) -> anyhow::Result<SsmSummary> {
+    use host_tools::parquet_io::{ssm_columnar, BatchSink, ColumnarInput};
+    let input = if is_parquet(&args.input) {
+        ColumnarInput::Parquet(
+            File::open(&args.input)
+                .with_context(|| format!("cannot open input {}", args.input.display()))?,
+        )
+    } else if is_dash(&args.input) {
+        ColumnarInput::Csv(Box::new(std::io::stdin()) as Box<dyn Read>)
+    } else {
+        ColumnarInput::Csv(Box::new(
+            File::open(&args.input)
+                .with_context(|| format!("cannot open input {}", args.input.display()))?,
+        ) as Box<dyn Read>)
+    };
+    let sink = if is_parquet(&args.output) {
+        BatchSink::parquet(out)
+    } else {
+        BatchSink::csv(out)
+    };
+    let unit = if is_parquet(&args.input) {
+        "row"
+    } else {
+        "line"
+    };
+    ssm_columnar(input, sink, options, |bad| {
+        report.bad_row(input_name, &bad.to_string().replacen("line", unit, 1), bad)
+    })
+    .map_err(|e| match e {
+        host_tools::parquet_io::ColumnarError::Ssm(SsmError::BadRow(bad)) => anyhow::anyhow!(
+            "{input_name}: {} (--strict: stopping at the first bad row)",
+            bad.to_string().replacen("line", unit, 1)
+        ),
+        e => anyhow::Error::new(e).context(format!("processing {input_name}")),
     })
 }
 
-/// True when `path` exists and is not a regular file (a device, FIFO or socket).
-fn is_special_file(path: &Path) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+#[cfg(not(feature = "parquet"))]
+fn run_columnar(
+    _: &Args,
+    _: Box<dyn Write + Send>,
+    _: SsmOptions,
+    _: &str,
+    _: &mut BadRowReport,
+) -> anyhow::Result<SsmSummary> {
+    anyhow::bail!("this riskctl was built without Parquet support (cargo feature `parquet`)")
 }
 
-/// `<output>.partial` next to the output file.
-fn partial_path(output: &Path) -> PathBuf {
-    let mut name = output.as_os_str().to_owned();
-    name.push(".partial");
-    PathBuf::from(name)
+/// Prints the first few bad rows of each kind and counts the rest, so a file of millions of bad
+/// rows does not flood stderr.
+struct BadRowReport {
+    show: u64,
+    /// Per kind: rows seen.
+    seen: BTreeMap<&'static str, u64>,
+}
+
+impl BadRowReport {
+    fn new(show: u64) -> Self {
+        Self {
+            show,
+            seen: BTreeMap::new(),
+        }
+    }
+
+    fn bad_row(&mut self, input_name: &str, message: &str, bad: &RowError) {
+        let seen = self.seen.entry(bad.problem.kind()).or_default();
+        *seen += 1;
+        if *seen <= self.show {
+            eprintln!("riskctl ssm: {input_name}: {message} (row skipped)");
+        }
+    }
+
+    fn print_hidden(&self, input_name: &str) {
+        for (kind, &seen) in &self.seen {
+            if seen > self.show {
+                eprintln!(
+                    "riskctl ssm: {input_name}: {} more row(s) skipped for \"{kind}\" (not shown; \
+                     --show-bad N shows more)",
+                    seen - self.show
+                );
+            }
+        }
+    }
 }
 
 fn stream<R: Read, W: Write>(
@@ -164,9 +242,10 @@ fn stream<R: Read, W: Write>(
     output: W,
     options: SsmOptions,
     input_name: &str,
+    report: &mut BadRowReport,
 ) -> anyhow::Result<host_tools::ssm_csv::SsmSummary> {
     let result = score_csv(input, output, options, |bad| {
-        eprintln!("riskctl ssm: {input_name}: {bad} (row skipped)");
+        report.bad_row(input_name, &bad.to_string(), bad)
     });
     match result {
         Ok(summary) => Ok(summary),
