@@ -242,7 +242,7 @@ fn drl_blob_of_the_old_input_schema_is_refused() {
     assert_eq!(
         err,
         ModelError::WrongInputSchema {
-            kind: "drl-int8",
+            kind: "drl-f32",
             found: 1,
             expected: 2
         }
