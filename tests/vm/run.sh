@@ -42,9 +42,14 @@ T=$(cat "$FIX/threshold.txt")
 RADAR=(--dbc can-bridge/maps/dbc/acura_ilx_2016_nidec.dbc --dbc builtin:riskscore --map can-bridge/maps/honda_nidec_radar.toml)
 cp can-bridge/maps/dbc/acura_ilx_2016_nidec.dbc can-bridge/maps/honda_nidec_radar.toml \
   can-bridge/maps/scenes/honda_nidec.log "$FIX/"
-# Threshold: half the highest score of the scene, so that it warns whatever the model.
+# Threshold: 90 % of the smallest per-track maximum of the scene, so that every track warns whatever
+# the model (the reused slot too, before its new object arrives: the `new_object` release is checked).
 RT=$("$BRIDGE" score-log --log "$FIX/honda_nidec.log" --model "$FIX/model.rsk" "${RADAR[@]}" \
-  --all-scores 2>/dev/null | awk -F'"score":' 'NF > 1 { split($2, a, ","); if (a[1] > m) m = a[1] } END { print m / 2 }')
+  --all-scores 2>/dev/null | awk '{
+    if (!match($0, /"track":[0-9]+/)) next; k = substr($0, RSTART + 8, RLENGTH - 8)
+    if (!match($0, /"score":[-0-9.e+]+/)) next; v = substr($0, RSTART + 8, RLENGTH - 8) + 0
+    if (!(k in m) || v > m[k]) m[k] = v }
+    END { first = 1; for (k in m) if (first || m[k] < lo) { lo = m[k]; first = 0 }; print 0.9 * lo }')
 echo "$RT" > "$FIX/radar-threshold.txt"
 
 vm_kernel
