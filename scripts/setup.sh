@@ -5,6 +5,13 @@
 set -euo pipefail
 want_test=${1:-}
 
+# A /dev/null that is a regular file (some tool removed the device and wrote to the path) feeds its
+# contents to every `rustc -` probe cargo runs and breaks all builds; restore the device when root.
+if [ ! -c /dev/null ] && [ "$(id -u)" -eq 0 ]; then
+  echo "setup: /dev/null is not a character device; recreating it"
+  rm -f /dev/null && mknod -m 666 /dev/null c 1 3
+fi
+
 need_targets=()
 if [ "$want_test" = test ]; then
   for t in thumbv7em-none-eabihf x86_64-unknown-linux-musl; do
