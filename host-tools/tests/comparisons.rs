@@ -334,6 +334,7 @@ fn cross_sequence_safe_frames_at_closest_approach() {
     let at_closest = |fraction: f64| {
         let mut c = small_config();
         c.cross_sequence.closest_fraction = fraction;
+        c.cross_sequence.closest_window = 0.0;
         let set = comparisons::build(&seqs, None, &c, 5);
         let cross: Vec<_> = set
             .pairs
@@ -353,4 +354,53 @@ fn cross_sequence_safe_frames_at_closest_approach() {
     };
     assert_eq!(at_closest(1.0), 1.0);
     assert!(at_closest(0.0) < 0.2);
+}
+
+/// With `closest_window = w` the safe frames of cross-sequence pairs come from the `w` seconds
+/// that end at the closest approach: never after it, never earlier, and spread over the stretch.
+#[test]
+fn cross_sequence_safe_frames_from_the_approach_window() {
+    let mut seqs = dataset();
+    for s in seqs.iter_mut().filter(|s| !s.is_conflict()) {
+        let n = s.times.len();
+        for (k, p) in s.partner.iter_mut().enumerate() {
+            p.x -= 20.0 * (1.0 - (k as f32 - n as f32 / 2.0).abs() / (n as f32 / 2.0));
+        }
+    }
+    let closest = |s: &TrainingSequence| {
+        (0..s.len())
+            .min_by(|&a, &b| {
+                scorer_core::box_distance(&s.ego[a], &s.partner[a])
+                    .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
+            })
+            .unwrap()
+    };
+    let window = 0.5;
+    let mut c = small_config();
+    c.cross_sequence.closest_fraction = 1.0;
+    c.cross_sequence.closest_window = window;
+    let set = comparisons::build(&seqs, None, &c, 5);
+    let mut before_closest = std::collections::BTreeSet::new();
+    for p in set
+        .pairs
+        .iter()
+        .filter(|p| p.source == Source::CrossSequence)
+    {
+        let (_, s, f) = frame_of(&set, p.loser);
+        let seq = &seqs[s];
+        let k = closest(seq);
+        assert!(f <= k, "safe frame {f} after the closest approach {k}");
+        assert!(
+            seq.times[k] - seq.times[f] <= window + 1e-9,
+            "safe frame {f} is {} s before the closest approach",
+            seq.times[k] - seq.times[f]
+        );
+        before_closest.insert(k - f);
+    }
+    assert!(
+        before_closest.len() > 2,
+        "frames spread over the window: {before_closest:?}"
+    );
+    c.cross_sequence.closest_window = -1.0;
+    assert!(c.validate().is_err(), "a negative window is refused");
 }

@@ -40,6 +40,7 @@ pub(crate) fn build(
         origin,
         split[1],
         config.cross_sequence.closest_fraction,
+        config.cross_sequence.closest_window,
         tag,
         tb,
         rng,

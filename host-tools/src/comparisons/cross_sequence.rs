@@ -2,10 +2,12 @@
 //!
 //! Draws a conflict sequence and a safe sequence uniformly over events, then a frame of each
 //! uniformly over time (conflict frames at or before the endpoint, i.e. inside the alert window).
-//! With probability `closest_fraction` the safe frame is instead the safe sequence's closest
-//! approach (smallest box gap, by scorer-core): the moment of a safe interaction that looks most
-//! like danger, and the one whose score sets the warning threshold (a sequence warns on its
-//! maximum). Uniform safe frames alone are mostly easy negatives. Every pair has weight `a_i = 1`.
+//! With probability `closest_fraction` the safe frame is instead taken near the safe sequence's
+//! closest approach (smallest box gap, by scorer-core): uniformly from the `closest_window` seconds
+//! that end at it (just the closest frame when the window is 0). That stretch is the safe
+//! interaction's counterpart of a conflict's alert window: it looks most like danger, and it holds
+//! the maximum that sets the warning threshold (a sequence warns on its maximum). Uniform safe
+//! frames alone are mostly easy negatives. Every pair has weight `a_i = 1`.
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
@@ -16,6 +18,7 @@ pub(crate) fn build(
     origin: Origin,
     target: usize,
     closest_fraction: f64,
+    closest_window: f64,
     tag: Source,
     tb: &mut TableBuilder,
     rng: &mut ChaCha8Rng,
@@ -34,11 +37,11 @@ pub(crate) fn build(
         .map(|(i, s)| (i, s.frames_up_to_endpoint()))
         .filter(|&(_, n)| n > 0)
         .collect();
-    let safes: Vec<(usize, usize, usize)> = seqs
+    let safes: Vec<(usize, usize, (usize, usize))> = seqs
         .iter()
         .enumerate()
         .filter(|(_, s)| !s.is_conflict() && !s.is_empty())
-        .map(|(i, s)| (i, s.len(), closest_approach(s)))
+        .map(|(i, s)| (i, s.len(), approach_window(s, closest_window)))
         .collect();
     if conflicts.is_empty() || safes.is_empty() {
         stats.rejected = target;
@@ -47,10 +50,14 @@ pub(crate) fn build(
     let mut pairs = Vec::with_capacity(target);
     for _ in 0..target {
         let (ci, cn) = conflicts[rng.random_range(0..conflicts.len())];
-        let (si, sn, closest) = safes[rng.random_range(0..safes.len())];
+        let (si, sn, (first, closest)) = safes[rng.random_range(0..safes.len())];
         let cf = rng.random_range(0..cn);
         let sf = if rng.random_bool(closest_fraction.clamp(0.0, 1.0)) {
-            closest
+            if first == closest {
+                closest
+            } else {
+                rng.random_range(first..=closest)
+            }
         } else {
             rng.random_range(0..sn)
         };
@@ -65,6 +72,18 @@ pub(crate) fn build(
     }
     stats.built = pairs.len();
     (pairs, stats)
+}
+
+/// Frame indices `(first, closest)`: `closest` has the smallest box gap, `first` is the earliest
+/// frame at most `window` seconds before it.
+fn approach_window(s: &TrainingSequence, window: f64) -> (usize, usize) {
+    let closest = closest_approach(s);
+    let t_closest = s.times[closest];
+    let first = s.times[..closest]
+        .iter()
+        .position(|&t| t >= t_closest - window - 1e-9)
+        .unwrap_or(closest);
+    (first, closest)
 }
 
 /// Index of the frame with the smallest box gap (the first on ties; 0 for an empty sequence).

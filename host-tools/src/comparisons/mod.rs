@@ -289,7 +289,7 @@ impl Default for TemporalConfig {
     fn default() -> Self {
         TemporalConfig {
             pairs: 4000,
-            beta: 1.0,
+            beta: 0.2,
             dmin: 0.3,
             dmax: 1.5,
         }
@@ -305,6 +305,9 @@ pub struct CrossSequenceConfig {
     /// Fraction of pairs whose safe frame is the safe sequence's closest approach (smallest box
     /// gap) instead of a uniform frame.
     pub closest_fraction: f64,
+    /// Those safe frames are drawn uniformly from the `closest_window` seconds ending at the
+    /// closest approach (0: the closest frame itself).
+    pub closest_window: f64,
 }
 
 impl Default for CrossSequenceConfig {
@@ -313,6 +316,7 @@ impl Default for CrossSequenceConfig {
             pairs: 4000,
             beta: 1.0,
             closest_fraction: 1.0,
+            closest_window: 1.5,
         }
     }
 }
@@ -458,6 +462,12 @@ impl ComparisonConfig {
         if !(0.0..=1.0).contains(&c) {
             return Err(format!(
                 "comparisons.cross_sequence.closest_fraction: need 0 <= x <= 1, got {c}"
+            ));
+        }
+        let w = self.cross_sequence.closest_window;
+        if !(w >= 0.0 && w.is_finite()) {
+            return Err(format!(
+                "comparisons.cross_sequence.closest_window: need a finite x >= 0 (s), got {w}"
             ));
         }
         let p = &self.physics;
@@ -607,6 +617,7 @@ pub fn build(
         Origin::Primary,
         config.cross_sequence.pairs,
         config.cross_sequence.closest_fraction,
+        config.cross_sequence.closest_window,
         Source::CrossSequence,
         &mut tb,
         &mut rng,
