@@ -35,16 +35,8 @@ pub(crate) fn build(
     let origin = Origin::Augmentation;
     let tag = Source::Simulation;
     let (mut pairs, s1) = temporal::build(seqs, origin, &config.temporal, split[0], tag, tb, rng);
-    let (mut p2, s2) = cross_sequence::build(
-        seqs,
-        origin,
-        split[1],
-        config.cross_sequence.closest_fraction,
-        config.cross_sequence.closest_window,
-        tag,
-        tb,
-        rng,
-    );
+    let (mut p2, s2) =
+        cross_sequence::build(seqs, origin, &config.cross_sequence, split[1], tag, tb, rng);
     let (mut p3, s3) = physics::build(seqs, origin, &config.physics, split[2], tag, tb, rng);
     pairs.append(&mut p2);
     pairs.append(&mut p3);

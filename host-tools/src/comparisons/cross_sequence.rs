@@ -11,14 +11,15 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::{Origin, Pair, Source, SourceStats, TableBuilder, TrainingSequence};
+use super::{
+    CrossSequenceConfig, Origin, Pair, Source, SourceStats, TableBuilder, TrainingSequence,
+};
 
 pub(crate) fn build(
     seqs: &[TrainingSequence],
     origin: Origin,
+    config: &CrossSequenceConfig,
     target: usize,
-    closest_fraction: f64,
-    closest_window: f64,
     tag: Source,
     tb: &mut TableBuilder,
     rng: &mut ChaCha8Rng,
@@ -41,7 +42,7 @@ pub(crate) fn build(
         .iter()
         .enumerate()
         .filter(|(_, s)| !s.is_conflict() && !s.is_empty())
-        .map(|(i, s)| (i, s.len(), approach_window(s, closest_window)))
+        .map(|(i, s)| (i, s.len(), approach_window(s, config.closest_window)))
         .collect();
     if conflicts.is_empty() || safes.is_empty() {
         stats.rejected = target;
@@ -52,7 +53,7 @@ pub(crate) fn build(
         let (ci, cn) = conflicts[rng.random_range(0..conflicts.len())];
         let (si, sn, (first, closest)) = safes[rng.random_range(0..safes.len())];
         let cf = rng.random_range(0..cn);
-        let sf = if rng.random_bool(closest_fraction.clamp(0.0, 1.0)) {
+        let sf = if rng.random_bool(config.closest_fraction.clamp(0.0, 1.0)) {
             if first == closest {
                 closest
             } else {

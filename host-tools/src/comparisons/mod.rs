@@ -615,9 +615,8 @@ pub fn build(
     let (mut p, mut stats) = cross_sequence::build(
         train,
         Origin::Primary,
+        &config.cross_sequence,
         config.cross_sequence.pairs,
-        config.cross_sequence.closest_fraction,
-        config.cross_sequence.closest_window,
         Source::CrossSequence,
         &mut tb,
         &mut rng,
