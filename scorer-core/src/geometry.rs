@@ -109,10 +109,16 @@ pub struct OrientedBox {
 impl OrientedBox {
     /// The box of a state; `None` when a field is not finite or the heading is zero.
     pub fn of(s: &VehicleState) -> Option<Self> {
+        Self::with_axis(s, unit_heading(s))
+    }
+
+    /// The box of a state whose [`unit_heading`] is `axis`; `None` when a field is not finite or
+    /// the heading is zero (`axis` is `None`).
+    fn with_axis(s: &VehicleState, axis: Option<Vec2>) -> Option<Self> {
         if !s.is_finite() {
             return None;
         }
-        let axis = unit_heading(s)?;
+        let axis = axis?;
         Some(Self {
             center: position(s),
             axis,
@@ -245,7 +251,21 @@ pub fn oriented_box_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
 /// corners), this is the true gap, so it never overestimates it. Returns `f32::INFINITY` when a
 /// state has a non-finite field or a zero heading (no box), never NaN.
 pub fn box_distance(a: &VehicleState, b: &VehicleState) -> f32 {
-    match (OrientedBox::of(a), OrientedBox::of(b)) {
+    box_distance_with_headings(a, unit_heading(a), b, unit_heading(b))
+}
+
+/// [`box_distance`] with the unit headings already computed ([`unit_heading`] of each state), so a
+/// caller that needs them too normalises each heading once.
+pub fn box_distance_with_headings(
+    a: &VehicleState,
+    heading_a: Option<Vec2>,
+    b: &VehicleState,
+    heading_b: Option<Vec2>,
+) -> f32 {
+    match (
+        OrientedBox::with_axis(a, heading_a),
+        OrientedBox::with_axis(b, heading_b),
+    ) {
         (Some(ba), Some(bb)) => {
             let d = oriented_box_distance(&ba, &bb);
             if d.is_nan() {
