@@ -126,8 +126,8 @@ fn encode(
     let (v_ego, v_sur) = (velocity(ego), velocity(partner));
     let dp = position(partner) - position(ego);
     let dv = v_ego - v_sur;
-    let s = dp.length();
-    let dv_norm = dv.length();
+    let s = dp.norm();
+    let dv_norm = dv.norm();
     let w_comb = (ego.width + partner.width) * 0.5;
 
     // Constant-velocity closest approach: when (> 0: ahead in time), how fast the centres close in,
@@ -149,7 +149,7 @@ fn encode(
         slog(tca),
         partner.length,
         w_comb,
-        v_ego.length(),
+        v_ego.norm(),
         v_sur.cross(hi),
         v_sur.dot(hi),
         hi.dot(hj),
@@ -335,7 +335,7 @@ mod tests {
         #[test]
         fn encoding_3_means_what_encoding_2_meant(ego in no_slip(), partner in no_slip()) {
             let dv = crate::geometry::velocity(&ego) - crate::geometry::velocity(&partner);
-            prop_assume!((dv.length() - MIN_RELATIVE_SPEED).abs() > 1e-3);
+            prop_assume!((dv.norm() - MIN_RELATIVE_SPEED).abs() > 1e-3);
             let new = drl_inputs(&ego, &partner);
             let old = encoding_2(&ego, &partner);
             for k in 0..DRL_INPUT_COUNT {

@@ -31,19 +31,22 @@ impl Vec2 {
     pub fn cross(self, o: Vec2) -> f32 {
         self.x * o.y - self.y * o.x
     }
+    /// `|self|` in `f32` only: one `sqrtf` of the squared norm when that is a normal number, else
+    /// (zero, subnormal or overflowing squares) the components are first scaled by the larger
+    /// one. Within an ulp or so of `hypot`; `libm::hypotf` itself works in `f64`, which a
+    /// single-precision FPU (Cortex-M4F) emulates in software, in time and in flash. Infinite
+    /// when a component is, NaN when one is NaN and the other finite.
     pub fn norm(self) -> f32 {
-        libm::hypotf(self.x, self.y)
-    }
-    /// `|self|` by one `sqrtf` of the squared norm where that is exact enough (a normal f32), else
-    /// [`Vec2::norm`]. `libm::hypotf` works in `f64`, which a single-precision FPU emulates in
-    /// software; this is the cheap path for the MCU.
-    pub fn length(self) -> f32 {
         let n2 = self.norm2();
         if n2.is_normal() {
-            libm::sqrtf(n2)
-        } else {
-            self.norm()
+            return libm::sqrtf(n2);
         }
+        let m = libm::fabsf(self.x).max(libm::fabsf(self.y));
+        if m == 0.0 || !m.is_finite() {
+            return m;
+        }
+        let (x, y) = (self.x / m, self.y / m);
+        m * libm::sqrtf(x * x + y * y)
     }
     pub fn norm2(self) -> f32 {
         self.dot(self)
@@ -87,7 +90,7 @@ pub fn velocity(s: &VehicleState) -> Vec2 {
 /// The unit heading of a state, or `None` when `(hx, hy)` is zero or not finite.
 pub fn unit_heading(s: &VehicleState) -> Option<Vec2> {
     let h = Vec2::new(s.hx, s.hy);
-    let n = h.length();
+    let n = h.norm();
     if n > 0.0 && n.is_finite() {
         let u = h.scale(1.0 / n);
         u.is_finite().then_some(u)
@@ -235,7 +238,7 @@ pub fn oriented_box_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
         if d2.is_finite() {
             best2 = best2.min(d2);
         } else {
-            best_far = best_far.min(libm::hypotf(dx, dy));
+            best_far = best_far.min(Vec2::new(dx, dy).norm());
         }
     }
     if best2.is_finite() {
@@ -436,6 +439,26 @@ mod tests {
             agree(&a, &b)?;
             agree(&b, &a)?;
         }
+    }
+
+    #[test]
+    fn norm_is_hypot_without_f64() {
+        let cases = [
+            (3.0f32, 4.0f32),
+            (1e-30, 1e-30),
+            (1e-45, 0.0),
+            (3e30, 4e30),
+            (2e38, 1e38),
+            (0.0, 0.0),
+            (-7.5, 0.25),
+        ];
+        for (x, y) in cases {
+            let h = libm::hypot(f64::from(x), f64::from(y));
+            let n = f64::from(Vec2::new(x, y).norm());
+            assert!((n - h).abs() <= 2.5e-7 * h, "({x}, {y}): {n} vs {h}");
+        }
+        assert_eq!(Vec2::new(f32::INFINITY, f32::NAN).norm(), f32::INFINITY);
+        assert!(Vec2::new(f32::NAN, 1.0).norm().is_nan());
     }
 
     #[test]
