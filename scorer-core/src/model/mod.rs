@@ -162,7 +162,8 @@ impl<'a> Model<'a> {
         }
     }
 
-    /// True when scoring needs the surrogates (MSRA); DRL and GSSM read only the features.
+    /// True when scoring needs the surrogates (MSRA); DRL reads its own inputs (computed from the
+    /// states, box distance included) and GSSM the features.
     pub fn needs_surrogates(&self) -> bool {
         matches!(self, Self::Msra(_))
     }
