@@ -159,6 +159,38 @@ fn round_trip_every_kind() {
     }
 }
 
+/// The deployed one-call path (`Model::score`, which computes only what its model reads) and the
+/// host's shared observation (`Observation::of` + `score_observation`) give the same bits, for
+/// every kind, on random pairs of road users.
+#[test]
+fn score_equals_score_observation_bit_for_bit() {
+    let fx = Fixtures::new();
+    let mut rng = Rng(7);
+    let user = |rng: &mut Rng| {
+        let angle = rng.uniform(-3.2, 3.2);
+        VehicleState {
+            x: rng.uniform(-60.0, 60.0),
+            y: rng.uniform(-60.0, 60.0),
+            vx: rng.uniform(-30.0, 30.0),
+            vy: rng.uniform(-30.0, 30.0),
+            hx: libm::cosf(angle),
+            hy: libm::sinf(angle),
+            acc: rng.uniform(-4.0, 2.0),
+            length: rng.uniform(3.5, 15.0),
+            width: rng.uniform(1.6, 2.6),
+        }
+    };
+    for m in fx.models() {
+        for _ in 0..500 {
+            let (ego, partner) = (user(&mut rng), user(&mut rng));
+            let direct = m.score(&ego, &partner);
+            let shared = m.score_observation(&Observation::of(&ego, &partner));
+            assert!(direct.is_finite());
+            assert_eq!(direct.to_bits(), shared.to_bits(), "{:?}", m.kind());
+        }
+    }
+}
+
 #[test]
 fn decoding_borrows_weights_from_the_blob() {
     let fx = Fixtures::new();
