@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use scorer_core::model::{self, HEADER_LEN};
-use scorer_core::{Features, Surrogates};
+use scorer_core::{Features, Observation, Surrogates};
 
 /// Wraps `payload` in a valid header so the fuzzer also reaches the postcard and validation layers
 /// (a random header almost never passes the CRC).
@@ -34,10 +34,19 @@ fn exercise(blob: &[u8]) {
         tadv: f32::INFINITY,
         ei: f32::NEG_INFINITY,
     };
-    let r = m.score_observation(&features, &surrogates);
+    let observation = Observation {
+        features,
+        surrogates,
+        drl_inputs: features,
+    };
+    let r = m.score_observation(&observation);
     assert!(r.is_finite(), "non-finite score {r}");
-    let nan_features = [f32::NAN; 13];
-    assert!(m.score_observation(&nan_features, &surrogates).is_finite());
+    let nan = Observation {
+        features: [f32::NAN; 13],
+        surrogates,
+        drl_inputs: [f32::NAN; 13],
+    };
+    assert!(m.score_observation(&nan).is_finite());
     // Postcard may accept non-minimal varints, so compare models, not bytes.
     let mut again = vec![0u8; blob.len()];
     let n = model::encode(&m, &mut again).expect("a decoded model re-encodes");

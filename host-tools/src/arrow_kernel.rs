@@ -19,7 +19,7 @@ use arrow_schema::{ArrowError, DataType, Field, Schema, SchemaRef};
 use scorer_core::model::Model;
 use scorer_core::VehicleState;
 
-use crate::eval::{ObservedFrame, Scorer};
+use crate::eval::Scorer;
 use crate::ssm_csv::{
     computed_values, PairColumns, RowError, RowProblem, SsmError, SURROGATE_COLUMNS,
 };
@@ -203,13 +203,7 @@ pub fn score_kernel(
     let scorer = Scorer::Model(model.clone());
     let mut scores = Vec::with_capacity(batch.num_rows());
     let bad = for_each_pair(columns, batch, first_row, |_, pair| {
-        scores.push(pair.map(|(ego, sur)| {
-            scorer.score(&ObservedFrame {
-                time: 0.0,
-                features: scorer_core::features(&ego, &sur),
-                surrogates: scorer_core::surrogates(&ego, &sur),
-            })
-        }));
+        scores.push(pair.map(|(ego, sur)| scorer.score(&scorer_core::Observation::of(&ego, &sur))));
     })?;
     Ok((Float32Array::from(scores), bad))
 }
@@ -412,11 +406,7 @@ mod tests {
                     state(&values[..9], (0.0, 0.0)),
                     state(&values[9..], (0.0, 0.0)),
                 );
-                let expected = scorer.score(&ObservedFrame {
-                    time: 0.0,
-                    features: scorer_core::features(&e, &s),
-                    surrogates: scorer_core::surrogates(&e, &s),
-                });
+                let expected = scorer.score(&scorer_core::Observation::of(&e, &s));
                 assert_eq!(
                     scores.value(row).to_bits(),
                     expected.to_bits(),

@@ -3,8 +3,8 @@
 //! A checkpoint is what `riskctl train` writes and `riskctl export-model` reads:
 //!
 //! ```json
-//! { "format": "riskscore-checkpoint", "version": 2,
-//!   "model": { "kind": "drl", "params": { "scaler": {"mean": [13], "std": [13]},   (over the DRL inputs, encoding 2)
+//! { "format": "riskscore-checkpoint", "version": 3,
+//!   "model": { "kind": "drl", "params": { "scaler": {"mean": [13], "std": [13]},   (over the DRL inputs, encoding 3)
 //!                                          "layers": [{"inputs": 13, "outputs": 32,
 //!                                                      "weight": [out*in, row-major], "bias": [out]}, ...] },
 //!              "calibration": { "input": {"min": .., "max": ..}, "hidden": [{"min", "max"}, ...],
@@ -28,9 +28,9 @@ use crate::train::drl::DrlParams;
 use crate::train::msra::{parse_surrogate, MsraParams};
 
 pub const CHECKPOINT_FORMAT: &str = "riskscore-checkpoint";
-/// Version 2: the DRL scaler and network read the core's DRL input encoding 2 (version 1 read the
-/// raw features and is refused: its network would be fed the wrong inputs).
-pub const CHECKPOINT_VERSION: u32 = 2;
+/// Version 3: the DRL scaler and network read the core's DRL input encoding 3 (version 1 read the
+/// raw features, version 2 encoding 2; both are refused: their network would be fed other inputs).
+pub const CHECKPOINT_VERSION: u32 = 3;
 
 /// The float parameters of one trained model.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -231,7 +231,7 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         header.kind as u8
     );
     let schema = if header.feature_schema == model::DRL_INPUT_SCHEMA {
-        "DRL input encoding: scorer_core::encoding"
+        "DRL input encoding 3: scorer_core::encoding"
     } else {
         "the 13 features"
     };

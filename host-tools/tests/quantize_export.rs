@@ -130,7 +130,7 @@ fn int8_network_agrees_with_float_and_round_trips_through_the_blob() {
     let core = q.as_core().unwrap();
     for s in seqs.iter().take(6) {
         for (e, p) in s.ego.iter().zip(&s.partner) {
-            let f = scorer_core::drl_inputs_of_pair(e, p);
+            let f = scorer_core::drl_inputs(e, p);
             assert_eq!(decoded.score(e, p).to_bits(), core.forward(&f)[0].to_bits());
         }
     }
@@ -156,7 +156,7 @@ fn conflicts_outscore_safe_frames_in_the_deployed_int8_path() {
             .iter()
             .zip(&s.partner)
             .take(s.frames_up_to_endpoint())
-            .map(|(e, p)| core.forward(&scorer_core::drl_inputs_of_pair(e, p))[0])
+            .map(|(e, p)| core.forward(&scorer_core::drl_inputs(e, p))[0])
             .fold(f32::MIN, f32::max)
     };
     let conflict_min = seqs

@@ -92,8 +92,15 @@ fn every_frame_is_scored_like_the_evaluation() {
                     ev.id.clone(),
                     f.time,
                     ev.kind.as_str(),
-                    scorers.iter().map(|s| s.score(f)).collect::<Vec<f32>>(),
-                    [f.surrogates.ttc2d, f.surrogates.tadv, f.surrogates.ei],
+                    scorers
+                        .iter()
+                        .map(|s| s.score(&f.observation))
+                        .collect::<Vec<f32>>(),
+                    [
+                        f.observation.surrogates.ttc2d,
+                        f.observation.surrogates.tadv,
+                        f.observation.surrogates.ei,
+                    ],
                 ));
             }
         }

@@ -7,7 +7,7 @@ use host_tools::comparisons::{
 };
 use host_tools::train::config::{ObjectiveConfig, OptimiserConfig};
 use host_tools::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
-use scorer_core::{SurrogateKind, Surrogates, FEATURE_COUNT};
+use scorer_core::{Observation, SurrogateKind, Surrogates, FEATURE_COUNT};
 
 mod common;
 use common::{car, conflict};
@@ -148,20 +148,25 @@ fn training_is_deterministic_in_the_seed() {
     assert_ne!(run(&cfg), run(&other));
 }
 
+/// An observation with only a TTC.
+fn ttc_observation(ttc: f32) -> Observation {
+    Observation {
+        features: [0.0; FEATURE_COUNT],
+        surrogates: Surrogates {
+            box_distance: 10.0,
+            ttc2d: ttc,
+            tadv: f32::INFINITY,
+            ei: f32::NEG_INFINITY,
+        },
+        drl_inputs: [0.0; FEATURE_COUNT],
+    }
+}
+
 /// Observations with only a TTC: the truth is "smaller TTC is riskier".
 fn ttc_table(ttcs: &[f32]) -> ObservationTable {
     let mut t = ObservationTable::default();
     for &ttc in ttcs {
-        t.push_computed(
-            [0.0; FEATURE_COUNT],
-            Surrogates {
-                box_distance: 10.0,
-                ttc2d: ttc,
-                tadv: f32::INFINITY,
-                ei: f32::NEG_INFINITY,
-            },
-            RowOrigin::External,
-        );
+        t.push_computed(ttc_observation(ttc), RowOrigin::External);
     }
     t
 }
@@ -233,17 +238,7 @@ fn msra_recovers_a_known_monotone_relation() {
     // And the deployed MSRA (scorer-core) is monotone on a grid and ranks the training pairs.
     let blob = host_tools::export::msra_blob(&p).unwrap();
     let m = scorer_core::model::decode(&blob).unwrap();
-    let score = |ttc: f32| {
-        m.score_observation(
-            &[0.0; FEATURE_COUNT],
-            &Surrogates {
-                box_distance: 10.0,
-                ttc2d: ttc,
-                tadv: f32::INFINITY,
-                ei: f32::NEG_INFINITY,
-            },
-        )
-    };
+    let score = |ttc: f32| m.score_observation(&ttc_observation(ttc));
     let grid: Vec<f32> = (0..=100).map(|i| 0.1 * i as f32).collect();
     for w in grid.windows(2) {
         assert!(score(w[0]) >= score(w[1]), "not monotone at {}", w[0]);
@@ -313,14 +308,20 @@ fn drl_forward_matches_the_core_float_network() {
     let core = scorer_core::model::decode(&blob).unwrap();
     let set = comparisons::build(&seqs, None, &ComparisonConfig::default().scaled(0.02), 1);
     let float = train::score_table(&model, &set.table).unwrap();
-    for (k, (f, s)) in set
+    for (k, ((f, s), x)) in set
         .table
         .features
         .iter()
         .zip(&set.table.surrogates)
+        .zip(&set.table.drl_inputs)
         .enumerate()
     {
-        let c = core.score_observation(f, s);
+        let o = Observation {
+            features: *f,
+            surrogates: *s,
+            drl_inputs: *x,
+        };
+        let c = core.score_observation(&o);
         assert!(
             (c - float[k]).abs() < 1e-4 * (1.0 + c.abs()),
             "{c} vs {}",

@@ -8,7 +8,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use scorer_core::model::{decode, encode, Model};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use scorer_core::warning::{TrackTable, WarningConfig};
-use scorer_core::{ei, features, surrogates, tadv, ttc2d, SurrogateKind, VehicleState};
+use scorer_core::{ei, features, tadv, ttc2d, SurrogateKind, VehicleState};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -157,8 +157,10 @@ fn bench_core(c: &mut Criterion) {
     let msra_blob = shipped_or_synthetic("msra-default.rsk", synthetic_msra);
     let drl = decode(&drl_blob).expect("drl model");
     let msra = decode(&msra_blob).expect("msra model");
-    let feats: Vec<_> = pairs.iter().map(|(e, p)| features(e, p)).collect();
-    let surs: Vec<_> = pairs.iter().map(|(e, p)| surrogates(e, p)).collect();
+    let observations: Vec<_> = pairs
+        .iter()
+        .map(|(e, p)| scorer_core::Observation::of(e, p))
+        .collect();
 
     let mut g = c.benchmark_group("per_observation");
     g.throughput(Throughput::Elements(n));
@@ -197,17 +199,24 @@ fn bench_core(c: &mut Criterion) {
             }
         })
     });
+    g.bench_function("drl_inputs", |b| {
+        b.iter(|| {
+            for (e, p) in &pairs {
+                black_box(scorer_core::drl_inputs(black_box(e), black_box(p)));
+            }
+        })
+    });
     g.bench_function("drl_int8_from_observation", |b| {
         b.iter(|| {
-            for (f, s) in feats.iter().zip(&surs) {
-                black_box(drl.score_observation(black_box(f), black_box(s)));
+            for o in &observations {
+                black_box(drl.score_observation(black_box(o)));
             }
         })
     });
     g.bench_function("msra_from_surrogates", |b| {
         b.iter(|| {
-            for (f, s) in feats.iter().zip(&surs) {
-                black_box(msra.score_observation(black_box(f), black_box(s)));
+            for o in &observations {
+                black_box(msra.score_observation(black_box(o)));
             }
         })
     });
@@ -230,9 +239,9 @@ fn bench_core(c: &mut Criterion) {
             TrackTable::new(WarningConfig::live(0.5, 0.05, 500_000, 1_000_000)).unwrap();
         let mut now = 0u64;
         b.iter(|| {
-            for (k, f) in feats.iter().enumerate() {
+            for (k, o) in observations.iter().enumerate() {
                 now += 100;
-                let r = f[12] * 0.01;
+                let r = o.features[12] * 0.01;
                 black_box(table.update((k % 32) as u32, now, black_box(r)).ok());
             }
         })

@@ -1,49 +1,55 @@
-//! The DRL input encoding: a versioned transform of one observation into the network's inputs.
+//! The DRL input encoding: a versioned transform of one ego/partner pair into the network's inputs.
 //!
 //! The 13 reference features ([`crate::features()`]) are kept exactly as published (golden parity),
 //! but two of them are poor network inputs: the centre distance `s` spends its range on far
 //! partners and cannot tell contact from a close pass, and the angles `psi_sur` and `rho` jump by
-//! `2 pi` where sideswipes and passes on the left happen. Encoding [`DRL_INPUT_ENCODING`] (= 2)
+//! `2 pi` where sideswipes and passes on the left happen. Encoding [`DRL_INPUT_ENCODING`] (= 3)
 //! feeds the DRL network quantities that are continuous in the physical state and whose ratios
-//! that matter for risk (gap over closing speed) become differences:
+//! that matter for risk (gap over closing speed) become differences. It is computed from the two
+//! states with vector algebra only (no `sinf`/`cosf`/`atan2f`: on a single-precision FPU `libm`
+//! evaluates those in software `f64`).
+//!
+//! Notation: ego `i`, partner `j`; `h_i`, `h_j` unit headings (a zero or non-finite ego heading reads
+//! as the world `+y`, a partner's as `h_i`, as in [`crate::features()`]); `dp = p_j - p_i` (centres),
+//! `dv = v_i - v_j`, `s = |dp|`; `a . b` dot product, `a x b = a.x b.y - a.y b.x` (positive when
+//! `b` is counter-clockwise of `a`). The ego frame has `+y` along `h_i` and `+x` to its right.
 //!
 //! | # | name          | definition                                                            |
 //! |---|---------------|-----------------------------------------------------------------------|
-//! | 0 | `tca`         | `slog(t_ca)`: time to closest approach at constant velocity, `s sin(rho) / |v_i - v_j|` (s, > 0 still approaching; `MAX_TIME` when `|v_i - v_j| <= 0.1` m/s) |
+//! | 0 | `tca`         | `slog(t_ca)`, `t_ca = (dp . dv) / |dv|^2` clamped to `[-MAX_TIME, MAX_TIME]`: time to closest approach at constant velocity (s, > 0 still approaching); `MAX_TIME` when `|dv| <= 0.1` m/s |
 //! | 1 | `l_sur`       | partner length (m)                                                    |
 //! | 2 | `w_comb`      | `(w_i + w_j) / 2` (m)                                                 |
 //! | 3 | `v_ego`       | ego speed `|v_i|` (m/s)                                               |
-//! | 4 | `vx_sur`      | partner velocity, ego frame, to the right (m/s)                       |
-//! | 5 | `vy_sur`      | partner velocity, ego frame, ahead (m/s)                              |
-//! | 6 | `cos_psi`     | cosine of the partner's heading relative to the ego's                 |
-//! | 7 | `sin_psi`     | sine of the same angle (counter-clockwise positive)                   |
-//! | 8 | `log_gap`     | `ln(0.5 + g)`, `g` the exact box-to-box distance in m, clamped to `[0, 1000]` |
-//! | 9 | `closing`     | `slog(c)`, `c = -d|p_j - p_i|/dt = |v_i - v_j| sin(rho)` (m/s, > 0 approaching) |
-//! |10 | `miss_gap`    | `ln(0.5 + max(0, s |cos(rho)| - w_comb))`: how far apart the centres pass at closest approach, less the combined half widths (m) |
-//! |11 | `ahead`       | `slog(dy)`: partner centre ahead of the ego centre, ego frame (m)     |
-//! |12 | `right`       | `slog(dx)`: partner centre to the ego's right, ego frame (m)          |
+//! | 4 | `vx_sur`      | partner velocity, ego frame, to the right: `v_j x h_i` (m/s)          |
+//! | 5 | `vy_sur`      | partner velocity, ego frame, ahead: `v_j . h_i` (m/s)                 |
+//! | 6 | `cos_psi`     | `h_i . h_j`: cosine of the partner's heading relative to the ego's    |
+//! | 7 | `sin_psi`     | `h_i x h_j`: its sine (counter-clockwise positive)                    |
+//! | 8 | `log_gap`     | `ln(0.5 + g)`, `g` the exact box-to-box distance in m ([`crate::box_distance`]), clamped to `[0, MAX_GAP]` (no box: `MAX_GAP`) |
+//! | 9 | `closing`     | `slog(c)`, `c = (dp . dv) / s = -d|dp|/dt` (m/s, > 0 approaching; 0 when `s = 0`) |
+//! |10 | `miss_gap`    | `ln(0.5 + clamp(|dp x dv| / |dv| - w_comb, 0, MAX_GAP))`: how far apart the centres pass at closest approach, less the combined half widths (m); `|dp x h_i|` across the ego heading when `dv = 0` |
+//! |11 | `ahead`       | `slog(dp . h_i)`: partner centre ahead of the ego centre, ego frame (m) |
+//! |12 | `right`       | `slog(dp x h_i)`: partner centre to the ego's right, ego frame (m)    |
 //!
 //! `slog(x) = sign(x) ln(1 + |x|)`: linear near 0, logarithmic far away, odd. Every input is a
-//! continuous function of the two states wherever the relative velocity is not zero (`s sin(rho)`
-//! and `s cos(rho)` are the partner's offsets along and across the relative velocity, and
-//! `|v_i - v_j| sin(rho)` the relative velocity along the line of sight). Time to closest approach
-//! and the miss gap are the constant-velocity prediction of where the pair is heading; in log
-//! space their ratios with the gap and the closing speed are differences an MLP forms easily.
+//! continuous function of the two states wherever the relative velocity is not zero. Time to
+//! closest approach and the miss gap are the constant-velocity prediction of where the pair is
+//! heading; in log space their ratios with the gap and the closing speed are differences an MLP
+//! forms easily. A NaN input becomes 0 and an infinite one `+-f32::MAX`.
 //!
-//! Inputs 11 and 12 are recovered from the features: `(x', y') = s (cos rho, sin rho)` are the
-//! partner's coordinates in the frame whose `+y` is `v_i - v_j`, and that axis is expressed in the
-//! ego frame assuming the ego's velocity lies along its heading (no side slip; exact for every
-//! data source riskscore reads, which all give the ego speed along its heading).
+//! The inputs mean what encoding 2 meant (same names, same order, same units): encoding 2 derived
+//! them from the features through `sin`/`cos` of `rho` and `psi_sur`, and inputs 11 and 12 through
+//! the relative-velocity frame assuming no side slip; encoding 3 reads them off the states, exactly
+//! (side slip included), and rounds differently. Square roots: `|v_i|`, `|dv|`, `s`, the two unit
+//! headings and the box gap's one (`libm::sqrtf`, correctly rounded in software on every target).
 //!
 //! A model blob records the encoding its inputs need in the header's input-schema field
 //! ([`crate::model::decode`] refuses a DRL blob of another encoding rather than score it with the
 //! wrong inputs). Changing anything in this table means a new encoding number.
-use crate::features::{features, Features, FEATURE_COUNT};
-use crate::geometry::box_distance;
+use crate::geometry::{box_distance_with_headings, position, unit_heading, velocity, Vec2};
 use crate::state::VehicleState;
 
 /// The DRL input encoding this build computes (the model header's input-schema id for DRL).
-pub const DRL_INPUT_ENCODING: u16 = 2;
+pub const DRL_INPUT_ENCODING: u16 = 3;
 
 /// Number of DRL inputs.
 pub const DRL_INPUT_COUNT: usize = 13;
@@ -61,9 +67,8 @@ pub const DRL_INPUT_NAMES: [&str; DRL_INPUT_COUNT] = [
 pub const MAX_GAP: f32 = 1000.0;
 /// Largest time to closest approach the encoding distinguishes (s).
 pub const MAX_TIME: f32 = 100.0;
-
-// The encoding reuses the feature indices of the reference table.
-const _: () = assert!(FEATURE_COUNT == 13);
+/// Relative speed (m/s) at or below which the time to closest approach reads as [`MAX_TIME`].
+pub const MIN_RELATIVE_SPEED: f32 = 0.1;
 
 /// `sign(x) ln(1 + |x|)`; 0 for NaN.
 pub fn slog(x: f32) -> f32 {
@@ -86,50 +91,74 @@ pub fn log_gap(box_distance: f32) -> f32 {
     libm::logf(0.5 + g)
 }
 
-/// The DRL inputs of one observation: its 13 features and the exact box distance (both as computed
-/// by [`crate::features()`] and [`crate::box_distance`]). Always finite.
-pub fn drl_inputs(f: &Features, box_distance: f32) -> DrlInputs {
-    let [_l_ego, l_sur, w_comb, v_ego, vx_sur, vy_sur, _, _, _, delta_v, psi, rho, s] = *f;
-    let dv_norm = delta_v.abs();
-    let (sin_rho, cos_rho) = (libm::sinf(rho), libm::cosf(rho));
+/// The DRL inputs of the pair (`ego`, `partner`), see the module table. Always finite.
+pub fn drl_inputs(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
+    let (hi, hj) = (unit_heading(ego), unit_heading(partner));
+    let gap = box_distance_with_headings(ego, hi, partner, hj);
+    encode(ego, hi, partner, hj, gap)
+}
 
-    // The relative-velocity axis in the ego frame (x right, y ahead), as `features` chose it.
-    let (ax, ay) = {
-        let (dx, dy) = (-vx_sur, v_ego - vy_sur);
-        let n = libm::sqrtf(dx * dx + dy * dy);
-        if dv_norm > 0.0 && n > 0.0 && n.is_finite() {
-            (dx / n, dy / n)
-        } else {
-            (0.0, 1.0)
-        }
-    };
-    let (xr, yr) = (s * cos_rho, s * sin_rho);
-    let right = xr * ay + yr * ax;
-    let ahead = -xr * ax + yr * ay;
+/// [`drl_inputs`] with the pair's box distance already computed (it must be
+/// [`crate::box_distance`]`(ego, partner)`: [`crate::Observation::of`] shares the surrogates').
+pub(crate) fn drl_inputs_with_gap(
+    ego: &VehicleState,
+    partner: &VehicleState,
+    box_distance: f32,
+) -> DrlInputs {
+    encode(
+        ego,
+        unit_heading(ego),
+        partner,
+        unit_heading(partner),
+        box_distance,
+    )
+}
 
-    // Constant-velocity closest approach: when (> 0: ahead in time) and how far apart the centres
-    // pass, across the line of sight.
-    let closing = dv_norm * sin_rho;
-    let tca = if dv_norm > 0.1 {
-        (s * sin_rho / dv_norm).clamp(-MAX_TIME, MAX_TIME)
+fn encode(
+    ego: &VehicleState,
+    heading_ego: Option<Vec2>,
+    partner: &VehicleState,
+    heading_sur: Option<Vec2>,
+    box_distance: f32,
+) -> DrlInputs {
+    let hi = heading_ego.unwrap_or(Vec2::new(0.0, 1.0));
+    let hj = heading_sur.unwrap_or(hi);
+    let (v_ego, v_sur) = (velocity(ego), velocity(partner));
+    let dp = position(partner) - position(ego);
+    let dv = v_ego - v_sur;
+    let s = dp.norm();
+    let dv_norm = dv.norm();
+    let w_comb = (ego.width + partner.width) * 0.5;
+
+    // Constant-velocity closest approach: when (> 0: ahead in time), how fast the centres close in,
+    // and how far apart they pass, across the relative velocity.
+    let along = dp.dot(dv);
+    let tca = if dv_norm > MIN_RELATIVE_SPEED {
+        (along / dv.norm2()).clamp(-MAX_TIME, MAX_TIME)
     } else {
         MAX_TIME
     };
-    let miss_gap = (s * libm::fabsf(cos_rho) - w_comb).max(0.0);
+    let closing = if s > 0.0 { along / s } else { 0.0 };
+    let across = if dv_norm > 0.0 && dv_norm.is_finite() {
+        dp.cross(dv) / dv_norm
+    } else {
+        dp.cross(hi)
+    };
+    let miss_gap = (libm::fabsf(across) - w_comb).max(0.0);
     [
         slog(tca),
-        l_sur,
+        partner.length,
         w_comb,
-        v_ego,
-        vx_sur,
-        vy_sur,
-        libm::cosf(psi),
-        libm::sinf(psi),
+        v_ego.norm(),
+        v_sur.cross(hi),
+        v_sur.dot(hi),
+        hi.dot(hj),
+        hi.cross(hj),
         log_gap(box_distance),
         slog(closing),
         log_gap(miss_gap),
-        slog(ahead),
-        slog(right),
+        slog(dp.dot(hi)),
+        slog(dp.cross(hi)),
     ]
     .map(|x| {
         if x.is_nan() {
@@ -138,11 +167,6 @@ pub fn drl_inputs(f: &Features, box_distance: f32) -> DrlInputs {
             x.clamp(-f32::MAX, f32::MAX)
         }
     })
-}
-
-/// [`drl_inputs`] of an ego/partner pair, computing its features and box distance.
-pub fn drl_inputs_of_pair(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
-    drl_inputs(&features(ego, partner), box_distance(ego, partner))
 }
 
 #[cfg(test)]
@@ -164,7 +188,7 @@ mod tests {
     }
 
     fn encode(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
-        drl_inputs_of_pair(ego, partner)
+        drl_inputs(ego, partner)
     }
 
     #[test]
@@ -236,5 +260,103 @@ mod tests {
         }
         assert_eq!(log_gap(f32::INFINITY), libm::logf(0.5 + MAX_GAP));
         assert_eq!(slog(f32::NAN), 0.0);
+    }
+    /// Encoding 2, kept as the definition encoding 3 must keep: the same inputs derived from the
+    /// features (`rho`, `psi_sur`) through sin/cos, assuming no side slip.
+    fn encoding_2(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
+        let f = crate::features(ego, partner);
+        let [_, l_sur, w_comb, v_ego, vx_sur, vy_sur, _, _, _, delta_v, psi, rho, s] = f;
+        let dv_norm = delta_v.abs();
+        let (sin_rho, cos_rho) = (libm::sinf(rho), libm::cosf(rho));
+        let (ax, ay) = {
+            let (dx, dy) = (-vx_sur, v_ego - vy_sur);
+            let n = libm::sqrtf(dx * dx + dy * dy);
+            if dv_norm > 0.0 && n > 0.0 {
+                (dx / n, dy / n)
+            } else {
+                (0.0, 1.0)
+            }
+        };
+        let (xr, yr) = (s * cos_rho, s * sin_rho);
+        let tca = if dv_norm > 0.1 {
+            (s * sin_rho / dv_norm).clamp(-MAX_TIME, MAX_TIME)
+        } else {
+            MAX_TIME
+        };
+        [
+            slog(tca),
+            l_sur,
+            w_comb,
+            v_ego,
+            vx_sur,
+            vy_sur,
+            libm::cosf(psi),
+            libm::sinf(psi),
+            log_gap(crate::box_distance(ego, partner)),
+            slog(dv_norm * sin_rho),
+            log_gap((s * libm::fabsf(cos_rho) - w_comb).max(0.0)),
+            slog(-xr * ax + yr * ay),
+            slog(xr * ay + yr * ax),
+        ]
+    }
+
+    use proptest::prelude::*;
+
+    /// A road user driving forward along its heading (what encoding 2 assumed: no side slip, no
+    /// reversing).
+    fn no_slip() -> impl Strategy<Value = VehicleState> {
+        (
+            (-80.0f32..80.0, -80.0f32..80.0),
+            -3.2f32..3.2,
+            prop_oneof![1 => Just(0.0f32), 4 => 0.0f32..40.0],
+            (2.0f32..18.0, 1.5f32..2.6),
+        )
+            .prop_map(|((x, y), angle, speed, (length, width))| {
+                let (hx, hy) = (libm::cosf(angle), libm::sinf(angle));
+                VehicleState {
+                    x,
+                    y,
+                    vx: speed * hx,
+                    vy: speed * hy,
+                    hx,
+                    hy,
+                    length,
+                    width,
+                    ..Default::default()
+                }
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(5_000))]
+
+        /// Encoding 3 computes what encoding 2 meant, input by input, wherever encoding 2's
+        /// no-side-slip assumption holds (away from the `|dv| = 0.1` switch of `tca`).
+        #[test]
+        fn encoding_3_means_what_encoding_2_meant(ego in no_slip(), partner in no_slip()) {
+            let dv = crate::geometry::velocity(&ego) - crate::geometry::velocity(&partner);
+            prop_assume!((dv.norm() - MIN_RELATIVE_SPEED).abs() > 1e-3);
+            let new = drl_inputs(&ego, &partner);
+            let old = encoding_2(&ego, &partner);
+            for k in 0..DRL_INPUT_COUNT {
+                prop_assert!(
+                    (new[k] - old[k]).abs() <= 2e-3 * (1.0 + old[k].abs()),
+                    "input {} ({}): encoding 3 {} vs encoding 2 {}",
+                    k, DRL_INPUT_NAMES[k], new[k], old[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn side_slip_is_read_off_the_states() {
+        // A partner 10 m ahead and 2 m to the right whose velocity is not along the ego heading:
+        // the ego-frame offsets are exact, whatever the velocities.
+        let mut ego = car(0.0, 0.0, 3.0, 20.0, 0.0, 1.0);
+        ego.hx = 0.0;
+        let p = car(2.0, 10.0, -1.0, 15.0, 0.0, 1.0);
+        let x = encode(&ego, &p);
+        assert!((x[11] - libm::log1pf(10.0)).abs() < 1e-5, "ahead {}", x[11]);
+        assert!((x[12] - libm::log1pf(2.0)).abs() < 1e-5, "right {}", x[12]);
     }
 }

@@ -31,8 +31,22 @@ impl Vec2 {
     pub fn cross(self, o: Vec2) -> f32 {
         self.x * o.y - self.y * o.x
     }
+    /// `|self|` in `f32` only: one `sqrtf` of the squared norm when that is a normal number, else
+    /// (zero, subnormal or overflowing squares) the components are first scaled by the larger
+    /// one. Within an ulp or so of `hypot`; `libm::hypotf` itself works in `f64`, which a
+    /// single-precision FPU (Cortex-M4F) emulates in software, in time and in flash. Infinite
+    /// when a component is, NaN when one is NaN and the other finite.
     pub fn norm(self) -> f32 {
-        libm::hypotf(self.x, self.y)
+        let n2 = self.norm2();
+        if n2.is_normal() {
+            return libm::sqrtf(n2);
+        }
+        let m = libm::fabsf(self.x).max(libm::fabsf(self.y));
+        if m == 0.0 || !m.is_finite() {
+            return m;
+        }
+        let (x, y) = (self.x / m, self.y / m);
+        m * libm::sqrtf(x * x + y * y)
     }
     pub fn norm2(self) -> f32 {
         self.dot(self)
@@ -98,10 +112,16 @@ pub struct OrientedBox {
 impl OrientedBox {
     /// The box of a state; `None` when a field is not finite or the heading is zero.
     pub fn of(s: &VehicleState) -> Option<Self> {
+        Self::with_axis(s, unit_heading(s))
+    }
+
+    /// The box of a state whose [`unit_heading`] is `axis`; `None` when a field is not finite or
+    /// the heading is zero (`axis` is `None`).
+    fn with_axis(s: &VehicleState, axis: Option<Vec2>) -> Option<Self> {
         if !s.is_finite() {
             return None;
         }
-        let axis = unit_heading(s)?;
+        let axis = axis?;
         Some(Self {
             center: position(s),
             axis,
@@ -133,12 +153,6 @@ impl OrientedBox {
         self.center + self.axis.scale(self.half_length)
     }
 
-    /// The four edges as (start, end) pairs, walking around the box.
-    fn edges(&self) -> [(Vec2, Vec2); 4] {
-        let [fl, fr, rl, rr] = self.corners();
-        [(fl, fr), (fr, rr), (rr, rl), (rl, fl)]
-    }
-
     /// Separating-axis test: true when the two boxes share at least one point (touching counts).
     fn intersects(&self, other: &OrientedBox) -> bool {
         let d = other.center - self.center;
@@ -161,19 +175,23 @@ impl OrientedBox {
     }
 }
 
-/// Distance from point `p` to the segment `[a, b]`.
-fn point_segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
-    let ab = b - a;
-    let len2 = ab.norm2();
-    let t = if len2 > 0.0 {
-        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + ab.scale(t))).norm()
+/// The per-axis gaps `(dx, dy)` from the origin-centred, axis-aligned box of half extents
+/// `(hx, hy)` to the point `(u, v)` of its frame (the distance is `hypot(dx, dy)`).
+fn point_box_gap(u: f32, v: f32, hx: f32, hy: f32) -> (f32, f32) {
+    (
+        (libm::fabsf(u) - hx).max(0.0),
+        (libm::fabsf(v) - hy).max(0.0),
+    )
 }
 
-/// Exact minimum distance between the boxes of two boxes (0 when they touch or overlap).
+/// Exact minimum distance between two boxes (0 when they touch or overlap).
+///
+/// When the separating-axis test finds the boxes disjoint, the closest pair of points involves a
+/// corner of one box (two disjoint convex polygons), so the gap is the smallest distance from one
+/// box's corners to the other box. Each of those is a point-to-axis-aligned-box distance in the
+/// other box's frame (`dx = max(|u| - hl, 0)`, `dy = max(|v| - hw, 0)`): eight corners, squared
+/// distances compared, one square root at the end. Both frames come from `c = a . b` and
+/// `s = a x b` of the two unit axes, so no corner is rotated twice.
 pub fn oriented_box_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
     // Work relative to a's centre so the subtraction of large world coordinates happens once.
     let origin = a.center;
@@ -182,17 +200,52 @@ pub fn oriented_box_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
     if a.intersects(&b) {
         return 0.0;
     }
-    // Disjoint convex polygons: the closest pair always involves a vertex of one and an edge
-    // of the other.
-    let mut best = f32::INFINITY;
-    for (p_box, e_box) in [(&a, &b), (&b, &a)] {
-        for p in p_box.corners() {
-            for (s, e) in e_box.edges() {
-                best = best.min(point_segment_distance(p, s, e));
-            }
+    let (ha, wa) = (libm::fabsf(a.half_length), libm::fabsf(a.half_width));
+    let (hb, wb) = (libm::fabsf(b.half_length), libm::fabsf(b.half_width));
+    let c = a.axis.dot(b.axis);
+    let s = a.axis.cross(b.axis);
+    let d = b.center; // a's centre is the origin
+                      // b's centre in a's frame (u along a's axis, v to its left) and a's centre in b's frame.
+    let (bu, bv) = (d.dot(a.axis), d.dot(a.axis.perp_left()));
+    let (au, av) = (-d.dot(b.axis), -d.dot(b.axis.perp_left()));
+    // Corner offsets: b's axis is (c, s) and its left normal (-s, c) in a's frame; a's axis is
+    // (c, -s) and its left normal (s, c) in b's frame.
+    let corners_of_b_in_a = [
+        (bu + hb * c - wb * s, bv + hb * s + wb * c),
+        (bu + hb * c + wb * s, bv + hb * s - wb * c),
+        (bu - hb * c - wb * s, bv - hb * s + wb * c),
+        (bu - hb * c + wb * s, bv - hb * s - wb * c),
+    ];
+    let corners_of_a_in_b = [
+        (au + ha * c + wa * s, av - ha * s + wa * c),
+        (au + ha * c - wa * s, av - ha * s - wa * c),
+        (au - ha * c + wa * s, av + ha * s + wa * c),
+        (au - ha * c - wa * s, av + ha * s - wa * c),
+    ];
+    let mut best2 = f32::INFINITY;
+    // Only used when a squared gap overflows f32 (gaps beyond ~1.8e19 m).
+    let mut best_far = f32::INFINITY;
+    let gaps = corners_of_b_in_a
+        .iter()
+        .map(|&(u, v)| point_box_gap(u, v, ha, wa))
+        .chain(
+            corners_of_a_in_b
+                .iter()
+                .map(|&(u, v)| point_box_gap(u, v, hb, wb)),
+        );
+    for (dx, dy) in gaps {
+        let d2 = dx * dx + dy * dy;
+        if d2.is_finite() {
+            best2 = best2.min(d2);
+        } else {
+            best_far = best_far.min(Vec2::new(dx, dy).norm());
         }
     }
-    best
+    if best2.is_finite() {
+        libm::sqrtf(best2)
+    } else {
+        best_far
+    }
 }
 
 /// Exact minimum distance (m) between the boxes of two vehicles, 0 when they touch or overlap.
@@ -201,7 +254,21 @@ pub fn oriented_box_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
 /// corners), this is the true gap, so it never overestimates it. Returns `f32::INFINITY` when a
 /// state has a non-finite field or a zero heading (no box), never NaN.
 pub fn box_distance(a: &VehicleState, b: &VehicleState) -> f32 {
-    match (OrientedBox::of(a), OrientedBox::of(b)) {
+    box_distance_with_headings(a, unit_heading(a), b, unit_heading(b))
+}
+
+/// [`box_distance`] with the unit headings already computed ([`unit_heading`] of each state), so a
+/// caller that needs them too normalises each heading once.
+pub fn box_distance_with_headings(
+    a: &VehicleState,
+    heading_a: Option<Vec2>,
+    b: &VehicleState,
+    heading_b: Option<Vec2>,
+) -> f32 {
+    match (
+        OrientedBox::with_axis(a, heading_a),
+        OrientedBox::with_axis(b, heading_b),
+    ) {
         (Some(ba), Some(bb)) => {
             let d = oriented_box_distance(&ba, &bb);
             if d.is_nan() {
@@ -240,6 +307,168 @@ mod tests {
             width,
             ..Default::default()
         }
+    }
+
+    /// The previous exact algorithm, kept as the oracle: every corner against every edge of the
+    /// other box (32 point-segment distances, each with a square root and a division).
+    fn oracle_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
+        fn point_segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+            let ab = b - a;
+            let len2 = ab.norm2();
+            let t = if len2 > 0.0 {
+                ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p - (a + ab.scale(t))).norm()
+        }
+        fn edges(b: &OrientedBox) -> [(Vec2, Vec2); 4] {
+            let [fl, fr, rl, rr] = b.corners();
+            [(fl, fr), (fr, rr), (rr, rl), (rl, fl)]
+        }
+        let origin = a.center;
+        let a = a.relative_to(origin);
+        let b = b.relative_to(origin);
+        if a.intersects(&b) {
+            return 0.0;
+        }
+        let mut best = f32::INFINITY;
+        for (p_box, e_box) in [(&a, &b), (&b, &a)] {
+            for p in p_box.corners() {
+                for (s, e) in edges(e_box) {
+                    best = best.min(point_segment_distance(p, s, e));
+                }
+            }
+        }
+        best
+    }
+
+    fn oriented(x: f32, y: f32, angle: f32, length: f32, width: f32) -> OrientedBox {
+        OrientedBox::of(&car(
+            x,
+            y,
+            libm::cosf(angle),
+            libm::sinf(angle),
+            length,
+            width,
+        ))
+        .expect("finite state")
+    }
+
+    /// Both algorithms round differently: allow a few ulps of the largest magnitude involved.
+    fn agree(a: &OrientedBox, b: &OrientedBox) -> Result<(), proptest::test_runner::TestCaseError> {
+        let fast = oriented_box_distance(a, b);
+        let slow = oracle_distance(a, b);
+        let d = b.center - a.center;
+        let scale = 1.0
+            + libm::fabsf(d.x)
+            + libm::fabsf(d.y)
+            + a.half_length.abs()
+            + a.half_width.abs()
+            + b.half_length.abs()
+            + b.half_width.abs();
+        proptest::prop_assert!(!fast.is_nan() && fast >= 0.0, "fast {fast}");
+        proptest::prop_assert!(
+            libm::fabsf(fast - slow) <= 4e-6 * scale,
+            "fast {fast} vs oracle {slow} for {a:?} {b:?}"
+        );
+        Ok(())
+    }
+
+    use proptest::prelude::*;
+
+    fn size() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            1 => Just(0.0f32),
+            1 => 0.0f32..1e-3,
+            6 => 0.3f32..20.0,
+        ]
+    }
+
+    static RIGHT_ANGLES: [f32; 4] = [
+        0.0,
+        core::f32::consts::FRAC_PI_2,
+        core::f32::consts::PI,
+        -core::f32::consts::FRAC_PI_4,
+    ];
+
+    fn angle() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            1 => prop::sample::select(&RIGHT_ANGLES[..]),
+            4 => -4.0f32..4.0,
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+        /// Near and far boxes, any rotation and size (zero included), anywhere in a local frame.
+        #[test]
+        fn fast_distance_equals_the_oracle(
+            origin in (-5e3f32..5e3, -5e3f32..5e3),
+            offset in prop_oneof![3 => (-30.0f32..30.0, -30.0f32..30.0), 1 => (-3e3f32..3e3, -3e3f32..3e3)],
+            (aa, ab) in (angle(), angle()),
+            (la, wa, lb, wb) in (size(), size(), size(), size()),
+        ) {
+            let a = oriented(origin.0, origin.1, aa, la, wa);
+            let b = oriented(origin.0 + offset.0, origin.1 + offset.1, ab, lb, wb);
+            agree(&a, &b)?;
+            agree(&b, &a)?;
+        }
+
+        /// Boxes placed at (or a hair from) contact: side to side, corner to side, corner to corner.
+        #[test]
+        fn fast_distance_equals_the_oracle_at_contact(
+            (aa, ab) in (angle(), angle()),
+            (la, wa, lb, wb) in (size(), size(), size(), size()),
+            direction in -4.0f32..4.0,
+            hair in prop_oneof![Just(0.0f32), -1e-4f32..1e-4, 1e-3f32..0.5],
+        ) {
+            // Walk b out along `direction` until the boxes just separate (bisection), then move it
+            // by `hair`.
+            let a = oriented(0.0, 0.0, aa, la, wa);
+            let (ux, uy) = (libm::cosf(direction), libm::sinf(direction));
+            let (mut lo, mut hi) = (0.0f32, 60.0f32);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                let b = oriented(ux * mid, uy * mid, ab, lb, wb);
+                if a.intersects(&b) { lo = mid } else { hi = mid }
+            }
+            let r = hi + hair;
+            let b = oriented(ux * r, uy * r, ab, lb, wb);
+            agree(&a, &b)?;
+            agree(&b, &a)?;
+        }
+    }
+
+    #[test]
+    fn norm_is_hypot_without_f64() {
+        let cases = [
+            (3.0f32, 4.0f32),
+            (1e-30, 1e-30),
+            (1e-45, 0.0),
+            (3e30, 4e30),
+            (2e38, 1e38),
+            (0.0, 0.0),
+            (-7.5, 0.25),
+        ];
+        for (x, y) in cases {
+            let h = libm::hypot(f64::from(x), f64::from(y));
+            let n = f64::from(Vec2::new(x, y).norm());
+            assert!((n - h).abs() <= 2.5e-7 * h, "({x}, {y}): {n} vs {h}");
+        }
+        assert_eq!(Vec2::new(f32::INFINITY, f32::NAN).norm(), f32::INFINITY);
+        assert!(Vec2::new(f32::NAN, 1.0).norm().is_nan());
+    }
+
+    #[test]
+    fn far_apart_boxes_do_not_overflow() {
+        let a = car(0.0, 0.0, 1.0, 0.0, 4.0, 2.0);
+        let b = car(3e19, 3e19, 1.0, 0.0, 4.0, 2.0);
+        let d = box_distance(&a, &b);
+        assert!(d.is_finite() && d > 4e19, "{d}");
+        let c = car(2e38, 0.0, 0.0, 1.0, 4.0, 2.0);
+        assert!(box_distance(&a, &c) >= 1.9e38);
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //! - [`state`]: the kinematic state of one road user ([`VehicleState`]).
 //! - [`geometry`]: oriented boxes and the exact box-to-box distance.
 //! - [`features`]: the 13 observation features of an ego/partner pair.
-//! - [`encoding`]: the DRL input encoding (versioned transform of features + box distance).
+//! - [`encoding`]: the DRL input encoding (versioned, trig-free transform of the two states).
+//! - [`observation`]: features + surrogates + DRL inputs of a pair, computed once ([`Observation`]).
 //! - [`surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
 //! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
@@ -36,14 +37,13 @@ pub mod gssm;
 pub mod mlp;
 pub mod model;
 pub mod msra;
+pub mod observation;
 pub mod quant;
 pub mod state;
 pub mod surrogates;
 pub mod warning;
 
-pub use encoding::{
-    drl_inputs, drl_inputs_of_pair, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES,
-};
+pub use encoding::{drl_inputs, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES};
 pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
 pub use geometry::box_distance;
 pub use state::VehicleState;
@@ -53,4 +53,5 @@ pub use gssm::{GssmModel, GssmScore};
 pub use mlp::{FloatMlp, QuantMlp};
 pub use model::{decode, encode, Model, ModelError, ModelKind};
 pub use msra::{MsraModel, MsraTerm};
+pub use observation::Observation;
 pub use warning::{FirstThreshold, TrackTable, WarningConfig};

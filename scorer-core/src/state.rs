@@ -21,7 +21,7 @@ pub struct VehicleState {
 impl VehicleState {
     /// Speed `|(vx, vy)|`.
     pub fn speed(&self) -> f32 {
-        libm::hypotf(self.vx, self.vy)
+        crate::geometry::velocity(self).norm()
     }
 
     /// True when every field is finite.

@@ -15,7 +15,7 @@ use scorer_core::gssm::{GssmModel, GssmScore};
 use scorer_core::mlp::{FloatLayer, FloatMlp};
 use scorer_core::model::{self, BoundedVec, Model, ModelError, ModelKind, HEADER_LEN};
 use scorer_core::msra::{MsraModel, MsraTerm};
-use scorer_core::{Features, SurrogateKind, Surrogates};
+use scorer_core::{Features, Observation, SurrogateKind, Surrogates, VehicleState};
 use serde::Serialize;
 
 fn encode_vec(m: &Model<'_>) -> Vec<u8> {
@@ -23,6 +23,16 @@ fn encode_vec(m: &Model<'_>) -> Vec<u8> {
     let n = model::encode(m, &mut buf).unwrap();
     assert_eq!(n, buf.len());
     buf
+}
+
+/// An observation of random numbers (not of any pair of states): the round trip only needs every
+/// model to read the same inputs before and after.
+fn observation(rng: &mut Rng) -> Observation {
+    Observation {
+        features: random_features(rng),
+        surrogates: surrogates(rng),
+        drl_inputs: random_features(rng),
+    }
 }
 
 fn surrogates(rng: &mut Rng) -> Surrogates {
@@ -141,11 +151,42 @@ fn round_trip_every_kind() {
         assert_eq!(&back, m);
         let mut rng = Rng(99);
         for _ in 0..200 {
-            let f = random_features(&mut rng);
-            let s = surrogates(&mut rng);
-            let (a, b) = (m.score_observation(&f, &s), back.score_observation(&f, &s));
+            let o = observation(&mut rng);
+            let (a, b) = (m.score_observation(&o), back.score_observation(&o));
             assert!(a.is_finite());
             assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
+}
+
+/// The deployed one-call path (`Model::score`, which computes only what its model reads) and the
+/// host's shared observation (`Observation::of` + `score_observation`) give the same bits, for
+/// every kind, on random pairs of road users.
+#[test]
+fn score_equals_score_observation_bit_for_bit() {
+    let fx = Fixtures::new();
+    let mut rng = Rng(7);
+    let user = |rng: &mut Rng| {
+        let angle = rng.uniform(-3.2, 3.2);
+        VehicleState {
+            x: rng.uniform(-60.0, 60.0),
+            y: rng.uniform(-60.0, 60.0),
+            vx: rng.uniform(-30.0, 30.0),
+            vy: rng.uniform(-30.0, 30.0),
+            hx: libm::cosf(angle),
+            hy: libm::sinf(angle),
+            acc: rng.uniform(-4.0, 2.0),
+            length: rng.uniform(3.5, 15.0),
+            width: rng.uniform(1.6, 2.6),
+        }
+    };
+    for m in fx.models() {
+        for _ in 0..500 {
+            let (ego, partner) = (user(&mut rng), user(&mut rng));
+            let direct = m.score(&ego, &partner);
+            let shared = m.score_observation(&Observation::of(&ego, &partner));
+            assert!(direct.is_finite());
+            assert_eq!(direct.to_bits(), shared.to_bits(), "{:?}", m.kind());
         }
     }
 }
@@ -196,7 +237,7 @@ fn worked_example_matches_the_spec() {
             "0100",
             "02",
             "00",
-            "0200",
+            "0300",
             "0000",
             "19000000",
             "898a88bc",
@@ -218,51 +259,54 @@ fn worked_example_matches_the_spec() {
     x[8] = 5.0;
     let r = net.forward(&x)[0];
     assert!((r - 1.0).abs() < 1e-6, "{r}");
-    // The same through the deployed entry point: a gap of e^5 - 0.5 m.
+    // The same through the deployed entry point: two boxes e^5 - 0.5 m apart.
     let gap = libm::expf(5.0) - 0.5;
-    let sur = scorer_core::Surrogates {
-        box_distance: gap,
-        ttc2d: f32::INFINITY,
-        tadv: f32::INFINITY,
-        ei: f32::NEG_INFINITY,
+    let car = |y: f32| VehicleState {
+        y,
+        hy: 1.0,
+        length: 4.0,
+        width: 2.0,
+        ..Default::default()
     };
-    let r = model::decode(&blob)
-        .unwrap()
-        .score_observation(&[0.0; 13], &sur);
-    assert!((r - 1.0).abs() < 1e-5, "{r}");
+    let m = model::decode(&blob).unwrap();
+    let r = m.score(&car(0.0), &car(4.0 + gap));
+    assert!((r - 1.0).abs() < 1e-4, "{r}");
+    let o = Observation::of(&car(0.0), &car(4.0 + gap));
+    assert_eq!(r.to_bits(), m.score_observation(&o).to_bits());
 }
 
-/// A DRL blob of input schema 1 (the raw features, before the DRL input encoding) is refused with
-/// a message that says why, never scored with the wrong inputs.
+/// A DRL blob of an older input schema (1: the raw features; 2: encoding 2, whose inputs were
+/// derived through sin/cos) is refused with a message that says why, never scored with the wrong
+/// inputs.
 #[test]
-fn drl_blob_of_the_old_input_schema_is_refused() {
-    let mut blob = valid_drl_blob();
-    blob[8] = 1;
-    let err = model::decode(&blob).unwrap_err();
-    assert_eq!(
-        err,
-        ModelError::WrongInputSchema {
-            kind: "drl-f32",
-            found: 1,
-            expected: 2
-        }
-    );
-    let text = err.to_string();
-    assert!(text.contains("retrain or re-export"), "{text}");
-    // And MSRA/GSSM blobs must not claim the DRL encoding.
+fn drl_blob_of_an_old_input_schema_is_refused() {
+    for old in [1u16, 2] {
+        let mut blob = valid_drl_blob();
+        blob[8..10].copy_from_slice(&old.to_le_bytes());
+        let err = model::decode(&blob).unwrap_err();
+        assert_eq!(
+            err,
+            ModelError::WrongInputSchema {
+                kind: "drl-f32",
+                found: old,
+                expected: 3
+            }
+        );
+        let text = err.to_string();
+        assert!(text.contains("retrain or re-export"), "{text}");
+    }
+    // And MSRA/GSSM blobs must not claim a DRL encoding.
     let fx = Fixtures::new();
     for m in fx.models() {
         if matches!(m, Model::Msra(_) | Model::Gssm(_)) {
-            let mut blob = encode_vec(&m);
-            blob[8] = 2;
-            assert!(matches!(
-                model::decode(&blob),
-                Err(ModelError::WrongInputSchema {
-                    found: 2,
-                    expected: 1,
-                    ..
-                })
-            ));
+            for drl_schema in [2u8, 3] {
+                let mut blob = encode_vec(&m);
+                blob[8] = drl_schema;
+                assert!(matches!(
+                    model::decode(&blob),
+                    Err(ModelError::WrongInputSchema { found, expected: 1, .. }) if found == u16::from(drl_schema)
+                ));
+            }
         }
     }
 }

@@ -334,7 +334,8 @@ proptest! {
             if let Ok(m) = model::decode(&blob) {
                 let x: Features = [1.0; FEATURE_COUNT];
                 let sur = scorer_core::Surrogates { box_distance: 1.0, ttc2d: 1.0, tadv: 1.0, ei: 1.0 };
-                prop_assert!(m.score_observation(&x, &sur).is_finite());
+                let o = scorer_core::Observation { features: x, surrogates: sur, drl_inputs: x };
+                prop_assert!(m.score_observation(&o).is_finite());
             };
         }
     }
@@ -370,7 +371,8 @@ proptest! {
             prop_assert_eq!(back.kind() as u8, kind);
             let x: Features = [f32::NAN; FEATURE_COUNT];
             let s = Surrogates { box_distance: 1.0, ttc2d: 2.0, tadv: f32::INFINITY, ei: f32::NEG_INFINITY };
-            prop_assert!(back.score_observation(&x, &s).is_finite());
+            let o = scorer_core::Observation { features: x, surrogates: s, drl_inputs: x };
+            prop_assert!(back.score_observation(&o).is_finite());
         }
         let _ = ModelKind::from_u8(kind);
     }

@@ -8,7 +8,7 @@ use std::process::Command;
 
 use scorer_core::model;
 use scorer_core::warning::{TrackTable, WarningConfig, WarningEvent};
-use scorer_core::{features, surrogates, VehicleState};
+use scorer_core::{Observation, VehicleState};
 
 #[path = "../firmware/test_models.rs"]
 #[allow(dead_code)]
@@ -227,16 +227,14 @@ fn c_program_links_staticlib_and_matches_host() {
                 rows += 1;
                 let n: usize = t[1].parse().expect("line number");
                 let (ego, partner) = by_line[&n];
-                let f = features(&ego, &partner);
-                let s = surrogates(&ego, &partner);
-                let host: Vec<f32> = f
+                let o = Observation::of(&ego, &partner);
+                let s = o.surrogates;
+                let host: Vec<f32> = o
+                    .features
                     .iter()
                     .copied()
                     .chain([s.box_distance, s.ttc2d, s.tadv, s.ei])
-                    .chain([
-                        drl.score_observation(&f, &s),
-                        msra.score_observation(&f, &s),
-                    ])
+                    .chain([drl.score_observation(&o), msra.score_observation(&o)])
                     .collect();
                 for (k, (tok, h)) in t[2..].iter().zip(&host).enumerate() {
                     assert_eq!(

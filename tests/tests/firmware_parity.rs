@@ -20,7 +20,9 @@ use std::time::{Duration, Instant};
 
 use scorer_core::model::{self, Model};
 use scorer_core::warning::{TrackTable, WarningConfig, WarningEvent};
-use scorer_core::{box_distance, ei, features, tadv, ttc2d, Surrogates, VehicleState};
+use scorer_core::{
+    box_distance, drl_inputs, ei, features, tadv, ttc2d, Observation, Surrogates, VehicleState,
+};
 
 const EXIT_PANIC: i32 = 101;
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
@@ -336,16 +338,47 @@ fn firmware_on_cortex_m4f_matches_host() {
             total_floats += 1;
         }
 
-        // Scores: the host scores the host's own features/surrogates.
+        // DRL inputs (encoding 3, from the states): bit-exact, they feed the int8 network.
+        let fw_x: Vec<f32> = t[at("X") + 1..at("X") + 14]
+            .iter()
+            .map(|x| hex_f32(x, "drl input", line))
+            .collect();
+        let host_x = drl_inputs(&ego, &partner);
+        for (k, (a, b)) in fw_x.iter().zip(host_x.iter()).enumerate() {
+            assert_eq!(
+                a.to_bits(),
+                b.to_bits(),
+                "golden line {csv_line}: DRL input {} ({}) MCU {a:e} vs host {b:e} (must be bit-exact)",
+                k,
+                scorer_core::DRL_INPUT_NAMES[k]
+            );
+        }
+        let host_o = Observation {
+            features: host_f,
+            surrogates: host_s,
+            drl_inputs: host_x,
+        };
+        assert_eq!(
+            host_o,
+            Observation::of(&ego, &partner),
+            "golden line {csv_line}: Observation::of differs from its parts"
+        );
+
+        // Scores: the host scores the host's own observation.
         let d = hex_f32(t[at("D") + 1], "drl", line);
-        let host_d = drl.score_observation(&host_f, &host_s);
+        let host_d = drl.score_observation(&host_o);
+        assert_eq!(
+            host_d.to_bits(),
+            drl.score(&ego, &partner).to_bits(),
+            "golden line {csv_line}: Model::score and score_observation differ on the host"
+        );
         assert_eq!(
             d.to_bits(),
             host_d.to_bits(),
             "golden line {csv_line}: int8 DRL score MCU {d:e} vs host {host_d:e} (must be bit-exact)"
         );
         let m = hex_f32(t[at("M") + 1], "msra", line);
-        let host_m = msra.score_observation(&host_f, &host_s);
+        let host_m = msra.score_observation(&host_o);
         assert!(
             close(m, host_m),
             "golden line {csv_line}: MSRA MCU {m:e} vs host {host_m:e}"

@@ -131,9 +131,9 @@ fn score_into<W: std::io::Write + Send>(
                 columns.time.append_value(frame.time);
                 columns.class.append_value(sequence.kind.as_str());
                 for (builder, method) in columns.scores.iter_mut().zip(methods) {
-                    builder.append_value(method.scorer.score(frame));
+                    builder.append_value(method.scorer.score(&frame.observation));
                 }
-                let s = &frame.surrogates;
+                let s = &frame.observation.surrogates;
                 for (builder, v) in columns.surrogates.iter_mut().zip([s.ttc2d, s.tadv, s.ei]) {
                     builder.append_value(v);
                 }

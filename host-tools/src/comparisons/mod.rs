@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use scorer_core::{Features, Surrogates, VehicleState};
+use scorer_core::{DrlInputs, Features, Observation, Surrogates, VehicleState};
 use serde::{Deserialize, Serialize};
 
 /// Where a comparison came from. Each source has its own weight `beta` in the pair loss.
@@ -163,12 +163,14 @@ pub enum RowOrigin {
     External,
 }
 
-/// The features and surrogates of every observation used by pairs or anchors, computed by
-/// scorer-core once per row.
+/// Every observation used by pairs or anchors, computed by scorer-core once per row
+/// ([`Observation::of`]) and stored by column (features, surrogates, DRL inputs), so each model
+/// reads the part it needs as a slice.
 #[derive(Clone, Debug, Default)]
 pub struct ObservationTable {
     pub features: Vec<Features>,
     pub surrogates: Vec<Surrogates>,
+    pub drl_inputs: Vec<DrlInputs>,
     pub origins: Vec<RowOrigin>,
 }
 
@@ -183,22 +185,14 @@ impl ObservationTable {
 
     /// Compute and append one observation; returns its row.
     pub fn push(&mut self, ego: &VehicleState, partner: &VehicleState, origin: RowOrigin) -> u32 {
-        self.push_computed(
-            scorer_core::features(ego, partner),
-            scorer_core::surrogates(ego, partner),
-            origin,
-        )
+        self.push_computed(Observation::of(ego, partner), origin)
     }
 
-    /// Append an observation whose features and surrogates are already computed.
-    pub fn push_computed(
-        &mut self,
-        features: Features,
-        surrogates: Surrogates,
-        origin: RowOrigin,
-    ) -> u32 {
-        self.features.push(features);
-        self.surrogates.push(surrogates);
+    /// Append an observation that is already computed.
+    pub fn push_computed(&mut self, observation: Observation, origin: RowOrigin) -> u32 {
+        self.features.push(observation.features);
+        self.surrogates.push(observation.surrogates);
+        self.drl_inputs.push(observation.drl_inputs);
         self.origins.push(origin);
         (self.features.len() - 1) as u32
     }

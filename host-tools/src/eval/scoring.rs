@@ -2,10 +2,11 @@
 //! blobs via [`Model::score_observation`] (the deployed path: int8 for DRL), baselines via the
 //! core's surrogates in their risk direction ([`Baseline`]).
 //!
-//! Features and surrogates are computed once per frame ([`observe`]) and shared by every method.
+//! Each frame's [`Observation`] (features, surrogates, DRL inputs) is computed once ([`observe`])
+//! and shared by every method.
 use scorer_core::gssm::GssmScore;
 use scorer_core::model::{Model, ModelKind};
-use scorer_core::{Features, Surrogates};
+use scorer_core::Observation;
 
 use super::metrics::{warning_curve, WarningCurve};
 use super::protocol::{
@@ -29,8 +30,7 @@ impl From<EventKind> for SequenceClass {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObservedFrame {
     pub time: f64,
-    pub features: Features,
-    pub surrogates: Surrogates,
+    pub observation: Observation,
 }
 
 /// A prepared sequence with its observations computed.
@@ -61,7 +61,7 @@ impl ObservedSequence {
     }
 }
 
-/// Computes features and surrogates (scorer-core) for every frame of every sequence.
+/// Computes the observation ([`Observation::of`], scorer-core) of every frame of every sequence.
 pub fn observe(sequences: &[Sequence]) -> Vec<ObservedSequence> {
     sequences
         .iter()
@@ -74,8 +74,7 @@ pub fn observe(sequences: &[Sequence]) -> Vec<ObservedSequence> {
                 .iter()
                 .map(|f| ObservedFrame {
                     time: f.time,
-                    features: scorer_core::features(&f.ego, &f.sur),
-                    surrogates: scorer_core::surrogates(&f.ego, &f.sur),
+                    observation: Observation::of(&f.ego, &f.sur),
                 })
                 .collect(),
         })
@@ -94,10 +93,10 @@ pub enum Scorer<'a> {
 }
 
 impl Scorer<'_> {
-    pub fn score(&self, frame: &ObservedFrame) -> f32 {
+    pub fn score(&self, observation: &Observation) -> f32 {
         match self {
-            Scorer::Model(m) => m.score_observation(&frame.features, &frame.surrogates),
-            Scorer::Baseline(b) => b.risk(&frame.surrogates),
+            Scorer::Model(m) => m.score_observation(observation),
+            Scorer::Baseline(b) => b.risk(&observation.surrogates),
         }
     }
 }
@@ -192,7 +191,7 @@ pub fn evaluate_methods(
         .map(|m| {
             let seqs = observed
                 .iter()
-                .map(|s| s.score(|f| m.scorer.score(f)))
+                .map(|s| s.score(|f| m.scorer.score(&f.observation)))
                 .collect();
             (m.name.clone(), seqs)
         })
@@ -291,15 +290,15 @@ mod tests {
 
     #[test]
     fn baselines_score_in_their_risk_direction() {
-        let frame = |ttc: f32, ei: f32| ObservedFrame {
-            time: 0.0,
+        let frame = |ttc: f32, ei: f32| Observation {
             features: [0.0; scorer_core::FEATURE_COUNT],
-            surrogates: Surrogates {
+            surrogates: scorer_core::Surrogates {
                 box_distance: 5.0,
                 ttc2d: ttc,
                 tadv: f32::INFINITY,
                 ei,
             },
+            drl_inputs: [0.0; scorer_core::DRL_INPUT_COUNT],
         };
         let ttc = Scorer::Baseline(Baseline::Ttc2d);
         assert!(ttc.score(&frame(1.0, 0.0)) > ttc.score(&frame(3.0, 0.0)));

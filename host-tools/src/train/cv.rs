@@ -230,11 +230,7 @@ pub fn run_fold(
             .map_err(|e| xerr(ExportError::Quantize(e)))?;
         let test_features: Vec<_> = observed
             .iter()
-            .flat_map(|s| {
-                s.frames
-                    .iter()
-                    .map(|f| scorer_core::drl_inputs(&f.features, f.surrogates.box_distance))
-            })
+            .flat_map(|s| s.frames.iter().map(|f| f.observation.drl_inputs))
             .collect();
         agreement = Some(
             quantize::verify(&d.params, &q, &test_features)

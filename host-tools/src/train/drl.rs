@@ -1,6 +1,6 @@
 //! DRL: the risk score is an MLP over the core's DRL input encoding (`scorer_core::encoding`: the
-//! 13 inputs derived from the features and the box distance), standardised with the mean and
-//! standard deviation of the training frames.
+//! 13 inputs computed from the two states), standardised with the mean and standard deviation of
+//! the training frames.
 //!
 //! Default shape 13-32-16-1 (ReLU hidden layers, linear output): 944 multiply-accumulates, which the
 //! core's int8 network runs in well under 20k Cortex-M4 instructions per partner. The same structure
@@ -9,7 +9,7 @@ use candle_core::{Device, Tensor, Var};
 use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use scorer_core::{drl_inputs, drl_inputs_of_pair, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
+use scorer_core::{drl_inputs, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
 use super::RiskModel;
@@ -31,7 +31,7 @@ impl FeatureScaler {
         let mut n = [0usize; FEATURE_COUNT];
         for s in seqs {
             for (e, p) in s.ego.iter().zip(&s.partner) {
-                let f = drl_inputs_of_pair(e, p);
+                let f = drl_inputs(e, p);
                 for k in 0..FEATURE_COUNT {
                     if f[k].is_finite() {
                         sum[k] += f[k] as f64;
@@ -180,8 +180,8 @@ impl RiskModel for Drl {
 
     fn encode(&self, table: &ObservationTable) -> Vec<f32> {
         let mut rows = Vec::with_capacity(table.len() * FEATURE_COUNT);
-        for (f, s) in table.features.iter().zip(&table.surrogates) {
-            rows.extend_from_slice(&self.scaler.apply(&drl_inputs(f, s.box_distance)));
+        for x in &table.drl_inputs {
+            rows.extend_from_slice(&self.scaler.apply(x));
         }
         rows
     }

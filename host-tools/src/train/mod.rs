@@ -494,7 +494,7 @@ pub fn calibration_observations(
     for s in seqs {
         for (e, p) in s.ego.iter().zip(&s.partner) {
             if i.is_multiple_of(stride) {
-                out.push(scorer_core::drl_inputs_of_pair(e, p));
+                out.push(scorer_core::drl_inputs(e, p));
             }
             i += 1;
         }

@@ -34,7 +34,7 @@ use core::mem::{align_of, size_of};
 
 use scorer_core::model::{self, Model, ModelError, ModelKind};
 use scorer_core::warning::{FullPolicy, TrackTable, WarningConfig, WarningError, WarningEvent};
-use scorer_core::{features, surrogates, VehicleState, FEATURE_COUNT};
+use scorer_core::{Observation, VehicleState, FEATURE_COUNT};
 
 /// Version of this C ABI; bumped on any incompatible change of the header.
 pub const RISKSCORE_ABI_VERSION: u32 = 1;
@@ -649,13 +649,12 @@ pub unsafe extern "C" fn riskscore_score_pair(
         if ctx.drl.is_none() && ctx.msra.is_none() && ctx.gssm.is_none() {
             return Err(RiskscoreStatus::NoModel);
         }
-        let f = features(&ego, &partner);
-        let s = surrogates(&ego, &partner);
-        let score = |m: &Option<Model<'static>>| {
-            m.as_ref().map_or(f32::NAN, |m| m.score_observation(&f, &s))
-        };
+        let o = Observation::of(&ego, &partner);
+        let s = o.surrogates;
+        let score =
+            |m: &Option<Model<'static>>| m.as_ref().map_or(f32::NAN, |m| m.score_observation(&o));
         let result = RiskscorePairResult {
-            features: f,
+            features: o.features,
             box_distance: s.box_distance,
             ttc2d: s.ttc2d,
             tadv: s.tadv,

@@ -22,7 +22,8 @@ pub enum ModelError {
     /// The input-schema id is not one this build computes.
     UnsupportedFeatureSchema(u16),
     /// The input schema is known but not the one this build scores the model kind with (e.g. a
-    /// DRL blob trained on the raw features, schema 1, before the DRL input encoding 2).
+    /// DRL blob of schema 1 (the raw features) or 2 (the retired DRL input encoding 2) in a build
+    /// that scores DRL with encoding 3).
     WrongInputSchema {
         kind: &'static str,
         found: u16,

@@ -27,13 +27,13 @@ pub use bounded::BoundedVec;
 pub use error::ModelError;
 
 use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
-use crate::features::{features, Features};
-use crate::geometry::box_distance;
+use crate::features::features;
 use crate::gssm::GssmModel;
 use crate::mlp::{FloatMlp, QuantMlp};
 use crate::msra::MsraModel;
+use crate::observation::Observation;
 use crate::state::VehicleState;
-use crate::surrogates::{surrogates, Surrogates};
+use crate::surrogates::surrogates;
 
 /// First four bytes of every model blob.
 pub const MAGIC: [u8; 4] = *b"RSKM";
@@ -42,9 +42,14 @@ pub const FORMAT_VERSION: u16 = 1;
 /// Input schema id 1: the 13 features of [`crate::FEATURE_NAMES`] in that order, as computed by
 /// [`crate::features()`] (with the surrogates, for MSRA). MSRA and GSSM blobs are scored with it.
 pub const FEATURE_SCHEMA: u16 = 1;
-/// Input schema id 2: the DRL input encoding of [`crate::encoding`]. DRL blobs are scored with it;
-/// a DRL blob of schema 1 (the raw features, before that encoding existed) is refused.
+/// Input schema id 3: the DRL input encoding of [`crate::encoding`]. DRL blobs are scored with it;
+/// a DRL blob of an older schema (1: the raw features; 2: the retired encoding 2, which derived
+/// the same inputs from the features through `sin`/`cos`) is refused with
+/// [`ModelError::WrongInputSchema`].
 pub const DRL_INPUT_SCHEMA: u16 = DRL_INPUT_ENCODING;
+/// Every input-schema id this build knows (1 up to the current DRL encoding); an id outside is
+/// [`ModelError::UnsupportedFeatureSchema`].
+pub const KNOWN_INPUT_SCHEMAS: core::ops::RangeInclusive<u16> = FEATURE_SCHEMA..=DRL_INPUT_SCHEMA;
 /// Length of the fixed header.
 pub const HEADER_LEN: usize = 20;
 
@@ -157,32 +162,34 @@ impl<'a> Model<'a> {
         }
     }
 
-    /// True when scoring needs the surrogates (MSRA); DRL and GSSM read only the features.
+    /// True when scoring needs the surrogates (MSRA); DRL reads its own inputs (computed from the
+    /// states, box distance included) and GSSM the features.
     pub fn needs_surrogates(&self) -> bool {
         matches!(self, Self::Msra(_))
     }
 
-    /// The deployed risk score of one ego/partner pair (larger is riskier). Computes the features,
-    /// plus the box distance for DRL and the surrogates for MSRA, only what the model reads.
-    /// Finite for every input.
+    /// The deployed risk score of one ego/partner pair (larger is riskier). Computes only what the
+    /// model reads: the DRL inputs for DRL, features and surrogates for MSRA, features for GSSM.
+    /// Bit for bit [`Model::score_observation`] of [`Observation::of`] the pair. Finite for every
+    /// input.
     pub fn score(&self, ego: &VehicleState, partner: &VehicleState) -> f32 {
-        let f = features(ego, partner);
         match self {
-            Self::DrlInt8(m) => m.forward(&drl_inputs(&f, box_distance(ego, partner)))[0],
-            Self::DrlF32(m) => m.forward(&drl_inputs(&f, box_distance(ego, partner)))[0],
-            Self::Msra(m) => m.score(&f, &surrogates(ego, partner)),
-            Self::Gssm(m) => m.score(&f),
+            Self::DrlInt8(m) => m.forward(&drl_inputs(ego, partner))[0],
+            Self::DrlF32(m) => m.forward(&drl_inputs(ego, partner))[0],
+            Self::Msra(m) => m.score(&features(ego, partner), &surrogates(ego, partner)),
+            Self::Gssm(m) => m.score(&features(ego, partner)),
         }
     }
 
-    /// The same score from precomputed features and surrogates (DRL reads the box distance of
-    /// `surrogates`, MSRA all of them, GSSM none).
-    pub fn score_observation(&self, features: &Features, surrogates: &Surrogates) -> f32 {
+    /// The same score from an observation computed once ([`Observation::of`]) and shared by every
+    /// model: DRL reads its `drl_inputs`, MSRA the features and surrogates, GSSM the features.
+    pub fn score_observation(&self, observation: &Observation) -> f32 {
+        let o = observation;
         match self {
-            Self::DrlInt8(m) => m.forward(&drl_inputs(features, surrogates.box_distance))[0],
-            Self::DrlF32(m) => m.forward(&drl_inputs(features, surrogates.box_distance))[0],
-            Self::Msra(m) => m.score(features, surrogates),
-            Self::Gssm(m) => m.score(features),
+            Self::DrlInt8(m) => m.forward(&o.drl_inputs)[0],
+            Self::DrlF32(m) => m.forward(&o.drl_inputs)[0],
+            Self::Msra(m) => m.score(&o.features, &o.surrogates),
+            Self::Gssm(m) => m.score(&o.features),
         }
     }
 }
@@ -234,7 +241,7 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
         }
     }
     let feature_schema = le_u16(blob, 8);
-    if feature_schema != FEATURE_SCHEMA && feature_schema != DRL_INPUT_SCHEMA {
+    if !KNOWN_INPUT_SCHEMAS.contains(&feature_schema) {
         return Err(ModelError::UnsupportedFeatureSchema(feature_schema));
     }
     if feature_schema != kind.input_schema() {

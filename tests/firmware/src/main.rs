@@ -16,7 +16,7 @@
 //! - `SIZES context_used=.. context_reserved=.. track=.. table_base=.. max_tracks=.. macs=..
 //!   inputs=.. drl_blob=.. msra_blob=..` and, with `stack`, `STAGESTACK <stage>=<bytes> ...`
 //! - `CONFIG <threshold x> <hysteresis x> <min_on_us> <stale_after_us>` (live mode, evict when full)
-//! - per input: `R <csv line> I <18 x> F <13 x> S <4 x> D <x> M <x> W <id> <now_us> <warning>
+//! - per input: `R <csv line> I <18 x> F <13 x> S <4 x> X <13 x> D <x> M <x> W <id> <now_us> <warning>
 //!   <event> <new> <evicted|-> C <c-api-agrees 0/1> P <pipeline-agrees 0/1>`
 //! - `STACK total=.. pipeline=.. painted_bottom_reached=0/1`, `DONE <n>`, then exit code 0.
 #![no_std]
@@ -33,7 +33,9 @@ use core::ptr::addr_of_mut;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use scorer_core::model::{self, Model};
 use scorer_core::warning::{Track, TrackTable, WarningConfig, WarningEvent};
-use scorer_core::{box_distance, ei, features, tadv, ttc2d, Surrogates, VehicleState};
+use scorer_core::{
+    box_distance, drl_inputs, ei, features, tadv, ttc2d, Observation, Surrogates, VehicleState,
+};
 use scorer_ffi::{
     RiskscoreContext, RiskscorePairResult, RiskscoreStatus, RiskscoreTrackStatus,
     RiskscoreVehicleState, RiskscoreWarningConfig, RISKSCORE_CONTEXT_SIZE, RISKSCORE_CONTEXT_WORDS,
@@ -160,10 +162,17 @@ fn main() -> ! {
             tadv: ta,
             ei: e,
         };
+        probe::probe_drl_inputs();
+        let x = black_box(drl_inputs(black_box(&ego), black_box(&partner)));
+        let o = Observation {
+            features: f,
+            surrogates: s,
+            drl_inputs: x,
+        };
         probe::probe_int8_mlp();
-        let d = black_box(drl.score_observation(black_box(&f), black_box(&s)));
+        let d = black_box(drl.score_observation(black_box(&o)));
         probe::probe_msra();
-        let m = black_box(msra.score_observation(black_box(&f), black_box(&s)));
+        let m = black_box(msra.score_observation(black_box(&o)));
         probe::probe_warning_update();
         let status = black_box(staged.update(id, now, d));
 
@@ -210,6 +219,10 @@ fn main() -> ! {
         for v in [bd, t2, ta, e] {
             out.str(" ").f32(v);
         }
+        out.str(" X");
+        for v in x {
+            out.str(" ").f32(v);
+        }
         out.str(" D ").f32(d).str(" M ").f32(m);
         out.str(" W ").u32(id).str(" ").u32(now as u32).str(" ");
         match status {
@@ -251,7 +264,7 @@ fn main() -> ! {
 
 /// Worst stack depth of each stage over the first `n` inputs (`STAGESTACK` line, bytes).
 fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
-    let mut worst = [0usize; 9];
+    let mut worst = [0usize; 10];
     let mut table =
         match TrackTable::<RISKSCORE_MAX_TRACKS>::new(WarningConfig::live(0.0, 0.0, 0, 1)) {
             Ok(t) => t,
@@ -270,11 +283,20 @@ fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
             tadv: ta,
             ei: e,
         };
-        let (d, d5) = stack::depth_of(|| drl.score_observation(&f, &s));
-        let (_, d6) = stack::depth_of(|| msra.score_observation(&f, &s));
+        let (x, d9) = stack::depth_of(|| drl_inputs(&ego, &p));
+        let o = Observation {
+            features: f,
+            surrogates: s,
+            drl_inputs: x,
+        };
+        let (d, d5) = stack::depth_of(|| drl.score_observation(&o));
+        let (_, d6) = stack::depth_of(|| msra.score_observation(&o));
         let (_, d7) = stack::depth_of(|| table.update(1, k as u64, d));
         let (_, d8) = stack::depth_of(|| drl.score(&ego, &p));
-        for (w, d) in worst.iter_mut().zip([d0, d1, d2, d3, d4, d5, d6, d7, d8]) {
+        for (w, d) in worst
+            .iter_mut()
+            .zip([d0, d1, d2, d3, d4, d5, d6, d7, d8, d9])
+        {
             *w = (*w).max(d);
         }
     }
@@ -289,6 +311,7 @@ fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
         "msra",
         "warning_update",
         "drl_score",
+        "drl_inputs",
     ];
     for (name, w) in names.iter().zip(worst) {
         out.str(" ").str(name).str("=").u32(w as u32);

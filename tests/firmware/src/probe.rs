@@ -36,4 +36,5 @@ probes! {
     probe_drl_pipeline = 9;
     probe_c_api = 10;
     probe_idle = 11;
+    probe_drl_inputs = 12;
 }

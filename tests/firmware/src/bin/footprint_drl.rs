@@ -15,7 +15,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use scorer_core::model::{self, Model};
 use scorer_core::warning::{TrackTable, WarningConfig};
-use scorer_core::{drl_inputs_of_pair, VehicleState};
+use scorer_core::{drl_inputs, VehicleState};
 
 static DRL_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/drl.rsk"));
 static EGO: VehicleState = VehicleState {
@@ -61,7 +61,7 @@ fn main() -> ! {
         )
     };
     let score = match model::decode(DRL_BLOB) {
-        Ok(Model::DrlInt8(net)) => Some(net.forward(&drl_inputs_of_pair(&ego, &partner))[0]),
+        Ok(Model::DrlInt8(net)) => Some(net.forward(&drl_inputs(&ego, &partner))[0]),
         _ => None,
     };
     let config = WarningConfig::live(0.5, 0.05, 500_000, 1_000_000);

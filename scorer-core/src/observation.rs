@@ -1,0 +1,71 @@
+//! Everything a model reads about one ego/partner pair, computed once by one function.
+//!
+//! [`Observation::of`] is how every host table (training, evaluation, the C ABI's pair result)
+//! gets its numbers, and [`Model::score_observation`](crate::model::Model::score_observation)
+//! scores it; [`Model::score`](crate::model::Model::score) computes only the part its model reads
+//! and gives the same bits.
+use crate::encoding::{drl_inputs_with_gap, DrlInputs};
+use crate::features::{features, Features};
+use crate::state::VehicleState;
+use crate::surrogates::{surrogates, Surrogates};
+
+/// One ego/partner pair as every model sees it: the 13 reference features (GSSM, MSRA), the
+/// surrogates (MSRA, baselines) and the DRL input encoding (DRL).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Observation {
+    pub features: Features,
+    pub surrogates: Surrogates,
+    pub drl_inputs: DrlInputs,
+}
+
+impl Observation {
+    /// The observation of the pair (`ego`, `partner`): [`features()`], [`surrogates()`] and
+    /// [`crate::drl_inputs()`] (which reuses the surrogates' box distance, the same number).
+    pub fn of(ego: &VehicleState, partner: &VehicleState) -> Self {
+        let surrogates = surrogates(ego, partner);
+        Self {
+            features: features(ego, partner),
+            surrogates,
+            drl_inputs: drl_inputs_with_gap(ego, partner, surrogates.box_distance),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn observation_parts_are_the_standalone_functions_bit_for_bit() {
+        let ego = VehicleState {
+            vy: 20.0,
+            hy: 1.0,
+            length: 4.6,
+            width: 1.9,
+            ..Default::default()
+        };
+        let partner = VehicleState {
+            x: 3.1,
+            y: 12.0,
+            vx: -1.0,
+            vy: 14.0,
+            hx: -0.1,
+            hy: 1.0,
+            length: 12.0,
+            width: 2.5,
+            ..Default::default()
+        };
+        let o = Observation::of(&ego, &partner);
+        let bits = |v: &[f32]| {
+            v.iter()
+                .map(|x| x.to_bits())
+                .collect::<heapless::Vec<u32, 16>>()
+        };
+        assert_eq!(bits(&o.features), bits(&features(&ego, &partner)));
+        assert_eq!(o.surrogates, surrogates(&ego, &partner));
+        assert_eq!(
+            bits(&o.drl_inputs),
+            bits(&crate::drl_inputs(&ego, &partner))
+        );
+    }
+}
