@@ -144,6 +144,65 @@ impl Drop for AtomicFile {
     }
 }
 
+/// Several outputs of one run (a report folder), each an [`AtomicFile`], renamed into place
+/// together by [`AtomicSet::commit`] only after every one was written and synced. Dropped without
+/// `commit`, every temporary file is removed and no destination changes. Limitation: the renames
+/// are one per file, so a rename failing half-way (a destination turned into a directory, a
+/// permission changed during the run) can leave some files new and some old; each file is still
+/// whole.
+#[derive(Default)]
+pub struct AtomicSet {
+    files: Vec<AtomicFile>,
+}
+
+impl AtomicSet {
+    /// Starts the output `dest` (see [`AtomicFile::create`]).
+    pub fn create(&mut self, dest: &Path) -> io::Result<&mut AtomicFile> {
+        self.files.push(AtomicFile::create(dest)?);
+        Ok(self.files.last_mut().expect("just pushed"))
+    }
+
+    /// Syncs every file, then renames each over its destination; returns the destinations.
+    pub fn commit(mut self) -> io::Result<Vec<PathBuf>> {
+        let mut synced = Vec::with_capacity(self.files.len());
+        for f in &mut self.files {
+            let w = f.file.take().expect("AtomicFile committed once");
+            let file = match w.into_inner() {
+                Ok(file) => file,
+                Err(e) => {
+                    let _ = std::fs::remove_file(&f.tmp);
+                    return Err(e.into_error());
+                }
+            };
+            if let Err(e) = file.sync_all() {
+                let _ = std::fs::remove_file(&f.tmp);
+                return Err(e);
+            }
+            synced.push((f.tmp.clone(), f.dest.clone()));
+        }
+        // Every temporary file is complete: from here on only renames.
+        self.files.clear();
+        let mut done = Vec::with_capacity(synced.len());
+        let mut first_error = None;
+        for (tmp, dest) in synced {
+            match std::fs::rename(&tmp, &dest) {
+                Ok(()) => done.push(dest),
+                Err(e) => {
+                    let _ = std::fs::remove_file(&tmp);
+                    first_error.get_or_insert(io::Error::new(
+                        e.kind(),
+                        format!("{}: {e}", dest.display()),
+                    ));
+                }
+            }
+        }
+        match first_error {
+            Some(e) => Err(e),
+            None => Ok(done),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,5 +259,32 @@ mod tests {
             &[("--events-out", &a), ("--warnings-out", &b)]
         )
         .is_ok());
+    }
+
+    #[test]
+    fn a_set_changes_nothing_until_every_file_is_committed() {
+        let d = tmpdir("set");
+        let (a, b) = (d.join("a.csv"), d.join("b.png"));
+        std::fs::write(&a, "old a").unwrap();
+        {
+            let mut set = AtomicSet::default();
+            set.create(&a).unwrap().write_all(b"new a").unwrap();
+            set.create(&b).unwrap().write_all(b"new b").unwrap();
+            // dropped: the run failed after writing both
+        }
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert!(!b.exists());
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "temporary files left"
+        );
+        let mut set = AtomicSet::default();
+        set.create(&a).unwrap().write_all(b"new a").unwrap();
+        set.create(&b).unwrap().write_all(b"new b").unwrap();
+        assert_eq!(set.commit().unwrap(), vec![a.clone(), b.clone()]);
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 2);
     }
 }
