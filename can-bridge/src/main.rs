@@ -129,6 +129,8 @@ struct ReplayArgs {
     /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
     #[arg(long, default_value = "1.0")]
     rate: replay::Rate,
+    #[command(flatten)]
+    loss: LossArgs,
 }
 
 #[derive(Args, Debug)]
@@ -517,33 +519,17 @@ fn summary(s: &can_bridge::Stats) -> String {
 fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
     match replay::replay(&args.log, &args.iface, args.rate) {
         Ok(s) => {
-            s.log.print_bad_lines(&args.log);
-            for (line, why) in &s.refused {
-                eprintln!("{}:{line}: frame not sent: {why}", args.log.display());
-            }
-            if s.refused_total > s.refused.len() as u64 {
-                eprintln!(
-                    "{}: ... {} more frames not sent",
-                    args.log.display(),
-                    s.refused_total - s.refused.len() as u64
-                );
-            }
             eprintln!(
-                "replay: {} frames sent in {:.3} s, {} refused, {} bad lines, max lateness {:.3} ms",
+                "replay: {} frames sent in {:.3} s ({} log segments), {} not sent, {} bad lines, max lateness {:.3} ms",
                 s.sent,
                 s.elapsed.as_secs_f64(),
-                s.refused_total,
+                s.segments + 1,
+                s.losses.total(),
                 s.log.bad_lines(),
                 s.max_late.as_secs_f64() * 1e3
             );
-            let lost = s.refused_total + s.log.bad_lines() as u64;
-            if lost > 0 {
-                return Err(Failure::Input(anyhow::anyhow!(
-                    "{}: {lost} lines were not sent (listed above)",
-                    args.log.display()
-                )));
-            }
-            Ok(())
+            losses::account(&args.log, &s.log, &s.losses, args.loss.max_lost)
+                .map_err(|e| Failure::Input(e.into()))
         }
         Err(replay::ReplayError::Socket(e)) => Err(Failure::Interface(InterfaceError(e.into()))),
         Err(e) => Err(Failure::Input(e.into())),
