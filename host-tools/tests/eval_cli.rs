@@ -359,12 +359,33 @@ fn bad_event_folders_are_named() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-folder"));
 
-    // A folder with one broken row: the problem is listed, the good events are still evaluated.
+    // A folder with one broken row: the problem is listed by file and line, and the run fails
+    // rather than leave the event out of the metrics.
     let events_csv = fx.events.join("events.csv");
     let text = std::fs::read_to_string(&events_csv).unwrap();
     let broken = text.replacen(",safe,", ",sideswipe,", 1);
     std::fs::write(&events_csv, broken).unwrap();
     let out = riskctl(&["evaluate", "--events", p(&fx.events), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("events.csv:") && err.contains("sideswipe"),
+        "{err}"
+    );
+    assert!(
+        err.contains("--skip-bad-events to evaluate the 17 valid events"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
+
+    // Asked for: the good events are evaluated.
+    let out = riskctl(&[
+        "evaluate",
+        "--events",
+        p(&fx.events),
+        "--json",
+        "--skip-bad-events",
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(

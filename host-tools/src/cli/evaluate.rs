@@ -28,7 +28,8 @@ Output: the Markdown table, or with --json one JSON object (stable schema):
   {\"events\": {\"crash\": n, \"near_crash\": n, \"safe\": n},
    \"methods\": [{\"name\", \"A_ROC_90\", \"A_ROC_80\", \"P_PRC_90\", \"P_PRC_80\", \"mTTI_90\"}, ...]}
 percentages 0-100, lead time in seconds, null where undefined. Problems in the event folder are
-listed on stderr; the valid events are still evaluated.
+listed on stderr (file:line, the first of each kind and a count) and fail the run: the metrics
+would silently leave those events out. With --skip-bad-events the valid events are evaluated.
 
 Example:
   riskctl evaluate --model models/drl-default.rsk --model models/msra-default.rsk \\
@@ -53,6 +54,10 @@ pub struct Args {
     /// input files is refused.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Evaluate the valid events of a folder that has bad rows (each listed on stderr) instead of
+    /// failing; the metrics then leave out the events those rows name.
+    #[arg(long)]
+    skip_bad_events: bool,
     /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
     /// events of the folder).
     #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
@@ -157,6 +162,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!(
             "event folder {}: no valid events to evaluate",
             dir.display()
+        );
+    }
+    if !issues.is_empty() && !args.skip_bad_events {
+        bail!(
+            "event folder {}: the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {} valid events",
+            dir.display(),
+            set.len()
         );
     }
     let (sequences, prep_issues) = prepare_sequences(&set, &PrepareConfig::default());
