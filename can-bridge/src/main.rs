@@ -37,7 +37,8 @@ struct Cli {
 enum Command {
     /// Score live traffic on a SocketCAN interface (the default command).
     Live(LiveArgs),
-    /// Send a candump -L log onto an interface with its original timing (canplayer semantics).
+    /// Send a candump -L log onto an interface with its original timing (per log segment; late
+    /// and far-off frames are not sent, as score-log does not score them).
     Replay(ReplayArgs),
     /// Score a candump -L log offline (no CAN socket); same engine and results as live.
     ScoreLog(ScoreLogArgs),

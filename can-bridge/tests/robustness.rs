@@ -485,3 +485,35 @@ fn a_held_glitch_frame_is_reported_at_its_own_line() {
         "{stderr}"
     );
 }
+
+/// `--events-out /dev/null` (as tests/vm/bench.sh does) must write into the device, not rename a
+/// temporary file over it: as root that replaced /dev/null with a regular file for the machine.
+#[cfg(unix)]
+#[test]
+fn outputs_to_dev_null_leave_the_device_in_place() {
+    use std::os::unix::fs::FileTypeExt;
+    let null = Path::new("/dev/null");
+    let is_device = || std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device());
+    assert!(
+        is_device(),
+        "/dev/null is not a character device before the test"
+    );
+    let db = project_db();
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, to_log(&drive(&db, 50, T0))).unwrap();
+    let out = bridge()
+        .args(["score-log", "--threshold", "1.5", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .args(["--events-out", "/dev/null", "--warnings-out", "/dev/null"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(is_device(), "score-log replaced /dev/null");
+}
