@@ -13,6 +13,7 @@
 //! and JSON are identical, number for number.
 use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
+use crate::losses::FrameLosses;
 use can_codec::output::AtomicFile;
 use host_tools::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
 use host_tools::eval::scoring::evaluate_scored;
@@ -54,6 +55,8 @@ pub struct CheckReport {
     /// Bridge outputs that did not trace back to an event frame.
     pub untraced: usize,
     pub log: LogReport,
+    /// Frames read but lost (late, off the timeline, not decodable), by line.
+    pub losses: FrameLosses,
     pub stats: crate::engine::Stats,
 }
 
@@ -140,13 +143,14 @@ pub fn check(
     let index = layout.trigger_index();
     let mut observations: Vec<crate::engine::Observation> = Vec::new();
     let mut onsets: Vec<(u32, u64)> = Vec::new();
+    let mut losses = FrameLosses::default();
     let mut collect = |o: Output| match o {
         Output::Scored(obs) => observations.push(obs),
         Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
-        _ => {}
+        other => losses.handle(&other),
     };
-    let log_report = for_each_frame(log, |_, rec| {
-        engine.process(rec.timestamp_us, &rec.frame, &mut collect);
+    let log_report = for_each_frame(log, |line_no, rec| {
+        engine.process_from(rec.timestamp_us, &rec.frame, line_no as u64, &mut collect);
     })?;
     engine.finish(&mut collect);
     if log_report.frames == 0 {
@@ -286,6 +290,7 @@ pub fn check(
         decoded: decoded_set,
         untraced,
         log: log_report,
+        losses,
         stats: *engine.stats(),
     })
 }

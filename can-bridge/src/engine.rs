@@ -210,8 +210,47 @@ pub enum Output {
         score: f32,
         reason: ReleaseReason,
     },
-    /// A frame was dropped; `reason` says why (for diagnostics, rate-limited by the caller).
-    Problem { t_us: u64, reason: String },
+    /// Something went wrong; `reason` says what (for diagnostics, rate-limited by the caller).
+    /// `lost` is set when a frame was dropped and its content lost.
+    Problem {
+        t_us: u64,
+        reason: String,
+        lost: Option<Lost>,
+    },
+}
+
+/// A frame the engine dropped: where it came from and why it is lost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lost {
+    /// The frame's source as given to [`Engine::process_from`] (a log line; 0 from
+    /// [`Engine::process`]).
+    pub source: u64,
+    pub kind: LossKind,
+}
+
+/// Why a frame of the input was lost. Frames the map does not use (unknown ids, remote frames)
+/// and updates that are not scored for a data-quality reason (stale or invalid objects) are not
+/// losses: nothing the bridge needs was in them, or it was used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum LossKind {
+    /// Up to 1 s older than the newest frame ([`crate::timeline`]).
+    Late,
+    /// Far off the timeline and not confirmed as a new segment ([`crate::timeline`]).
+    OffTimeline,
+    /// A frame of a mapped message that does not decode (wrong length, a signal out of its DBC
+    /// range or not finite), or a track update whose decoded state cannot be scored.
+    Decode,
+}
+
+impl LossKind {
+    /// The kind as counted in summaries (plural: "3 late frames").
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Late => "late frames",
+            Self::OffTimeline => "frames off the timeline",
+            Self::Decode => "frames not decodable",
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -249,7 +288,10 @@ pub struct Engine<'m> {
     ego: [Option<Stamped>; EGO_FIELDS],
     objects: TrackMap<ObjectSlots>,
     protector: E2eProtector,
-    timeline: Timeline,
+    /// Each held frame comes with its source (log line), handed back when it is dropped.
+    timeline: Timeline<(Frame, u64)>,
+    /// Source of the frame being processed.
+    source: u64,
     last_cleanup_us: u64,
     /// No track can be stale before this time (skips scanning the table on every update).
     next_expiry_us: u64,
@@ -286,6 +328,7 @@ impl<'m> Engine<'m> {
             objects: TrackMap::default(),
             protector,
             timeline: Timeline::default(),
+            source: 0,
             last_cleanup_us: 0,
             next_expiry_us: 0,
             ego_waiting: false,
@@ -313,16 +356,36 @@ impl<'m> Engine<'m> {
     /// Processes one frame received at `t_us` (in timestamp order; see [`crate::timeline`] for
     /// late frames and jumps).
     pub fn process(&mut self, t_us: u64, frame: &Frame, out: &mut impl FnMut(Output)) {
+        self.process_from(t_us, frame, 0, out);
+    }
+
+    /// [`Engine::process`] for a frame read from `source` (its line in a log): every
+    /// [`Output::Problem`] about the frame being dropped names it in [`Lost::source`], also when
+    /// the frame was held for a while.
+    pub fn process_from(
+        &mut self,
+        t_us: u64,
+        frame: &Frame,
+        source: u64,
+        out: &mut impl FnMut(Output),
+    ) {
         self.stats.frames += 1;
-        let step = self.timeline.admit(t_us, frame);
+        let step = self.timeline.admit(t_us, &(*frame, source));
         if !step.dropped.is_empty() {
             self.drop_out_of_window(&step.dropped, out);
         }
         match step.action {
-            Action::Process => self.process_in_order(t_us, frame, out),
+            Action::Process => {
+                self.source = source;
+                self.process_in_order(t_us, frame, out);
+            }
             Action::Late { newest_us } => {
                 self.stats.reordered += 1;
                 out(Output::Problem {
+                    lost: Some(Lost {
+                        source,
+                        kind: LossKind::Late,
+                    }),
                     t_us,
                     reason: format!(
                         "frame {} at {t_us} us is older than the newest frame ({newest_us} us): dropped",
@@ -333,10 +396,19 @@ impl<'m> Engine<'m> {
             Action::Held => {}
             Action::NewSegment(held) => {
                 self.start_segment(held[0].0, out);
-                for (t, f) in &held {
+                for (t, (f, source)) in &held {
+                    self.source = *source;
                     self.process_in_order(*t, f, out);
                 }
             }
+        }
+    }
+
+    /// What a problem about the frame being processed loses.
+    fn lost(&self, kind: LossKind) -> Lost {
+        Lost {
+            source: self.source,
+            kind,
         }
     }
 
@@ -347,11 +419,19 @@ impl<'m> Engine<'m> {
     }
 
     #[cold]
-    fn drop_out_of_window(&mut self, dropped: &[(u64, Frame)], out: &mut impl FnMut(Output)) {
+    fn drop_out_of_window(
+        &mut self,
+        dropped: &[(u64, (Frame, u64))],
+        out: &mut impl FnMut(Output),
+    ) {
         let newest = self.timeline.newest_us().unwrap_or(0);
-        for (t, f) in dropped {
+        for (t, (f, source)) in dropped {
             self.stats.out_of_window += 1;
             out(Output::Problem {
+                lost: Some(Lost {
+                    source: *source,
+                    kind: LossKind::OffTimeline,
+                }),
                 t_us: *t,
                 reason: format!(
                     "frame {} at {t} us is far outside the log's timeline (newest frame {newest} us) and no frame follows it: dropped",
@@ -383,6 +463,7 @@ impl<'m> Engine<'m> {
         self.last_cleanup_us = t_us;
         self.next_expiry_us = 0;
         out(Output::Problem {
+            lost: None,
             t_us,
             reason: format!(
                 "timestamps jump to {t_us} us: a new log segment starts, all tracks dropped"
@@ -398,6 +479,7 @@ impl<'m> Engine<'m> {
                     self.stats.bus_off += 1;
                 }
                 out(Output::Problem {
+                    lost: None,
                     t_us,
                     reason: format!(
                         "error frame (class 0x{class:08X}{})",
@@ -427,7 +509,11 @@ impl<'m> Engine<'m> {
         match decoded {
             Err(reason) => {
                 self.stats.decode_errors += 1;
-                out(Output::Problem { t_us, reason });
+                out(Output::Problem {
+                    t_us,
+                    reason,
+                    lost: Some(self.lost(LossKind::Decode)),
+                });
             }
             Ok(decoded) => {
                 self.stats.decoded += 1;
@@ -551,6 +637,7 @@ impl<'m> Engine<'m> {
         if slots.last_trigger_us == Some(t_us) {
             self.stats.duplicates += 1;
             out(Output::Problem {
+                lost: None,
                 t_us,
                 reason: format!("track {track}: second update at the same timestamp: dropped"),
             });
@@ -564,6 +651,7 @@ impl<'m> Engine<'m> {
                 None => {
                     self.stats.stale_drops += 1;
                     out(Output::Problem {
+                        lost: None,
                         t_us,
                         reason: format!("track {track}: valid flag missing or stale: not scored"),
                     });
@@ -581,6 +669,7 @@ impl<'m> Engine<'m> {
             if !self.ego_waiting {
                 self.ego_waiting = true;
                 out(Output::Problem {
+                    lost: None,
                     t_us,
                     reason: format!(
                         "waiting for ego.vel_long: {} not received in the last {} ms; no track is scored until it arrives (reported once)",
@@ -607,6 +696,7 @@ impl<'m> Engine<'m> {
                 if !o.waiting_reported {
                     o.waiting_reported = true;
                     out(Output::Problem {
+                        lost: None,
                         t_us,
                         reason: format!(
                             "track {track}: waiting for {}: {} not received in the last {} ms; not scored until it arrives (reported once)",
@@ -737,6 +827,7 @@ impl<'m> Engine<'m> {
         {
             self.stats.decode_errors += 1;
             out(Output::Problem {
+                lost: Some(self.lost(LossKind::Decode)),
                 t_us,
                 reason: format!("track {track}: state not finite or non-positive size: not scored"),
             });
@@ -750,6 +841,7 @@ impl<'m> Engine<'m> {
             Err(WarningError::TableFull { .. }) => {
                 self.stats.table_full += 1;
                 out(Output::Problem {
+                    lost: None,
                     t_us,
                     reason: format!("track {track}: track table full ({MAX_TRACKS}): not scored"),
                 });
@@ -758,6 +850,7 @@ impl<'m> Engine<'m> {
             Err(e) => {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
+                    lost: Some(self.lost(LossKind::Decode)),
                     t_us,
                     reason: e.to_string(),
                 });
@@ -811,6 +904,7 @@ impl<'m> Engine<'m> {
                     out(Output::WarningFrame { t_us, track, frame });
                 }
                 Err(reason) => out(Output::Problem {
+                    lost: None,
                     t_us,
                     reason: format!("track {track}: warning frame not encodable: {reason}"),
                 }),

@@ -110,6 +110,8 @@ pub struct ProblemPrinter {
     pub limit: u64,
     pub printed: u64,
     pub suppressed: u64,
+    /// Lost frames are listed by log line elsewhere ([`crate::losses`]): do not print them here.
+    pub skip_lost: bool,
 }
 
 impl ProblemPrinter {
@@ -118,11 +120,15 @@ impl ProblemPrinter {
             limit,
             printed: 0,
             suppressed: 0,
+            skip_lost: false,
         }
     }
 
     pub fn handle(&mut self, output: &Output) {
-        if let Output::Problem { t_us, reason } = output {
+        if let Output::Problem { t_us, reason, lost } = output {
+            if self.skip_lost && lost.is_some() {
+                return;
+            }
             if self.printed < self.limit {
                 eprintln!("can-bridge: {:.6}: {reason}", seconds(*t_us));
                 self.printed += 1;

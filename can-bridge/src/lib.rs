@@ -7,6 +7,7 @@
 //! - [`model_file`]: loading and checking a model blob.
 //! - [`timeline`]: late frames, timestamp glitches and new log segments.
 //! - [`logfile`]: reading candump -L logs with line-numbered problems.
+//! - [`losses`]: what a run lost, by log line, and the `--max-lost` verdict.
 //! - [`events_out`]: JSON Lines warning events and the status line.
 //! - [`check`]: bridge vs offline evaluation on an exported event folder.
 //! - [`socket`], [`live`], [`replay`], [`monitor`]: SocketCAN (Linux).
@@ -19,6 +20,7 @@ pub mod engine;
 pub mod events_out;
 pub mod live;
 pub mod logfile;
+pub mod losses;
 pub mod map;
 pub mod model_file;
 pub mod monitor;

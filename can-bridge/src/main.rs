@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use can_bridge::check;
 use can_bridge::engine::{Engine, EngineConfig, Output};
 use can_bridge::events_out::{EventWriter, ProblemPrinter, Sink};
+use can_bridge::losses::{self, FrameLosses};
 use can_bridge::map::{CompiledMap, MapFile, DEFAULT_MAP};
 use can_bridge::model_file::ModelFile;
 use can_bridge::{cli_values, live, logfile, monitor, replay};
@@ -36,7 +37,8 @@ struct Cli {
 enum Command {
     /// Score live traffic on a SocketCAN interface (the default command).
     Live(LiveArgs),
-    /// Send a candump -L log onto an interface with its original timing (canplayer semantics).
+    /// Send a candump -L log onto an interface with its original timing (per log segment; late
+    /// and far-off frames are not sent, as score-log does not score them).
     Replay(ReplayArgs),
     /// Score a candump -L log offline (no CAN socket); same engine and results as live.
     ScoreLog(ScoreLogArgs),
@@ -128,6 +130,8 @@ struct ReplayArgs {
     /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
     #[arg(long, default_value = "1.0")]
     rate: replay::Rate,
+    #[command(flatten)]
+    loss: LossArgs,
 }
 
 #[derive(Args, Debug)]
@@ -185,8 +189,9 @@ struct ScoreLogArgs {
 #[derive(Args, Debug, Clone, Copy)]
 struct LossArgs {
     /// Fail (exit 1) when more than this fraction of the log's lines is lost: lines that are not
-    /// frames, not UTF-8 or too long, and frames dropped as late or off the timeline. Every loss
-    /// is reported by line either way; 0 fails on any loss.
+    /// frames, not UTF-8 or too long, frames dropped as late or off the timeline, frames of
+    /// mapped messages that do not decode (wrong length, signal out of range) and, for replay,
+    /// frames the interface refused. Every loss is reported by line either way; 0 fails on any.
     #[arg(long, default_value_t = 0.01, value_parser = cli_values::fraction)]
     max_lost: f64,
 }
@@ -410,37 +415,6 @@ fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
     v
 }
 
-/// Prints what the log lost (by line) and fails when it is more than `--max-lost` of its lines.
-fn account_losses(
-    log: &std::path::Path,
-    report: &logfile::LogReport,
-    stats: &can_bridge::Stats,
-    loss: LossArgs,
-) -> Result<()> {
-    report.print_bad_lines(log);
-    let lost = report.bad_lines() as u64 + stats.reordered + stats.out_of_window;
-    let total = report.lines.saturating_sub(report.blank) as u64;
-    if lost == 0 {
-        return Ok(());
-    }
-    let share = lost as f64 / total.max(1) as f64;
-    let what = format!(
-        "{}: lost {lost} of {total} lines ({:.3}%): {} unreadable lines, {} late frames, {} frames off the timeline",
-        log.display(),
-        share * 100.0,
-        report.bad_lines(),
-        stats.reordered,
-        stats.out_of_window
-    );
-    anyhow::ensure!(
-        share <= loss.max_lost,
-        "{what}; more than --max-lost {}",
-        loss.max_lost
-    );
-    eprintln!("can-bridge: {what} (within --max-lost {})", loss.max_lost);
-    Ok(())
-}
-
 fn run_live(args: LiveArgs) -> Result<(), Failure> {
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
@@ -546,33 +520,17 @@ fn summary(s: &can_bridge::Stats) -> String {
 fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
     match replay::replay(&args.log, &args.iface, args.rate) {
         Ok(s) => {
-            s.log.print_bad_lines(&args.log);
-            for (line, why) in &s.refused {
-                eprintln!("{}:{line}: frame not sent: {why}", args.log.display());
-            }
-            if s.refused_total > s.refused.len() as u64 {
-                eprintln!(
-                    "{}: ... {} more frames not sent",
-                    args.log.display(),
-                    s.refused_total - s.refused.len() as u64
-                );
-            }
             eprintln!(
-                "replay: {} frames sent in {:.3} s, {} refused, {} bad lines, max lateness {:.3} ms",
+                "replay: {} frames sent in {:.3} s ({} log segments), {} not sent, {} bad lines, max lateness {:.3} ms",
                 s.sent,
                 s.elapsed.as_secs_f64(),
-                s.refused_total,
+                s.segments + 1,
+                s.losses.total(),
                 s.log.bad_lines(),
                 s.max_late.as_secs_f64() * 1e3
             );
-            let lost = s.refused_total + s.log.bad_lines() as u64;
-            if lost > 0 {
-                return Err(Failure::Input(anyhow::anyhow!(
-                    "{}: {lost} lines were not sent (listed above)",
-                    args.log.display()
-                )));
-            }
-            Ok(())
+            losses::account(&args.log, &s.log, &s.losses, args.loss.max_lost)
+                .map_err(|e| Failure::Input(e.into()))
         }
         Err(replay::ReplayError::Socket(e)) => Err(Failure::Interface(InterfaceError(e.into()))),
         Err(e) => Err(Failure::Input(e.into())),
@@ -597,6 +555,8 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
     refuse_overlaps(&inputs, &outputs)?;
     let mut events = open_events(&args.events_out, args.all_scores, true)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
+    problems.skip_lost = true;
+    let mut losses = FrameLosses::default();
     let mut warnings: Option<AtomicFile> = match &args.warnings_out {
         Some(p) => {
             Some(AtomicFile::create(p).with_context(|| format!("creating {}", p.display()))?)
@@ -625,12 +585,16 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
             io_error.get_or_insert(e);
         }
         problems.handle(&o);
+        losses.handle(&o);
     };
-    let report = logfile::for_each_frame(&args.log, |_, rec| {
+    let report = logfile::for_each_frame(&args.log, |line_no, rec| {
         let frame_start = bench.then(Instant::now);
-        engine.process(rec.timestamp_us, &rec.frame, &mut |o: Output| {
-            handle(o, frame_start)
-        });
+        engine.process_from(
+            rec.timestamp_us,
+            &rec.frame,
+            line_no as u64,
+            &mut |o: Output| handle(o, frame_start),
+        );
     })
     .with_context(|| format!("reading {}", args.log.display()))?;
     engine.finish(&mut |o: Output| handle(o, None));
@@ -667,7 +631,7 @@ fn run_score_log(args: ScoreLogArgs) -> Result<()> {
             );
         }
     }
-    account_losses(&args.log, &report, stats, args.loss)?;
+    losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(w) = warnings {
         w.commit().context("writing --warnings-out")?;
     }
@@ -724,7 +688,7 @@ fn run_check(args: CheckArgs) -> Result<()> {
             args.events.display()
         )
     })?;
-    account_losses(&args.log, &report.log, &report.stats, args.loss)?;
+    losses::account(&args.log, &report.log, &report.losses, args.loss.max_lost)?;
     if let Some(dir) = &args.decoded_events_out {
         check::write_decoded_events(dir, &report.decoded)
             .with_context(|| format!("writing {}", dir.display()))?;

@@ -1,8 +1,19 @@
-//! `can-bridge replay`: send a candump log onto an interface with its original timing (canplayer
-//! semantics: frame `i` leaves at `start + (t_i - t_0) / rate`; frames whose time has passed, or
-//! that go back in time, leave at once).
+//! `can-bridge replay`: send a candump log onto an interface with its original timing, frame `i`
+//! of a log segment leaving at `segment start + (t_i - t_segment) / rate`.
+//!
+//! Which frames are sent follows the same timeline rules as `score-log` ([`crate::timeline`]), so
+//! a replay puts on the bus what the offline bridge scores: a frame up to 1 s late is dropped, a
+//! single frame far off the timeline (a glitch stamped 1e6 s ahead) is dropped alone instead of
+//! making the replay wait, and a jump confirmed by the following frames (recordings concatenated)
+//! starts a new segment that plays on at once, with its own relative timing. Every dropped frame
+//! is counted and named by its line ([`crate::losses`]). The pacing ([`Pacer`]) is clock-free and
+//! socket-free; [`replay`] only waits and sends.
+use crate::engine::LossKind;
 use crate::logfile::{for_each_frame_in, LogReport};
+use crate::losses::FrameLosses;
 use crate::socket::{self, SocketError};
+use crate::timeline::{Action, Timeline};
+use can_codec::Frame;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -34,23 +45,129 @@ impl std::str::FromStr for Rate {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ReplaySummary {
     pub sent: u64,
-    /// The first frames the kernel refused (e.g. error frames on some drivers), by line.
-    pub refused: Vec<(usize, String)>,
-    /// Every refused frame.
-    pub refused_total: u64,
+    /// Frames read but not sent (late, off the timeline, refused by the interface), by line.
+    pub losses: FrameLosses,
     /// Lines, frames and the lines that were not frames.
     pub log: LogReport,
+    /// New log segments started (timestamp jumps confirmed by the following frames).
+    pub segments: u64,
     pub elapsed: Duration,
     /// Largest lateness of a frame against its schedule.
     pub max_late: Duration,
 }
 
-impl ReplaySummary {
-    fn refuse(&mut self, line: usize, why: String) {
-        self.refused_total += 1;
-        if self.refused.len() < crate::logfile::KEPT_PER_KIND {
-            self.refused.push((line, why));
+/// Kind of loss of a frame the interface refused.
+pub const NOT_SENT: &str = "frames not sent";
+
+/// One decision of the [`Pacer`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Paced {
+    /// Send `frame`, read at `line`, at `at` after the start of the replay (`Duration::ZERO`
+    /// for `--rate max`: at once).
+    Send {
+        at: Duration,
+        line: u64,
+        frame: Frame,
+    },
+    /// The frame of `line` is not sent.
+    Drop {
+        line: u64,
+        kind: LossKind,
+        reason: String,
+    },
+    /// A new segment starts with the next `Send`.
+    NewSegment { t_us: u64 },
+}
+
+/// When each frame of a replay leaves: the engine's timeline rules applied to pacing.
+#[derive(Debug)]
+pub struct Pacer {
+    rate: Rate,
+    timeline: Timeline<(Frame, u64)>,
+    /// Log time and replay offset of the current segment's first frame.
+    anchor: Option<(u64, Duration)>,
+    /// Latest send time scheduled so far.
+    last_at: Duration,
+}
+
+impl Pacer {
+    pub fn new(rate: Rate) -> Self {
+        Self {
+            rate,
+            timeline: Timeline::default(),
+            anchor: None,
+            last_at: Duration::ZERO,
         }
+    }
+
+    /// Decides on the frame of `line` stamped `t_us`; `out` gets what to send or drop now (a held
+    /// frame is decided later, together with the frames that confirm or refute its jump).
+    pub fn admit(&mut self, t_us: u64, frame: &Frame, line: u64, out: &mut impl FnMut(Paced)) {
+        let step = self.timeline.admit(t_us, &(*frame, line));
+        self.drop_off_timeline(&step.dropped, out);
+        match step.action {
+            Action::Process => {
+                let at = self.schedule(t_us);
+                out(Paced::Send {
+                    at,
+                    line,
+                    frame: *frame,
+                });
+            }
+            Action::Late { newest_us } => out(Paced::Drop {
+                line,
+                kind: LossKind::Late,
+                reason: format!(
+                    "frame {} at {t_us} us is older than the newest frame ({newest_us} us): not sent",
+                    frame.id
+                ),
+            }),
+            Action::Held => {}
+            Action::NewSegment(held) => {
+                // The new segment plays on from the last frame sent, with its own timing.
+                self.anchor = Some((held[0].0, self.last_at));
+                out(Paced::NewSegment { t_us: held[0].0 });
+                for (t, (f, l)) in held {
+                    let at = self.schedule(t);
+                    out(Paced::Send {
+                        at,
+                        line: l,
+                        frame: f,
+                    });
+                }
+            }
+        }
+    }
+
+    /// End of the log: frames still held for an unconfirmed jump are dropped.
+    pub fn finish(&mut self, out: &mut impl FnMut(Paced)) {
+        let held = self.timeline.finish();
+        self.drop_off_timeline(&held, out);
+    }
+
+    fn drop_off_timeline(&self, dropped: &[(u64, (Frame, u64))], out: &mut impl FnMut(Paced)) {
+        let newest = self.timeline.newest_us().unwrap_or(0);
+        for (t, (f, line)) in dropped {
+            out(Paced::Drop {
+                line: *line,
+                kind: LossKind::OffTimeline,
+                reason: format!(
+                    "frame {} at {t} us is far outside the log's timeline (newest frame {newest} us) and no frame follows it: not sent",
+                    f.id
+                ),
+            });
+        }
+    }
+
+    /// Send time of an in-order frame of the current segment.
+    fn schedule(&mut self, t_us: u64) -> Duration {
+        let Rate::Factor(rate) = self.rate else {
+            return Duration::ZERO;
+        };
+        let (t0, base) = *self.anchor.get_or_insert((t_us, self.last_at));
+        let at = base + Duration::from_secs_f64(t_us.saturating_sub(t0) as f64 / 1e6 / rate);
+        self.last_at = self.last_at.max(at);
+        at
     }
 }
 
@@ -96,36 +213,154 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
         }
     })?;
     let mut summary = ReplaySummary::default();
+    let mut pacer = Pacer::new(rate);
     let start = Instant::now();
-    let mut t0: Option<u64> = None;
     let mut fatal: Option<SocketError> = None;
+    let mut act = |p: Paced, summary: &mut ReplaySummary| match p {
+        Paced::Send { at, line, frame } => {
+            if fatal.is_some() {
+                return;
+            }
+            if at > Duration::ZERO {
+                let deadline = start + at;
+                wait_until(deadline);
+                let late = Instant::now().saturating_duration_since(deadline);
+                summary.max_late = summary.max_late.max(late);
+            }
+            let Some(frame) = socket::to_socketcan(&frame) else {
+                summary.losses.record(line, NOT_SENT, || {
+                    "not representable as a socket frame: not sent".into()
+                });
+                return;
+            };
+            match socket::send(&sock, iface, &frame) {
+                Ok(()) => summary.sent += 1,
+                Err(SocketError::Io { cause, .. }) => summary
+                    .losses
+                    .record(line, NOT_SENT, || format!("{cause}: not sent")),
+                Err(e) => fatal = Some(e),
+            }
+        }
+        Paced::Drop { line, kind, reason } => {
+            summary.losses.record(line, kind.as_str(), || reason);
+        }
+        Paced::NewSegment { .. } => summary.segments += 1,
+    };
     let log_report = for_each_frame_in(reader, |line_no, rec| {
-        if fatal.is_some() {
-            return;
-        }
-        if let Rate::Factor(r) = rate {
-            let t0 = *t0.get_or_insert(rec.timestamp_us);
-            let offset_us = rec.timestamp_us.saturating_sub(t0) as f64 / r;
-            let deadline = start + Duration::from_micros(offset_us as u64);
-            wait_until(deadline);
-            let late = Instant::now().saturating_duration_since(deadline);
-            summary.max_late = summary.max_late.max(late);
-        }
-        let Some(frame) = socket::to_socketcan(&rec.frame) else {
-            summary.refuse(line_no, "not representable as a socket frame".into());
-            return;
-        };
-        match socket::send(&sock, iface, &frame) {
-            Ok(()) => summary.sent += 1,
-            Err(SocketError::Io { cause, .. }) => summary.refuse(line_no, cause.to_string()),
-            Err(e) => fatal = Some(e),
-        }
+        pacer.admit(rec.timestamp_us, &rec.frame, line_no as u64, &mut |p| {
+            act(p, &mut summary)
+        });
     })
     .map_err(read_err)?;
+    pacer.finish(&mut |p| act(p, &mut summary));
     if let Some(e) = fatal {
         return Err(e.into());
     }
     summary.log = log_report;
     summary.elapsed = start.elapsed();
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use can_codec::CanId;
+
+    const T0: u64 = 1_700_000_000_000_000;
+
+    fn frame() -> Frame {
+        Frame::data_frame(CanId::Standard(0x100), &[1, 2]).unwrap()
+    }
+
+    /// Feeds `(t_us)` stamps (lines 1, 2, ...) and collects the pacer's decisions.
+    fn pace(rate: Rate, stamps: &[u64]) -> Vec<Paced> {
+        let mut p = Pacer::new(rate);
+        let mut out = Vec::new();
+        for (i, t) in stamps.iter().enumerate() {
+            p.admit(*t, &frame(), i as u64 + 1, &mut |d| out.push(d));
+        }
+        p.finish(&mut |d| out.push(d));
+        out
+    }
+
+    fn sends(out: &[Paced]) -> Vec<(u64, Duration)> {
+        out.iter()
+            .filter_map(|d| match d {
+                Paced::Send { at, line, .. } => Some((*line, *at)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn drops(out: &[Paced]) -> Vec<(u64, LossKind)> {
+        out.iter()
+            .filter_map(|d| match d {
+                Paced::Drop { line, kind, .. } => Some((*line, *kind)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn ms(v: u64) -> Duration {
+        Duration::from_millis(v)
+    }
+
+    /// Ten frames 100 ms apart from `t`.
+    fn cycle(t: u64) -> Vec<u64> {
+        (0..10).map(|k| t + k * 100_000).collect()
+    }
+
+    #[test]
+    fn a_frame_a_million_seconds_ahead_is_dropped_alone_and_nobody_waits_for_it() {
+        let mut stamps = cycle(T0);
+        stamps.insert(5, T0 + 1_000_000_000_000);
+        let out = pace(Rate::Factor(1.0), &stamps);
+        assert_eq!(drops(&out), [(6, LossKind::OffTimeline)]);
+        let s = sends(&out);
+        assert_eq!(s.len(), 10);
+        // The schedule is the original timing: the last frame leaves 0.9 s after the first.
+        assert_eq!(s.last(), Some(&(11, ms(900))));
+        assert!(s.iter().all(|(_, at)| *at <= ms(900)), "{s:?}");
+    }
+
+    #[test]
+    fn a_jump_back_of_100_s_starts_a_new_segment_that_plays_on_at_once() {
+        let mut stamps = cycle(T0 + 100_000_000);
+        stamps.extend(cycle(T0 + 1_000_000));
+        let out = pace(Rate::Factor(1.0), &stamps);
+        assert!(drops(&out).is_empty(), "{out:?}");
+        assert!(out.contains(&Paced::NewSegment {
+            t_us: T0 + 1_000_000
+        }));
+        let s = sends(&out);
+        assert_eq!(s.len(), 20);
+        // Lines in order; the second recording starts where the first ended, with its own timing.
+        assert!(s.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 <= w[1].1));
+        assert_eq!(s[10], (11, ms(900)));
+        assert_eq!(s[19], (20, ms(1800)));
+    }
+
+    #[test]
+    fn late_frames_are_dropped_and_rate_scales_the_schedule() {
+        let mut stamps = cycle(T0);
+        stamps.insert(3, T0 + 100_000 - 500_000);
+        let out = pace(Rate::Factor(2.0), &stamps);
+        assert_eq!(drops(&out), [(4, LossKind::Late)]);
+        assert_eq!(sends(&out).last(), Some(&(11, ms(450))));
+        let out = pace(Rate::Max, &stamps);
+        assert!(sends(&out).iter().all(|(_, at)| at.is_zero()));
+        assert_eq!(drops(&out).len(), 1);
+    }
+
+    #[test]
+    fn a_jump_too_short_to_confirm_at_the_end_is_dropped_by_line() {
+        let mut stamps = cycle(T0);
+        stamps.extend([T0 + 3_600_000_000, T0 + 3_600_100_000]);
+        let out = pace(Rate::Factor(1.0), &stamps);
+        assert_eq!(
+            drops(&out),
+            [(11, LossKind::OffTimeline), (12, LossKind::OffTimeline)]
+        );
+        assert_eq!(sends(&out).len(), 10);
+    }
 }

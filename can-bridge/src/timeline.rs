@@ -16,7 +16,10 @@
 //! Limitation: a new segment shorter than [`CONFIRM_FRAMES`] frames at the end of a log cannot be
 //! told from a glitch and is dropped (counted); live, the first frames after a jump wait for
 //! [`CONFIRM_FRAMES`] frames (under a millisecond on a loaded bus).
-use can_codec::Frame;
+//!
+//! The same rules drive the engine (what is scored) and `replay` (what is sent, and when); the
+//! timeline holds whatever item its user needs back with a held or dropped frame (the engine: the
+//! frame and its log line).
 
 /// Largest forward step (us) taken as the same timeline (above the exporter's 2 s event gap and
 /// ordinary quiet periods of a bus).
@@ -28,7 +31,7 @@ pub const CONFIRM_FRAMES: usize = 4;
 
 /// What to do with a frame.
 #[derive(Debug, PartialEq)]
-pub enum Action {
+pub enum Action<T> {
     /// In order: process it.
     Process,
     /// Late (at most [`LATE_WINDOW_US`] before the newest frame): drop it.
@@ -37,18 +40,18 @@ pub enum Action {
     Held,
     /// A new segment is confirmed: forget the old state, then process these frames in order (the
     /// current frame is the last).
-    NewSegment(Vec<(u64, Frame)>),
+    NewSegment(Vec<(u64, T)>),
 }
 
 /// The verdict on one frame: frames dropped as glitches (usually none), then the action.
 #[derive(Debug, PartialEq)]
-pub struct Step {
-    pub dropped: Vec<(u64, Frame)>,
-    pub action: Action,
+pub struct Step<T> {
+    pub dropped: Vec<(u64, T)>,
+    pub action: Action<T>,
 }
 
-impl Step {
-    fn only(action: Action) -> Self {
+impl<T> Step<T> {
+    fn only(action: Action<T>) -> Self {
         Self {
             dropped: Vec::new(),
             action,
@@ -56,22 +59,31 @@ impl Step {
     }
 }
 
-/// The timeline state.
-#[derive(Clone, Debug, Default)]
-pub struct Timeline {
+/// The timeline state; `T` is what is held with a frame's timestamp.
+#[derive(Clone, Debug)]
+pub struct Timeline<T> {
     newest_us: Option<u64>,
-    held: Vec<(u64, Frame)>,
+    held: Vec<(u64, T)>,
 }
 
-impl Timeline {
+impl<T> Default for Timeline<T> {
+    fn default() -> Self {
+        Self {
+            newest_us: None,
+            held: Vec::new(),
+        }
+    }
+}
+
+impl<T: Copy> Timeline<T> {
     /// The newest timestamp processed.
     pub fn newest_us(&self) -> Option<u64> {
         self.newest_us
     }
 
-    /// Decides on the frame `frame` stamped `t_us`.
+    /// Decides on the frame `item` stamped `t_us`.
     #[inline]
-    pub fn admit(&mut self, t_us: u64, frame: &Frame) -> Step {
+    pub fn admit(&mut self, t_us: u64, item: &T) -> Step<T> {
         let Some(newest) = self.newest_us else {
             self.newest_us = Some(t_us);
             return Step::only(Action::Process);
@@ -85,23 +97,23 @@ impl Timeline {
             if t_us < newest && newest - t_us <= LATE_WINDOW_US {
                 return Step::only(Action::Late { newest_us: newest });
             }
-            self.held.push((t_us, *frame));
+            self.held.push((t_us, *item));
             return Step::only(Action::Held);
         }
-        self.admit_with_candidate(t_us, frame, newest, in_window)
+        self.admit_with_candidate(t_us, item, newest, in_window)
     }
 
     #[cold]
     fn admit_with_candidate(
         &mut self,
         t_us: u64,
-        frame: &Frame,
+        item: &T,
         newest: u64,
         in_window: bool,
-    ) -> Step {
+    ) -> Step<T> {
         let last = self.held.last().map_or(0, |h| h.0);
         if t_us >= last && t_us - last <= FORWARD_WINDOW_US {
-            self.held.push((t_us, *frame));
+            self.held.push((t_us, *item));
             if self.held.len() < CONFIRM_FRAMES {
                 return Step::only(Action::Held);
             }
@@ -122,7 +134,7 @@ impl Timeline {
                 action: Action::Late { newest_us: newest },
             };
         }
-        self.held.push((t_us, *frame));
+        self.held.push((t_us, *item));
         Step {
             dropped,
             action: Action::Held,
@@ -130,7 +142,7 @@ impl Timeline {
     }
 
     /// End of input: frames still held are dropped (a candidate that was never confirmed).
-    pub fn finish(&mut self) -> Vec<(u64, Frame)> {
+    pub fn finish(&mut self) -> Vec<(u64, T)> {
         std::mem::take(&mut self.held)
     }
 }
@@ -138,10 +150,10 @@ impl Timeline {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use can_codec::CanId;
 
-    fn f() -> Frame {
-        Frame::data_frame(CanId::Standard(0x100), &[0]).unwrap()
+    /// Any item: the timeline only looks at timestamps.
+    fn f() -> u32 {
+        7
     }
 
     #[test]

@@ -99,3 +99,27 @@ fn a_folder_from_another_drive_is_refused() {
     assert!(stderr.contains("--decoded-events-out"), "{stderr}");
     assert_eq!(std::fs::read(other_dir.join("frames.csv")).unwrap(), before);
 }
+
+#[test]
+fn a_glitch_frame_in_the_log_costs_check_only_that_frame() {
+    let set = common::simulated_events(20, 5);
+    let log = exported(&set);
+    let full = run_check(&log, &set).unwrap();
+    let lines: Vec<&str> = log.lines().collect();
+
+    // One frame stamped 1e6 s ahead, in the middle of the drive: dropped alone, all 20 events
+    // evaluated with the clean log's metrics, the frame named by its line.
+    let k = lines.len() / 2;
+    let (stamp, rest) = lines[k].split_once(')').unwrap();
+    let t: f64 = stamp.trim_start_matches('(').parse().unwrap();
+    let glitch = format!("({:.6}){rest}", t + 1e6);
+    let mut glitched: Vec<&str> = lines.clone();
+    glitched.insert(k, &glitch);
+    let r = run_check(&(glitched.join("\n") + "\n"), &set).unwrap();
+    assert_eq!(r.stats.out_of_window, 1);
+    assert_eq!(r.losses.total(), 1);
+    assert_eq!(r.losses.kept[0].line, k as u64 + 1);
+    assert_eq!(r.verdicts.len(), 20);
+    assert_eq!(r.verdicts, full.verdicts);
+    assert_eq!(r.report.to_json(), full.report.to_json());
+}

@@ -396,3 +396,124 @@ fn a_signal_mapped_twice_or_a_wide_signal_as_a_flag_is_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn undecodable_frames_of_mapped_messages_are_losses_named_by_line() {
+    let db = project_db();
+    let mut frames = drive(&db, 100, T0);
+    // 20 OBJECT_SIZE frames (a mapped message) one byte short: 2% of the log, dropped whole.
+    for k in 0..20 {
+        let (_, f) = &mut frames[k * 10 + 3];
+        *f = Frame::data_frame(f.id, &f.data()[..4]).unwrap();
+    }
+    // 100 RISK_WARNING frames of the wrong length: a DBC message the map does not read, so
+    // nothing the bridge needs is lost with them.
+    let warning_id = id_of(&db, can_codec::project::RISK_WARNING);
+    let mut with_unmapped = Vec::new();
+    for (i, (t, f)) in frames.iter().enumerate() {
+        with_unmapped.push((*t, *f));
+        if i % 10 == 9 {
+            with_unmapped.push((*t, Frame::data_frame(warning_id, &[1, 2, 3]).unwrap()));
+        }
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("dlc.log");
+    std::fs::write(&log, to_log(&with_unmapped)).unwrap();
+    let model = write_model(tmp.path());
+    let run = |extra: &[&str]| {
+        bridge()
+            .args(["score-log", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    // Line 4 is the first short OBJECT_SIZE frame (the unmapped frames follow each 10th line).
+    assert!(
+        stderr.contains("dlc.log:4: OBJECT_SIZE (202)")
+            && stderr.contains("wrong DLC: 4 bytes, DBC says 5"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("dlc.log:213: OBJECT_SIZE"), "{stderr}");
+    assert!(
+        stderr.contains(
+            "dlc.log: lost 20 of 1100 lines (1.818%): 0 unreadable lines, 20 frames not decodable; more than --max-lost 0.01"
+        ),
+        "{stderr}"
+    );
+    // Listed by line only, not once more by timestamp among the per-frame problems.
+    assert_eq!(stderr.matches("wrong DLC").count(), 20, "{stderr}");
+    let out = run(&["--max-lost", "0.02"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("(within --max-lost 0.02)"), "{stderr}");
+    assert!(stderr.contains("100 unknown ids"), "{stderr}");
+}
+
+#[test]
+fn a_held_glitch_frame_is_reported_at_its_own_line() {
+    let db = project_db();
+    let mut frames = drive(&db, 50, T0);
+    let (t, f) = frames[100];
+    frames.insert(100, (t + 1_000_000_000_000, f));
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("glitch.log");
+    std::fs::write(&log, to_log(&frames)).unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .args(["--max-lost", "0"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("glitch.log:101: frame 100 at 1701000001000000 us is far outside"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(
+            "lost 1 of 501 lines (0.200%): 0 unreadable lines, 1 frames off the timeline"
+        ),
+        "{stderr}"
+    );
+}
+
+/// `--events-out /dev/null` (as tests/vm/bench.sh does) must write into the device, not rename a
+/// temporary file over it: as root that replaced /dev/null with a regular file for the machine.
+#[cfg(unix)]
+#[test]
+fn outputs_to_dev_null_leave_the_device_in_place() {
+    use std::os::unix::fs::FileTypeExt;
+    let null = Path::new("/dev/null");
+    let is_device = || std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device());
+    assert!(
+        is_device(),
+        "/dev/null is not a character device before the test"
+    );
+    let db = project_db();
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, to_log(&drive(&db, 50, T0))).unwrap();
+    let out = bridge()
+        .args(["score-log", "--threshold", "1.5", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .args(["--events-out", "/dev/null", "--warnings-out", "/dev/null"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(is_device(), "score-log replaced /dev/null");
+}

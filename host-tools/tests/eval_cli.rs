@@ -359,12 +359,33 @@ fn bad_event_folders_are_named() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-folder"));
 
-    // A folder with one broken row: the problem is listed, the good events are still evaluated.
+    // A folder with one broken row: the problem is listed by file and line, and the run fails
+    // rather than leave the event out of the metrics.
     let events_csv = fx.events.join("events.csv");
     let text = std::fs::read_to_string(&events_csv).unwrap();
     let broken = text.replacen(",safe,", ",sideswipe,", 1);
     std::fs::write(&events_csv, broken).unwrap();
     let out = riskctl(&["evaluate", "--events", p(&fx.events), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("events.csv:") && err.contains("sideswipe"),
+        "{err}"
+    );
+    assert!(
+        err.contains("--skip-bad-events to evaluate the 17 valid events"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
+
+    // Asked for: the good events are evaluated.
+    let out = riskctl(&[
+        "evaluate",
+        "--events",
+        p(&fx.events),
+        "--json",
+        "--skip-bad-events",
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(
@@ -374,4 +395,83 @@ fn bad_event_folders_are_named() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["events"]["safe"], 7);
     assert_eq!(v["methods"].as_array().unwrap().len(), 3, "baselines only");
+}
+
+#[test]
+fn out_files_are_replaced_together_or_not_at_all() {
+    let fx = fixture();
+    let out_dir = fx.root.join("report");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "evaluate",
+            "--model",
+            p(&fx.model),
+            "--events",
+            p(&fx.events),
+            "--out",
+            p(&out_dir),
+        ];
+        args.extend_from_slice(extra);
+        riskctl(&args)
+    };
+    let out = run(&[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let snapshot = || {
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&out_dir)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        files.sort();
+        files
+    };
+    let before = snapshot();
+    assert_eq!(
+        before.len(),
+        10,
+        "{:?}",
+        before.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+
+    // Fails after the tables and curves are written (the trajectory event is checked last):
+    // nothing changes, and no temporary file is left.
+    std::fs::write(&fx.model, msra_ttc_blob(-2.0)).unwrap();
+    let out = run(&["--trajectory-event", "no-such-event"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("nothing written to"), "{stderr}");
+    assert_eq!(snapshot(), before);
+
+    // The same run without the bad option replaces the results.
+    let out = run(&[]);
+    assert!(out.status.success());
+    assert_eq!(snapshot().len(), 10);
+    assert_ne!(snapshot(), before);
+
+    // An input named like one of the figures is refused before anything is written.
+    let model_as_figure = out_dir.join("roc.png");
+    std::fs::copy(&fx.model, &model_as_figure).unwrap();
+    let after = snapshot();
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&model_as_figure),
+        "--events",
+        p(&fx.events),
+        "--out",
+        p(&out_dir),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("same file as --model"), "{stderr}");
+    assert_eq!(snapshot(), after);
 }

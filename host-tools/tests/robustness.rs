@@ -167,3 +167,71 @@ fn events_to_candump_refuses_to_overwrite_its_input_and_checks_numbers() {
     assert_eq!(std::fs::read_to_string(&log).unwrap().lines().count(), 105);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
 }
+
+#[test]
+fn events_to_candump_fails_on_skipped_cycles_unless_allowed() {
+    // Event `far`: its frame 5 puts the partner 900 m ahead, outside ObjPosX's DBC range.
+    let ev = format!("{EV_HEADER}ok,safe,0,2,,4.5,1.8,5,2\nfar,safe,0,2,,4.5,1.8,5,2\n");
+    let far: String = rows("far", 21, 8.0)
+        .lines()
+        .enumerate()
+        .map(|(k, row)| {
+            let mut cols: Vec<&str> = row.split(',').collect();
+            if k == 5 {
+                cols[9] = "900";
+            }
+            cols.join(",") + "\n"
+        })
+        .collect();
+    let fr = format!("{FR_HEADER}{}{far}", rows("ok", 21, 8.0));
+    let dir = folder(&ev, &fr);
+    let log = dir.path().join("drive.log");
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_riskctl"))
+            .args(["events-to-candump", "--events"])
+            .arg(dir.path())
+            .arg("--out")
+            .arg(&log)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+
+    // Default: any skipped cycle fails the run, names the file, the event and the count, and
+    // writes nothing (not even a temporary file).
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("frames.csv: event far at t=0.5: cycle not encoded")
+            && stderr.contains("ObjPosX"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("1 of 42 cycles") && stderr.contains("--max-skipped 0"),
+        "{stderr}"
+    );
+    assert!(!log.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+
+    // A share below the allowance: written, the loss still reported.
+    let out = run(&["--max-skipped", "0.05"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("within --max-skipped 0.05"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&log).unwrap().lines().count(),
+        41 * 5
+    );
+
+    // Above it: refused, and the previous log is left as it was.
+    let before = std::fs::read_to_string(&log).unwrap();
+    let out = run(&["--max-skipped", "0.01"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(std::fs::read_to_string(&log).unwrap(), before);
+
+    for bad in ["-0.1", "1.5", "nan", "x"] {
+        let out = run(&["--max-skipped", bad]);
+        assert!(!out.status.success(), "--max-skipped {bad} accepted");
+    }
+}

@@ -92,10 +92,13 @@ check "live warning frames over vcan == offline (payload, counter and CRC; $n_li
 check "live warning events == offline (track, score, on/off, reason)" \
   cmp -s <(events_without_time "$O/offline-events.jsonl" | sort) <(events_without_time "$O/live-events.jsonl" | sort)
 
-# 3. faults
+# 3. faults. The wrong DLC and the out-of-range value are 2 lost frames of 322 lines (0.6%), within
+# the default --max-lost 0.01 on purpose: they must be named by line, and the run must pass.
 "$BRIDGE" score-log --log "$FIX/faults.log" --model "$FIX/model.rsk" --threshold 1.5 --min-on-ms 0 \
   --warnings-out "$O/faults-offline-warnings.log" 2> "$O/faults-offline.err" >/dev/null \
-  || vm_fail "offline score-log of faults.log failed"
+  || vm_fail "offline score-log of faults.log failed: $(tail -n 3 "$O/faults-offline.err")"
+check "offline: the 2 undecodable frames are losses named by line (within --max-lost)" \
+  bash -c "[ \"\$(grep -c 'faults.log:[0-9]*: OBJECT_' '$O/faults-offline.err')\" = 2 ] && grep -q ', 2 frames not decodable (within --max-lost 0.01)' '$O/faults-offline.err'"
 check "bridge and monitor survived the faults" \
   bash -c "[ \"$(rc faults-bridge)\" = 0 ] && [ \"$(rc faults-monitor)\" = 0 ]"
 check "faults counted: wrong DLC + out-of-range (decode errors), error frames incl. bus-off, stale drops" \
@@ -115,11 +118,13 @@ n_radar=$(wc -l < "$O/radar-offline-warnings.log")
 check "real radar map: the scene warns (offline: $n_radar frames at threshold $RT)" test "$n_radar" -gt 0
 # The cut-in's lateral speed is derived from its motion over 200 ms of *receive* time: live, the
 # replay's timing jitter changes it a little, so scores (and the warning payloads that carry them)
-# are not bit-equal to offline; which tracks warn, when (in frames) and why must be.
-warn_tracks() { awk '{ split($3, a, "#"); print substr(a[2], 5, 2) }' "$1"; }
+# are not bit-equal to offline; which tracks warn, in which order and why must be. The jitter can
+# also move the first complete motion window of a track by one update (`awaiting motion`), so a
+# warning may start one frame later live: consecutive frames of one track are compared as one run.
+warn_tracks() { awk '{ split($3, a, "#"); print substr(a[2], 5, 2) }' "$1" | uniq; }
 events_without_score() { sed -e 's/"t":[-0-9.e+]*,//' -e 's/"score":[-0-9.e+]*,//' "$1"; }
 export -f events_without_score
-check "real radar map: live warning frames over vcan carry the offline tracks in the offline order" \
+check "real radar map: live warning frames over vcan carry the offline tracks in the offline order (runs per track)" \
   cmp -s <(warn_tracks "$O/radar-offline-warnings.log") <(warn_tracks "$O/radar-warnings.log")
 check "real radar map: live warning events == offline (track, on/off, level, reason incl. new_object)" \
   bash -c "grep -q new_object '$O/radar-offline-events.jsonl' && cmp -s <(events_without_score '$O/radar-offline-events.jsonl') <(events_without_score '$O/radar-events.jsonl')"

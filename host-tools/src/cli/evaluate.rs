@@ -1,10 +1,12 @@
 //! `riskctl evaluate`: score an event folder with model blobs and the surrogate baselines through
 //! the deployed scorer-core path, and report the proactive-warning metrics. No training.
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
+use can_codec::output::AtomicSet;
 use host_tools::eval::plots::{
-    default_trajectory_events, plot_curves, plot_trajectories, trajectory_panels,
+    curve_figures, default_trajectory_events, trajectory_figures, trajectory_panels, FIGURE_FILES,
 };
 use host_tools::eval::report::write_curves_csv;
 use host_tools::eval::scoring::{model_row_name, row_names};
@@ -26,7 +28,8 @@ Output: the Markdown table, or with --json one JSON object (stable schema):
   {\"events\": {\"crash\": n, \"near_crash\": n, \"safe\": n},
    \"methods\": [{\"name\", \"A_ROC_90\", \"A_ROC_80\", \"P_PRC_90\", \"P_PRC_80\", \"mTTI_90\"}, ...]}
 percentages 0-100, lead time in seconds, null where undefined. Problems in the event folder are
-listed on stderr; the valid events are still evaluated.
+listed on stderr (file:line, the first of each kind and a count) and fail the run: the metrics
+would silently leave those events out. With --skip-bad-events the valid events are evaluated.
 
 Example:
   riskctl evaluate --model models/drl-default.rsk --model models/msra-default.rsk \\
@@ -46,9 +49,15 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Also write results.{md,csv,json}, curves.csv and the ROC, PR and trajectory plots
-    /// (SVG and PNG) into DIR.
+    /// (SVG and PNG) into DIR. They are written under temporary names and renamed into place
+    /// together at the end: a failed run changes none of them. A name that is one of the
+    /// input files is refused.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Evaluate the valid events of a folder that has bad rows (each listed on stderr) instead of
+    /// failing; the metrics then leave out the events those rows name.
+    #[arg(long)]
+    skip_bad_events: bool,
     /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
     /// events of the folder).
     #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
@@ -155,6 +164,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             dir.display()
         );
     }
+    if !issues.is_empty() && !args.skip_bad_events {
+        bail!(
+            "event folder {}: the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {} valid events",
+            dir.display(),
+            set.len()
+        );
+    }
     let (sequences, prep_issues) = prepare_sequences(&set, &PrepareConfig::default());
     report_issues(
         "event(s) yield no sequence under the preparation rules",
@@ -201,8 +217,9 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     let mut inputs: Vec<(&str, &Path)> =
         models.iter().map(|m| ("--model", m.1.as_path())).collect();
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
-    let result_files: Vec<PathBuf> = ["results.csv", "results.json", "results.md", "curves.csv"]
+    let result_files: Vec<PathBuf> = RESULT_FILES
         .iter()
+        .chain(&FIGURE_FILES)
         .map(|n| out.join(n))
         .collect();
     let outputs: Vec<(&str, &Path)> = result_files
@@ -213,6 +230,10 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     Ok(())
 }
 
+/// The tables `--out` holds besides the figures.
+const RESULT_FILES: [&str; 4] = ["results.csv", "results.json", "results.md", "curves.csv"];
+
+/// Writes every `--out` file; all of them are renamed into place only when all are written.
 fn write_outputs(
     out: &Path,
     report: &host_tools::eval::EvaluationReport,
@@ -220,36 +241,28 @@ fn write_outputs(
     trajectory_events: &[String],
 ) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    let mut written = Vec::new();
-    let create = |name: &str| -> anyhow::Result<(PathBuf, std::fs::File)> {
+    let mut files = AtomicSet::default();
+    let mut stage = |name: &str, write: &mut dyn FnMut(&mut dyn Write) -> anyhow::Result<()>| {
         let p = out.join(name);
-        let f =
-            std::fs::File::create(&p).with_context(|| format!("{}: cannot create", p.display()))?;
-        Ok((p, f))
+        let w = files
+            .create(&p)
+            .with_context(|| format!("{}: cannot create", p.display()))?;
+        write(w).with_context(|| format!("{}: cannot write", p.display()))
     };
 
-    let (p, f) = create("results.csv")?;
-    report
-        .write_csv(f)
-        .with_context(|| format!("{}: cannot write", p.display()))?;
-    written.push(p);
-    let p = out.join("results.json");
-    std::fs::write(&p, report.to_json_string() + "\n")
-        .with_context(|| format!("{}: cannot write", p.display()))?;
-    written.push(p);
-    let p = out.join("results.md");
-    std::fs::write(&p, report.to_markdown())
-        .with_context(|| format!("{}: cannot write", p.display()))?;
-    written.push(p);
-
+    stage("results.csv", &mut |w| Ok(report.write_csv(w)?))?;
+    stage("results.json", &mut |w| {
+        Ok(w.write_all((report.to_json_string() + "\n").as_bytes())?)
+    })?;
+    stage("results.md", &mut |w| {
+        Ok(w.write_all(report.to_markdown().as_bytes())?)
+    })?;
     let curves: Vec<(String, _)> = runs
         .iter()
         .map(|r| (r.name.clone(), r.curve.clone()))
         .collect();
-    let (p, f) = create("curves.csv")?;
-    write_curves_csv(&curves, f).with_context(|| format!("{}: cannot write", p.display()))?;
-    written.push(p);
-    written.extend(plot_curves(out, &curves)?);
+    stage("curves.csv", &mut |w| Ok(write_curves_csv(&curves, w)?))?;
+    let mut figures = curve_figures(&curves)?;
 
     let scored: Vec<(String, Vec<_>)> = runs
         .iter()
@@ -267,7 +280,8 @@ fn write_outputs(
                 .is_some_and(|(_, s)| s.iter().any(|q| &q.event_id == id && q.endpoint.is_some()));
             if !known {
                 bail!(
-                    "--trajectory-event {id}: no crash or near-crash sequence with that event id"
+                    "--trajectory-event {id}: no crash or near-crash sequence with that event id (nothing written to {})",
+                    out.display()
                 );
             }
         }
@@ -276,7 +290,12 @@ fn write_outputs(
     if ids.is_empty() {
         eprintln!("riskctl: no crash events, so no trajectory plot");
     } else {
-        written.extend(plot_trajectories(out, &trajectory_panels(&scored, &ids))?);
+        figures.extend(trajectory_figures(&trajectory_panels(&scored, &ids))?);
     }
-    Ok(written)
+    for f in &figures {
+        stage(&f.name, &mut |w| Ok(w.write_all(&f.bytes)?))?;
+    }
+    files
+        .commit()
+        .with_context(|| format!("{}: cannot write the results", out.display()))
 }

@@ -1,5 +1,5 @@
 //! `riskctl events-to-candump`: an event folder as 10 Hz CAN traffic in candump -L format.
-use anyhow::Context;
+use anyhow::{bail, Context};
 use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
 use host_tools::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US};
 use std::path::PathBuf;
@@ -10,6 +10,10 @@ use std::path::PathBuf;
 /// OBJECT_SIZE, OBJECT_MOTION (see can-bridge/dbc/riskscore.dbc), in the ego frame. Events follow
 /// each other with a pause; event k is object track k % 256. Replay the log with
 /// `can-bridge replay`, score it with `can-bridge score-log`, compare with `can-bridge check`.
+///
+/// A cycle with a value outside its signal's DBC range is never clamped: it is left out of the log
+/// and listed (event id, time, signal). Any left-out cycle fails the run (exit 1, no log written)
+/// unless `--max-skipped` allows that share of the cycles.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Event folder (events.csv + frames.csv).
@@ -27,7 +31,23 @@ pub struct Args {
     /// Pause between events, seconds (0 to 1e6).
     #[arg(long, default_value_t = DEFAULT_GAP_US as f64 / 1e6, value_parser = gap_seconds)]
     pub gap: f64,
+    /// Largest share of cycles (0 to 1) that may be left out because a value is outside its
+    /// signal's range before the run fails. Default 0: any left-out cycle fails the run.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION", value_parser = fraction)]
+    pub max_skipped: f64,
 }
+
+/// A share in [0, 1].
+fn fraction(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        Ok(_) => Err(format!("`{s}` is not a fraction in [0, 1]")),
+        Err(_) => Err(format!("`{s}` is not a number")),
+    }
+}
+
+/// Cycles listed one by one; the rest are counted.
+const LISTED_SKIPS: usize = 20;
 
 fn seconds_in(s: &str, max: f64) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
@@ -70,20 +90,48 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let summary = write_candump(&set, &opts, &mut file)
         .with_context(|| format!("writing {}", args.out.display()))?;
+    let frames_csv = args.events.join(host_tools::events::FRAMES_FILE);
+    let skipped = summary.skipped.len();
+    for s in summary.skipped.iter().take(LISTED_SKIPS) {
+        eprintln!(
+            "{}: event {} at t={}: cycle not encoded: {}",
+            frames_csv.display(),
+            s.event_id,
+            s.time,
+            s.reason
+        );
+    }
+    if skipped > LISTED_SKIPS {
+        eprintln!(
+            "{}: ... {} more cycles not encoded",
+            frames_csv.display(),
+            skipped - LISTED_SKIPS
+        );
+    }
+    if skipped > 0 {
+        let all = summary.cycles + skipped;
+        let share = skipped as f64 / all as f64;
+        let what = format!(
+            "{}: {skipped} of {all} cycles ({:.3}%) not encoded (a value outside its signal's DBC range), in {} event(s)",
+            frames_csv.display(),
+            share * 100.0,
+            distinct_events(&summary.skipped)
+        );
+        if share > args.max_skipped {
+            // `file` is dropped without commit: no log is written.
+            bail!(
+                "{what}; more than --max-skipped {}: {} not written",
+                args.max_skipped,
+                args.out.display()
+            );
+        }
+        eprintln!(
+            "warning: {what} (within --max-skipped {})",
+            args.max_skipped
+        );
+    }
     file.commit()
         .with_context(|| format!("writing {}", args.out.display()))?;
-    for s in summary.skipped.iter().take(20) {
-        eprintln!(
-            "warning: event {} at t={}: cycle not encoded: {}",
-            s.event_id, s.time, s.reason
-        );
-    }
-    if summary.skipped.len() > 20 {
-        eprintln!(
-            "warning: ... {} more cycles not encoded",
-            summary.skipped.len() - 20
-        );
-    }
     println!(
         "wrote {}: {} events, {} cycles, {} CAN frames, {:.1} s of traffic{}",
         args.out.display(),
@@ -91,14 +139,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.cycles,
         summary.can_frames,
         summary.duration_s,
-        if summary.skipped.is_empty() {
+        if skipped == 0 {
             String::new()
         } else {
-            format!(
-                ", {} cycles skipped (out of signal range)",
-                summary.skipped.len()
-            )
+            format!(", {skipped} cycles skipped (out of signal range)")
         }
     );
     Ok(())
+}
+
+/// How many events lost at least one cycle (skips come in event order).
+fn distinct_events(skipped: &[host_tools::candump_export::SkippedFrame]) -> usize {
+    let mut n = 0;
+    let mut last: Option<&str> = None;
+    for s in skipped {
+        if last != Some(s.event_id.as_str()) {
+            n += 1;
+            last = Some(&s.event_id);
+        }
+    }
+    n
 }

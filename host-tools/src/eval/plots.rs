@@ -54,42 +54,92 @@ fn color(i: usize) -> RGBColor {
     COLORS.get(i % COLORS.len()).copied().unwrap_or(BLACK)
 }
 
-/// Draws `figure` into `<stem>.svg` and `<stem>.png`; returns both paths.
+/// A figure file rendered in memory: its name (`roc.svg`, ...) and its bytes.
+#[derive(Clone, Debug)]
+pub struct FigureFile {
+    pub name: String,
+    pub bytes: Vec<u8>,
+}
+
+/// Renders `figure` as `<stem>.svg` and `<stem>.png` in memory, so a caller can write them
+/// through a temporary file (nothing half-drawn ever lands at the destination).
 fn both_formats(
-    stem: &Path,
+    stem: &str,
     size: (u32, u32),
     figure: &Figure<'_>,
-) -> Result<Vec<PathBuf>, PlotError> {
+) -> Result<[FigureFile; 2], PlotError> {
     register_font();
-    let svg = stem.with_extension("svg");
-    let png = stem.with_extension("png");
-    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| PlotError {
-            path: dir.to_path_buf(),
+    let failed = |name: String| {
+        move |message: String| PlotError {
+            path: PathBuf::from(name),
+            message,
+        }
+    };
+    let svg_name = format!("{stem}.svg");
+    let png_name = format!("{stem}.png");
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        figure
+            .draw(&root)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(failed(svg_name.clone()))?;
+    }
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        figure
+            .draw(&root)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(failed(png_name.clone()))?;
+    }
+    let png = encode_png(&rgb, size).map_err(|e| failed(png_name.clone())(e.to_string()))?;
+    Ok([
+        FigureFile {
+            name: svg_name,
+            bytes: svg.into_bytes(),
+        },
+        FigureFile {
+            name: png_name,
+            bytes: png,
+        },
+    ])
+}
+
+/// An 8-bit RGB buffer as a PNG file.
+fn encode_png(rgb: &[u8], (width, height): (u32, u32)) -> Result<Vec<u8>, png::EncodingError> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
+    Ok(out)
+}
+
+/// Writes figure files into `dir`, each through a temporary file renamed when complete; returns
+/// the paths written.
+fn write_figures(dir: &Path, files: &[FigureFile]) -> Result<Vec<PathBuf>, PlotError> {
+    std::fs::create_dir_all(dir).map_err(|e| PlotError {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut set = can_codec::output::AtomicSet::default();
+    for f in files {
+        let path = dir.join(&f.name);
+        let failed = |e: std::io::Error| PlotError {
+            path: path.clone(),
             message: e.to_string(),
-        })?;
+        };
+        set.create(&path)
+            .and_then(|w| std::io::Write::write_all(w, &f.bytes))
+            .map_err(failed)?;
     }
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        figure
-            .draw(&root)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-            .map_err(|message| PlotError {
-                path: svg.clone(),
-                message,
-            })?;
-    }
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        figure
-            .draw(&root)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-            .map_err(|message| PlotError {
-                path: png.clone(),
-                message,
-            })?;
-    }
-    Ok(vec![svg, png])
+    set.commit().map_err(|e| PlotError {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })
 }
 
 /// What one figure shows, independent of the backend.
@@ -336,14 +386,28 @@ fn draw_trajectories<DB: DrawingBackend>(
     Ok(())
 }
 
+/// `roc.{svg,png}` and `pr.{svg,png}`, rendered in memory.
+pub fn curve_figures(curves: &[(String, WarningCurve)]) -> Result<Vec<FigureFile>, PlotError> {
+    let mut files = Vec::from(both_formats("roc", SIZE, &Figure::Roc(curves))?);
+    files.extend(both_formats("pr", SIZE, &Figure::Pr(curves))?);
+    Ok(files)
+}
+
+/// `trajectories.{svg,png}` (one panel per event), rendered in memory.
+pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<FigureFile>, PlotError> {
+    Ok(Vec::from(both_formats(
+        "trajectories",
+        TRAJECTORY_SIZE,
+        &Figure::Trajectories(panels),
+    )?))
+}
+
 /// Writes `roc.{svg,png}` and `pr.{svg,png}` into `dir`; returns the paths written.
 pub fn plot_curves(
     dir: &Path,
     curves: &[(String, WarningCurve)],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let mut written = both_formats(&dir.join("roc"), SIZE, &Figure::Roc(curves))?;
-    written.extend(both_formats(&dir.join("pr"), SIZE, &Figure::Pr(curves))?);
-    Ok(written)
+    write_figures(dir, &curve_figures(curves)?)
 }
 
 /// Writes `trajectories.{svg,png}` into `dir` (one panel per event); returns the paths written.
@@ -351,12 +415,18 @@ pub fn plot_trajectories(
     dir: &Path,
     panels: &[TrajectoryPanel],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    both_formats(
-        &dir.join("trajectories"),
-        TRAJECTORY_SIZE,
-        &Figure::Trajectories(panels),
-    )
+    write_figures(dir, &trajectory_figures(panels)?)
 }
+
+/// File names of every figure [`curve_figures`] and [`trajectory_figures`] produce.
+pub const FIGURE_FILES: [&str; 6] = [
+    "roc.svg",
+    "roc.png",
+    "pr.svg",
+    "pr.png",
+    "trajectories.svg",
+    "trajectories.png",
+];
 
 #[cfg(test)]
 mod tests {
