@@ -118,7 +118,7 @@ pub struct QuantisationConfig {
 impl Default for QuantisationConfig {
     fn default() -> Self {
         QuantisationConfig {
-            clip_fraction: 1e-4,
+            clip_fraction: 0.0,
             max_observations: 50_000,
         }
     }
