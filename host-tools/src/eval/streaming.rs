@@ -7,10 +7,11 @@
 //! profiles kept and its frames dropped. Profiles are put back in `events.csv` order before the
 //! curves are swept, so the report is bit for bit the one of the in-memory path.
 //!
-//! Memory: one event's frames at a time plus, per sequence and method, its id and records (a few
-//! records for most sequences). A folder whose `frames.csv` cannot be streamed (an event's frames
-//! split into several runs) is read whole instead, with today's memory: see
-//! [`stream_events`](crate::events::stream_events).
+//! Memory: one event's frames at a time plus, per conflict sequence and method, its records
+//! (16 bytes each; a conflict sequence's risk usually rises on most frames towards its endpoint),
+//! and one record per safe sequence and method (its maximum: all the metrics read of it). A folder
+//! whose `frames.csv` cannot be streamed (an event's frames split into several runs) is read whole
+//! instead, with the old memory: see [`stream_events`](crate::events::stream_events).
 use std::path::Path;
 
 use super::protocol::{AlertProfile, AlertProfileBuilder, ProtocolError, SequenceClass};
@@ -92,6 +93,13 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             // The metrics never read the id (errors above have named it): sequences x methods
             // copies would cost more than the records.
             profile.event_id = String::new();
+            if !class.is_conflict() {
+                // A safe sequence only counts as a false alarm at every threshold up to its
+                // maximum: the metrics read nothing else of it (see `warning_curve`).
+                let max = profile.records.pop();
+                profile.records.clear();
+                profile.records.extend(max);
+            }
             profile.records.shrink_to_fit();
             profiles.push((position, profile));
         }
