@@ -34,6 +34,10 @@ An output path ending in .parquet is written as Apache Parquet (event_id and cla
 time Float64, scores and surrogates Float32); anything else as CSV ('-' = standard output).
 Problems in the event folder are listed on stderr; the valid events are still scored.
 
+Memory: with --out FILE the folder is read and scored one event at a time, so memory is one
+event whatever the folder's size. To '-', a pipe or a device, or when an event's frames are not
+one run of consecutive rows in events.csv order, the folder is read whole first.
+
 EXAMPLES:
   riskctl score --model models/drl-default.rsk --model models/msra-default.rsk \\
                 --events data/sim --out scores.csv
