@@ -417,7 +417,8 @@ pub fn check_value(wide: f64, field: &str) -> Result<(), RowProblem> {
     if !(wide as f32).is_finite() {
         return Err(RowProblem::OutOfRange(text()));
     }
-    if (field == "length" || field == "width") && wide < 0.0 {
+    // Sign first: the name comparison runs for negative values only (18 values a row).
+    if wide < 0.0 && (field == "length" || field == "width") {
         return Err(RowProblem::NegativeSize(text()));
     }
     Ok(())

@@ -10,6 +10,7 @@ use host_tools::eval::plots::{
 };
 use host_tools::eval::report::write_curves_csv;
 use host_tools::eval::scoring::{model_row_name, row_names};
+use host_tools::eval::streaming::evaluate_folder;
 use host_tools::eval::{evaluate_methods, observe, Method, Scorer};
 use host_tools::events::{load_events, prepare_sequences, PrepareConfig};
 
@@ -145,19 +146,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     methods.extend(Method::baselines());
 
     let dir = &args.events;
-    if let Some(out) = &args.out {
-        refuse_output_overlaps(&files, dir, out)?;
-    }
+    let Some(out) = &args.out else {
+        // Only the metrics: one event at a time, in bounded memory.
+        return evaluate_streaming(dir, &methods, args.json, args.skip_bad_events);
+    };
+    refuse_output_overlaps(&files, dir, out)?;
     let (set, issues) =
         load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
-    // The loader keeps the first problems of each kind (and counts the rest), so all are listed.
-    if !issues.is_empty() {
-        let total: u64 = issues.iter().map(|i| i.count()).sum();
-        eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
-        for issue in &issues {
-            eprintln!("  {issue}");
-        }
-    }
+    report_load_issues(&issues);
     if set.is_empty() {
         bail!(
             "event folder {}: no valid events to evaluate",
@@ -194,18 +190,77 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print!("{}", report.to_markdown());
     }
 
-    if let Some(out) = &args.out {
-        let written = write_outputs(out, &report, &runs, &args.trajectory_events)?;
-        eprintln!(
-            "riskctl: wrote {} files to {}:",
-            written.len(),
-            out.display()
-        );
-        for p in written {
-            eprintln!("  {}", p.display());
-        }
+    let written = write_outputs(out, &report, &runs, &args.trajectory_events)?;
+    eprintln!(
+        "riskctl: wrote {} files to {}:",
+        written.len(),
+        out.display()
+    );
+    for p in written {
+        eprintln!("  {}", p.display());
     }
     Ok(())
+}
+
+/// The metrics of `dir` without `--out`: streamed ([`evaluate_folder`]), same output.
+fn evaluate_streaming(
+    dir: &Path,
+    methods: &[Method<'_>],
+    json: bool,
+    skip_bad_events: bool,
+) -> anyhow::Result<()> {
+    // The calling thread reads frames.csv; one scoring worker per core.
+    let workers = std::thread::available_parallelism().map_or(1, usize::from);
+    let folder = evaluate_folder(dir, methods, PrepareConfig::default(), workers)
+        .with_context(|| format!("event folder {}", dir.display()))?;
+    if !folder.streamed {
+        eprintln!(
+            "riskctl: note: the frames of {} are not grouped by event, so the folder was read whole (more memory)",
+            dir.display()
+        );
+    }
+    report_load_issues(&folder.load_issues);
+    if folder.events == 0 {
+        bail!(
+            "event folder {}: no valid events to evaluate",
+            dir.display()
+        );
+    }
+    if !folder.load_issues.is_empty() && !skip_bad_events {
+        bail!(
+            "event folder {}: the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {} valid events",
+            dir.display(),
+            folder.events
+        );
+    }
+    report_issues(
+        "event(s) yield no sequence under the preparation rules",
+        &folder.prepare_issues,
+    );
+    if folder.sequences == 0 {
+        bail!(
+            "event folder {}: none of its {} events yields a sequence to evaluate",
+            dir.display(),
+            folder.events
+        );
+    }
+    if json {
+        println!("{}", folder.report.to_json_string());
+    } else {
+        print!("{}", folder.report.to_markdown());
+    }
+    Ok(())
+}
+
+/// The loader keeps the first problems of each kind (and counts the rest), so all are listed.
+fn report_load_issues(issues: &[host_tools::events::LoadIssue]) {
+    if !issues.is_empty() {
+        let total: u64 = issues.iter().map(|i| i.count()).sum();
+        eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
+        for issue in issues {
+            eprintln!("  {issue}");
+        }
+    }
 }
 
 /// Refuses an `--out` folder whose result files would overwrite a model or event file.

@@ -1,6 +1,6 @@
 //! `riskctl score`: the per-frame risk of every event under each model, plus the surrogates, as
 //! one table a user can plot (CSV, or Parquet when the output ends in `.parquet`).
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{bail, Context};
@@ -8,11 +8,14 @@ use arrow_array::builder::{Float32Builder, Float64Builder, StringBuilder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, Schema};
 use host_tools::eval::{observe, Method};
-use host_tools::events::{load_events, prepare_sequences, PrepareConfig, Sequence};
+use host_tools::events::{
+    load_events, prepare_owned_event, stream_events, Event, EventSet, EventsError, LoadIssue,
+    PrepareConfig, PrepareIssue, Sequence,
+};
 use host_tools::parquet_io::{is_parquet, BatchSink, BATCH_ROWS};
 
 use super::evaluate::{named_models, read_models, report_issues};
-use super::output::write_output;
+use super::output::{is_dash, write_output};
 
 const AFTER_LONG_HELP: &str = "\
 OUTPUT COLUMNS (one row per frame, events in folder order, frames in time order):
@@ -30,6 +33,10 @@ evaluation sequences are (the windows `riskctl evaluate` scores: docs/evaluation
 An output path ending in .parquet is written as Apache Parquet (event_id and class strings,
 time Float64, scores and surrogates Float32); anything else as CSV ('-' = standard output).
 Problems in the event folder are listed on stderr; the valid events are still scored.
+
+Memory: with --out FILE the folder is read and scored one event at a time, so memory is one
+event whatever the folder's size. To '-', a pipe or a device, or when an event's frames are not
+one run of consecutive rows in events.csv order, the folder is read whole first.
 
 EXAMPLES:
   riskctl score --model models/drl-default.rsk --model models/msra-default.rsk \\
@@ -113,24 +120,37 @@ fn schema(model_names: &[String]) -> Arc<Schema> {
     Arc::new(Schema::new(fields))
 }
 
-/// Score the sequences one at a time into `sink`; returns the number of rows.
-fn score_into<W: std::io::Write + Send>(
-    sequences: impl Iterator<Item = Sequence>,
-    methods: &[Method<'_>],
-    mut sink: BatchSink<W>,
-) -> anyhow::Result<u64> {
-    let names: Vec<String> = methods.iter().map(|m| m.name.clone()).collect();
-    let schema = schema(&names);
-    let mut columns = Columns::new(methods.len());
-    let mut rows = 0u64;
-    for sequence in sequences {
-        // One sequence at a time: features and surrogates through the evaluation's own path.
-        for observed in observe(std::slice::from_ref(&sequence)) {
+/// The output table being written: one batch of rows in builders, the rest already in the sink.
+struct TableWriter<'a, 'm, W: std::io::Write + Send> {
+    methods: &'a [Method<'m>],
+    schema: Arc<Schema>,
+    columns: Columns,
+    sink: BatchSink<W>,
+    rows: u64,
+}
+
+impl<'a, 'm, W: std::io::Write + Send> TableWriter<'a, 'm, W> {
+    fn new(methods: &'a [Method<'m>], sink: BatchSink<W>) -> Self {
+        let names: Vec<String> = methods.iter().map(|m| m.name.clone()).collect();
+        Self {
+            methods,
+            schema: schema(&names),
+            columns: Columns::new(methods.len()),
+            sink,
+            rows: 0,
+        }
+    }
+
+    /// Scores one sequence's frames into the table (a full batch goes to the sink).
+    fn add(&mut self, sequence: &Sequence) -> anyhow::Result<()> {
+        // Features and surrogates through the evaluation's own path.
+        for observed in observe(std::slice::from_ref(sequence)) {
             for frame in &observed.frames {
+                let columns = &mut self.columns;
                 columns.event_id.append_value(&observed.event_id);
                 columns.time.append_value(frame.time);
                 columns.class.append_value(sequence.kind.as_str());
-                for (builder, method) in columns.scores.iter_mut().zip(methods) {
+                for (builder, method) in columns.scores.iter_mut().zip(self.methods) {
                     builder.append_value(method.scorer.score(&frame.observation));
                 }
                 let s = &frame.observation.surrogates;
@@ -138,18 +158,139 @@ fn score_into<W: std::io::Write + Send>(
                     builder.append_value(v);
                 }
                 columns.rows += 1;
-                rows += 1;
+                self.rows += 1;
                 if columns.rows == BATCH_ROWS {
-                    sink.write(&columns.finish(&schema)?)?;
+                    self.sink.write(&columns.finish(&self.schema)?)?;
                 }
             }
         }
+        Ok(())
     }
-    if columns.rows > 0 {
-        sink.write(&columns.finish(&schema)?)?;
+
+    /// Scores what `--sequences` asks for of one event: its evaluation sequence, or every frame.
+    /// Frames go through in slices of one batch, so the copies this command makes stay one batch
+    /// long however long the event is. `Err(issue)`: the event yields no sequence.
+    fn add_event(
+        &mut self,
+        event: Event,
+        sequences: bool,
+    ) -> anyhow::Result<Result<(), PrepareIssue>> {
+        let sequence = if sequences {
+            match prepare_owned_event(event, &PrepareConfig::default()) {
+                Ok(sequence) => sequence,
+                Err(issue) => return Ok(Err(issue)),
+            }
+        } else {
+            Sequence {
+                endpoint: event.t_impact,
+                event_id: event.id,
+                kind: event.kind,
+                frames: event.frames,
+            }
+        };
+        for frames in sequence.frames.chunks(BATCH_ROWS) {
+            self.add(&Sequence {
+                event_id: sequence.event_id.clone(),
+                frames: frames.to_vec(),
+                ..sequence
+            })?;
+        }
+        Ok(Ok(()))
     }
-    sink.finish(schema)?;
-    Ok(rows)
+
+    /// Writes the last batch and the file's end; returns the number of rows.
+    fn finish(mut self) -> anyhow::Result<u64> {
+        if self.columns.rows > 0 {
+            self.sink.write(&self.columns.finish(&self.schema)?)?;
+        }
+        self.sink.finish(self.schema)?;
+        Ok(self.rows)
+    }
+}
+
+/// What scoring a folder found besides the table.
+struct Scored {
+    rows: u64,
+    events: usize,
+    load_issues: Vec<LoadIssue>,
+    prepare_issues: Vec<PrepareIssue>,
+}
+
+/// Scores the folder one event at a time as `frames.csv` is read ([`stream_events`]): memory is
+/// one event. Fails with [`EventsError::NotStreamable`] when the frames are not grouped by event
+/// in `events.csv` order; the caller then discards the output and uses [`score_whole`].
+fn score_streaming<W: std::io::Write + Send>(
+    dir: &Path,
+    methods: &[Method<'_>],
+    sequences: bool,
+    sink: BatchSink<W>,
+) -> anyhow::Result<Scored> {
+    let mut table = TableWriter::new(methods, sink);
+    let mut events = 0;
+    let mut prepare_issues = Vec::new();
+    let load_issues = stream_events(dir, true, |_, event| -> anyhow::Result<()> {
+        events += 1;
+        if let Err(issue) = table.add_event(event, sequences)? {
+            prepare_issues.push(issue);
+        }
+        Ok(())
+    })
+    .with_context(|| format!("event folder {}", dir.display()))?;
+    no_events_is_an_error(dir, events, &load_issues)?;
+    Ok(Scored {
+        rows: table.finish()?,
+        events,
+        load_issues,
+        prepare_issues,
+    })
+}
+
+/// Scores the folder read whole ([`load_events`]): for outputs that cannot be restarted and
+/// folders that cannot be streamed.
+fn score_whole<W: std::io::Write + Send>(
+    set: EventSet,
+    methods: &[Method<'_>],
+    sequences: bool,
+    sink: BatchSink<W>,
+) -> anyhow::Result<(u64, Vec<PrepareIssue>)> {
+    let mut table = TableWriter::new(methods, sink);
+    let mut prepare_issues = Vec::new();
+    for event in set.events {
+        if let Err(issue) = table.add_event(event, sequences)? {
+            prepare_issues.push(issue);
+        }
+    }
+    Ok((table.finish()?, prepare_issues))
+}
+
+fn no_events_is_an_error(dir: &Path, events: usize, issues: &[LoadIssue]) -> anyhow::Result<()> {
+    if events == 0 {
+        report_load_issues(issues);
+        bail!("event folder {}: no valid events to score", dir.display());
+    }
+    Ok(())
+}
+
+fn report_load_issues(issues: &[LoadIssue]) {
+    report_issues(
+        "problem(s) in the event folder (those events are skipped)",
+        issues,
+    );
+}
+
+fn sink<W: std::io::Write + Send>(out: W, parquet: bool) -> BatchSink<W> {
+    if parquet {
+        BatchSink::parquet(out)
+    } else {
+        BatchSink::csv(out)
+    }
+}
+
+/// True for an output that can be written twice: a regular file (written to `.partial` and
+/// renamed), not standard output, a pipe or a device, where a discarded first attempt would
+/// already have been read.
+fn restartable(out: &Path) -> bool {
+    !is_dash(out) && std::fs::metadata(out).map_or(true, |m| m.is_file())
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -157,58 +298,61 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let files = read_models(&args.models)?;
     let methods = named_models(&files)?;
     let dir = &args.events;
-    let (set, issues) =
-        load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
-    report_issues(
-        "problem(s) in the event folder (those events are skipped)",
-        &issues,
-    );
-    if set.is_empty() {
-        bail!("event folder {}: no valid events to score", dir.display());
-    }
     let parquet = is_parquet(&args.out);
-    let written = if args.sequences {
-        let (sequences, prep_issues) = prepare_sequences(&set, &PrepareConfig::default());
+
+    let mut scored = None;
+    if restartable(&args.out) {
+        match write_output(&args.out, |out| {
+            score_streaming(dir, &methods, args.sequences, sink(out, parquet))
+        }) {
+            Err(e) if not_streamable(&e) => {
+                eprintln!("riskctl score: {e:#}: reading the folder whole instead");
+            }
+            other => scored = Some(other?),
+        }
+    }
+    let scored = match scored {
+        Some(scored) => scored,
+        None => {
+            let (set, load_issues) =
+                load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
+            no_events_is_an_error(dir, set.len(), &load_issues)?;
+            report_load_issues(&load_issues);
+            let events = set.len();
+            write_output(&args.out, |out| {
+                score_whole(set, &methods, args.sequences, sink(out, parquet))
+            })?
+            .map(|(rows, prepare_issues)| Scored {
+                rows,
+                events,
+                load_issues: Vec::new(), // listed above, before the table
+                prepare_issues,
+            })
+        }
+    };
+    if let Some(scored) = scored {
+        report_load_issues(&scored.load_issues);
         report_issues(
             "event(s) yield no sequence under the preparation rules",
-            &prep_issues,
+            &scored.prepare_issues,
         );
-        write_output(&args.out, |out| {
-            let sink = if parquet {
-                BatchSink::parquet(out)
-            } else {
-                BatchSink::csv(out)
-            };
-            score_into(sequences.into_iter(), &methods, sink)
-        })?
-    } else {
-        // Observations are per frame, so an event is scored in slices of frames: the copies this
-        // command makes stay one batch long however long the event is.
-        let whole_events = set.iter().flat_map(|ev| {
-            ev.frames.chunks(BATCH_ROWS).map(move |frames| Sequence {
-                event_id: ev.id.clone(),
-                kind: ev.kind,
-                frames: frames.to_vec(),
-                endpoint: ev.t_impact,
-            })
-        });
-        write_output(&args.out, |out| {
-            let sink = if parquet {
-                BatchSink::parquet(out)
-            } else {
-                BatchSink::csv(out)
-            };
-            score_into(whole_events, &methods, sink)
-        })?
-    };
-    if let Some(rows) = written {
         eprintln!(
             "riskctl score: {} frames of {} events scored with {} model(s) -> {}",
-            rows,
-            set.len(),
+            scored.rows,
+            scored.events,
             methods.len(),
             args.out.display()
         );
     }
     Ok(())
+}
+
+/// True when `e` is [`EventsError::NotStreamable`].
+fn not_streamable(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        matches!(
+            cause.downcast_ref::<EventsError>(),
+            Some(EventsError::NotStreamable { .. })
+        )
+    })
 }

@@ -5,6 +5,7 @@
 //! - [`report`]: per-method results, mean ± std over folds/seeds; Markdown, CSV and JSON.
 //! - [`plots`]: ROC and PR curves, risk trajectories (SVG and PNG).
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
+//! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
 //!
 //! The formulas and every edge-case convention are written down in `docs/evaluation.md`.
 pub mod metrics;
@@ -12,6 +13,7 @@ pub mod plots;
 pub mod protocol;
 pub mod report;
 pub mod scoring;
+pub mod streaming;
 
 pub use metrics::{
     evaluate_profiles, evaluate_sequences, warning_curve, warning_curve_reference, Metrics,

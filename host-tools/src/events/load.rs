@@ -48,6 +48,15 @@ pub enum EventsError {
     },
     #[error("{}: line 1: missing required column `{column}`", path.display())]
     MissingColumn { path: PathBuf, column: &'static str },
+    /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
+    /// caller reads it whole with [`load_events`] instead.
+    #[error("{}: line {line}: event `{event_id}`: {reason}; it cannot be streamed event by event", path.display())]
+    NotStreamable {
+        path: PathBuf,
+        line: u64,
+        event_id: String,
+        reason: &'static str,
+    },
 }
 
 /// One validation problem. Display: `file:line: column `c`: event `id`: problem`.
@@ -225,66 +234,238 @@ struct Pending {
     line: u64,
     ok: bool,
     last_frame_line: u64,
+    /// Position among the events of events.csv (0-based).
+    position: usize,
 }
 
 /// Loads and validates the event folder `dir` (`events.csv` + `frames.csv`).
 ///
 /// Returns the valid events in `events.csv` order and one issue per problem found. Only problems
 /// that make a whole file unreadable (missing file, missing column, I/O error) are errors. Rows are
-/// streamed, so memory is the kept frames plus one id table.
+/// streamed, so memory is the kept frames plus one id table; [`stream_events`] keeps only one event.
 pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError> {
-    let mut issues = Issues::default();
-    let events_path = dir.join(EVENTS_FILE);
-    let frames_path = dir.join(FRAMES_FILE);
-
-    let mut pending: Vec<Pending> = Vec::new();
-    let mut index: HashMap<String, usize> = HashMap::new();
-    // Ids whose events.csv row was bad: their frames are skipped without further noise.
-    let mut rejected: HashMap<String, ()> = HashMap::new();
-    read_events(
-        &events_path,
-        &mut pending,
-        &mut index,
-        &mut rejected,
-        &mut issues,
+    let mut folder = Folder::read_events(dir)?;
+    read_frames::<EventsError>(
+        &folder.frames_path,
+        &mut folder.pending,
+        &folder.index,
+        &folder.rejected,
+        &mut folder.issues,
+        None,
     )?;
-    read_frames(&frames_path, &mut pending, &index, &rejected, &mut issues)?;
-
-    let mut events = Vec::with_capacity(pending.len());
-    for mut p in pending {
+    let mut events = Vec::with_capacity(folder.pending.len());
+    for mut p in folder.pending {
         if !p.ok {
             continue;
         }
-        let ev = &p.event;
-        let issue = |problem| LoadIssue {
-            file: events_path.clone(),
-            line: p.line,
-            column: None,
-            event_id: Some(ev.id.clone()),
-            problem,
-        };
-        match (ev.frames.first(), ev.t_impact) {
-            (None, _) => {
-                issues.push(issue(IssueProblem::NoFrames));
-                p.ok = false;
-            }
-            (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE => {
-                let mut i = issue(IssueProblem::ImpactBeforeFrames {
-                    t_impact,
-                    first: first.time,
-                });
-                i.column = Some("t_impact".into());
-                issues.push(i);
-                p.ok = false;
-            }
-            _ => {}
-        }
-        if p.ok {
-            p.event.frames.shrink_to_fit();
-            events.push(p.event);
+        match finish_event(&mut p, &folder.events_path) {
+            Some(issue) => folder.issues.push(issue),
+            None => events.push(p.event),
         }
     }
-    Ok((EventSet { events }, issues.finish()))
+    Ok((EventSet { events }, folder.issues.finish()))
+}
+
+/// Loads and validates the event folder `dir` like [`load_events`], but hands each valid event to
+/// `on_event` as soon as its last frame is read and keeps none: memory is one event's frames plus
+/// the `events.csv` table, however large `frames.csv` is. `on_event` gets the event's position in
+/// `events.csv` (0-based row among the folder's events) so the caller can restore that order.
+///
+/// The issues returned are exactly those of [`load_events`], in the same order; the events handed
+/// on are exactly its events (in `frames.csv` order). Streaming needs each event's frames to form
+/// one run of consecutive rows (as `riskctl` writes them) and, with `in_events_order`, the runs to
+/// follow `events.csv` order. Otherwise it stops with [`EventsError::NotStreamable`] (converted into
+/// `E`), and the caller, having discarded what it received, reads the folder with [`load_events`].
+pub fn stream_events<E: From<EventsError>>(
+    dir: &Path,
+    in_events_order: bool,
+    mut on_event: impl FnMut(usize, Event) -> Result<(), E>,
+) -> Result<Vec<LoadIssue>, E> {
+    let mut folder = Folder::read_events(dir)?;
+    let mut stream = Stream {
+        in_events_order,
+        closed: vec![false; folder.pending.len()],
+        last_opened: None,
+        deferred: Vec::new(),
+        events_path: &folder.events_path,
+        on_event: &mut on_event,
+    };
+    read_frames(
+        &folder.frames_path,
+        &mut folder.pending,
+        &folder.index,
+        &folder.rejected,
+        &mut folder.issues,
+        Some(&mut stream),
+    )?;
+    // Issues found when an event closes are listed in events.csv order, as load_events does.
+    let mut deferred = std::mem::take(&mut stream.deferred);
+    deferred.sort_by_key(|(slot, _)| *slot);
+    let mut deferred = deferred.into_iter().peekable();
+    let closed = stream.closed;
+    for (slot, p) in folder.pending.iter_mut().enumerate() {
+        if closed[slot] {
+            if let Some((_, issue)) = deferred.next_if(|(s, _)| *s == slot) {
+                folder.issues.push(issue);
+            }
+        } else if p.ok {
+            // Never opened: no frames at all.
+            if let Some(issue) = finish_event(p, &folder.events_path) {
+                folder.issues.push(issue);
+            } else {
+                on_event(p.position, std::mem::replace(&mut p.event, empty_event()))?;
+            }
+        }
+    }
+    Ok(folder.issues.finish())
+}
+
+/// `events.csv` read and validated, before any frame.
+struct Folder {
+    events_path: PathBuf,
+    frames_path: PathBuf,
+    pending: Vec<Pending>,
+    index: HashMap<String, usize>,
+    /// Ids whose events.csv row was bad: their frames are skipped without further noise.
+    rejected: HashMap<String, ()>,
+    issues: Issues,
+}
+
+impl Folder {
+    fn read_events(dir: &Path) -> Result<Self, EventsError> {
+        let mut folder = Folder {
+            events_path: dir.join(EVENTS_FILE),
+            frames_path: dir.join(FRAMES_FILE),
+            pending: Vec::new(),
+            index: HashMap::new(),
+            rejected: HashMap::new(),
+            issues: Issues::default(),
+        };
+        read_events(
+            &folder.events_path,
+            &mut folder.pending,
+            &mut folder.index,
+            &mut folder.rejected,
+            &mut folder.issues,
+        )?;
+        Ok(folder)
+    }
+}
+
+/// The checks that need all of an event's frames, and the derived partner acceleration (already
+/// filled in by `read_frames` when the file has no `acc_sur`). `Some(issue)` drops the event.
+fn finish_event(p: &mut Pending, events_path: &Path) -> Option<LoadIssue> {
+    let ev = &p.event;
+    let issue = |problem| LoadIssue {
+        file: events_path.to_path_buf(),
+        line: p.line,
+        column: None,
+        event_id: Some(ev.id.clone()),
+        problem,
+    };
+    let problem = match (ev.frames.first(), ev.t_impact) {
+        (None, _) => issue(IssueProblem::NoFrames),
+        (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE => {
+            let mut i = issue(IssueProblem::ImpactBeforeFrames {
+                t_impact,
+                first: first.time,
+            });
+            i.column = Some("t_impact".into());
+            i
+        }
+        _ => {
+            p.event.frames.shrink_to_fit();
+            return None;
+        }
+    };
+    p.ok = false;
+    Some(problem)
+}
+
+fn empty_event() -> Event {
+    Event {
+        id: String::new(),
+        kind: EventKind::Safe,
+        t_start: 0.0,
+        t_end: 0.0,
+        t_impact: None,
+        dims: Dims::default(),
+        frames: Vec::new(),
+    }
+}
+
+/// The streaming side of `read_frames`: which events are done, and where they go.
+struct Stream<'a, E> {
+    in_events_order: bool,
+    /// Per `pending` slot: its run of frames has ended (the event was handed on or dropped).
+    closed: Vec<bool>,
+    last_opened: Option<usize>,
+    /// Issues found on closing an event, with its slot (listed at the end, in slot order).
+    deferred: Vec<(usize, LoadIssue)>,
+    events_path: &'a Path,
+    on_event: &'a mut dyn FnMut(usize, Event) -> Result<(), E>,
+}
+
+impl<E: From<EventsError>> Stream<'_, E> {
+    /// Refuses a row of an event whose run has ended, or a run out of `events.csv` order.
+    fn check_open(
+        &mut self,
+        path: &Path,
+        line: u64,
+        slot: usize,
+        id: &str,
+        opens_run: bool,
+    ) -> Result<(), E> {
+        let reason = if self.closed[slot] {
+            "its frames are not one run of consecutive rows"
+        } else if opens_run && self.in_events_order && self.last_opened.is_some_and(|l| slot < l) {
+            "its frames come before those of an event listed earlier in events.csv"
+        } else {
+            if opens_run {
+                self.last_opened = Some(slot);
+            }
+            return Ok(());
+        };
+        Err(EventsError::NotStreamable {
+            path: path.to_path_buf(),
+            line,
+            event_id: id.to_owned(),
+            reason,
+        }
+        .into())
+    }
+
+    /// The run of `slot` has ended: hand the event on (or drop it) and free its frames.
+    fn close(&mut self, slot: usize, p: &mut Pending, derive_acc: bool) -> Result<(), E> {
+        self.closed[slot] = true;
+        let frames = std::mem::take(&mut p.event.frames);
+        if !p.ok {
+            return Ok(());
+        }
+        let mut event = Event {
+            frames,
+            id: p.event.id.clone(),
+            ..p.event
+        };
+        if derive_acc {
+            derive_partner_acceleration(&mut event.frames);
+        }
+        let mut finished = Pending {
+            event,
+            line: p.line,
+            ok: true,
+            last_frame_line: p.last_frame_line,
+            position: p.position,
+        };
+        match finish_event(&mut finished, self.events_path) {
+            Some(issue) => {
+                p.ok = false;
+                self.deferred.push((slot, issue));
+                Ok(())
+            }
+            None => (self.on_event)(p.position, finished.event),
+        }
+    }
 }
 
 fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
@@ -591,6 +772,7 @@ fn read_events(
                     line,
                     ok: true,
                     last_frame_line: 0,
+                    position: pending.len(),
                 });
             }
             _ => {
@@ -602,13 +784,14 @@ fn read_events(
     Ok(())
 }
 
-fn read_frames(
+fn read_frames<E: From<EventsError>>(
     path: &Path,
     pending: &mut [Pending],
     index: &HashMap<String, usize>,
     rejected: &HashMap<String, ()>,
     issues: &mut Issues,
-) -> Result<(), EventsError> {
+    mut stream: Option<&mut Stream<'_, E>>,
+) -> Result<(), E> {
     let mut rdr = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
     let acc_sur_col = headers.iter().position(|h| h == "acc_sur");
@@ -620,8 +803,15 @@ fn read_frames(
         let line = match r {
             Ok(line) => line,
             Err(issue) => {
-                if let Some(i) = issue.event_id.as_deref().and_then(|id| index.get(id)) {
-                    pending[*i].ok = false;
+                if let Some((id, &i)) = issue
+                    .event_id
+                    .as_deref()
+                    .and_then(|id| Some((id, index.get(id)?)))
+                {
+                    if let Some(s) = stream.as_deref_mut() {
+                        s.check_open(path, issue.line, i, id, false)?;
+                    }
+                    pending[i].ok = false;
                 }
                 issues.push(issue);
                 continue;
@@ -635,6 +825,16 @@ fn read_frames(
             _ => {
                 let slot = index.get(id).copied();
                 if let Some(s) = slot {
+                    if let Some(stream) = stream.as_deref_mut() {
+                        stream.check_open(path, line, s, id, true)?;
+                        if let Some((_, previous)) = current {
+                            stream.close(
+                                previous,
+                                &mut pending[previous],
+                                acc_sur_col.is_none(),
+                            )?;
+                        }
+                    }
                     current = Some((id.to_owned(), s));
                 }
                 slot
@@ -754,6 +954,9 @@ fn read_frames(
             p.ok = false;
             issues.extend(f.issues.drain(..));
         }
+    }
+    if let (Some(stream), Some((_, last))) = (stream, current) {
+        stream.close(last, &mut pending[last], acc_sur_col.is_none())?;
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();
     unknown.sort_by_key(|(_, (line, _))| *line);

@@ -20,12 +20,12 @@ mod write;
 
 pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{
-    load_events, EventsError, IssueProblem, LoadIssue, KEPT_PER_KIND, LENGTH_RANGE_M,
-    MAX_SPEED_M_S, WIDTH_RANGE_M,
+    load_events, stream_events, EventsError, IssueProblem, LoadIssue, KEPT_PER_KIND,
+    LENGTH_RANGE_M, MAX_SPEED_M_S, WIDTH_RANGE_M,
 };
 pub use prepare::{
-    cut_safe_sequences, prepare_event, prepare_sequences, safe_rules_hold, PrepareConfig,
-    PrepareIssue, Sequence, TIME_EPS,
+    cut_safe_sequences, prepare_event, prepare_owned_event, prepare_sequences, safe_rules_hold,
+    PrepareConfig, PrepareIssue, Sequence, TIME_EPS,
 };
 pub use write::{write_events, EventWriter};
 

@@ -107,22 +107,49 @@ fn calm(f: &Frame, cfg: &PrepareConfig) -> bool {
 /// - Safe: the longest run of consecutive frames on which both vehicles satisfy
 ///   |acc| <= 1.5 m/s^2 (the whole event when it is calm throughout), kept when it lasts >= 2 s.
 pub fn prepare_event(ev: &Event, cfg: &PrepareConfig) -> Result<Sequence, PrepareIssue> {
+    let (range, endpoint) = sequence_window(ev, cfg)?;
+    Ok(Sequence {
+        event_id: ev.id.clone(),
+        kind: ev.kind,
+        frames: ev.frames[range].to_vec(),
+        endpoint,
+    })
+}
+
+/// [`prepare_event`] for an event that is no longer needed: the sequence takes over its frames
+/// instead of copying them (what a long event streamed through evaluation wants).
+pub fn prepare_owned_event(mut ev: Event, cfg: &PrepareConfig) -> Result<Sequence, PrepareIssue> {
+    let (range, endpoint) = sequence_window(&ev, cfg)?;
+    ev.frames.truncate(range.end);
+    ev.frames.drain(..range.start);
+    Ok(Sequence {
+        event_id: ev.id,
+        kind: ev.kind,
+        frames: ev.frames,
+        endpoint,
+    })
+}
+
+/// The frames of the event's sequence (an index range) and its endpoint, by the rules of
+/// [`prepare_event`].
+fn sequence_window(
+    ev: &Event,
+    cfg: &PrepareConfig,
+) -> Result<(std::ops::Range<usize>, Option<f64>), PrepareIssue> {
     match ev.t_impact.filter(|_| ev.kind.is_conflict()) {
         Some(t) => {
             let lo = ev.t_start.max(t - cfg.before_endpoint) - EPS;
             let hi = ev.t_end.min(t + cfg.after_endpoint) + EPS;
             let a = ev.frames.partition_point(|f| f.time < lo);
             let b = ev.frames.partition_point(|f| f.time <= hi);
-            let frames = ev.frames[a..b.max(a)].to_vec();
-            if frames.first().is_none_or(|f| f.time > t + EPS) {
+            let range = a..b.max(a);
+            if ev.frames[range.clone()]
+                .first()
+                .is_none_or(|f| f.time > t + EPS)
+            {
                 return Err(PrepareIssue::NoAlertFrames(ev.id.clone()));
             }
-            Ok(Sequence {
-                event_id: ev.id.clone(),
-                kind: ev.kind,
-                frames,
-                endpoint: Some(t),
-            })
+            Ok((range, Some(t)))
         }
         None => {
             let (a, b) = longest_calm_run(&ev.frames, cfg);
@@ -139,12 +166,7 @@ pub fn prepare_event(ev: &Event, cfg: &PrepareConfig) -> Result<Sequence, Prepar
                     min: cfg.safe_min_duration,
                 });
             }
-            Ok(Sequence {
-                event_id: ev.id.clone(),
-                kind: ev.kind,
-                frames: ev.frames[a..b].to_vec(),
-                endpoint: None,
-            })
+            Ok((a..b, None))
         }
     }
 }

@@ -29,9 +29,26 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
     let text = buffer.format_finite(v.abs()).as_bytes();
     // Positional output ending in an odd digit is already what Display writes (no tie to break,
     // no trailing `.0`, no exponent): the common case.
-    if matches!(text.last(), Some(b'1' | b'3' | b'5' | b'7' | b'9')) && !text.contains(&b'e') {
-        out.extend_from_slice(text);
-        return;
+    if !text.contains(&b'e') {
+        match text.last() {
+            Some(b'1' | b'3' | b'5' | b'7' | b'9') => {
+                out.extend_from_slice(text);
+                return;
+            }
+            // An even last digit is Display's too unless the value is an exact tie, which needs
+            // the powers of two to line up: almost never, and cheap to rule out.
+            Some(b'2' | b'4' | b'6' | b'8') => {
+                let decimals = text
+                    .iter()
+                    .position(|&b| b == b'.')
+                    .map_or(0, |p| text.len() - p - 1);
+                if !twos_allow_tie(v.abs(), -(decimals as i32)) {
+                    out.extend_from_slice(text);
+                    return;
+                }
+            }
+            _ => {}
+        }
     }
     // zmij writes positional (`d.ddd`, `0.000ddd`, `ddd`) or scientific (`d.ddde[+-]xx`)
     // notation: collect the significant digits and where the decimal point falls.
@@ -95,14 +112,7 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
 /// with as many digits, i.e. `2 v = (2 digits + 1) x 10^k`. Both sides are reduced to
 /// `core x 2^a x 5^b` with `core` coprime to 10 and compared exactly.
 fn is_exact_tie(v: f32, digits: &[u8], k: i32) -> bool {
-    let bits = v.to_bits();
-    let (mantissa, exp2) = match (bits >> 23) & 0xff {
-        0 => (bits & 0x7f_ffff, -149),
-        e => ((bits & 0x7f_ffff) | 0x80_0000, e as i32 - 150),
-    };
-    // v = mantissa x 2^exp2, made odd.
-    let twos = mantissa.trailing_zeros();
-    let (mut core_v, exp2_v) = (u64::from(mantissa >> twos), exp2 + twos as i32);
+    let (mut core_v, exp2_v) = odd_mantissa(v);
     // Midpoint = (2d + 1) x 2^(k-1) x 5^k, and 2d + 1 is odd: the powers of two must agree.
     if exp2_v != k - 1 {
         return false;
@@ -123,6 +133,23 @@ fn is_exact_tie(v: f32, digits: &[u8], k: i32) -> bool {
         fives_mid += 1;
     }
     core_v == core_mid && fives_v == fives_mid
+}
+
+/// `v` (finite, > 0) as `odd x 2^exp`.
+fn odd_mantissa(v: f32) -> (u64, i32) {
+    let bits = v.to_bits();
+    let (mantissa, exp2) = match (bits >> 23) & 0xff {
+        0 => (bits & 0x7f_ffff, -149),
+        e => ((bits & 0x7f_ffff) | 0x80_0000, e as i32 - 150),
+    };
+    let twos = mantissa.trailing_zeros();
+    (u64::from(mantissa >> twos), exp2 + twos as i32)
+}
+
+/// False when `v` cannot be an exact tie between two decimals whose last digit is at `10^k`
+/// (the first, 2-adic test of [`is_exact_tie`]).
+fn twos_allow_tie(v: f32, k: i32) -> bool {
+    odd_mantissa(v).1 == k - 1
 }
 
 /// Powers of ten that are exact in f64.
