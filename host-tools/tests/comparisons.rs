@@ -311,26 +311,34 @@ fn build_statistics_report_rates() {
     }
 }
 
-/// Cross-sequence pairs with `closest_fraction = 1` always use the safe sequence's closest approach
-/// (smallest box gap per scorer-core); with 0, uniform frames (and the closest one only by chance).
-#[test]
-fn cross_sequence_safe_frames_at_closest_approach() {
+/// The test data set with every safe sequence closing in and opening again, so that its closest
+/// approach is one inner frame.
+fn safe_sequences_closing_in_and_opening() -> Vec<TrainingSequence> {
     let mut seqs = dataset();
-    // Make each safe sequence close in and open again, so its closest approach is one inner frame.
     for s in seqs.iter_mut().filter(|s| !s.is_conflict()) {
         let n = s.times.len();
         for (k, p) in s.partner.iter_mut().enumerate() {
             p.x -= 20.0 * (1.0 - (k as f32 - n as f32 / 2.0).abs() / (n as f32 / 2.0));
         }
     }
-    let closest = |s: &TrainingSequence| {
-        (0..s.len())
-            .min_by(|&a, &b| {
-                scorer_core::box_distance(&s.ego[a], &s.partner[a])
-                    .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
-            })
-            .unwrap()
-    };
+    seqs
+}
+
+/// Index of the frame with the smallest box gap (per scorer-core).
+fn closest_frame(s: &TrainingSequence) -> usize {
+    (0..s.len())
+        .min_by(|&a, &b| {
+            scorer_core::box_distance(&s.ego[a], &s.partner[a])
+                .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
+        })
+        .unwrap()
+}
+
+/// Cross-sequence pairs with `closest_fraction = 1` always use the safe sequence's closest approach
+/// (smallest box gap per scorer-core); with 0, uniform frames (and the closest one only by chance).
+#[test]
+fn cross_sequence_safe_frames_at_closest_approach() {
+    let seqs = safe_sequences_closing_in_and_opening();
     let at_closest = |fraction: f64| {
         let mut c = small_config();
         c.cross_sequence.closest_fraction = fraction;
@@ -347,7 +355,7 @@ fn cross_sequence_safe_frames_at_closest_approach() {
             .filter(|p| {
                 let (_, s, f) = frame_of(&set, p.loser);
                 assert!(!seqs[s].is_conflict());
-                f == closest(&seqs[s])
+                f == closest_frame(&seqs[s])
             })
             .count();
         hits as f64 / cross.len() as f64
@@ -360,21 +368,7 @@ fn cross_sequence_safe_frames_at_closest_approach() {
 /// that end at the closest approach: never after it, never earlier, and spread over the stretch.
 #[test]
 fn cross_sequence_safe_frames_from_the_approach_window() {
-    let mut seqs = dataset();
-    for s in seqs.iter_mut().filter(|s| !s.is_conflict()) {
-        let n = s.times.len();
-        for (k, p) in s.partner.iter_mut().enumerate() {
-            p.x -= 20.0 * (1.0 - (k as f32 - n as f32 / 2.0).abs() / (n as f32 / 2.0));
-        }
-    }
-    let closest = |s: &TrainingSequence| {
-        (0..s.len())
-            .min_by(|&a, &b| {
-                scorer_core::box_distance(&s.ego[a], &s.partner[a])
-                    .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
-            })
-            .unwrap()
-    };
+    let seqs = safe_sequences_closing_in_and_opening();
     let window = 0.5;
     let mut c = small_config();
     c.cross_sequence.closest_fraction = 1.0;
@@ -388,7 +382,7 @@ fn cross_sequence_safe_frames_from_the_approach_window() {
     {
         let (_, s, f) = frame_of(&set, p.loser);
         let seq = &seqs[s];
-        let k = closest(seq);
+        let k = closest_frame(seq);
         assert!(f <= k, "safe frame {f} after the closest approach {k}");
         assert!(
             seq.times[k] - seq.times[f] <= window + 1e-9,
