@@ -171,8 +171,6 @@ pub enum ReleaseReason {
     Stale,
     /// The sensor flagged the object invalid.
     Invalid,
-    /// The table was full and the track was evicted.
-    Evicted,
     /// The sensor reported a new object in the track's slot.
     NewObject,
 }
@@ -183,7 +181,6 @@ impl ReleaseReason {
             Self::Score => "score",
             Self::Stale => "stale",
             Self::Invalid => "invalid",
-            Self::Evicted => "evicted",
             Self::NewObject => "new_object",
         }
     }
@@ -857,9 +854,9 @@ impl<'m> Engine<'m> {
                 return;
             }
         };
-        if let Some(evicted) = status.evicted {
+        // The core evicts only tracks that are not warning, so an eviction releases nothing.
+        if status.evicted.is_some() {
             self.stats.tracks_dropped += 1;
-            let _ = evicted;
         }
         self.next_expiry_us = self
             .next_expiry_us

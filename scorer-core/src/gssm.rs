@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::features::{Features, FEATURE_COUNT};
 use crate::mlp::FloatMlp;
-use crate::model::ModelError;
+use crate::model_error::ModelError;
 
 /// Index of the spacing feature `s` in [`Features`].
 pub const S_INDEX: usize = FEATURE_COUNT - 1;
@@ -158,8 +158,8 @@ impl GssmModel<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bounded::BoundedVec;
     use crate::mlp::{FloatLayer, FloatMlp};
-    use crate::model::BoundedVec;
 
     fn close(a: f32, b: f64, tol: f64) -> bool {
         (f64::from(a) - b).abs() <= tol

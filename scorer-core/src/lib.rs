@@ -29,6 +29,7 @@
     )
 )]
 
+pub mod bounded;
 pub mod crc;
 pub mod encoding;
 pub mod features;
@@ -36,6 +37,7 @@ pub mod geometry;
 pub mod gssm;
 pub mod mlp;
 pub mod model;
+pub mod model_error;
 pub mod msra;
 pub mod observation;
 pub mod quant;

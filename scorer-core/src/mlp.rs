@@ -24,8 +24,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::bounded::BoundedVec;
 use crate::features::{Features, FEATURE_COUNT};
-use crate::model::{BoundedVec, ModelError};
+use crate::model_error::ModelError;
 use crate::quant;
 
 /// Maximum number of dense layers.

@@ -18,10 +18,11 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::bounded::BoundedVec;
 use crate::features::Features;
 use crate::gssm::GssmModel;
 use crate::mlp::MAX_ABS_PARAM;
-use crate::model::{BoundedVec, ModelError};
+use crate::model_error::ModelError;
 use crate::surrogates::{SurrogateKind, Surrogates};
 
 /// Maximum number of MSRA terms.

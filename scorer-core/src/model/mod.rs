@@ -20,11 +20,8 @@
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
 
-mod bounded;
-mod error;
-
-pub use bounded::BoundedVec;
-pub use error::ModelError;
+pub use crate::bounded::BoundedVec;
+pub use crate::model_error::ModelError;
 
 use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
 use crate::features::features;

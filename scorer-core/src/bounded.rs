@@ -3,7 +3,7 @@
 //! `heapless::Vec`'s own `Deserialize` turns "too many elements" into a generic serde error, which
 //! postcard cannot tell apart from any other malformed input. [`BoundedVec`] keeps the first `N`
 //! elements, counts the rest, and lets model validation report
-//! [`ModelError::CapacityExceeded`](crate::model::ModelError::CapacityExceeded) with the real length.
+//! [`ModelError::CapacityExceeded`](crate::model_error::ModelError::CapacityExceeded) with the real length.
 //! On the wire it is an ordinary postcard sequence (varint length, then the elements).
 
 use core::fmt;
@@ -58,9 +58,12 @@ impl<T, const N: usize> BoundedVec<T, N> {
     }
 
     /// `Err(CapacityExceeded)` naming `field` when decoding saw more than `N` elements.
-    pub fn check_capacity(&self, field: &'static str) -> Result<(), super::ModelError> {
+    pub fn check_capacity(
+        &self,
+        field: &'static str,
+    ) -> Result<(), crate::model_error::ModelError> {
         if self.overflowed() {
-            Err(super::ModelError::CapacityExceeded {
+            Err(crate::model_error::ModelError::CapacityExceeded {
                 field,
                 len: self.declared_len(),
                 max: N,
@@ -73,11 +76,11 @@ impl<T, const N: usize> BoundedVec<T, N> {
 
 impl<T: Clone, const N: usize> BoundedVec<T, N> {
     /// Copies `items`; `Err(CapacityExceeded)` if there are more than `N`.
-    pub fn from_slice(items: &[T]) -> Result<Self, super::ModelError> {
+    pub fn from_slice(items: &[T]) -> Result<Self, crate::model_error::ModelError> {
         let mut v = Self::new();
         for item in items {
             if v.items.push(item.clone()).is_err() {
-                return Err(super::ModelError::CapacityExceeded {
+                return Err(crate::model_error::ModelError::CapacityExceeded {
                     field: "list",
                     len: items.len(),
                     max: N,
