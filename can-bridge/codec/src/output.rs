@@ -103,8 +103,9 @@ pub struct AtomicFile {
     done: bool,
 }
 
-/// True when `path` exists and is neither a regular file nor a directory.
-fn is_special_file(path: &Path) -> bool {
+/// True when `path` exists and is neither a regular file nor a directory (a device, FIFO or
+/// socket: written directly, never renamed over).
+pub fn is_special_file(path: &Path) -> bool {
     std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 

@@ -1,6 +1,7 @@
 //! Where a subcommand's table goes: a file (written to `<FILE>.partial`, renamed when complete,
 //! removed on error), a device or pipe (written directly), or standard output for `-`.
 use anyhow::Context;
+use can_codec::output::is_special_file;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -59,11 +60,6 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
             .downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
-}
-
-/// True when `path` exists and is not a regular file (a device, FIFO or socket).
-fn is_special_file(path: &Path) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 /// `<output>.partial` next to the output file.

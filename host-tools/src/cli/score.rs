@@ -7,10 +7,10 @@ use anyhow::{bail, Context};
 use arrow_array::builder::{Float32Builder, Float64Builder, StringBuilder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, Schema};
-use host_tools::eval::{observe, Method};
+use host_tools::eval::{observe_frames, Method};
 use host_tools::events::{
-    load_events, prepare_owned_event, stream_events, Event, EventSet, EventsError, LoadIssue,
-    PrepareConfig, PrepareIssue, Sequence,
+    load_events, prepare_owned_event, stream_events, Event, EventSet, EventsError, Frame,
+    LoadIssue, PrepareConfig, PrepareIssue, Sequence,
 };
 use host_tools::parquet_io::{is_parquet, BatchSink, BATCH_ROWS};
 
@@ -142,34 +142,32 @@ impl<'a, 'm, W: std::io::Write + Send> TableWriter<'a, 'm, W> {
     }
 
     /// Scores one sequence's frames into the table (a full batch goes to the sink).
-    fn add(&mut self, sequence: &Sequence) -> anyhow::Result<()> {
+    fn add(&mut self, sequence: &Sequence, frames: &[Frame]) -> anyhow::Result<()> {
         // Features and surrogates through the evaluation's own path.
-        for observed in observe(std::slice::from_ref(sequence)) {
-            for frame in &observed.frames {
-                let columns = &mut self.columns;
-                columns.event_id.append_value(&observed.event_id);
-                columns.time.append_value(frame.time);
-                columns.class.append_value(sequence.kind.as_str());
-                for (builder, method) in columns.scores.iter_mut().zip(self.methods) {
-                    builder.append_value(method.scorer.score(&frame.observation));
-                }
-                let s = &frame.observation.surrogates;
-                for (builder, v) in columns.surrogates.iter_mut().zip([s.ttc2d, s.tadv, s.ei]) {
-                    builder.append_value(v);
-                }
-                columns.rows += 1;
-                self.rows += 1;
-                if columns.rows == BATCH_ROWS {
-                    self.sink.write(&columns.finish(&self.schema)?)?;
-                }
+        for frame in observe_frames(frames) {
+            let columns = &mut self.columns;
+            columns.event_id.append_value(&sequence.event_id);
+            columns.time.append_value(frame.time);
+            columns.class.append_value(sequence.kind.as_str());
+            for (builder, method) in columns.scores.iter_mut().zip(self.methods) {
+                builder.append_value(method.scorer.score(&frame.observation));
+            }
+            let s = &frame.observation.surrogates;
+            for (builder, v) in columns.surrogates.iter_mut().zip([s.ttc2d, s.tadv, s.ei]) {
+                builder.append_value(v);
+            }
+            columns.rows += 1;
+            self.rows += 1;
+            if columns.rows == BATCH_ROWS {
+                self.sink.write(&columns.finish(&self.schema)?)?;
             }
         }
         Ok(())
     }
 
     /// Scores what `--sequences` asks for of one event: its evaluation sequence, or every frame.
-    /// Frames go through in slices of one batch, so the copies this command makes stay one batch
-    /// long however long the event is. `Err(issue)`: the event yields no sequence.
+    /// Frames are observed a batch at a time, so the observations held stay one batch long
+    /// however long the event is. `Err(issue)`: the event yields no sequence.
     fn add_event(
         &mut self,
         event: Event,
@@ -189,11 +187,7 @@ impl<'a, 'm, W: std::io::Write + Send> TableWriter<'a, 'm, W> {
             }
         };
         for frames in sequence.frames.chunks(BATCH_ROWS) {
-            self.add(&Sequence {
-                event_id: sequence.event_id.clone(),
-                frames: frames.to_vec(),
-                ..sequence
-            })?;
+            self.add(&sequence, frames)?;
         }
         Ok(Ok(()))
     }

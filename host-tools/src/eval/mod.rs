@@ -28,6 +28,6 @@ pub use report::{
     Stat,
 };
 pub use scoring::{
-    evaluate_methods, evaluate_scored, observe, report_from_profiles, Method, MethodRun,
-    ObservedFrame, ObservedSequence, Scorer,
+    evaluate_methods, evaluate_scored, observe, observe_frames, report_from_profiles, Method,
+    MethodRun, ObservedFrame, ObservedSequence, Scorer,
 };

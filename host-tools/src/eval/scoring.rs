@@ -14,7 +14,7 @@ use super::protocol::{
     SequenceClass,
 };
 use super::report::{EvaluationReport, EventCounts, MethodResult};
-use crate::events::{EventKind, Sequence};
+use crate::events::{EventKind, Frame, Sequence};
 
 impl From<EventKind> for SequenceClass {
     fn from(kind: EventKind) -> Self {
@@ -69,14 +69,19 @@ pub fn observe(sequences: &[Sequence]) -> Vec<ObservedSequence> {
             event_id: s.event_id.clone(),
             class: s.kind.into(),
             endpoint: s.endpoint,
-            frames: s
-                .frames
-                .iter()
-                .map(|f| ObservedFrame {
-                    time: f.time,
-                    observation: Observation::of(&f.ego, &f.sur),
-                })
-                .collect(),
+            frames: observe_frames(&s.frames),
+        })
+        .collect()
+}
+
+/// The observation of each frame (features, surrogates, DRL inputs: scorer-core's
+/// [`Observation::of`]), in order.
+pub fn observe_frames(frames: &[Frame]) -> Vec<ObservedFrame> {
+    frames
+        .iter()
+        .map(|f| ObservedFrame {
+            time: f.time,
+            observation: Observation::of(&f.ego, &f.sur),
         })
         .collect()
 }
@@ -219,36 +224,36 @@ pub fn evaluate_scored(
             curve,
         });
     }
-    let report = EvaluationReport {
+    let report = report_of(events, runs.iter().map(|r| (&r.name, &r.curve)));
+    Ok((report, runs))
+}
+
+/// The report of named warning curves: each method's metrics, read off its curve.
+pub(crate) fn report_of<'c>(
+    events: EventCounts,
+    curves: impl Iterator<Item = (&'c String, &'c WarningCurve)>,
+) -> EvaluationReport {
+    EvaluationReport {
         events,
-        methods: runs
-            .iter()
-            .map(|r| MethodResult {
-                name: r.name.clone(),
-                metrics: r.curve.metrics(),
+        methods: curves
+            .map(|(name, curve)| MethodResult {
+                name: name.clone(),
+                metrics: curve.metrics(),
             })
             .collect(),
-    };
-    Ok((report, runs))
+    }
 }
 
 /// The report from per-sequence alert data built elsewhere, e.g. the CAN bridge streaming its own
 /// per-frame scores through [`AlertProfileBuilder`](super::protocol::AlertProfileBuilder). Same
 /// numbers as [`evaluate_scored`] on the frames the profiles were built from.
 pub fn report_from_profiles(methods: &[(String, Vec<AlertProfile>)]) -> EvaluationReport {
-    EvaluationReport {
-        events: methods
-            .first()
-            .map(|(_, p)| EventCounts::from_classes(p.iter().map(|p| p.class)))
-            .unwrap_or_default(),
-        methods: methods
-            .iter()
-            .map(|(name, profiles)| MethodResult {
-                name: name.clone(),
-                metrics: warning_curve(profiles).metrics(),
-            })
-            .collect(),
-    }
+    let events = methods
+        .first()
+        .map(|(_, p)| EventCounts::from_classes(p.iter().map(|p| p.class)))
+        .unwrap_or_default();
+    let curves: Vec<WarningCurve> = methods.iter().map(|(_, p)| warning_curve(p)).collect();
+    report_of(events, methods.iter().map(|(name, _)| name).zip(&curves))
 }
 
 #[cfg(test)]

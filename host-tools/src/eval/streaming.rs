@@ -15,12 +15,12 @@
 use std::path::Path;
 
 use super::protocol::{AlertProfile, AlertProfileBuilder, ProtocolError, SequenceClass};
-use super::report::{EvaluationReport, EventCounts, MethodResult};
-use super::scoring::{observe, Method};
+use super::report::{EvaluationReport, EventCounts};
+use super::scoring::{observe_frames, report_of, Method};
 use super::{metrics::warning_curve, WarningCurve};
 use crate::events::{
     load_events, prepare_owned_event, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
-    PrepareIssue, Sequence,
+    PrepareIssue,
 };
 
 /// Frames observed at once (features and surrogates of every method's input).
@@ -75,16 +75,10 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             .map(|_| AlertProfileBuilder::new(&sequence.event_id, class, sequence.endpoint))
             .collect::<Result<Vec<_>, _>>()?;
         for frames in sequence.frames.chunks(OBSERVED_SLICE) {
-            let slice = Sequence {
-                event_id: String::new(),
-                frames: frames.to_vec(),
-                ..sequence
-            };
-            for observed in observe(std::slice::from_ref(&slice)) {
-                for (method, builder) in self.methods.iter().zip(&mut builders) {
-                    for frame in &observed.frames {
-                        builder.push(frame.time, method.scorer.score(&frame.observation))?;
-                    }
+            let observed = observe_frames(frames);
+            for (method, builder) in self.methods.iter().zip(&mut builders) {
+                for frame in &observed {
+                    builder.push(frame.time, method.scorer.score(&frame.observation))?;
                 }
             }
         }
@@ -125,19 +119,11 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             .zip(&profiles)
             .map(|(m, p)| (m.name.clone(), warning_curve(p)))
             .collect();
-        let report = EvaluationReport {
-            events: profiles
-                .first()
-                .map(|p| EventCounts::from_classes(p.iter().map(|p| p.class)))
-                .unwrap_or_default(),
-            methods: curves
-                .iter()
-                .map(|(name, curve)| MethodResult {
-                    name: name.clone(),
-                    metrics: curve.metrics(),
-                })
-                .collect(),
-        };
+        let events = profiles
+            .first()
+            .map(|p| EventCounts::from_classes(p.iter().map(|p| p.class)))
+            .unwrap_or_default();
+        let report = report_of(events, curves.iter().map(|(name, curve)| (name, curve)));
         FolderEvaluation {
             load_issues: Vec::new(),
             streamed: true,
