@@ -19,7 +19,7 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 
 /// The project's default map (for `can-bridge/dbc/riskscore.dbc`).
-pub const DEFAULT_MAP: &str = include_str!("../maps/riskscore.toml");
+pub const DEFAULT_MAP: &str = include_str!("../../maps/riskscore.toml");
 
 /// Default window over which a derived velocity is measured (`motion_window_ms`).
 pub const DEFAULT_MOTION_WINDOW_MS: u64 = 200;
