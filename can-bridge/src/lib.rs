@@ -10,12 +10,14 @@
 //! - [`losses`]: what a run lost, by log line, and the `--max-lost` verdict.
 //! - [`events_out`]: JSON Lines warning events and the status line.
 //! - [`check`]: bridge vs offline evaluation on an exported event folder.
+//! - [`commands`]: the subcommands' options and bodies (the binary parses and dispatches).
 //! - [`socket`], [`live`], [`replay`], [`monitor`]: SocketCAN (Linux).
 //!
 //! The CAN wire format (DBC signals, candump lines, E2E protection) lives in `can-codec`.
 #[cfg(feature = "check")]
 pub mod check;
 pub mod cli_values;
+pub mod commands;
 pub mod engine;
 pub mod events_out;
 pub mod live;

@@ -46,7 +46,7 @@ impl FrameLosses {
             ..
         } = output
         {
-            self.record(lost.source, lost.kind.as_str(), || reason.clone());
+            self.record(lost.source, lost.kind.as_str(), || reason.to_string());
         }
     }
 
@@ -133,7 +133,7 @@ pub fn account(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::{LossKind, Lost};
+    use crate::engine::{LossKind, Lost, Problem};
 
     #[test]
     fn losses_are_kept_per_kind_counted_and_judged_against_the_allowance() {
@@ -141,7 +141,7 @@ mod tests {
         for line in 1..=100 {
             frames.handle(&Output::Problem {
                 t_us: line,
-                reason: format!("bad {line}"),
+                reason: Problem::BadState { track: line as u32 },
                 lost: Some(Lost {
                     source: line,
                     kind: LossKind::Decode,
@@ -151,7 +151,7 @@ mod tests {
         // Not a loss: no `lost`.
         frames.handle(&Output::Problem {
             t_us: 0,
-            reason: "stale".into(),
+            reason: Problem::ValidFlagMissing { track: 0 },
             lost: None,
         });
         frames.record(7, LossKind::Late.as_str(), || "late".into());

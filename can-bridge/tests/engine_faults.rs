@@ -207,11 +207,11 @@ fn wrong_dlc_and_out_of_range_values_drop_only_that_frame() {
     assert_eq!(run.scored(1), 5, "the healthy track is scored every cycle");
     // Track 2 is still scored in cycles 1 and 2 from its previous (fresh) position and size.
     assert_eq!(run.scored(2), 5);
-    let problems: Vec<&String> = run
+    let problems: Vec<String> = run
         .outputs
         .iter()
         .filter_map(|o| match o {
-            Output::Problem { reason, .. } => Some(reason),
+            Output::Problem { reason, .. } => Some(reason.to_string()),
             _ => None,
         })
         .collect();

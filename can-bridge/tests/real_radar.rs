@@ -364,7 +364,7 @@ fn run_frames(map: CompiledMap, frames: impl Iterator<Item = (u64, Frame)>) -> R
                 run.warning_frames
                     .push((t_us, track, frame.data().to_vec()))
             }
-            Output::Problem { reason, .. } => run.problems.push(reason),
+            Output::Problem { reason, .. } => run.problems.push(reason.to_string()),
         });
     }
     engine.tick(last_t + 2_000_000, &mut |o| {

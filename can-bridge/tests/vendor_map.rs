@@ -174,7 +174,7 @@ fn vendor_dbc_is_decoded_through_the_map() {
     let problems: Vec<_> = out
         .iter()
         .filter_map(|o| match o {
-            Output::Problem { reason, .. } => Some(reason.clone()),
+            Output::Problem { reason, .. } => Some(reason.to_string()),
             _ => None,
         })
         .collect();

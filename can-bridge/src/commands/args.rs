@@ -1,0 +1,150 @@
+//! The command-line options of the bridge's subcommands (clap), shared by the binary and its
+//! tests; each is checked when parsed ([`crate::cli_values`]).
+use crate::{cli_values, replay};
+use clap::Args;
+use std::path::PathBuf;
+
+/// Model, decoding and warning options shared by every scoring command.
+#[derive(Args, Debug, Clone)]
+pub struct ScoringArgs {
+    /// Model blob (.rsk) written by `riskctl export-model`; refused at start if corrupt or
+    /// built for another feature schema.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// DBC file of the bus; repeat for several (e.g. the radar's, the chassis DBC for the ego
+    /// speed and `builtin:riskscore` for the warning message). An id defined in two files is an
+    /// error. Default: the project's riskscore.dbc (`builtin:riskscore`).
+    #[arg(long)]
+    pub dbc: Vec<PathBuf>,
+    /// Map file naming the DBC signals of each input (default: the project's map; see
+    /// docs/can-bridge.md, "Bring your own vehicle").
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Warn when the score is >= this (default: 2.0 for DRL = r*/2, half the score range for
+    /// MSRA/GSSM).
+    #[arg(long, value_parser = cli_values::finite_f32)]
+    pub threshold: Option<f32>,
+    /// Warning level 2 (urgent) when the score is >= this.
+    #[arg(long, value_parser = cli_values::finite_f32)]
+    pub urgent: Option<f32>,
+    /// Release a warning when the score falls below threshold - hysteresis (>= 0).
+    #[arg(long, default_value_t = 0.0, value_parser = cli_values::non_negative_f32)]
+    pub hysteresis: f32,
+    /// A warning stays on at least this long (ms, 0..=3600000).
+    #[arg(long, default_value_t = 500, value_parser = cli_values::ms)]
+    pub min_on_ms: u64,
+    /// Inputs older than this are stale (not scored); tracks not updated for this long are dropped
+    /// and their warnings released (ms, 1..=3600000).
+    #[arg(long, default_value_t = 500, value_parser = cli_values::positive_ms)]
+    pub stale_ms: u64,
+    /// Latch warnings for the life of a track (evaluation semantics) instead of releasing them.
+    #[arg(long)]
+    pub latch: bool,
+    /// Print at most this many per-frame problems (decode errors, stale data, ...) on stderr.
+    #[arg(long, default_value_t = 20)]
+    pub max_problems: u64,
+}
+
+#[derive(Args, Debug)]
+pub struct LiveArgs {
+    /// SocketCAN interface, e.g. can0 or vcan0.
+    #[arg(long)]
+    pub iface: String,
+    #[command(flatten)]
+    pub scoring: ScoringArgs,
+    /// Write JSON Lines warning events here instead of stdout.
+    #[arg(long)]
+    pub events_out: Option<PathBuf>,
+    /// Also write one JSON line per scored track update.
+    #[arg(long)]
+    pub all_scores: bool,
+    /// Seconds between status lines on stderr.
+    #[arg(long, default_value_t = 1.0, value_parser = cli_values::positive_seconds)]
+    pub status_every: f64,
+    /// No status lines.
+    #[arg(long)]
+    pub no_status: bool,
+    /// Stop after this many seconds.
+    #[arg(long, value_parser = cli_values::positive_seconds)]
+    pub duration: Option<f64>,
+    /// Stop after this many seconds without a received frame.
+    #[arg(long, value_parser = cli_values::positive_seconds)]
+    pub idle_exit: Option<f64>,
+}
+
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// candump -L log to send.
+    #[arg(long)]
+    pub log: PathBuf,
+    /// Interface to send on.
+    #[arg(long)]
+    pub iface: String,
+    /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
+    #[arg(long, default_value = "1.0")]
+    pub rate: replay::Rate,
+    #[command(flatten)]
+    pub loss: LossArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct MonitorArgs {
+    /// Interface to listen on.
+    #[arg(long)]
+    pub iface: String,
+    /// DBC file(s), as for the bridge (default: the project's).
+    #[arg(long)]
+    pub dbc: Vec<PathBuf>,
+    /// Map file naming the warning message and the trigger message (default: the project's).
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Write received warning frames as candump -L lines here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Stop after this many seconds.
+    #[arg(long, value_parser = cli_values::positive_seconds)]
+    pub duration: Option<f64>,
+    /// Stop after this many seconds without a frame.
+    #[arg(long, value_parser = cli_values::positive_seconds)]
+    pub idle_exit: Option<f64>,
+    /// Exit with code 3 when any warning frame failed its E2E check.
+    #[arg(long)]
+    pub strict: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct ScoreLogArgs {
+    /// candump -L log to score.
+    #[arg(long)]
+    pub log: PathBuf,
+    #[command(flatten)]
+    pub scoring: ScoringArgs,
+    /// Write JSON Lines warning events here instead of stdout.
+    #[arg(long)]
+    pub events_out: Option<PathBuf>,
+    /// Also write one JSON line per scored track update.
+    #[arg(long)]
+    pub all_scores: bool,
+    /// Write the RISK_WARNING frames the bridge would send, as a candump -L log.
+    #[arg(long)]
+    pub warnings_out: Option<PathBuf>,
+    /// Interface name for --warnings-out lines.
+    #[arg(long, default_value = "vcan0")]
+    pub warnings_iface: String,
+    /// Print decode throughput (frames/s) with the summary.
+    #[arg(long)]
+    pub bench: bool,
+    #[command(flatten)]
+    pub loss: LossArgs,
+}
+
+/// How much of a log may be lost before the run fails.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LossArgs {
+    /// Fail (exit 1) when more than this fraction of the log's lines is lost: lines that are not
+    /// frames, not UTF-8 or too long, frames dropped as late or off the timeline, frames of
+    /// mapped messages that do not decode (wrong length, signal out of range) and, for replay,
+    /// frames the interface refused. Every loss is reported by line either way; 0 fails on any.
+    #[arg(long, default_value_t = 0.01, value_parser = cli_values::fraction)]
+    pub max_lost: f64,
+}

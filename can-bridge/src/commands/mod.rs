@@ -1,0 +1,115 @@
+//! The bridge's subcommands over the library: each takes its parsed options, runs, and says how it
+//! failed; the binary only parses, dispatches and turns a [`Failure`] into its exit code.
+//!
+//! Files: `args` (the options), `setup` (DBCs, map, configuration, files), `bus` (`live`,
+//! `monitor`, `replay`: SocketCAN), `score_log` (offline scoring of a candump log).
+mod args;
+mod bus;
+mod score_log;
+mod setup;
+
+pub use args::{LiveArgs, LossArgs, MonitorArgs, ReplayArgs, ScoreLogArgs, ScoringArgs};
+pub use bus::{run_live, run_monitor, run_replay};
+pub use score_log::run_score_log;
+pub use setup::{
+    engine_config, load_dbcs, load_map, open_events, print_inputs, scoring_inputs, summary,
+    SetupError, BUILTIN_DBC,
+};
+
+use crate::engine::ConfigError;
+use crate::losses::TooMuchLost;
+use crate::model_file::ModelFileError;
+use crate::replay::ReplayError;
+use crate::socket::SocketError;
+use can_codec::output::SamePathError;
+
+/// How a command failed; the exit code follows from the kind ([`Failure::exit_code`]).
+#[derive(Debug, thiserror::Error)]
+pub enum Failure {
+    /// Bad input or configuration.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The CAN interface is missing or went away.
+    #[error(transparent)]
+    Interface(SocketError),
+    /// `monitor --strict`: a warning frame failed its E2E check.
+    #[error("warning frames failed their E2E check")]
+    Protection,
+}
+
+impl Failure {
+    /// 1 bad input or configuration, 2 CAN interface missing or gone, 3 a warning frame failed
+    /// its E2E check.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Input(_) => 1,
+            Self::Interface(_) => 2,
+            Self::Protection => 3,
+        }
+    }
+}
+
+/// Bad input or configuration: a file, an option, or too much of a log lost.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    #[error(transparent)]
+    Model(#[from] ModelFileError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    SamePath(#[from] SamePathError),
+    #[error("reading {path}")]
+    Read {
+        path: String,
+        #[source]
+        cause: std::io::Error,
+    },
+    #[error("writing {what}")]
+    Write {
+        what: &'static str,
+        #[source]
+        cause: std::io::Error,
+    },
+    #[error(transparent)]
+    Lost(#[from] TooMuchLost),
+    #[error(transparent)]
+    Replay(ReplayError),
+}
+
+/// `?` on a setup step of a command.
+impl From<SetupError> for Failure {
+    fn from(e: SetupError) -> Self {
+        Self::Input(e.into())
+    }
+}
+
+impl From<ModelFileError> for Failure {
+    fn from(e: ModelFileError) -> Self {
+        Self::Input(e.into())
+    }
+}
+
+impl From<ConfigError> for Failure {
+    fn from(e: ConfigError) -> Self {
+        Self::Input(e.into())
+    }
+}
+
+impl From<SamePathError> for Failure {
+    fn from(e: SamePathError) -> Self {
+        Self::Input(e.into())
+    }
+}
+
+impl From<TooMuchLost> for Failure {
+    fn from(e: TooMuchLost) -> Self {
+        Self::Input(e.into())
+    }
+}
+
+/// A write to `what` failed.
+fn writing(what: &'static str) -> impl FnOnce(std::io::Error) -> Failure {
+    move |cause| Failure::Input(InputError::Write { what, cause })
+}

@@ -1,0 +1,218 @@
+//! Pure state assembly: the ego's and a track's received inputs turned into the core's ego and
+//! partner [`VehicleState`] for one scoring cycle (no outputs, no counters, no warning state).
+//!
+//! Object kinematics (documented in docs/can-bridge.md): Cartesian or polar positions in the
+//! sensor frame, rotated and shifted by the sensor mounting into the ego frame; velocity components
+//! the sensor does not send are taken from the track's own motion (position change over the map's
+//! window) or are zero; relative velocities get the ego velocity added.
+use super::track::{update_motion, ObjectSlots, Stamped};
+use crate::map::{
+    CompiledMap, EgoField, MissingVelocity, ObjField, PositionKind, VelocityFrame, EGO_FIELDS,
+};
+use scorer_core::VehicleState;
+
+/// Speed (m/s) above which a partner's heading may be taken from its velocity.
+pub const HEADING_FROM_VELOCITY_MIN_SPEED: f32 = 0.5;
+
+/// Why a track update gives no state to score, in the order the checks run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Unscored {
+    /// A second trigger for the track at the same timestamp.
+    Duplicate,
+    /// The map has a valid flag, but it is missing or stale.
+    ValidFlagMissing,
+    /// The sensor flags the object invalid.
+    Invalid,
+    /// The ego speed is missing or stale.
+    EgoSpeedMissing,
+    /// A required object input is missing or stale.
+    InputMissing(ObjField),
+    /// The velocity derived from the track's motion is not known yet.
+    MotionPending,
+    /// The state is not finite or has a non-positive size.
+    BadState,
+}
+
+impl Unscored {
+    /// The ego speed was present: its check had passed when this stopped the update.
+    pub fn after_ego_speed(self) -> bool {
+        matches!(
+            self,
+            Self::InputMissing(_) | Self::MotionPending | Self::BadState
+        )
+    }
+}
+
+/// The ego and the partner of one scoring cycle.
+pub(super) struct States {
+    pub ego: VehicleState,
+    pub partner: VehicleState,
+}
+
+/// The states of `track` at its trigger at `t_us`, from inputs at most `stale_us` old.
+///
+/// Updates what the track carries from cycle to cycle: its motion window, and (once its position
+/// is known) its last heading and trigger time; clears its `waiting_reported` once every required
+/// input is there.
+pub(super) fn assemble(
+    map: &CompiledMap,
+    stale_us: u64,
+    ego_inputs: &[Option<Stamped>; EGO_FIELDS],
+    track: &mut ObjectSlots,
+    t_us: u64,
+) -> Result<States, Unscored> {
+    if track.last_trigger_us == Some(t_us) {
+        return Err(Unscored::Duplicate);
+    }
+    let has = map.has_obj_field;
+    let values = track.values;
+    let obj = |f: ObjField| values[f as usize];
+    let value = |f: ObjField| Stamped::fresh(obj(f), t_us, stale_us);
+    if has[ObjField::Valid as usize] {
+        match value(ObjField::Valid) {
+            Some(v) if v != 0.0 => {}
+            None => return Err(Unscored::ValidFlagMissing),
+            Some(_) => return Err(Unscored::Invalid),
+        }
+    }
+    let ego_value = |f: EgoField| Stamped::fresh(ego_inputs[f as usize], t_us, stale_us);
+    let Some(ego_vx) = ego_value(EgoField::VelLong) else {
+        return Err(Unscored::EgoSpeedMissing);
+    };
+    let (pos_fields, vel_field) = match map.position {
+        PositionKind::Cartesian => ([ObjField::PosX, ObjField::PosY], ObjField::VelX),
+        PositionKind::Polar => ([ObjField::Range, ObjField::Azimuth], ObjField::RangeRate),
+    };
+    let required = pos_fields
+        .into_iter()
+        .chain([vel_field, ObjField::VelX, ObjField::VelY])
+        .filter(|f| has[*f as usize]);
+    for f in required {
+        if value(f).is_none() {
+            return Err(Unscored::InputMissing(f));
+        }
+    }
+    track.waiting_reported = false;
+    let (position, line_of_sight) = position(map, value);
+    let derive = map.missing_velocity == Some(MissingVelocity::TrackMotion);
+    let derived = if derive {
+        update_motion(
+            &mut track.motion,
+            t_us,
+            position,
+            map.motion_window_us,
+            stale_us,
+        )
+    } else {
+        None
+    };
+    let complete = has[ObjField::VelX as usize] && has[ObjField::VelY as usize];
+    if derive && !complete && derived.is_none() {
+        return Err(Unscored::MotionPending);
+    }
+    let (vx, vy) = velocity(map, complete, line_of_sight, derived, value);
+    let ego_vy = ego_value(EgoField::VelLat).unwrap_or(0.0);
+    let ego_acc = ego_value(EgoField::Accel).unwrap_or(0.0);
+    let ego_len =
+        ego_inputs[EgoField::Length as usize].map_or(map.ego_defaults.0, |s| s.value as f32);
+    let ego_wid =
+        ego_inputs[EgoField::Width as usize].map_or(map.ego_defaults.1, |s| s.value as f32);
+    let ego = VehicleState {
+        x: 0.0,
+        y: 0.0,
+        vx: ego_vx as f32,
+        vy: ego_vy as f32,
+        hx: 1.0,
+        hy: 0.0,
+        acc: ego_acc as f32,
+        length: ego_len,
+        width: ego_wid,
+    };
+    let (abs_vx, abs_vy) = match map.velocity {
+        VelocityFrame::Relative => ((vx + ego_vx) as f32, (vy + ego_vy) as f32),
+        VelocityFrame::Absolute => (vx as f32, vy as f32),
+    };
+    let heading_valid = !has[ObjField::HeadingValid as usize]
+        || value(ObjField::HeadingValid).is_some_and(|v| v != 0.0);
+    let heading = match value(ObjField::Heading) {
+        Some(h) if heading_valid => Some((libm::cos(h) as f32, libm::sin(h) as f32)),
+        _ => {
+            let speed = libm::hypotf(abs_vx, abs_vy);
+            (speed >= HEADING_FROM_VELOCITY_MIN_SPEED).then(|| (abs_vx / speed, abs_vy / speed))
+        }
+    };
+    let (hx, hy) = heading.or(track.last_heading).unwrap_or((1.0, 0.0));
+    let partner = VehicleState {
+        x: position.0 as f32,
+        y: position.1 as f32,
+        vx: abs_vx,
+        vy: abs_vy,
+        hx,
+        hy,
+        acc: value(ObjField::Accel).unwrap_or(0.0) as f32,
+        length: obj(ObjField::Length).map_or(map.object_defaults.0, |s| s.value as f32),
+        width: obj(ObjField::Width).map_or(map.object_defaults.1, |s| s.value as f32),
+    };
+    track.last_trigger_us = Some(t_us);
+    track.last_heading = Some((hx, hy));
+    let sizes_positive =
+        ego.length > 0.0 && ego.width > 0.0 && partner.length > 0.0 && partner.width > 0.0;
+    if !(ego.is_finite() && partner.is_finite() && sizes_positive) {
+        return Err(Unscored::BadState);
+    }
+    Ok(States { ego, partner })
+}
+
+/// The object's position in the ego frame, and its line of sight from the sensor (polar maps:
+/// `(cos, sin)` of the azimuth) in the sensor frame.
+fn position(
+    map: &CompiledMap,
+    value: impl Fn(ObjField) -> Option<f64>,
+) -> ((f64, f64), Option<(f64, f64)>) {
+    let (p_sensor, line_of_sight) = match map.position {
+        PositionKind::Cartesian => (
+            (
+                value(ObjField::PosX).unwrap_or(0.0),
+                value(ObjField::PosY).unwrap_or(0.0),
+            ),
+            None,
+        ),
+        PositionKind::Polar => {
+            let r = value(ObjField::Range).unwrap_or(0.0);
+            let az = value(ObjField::Azimuth).unwrap_or(0.0);
+            let (c, s) = (libm::cos(az), libm::sin(az));
+            ((r * c, r * s), Some((c, s)))
+        }
+    };
+    (map.mount.place(p_sensor), line_of_sight)
+}
+
+/// The object's velocity in the ego frame, as the map's velocity frame has it: as sent when the
+/// map has both components, else completed from the range rate and/or the track's own motion
+/// (`derived`, ego frame), else zero.
+fn velocity(
+    map: &CompiledMap,
+    complete: bool,
+    line_of_sight: Option<(f64, f64)>,
+    derived: Option<(f64, f64)>,
+    value: impl Fn(ObjField) -> Option<f64>,
+) -> (f64, f64) {
+    let mount = map.mount;
+    let d = mount.unrotate(derived.unwrap_or((0.0, 0.0)));
+    let v_sensor = match (line_of_sight, value(ObjField::RangeRate)) {
+        _ if complete => (
+            value(ObjField::VelX).unwrap_or(0.0),
+            value(ObjField::VelY).unwrap_or(0.0),
+        ),
+        (Some((c, s)), Some(rr)) => {
+            // Radial from the sensor, tangential from the track's motion (or zero).
+            let tangential = -d.0 * s + d.1 * c;
+            (rr * c - tangential * s, rr * s + tangential * c)
+        }
+        _ => (
+            value(ObjField::VelX).unwrap_or(d.0),
+            value(ObjField::VelY).unwrap_or(d.1),
+        ),
+    };
+    mount.rotate(v_sensor)
+}

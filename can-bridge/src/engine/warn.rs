@@ -1,0 +1,133 @@
+//! The warning step: an assembled track state scored by the model, its warning state updated in
+//! the core's track table, and the transitions and protected warning frame that follow.
+use super::assemble::States;
+use super::{
+    EncodeError, Engine, LossKind, Observation, Output, Problem, ReleaseReason, MAX_TRACKS,
+};
+use can_codec::Frame;
+use scorer_core::warning::{WarningError, WarningEvent};
+
+impl Engine<'_> {
+    /// Scores `states` of `track` at `t_us` and runs the warning rule over the score.
+    pub(super) fn warn(
+        &mut self,
+        track: u32,
+        t_us: u64,
+        states: States,
+        out: &mut impl FnMut(Output),
+    ) {
+        let States { ego, partner } = states;
+        let score = self.model.score(&ego, &partner);
+        // Release warnings of tracks that went stale before this update.
+        self.expire(t_us, out);
+        let status = match self.table.update(track, t_us, score) {
+            Ok(s) => s,
+            Err(WarningError::TableFull { .. }) => {
+                self.stats.table_full += 1;
+                out(Output::Problem {
+                    lost: None,
+                    t_us,
+                    reason: Problem::TableFull {
+                        track,
+                        capacity: MAX_TRACKS,
+                    },
+                });
+                return;
+            }
+            Err(e) => {
+                self.stats.decode_errors += 1;
+                out(Output::Problem {
+                    lost: Some(self.lost(LossKind::Decode)),
+                    t_us,
+                    reason: Problem::Rejected(e),
+                });
+                return;
+            }
+        };
+        // The core evicts only tracks that are not warning, so an eviction releases nothing.
+        if status.evicted.is_some() {
+            self.stats.tracks_dropped += 1;
+        }
+        self.next_expiry_us = self
+            .next_expiry_us
+            .min(t_us.saturating_add(self.config.stale_us));
+        self.stats.scored += 1;
+        let level = if status.warning {
+            match self.config.urgent {
+                Some(u) if score >= u => 2,
+                _ => 1,
+            }
+        } else {
+            0
+        };
+        match status.event {
+            WarningEvent::Onset => out(Output::WarningOn {
+                t_us,
+                track,
+                score,
+                level,
+            }),
+            WarningEvent::Release => out(Output::WarningOff {
+                t_us,
+                track,
+                score,
+                reason: ReleaseReason::Score,
+            }),
+            WarningEvent::None => {}
+        }
+        out(Output::Scored(Observation {
+            t_us,
+            track,
+            ego,
+            partner,
+            score,
+            warning: status.warning,
+            level,
+        }));
+        if status.warning {
+            match self.warning_frame(track, score, level) {
+                Ok(frame) => {
+                    self.stats.warning_frames += 1;
+                    out(Output::WarningFrame { t_us, track, frame });
+                }
+                Err(cause) => out(Output::Problem {
+                    lost: None,
+                    t_us,
+                    reason: Problem::WarningFrame { track, cause },
+                }),
+            }
+        }
+    }
+
+    /// The map's warning message for `track`, E2E protected (advances the alive counter).
+    fn warning_frame(&mut self, track: u32, score: f32, level: u8) -> Result<Frame, EncodeError> {
+        let w = &self.map.warning;
+        let mut data = [0u8; can_codec::frame::MAX_DATA_LEN];
+        let payload = &mut data[..w.spec.size];
+        let put = |index: usize, value: f64, payload: &mut [u8]| -> Result<(), EncodeError> {
+            let s = &w.spec.signals[index];
+            let value = if s.has_range() {
+                value.clamp(s.min, s.max)
+            } else {
+                value
+            };
+            s.encode(value, payload)
+                .map_err(|cause| EncodeError::Signal {
+                    signal: s.name.clone(),
+                    cause,
+                })
+        };
+        put(w.track_id, f64::from(track), payload)?;
+        put(w.level, f64::from(level), payload)?;
+        put(w.score, f64::from(score), payload)?;
+        self.protector
+            .protect(payload)
+            .ok_or(EncodeError::TooShortForE2e)?;
+        let frame = if w.spec.size <= 8 {
+            Frame::data_frame(w.spec.id, payload)
+        } else {
+            Frame::fd_frame(w.spec.id, 0, payload)
+        };
+        frame.ok_or(EncodeError::FrameLength)
+    }
+}

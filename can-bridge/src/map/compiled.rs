@@ -1,0 +1,193 @@
+//! The map resolved against a DBC: scorer fields, field slots per input message, the warning
+//! message's signals and the sensor mounting, as the engine reads them on every frame.
+use super::file::{MissingVelocity, PositionKind, VelocityFrame};
+use can_codec::{CanId, MessageSpec};
+
+/// Ego inputs, in [`CompiledMap::ego_fields`] order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EgoField {
+    VelLong = 0,
+    VelLat,
+    Accel,
+    YawRate,
+    Length,
+    Width,
+}
+pub const EGO_FIELDS: usize = 6;
+pub(super) const EGO_NAMES: [&str; EGO_FIELDS] = [
+    "ego.vel_long",
+    "ego.vel_lat",
+    "ego.accel",
+    "ego.yaw_rate",
+    "ego.length",
+    "ego.width",
+];
+
+/// Object inputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjField {
+    PosX = 0,
+    PosY,
+    VelX,
+    VelY,
+    Accel,
+    Heading,
+    HeadingValid,
+    Valid,
+    Length,
+    Width,
+    Range,
+    Azimuth,
+    RangeRate,
+    NewTrack,
+}
+pub const OBJ_FIELDS: usize = 14;
+pub(super) const OBJ_NAMES: [&str; OBJ_FIELDS] = [
+    "object.pos_x",
+    "object.pos_y",
+    "object.vel_x",
+    "object.vel_y",
+    "object.accel",
+    "object.heading",
+    "object.heading_valid",
+    "object.valid",
+    "object.length",
+    "object.width",
+    "object.range",
+    "object.azimuth",
+    "object.range_rate",
+    "object.new_track",
+];
+
+impl EgoField {
+    pub fn name(self) -> &'static str {
+        EGO_NAMES[self as usize]
+    }
+}
+
+impl ObjField {
+    pub fn name(self) -> &'static str {
+        OBJ_NAMES[self as usize]
+    }
+}
+
+/// A flag's condition on the DBC value (before `factor`/`offset`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Condition {
+    /// Not a flag: the value is used as is.
+    Value,
+    NonZero,
+    OneOf(Vec<f64>),
+    Below(f64),
+    Above(f64),
+}
+
+/// A resolved field: signal `signal` of the message it belongs to, then `* factor + offset`
+/// (values) or the condition (flags: 1.0 true, 0.0 false).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldSlot<F> {
+    pub field: F,
+    pub signal: usize,
+    pub factor: f64,
+    pub offset: f64,
+    /// Enforce the DBC's `[min|max]`.
+    pub check_range: bool,
+    pub condition: Condition,
+}
+
+impl<F> FieldSlot<F> {
+    pub fn apply(&self, value: f64) -> f64 {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        match &self.condition {
+            Condition::Value if self.factor == 1.0 && self.offset == 0.0 => value,
+            Condition::Value => value * self.factor + self.offset,
+            Condition::NonZero => flag(value != 0.0),
+            Condition::OneOf(v) => flag(v.contains(&value)),
+            Condition::Below(b) => flag(value < *b),
+            Condition::Above(a) => flag(value > *a),
+        }
+    }
+}
+
+/// What a received message contributes.
+#[derive(Clone, Debug)]
+pub struct InputMessage {
+    pub spec: MessageSpec,
+    pub ego: Vec<FieldSlot<EgoField>>,
+    /// Object fields; a `valid` field comes first (an invalid slot's other signals are not read).
+    pub object: Vec<FieldSlot<ObjField>>,
+    /// Track-id signal.
+    pub track_id: Option<usize>,
+    /// Slot maps: the slot number (the track id when there is no id signal).
+    pub slot: Option<u32>,
+    pub is_trigger: bool,
+    /// Only frames whose multiplexor has this raw value trigger (multiplexed trigger messages).
+    pub trigger_mux: Option<u64>,
+}
+
+/// Signal indices of the output message.
+#[derive(Clone, Debug)]
+pub struct WarningSlots {
+    pub spec: MessageSpec,
+    pub track_id: usize,
+    pub score: usize,
+    pub level: usize,
+    pub counter_byte: usize,
+    pub crc_byte: usize,
+    pub data_id: u16,
+}
+
+/// The sensor mounting, ready to apply.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mount {
+    pub x: f64,
+    pub y: f64,
+    pub cos: f64,
+    pub sin: f64,
+}
+
+impl Mount {
+    /// Rotates a sensor-frame vector into the ego frame.
+    pub fn rotate(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        (self.cos * x - self.sin * y, self.sin * x + self.cos * y)
+    }
+
+    /// Rotates an ego-frame vector into the sensor frame.
+    pub fn unrotate(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        (self.cos * x + self.sin * y, -self.sin * x + self.cos * y)
+    }
+
+    /// A sensor-frame position in the ego frame.
+    pub fn place(&self, p: (f64, f64)) -> (f64, f64) {
+        let (x, y) = self.rotate(p);
+        (x + self.x, y + self.y)
+    }
+}
+
+/// The map resolved against a DBC.
+#[derive(Clone, Debug)]
+pub struct CompiledMap {
+    pub inputs: Vec<InputMessage>,
+    pub warning: WarningSlots,
+    pub velocity: VelocityFrame,
+    pub position: PositionKind,
+    pub missing_velocity: Option<MissingVelocity>,
+    pub motion_window_us: u64,
+    pub mount: Mount,
+    pub ego_defaults: (f32, f32),
+    pub object_defaults: (f32, f32),
+    pub has_obj_field: [bool; OBJ_FIELDS],
+    pub has_ego_field: [bool; EGO_FIELDS],
+    /// Where each mapped input comes from, for messages ("signal `S` of message `M` (0x123)").
+    pub ego_source: [String; EGO_FIELDS],
+    pub obj_source: [String; OBJ_FIELDS],
+    /// Slot maps: how many slot messages.
+    pub slots: usize,
+}
+
+impl CompiledMap {
+    /// Ids the bridge listens to (for kernel filters).
+    pub fn input_ids(&self) -> Vec<CanId> {
+        self.inputs.iter().map(|m| m.spec.id).collect()
+    }
+}

@@ -1,0 +1,123 @@
+//! The start-up report of a compiled map: where every scorer input comes from, or that it is
+//! derived or defaulted, one line each.
+use super::compiled::{CompiledMap, Mount, ObjField, EGO_NAMES};
+use super::file::{MissingVelocity, PositionKind, VelocityFrame};
+
+impl CompiledMap {
+    /// One line per scorer input: where it comes from, or that it is derived or defaulted.
+    /// Printed at start-up so a vehicle engineer sees what the bridge assumes.
+    pub fn input_report(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        let has = |f: ObjField| self.has_obj_field[f as usize];
+        let src = |f: ObjField| self.obj_source[f as usize].clone();
+        for (i, name) in EGO_NAMES.iter().enumerate() {
+            let line = if self.has_ego_field[i] {
+                format!("{name} <- {}", self.ego_source[i])
+            } else {
+                match i {
+                    1 => format!("{name}: DEFAULT 0 m/s (not mapped)"),
+                    2 => format!("{name}: DEFAULT 0 m/s^2 (not mapped)"),
+                    3 => format!("{name}: not mapped (not used by the scorer)"),
+                    4 => format!("{name}: DEFAULT {} m (not mapped)", self.ego_defaults.0),
+                    _ => format!("{name}: DEFAULT {} m (not mapped)", self.ego_defaults.1),
+                }
+            };
+            lines.push(line);
+        }
+        let m = self.mount;
+        if m != (Mount {
+            x: 0.0,
+            y: 0.0,
+            cos: 1.0,
+            sin: 0.0,
+        }) {
+            lines.push(format!(
+                "sensor mounted at x {} m, y {} m, yaw {:.3} deg from the ego reference point",
+                m.x,
+                m.y,
+                libm::atan2(m.sin, m.cos).to_degrees()
+            ));
+        }
+        if self.slots > 0 {
+            lines.push(format!(
+                "objects: {} slot messages, one track per slot",
+                self.slots
+            ));
+        }
+        match self.position {
+            PositionKind::Cartesian => {
+                lines.push(format!("object.pos_x <- {}", src(ObjField::PosX)));
+                lines.push(format!("object.pos_y <- {}", src(ObjField::PosY)));
+            }
+            PositionKind::Polar => {
+                lines.push(format!("object.range <- {}", src(ObjField::Range)));
+                lines.push(format!("object.azimuth <- {}", src(ObjField::Azimuth)));
+            }
+        }
+        let derived = match self.missing_velocity {
+            Some(MissingVelocity::TrackMotion) => format!(
+                "DERIVED from the track's motion over {} ms (a new track is scored once it has moved that long)",
+                self.motion_window_us / 1000
+            ),
+            _ => "DEFAULT 0 m/s".to_string(),
+        };
+        if has(ObjField::RangeRate) {
+            lines.push(format!(
+                "object radial velocity <- {}",
+                src(ObjField::RangeRate)
+            ));
+            if !(has(ObjField::VelX) && has(ObjField::VelY)) {
+                lines.push(format!("object tangential velocity: {derived}"));
+            }
+        }
+        for f in [ObjField::VelX, ObjField::VelY] {
+            if has(f) {
+                lines.push(format!("{} <- {}", f.name(), src(f)));
+            } else if !has(ObjField::RangeRate) {
+                lines.push(format!("{}: {derived}", f.name()));
+            }
+        }
+        lines.push(format!(
+            "object velocities are {}",
+            match self.velocity {
+                VelocityFrame::Relative => "relative to the ego (ego velocity added)",
+                VelocityFrame::Absolute => "over ground",
+            }
+        ));
+        lines.push(if has(ObjField::Heading) {
+            format!("object.heading <- {}", src(ObjField::Heading))
+        } else {
+            format!(
+                "object.heading: DERIVED from the partner's velocity over ground (when faster than {} m/s), else its last heading, else +x",
+                crate::engine::HEADING_FROM_VELOCITY_MIN_SPEED
+            )
+        });
+        lines.push(if has(ObjField::Accel) {
+            format!("object.accel <- {}", src(ObjField::Accel))
+        } else {
+            "object.accel: DEFAULT 0 m/s^2".to_string()
+        });
+        for (f, d) in [
+            (ObjField::Length, self.object_defaults.0),
+            (ObjField::Width, self.object_defaults.1),
+        ] {
+            lines.push(if has(f) {
+                format!("{} <- {} (default {d} m until received)", f.name(), src(f))
+            } else {
+                format!("{}: DEFAULT {d} m (a car box)", f.name())
+            });
+        }
+        lines.push(if has(ObjField::Valid) {
+            format!("object.valid <- {}", src(ObjField::Valid))
+        } else {
+            "object.valid: not mapped (every object is valid)".to_string()
+        });
+        if has(ObjField::NewTrack) {
+            lines.push(format!(
+                "object.new_track <- {} (a new object in a slot starts a fresh track)",
+                src(ObjField::NewTrack)
+            ));
+        }
+        lines
+    }
+}

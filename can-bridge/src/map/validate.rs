@@ -1,0 +1,129 @@
+//! Map rules across fields and signals: which kinematic inputs are required, that absent
+//! velocities have a rule, and that every signal feeds one field and flags are small integers.
+use super::compiled::{
+    Condition, EgoField, InputMessage, ObjField, EGO_NAMES, OBJ_FIELDS, OBJ_NAMES,
+};
+use super::file::{ObjectMap, PositionKind};
+use super::{field_error, MapError};
+
+/// Which kinematic inputs the map gives, and that absent velocities have a rule.
+pub(super) fn check_kinematics(o: &ObjectMap, has: &[bool; OBJ_FIELDS]) -> Result<(), MapError> {
+    let h = |f: ObjField| has[f as usize];
+    match o.position {
+        PositionKind::Cartesian => {
+            for f in [ObjField::PosX, ObjField::PosY] {
+                if !h(f) {
+                    return Err(field_error(f.name(), "required for Cartesian positions"));
+                }
+            }
+            for f in [ObjField::Range, ObjField::Azimuth, ObjField::RangeRate] {
+                if h(f) {
+                    return Err(field_error(
+                        f.name(),
+                        "only for polar positions (position = \"polar\")",
+                    ));
+                }
+            }
+        }
+        PositionKind::Polar => {
+            for f in [ObjField::Range, ObjField::Azimuth] {
+                if !h(f) {
+                    return Err(field_error(f.name(), "required for polar positions"));
+                }
+            }
+            for f in [ObjField::PosX, ObjField::PosY] {
+                if h(f) {
+                    return Err(field_error(
+                        f.name(),
+                        "not with polar positions (use range and azimuth)",
+                    ));
+                }
+            }
+        }
+    }
+    let complete = h(ObjField::VelX) && h(ObjField::VelY);
+    if !complete && o.missing_velocity.is_none() {
+        let missing = if h(ObjField::RangeRate) {
+            "the tangential velocity".to_string()
+        } else {
+            [ObjField::VelX, ObjField::VelY]
+                .iter()
+                .filter(|f| !h(**f))
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(" and ")
+        };
+        return Err(field_error(
+            "object.missing_velocity",
+            format!("{missing} is not on the bus: say how to fill it, `missing_velocity = \"track_motion\"` (derived from the track's positions) or `\"zero\"`"),
+        ));
+    }
+    Ok(())
+}
+
+/// Widest signal accepted for a flag field (`valid`, `heading_valid`: 0 = no, else yes); wider
+/// signals are measurements, not flags, and mapping one is a typo.
+pub const MAX_FLAG_BITS: u8 = 8;
+
+/// Refuses a signal that feeds two fields (or a field and the track id; a flag with an explicit
+/// condition is exempt), and a flag field read as
+/// "non-zero" from a float or from a signal wider than [`MAX_FLAG_BITS`] (a flag with an explicit
+/// condition, `one_of`/`below`/`above`, may read any signal).
+pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> {
+    let ego_name = |f: EgoField| EGO_NAMES[f as usize];
+    let obj_name = |f: ObjField| OBJ_NAMES[f as usize];
+    for msg in inputs {
+        let mut uses: Vec<(usize, String)> = Vec::new();
+        uses.extend(
+            msg.ego
+                .iter()
+                .map(|s| (s.signal, ego_name(s.field).to_string())),
+        );
+        // A flag with an explicit condition (`valid = { signal = "LONG_DIST", below = 255 }`) may
+        // read a signal that also feeds a value: radars mark empty slots with sentinel values.
+        uses.extend(
+            msg.object
+                .iter()
+                .filter(|s| matches!(s.condition, Condition::Value | Condition::NonZero))
+                .map(|s| (s.signal, obj_name(s.field).to_string())),
+        );
+        if let Some(t) = msg.track_id {
+            uses.push((t, format!("object.track_id.{}", msg.spec.name)));
+        }
+        for (i, (signal, field)) in uses.iter().enumerate() {
+            if let Some((_, first)) = uses[..i].iter().find(|(s, _)| s == signal) {
+                return Err(MapError::Field {
+                    field: field.clone(),
+                    reason: format!(
+                        "signal `{}.{}` already feeds `{first}`; one signal feeds one field",
+                        msg.spec.name, msg.spec.signals[*signal].name
+                    ),
+                });
+            }
+        }
+        for slot in &msg.object {
+            let is_flag = matches!(
+                slot.field,
+                ObjField::Valid | ObjField::HeadingValid | ObjField::NewTrack
+            );
+            if !is_flag || slot.condition != Condition::NonZero {
+                continue;
+            }
+            let s = &msg.spec.signals[slot.signal];
+            let integer = matches!(
+                s.kind,
+                can_codec::ValueKind::Unsigned | can_codec::ValueKind::Signed
+            );
+            if !integer || s.size > MAX_FLAG_BITS {
+                return Err(MapError::Field {
+                    field: obj_name(slot.field).into(),
+                    reason: format!(
+                        "a flag must be an integer signal of at most {MAX_FLAG_BITS} bits; `{}.{}` is a {}-bit {:?} signal",
+                        msg.spec.name, s.name, s.size, s.kind
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}

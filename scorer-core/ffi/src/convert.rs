@@ -1,0 +1,197 @@
+//! Conversions between the C types and the core's: vehicle states, the warning configuration,
+//! model kinds and errors, warning events, and results into status codes.
+use crate::types::{
+    RiskscoreLoadInfo, RiskscoreModelKind, RiskscoreStatus, RiskscoreVehicleState,
+    RiskscoreWarningConfig, RiskscoreWarningEvent,
+};
+use crate::{RISKSCORE_FIELD_NAME_LEN, RISKSCORE_NONE_U64};
+use core::ffi::c_char;
+use scorer_core::model::{ModelError, ModelKind};
+use scorer_core::warning::{FullPolicy, WarningConfig, WarningError, WarningEvent};
+use scorer_core::VehicleState;
+
+pub(crate) fn vehicle(s: &RiskscoreVehicleState) -> Result<VehicleState, RiskscoreStatus> {
+    let v = VehicleState {
+        x: s.x,
+        y: s.y,
+        vx: s.vx,
+        vy: s.vy,
+        hx: s.hx,
+        hy: s.hy,
+        acc: s.acc,
+        length: s.length,
+        width: s.width,
+    };
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(RiskscoreStatus::NonFiniteState)
+    }
+}
+
+pub(crate) fn flag(v: u8) -> Result<bool, RiskscoreStatus> {
+    match v {
+        0 => Ok(false),
+        1 => Ok(true),
+        _ => Err(RiskscoreStatus::InvalidConfig),
+    }
+}
+
+pub(crate) fn warning_config(c: &RiskscoreWarningConfig) -> Result<WarningConfig, RiskscoreStatus> {
+    let config = WarningConfig {
+        threshold: c.threshold,
+        latch: flag(c.latch)?,
+        hysteresis: c.hysteresis,
+        min_on_us: c.min_on_us,
+        stale_after_us: c.stale_after_us,
+        when_full: if flag(c.evict_when_full)? {
+            FullPolicy::EvictLeastRecent
+        } else {
+            FullPolicy::Reject
+        },
+    };
+    config
+        .validate()
+        .map_err(|_| RiskscoreStatus::InvalidConfig)?;
+    Ok(config)
+}
+
+pub(crate) fn kind_code(kind: ModelKind) -> RiskscoreModelKind {
+    match kind {
+        ModelKind::DrlInt8 => RiskscoreModelKind::DrlInt8,
+        ModelKind::DrlF32 => RiskscoreModelKind::DrlF32,
+        ModelKind::Msra => RiskscoreModelKind::Msra,
+        ModelKind::Gssm => RiskscoreModelKind::Gssm,
+    }
+}
+
+pub(crate) fn sat_u32(v: usize) -> u32 {
+    u32::try_from(v).unwrap_or(u32::MAX - 1)
+}
+
+/// Status code and load details for a model error.
+pub(crate) fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> RiskscoreStatus {
+    let mut field = |name: &str| {
+        let room = RISKSCORE_FIELD_NAME_LEN - 1;
+        for (dst, &b) in info.field.iter_mut().take(room).zip(name.as_bytes()) {
+            *dst = b as c_char;
+        }
+    };
+    match e {
+        ModelError::Truncated { needed, available } => {
+            info.expected = sat_u32(*needed);
+            info.found = sat_u32(*available);
+            RiskscoreStatus::ModelTruncated
+        }
+        ModelError::BadMagic(_) => RiskscoreStatus::ModelBadMagic,
+        ModelError::UnsupportedVersion(v) => {
+            info.found = u32::from(*v);
+            RiskscoreStatus::ModelUnsupportedVersion
+        }
+        ModelError::UnknownKind(k) => {
+            info.found = u32::from(*k);
+            RiskscoreStatus::ModelUnknownKind
+        }
+        ModelError::ReservedNotZero { offset } => {
+            info.index = sat_u32(*offset);
+            RiskscoreStatus::ModelReservedNotZero
+        }
+        ModelError::UnsupportedFeatureSchema(s) => {
+            info.found = u32::from(*s);
+            RiskscoreStatus::ModelUnsupportedFeatureSchema
+        }
+        ModelError::WrongInputSchema {
+            found, expected, ..
+        } => {
+            field("input_schema");
+            info.found = u32::from(*found);
+            info.expected = u32::from(*expected);
+            RiskscoreStatus::ModelUnsupportedFeatureSchema
+        }
+        ModelError::TrailingBytes { extra } => {
+            info.found = sat_u32(*extra);
+            RiskscoreStatus::ModelTrailingBytes
+        }
+        ModelError::CrcMismatch { stored, computed } => {
+            info.expected = *stored;
+            info.found = *computed;
+            RiskscoreStatus::ModelCrcMismatch
+        }
+        ModelError::Payload(_) => RiskscoreStatus::ModelMalformedPayload,
+        ModelError::CapacityExceeded { field: f, len, max } => {
+            field(f);
+            info.expected = sat_u32(*max);
+            info.found = sat_u32(*len);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::Empty { field: f } => {
+            field(f);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::DimensionMismatch {
+            field: f,
+            index,
+            expected,
+            found,
+        } => {
+            field(f);
+            info.index = sat_u32(*index);
+            info.expected = sat_u32(*expected);
+            info.found = sat_u32(*found);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::NonFinite { field: f, index }
+        | ModelError::NonPositiveScale { field: f, index } => {
+            field(f);
+            info.index = sat_u32(*index);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::BadFeatureIndex { index, feature } => {
+            field("inputs");
+            info.index = sat_u32(*index);
+            info.found = u32::from(*feature);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::BadMultiplier { layer, channel, .. } => {
+            field("layers.multipliers");
+            info.index = sat_u32(*layer);
+            info.found = sat_u32(*channel);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::BadClipRange { term } | ModelError::MissingGssm { term } => {
+            field("terms");
+            info.index = sat_u32(*term);
+            RiskscoreStatus::ModelInvalid
+        }
+        // Encoding-only errors and variants added to the core later.
+        _ => RiskscoreStatus::ModelInvalid,
+    }
+}
+
+pub(crate) fn warning_error(e: WarningError) -> RiskscoreStatus {
+    match e {
+        WarningError::NonFiniteScore { .. } => RiskscoreStatus::NanScore,
+        WarningError::OutOfOrder { .. } => RiskscoreStatus::OutOfOrder,
+        WarningError::TableFull { .. } => RiskscoreStatus::TableFull,
+        WarningError::InvalidConfig(_) => RiskscoreStatus::InvalidConfig,
+    }
+}
+
+pub(crate) fn event_code(e: WarningEvent) -> RiskscoreWarningEvent {
+    match e {
+        WarningEvent::None => RiskscoreWarningEvent::None,
+        WarningEvent::Onset => RiskscoreWarningEvent::Onset,
+        WarningEvent::Release => RiskscoreWarningEvent::Release,
+    }
+}
+
+pub(crate) fn opt_us(v: Option<u64>) -> u64 {
+    v.unwrap_or(RISKSCORE_NONE_U64)
+}
+
+pub(crate) fn status(r: Result<(), RiskscoreStatus>) -> RiskscoreStatus {
+    match r {
+        Ok(()) => RiskscoreStatus::Ok,
+        Err(e) => e,
+    }
+}

@@ -1,0 +1,78 @@
+//! Setting up a context: initialisation with a warning configuration, and loading model blobs.
+use crate::convert::{kind_code, model_error, status, warning_config, warning_error};
+use crate::ptr::{blob_slice, context_mut, init_context, read, write_optional};
+use crate::types::{
+    RiskscoreContext, RiskscoreLoadInfo, RiskscoreModelKind, RiskscoreStatus,
+    RiskscoreWarningConfig,
+};
+use crate::{RISKSCORE_FIELD_NAME_LEN, RISKSCORE_NONE_U32};
+use scorer_core::model::{self, ModelKind};
+use scorer_core::warning::TrackTable;
+
+/// Initialises `context` (`context_size` bytes, pass `sizeof(RiskscoreContext)`): no model, empty
+/// track table with `config`. Re-initialising drops the models and tracks.
+///
+/// # Safety
+/// `context` must be NULL or point to `context_size` writable bytes; `config` must be NULL or
+/// point to a readable `RiskscoreWarningConfig`.
+#[no_mangle]
+pub unsafe extern "C" fn riskscore_init(
+    context: *mut RiskscoreContext,
+    context_size: usize,
+    config: *const RiskscoreWarningConfig,
+) -> RiskscoreStatus {
+    let run = || {
+        // SAFETY: the caller guarantees `config` is NULL or valid for reads.
+        let config = unsafe { read(config) }?;
+        let config = warning_config(&config)?;
+        let tracks = TrackTable::new(config).map_err(warning_error)?;
+        // SAFETY: the caller guarantees `context` is NULL or valid for `context_size` bytes.
+        unsafe { init_context(context, context_size, tracks) }
+    };
+    status(run())
+}
+
+/// Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
+/// replacing the previous model of that family. On error the context is unchanged. `info` may be
+/// NULL; otherwise it receives the kind and, on error, the offending field.
+///
+/// # Safety
+/// `context` must be NULL or a context initialised by `riskscore_init`; `blob` must be NULL or
+/// point to `len` readable bytes that stay valid and unchanged while the context uses the model;
+/// `info` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn riskscore_load_model(
+    context: *mut RiskscoreContext,
+    blob: *const u8,
+    len: usize,
+    info: *mut RiskscoreLoadInfo,
+) -> RiskscoreStatus {
+    let mut details = RiskscoreLoadInfo {
+        kind: RiskscoreModelKind::None,
+        field: [0; RISKSCORE_FIELD_NAME_LEN],
+        index: RISKSCORE_NONE_U32,
+        expected: RISKSCORE_NONE_U32,
+        found: RISKSCORE_NONE_U32,
+    };
+    let mut run = || {
+        // SAFETY: caller contract above.
+        let ctx = unsafe { context_mut(context) }?;
+        // SAFETY: caller contract above: the blob outlives every use of the context.
+        let bytes: &'static [u8] = unsafe { blob_slice(blob, len) }?;
+        if let Ok(header) = model::decode_header(bytes) {
+            details.kind = kind_code(header.kind);
+        }
+        let m = model::decode(bytes).map_err(|e| model_error(&e, &mut details))?;
+        let slot = match m.kind() {
+            ModelKind::DrlInt8 | ModelKind::DrlF32 => &mut ctx.drl,
+            ModelKind::Msra => &mut ctx.msra,
+            ModelKind::Gssm => &mut ctx.gssm,
+        };
+        *slot = Some(m);
+        Ok(())
+    };
+    let result = run();
+    // SAFETY: caller contract above; `info` is optional.
+    unsafe { write_optional(info, details) };
+    status(result)
+}

@@ -1,0 +1,243 @@
+//! The C-visible types of the ABI: status codes, model kinds, warning events, the opaque context
+//! block, vehicle states, the warning configuration and every result struct.
+use crate::{RISKSCORE_CONTEXT_WORDS, RISKSCORE_FEATURE_COUNT, RISKSCORE_FIELD_NAME_LEN};
+use core::ffi::c_char;
+
+/// Result of every call. `RISKSCORE_STATUS_OK` is 0; everything else is an error and leaves the
+/// outputs untouched.
+#[repr(i32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RiskscoreStatus {
+    Ok = 0,
+    /// A required pointer argument is NULL.
+    NullPointer = 1,
+    /// `riskscore_init`: `context_size` is smaller than `RISKSCORE_CONTEXT_SIZE` (header and library
+    /// disagree).
+    ContextTooSmall = 2,
+    /// The context pointer is not aligned to `RISKSCORE_CONTEXT_ALIGN`.
+    ContextMisaligned = 3,
+    /// The context was not initialised by `riskscore_init` (or was overwritten).
+    ContextNotInitialized = 4,
+    /// A `RiskscoreWarningConfig` field is invalid (NaN threshold, negative or non-finite
+    /// hysteresis, a flag other than 0/1).
+    InvalidConfig = 5,
+    /// A vehicle state has a NaN or infinite field.
+    NonFiniteState = 6,
+    /// `riskscore_score_pair` with no model loaded.
+    NoModel = 7,
+    /// Model blob: shorter than its header or declared payload.
+    ModelTruncated = 8,
+    /// Model blob: does not start with "RSKM".
+    ModelBadMagic = 9,
+    /// Model blob: format version not supported by this library.
+    ModelUnsupportedVersion = 10,
+    /// Model blob: unknown model kind byte.
+    ModelUnknownKind = 11,
+    /// Model blob: a reserved header byte is not zero.
+    ModelReservedNotZero = 12,
+    /// Model blob: feature schema not computed by this library.
+    ModelUnsupportedFeatureSchema = 13,
+    /// Model blob: bytes after the payload.
+    ModelTrailingBytes = 14,
+    /// Model blob: payload CRC-32 mismatch (corrupted in storage or transfer).
+    ModelCrcMismatch = 15,
+    /// Model blob: the payload does not decode.
+    ModelMalformedPayload = 16,
+    /// Model blob: decodes but fails validation (capacity, dimensions, non-finite or out-of-range
+    /// parameters); `RiskscoreLoadInfo.field` names the field.
+    ModelInvalid = 17,
+    /// `riskscore_track_update`: the score is NaN.
+    NanScore = 18,
+    /// `riskscore_track_update`: `now_us` is earlier than the track's last update.
+    OutOfOrder = 19,
+    /// `riskscore_track_update`: no room for a new track (every track is warning, or the policy is
+    /// reject).
+    TableFull = 20,
+    /// The track id is not in the table.
+    UnknownTrack = 21,
+}
+
+/// Every status, in code order.
+const STATUS_ALL: [RiskscoreStatus; 22] = {
+    use RiskscoreStatus as S;
+    [
+        S::Ok,
+        S::NullPointer,
+        S::ContextTooSmall,
+        S::ContextMisaligned,
+        S::ContextNotInitialized,
+        S::InvalidConfig,
+        S::NonFiniteState,
+        S::NoModel,
+        S::ModelTruncated,
+        S::ModelBadMagic,
+        S::ModelUnsupportedVersion,
+        S::ModelUnknownKind,
+        S::ModelReservedNotZero,
+        S::ModelUnsupportedFeatureSchema,
+        S::ModelTrailingBytes,
+        S::ModelCrcMismatch,
+        S::ModelMalformedPayload,
+        S::ModelInvalid,
+        S::NanScore,
+        S::OutOfOrder,
+        S::TableFull,
+        S::UnknownTrack,
+    ]
+};
+
+impl RiskscoreStatus {
+    /// The status with numeric code `code`, if any.
+    pub fn from_code(code: i32) -> Option<Self> {
+        STATUS_ALL.iter().copied().find(|s| *s as i32 == code)
+    }
+}
+
+/// Model family, as reported by `riskscore_load_model`.
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RiskscoreModelKind {
+    None = 0,
+    DrlInt8 = 1,
+    DrlF32 = 2,
+    Msra = 3,
+    Gssm = 4,
+}
+
+/// What a track update changed.
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RiskscoreWarningEvent {
+    /// The warning state did not change.
+    None = 0,
+    /// The warning turned on.
+    Onset = 1,
+    /// The warning was released (live mode only).
+    Release = 2,
+}
+
+/// Caller-owned storage for one scorer. Opaque: only its size and alignment are part of the ABI.
+#[repr(C)]
+pub struct RiskscoreContext {
+    /// `u64` words give the 8-byte alignment on every C ABI we target.
+    pub opaque: [u64; RISKSCORE_CONTEXT_WORDS],
+}
+
+/// One road user at one instant: SI units, world frame, centre of its box, unit heading `(hx, hy)`,
+/// longitudinal acceleration `acc` along the heading.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RiskscoreVehicleState {
+    pub x: f32,
+    pub y: f32,
+    pub vx: f32,
+    pub vy: f32,
+    pub hx: f32,
+    pub hy: f32,
+    pub acc: f32,
+    pub length: f32,
+    pub width: f32,
+}
+
+/// Parameters of the per-partner warning rule and of the track table.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RiskscoreWarningConfig {
+    /// Warn when the score is `>= threshold`.
+    pub threshold: f32,
+    /// Live mode: release when the score is `< threshold - hysteresis` (`>= 0`).
+    pub hysteresis: f32,
+    /// Live mode: a warning stays on at least this long (microseconds).
+    pub min_on_us: u64,
+    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never).
+    pub stale_after_us: u64,
+    /// 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
+    pub latch: u8,
+    /// 1: when the table is full, evict the least recently updated non-warning track; 0: reject
+    /// the new track with `RISKSCORE_STATUS_TABLE_FULL`.
+    pub evict_when_full: u8,
+}
+
+/// Everything computed for one ego/partner pair.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RiskscorePairResult {
+    /// The 13 observation features in model-input order (l_ego, l_sur, w_comb, vy_ego, vx_sur,
+    /// vy_sur, v_ego2, v_sur2, delta_v2, delta_v, psi_sur, rho, s).
+    pub features: [f32; RISKSCORE_FEATURE_COUNT],
+    /// Exact gap between the two boxes (m), 0 when they touch or overlap.
+    pub box_distance: f32,
+    /// Two-dimensional time-to-collision (s); +INFINITY = no conflict.
+    pub ttc2d: f32,
+    /// Time advantage (s); +INFINITY = no conflict.
+    pub tadv: f32,
+    /// Emergency index (m/s); -INFINITY = no conflict.
+    pub ei: f32,
+    /// Score of the loaded DRL model (int8 or f32); NaN when `has_drl` is 0.
+    pub drl_score: f32,
+    /// Score of the loaded MSRA model; NaN when `has_msra` is 0.
+    pub msra_score: f32,
+    /// Score of the loaded GSSM model; NaN when `has_gssm` is 0.
+    pub gssm_score: f32,
+    /// 1 when a DRL model is loaded (and `drl_score` valid), else 0.
+    pub has_drl: u8,
+    /// 1 when an MSRA model is loaded, else 0.
+    pub has_msra: u8,
+    /// 1 when a GSSM model is loaded, else 0.
+    pub has_gssm: u8,
+}
+
+/// Result of one `riskscore_track_update`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RiskscoreTrackStatus {
+    /// 1 when the partner's warning is on after this update.
+    pub warning: u8,
+    /// What changed (`RiskscoreWarningEvent`).
+    pub event: RiskscoreWarningEvent,
+    /// 1 when this update created the track (new id, or an id whose track had been dropped).
+    pub new_track: u8,
+    /// Id of a track evicted to make room, or `RISKSCORE_NONE_U32`.
+    pub evicted_id: u32,
+}
+
+/// One partner's warning state.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RiskscoreTrack {
+    pub id: u32,
+    /// 1 when the warning is on (and the track is not stale at the query time).
+    pub warning: u8,
+    /// 1 when the track is stale at the query time (it is dropped at the next update).
+    pub stale: u8,
+    /// Last accepted score.
+    pub last_score: f32,
+    pub created_us: u64,
+    pub last_update_us: u64,
+    /// When the current warning turned on, or `RISKSCORE_NONE_U64`.
+    pub on_since_us: u64,
+    /// When the track first warned, or `RISKSCORE_NONE_U64`.
+    pub first_warning_us: u64,
+    /// Number of accepted updates.
+    pub updates: u32,
+    /// Number of warning onsets.
+    pub onsets: u32,
+}
+
+/// Details of a `riskscore_load_model` call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RiskscoreLoadInfo {
+    /// Kind of the loaded model (`RiskscoreModelKind`); `RISKSCORE_MODEL_KIND_NONE` on failure
+    /// before the header was read.
+    pub kind: RiskscoreModelKind,
+    /// On `RISKSCORE_STATUS_MODEL_INVALID` and friends: the offending field as spelled in
+    /// docs/model-format.md (NUL-terminated, truncated to fit); empty otherwise.
+    pub field: [c_char; RISKSCORE_FIELD_NAME_LEN],
+    /// Element, layer or term index of the offending value, or `RISKSCORE_NONE_U32`.
+    pub index: u32,
+    /// Size errors: bytes (or elements) needed/expected, else `RISKSCORE_NONE_U32`.
+    pub expected: u32,
+    /// Size errors: bytes (or elements) found, else `RISKSCORE_NONE_U32`.
+    pub found: u32,
+}
