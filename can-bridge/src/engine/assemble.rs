@@ -216,3 +216,89 @@ fn velocity(
     };
     mount.rotate(v_sensor)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const T: u64 = 10_000_000;
+    const STALE: u64 = 500_000;
+
+    fn stamped(value: f64, t_us: u64) -> Option<Stamped> {
+        Some(Stamped { value, t_us })
+    }
+
+    /// The project map's inputs of one healthy track and an ego at 10 m/s, all received at `T`.
+    fn inputs() -> ([Option<Stamped>; EGO_FIELDS], ObjectSlots) {
+        let mut ego = [None; EGO_FIELDS];
+        ego[EgoField::VelLong as usize] = stamped(10.0, T);
+        let mut track = ObjectSlots::default();
+        for (f, v) in [
+            (ObjField::PosX, 20.0),
+            (ObjField::PosY, 1.5),
+            (ObjField::VelX, -4.0),
+            (ObjField::VelY, 0.0),
+            (ObjField::Valid, 1.0),
+            (ObjField::Heading, 0.3),
+            (ObjField::HeadingValid, 0.0),
+        ] {
+            track.values[f as usize] = stamped(v, T);
+        }
+        (ego, track)
+    }
+
+    #[test]
+    fn relative_velocity_gets_the_ego_velocity_and_an_invalid_heading_follows_the_motion() {
+        let (_db, map) = CompiledMap::project_default().unwrap();
+        let (ego, mut track) = inputs();
+        let s = assemble(&map, STALE, &ego, &mut track, T).unwrap();
+        assert_eq!((s.ego.vx, s.ego.hx, s.ego.length), (10.0, 1.0, 4.5));
+        assert_eq!((s.partner.x, s.partner.y), (20.0, 1.5));
+        // 10 m/s ego + -4 m/s relative; the sent heading is flagged invalid: taken from the
+        // velocity over ground, not 0.3 rad.
+        assert_eq!((s.partner.vx, s.partner.vy), (6.0, 0.0));
+        assert_eq!((s.partner.hx, s.partner.hy), (1.0, 0.0));
+        assert_eq!((s.partner.length, s.partner.width), (4.5, 1.8));
+        assert_eq!(track.last_trigger_us, Some(T));
+        assert_eq!(track.last_heading, Some((1.0, 0.0)));
+        // The same trigger time again is a duplicate.
+        let again = assemble(&map, STALE, &ego, &mut track, T).err();
+        assert_eq!(again, Some(Unscored::Duplicate));
+    }
+
+    #[test]
+    fn missing_stale_and_invalid_inputs_say_why_in_check_order() {
+        let (_db, map) = CompiledMap::project_default().unwrap();
+        let run = |edit: &dyn Fn(&mut [Option<Stamped>; EGO_FIELDS], &mut ObjectSlots)| {
+            let (mut ego, mut track) = inputs();
+            edit(&mut ego, &mut track);
+            assemble(&map, STALE, &ego, &mut track, T).err()
+        };
+        let valid = ObjField::Valid as usize;
+        assert_eq!(
+            run(&|_, t| t.values[valid] = stamped(0.0, T)),
+            Some(Unscored::Invalid)
+        );
+        assert_eq!(
+            run(&|_, t| t.values[valid] = stamped(1.0, T - STALE - 1)),
+            Some(Unscored::ValidFlagMissing)
+        );
+        // The ego speed is checked before the object's inputs.
+        assert_eq!(
+            run(&|e, t| {
+                e[EgoField::VelLong as usize] = None;
+                t.values[ObjField::PosX as usize] = None;
+            }),
+            Some(Unscored::EgoSpeedMissing)
+        );
+        assert_eq!(
+            run(&|_, t| t.values[ObjField::PosY as usize] = stamped(1.5, T - STALE - 1)),
+            Some(Unscored::InputMissing(ObjField::PosY))
+        );
+        assert_eq!(
+            run(&|_, t| t.values[ObjField::Length as usize] = stamped(0.0, T)),
+            Some(Unscored::BadState)
+        );
+        assert!(Unscored::BadState.after_ego_speed() && !Unscored::Invalid.after_ego_speed());
+    }
+}

@@ -28,6 +28,7 @@
 //! - a required input that has not arrived (ego speed, object position, a mapped velocity) is
 //!   named once with its signal and message, not per frame.
 //!
+//! Each rule that drops something reports it as a typed [`Problem`] in [`Output::Problem`].
 //!
 //! Files: `assemble` (inputs -> ego and partner state), `warn` (score -> warning state and
 //! frame), `decode` (frame -> field values), `track` (what is kept per track), `output` and
