@@ -104,6 +104,7 @@ fn gradient_steps_lower_the_objective_and_rank_conflicts_higher() {
         learning_rate: 1e-2,
         seed: cfg.seed,
         progress: Progress::Hidden,
+        beta: None,
     };
     let report =
         train::train_with(&model, &prepared.fit, Some(&prepared.validation), &settings).unwrap();
@@ -209,7 +210,12 @@ fn msra_recovers_a_known_monotone_relation() {
         beta: [1.0; 4],
         ..ComparisonSet::default()
     };
-    let model = msra::Msra::from_table(&[SurrogateKind::Ttc2d], &set.table).unwrap();
+    let model = msra::Msra::from_table(
+        &[SurrogateKind::Ttc2d],
+        &[msra::default_range(SurrogateKind::Ttc2d)],
+        &set.table,
+    )
+    .unwrap();
     let opt = OptimiserConfig {
         max_epochs: 60,
         patience: 60,
@@ -296,6 +302,67 @@ fn config_defaults_parse_and_typos_are_rejected() {
     // The shipped configuration is the documented defaults.
     let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/train.toml");
     assert_eq!(TrainConfig::load(&shipped).unwrap(), TrainConfig::default());
+}
+
+#[test]
+fn msra_overrides_parse_validate_and_name_their_key() {
+    let text = "[msra]\ntime_clip = 3.0\nbeta = [1.0, 0.5, 0.0, 0.0]\n[msra.objective]\nlambda_impact = 0.25\n";
+    let cfg = TrainConfig::from_toml(text, "m.toml").unwrap();
+    assert_eq!(cfg.msra.time_clip, 3.0);
+    assert_eq!(cfg.msra.beta, Some([1.0, 0.5, 0.0, 0.0]));
+    let o = cfg.msra.objective.as_ref().unwrap();
+    assert_eq!(o.lambda_impact, 0.25);
+    // Keys missing from the override take the built-in defaults.
+    assert_eq!(o.r_star, ObjectiveConfig::default().r_star);
+    assert_eq!(cfg.msra.range(SurrogateKind::Tadv), (0.0, 3.0));
+    assert_eq!(cfg.msra.range(SurrogateKind::Ttc2d), (0.0, 3.0));
+    assert_eq!(
+        cfg.msra.range(SurrogateKind::Ei),
+        msra::default_range(SurrogateKind::Ei)
+    );
+    for (bad, key) in [
+        ("[msra]\ntime_clip = 0.0\n", "msra.time_clip"),
+        ("[msra]\nbeta = [1.0, -1.0, 0.0, 0.0]\n", "msra.beta"),
+        ("[msra.objective]\nu = 9.0\n", "msra.objective"),
+        ("[msra.objective]\nlambda = 1.0\n", "lambda"),
+    ] {
+        let err = TrainConfig::from_toml(bad, "bad.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(key), "{bad:?}: {err}");
+    }
+}
+
+#[test]
+fn msra_trains_with_its_own_clip_weights_and_objective() {
+    let seqs = dataset(16);
+    let mut cfg = small_config();
+    cfg.msra.surrogates = vec!["ttc2d".into(), "tadv".into()];
+    cfg.msra.time_clip = 4.0;
+    let prepared = train::prepare_comparisons(&seqs, None, &cfg);
+    let trained = train::train_msra(&seqs, &prepared, &cfg, Progress::Hidden).unwrap();
+    assert!(trained
+        .params
+        .terms
+        .iter()
+        .all(|t| t.lo == 0.0 && t.hi == 4.0));
+    // The overrides reach the trainer: other source weights or another objective give other
+    // parameters from the same pairs and seed.
+    let mut reweighted = cfg.clone();
+    reweighted.msra.beta = Some([1.0, 0.1, 0.1, 0.0]);
+    let other = train::train_msra(&seqs, &prepared, &reweighted, Progress::Hidden).unwrap();
+    assert_ne!(other.params, trained.params);
+    let mut anchored = cfg.clone();
+    anchored.msra.objective = Some(ObjectiveConfig {
+        lambda_impact: 5.0,
+        ..ObjectiveConfig::default()
+    });
+    let other = train::train_msra(&seqs, &prepared, &anchored, Progress::Hidden).unwrap();
+    assert_ne!(other.params, trained.params);
+    // DRL ignores MSRA's overrides.
+    let drl_a = train::train_drl(&seqs, &prepared, &cfg, Progress::Hidden).unwrap();
+    let drl_b = train::train_drl(&seqs, &prepared, &anchored, Progress::Hidden).unwrap();
+    assert_eq!(drl_a.params, drl_b.params);
 }
 
 #[test]

@@ -32,6 +32,25 @@ impl Default for ObjectiveConfig {
     }
 }
 
+impl ObjectiveConfig {
+    // `!(x > y)` on purpose: NaN must fail every check.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn validate(&self, table: &str) -> Result<(), String> {
+        if !(self.lambda_impact >= 0.0 && self.lambda_upper >= 0.0) {
+            return Err(format!(
+                "{table}: lambda_impact and lambda_upper must be >= 0"
+            ));
+        }
+        if !(self.u < self.r_star && self.u.is_finite() && self.r_star.is_finite()) {
+            return Err(format!(
+                "{table}: need u < r_star, got u = {}, r_star = {}",
+                self.u, self.r_star
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Optimiser, batching and early stopping shared by all parameterisations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -93,13 +112,38 @@ pub struct MsraConfig {
     pub surrogates: Vec<String>,
     /// Overrides `optimiser.learning_rate` when set (MSRA has few parameters and tolerates more).
     pub learning_rate: Option<f64>,
+    /// Upper clip (s) of TTC2D and TAdv in the transform: longer times count as no conflict.
+    pub time_clip: f32,
+    /// Overrides the comparison sources' weights `beta` for MSRA when set: `[temporal,
+    /// cross_sequence, physics, simulation]`.
+    pub beta: Option<[f32; 4]>,
+    /// Overrides `[objective]` for MSRA when set (a table with the same keys; missing keys take
+    /// the built-in defaults, not the `[objective]` values).
+    pub objective: Option<ObjectiveConfig>,
 }
 
 impl Default for MsraConfig {
     fn default() -> Self {
         MsraConfig {
-            surrogates: vec!["ttc2d".into(), "tadv".into(), "ei".into()],
+            surrogates: vec!["tadv".into(), "ei".into()],
             learning_rate: Some(3e-2),
+            time_clip: 5.0,
+            beta: Some([0.3, 1.0, 1.0, 0.5]),
+            objective: Some(ObjectiveConfig {
+                lambda_impact: 0.0,
+                ..ObjectiveConfig::default()
+            }),
+        }
+    }
+}
+
+impl MsraConfig {
+    /// Clip range `[lo, hi]` of surrogate `kind`'s transform under this configuration.
+    pub fn range(&self, kind: scorer_core::SurrogateKind) -> (f32, f32) {
+        use scorer_core::SurrogateKind::{Tadv, Ttc2d};
+        match kind {
+            Ttc2d | Tadv => (0.0, self.time_clip),
+            other => super::msra::default_range(other),
         }
     }
 }
@@ -178,15 +222,9 @@ impl TrainConfig {
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn validate(&self) -> Result<(), String> {
         self.comparisons.validate()?;
-        let o = &self.objective;
-        if !(o.lambda_impact >= 0.0 && o.lambda_upper >= 0.0) {
-            return Err("objective: lambda_impact and lambda_upper must be >= 0".into());
-        }
-        if !(o.u < o.r_star && o.u.is_finite() && o.r_star.is_finite()) {
-            return Err(format!(
-                "objective: need u < r_star, got u = {}, r_star = {}",
-                o.u, o.r_star
-            ));
+        self.objective.validate("objective")?;
+        if let Some(o) = &self.msra.objective {
+            o.validate("msra.objective")?;
         }
         let p = &self.optimiser;
         if !(p.learning_rate > 0.0) || p.batch_pairs == 0 || p.max_epochs == 0 {
@@ -209,6 +247,17 @@ impl TrainConfig {
             return Err(
                 "quantisation: clip_fraction in [0, 0.1) and max_observations > 0 required".into(),
             );
+        }
+        if !(self.msra.time_clip > 0.0 && self.msra.time_clip <= 1e3) {
+            return Err(format!(
+                "msra.time_clip must be in (0, 1000] s, got {}",
+                self.msra.time_clip
+            ));
+        }
+        if let Some(b) = &self.msra.beta {
+            if b.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err("msra.beta: four finite weights >= 0".into());
+            }
         }
         if self.msra.surrogates.is_empty() || self.msra.surrogates.len() > 4 {
             return Err("msra.surrogates: 1 to 4 names".into());

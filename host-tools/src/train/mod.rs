@@ -144,7 +144,12 @@ struct Encoded {
     upper: Vec<u32>,
 }
 
-fn encode_set<M: RiskModel>(model: &M, set: &ComparisonSet) -> candle_core::Result<Encoded> {
+fn encode_set<M: RiskModel>(
+    model: &M,
+    set: &ComparisonSet,
+    beta: Option<[f32; 4]>,
+) -> candle_core::Result<Encoded> {
+    let beta = beta.unwrap_or(set.beta);
     let width = model.input_width();
     let rows = model.encode(&set.table);
     let inputs = Tensor::from_vec(rows, (set.table.len(), width), &Device::Cpu)?;
@@ -155,7 +160,7 @@ fn encode_set<M: RiskModel>(model: &M, set: &ComparisonSet) -> candle_core::Resu
         weights: set
             .pairs
             .iter()
-            .map(|p| set.beta[p.source.index()] * p.weight)
+            .map(|p| beta[p.source.index()] * p.weight)
             .collect(),
         impact: set.anchors.impact.clone(),
         upper: set.anchors.upper.clone(),
@@ -258,6 +263,8 @@ pub struct TrainSettings<'a> {
     pub learning_rate: f64,
     pub seed: u64,
     pub progress: Progress,
+    /// Source weights `beta` replacing the comparison sets' own (one model's override).
+    pub beta: Option<[f32; 4]>,
 }
 
 /// [`train_with`] with the settings spelled out (kept for existing callers).
@@ -278,6 +285,7 @@ pub fn train_on<M: RiskModel>(
         learning_rate,
         seed,
         progress,
+        beta: None,
     };
     train_with(model, train, validation, &settings)
 }
@@ -297,9 +305,9 @@ pub fn train_with<M: RiskModel>(
         return Err(TrainError::NoPairs);
     }
     let started = Instant::now();
-    let enc = encode_set(model, train)?;
+    let enc = encode_set(model, train, settings.beta)?;
     let val_enc = match validation {
-        Some(v) if !v.pairs.is_empty() => Some(encode_set(model, v)?),
+        Some(v) if !v.pairs.is_empty() => Some(encode_set(model, v, settings.beta)?),
         _ => None,
     };
     let vars = model.vars();
@@ -522,6 +530,7 @@ pub fn train_drl(
         learning_rate: lr,
         seed: config.seed,
         progress,
+        beta: None,
     };
     let report = train_with(&model, &prepared.fit, Some(&prepared.validation), &settings)?;
     let params = model.params()?;
@@ -548,17 +557,19 @@ pub fn train_msra(
         .iter()
         .filter_map(|s| msra::parse_surrogate(s))
         .collect();
-    let model = msra::Msra::new(&kinds, train)?;
+    let ranges: Vec<(f32, f32)> = kinds.iter().map(|&k| config.msra.range(k)).collect();
+    let model = msra::Msra::new(&kinds, &ranges, train)?;
     let lr = config
         .msra
         .learning_rate
         .unwrap_or(config.optimiser.learning_rate);
     let settings = TrainSettings {
-        objective: &config.objective,
+        objective: config.msra.objective.as_ref().unwrap_or(&config.objective),
         optimiser: &config.optimiser,
         learning_rate: lr,
         seed: config.seed,
         progress,
+        beta: config.msra.beta,
     };
     let report = train_with(&model, &prepared.fit, Some(&prepared.validation), &settings)?;
     Ok(TrainedMsra {

@@ -114,31 +114,38 @@ fn risk_direction(kind: SurrogateKind) -> f32 {
 }
 
 impl Msra {
-    /// A model over `kinds` with the default clip ranges, its input normalisation fitted on the
-    /// frames of `seqs` (surrogates computed by scorer-core).
-    pub fn new(kinds: &[SurrogateKind], seqs: &[TrainingSequence]) -> candle_core::Result<Msra> {
+    /// A model over `kinds` with the clip ranges `ranges` (one per kind, e.g. [`default_range`]),
+    /// its input normalisation fitted on the frames of `seqs` (surrogates computed by scorer-core).
+    pub fn new(
+        kinds: &[SurrogateKind],
+        ranges: &[(f32, f32)],
+        seqs: &[TrainingSequence],
+    ) -> candle_core::Result<Msra> {
         let surrogates = seqs.iter().flat_map(|s| {
             s.ego
                 .iter()
                 .zip(&s.partner)
                 .map(|(e, p)| scorer_core::surrogates(e, p))
         });
-        Self::fitted(kinds, surrogates)
+        Self::fitted(kinds, ranges, surrogates)
     }
 
     /// Same, with the normalisation fitted on the rows of an observation table.
     pub fn from_table(
         kinds: &[SurrogateKind],
+        ranges: &[(f32, f32)],
         table: &ObservationTable,
     ) -> candle_core::Result<Msra> {
-        Self::fitted(kinds, table.surrogates.iter().copied())
+        Self::fitted(kinds, ranges, table.surrogates.iter().copied())
     }
 
     fn fitted(
         kinds: &[SurrogateKind],
+        ranges: &[(f32, f32)],
         surrogates: impl Iterator<Item = Surrogates>,
     ) -> candle_core::Result<Msra> {
-        let ranges: Vec<(f32, f32)> = kinds.iter().map(|&k| default_range(k)).collect();
+        assert_eq!(kinds.len(), ranges.len(), "one clip range per surrogate");
+        let ranges = ranges.to_vec();
         let mut sum = vec![0f64; kinds.len()];
         let mut sq = vec![0f64; kinds.len()];
         let mut n = 0usize;
