@@ -1,7 +1,7 @@
-//! `riskctl`: the command line over host-tools. Each subcommand lives in `cli/<name>.rs`.
+//! `riskctl`: the command line over riskscore's library crates. Each subcommand lives in
+//! `cli/<name>.rs`, which parses its arguments and calls the libraries.
 use clap::{Parser, Subcommand};
 
-#[path = "../cli/mod.rs"]
 mod cli;
 
 /// Learn, evaluate and export collision-risk scores for ego/partner interactions.

@@ -116,6 +116,21 @@ pub struct ExportSummary {
     pub skipped: Vec<SkippedFrame>,
 }
 
+impl ExportSummary {
+    /// How many events lost at least one cycle (skips come in event order).
+    pub fn events_with_skips(&self) -> usize {
+        let mut n = 0;
+        let mut last: Option<&str> = None;
+        for s in &self.skipped {
+            if last != Some(s.event_id.as_str()) {
+                n += 1;
+                last = Some(&s.event_id);
+            }
+        }
+        n
+    }
+}
+
 /// Why the export failed as a whole.
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
@@ -381,6 +396,7 @@ mod tests {
         assert_eq!(summary.cycles, 4);
         assert_eq!(summary.skipped.len(), 1);
         assert_eq!(summary.skipped[0].event_id, "b");
+        assert_eq!(summary.events_with_skips(), 1);
         let text = String::from_utf8(buf).unwrap();
         assert_eq!(text.lines().count(), 20);
         let first = can_codec::parse_line(text.lines().next().unwrap()).unwrap();

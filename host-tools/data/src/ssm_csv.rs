@@ -32,8 +32,8 @@ mod pipeline;
 pub mod split;
 
 pub use number::{parse_plain_decimal, push_f32};
-#[cfg(feature = "parquet")]
-pub(crate) use pipeline::{for_each_record, push_field, read_header, record_reader, FieldBuf};
+// The record layer, shared with the Parquet path (`riskscore_eval::parquet_io`).
+pub use pipeline::{for_each_record, push_field, read_header, record_reader, FieldBuf};
 pub use pipeline::{score_csv, SsmOptions, SsmSummary};
 pub use split::DEFAULT_MAX_RECORD_BYTES;
 

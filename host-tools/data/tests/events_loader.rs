@@ -6,7 +6,7 @@
     clippy::panic,
     clippy::indexing_slicing
 )]
-use host_tools::events::{
+use riskscore_data::events::{
     cut_safe_sequences, kfold_by_event, load_events, prepare_event, prepare_sequences,
     write_events, Dims, Event, EventKind, EventSet, EventsError, Frame, IssueProblem, LoadIssue,
     PrepareConfig, PrepareIssue,
@@ -667,8 +667,8 @@ fn folds_are_by_event_stratified_and_seeded() {
         let used: std::collections::BTreeSet<usize> = (0..24).map(|i| f.fold_of(i)).collect();
         assert!(used.len() > 1, "recordings are spread over folds");
     }
-    assert_eq!(host_tools::events::fold_group("REC1/3-9@0#0"), "REC1");
-    assert_eq!(host_tools::events::fold_group("e7"), "e7");
+    assert_eq!(riskscore_data::events::fold_group("REC1/3-9@0#0"), "REC1");
+    assert_eq!(riskscore_data::events::fold_group("e7"), "e7");
 }
 
 #[test]

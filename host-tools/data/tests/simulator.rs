@@ -8,10 +8,10 @@
 )]
 use std::collections::BTreeSet;
 
-use host_tools::events::{
+use riskscore_data::events::{
     load_events, prepare_event, safe_rules_hold, Event, EventKind, EventSet, PrepareConfig,
 };
-use host_tools::sim::{simulate_events, simulate_to_dir, LabelRules, Mix, SimConfig};
+use riskscore_data::sim::{simulate_events, simulate_to_dir, LabelRules, Mix, SimConfig};
 use scorer_core::geometry::{box_distance, boxes_overlap};
 
 fn cfg(seed: u64, events: usize, threads: usize) -> SimConfig {
@@ -173,7 +173,7 @@ fn labels_hold_on_the_written_frames() {
                 assert!(t - e.t_start >= 4.5 - 1e-9);
                 let evasive = e.frames.iter().enumerate().any(|(i, f)| {
                     let lat =
-                        |get: fn(&host_tools::events::Frame) -> &scorer_core::VehicleState| {
+                        |get: fn(&riskscore_data::events::Frame) -> &scorer_core::VehicleState| {
                             let (a, b) = (i.saturating_sub(1), (i + 1).min(e.frames.len() - 1));
                             let (sa, sb, s) = (get(&e.frames[a]), get(&e.frames[b]), get(f));
                             let dt = (e.frames[b].time - e.frames[a].time) as f32;

@@ -19,8 +19,8 @@ use arrow_schema::{ArrowError, DataType, Field, Schema, SchemaRef};
 use scorer_core::model::Model;
 use scorer_core::VehicleState;
 
-use crate::eval::Scorer;
-use crate::ssm_csv::{
+use crate::Scorer;
+use riskscore_data::ssm_csv::{
     computed_values, PairColumns, RowError, RowProblem, SsmError, SURROGATE_COLUMNS,
 };
 
@@ -386,7 +386,7 @@ mod tests {
     #[test]
     fn model_scores_match_the_evaluation_scorer() {
         for file in ["drl-default.rsk", "msra-default.rsk"] {
-            let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/").to_string() + file;
+            let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/").to_string() + file;
             let bytes = std::fs::read(&path).unwrap();
             let model = scorer_core::model::decode(&bytes).unwrap();
             let mut near = rear_end();

@@ -323,7 +323,7 @@ pub fn evaluate_profiles(profiles: &[AlertProfile]) -> Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::protocol::{AlertProfile, RunningMaxRecord, SequenceClass};
+    use crate::protocol::{AlertProfile, RunningMaxRecord, SequenceClass};
 
     fn profile(
         class: SequenceClass,

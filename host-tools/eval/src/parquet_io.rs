@@ -27,8 +27,8 @@ use parquet::basic::Compression;
 use parquet::file::properties::WriterProperties;
 
 use crate::arrow_kernel::{append_columns, pair_columns, ssm_kernel, KernelError};
-use crate::ssm_csv::split::{Chunk, Piece, Splitter};
-use crate::ssm_csv::{
+use riskscore_data::ssm_csv::split::{Chunk, Piece, Splitter};
+use riskscore_data::ssm_csv::{
     push_f32, FieldBuf, PairColumns, RowError, RowFields, RowProblem, SsmError, SsmOptions,
     SsmSummary,
 };
@@ -121,7 +121,7 @@ impl<W: Write + Send> BatchSink<W> {
                         if k > 0 {
                             line.push(b',');
                         }
-                        crate::ssm_csv::push_field(line, f.name().as_bytes());
+                        riskscore_data::ssm_csv::push_field(line, f.name().as_bytes());
                     }
                     line.push(b'\n');
                     out.write_all(line)?;
@@ -229,7 +229,7 @@ fn write_csv_rows<W: Write>(
                     found: column.data_type().clone(),
                 });
             }
-            crate::ssm_csv::push_field(line, &cell);
+            riskscore_data::ssm_csv::push_field(line, &cell);
         }
         line.push(b'\n');
         out.write_all(line)?;
@@ -261,7 +261,7 @@ pub struct CsvBatches<R: Read> {
 impl<R: Read> CsvBatches<R> {
     pub fn new(input: R, options: &SsmOptions) -> Result<Self, SsmError> {
         let mut splitter = Splitter::new(input, 1 << 20, options.max_record_bytes);
-        let (columns, pending) = crate::ssm_csv::read_header(&mut splitter)?;
+        let (columns, pending) = riskscore_data::ssm_csv::read_header(&mut splitter)?;
         let pair: Vec<usize> = columns
             .ego
             .iter()
@@ -287,7 +287,7 @@ impl<R: Read> CsvBatches<R> {
             splitter,
             columns,
             schema,
-            reader: crate::ssm_csv::record_reader(),
+            reader: riskscore_data::ssm_csv::record_reader(),
             fields: FieldBuf::default(),
             pending,
             strict: options.strict,
@@ -348,7 +348,7 @@ impl<R: Read> CsvBatches<R> {
                     Piece::Record { start, end, line } => (start, end, line),
                 };
                 let columns = &self.columns;
-                crate::ssm_csv::for_each_record(
+                riskscore_data::ssm_csv::for_each_record(
                     &mut self.reader,
                     &mut self.fields,
                     &chunk.data[start..end],

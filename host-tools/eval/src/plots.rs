@@ -431,7 +431,7 @@ pub const FIGURE_FILES: [&str; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::protocol::{ScoredFrame, SequenceClass};
+    use crate::protocol::{ScoredFrame, SequenceClass};
 
     fn seq(id: &str, class: SequenceClass, endpoint: Option<f64>, s: &[f32]) -> ScoredSequence {
         ScoredSequence {
@@ -481,8 +481,7 @@ mod tests {
             seq("c", SequenceClass::Crash, Some(2.0), &[1.0, 2.0, 3.0]),
             seq("s", SequenceClass::Safe, None, &[0.0, 2.5]),
         ];
-        let curve =
-            crate::eval::warning_curve(&crate::eval::protocol::alert_profiles(&seqs).unwrap());
+        let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
         let written = plot_curves(dir.path(), &[("M".into(), curve)]).unwrap();
         assert_eq!(written.len(), 4);
         let svg = std::fs::read_to_string(dir.path().join("roc.svg")).unwrap();

@@ -14,7 +14,7 @@ use super::protocol::{
     SequenceClass,
 };
 use super::report::{EvaluationReport, EventCounts, MethodResult};
-use crate::events::{EventKind, Frame, Sequence};
+use riskscore_data::events::{EventKind, Frame, Sequence};
 
 impl From<EventKind> for SequenceClass {
     fn from(kind: EventKind) -> Self {

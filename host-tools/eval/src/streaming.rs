@@ -11,14 +11,14 @@
 //! (16 bytes each; a conflict sequence's risk usually rises on most frames towards its endpoint),
 //! and one record per safe sequence and method (its maximum: all the metrics read of it). A folder
 //! whose `frames.csv` cannot be streamed (an event's frames split into several runs) is read whole
-//! instead, with the old memory: see [`stream_events`](crate::events::stream_events).
+//! instead, with the old memory: see [`stream_events`](riskscore_data::events::stream_events).
 use std::path::Path;
 
 use super::protocol::{AlertProfile, AlertProfileBuilder, ProtocolError, SequenceClass};
 use super::report::{EvaluationReport, EventCounts};
 use super::scoring::{observe_frames, report_of, Method};
 use super::{metrics::warning_curve, WarningCurve};
-use crate::events::{
+use riskscore_data::events::{
     load_events, prepare_owned_event, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
     PrepareIssue,
 };

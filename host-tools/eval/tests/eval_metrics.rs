@@ -2,13 +2,13 @@
 //! first-threshold rule. Every expected number below is worked out in the comment above it.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::float_cmp)]
 
-use host_tools::eval::metrics::{partial_roc_area, warning_curve, warning_curve_reference};
-use host_tools::eval::protocol::{alert_profiles, decisions};
-use host_tools::eval::{
+use proptest::prelude::*;
+use riskscore_eval::metrics::{partial_roc_area, warning_curve, warning_curve_reference};
+use riskscore_eval::protocol::{alert_profiles, decisions};
+use riskscore_eval::{
     aggregate, evaluate_sequences, EvaluationReport, EventCounts, FoldResult, MethodResult,
     Metrics, ScoredFrame, ScoredSequence, SequenceClass,
 };
-use proptest::prelude::*;
 
 const EPS: f64 = 1e-9;
 

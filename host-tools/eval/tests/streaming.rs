@@ -5,12 +5,12 @@
 
 use std::path::Path;
 
-use host_tools::eval::streaming::evaluate_folder;
-use host_tools::eval::{evaluate_methods, observe, Method};
-use host_tools::events::{
+use riskscore_data::events::{
     load_events, prepare_sequences, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
 };
-use host_tools::sim::{simulate_to_dir, SimConfig};
+use riskscore_data::sim::{simulate_to_dir, SimConfig};
+use riskscore_eval::streaming::evaluate_folder;
+use riskscore_eval::{evaluate_methods, observe, Method};
 
 /// A simulated folder (grouped frames, events.csv order), as `riskctl simulate` writes it.
 fn simulated(events: usize) -> tempfile::TempDir {
@@ -181,7 +181,7 @@ fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
         .map(|m| {
             std::fs::read(
                 Path::new(env!("CARGO_MANIFEST_DIR"))
-                    .join("../models")
+                    .join("../../models")
                     .join(m),
             )
             .unwrap()
@@ -191,7 +191,7 @@ fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
         .iter()
         .map(|bytes| Method {
             name: "model".into(),
-            scorer: host_tools::eval::Scorer::Model(scorer_core::model::decode(bytes).unwrap()),
+            scorer: riskscore_eval::Scorer::Model(scorer_core::model::decode(bytes).unwrap()),
         })
         .collect();
     methods.extend(Method::baselines());

@@ -17,11 +17,11 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::comparisons::from_sequences;
-use crate::eval::{self, CvReport, EventCounts, FoldResult};
-use crate::events::Sequence;
 use crate::gssm::{self, GssmConfig, GssmError};
 use crate::train::cv::{self, CvError, CvOptions};
 use crate::train::{Progress, TrainConfig};
+use riskscore_data::events::Sequence;
+use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
 
 /// What the benchmark trains and tests on.
 #[derive(Clone, Debug)]
@@ -77,10 +77,10 @@ pub struct TransferResult {
     pub splits: Vec<FoldSplit>,
 }
 
-/// The scenario (recording file) a real sequence came from: [`crate::events::fold_group`] (the
+/// The scenario (recording file) a real sequence came from: [`riskscore_data::events::fold_group`] (the
 /// event id up to its first `/`, as `riskctl import` writes it; an id without one is its own
 /// scenario).
-pub use crate::events::fold_group as scenario_of;
+pub use riskscore_data::events::fold_group as scenario_of;
 
 /// Deal the scenario files of `real` into `folds` groups, shuffled by `seed`.
 fn scenario_groups(real: &[Sequence], folds: usize, seed: u64) -> Vec<Vec<String>> {

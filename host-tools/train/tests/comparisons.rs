@@ -1,6 +1,6 @@
 //! Comparison construction: temporal ordering, training-partition only, determinism, weights, and
 //! physics counterfactuals that scorer-core agrees are riskier.
-use host_tools::comparisons::{
+use riskscore_train::comparisons::{
     self, physics, ComparisonConfig, RowOrigin, SequenceClass, Source, TrainingSequence,
 };
 

@@ -1,26 +1,26 @@
 //! GSSM, SSRA and MSRA-with-GSSM: likelihood fit recovering a known lognormal relation, the candle
 //! CDF against the core's, SSRA alignment improving the pairwise objective, export -> decode ->
-//! score parity, the MSRA+GSSM blob round trip, and the CLI end to end on a tiny simulated folder.
-use host_tools::comparisons::{ObservationTable, RowOrigin, SequenceClass, TrainingSequence};
-use host_tools::gssm::config::{FitConfig, SsraConfig, SsraScore};
-use host_tools::gssm::fit::{fit_gssm_on_observations, nll};
-use host_tools::gssm::msra::parse_configuration;
-use host_tools::gssm::net::{GssmNet, GssmParams};
-use host_tools::gssm::ssra::{set_objective, Ssra};
-use host_tools::gssm::{align_msra_gssm, align_ssra, row_name, GssmConfig};
-use host_tools::train::{self, Progress, TrainConfig};
+//! score parity, the MSRA+GSSM blob round trip, and shipping the three models end to end from a
+//! tiny simulated folder.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use riskscore_data::events::{load_prepared, PrepareConfig};
+use riskscore_train::comparisons::from_sequences;
+use riskscore_train::comparisons::{ObservationTable, RowOrigin, SequenceClass, TrainingSequence};
+use riskscore_train::gssm::config::{FitConfig, SsraConfig, SsraScore};
+use riskscore_train::gssm::fit::{fit_gssm_on_observations, nll};
+use riskscore_train::gssm::msra::parse_configuration;
+use riskscore_train::gssm::net::{GssmNet, GssmParams};
+use riskscore_train::gssm::ship::{ship, SHIPPED_FILES};
+use riskscore_train::gssm::ssra::{set_objective, Ssra};
+use riskscore_train::gssm::{align_msra_gssm, align_ssra, row_name, GssmConfig};
+use riskscore_train::train::{self, Progress, TrainConfig};
 use scorer_core::gssm::{GssmScore, S_INDEX};
 use scorer_core::{Features, Model, SurrogateKind, Surrogates, FEATURE_COUNT};
 
 mod common;
 use common::{car, conflict};
-
-#[path = "../src/cli/gssm.rs"]
-#[allow(dead_code)]
-mod cli_gssm;
 
 /// Safe following: the gap grows with speed (about 1.5 s headway plus 8 m), with slow oscillation.
 fn safe(id: usize) -> TrainingSequence {
@@ -132,7 +132,7 @@ fn nll_fit_decreases_and_recovers_a_known_lognormal_relation() {
 
 #[test]
 fn candle_survival_matches_the_core_within_1e_5() {
-    let scaler = host_tools::gssm::fit::scaler_of(&synthetic(200, 3));
+    let scaler = riskscore_train::gssm::fit::scaler_of(&synthetic(200, 3));
     let net = GssmNet::new(scaler, &[12, 8], 11, 2.5, -1.0).unwrap();
     let params = net.params().unwrap();
     let mut feats = synthetic(400, 4);
@@ -192,7 +192,7 @@ fn candle_survival_matches_the_core_within_1e_5() {
                 logit_candle[i]
             );
             // The training score is the log-compressed logit.
-            let soft = host_tools::gssm::net::compress_scalar(f64::from(lc)) as f32;
+            let soft = riskscore_train::gssm::net::compress_scalar(f64::from(lc)) as f32;
             assert!(
                 (soft - train_candle[i]).abs() < 2e-3,
                 "row {i}: {soft} vs {}",
@@ -214,7 +214,7 @@ fn candle_survival_matches_the_core_within_1e_5() {
 fn ssra_fine_tuning_changes_parameters_and_improves_the_pairwise_objective() {
     let data = dataset(24);
     let cfg = small_train_config();
-    let safe_obs = host_tools::gssm::fit::safe_observations(&data);
+    let safe_obs = riskscore_train::gssm::fit::safe_observations(&data);
     // A briefly fitted GSSM: a sensible distribution that does not yet order the pairs well.
     let brief = FitConfig {
         max_epochs: 2,
@@ -266,7 +266,7 @@ fn ssra_fine_tuning_changes_parameters_and_improves_the_pairwise_objective() {
 fn export_decode_score_equals_the_candle_forward() {
     let data = dataset(10);
     let g = fit_gssm_on_observations(
-        &host_tools::gssm::fit::safe_observations(&data),
+        &riskscore_train::gssm::fit::safe_observations(&data),
         &[],
         &FitConfig {
             max_epochs: 5,
@@ -329,7 +329,7 @@ fn msra_with_gssm_trains_and_round_trips_through_the_blob() {
     let data = dataset(16);
     let cfg = small_train_config();
     let g = fit_gssm_on_observations(
-        &host_tools::gssm::fit::safe_observations(&data),
+        &riskscore_train::gssm::fit::safe_observations(&data),
         &[],
         &small_fit(),
         9,
@@ -406,15 +406,15 @@ fn configuration_defaults_validate_and_typos_are_rejected() {
 }
 
 #[test]
-fn cli_ship_writes_three_decodable_models_on_a_simulated_folder() {
+fn ship_writes_three_decodable_models_on_a_simulated_folder() {
     let dir = tempfile::tempdir().unwrap();
     let events = dir.path().join("events");
-    let sim = host_tools::sim::SimConfig {
+    let sim = riskscore_data::sim::SimConfig {
         seed: 3,
         events: 40,
-        ..host_tools::sim::SimConfig::default()
+        ..riskscore_data::sim::SimConfig::default()
     };
-    host_tools::sim::simulate_to_dir(&events, &sim).unwrap();
+    riskscore_data::sim::simulate_to_dir(&events, &sim).unwrap();
     let train_toml = dir.path().join("train.toml");
     std::fs::write(
         &train_toml,
@@ -428,30 +428,32 @@ fn cli_ship_writes_three_decodable_models_on_a_simulated_folder() {
         "[fit]\nhidden = [8]\nmax_epochs = 5\n[ssra]\nmax_epochs = 3\n",
     )
     .unwrap();
+    let train = from_sequences(
+        &load_prepared(&events, &PrepareConfig::default())
+            .unwrap()
+            .sequences,
+    );
+    let config = TrainConfig::load_or_default(Some(&train_toml), Some(1)).unwrap();
+    assert_eq!(config.seed, 1);
+    let gssm_config = GssmConfig::load_or_default(Some(&gssm_toml)).unwrap();
+    // Without a separate normal-driving folder the GSSM is fitted on the training sequences.
+    let shipped = ship(&train, &train, &config, &gssm_config, Progress::Hidden).unwrap();
     let out = dir.path().join("models");
-    cli_gssm::run(cli_gssm::Args {
-        command: cli_gssm::Command::Ship(cli_gssm::ShipArgs {
-            common: cli_gssm::Common {
-                events: vec![events],
-                normal: None,
-                config: Some(train_toml),
-                gssm_config: Some(gssm_toml),
-                seed: Some(1),
-            },
-            out_dir: out.clone(),
-        }),
-    })
-    .unwrap();
+    let written = shipped.write_models(&out).unwrap();
+    assert_eq!(written, SHIPPED_FILES.map(|f| out.join(f)));
     let mut names = Vec::new();
-    for file in ["gssm-default.rsk", "ssra-default.rsk", "msra-gssm.rsk"] {
-        let bytes = std::fs::read(out.join(file)).unwrap();
+    for (path, blob) in written.iter().zip(&shipped.blobs) {
+        let bytes = std::fs::read(path).unwrap();
+        assert_eq!(&bytes, blob);
         let m = scorer_core::model::decode(&bytes).unwrap();
         names.push(row_name(&m));
         let v = m.score(&car(0.0, 0.0, 10.0), &car(12.0, 0.0, 5.0));
         assert!(v.is_finite());
     }
     assert_eq!(names, ["GSSM", "SSRA", "MSRA"]);
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("gssm-ship.json")).unwrap()).unwrap();
+    let summary = shipped.summary(&config, &gssm_config, std::slice::from_ref(&events), None);
     assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
+    assert_eq!(summary["seed"], 1);
+    assert_eq!(summary["events"][0], events.display().to_string());
+    assert!(summary["normal"].is_null());
 }

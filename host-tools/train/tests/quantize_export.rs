@@ -1,9 +1,9 @@
 //! Quantisation (int8 vs float agreement through the core), checkpoints, export -> decode -> score
 //! round trips and blob inspection.
-use host_tools::comparisons::{SequenceClass, TrainingSequence};
-use host_tools::export::{self, Checkpoint, CheckpointModel, DrlFormat};
-use host_tools::quantize;
-use host_tools::train::{self, Progress, TrainConfig};
+use riskscore_train::comparisons::{SequenceClass, TrainingSequence};
+use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
+use riskscore_train::quantize;
+use riskscore_train::train::{self, Progress, TrainConfig};
 use scorer_core::model::{decode, Model};
 use scorer_core::VehicleState;
 

@@ -1,12 +1,12 @@
 //! Objective and training: the loss, gradient steps that lower it, MSRA recovering a known monotone
 //! relation, the validation split, and the TOML configuration.
 use candle_core::{Device, Tensor};
-use host_tools::comparisons::{
+use riskscore_train::comparisons::{
     self, ComparisonConfig, ComparisonSet, ObservationTable, Pair, RowOrigin, SequenceClass,
     Source, TrainingSequence,
 };
-use host_tools::train::config::{ObjectiveConfig, OptimiserConfig};
-use host_tools::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
+use riskscore_train::train::config::{ObjectiveConfig, OptimiserConfig};
+use riskscore_train::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
 use scorer_core::{Observation, SurrogateKind, Surrogates, FEATURE_COUNT};
 
 mod common;
@@ -236,7 +236,7 @@ fn msra_recovers_a_known_monotone_relation() {
     // R decreasing in TTC: w * a < 0.
     assert!(t.w * t.a < 0.0, "w {} a {}", t.w, t.a);
     // And the deployed MSRA (scorer-core) is monotone on a grid and ranks the training pairs.
-    let blob = host_tools::export::msra_blob(&p).unwrap();
+    let blob = riskscore_train::export::msra_blob(&p).unwrap();
     let m = scorer_core::model::decode(&blob).unwrap();
     let score = |ttc: f32| m.score_observation(&ttc_observation(ttc));
     let grid: Vec<f32> = (0..=100).map(|i| 0.1 * i as f32).collect();
@@ -294,7 +294,7 @@ fn config_defaults_parse_and_typos_are_rejected() {
     let err = TrainConfig::from_toml("[objective]\nu = 9.0\n", "bad.toml").unwrap_err();
     assert!(err.to_string().contains("u < r_star"), "{err}");
     // The shipped configuration is the documented defaults.
-    let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/train.toml");
+    let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/train.toml");
     assert_eq!(TrainConfig::load(&shipped).unwrap(), TrainConfig::default());
 }
 
@@ -304,7 +304,7 @@ fn drl_forward_matches_the_core_float_network() {
     let scaler = drl::FeatureScaler::fit(&seqs);
     let model = drl::Drl::new(scaler, &[16, 8], 4).unwrap();
     let params = model.params().unwrap();
-    let blob = host_tools::export::drl_f32_blob(&params).unwrap();
+    let blob = riskscore_train::export::drl_f32_blob(&params).unwrap();
     let core = scorer_core::model::decode(&blob).unwrap();
     let set = comparisons::build(&seqs, None, &ComparisonConfig::default().scaled(0.02), 1);
     let float = train::score_table(&model, &set.table).unwrap();

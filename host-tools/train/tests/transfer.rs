@@ -1,11 +1,11 @@
 //! The transfer benchmark: real sequences are held out by scenario file (never split across train
 //! and test), every fold trains and scores DRL, MSRA, GSSM and SSRA, and the report has the
 //! evaluate schema.
-use host_tools::events::{EventKind, Frame, Sequence};
-use host_tools::gssm::GssmConfig;
-use host_tools::sim::{simulate_to_dir, Mix, SimConfig};
-use host_tools::train::{Progress, TrainConfig};
-use host_tools::transfer::{self, scenario_of, TransferData, TransferOptions};
+use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_train::gssm::GssmConfig;
+use riskscore_train::train::{Progress, TrainConfig};
+use riskscore_train::transfer::{self, scenario_of, TransferData, TransferOptions};
 use scorer_core::VehicleState;
 
 fn simulated(seed: u64, mix: Mix, dir: &std::path::Path) -> Vec<Sequence> {
@@ -16,7 +16,9 @@ fn simulated(seed: u64, mix: Mix, dir: &std::path::Path) -> Vec<Sequence> {
         ..SimConfig::default()
     };
     simulate_to_dir(dir, &cfg).unwrap();
-    host_tools::demo::load_sequences(dir).unwrap().0
+    riskscore_data::events::load_prepared(dir, &riskscore_data::events::PrepareConfig::default())
+        .unwrap()
+        .sequences
 }
 
 /// Calm following in one of `scenarios` recordings, named like `riskctl import commonroad` does.

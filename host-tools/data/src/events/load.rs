@@ -57,6 +57,9 @@ pub enum EventsError {
         event_id: String,
         reason: &'static str,
     },
+    /// [`load_prepared`](super::load_prepared) only: no event of the folder yields a sequence.
+    #[error("{}: contains no usable sequences", path.display())]
+    NoSequences { path: PathBuf },
 }
 
 /// One validation problem. Display: `file:line: column `c`: event `id`: problem`.

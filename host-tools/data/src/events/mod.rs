@@ -11,13 +11,18 @@
 //!    never separates the frames of one event.
 //! 4. [`write_events`] / [`EventWriter`] write an event folder (the simulator streams through
 //!    [`EventWriter`]).
+//!
+//! [`load_prepared`] does steps 1 and 2 for a folder in one call (what training, the demo and the
+//! benchmarks read).
 use scorer_core::VehicleState;
 
+mod folder;
 mod folds;
 mod load;
 mod prepare;
 mod write;
 
+pub use folder::{load_prepared, PreparedFolder, LISTED_LOAD_ISSUES, LISTED_PREPARE_ISSUES};
 pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{
     load_events, stream_events, EventsError, IssueProblem, LoadIssue, KEPT_PER_KIND,

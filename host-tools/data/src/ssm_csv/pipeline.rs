@@ -49,7 +49,7 @@ pub struct SsmSummary {
 
 /// The unescaped fields of one record, parsed by `csv-core`.
 #[derive(Default)]
-pub(crate) struct FieldBuf {
+pub struct FieldBuf {
     bytes: Vec<u8>,
     ends: Vec<usize>,
     used: usize,
@@ -88,7 +88,7 @@ impl FieldBuf {
         self.plain = true;
     }
 
-    pub(crate) fn is_blank(&self) -> bool {
+    pub fn is_blank(&self) -> bool {
         (0..self.count).all(|k| {
             let f = self.field(k).unwrap_or_default();
             f.iter().all(u8::is_ascii_whitespace)
@@ -98,7 +98,7 @@ impl FieldBuf {
 }
 
 /// A `csv-core` reader for records that each end with a line feed.
-pub(crate) fn record_reader() -> csv_core::Reader {
+pub fn record_reader() -> csv_core::Reader {
     let mut reader = csv_core::Reader::new();
     // Past the start of input: a byte-order mark is only stripped at the very start of a file,
     // which the header parse handles with a fresh reader.
@@ -108,7 +108,7 @@ pub(crate) fn record_reader() -> csv_core::Reader {
 
 /// Parse the record(s) of `line_bytes` (normally one; a lone `\r` ends a record too, as in the
 /// `csv` crate) and call `each` on every record.
-pub(crate) fn for_each_record(
+pub fn for_each_record(
     reader: &mut csv_core::Reader,
     fields: &mut FieldBuf,
     mut input: &[u8],
@@ -170,7 +170,7 @@ pub(crate) fn for_each_record(
 
 /// Append one CSV field, quoted when it holds a delimiter, quote or line break (the `csv` crate's
 /// rule for its default writer).
-pub(crate) fn push_field(out: &mut Vec<u8>, field: &[u8]) {
+pub fn push_field(out: &mut Vec<u8>, field: &[u8]) {
     let needs_quotes = field
         .iter()
         .any(|&b| matches!(b, b',' | b'"' | b'\n' | b'\r'));
@@ -300,7 +300,7 @@ fn process_chunk(
 
 /// Find and parse the header: the first non-empty record. Returns the columns and the rest of the
 /// chunk it was in.
-pub(crate) fn read_header<R: Read>(
+pub fn read_header<R: Read>(
     splitter: &mut Splitter<R>,
 ) -> Result<(PairColumns, Option<Chunk>), SsmError> {
     loop {

@@ -127,8 +127,8 @@ impl TrainingSequence {
     }
 }
 
-impl From<&crate::events::Sequence> for TrainingSequence {
-    fn from(s: &crate::events::Sequence) -> Self {
+impl From<&riskscore_data::events::Sequence> for TrainingSequence {
+    fn from(s: &riskscore_data::events::Sequence) -> Self {
         TrainingSequence {
             event_id: s.event_id.clone(),
             class: match s.endpoint {
@@ -142,8 +142,8 @@ impl From<&crate::events::Sequence> for TrainingSequence {
     }
 }
 
-/// Convert prepared sequences (see [`crate::events::prepare_sequences`]).
-pub fn from_sequences(seqs: &[crate::events::Sequence]) -> Vec<TrainingSequence> {
+/// Convert prepared sequences (see [`riskscore_data::events::prepare_sequences`]).
+pub fn from_sequences(seqs: &[riskscore_data::events::Sequence]) -> Vec<TrainingSequence> {
     seqs.iter().map(TrainingSequence::from).collect()
 }
 
@@ -678,7 +678,7 @@ fn collect_anchors(
             continue;
         };
         for (fi, &t) in s.times.iter().enumerate() {
-            if t > endpoint + crate::events::TIME_EPS {
+            if t > endpoint + riskscore_data::events::TIME_EPS {
                 continue;
             }
             if endpoint - t <= config.impact_tolerance + 1e-9 {

@@ -3,6 +3,7 @@
 //! are the shared ones of [`crate::train::TrainConfig`].
 use std::path::Path;
 
+use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
 use super::GssmError;
@@ -173,6 +174,11 @@ impl GssmConfig {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// The configuration in `path` when given, else the defaults (`--gssm-config FILE`).
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmError> {
+        path.map_or_else(|| Ok(Self::default()), Self::load)
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         let f = &self.fit;
         if f.hidden.is_empty() || f.hidden.len() > 3 || f.hidden.iter().any(|&w| w == 0 || w > 64) {
@@ -208,8 +214,34 @@ impl GssmConfig {
             return Err("msra.learning_rate must be > 0".into());
         }
         for c in self.msra.configurations.iter().chain([&self.msra.shipped]) {
-            super::msra::parse_configuration(c)?;
+            parse_configuration(c)?;
         }
         Ok(())
     }
+}
+
+/// A surrogate of an MSRA configuration by name (`gssm` or one of the core's surrogates).
+pub(super) fn parse_kind(name: &str) -> Option<SurrogateKind> {
+    match name.trim().to_ascii_lowercase().as_str() {
+        "gssm" => Some(SurrogateKind::Gssm),
+        other => crate::train::msra::parse_surrogate(other),
+    }
+}
+
+/// Parse a configuration such as `tadv+ei+gssm` (1 to 4 distinct surrogates).
+pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, String> {
+    let mut kinds = Vec::new();
+    for part in text.split('+') {
+        let kind = parse_kind(part).ok_or_else(|| {
+            format!("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")
+        })?;
+        if kinds.contains(&kind) {
+            return Err(format!("configuration {text:?}: {part:?} appears twice"));
+        }
+        kinds.push(kind);
+    }
+    if kinds.len() > scorer_core::msra::MAX_TERMS {
+        return Err(format!("configuration {text:?}: at most 4 surrogates"));
+    }
+    Ok(kinds)
 }

@@ -12,12 +12,14 @@
 //! - [`ssra`]: SSRA, the GSSM fine-tuned under the comparison objective through its CDF.
 //! - [`msra`]: MSRA configurations that read the GSSM (EI+GSSM, TAdv+EI+GSSM, TTC2D variants), the
 //!   learned weights after sigmoid normalisation, export with the embedded network.
+//! - [`ship`]: the three shipped models (GSSM, SSRA, MSRA over GSSM) from one training set.
 //! - [`study`]: event-level cross-validation of GSSM, SSRA and the MSRA configurations against the
 //!   baselines, and the simulation-augmentation study.
 pub mod config;
 pub mod fit;
 pub mod msra;
 pub mod net;
+pub mod ship;
 pub mod ssra;
 pub mod study;
 
@@ -45,7 +47,7 @@ pub enum GssmError {
     #[error("tensor computation failed: {0}")]
     Candle(#[from] candle_core::Error),
     #[error("evaluation failed: {0}")]
-    Eval(#[from] crate::eval::ProtocolError),
+    Eval(#[from] riskscore_eval::ProtocolError),
     #[error("{0}")]
     Export(#[from] crate::export::ExportError),
 }
@@ -76,6 +78,6 @@ pub fn row_name(model: &scorer_core::Model<'_>) -> &'static str {
             scorer_core::GssmScore::Intensity => "GSSM",
             scorer_core::GssmScore::Cdf | scorer_core::GssmScore::Logit => "SSRA",
         },
-        other => crate::eval::scoring::kind_row_name(other.kind()),
+        other => riskscore_eval::scoring::kind_row_name(other.kind()),
     }
 }

@@ -21,6 +21,9 @@ use scorer_core::msra::{larger_is_riskier, sigmoid, transform, MsraModel, MsraTe
 use scorer_core::{Features, Model, SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
+// The configuration grammar lives with the configuration that names it (no config <-> msra cycle).
+pub use super::config::parse_configuration;
+use super::config::parse_kind;
 use super::net::GssmParams;
 use super::GssmError;
 use crate::comparisons::{ObservationTable, TrainingSequence};
@@ -36,31 +39,6 @@ pub fn term_range(kind: SurrogateKind) -> (f32, f32) {
         SurrogateKind::Gssm => GSSM_RANGE,
         other => default_range(other),
     }
-}
-
-fn parse_kind(name: &str) -> Option<SurrogateKind> {
-    match name.trim().to_ascii_lowercase().as_str() {
-        "gssm" => Some(SurrogateKind::Gssm),
-        other => crate::train::msra::parse_surrogate(other),
-    }
-}
-
-/// Parse a configuration such as `tadv+ei+gssm` (1 to 4 distinct surrogates).
-pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, String> {
-    let mut kinds = Vec::new();
-    for part in text.split('+') {
-        let kind = parse_kind(part).ok_or_else(|| {
-            format!("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")
-        })?;
-        if kinds.contains(&kind) {
-            return Err(format!("configuration {text:?}: {part:?} appears twice"));
-        }
-        kinds.push(kind);
-    }
-    if kinds.len() > scorer_core::msra::MAX_TERMS {
-        return Err(format!("configuration {text:?}: at most 4 surrogates"));
-    }
-    Ok(kinds)
 }
 
 /// Display name of a configuration, e.g. `TAdv+EI+GSSM`.

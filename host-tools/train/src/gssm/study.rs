@@ -3,7 +3,7 @@
 //!
 //! Every trained model is exported to its blob and scored on the test fold through
 //! `scorer_core::model::decode` + `Model::score_observation` (the deployed path), then evaluated by
-//! [`crate::eval`]; folds come from [`crate::events::kfold_by_event`], comparisons from
+//! [`riskscore_eval`]; folds come from [`riskscore_data::events::kfold_by_event`], comparisons from
 //! [`crate::train::prepare_comparisons`] on the training part only.
 use serde::Serialize;
 
@@ -13,10 +13,10 @@ use super::msra::{align_msra_gssm, row_name as msra_row_name, TermWeight};
 use super::ssra::align_ssra;
 use super::GssmError;
 use crate::comparisons::{from_sequences, TrainingSequence};
-use crate::eval::report::{aggregate, CvReport, EventCounts, FoldResult};
-use crate::eval::scoring::{evaluate_methods, observe, Method, ObservedSequence, Scorer};
-use crate::events::{kfold_by_event, Sequence};
 use crate::train::{self, Progress, TrainConfig};
+use riskscore_data::events::{kfold_by_event, Sequence};
+use riskscore_eval::report::{aggregate, CvReport, EventCounts, FoldResult};
+use riskscore_eval::scoring::{evaluate_methods, observe, Method, ObservedSequence, Scorer};
 use scorer_core::gssm::GssmScore;
 use scorer_core::SurrogateKind;
 
@@ -68,7 +68,7 @@ fn evaluate_blobs(
     observed: &[ObservedSequence],
     blobs: &[(String, Vec<u8>)],
     baselines: bool,
-) -> Result<Vec<crate::eval::report::MethodResult>, GssmError> {
+) -> Result<Vec<riskscore_eval::report::MethodResult>, GssmError> {
     let mut methods: Vec<Method<'_>> = if baselines {
         Method::baselines()
     } else {
@@ -86,7 +86,7 @@ fn evaluate_blobs(
 
 /// What [`train_fold`] trained and how its models scored the test sequences.
 pub struct GssmFold {
-    pub methods: Vec<crate::eval::report::MethodResult>,
+    pub methods: Vec<riskscore_eval::report::MethodResult>,
     pub detail: FoldDetail,
 }
 

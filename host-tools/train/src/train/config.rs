@@ -174,6 +174,19 @@ impl TrainConfig {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// The configuration in `path` when given, else the defaults; `seed` (when given) replaces
+    /// its seed. What every command's `--config FILE` / `--seed N` pair means.
+    pub fn load_or_default(path: Option<&Path>, seed: Option<u64>) -> Result<Self, ConfigError> {
+        let mut config = match path {
+            Some(p) => Self::load(p)?,
+            None => Self::default(),
+        };
+        if let Some(seed) = seed {
+            config.seed = seed;
+        }
+        Ok(config)
+    }
+
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn validate(&self) -> Result<(), String> {

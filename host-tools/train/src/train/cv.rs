@@ -16,10 +16,10 @@ use serde::Serialize;
 
 use super::{Progress, TrainConfig, TrainError, TrainReport};
 use crate::comparisons::{from_sequences, BuildStats, TrainingSequence};
-use crate::eval::{self, FoldResult, Method, MethodRun, Scorer};
-use crate::events::{kfold_by_event, Sequence};
 use crate::export::{self, ExportError};
 use crate::quantize::{self, Agreement};
+use riskscore_data::events::{kfold_by_event, Sequence};
+use riskscore_eval::{self as eval, FoldResult, Method, MethodRun, Scorer};
 
 /// Which learned models a run trains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

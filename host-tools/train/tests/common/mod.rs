@@ -1,5 +1,5 @@
 //! Synthetic training sequences shared by the comparison, training and GSSM tests.
-use host_tools::comparisons::{SequenceClass, TrainingSequence};
+use riskscore_train::comparisons::{SequenceClass, TrainingSequence};
 use scorer_core::VehicleState;
 
 /// A 4.5 m x 1.8 m car at `(x, y)` driving along +x at `v` m/s.

@@ -2,12 +2,12 @@
 //! and the Arrow kernel, on the golden pairs repeated to 59,000 rows. Whole-process figures on
 //! 1 M real pairs: scripts/bench-ssm.sh. Results: docs/benchmarks.md.
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use host_tools::ssm_csv::{score_csv, SsmOptions};
+use riskscore_data::ssm_csv::{score_csv, SsmOptions};
 
 fn golden_repeated(times: usize) -> (Vec<u8>, u64) {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../tests/data/golden_surrogates.csv"
+        "/../../tests/data/golden_surrogates.csv"
     ))
     .expect("golden file");
     let (header, body) = text.split_once('\n').expect("header");
@@ -46,8 +46,8 @@ fn csv_pipeline(c: &mut Criterion) {
 
 #[cfg(feature = "parquet")]
 fn arrow_kernel(c: &mut Criterion) {
-    use host_tools::arrow_kernel::{pair_columns, ssm_kernel};
-    use host_tools::parquet_io::CsvBatches;
+    use riskscore_eval::arrow_kernel::{pair_columns, ssm_kernel};
+    use riskscore_eval::parquet_io::CsvBatches;
     let (input, _) = golden_repeated(20);
     let mut batches = CsvBatches::new(input.as_slice(), &SsmOptions::default()).expect("header");
     let columns = batches.columns().clone();
