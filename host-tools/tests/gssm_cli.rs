@@ -33,19 +33,9 @@ fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
         "--seed",
         "3",
     ]);
-    let train_toml = dir.path().join("train.toml");
-    std::fs::write(
-        &train_toml,
-        "[comparisons.temporal]\npairs = 300\n[comparisons.cross_sequence]\npairs = 300\n\
-         [comparisons.physics]\npairs = 100\n[optimiser]\nmax_epochs = 4\n",
-    )
-    .unwrap();
-    let gssm_toml = dir.path().join("gssm.toml");
-    std::fs::write(
-        &gssm_toml,
-        "[fit]\nhidden = [8]\nmax_epochs = 5\n[ssra]\nmax_epochs = 3\n",
-    )
-    .unwrap();
+    // The tiny configurations of riskscore-train's ship test.
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("train/tests/data/tiny");
+    let (train_toml, gssm_toml) = (tiny.join("train.toml"), tiny.join("gssm.toml"));
     let models = dir.path().join("models");
     let out = riskctl(&[
         "gssm",

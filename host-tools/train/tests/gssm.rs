@@ -415,19 +415,9 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
         ..riskscore_data::sim::SimConfig::default()
     };
     riskscore_data::sim::simulate_to_dir(&events, &sim).unwrap();
-    let train_toml = dir.path().join("train.toml");
-    std::fs::write(
-        &train_toml,
-        "[comparisons.temporal]\npairs = 300\n[comparisons.cross_sequence]\npairs = 300\n\
-         [comparisons.physics]\npairs = 100\n[optimiser]\nmax_epochs = 4\n",
-    )
-    .unwrap();
-    let gssm_toml = dir.path().join("gssm.toml");
-    std::fs::write(
-        &gssm_toml,
-        "[fit]\nhidden = [8]\nmax_epochs = 5\n[ssra]\nmax_epochs = 3\n",
-    )
-    .unwrap();
+    // The same tiny configurations as riskctl's `gssm ship` test.
+    let tiny = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny");
+    let (train_toml, gssm_toml) = (tiny.join("train.toml"), tiny.join("gssm.toml"));
     let train = from_sequences(
         &load_prepared(&events, &PrepareConfig::default())
             .unwrap()
