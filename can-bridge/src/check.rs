@@ -6,8 +6,8 @@
 //! to the event tables' floats. So `check` evaluates the bridge on its decoded states: it traces
 //! every scored track update back to its event frame (the exporter's [`Layout`]), rebuilds the
 //! event set as the bridge saw it (same event metadata, frames = decoded ego/partner states),
-//! prepares sequences from it with host-tools' own preparation, and computes the metrics with
-//! host-tools' own evaluation from the bridge's scores. `--decoded-events-out DIR` writes that event
+//! prepares sequences from it with riskscore-data's own preparation, and computes the metrics with
+//! riskscore-eval's own evaluation from the bridge's scores. `--decoded-events-out DIR` writes that event
 //! set as an event folder (with an `acc_sur` column); `riskctl evaluate --events DIR` on it
 //! recomputes the scores from the same states through the same `scorer-core` calls, so the table
 //! and JSON are identical, number for number.
@@ -15,12 +15,12 @@ use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
 use crate::losses::FrameLosses;
 use can_codec::output::AtomicFile;
-use host_tools::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
-use host_tools::eval::scoring::evaluate_scored;
-use host_tools::eval::{EvaluationReport, ScoredFrame, ScoredSequence};
-use host_tools::events::{
+use riskscore_data::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
+use riskscore_data::events::{
     prepare_sequences, Event, EventKind, EventSet, Frame as EventFrame, PrepareConfig,
 };
+use riskscore_eval::scoring::evaluate_scored;
+use riskscore_eval::{EvaluationReport, ScoredFrame, ScoredSequence};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::Path;
@@ -72,7 +72,7 @@ pub enum CheckError {
     #[error("the log and the event folder do not belong together: {0}")]
     Mismatch(String),
     #[error("evaluation: {0}")]
-    Protocol(#[from] host_tools::eval::ProtocolError),
+    Protocol(#[from] riskscore_eval::ProtocolError),
 }
 
 /// Scored updates sampled when testing a candidate alignment.
@@ -123,7 +123,7 @@ fn align(
 
 /// Runs the bridge over `log` and evaluates it against `set`. `gap_us` must be the exporter's
 /// pause between events; the log's timeline is aligned on its content ([`align`]). `row_name` is
-/// the model's row in the table (`host_tools::eval::scoring::model_row_name`, as `riskctl
+/// the model's row in the table (`riskscore_eval::scoring::model_row_name`, as `riskctl
 /// evaluate`). A log that does not trace to the folder is an error, not empty metrics.
 pub fn check(
     log: &Path,
@@ -218,8 +218,8 @@ pub fn check(
         let endpoint = ev.t_impact;
         let warned_at = onset[k];
         let (lead_time, late) = match (warned_at, endpoint) {
-            (Some(w), Some(e)) if w <= e + host_tools::eval::protocol::ENDPOINT_TOLERANCE_S => {
-                (Some(host_tools::eval::protocol::lead_time(e, w)), false)
+            (Some(w), Some(e)) if w <= e + riskscore_eval::protocol::ENDPOINT_TOLERANCE_S => {
+                (Some(riskscore_eval::protocol::lead_time(e, w)), false)
             }
             (Some(_), Some(_)) => (None, true),
             _ => (None, false),
@@ -237,7 +237,7 @@ pub fn check(
             late,
         });
         if let Some((first, _)) = frames.first() {
-            let dims = host_tools::events::Dims {
+            let dims = riskscore_data::events::Dims {
                 length_ego: first.ego.length,
                 width_ego: first.ego.width,
                 length_sur: first.sur.length,
@@ -300,8 +300,12 @@ pub fn check(
 /// round-trip form, so reading the folder back gives bit-identical states.
 pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    let mut ev_out = AtomicFile::create(&dir.join(host_tools::events::EVENTS_FILE))?;
-    writeln!(ev_out, "{}", host_tools::events::EVENT_COLUMNS.join(","))?;
+    let mut ev_out = AtomicFile::create(&dir.join(riskscore_data::events::EVENTS_FILE))?;
+    writeln!(
+        ev_out,
+        "{}",
+        riskscore_data::events::EVENT_COLUMNS.join(",")
+    )?;
     for e in &set.events {
         let d = &e.dims;
         writeln!(
@@ -318,11 +322,11 @@ pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
             d.width_sur
         )?;
     }
-    let mut fr_out = AtomicFile::create(&dir.join(host_tools::events::FRAMES_FILE))?;
+    let mut fr_out = AtomicFile::create(&dir.join(riskscore_data::events::FRAMES_FILE))?;
     writeln!(
         fr_out,
         "{},acc_sur",
-        host_tools::events::FRAME_COLUMNS.join(",")
+        riskscore_data::events::FRAME_COLUMNS.join(",")
     )?;
     for e in &set.events {
         for f in &e.frames {

@@ -70,7 +70,7 @@ struct CheckArgs {
     #[arg(long)]
     json: bool,
     /// Pause between events used by events-to-candump (s).
-    #[arg(long, default_value_t = host_tools::candump_export::DEFAULT_GAP_US as f64 / 1e6, value_parser = cli_values::seconds)]
+    #[arg(long, default_value_t = riskscore_data::candump_export::DEFAULT_GAP_US as f64 / 1e6, value_parser = cli_values::seconds)]
     gap: f64,
     /// Write the event set as the bridge decoded it (an event folder); `riskctl evaluate --events`
     /// on it gives exactly this command's metrics.
@@ -139,16 +139,16 @@ fn run_check(args: CheckArgs) -> Result<()> {
     let config = engine_config(&args.scoring, &model_file)?;
     let mut engine = Engine::new(model_file.model()?, map, config)?;
     let event_files = [
-        args.events.join(host_tools::events::EVENTS_FILE),
-        args.events.join(host_tools::events::FRAMES_FILE),
+        args.events.join(riskscore_data::events::EVENTS_FILE),
+        args.events.join(riskscore_data::events::FRAMES_FILE),
     ];
     let mut inputs = scoring_inputs(&args.scoring);
     inputs.push(("--log", args.log.as_path()));
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
     let decoded_files = args.decoded_events_out.as_ref().map(|d| {
         [
-            d.join(host_tools::events::EVENTS_FILE),
-            d.join(host_tools::events::FRAMES_FILE),
+            d.join(riskscore_data::events::EVENTS_FILE),
+            d.join(riskscore_data::events::FRAMES_FILE),
         ]
     });
     let mut outputs: Vec<NamedPath<'_>> = decoded_files
@@ -160,7 +160,7 @@ fn run_check(args: CheckArgs) -> Result<()> {
         outputs.push(("--per-event-out", p.as_path()));
     }
     refuse_overlaps(&inputs, &outputs)?;
-    let (set, issues) = host_tools::events::load_events(&args.events)
+    let (set, issues) = riskscore_data::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     for issue in issues.iter().take(20) {
         eprintln!("warning: {issue}");
@@ -170,7 +170,7 @@ fn run_check(args: CheckArgs) -> Result<()> {
         &args.log,
         &set,
         &mut engine,
-        host_tools::eval::scoring::model_row_name(&model),
+        riskscore_eval::scoring::model_row_name(&model),
         (args.gap * 1e6).round() as u64,
     )
     .with_context(|| {

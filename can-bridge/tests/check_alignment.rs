@@ -6,8 +6,8 @@ use can_bridge::check::{check, CheckError, CheckReport};
 use can_bridge::engine::{Engine, EngineConfig};
 use can_bridge::map::CompiledMap;
 use can_bridge::ModelFile;
-use host_tools::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US};
-use host_tools::events::{write_events, EventSet};
+use riskscore_data::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US};
+use riskscore_data::events::{write_events, EventSet};
 use std::path::Path;
 use std::process::Command;
 

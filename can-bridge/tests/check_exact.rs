@@ -6,9 +6,9 @@ use can_bridge::check::{check, write_decoded_events};
 use can_bridge::engine::{Engine, EngineConfig};
 use can_bridge::map::CompiledMap;
 use can_bridge::ModelFile;
-use host_tools::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US};
-use host_tools::eval::scoring::{evaluate_methods, observe, Method, Scorer};
-use host_tools::events::{load_events, prepare_sequences, write_events, PrepareConfig};
+use riskscore_data::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US};
+use riskscore_data::events::{load_events, prepare_sequences, write_events, PrepareConfig};
+use riskscore_eval::scoring::{evaluate_methods, observe, Method, Scorer};
 use std::path::Path;
 
 #[test]

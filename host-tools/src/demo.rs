@@ -1,9 +1,9 @@
 //! The main job (`riskctl demo`): simulate the default data set, add the real safe driving of the
 //! committed NGSIM extract, build comparisons, train DRL and MSRA under 5-fold event-level CV (fold
 //! models scored through the deployed int8/core path), print the table against the TTC2D/TAdv/EI
-//! baselines, run the transfer benchmark ([`crate::transfer`]: another simulator seed and mix plus
-//! real recordings held out by scenario file), quantise, export the final models (trained on all
-//! events), write plots, and say where everything went, with stage times.
+//! baselines, run the transfer benchmark ([`riskscore_train::transfer`]: another simulator seed and
+//! mix plus real recordings held out by scenario file), quantise, export the final models (trained
+//! on all events), write plots, and say where everything went, with stage times.
 //!
 //! Output layout under the out folder:
 //! - `data/`: the simulated event folder (`events.csv`, `frames.csv`, ...);
@@ -22,15 +22,16 @@ use std::time::Instant;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::comparisons::{from_sequences, TrainingSequence};
-use crate::eval::{self, plots, CvReport, EventCounts, ScoredSequence};
-use crate::events::{self, PrepareConfig, Sequence};
-use crate::export::{self, Checkpoint, CheckpointModel, DrlFormat};
-use crate::gssm::GssmConfig;
-use crate::quantize::{self, Agreement};
-use crate::sim::{self, SimConfig};
-use crate::train::cv::{self, CvOptions, FoldOutcome};
-use crate::train::{self, Progress, TrainConfig, TrainedDrl, TrainedMsra};
+use riskscore_data::events::{self, PrepareConfig, Sequence};
+use riskscore_data::sim::{self, SimConfig};
+use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
+use riskscore_train::comparisons::from_sequences;
+use riskscore_train::export;
+use riskscore_train::final_models::{train_and_export, FinalModelsError};
+use riskscore_train::gssm::GssmConfig;
+use riskscore_train::quantize::Agreement;
+use riskscore_train::train::cv::{self, CvOptions, FoldOutcome};
+use riskscore_train::train::{Progress, TrainConfig};
 
 /// What the demo runs on and where it writes.
 #[derive(Clone, Debug)]
@@ -128,8 +129,8 @@ pub enum DemoError {
     },
     #[error("cross-validation: {0}")]
     Cv(#[from] cv::CvError),
-    #[error("final training: {0}")]
-    Train(#[from] train::TrainError),
+    #[error(transparent)]
+    Final(#[from] FinalModelsError),
     #[error("export: {0}")]
     Export(#[from] export::ExportError),
     #[error("evaluation: {0}")]
@@ -138,10 +139,8 @@ pub enum DemoError {
     Plot(#[from] plots::PlotError),
     #[error("{path}: writing CSV: {source}")]
     Csv { path: String, source: csv::Error },
-    #[error("{0} contains no usable sequences")]
-    NoSequences(String),
     #[error("{0}")]
-    Transfer(#[from] crate::transfer::TransferError),
+    Transfer(#[from] riskscore_train::transfer::TransferError),
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
@@ -247,93 +246,14 @@ pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim
     claims
 }
 
-/// The final models: trained on every sequence, quantised and exported.
-pub struct FinalModels {
-    pub drl: TrainedDrl,
-    pub msra: TrainedMsra,
-    pub agreement: Agreement,
-    pub pairs_per_second: f64,
-}
-
-/// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`.
-pub fn train_and_export(
-    train: &[TrainingSequence],
-    augmentation: Option<&[TrainingSequence]>,
-    config: &TrainConfig,
-    dir: &Path,
-    meta: serde_json::Value,
-    progress: Progress,
-) -> Result<(FinalModels, Vec<PathBuf>), DemoError> {
-    fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let prepared = train::prepare_comparisons(train, augmentation, config);
-    let drl = train::train_drl(train, &prepared, config, progress)?;
-    let msra = train::train_msra(train, &prepared, config, progress)?;
-    let q = quantize::quantize(&drl.params, &drl.calibration)
-        .map_err(|e| DemoError::Export(e.into()))?;
-    let obs = train::calibration_observations(train, usize::MAX);
-    let agreement =
-        quantize::verify(&drl.params, &q, &obs).map_err(|e| DemoError::Export(e.into()))?;
-    let mut files = Vec::new();
-    let drl_ck = Checkpoint::new(
-        CheckpointModel::Drl {
-            params: drl.params.clone(),
-            calibration: drl.calibration.clone(),
-        },
-        json!({"model": "DRL", "meta": meta, "training": drl.report, "comparisons": prepared.fit.stats}),
-    );
-    let msra_ck = Checkpoint::new(
-        CheckpointModel::Msra {
-            params: msra.params.clone(),
-        },
-        json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
-    );
-    for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
-        let p = dir.join(name);
-        ck.save(&p)?;
-        files.push(p);
+/// The folder's prepared sequences ([`events::load_prepared`]) and its event counts; problems are
+/// reported on stderr, valid events are kept.
+fn load_sequences(dir: &Path) -> Result<(Vec<Sequence>, String), DemoError> {
+    let folder = events::load_prepared(dir, &PrepareConfig::default())?;
+    for note in folder.problem_notes() {
+        eprintln!("{note}");
     }
-    for (name, blob) in [
-        ("drl.rsk", export::export(&drl_ck, DrlFormat::Int8)?),
-        ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
-        ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
-    ] {
-        let p = dir.join(name);
-        export::write_blob(&p, &blob)?;
-        files.push(p);
-    }
-    Ok((
-        FinalModels {
-            drl,
-            msra,
-            agreement,
-            pairs_per_second: prepared.fit.stats.pairs_per_second(),
-        },
-        files,
-    ))
-}
-
-/// Load an event folder and prepare its sequences (problems are reported on stderr, valid events
-/// are kept).
-pub fn load_sequences(dir: &Path) -> Result<(Vec<Sequence>, String), DemoError> {
-    let (set, issues) = events::load_events(dir)?;
-    for issue in issues.iter().take(20) {
-        eprintln!("warning: {issue}");
-    }
-    if issues.len() > 20 {
-        eprintln!("warning: ... and {} more problems", issues.len() - 20);
-    }
-    let (seqs, skipped) = events::prepare_sequences(&set, &PrepareConfig::default());
-    for s in skipped.iter().take(5) {
-        eprintln!("note: {s}");
-    }
-    if skipped.len() > 5 {
-        eprintln!("note: ... {} events yield no sequence", skipped.len());
-    }
-    if seqs.is_empty() {
-        return Err(DemoError::NoSequences(dir.display().to_string()));
-    }
-    let counts = set.counts();
-    Ok((seqs, counts.to_string()))
+    Ok((folder.sequences, folder.counts.to_string()))
 }
 
 fn write_csv_file(
@@ -429,7 +349,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             "      real recordings {}: {real_counts}; {} safe sequences from {} scenario files",
             real.display(),
             r.len(),
-            crate::transfer::sequences_per_scenario(&r).len()
+            riskscore_train::transfer::sequences_per_scenario(&r).len()
         );
         counts = format!("{counts} + real {real_counts}");
         real_seqs = r;
@@ -523,17 +443,17 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         );
         sim::simulate_to_dir(&dir, &cfg)?;
         let (test_sim, _) = load_sequences(&dir)?;
-        let data = crate::transfer::TransferData {
+        let data = riskscore_train::transfer::TransferData {
             train_sim: sim_seqs.clone(),
             test_sim,
             real: real_seqs.clone(),
         };
-        let topts = crate::transfer::TransferOptions {
+        let topts = riskscore_train::transfer::TransferOptions {
             folds: opts.folds,
             seeds: opts.seeds,
             progress: opts.progress,
         };
-        let result = crate::transfer::run(&data, &opts.config, &opts.gssm, &topts)?;
+        let result = riskscore_train::transfer::run(&data, &opts.config, &opts.gssm, &topts)?;
         let tdir = report_dir.join("transfer");
         files.extend(write_transfer_report(&tdir, &result)?);
         println!(
@@ -709,15 +629,15 @@ pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
         .msra
         .surrogates
         .iter()
-        .filter_map(|n| crate::train::msra::parse_surrogate(n))
-        .map(|k| crate::train::msra::surrogate_name(k).to_string())
+        .filter_map(|n| riskscore_train::train::msra::parse_surrogate(n))
+        .map(|k| riskscore_train::train::msra::surrogate_name(k).to_string())
         .collect()
 }
 
 /// Write the transfer benchmark's report files into `dir`; returns the paths.
 pub fn write_transfer_report(
     dir: &Path,
-    result: &crate::transfer::TransferResult,
+    result: &riskscore_train::transfer::TransferResult,
 ) -> Result<Vec<PathBuf>, DemoError> {
     fs::create_dir_all(dir).map_err(io_err(dir))?;
     let mut files = Vec::new();

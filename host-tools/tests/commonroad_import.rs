@@ -1,4 +1,4 @@
-//! `riskctl import commonroad` and `host_tools::import::commonroad`: parsing the 2020a and 2018b
+//! `riskctl import commonroad` and `riskscore_data::import::commonroad`: parsing the 2020a and 2018b
 //! layouts, the unit conversions, the interaction rules (near, overlap split, ego choice, safe
 //! cut), located error messages, and an imported folder that loads with zero issues.
 //!
@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use host_tools::events::{load_events, prepare_sequences, PrepareConfig};
-use host_tools::import::commonroad::{
+use riskscore_data::events::{load_events, prepare_sequences, PrepareConfig};
+use riskscore_data::import::commonroad::{
     import_to_dir, parse_scenario, read_scenario, safe_interactions, scenario_of_event_id,
     vehicle_state, EgoChoice, Ignored, InteractionRules, Problem,
 };

@@ -1,8 +1,8 @@
 //! A small demo-like end-to-end run on a tiny simulated set: simulate, cross-validate (comparisons,
 //! training, int8, evaluation through the core), export, plot, and check what was written.
 use host_tools::demo::{self, DemoOptions};
-use host_tools::export;
-use host_tools::train::{Progress, TrainConfig};
+use riskscore_train::export;
+use riskscore_train::train::{Progress, TrainConfig};
 
 fn tiny_config() -> TrainConfig {
     let mut c = TrainConfig::default();
@@ -17,7 +17,7 @@ fn tiny_config() -> TrainConfig {
 /// A small "real recordings" folder: calm following in three scenario files, named the way
 /// `riskctl import commonroad` names its events.
 fn write_real(dir: &std::path::Path) {
-    use host_tools::events::{Dims, Event, EventKind, EventWriter, Frame};
+    use riskscore_data::events::{Dims, Event, EventKind, EventWriter, Frame};
     let mut w = EventWriter::create(dir).unwrap();
     for sc in 0..3 {
         for k in 0..4 {
@@ -68,7 +68,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     let out = dir.path().join("out");
     let real = dir.path().join("real");
     write_real(&real);
-    let mut gssm = host_tools::gssm::GssmConfig::default();
+    let mut gssm = riskscore_train::gssm::GssmConfig::default();
     gssm.fit.max_epochs = 3;
     gssm.ssra.max_epochs = 2;
     let opts = DemoOptions {

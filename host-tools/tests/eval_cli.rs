@@ -5,11 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_tools::eval::{evaluate_methods, observe, Method, Scorer};
-use host_tools::events::{
+use riskscore_data::events::{
     load_events, prepare_sequences, write_events, Dims, Event, EventKind, EventSet, Frame,
     PrepareConfig,
 };
+use riskscore_eval::{evaluate_methods, observe, Method, Scorer};
 use scorer_core::model::{encode, encoded_len, BoundedVec, Model};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use scorer_core::{SurrogateKind, VehicleState};

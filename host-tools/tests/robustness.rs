@@ -6,7 +6,7 @@
     clippy::panic,
     clippy::indexing_slicing
 )]
-use host_tools::events::{load_events, IssueProblem, KEPT_PER_KIND};
+use riskscore_data::events::{load_events, IssueProblem, KEPT_PER_KIND};
 use std::process::Command;
 
 const EV_HEADER: &str =

@@ -6,9 +6,9 @@ use std::process::{Command, Output};
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float32Type, Float64Type};
-use host_tools::eval::{observe, Scorer};
-use host_tools::events::{load_events, Sequence};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use riskscore_data::events::{load_events, Sequence};
+use riskscore_eval::{observe, Scorer};
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
 

@@ -122,12 +122,12 @@ impl Cycle {
 
 /// A small simulated event folder (deterministic).
 #[cfg(feature = "check")]
-pub fn simulated_events(n: usize, seed: u64) -> host_tools::events::EventSet {
-    let cfg = host_tools::sim::SimConfig {
+pub fn simulated_events(n: usize, seed: u64) -> riskscore_data::events::EventSet {
+    let cfg = riskscore_data::sim::SimConfig {
         seed,
         events: n,
         threads: 1,
         ..Default::default()
     };
-    host_tools::sim::simulate_events(&cfg).unwrap().0
+    riskscore_data::sim::simulate_events(&cfg).unwrap().0
 }

@@ -1,14 +1,12 @@
 //! `riskctl ablation`: which comparison sources matter, and how much data they need.
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use host_tools::comparisons::{from_sequences, Source};
-use host_tools::demo;
-use host_tools::sim::{self, SimConfig};
-use host_tools::train::ablation::{self, AblationOptions};
-use host_tools::train::cv::Models;
-use host_tools::train::{Progress, TrainConfig};
+use riskscore_data::sim::{self, SimConfig};
+use riskscore_train::comparisons::{from_sequences, Source};
+use riskscore_train::train::ablation::{self, AblationOptions, AblationTables};
+use riskscore_train::train::cv::Models;
+use riskscore_train::train::{Progress, TrainConfig};
 
 /// Train on each comparison source alone and on every combination of sources, over fractions of
 /// the training events (default 10 % to 60 %), under event-level cross-validation; print and write
@@ -71,10 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(Study::SimAugmentation(study)) = args.study {
         return super::gssm::run_augmentation(study);
     }
-    let config = match &args.config {
-        Some(p) => TrainConfig::load(p)?,
-        None => TrainConfig::default(),
-    };
+    let config = TrainConfig::load_or_default(args.config.as_deref(), None)?;
     for f in &args.fractions {
         if !(*f > 0.0 && *f <= 1.0) {
             bail!("--fractions: {f} is not in (0, 1]");
@@ -125,14 +120,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             dir
         }
     };
-    let (seqs, counts) = demo::load_sequences(&events_dir)?;
+    let folder = super::load_prepared(&events_dir)?;
+    let (seqs, counts) = (folder.sequences, folder.counts);
     eprintln!(
         "{}: {counts}; {} sequences",
         events_dir.display(),
         seqs.len()
     );
     let aug = match &args.augment {
-        Some(d) => Some(from_sequences(&demo::load_sequences(d)?.0)),
+        Some(d) => Some(from_sequences(&super::load_prepared(d)?.sequences)),
         None => None,
     };
     let source_sets = if args.singles_only {
@@ -156,67 +152,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     };
     let base = ablation::baselines(&seqs, args.folds, config.seed)?;
-    let csv_path = args.out.join("ablation.csv");
-    let md_path = args.out.join("ablation.md");
-    let mut csv = std::fs::File::create(&csv_path)
-        .with_context(|| format!("{}: cannot create", csv_path.display()))?;
-    writeln!(csv, "sources,fraction,method,metric,mean,std,n")?;
-    let mut md = String::from("# Comparison-source ablation\n\n");
-    md.push_str(&format!(
-        "Data: {} ({counts}); {}-fold event-level CV; fractions of each fold's training events.\n\n",
-        events_dir.display(),
-        args.folds
-    ));
-    md.push_str("## Baselines (no training)\n\n");
-    md.push_str(&base.to_markdown());
-    md.push_str("\n## Learned models\n\n| sources | fraction | method | A_ROC_90 | P_PRC_90 | mTTI_90 (s) |\n|---|---|---|---|---|---|\n");
-    let keys = ["A_ROC_90", "A_ROC_80", "P_PRC_90", "P_PRC_80", "mTTI_90"];
-    let mut write_err: Option<std::io::Error> = None;
+    let data = format!("{} ({counts})", events_dir.display());
+    let mut tables = AblationTables::create(&args.out, &data, args.folds, &base)
+        .with_context(|| format!("{}: cannot create the ablation tables", args.out.display()))?;
     ablation::run(&seqs, aug.as_deref(), &config, &opts, |cell| {
-        for m in &cell.report.methods {
-            let cell_of = |i: usize| {
-                m.stats[i].map_or("n/a".to_string(), |s| {
-                    format!("{:.2} ± {:.2}", s.mean, s.std)
-                })
-            };
-            println!(
-                "{:<40} {:>4.0}%  {:<5} A_ROC_90 {:<16} P_PRC_90 {:<16} mTTI_90 {}  ({:.0} s)",
-                cell.sources,
-                cell.fraction * 100.0,
-                m.name,
-                cell_of(0),
-                cell_of(2),
-                cell_of(4),
-                cell.seconds
-            );
-            md.push_str(&format!(
-                "| {} | {:.0} % | {} | {} | {} | {} |\n",
-                cell.sources,
-                cell.fraction * 100.0,
-                m.name,
-                cell_of(0),
-                cell_of(2),
-                cell_of(4)
-            ));
-            for (i, key) in keys.iter().enumerate() {
-                if let Some(s) = m.stats[i] {
-                    if let Err(e) = writeln!(
-                        csv,
-                        "{},{},{},{},{},{},{}",
-                        cell.sources, cell.fraction, m.name, key, s.mean, s.std, s.n
-                    ) {
-                        write_err.get_or_insert(e);
-                    }
-                }
-            }
-        }
-        if let Err(e) = std::fs::write(&md_path, &md) {
-            write_err.get_or_insert(e);
+        for line in tables.add(cell) {
+            println!("{line}");
         }
     })?;
-    if let Some(e) = write_err {
-        return Err(e).context("writing the ablation tables");
-    }
+    let (csv_path, md_path) = tables.finish().context("writing the ablation tables")?;
     println!("wrote {} and {}", csv_path.display(), md_path.display());
     Ok(())
 }

@@ -3,14 +3,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    acceptance_claims, default_real_data, load_sequences, msra_input_names, print_claims,
-    write_transfer_report, REAL_DATA,
+    acceptance_claims, default_real_data, msra_input_names, print_claims, write_transfer_report,
+    REAL_DATA,
 };
-use host_tools::events::Sequence;
-use host_tools::gssm::GssmConfig;
-use host_tools::sim::{simulate_to_dir, Mix, SimConfig};
-use host_tools::train::{Progress, TrainConfig};
-use host_tools::transfer::{self, TransferData, TransferOptions};
+use riskscore_data::events::Sequence;
+use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_train::gssm::GssmConfig;
+use riskscore_train::train::{Progress, TrainConfig};
+use riskscore_train::transfer::{self, TransferData, TransferOptions};
 
 /// Benchmarks whose test data differs from the training data.
 #[derive(clap::Args, Debug)]
@@ -108,18 +108,12 @@ fn folder_or_simulate(
             out.to_path_buf()
         }
     };
-    Ok(load_sequences(&dir)?.0)
+    Ok(super::load_prepared(&dir)?.sequences)
 }
 
 fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
-    let config = match &a.config {
-        Some(p) => TrainConfig::load(p)?,
-        None => TrainConfig::default(),
-    };
-    let gssm_config = match &a.gssm_config {
-        Some(p) => GssmConfig::load(p)?,
-        None => GssmConfig::default(),
-    };
+    let config = TrainConfig::load_or_default(a.config.as_deref(), None)?;
+    let gssm_config = GssmConfig::load_or_default(a.gssm_config.as_deref())?;
     let real_dir = match a.real.clone().or_else(default_real_data) {
         Some(d) => d,
         None => anyhow::bail!(
@@ -141,7 +135,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
             a.test_mix,
             a.events,
         )?,
-        real: load_sequences(&real_dir)?.0,
+        real: super::load_prepared(&real_dir)?.sequences,
     };
     let options = TransferOptions {
         folds: a.folds,

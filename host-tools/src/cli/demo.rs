@@ -3,8 +3,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use host_tools::demo::{self, DemoOptions, TransferSettings};
-use host_tools::sim::Mix;
-use host_tools::train::{Progress, TrainConfig};
+use riskscore_data::sim::Mix;
+use riskscore_train::train::{Progress, TrainConfig};
 
 /// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
 /// (data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the
@@ -64,13 +64,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = match &args.config {
-        Some(p) => TrainConfig::load(p)?,
-        None => TrainConfig::default(),
-    };
-    if let Some(seed) = args.seed {
-        config.seed = seed;
-    }
+    let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
     let opts = DemoOptions {
         out: args.out,
         config,
@@ -92,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             test_mix: args.transfer_mix,
             ..TransferSettings::default()
         }),
-        gssm: host_tools::gssm::GssmConfig::default(),
+        gssm: riskscore_train::gssm::GssmConfig::default(),
         progress: if args.quiet {
             Progress::Hidden
         } else {

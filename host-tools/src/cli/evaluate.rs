@@ -5,14 +5,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use can_codec::output::AtomicSet;
-use host_tools::eval::plots::{
+use riskscore_data::events::{load_events, prepare_sequences, PrepareConfig};
+use riskscore_eval::plots::{
     curve_figures, default_trajectory_events, trajectory_figures, trajectory_panels, FIGURE_FILES,
 };
-use host_tools::eval::report::write_curves_csv;
-use host_tools::eval::scoring::{model_row_name, row_names};
-use host_tools::eval::streaming::evaluate_folder;
-use host_tools::eval::{evaluate_methods, observe, Method, Scorer};
-use host_tools::events::{load_events, prepare_sequences, PrepareConfig};
+use riskscore_eval::report::write_curves_csv;
+use riskscore_eval::scoring::{model_row_name, row_names};
+use riskscore_eval::streaming::evaluate_folder;
+use riskscore_eval::{evaluate_methods, observe, Method, Scorer};
 
 /// What `riskctl evaluate --help` explains after the options.
 const ABOUT_EVALUATION: &str = "\
@@ -253,7 +253,7 @@ fn evaluate_streaming(
 }
 
 /// The loader keeps the first problems of each kind (and counts the rest), so all are listed.
-fn report_load_issues(issues: &[host_tools::events::LoadIssue]) {
+fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
     if !issues.is_empty() {
         let total: u64 = issues.iter().map(|i| i.count()).sum();
         eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
@@ -266,8 +266,8 @@ fn report_load_issues(issues: &[host_tools::events::LoadIssue]) {
 /// Refuses an `--out` folder whose result files would overwrite a model or event file.
 fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> anyhow::Result<()> {
     let event_files = [
-        events.join(host_tools::events::EVENTS_FILE),
-        events.join(host_tools::events::FRAMES_FILE),
+        events.join(riskscore_data::events::EVENTS_FILE),
+        events.join(riskscore_data::events::FRAMES_FILE),
     ];
     let mut inputs: Vec<(&str, &Path)> =
         models.iter().map(|m| ("--model", m.1.as_path())).collect();
@@ -291,8 +291,8 @@ const RESULT_FILES: [&str; 4] = ["results.csv", "results.json", "results.md", "c
 /// Writes every `--out` file; all of them are renamed into place only when all are written.
 fn write_outputs(
     out: &Path,
-    report: &host_tools::eval::EvaluationReport,
-    runs: &[host_tools::eval::MethodRun],
+    report: &riskscore_eval::EvaluationReport,
+    runs: &[riskscore_eval::MethodRun],
     trajectory_events: &[String],
 ) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;

@@ -1,7 +1,9 @@
 //! `riskctl events-to-candump`: an event folder as 10 Hz CAN traffic in candump -L format.
 use anyhow::{bail, Context};
 use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
-use host_tools::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US};
+use riskscore_data::candump_export::{
+    write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US,
+};
 use std::path::PathBuf;
 
 /// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format.
@@ -69,12 +71,12 @@ fn gap_seconds(s: &str) -> Result<f64, String> {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let inputs = [
-        args.events.join(host_tools::events::EVENTS_FILE),
-        args.events.join(host_tools::events::FRAMES_FILE),
+        args.events.join(riskscore_data::events::EVENTS_FILE),
+        args.events.join(riskscore_data::events::FRAMES_FILE),
     ];
     let inputs: Vec<NamedPath<'_>> = inputs.iter().map(|p| ("--events", p.as_path())).collect();
     refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
-    let (set, issues) = host_tools::events::load_events(&args.events)
+    let (set, issues) = riskscore_data::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     // The loader keeps the first problems of each kind and counts the rest.
     for issue in &issues {
@@ -90,7 +92,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let summary = write_candump(&set, &opts, &mut file)
         .with_context(|| format!("writing {}", args.out.display()))?;
-    let frames_csv = args.events.join(host_tools::events::FRAMES_FILE);
+    let frames_csv = args.events.join(riskscore_data::events::FRAMES_FILE);
     let skipped = summary.skipped.len();
     for s in summary.skipped.iter().take(LISTED_SKIPS) {
         eprintln!(
@@ -115,7 +117,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{}: {skipped} of {all} cycles ({:.3}%) not encoded (a value outside its signal's DBC range), in {} event(s)",
             frames_csv.display(),
             share * 100.0,
-            distinct_events(&summary.skipped)
+            summary.events_with_skips()
         );
         if share > args.max_skipped {
             // `file` is dropped without commit: no log is written.
@@ -146,17 +148,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     );
     Ok(())
-}
-
-/// How many events lost at least one cycle (skips come in event order).
-fn distinct_events(skipped: &[host_tools::candump_export::SkippedFrame]) -> usize {
-    let mut n = 0;
-    let mut last: Option<&str> = None;
-    for s in skipped {
-        if last != Some(s.event_id.as_str()) {
-            n += 1;
-            last = Some(&s.event_id);
-        }
-    }
-    n
 }

@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::export::{self, Checkpoint, DrlFormat};
+use riskscore_train::export::{self, Checkpoint, DrlFormat};
 
 /// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob.
 ///

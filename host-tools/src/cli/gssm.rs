@@ -4,15 +4,18 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use host_tools::comparisons::{from_sequences, TrainingSequence};
-use host_tools::events::{load_events, prepare_sequences, PrepareConfig, Sequence};
-use host_tools::export::write_blob;
-use host_tools::gssm::msra::{configuration_name, parse_configuration, row_name as msra_row_name};
-use host_tools::gssm::study::{
+use riskscore_data::events::Sequence;
+use riskscore_train::comparisons::{from_sequences, TrainingSequence};
+use riskscore_train::export::write_blob;
+use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
+use riskscore_train::gssm::ship::{ship, SUMMARY_FILE};
+use riskscore_train::gssm::study::{
     augmentation_study, cross_validate, mean_weights, AugmentationOptions, CvOptions, StudyModel,
 };
-use host_tools::gssm::{align_msra_gssm, align_ssra, fit_gssm, GssmConfig, GssmParams, TermWeight};
-use host_tools::train::{prepare_comparisons, Progress, TrainConfig};
+use riskscore_train::gssm::{
+    align_msra_gssm, align_ssra, fit_gssm, GssmConfig, GssmParams, TermWeight,
+};
+use riskscore_train::train::{prepare_comparisons, Progress, TrainConfig};
 use scorer_core::gssm::GssmScore;
 
 /// GSSM (lognormal spacing model), SSRA (GSSM aligned with comparisons) and MSRA over GSSM.
@@ -185,18 +188,10 @@ fn load_configs(
     gssm_config: Option<&Path>,
     seed: Option<u64>,
 ) -> anyhow::Result<(TrainConfig, GssmConfig)> {
-    let mut train = match config {
-        Some(p) => TrainConfig::load(p)?,
-        None => TrainConfig::default(),
-    };
-    if let Some(s) = seed {
-        train.seed = s;
-    }
-    let gssm = match gssm_config {
-        Some(p) => GssmConfig::load(p)?,
-        None => GssmConfig::default(),
-    };
-    Ok((train, gssm))
+    Ok((
+        TrainConfig::load_or_default(config, seed)?,
+        GssmConfig::load_or_default(gssm_config)?,
+    ))
 }
 
 /// Prepared sequences of every folder, concatenated.
@@ -221,29 +216,7 @@ fn normal_sequences(
 
 /// Prepared sequences of an event folder; problems are reported on stderr and their events skipped.
 fn load_sequences(dir: &Path) -> anyhow::Result<Vec<Sequence>> {
-    let (set, issues) =
-        load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
-    if !issues.is_empty() {
-        eprintln!(
-            "riskctl: {} problem(s) in {} (those events are skipped); first: {}",
-            issues.len(),
-            dir.display(),
-            issues[0]
-        );
-    }
-    let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
-    if !prep.is_empty() {
-        eprintln!(
-            "riskctl: {} event(s) of {} yield no sequence; first: {}",
-            prep.len(),
-            dir.display(),
-            prep[0]
-        );
-    }
-    if seqs.is_empty() {
-        bail!("event folder {}: no usable sequences", dir.display());
-    }
-    Ok(seqs)
+    Ok(super::load_prepared(dir)?.sequences)
 }
 
 fn read_gssm(path: &Path) -> anyhow::Result<GssmParams> {
@@ -355,49 +328,23 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
-    let kinds = parse_configuration(&gcfg.msra.shipped).map_err(anyhow::Error::msg)?;
     let seqs = from_sequences(&load_all(&a.common.events)?);
-    let g = fit_gssm(
-        &normal_sequences(&a.common, &seqs)?,
-        cfg.optimiser.validation_fraction,
-        cfg.seed,
-        &gcfg.fit,
-        progress(),
-    )?;
-    let prepared = prepare_comparisons(&seqs, None, &cfg);
-    let s = align_ssra(&g.params, &prepared, &cfg, &gcfg.ssra, progress())?;
-    let m = align_msra_gssm(
-        &kinds,
-        &g.params,
+    let shipped = ship(
         &seqs,
-        &prepared,
+        &normal_sequences(&a.common, &seqs)?,
         &cfg,
-        gcfg.msra.learning_rate,
+        &gcfg,
         progress(),
     )?;
-    let gssm_blob = g.params.gssm_blob(GssmScore::Intensity)?;
-    let ssra_blob = s.blob()?;
-    let msra_blob = m.params.blob()?;
-    write(&a.out_dir.join("gssm-default.rsk"), &gssm_blob)?;
-    write(&a.out_dir.join("ssra-default.rsk"), &ssra_blob)?;
-    write(&a.out_dir.join("msra-gssm.rsk"), &msra_blob)?;
-    print_weights(&msra_row_name(&kinds), &m.params.weights());
-    let summary = serde_json::json!({
-        "events": a.common.events.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "normal": a.common.normal.as_ref().map(|p| p.display().to_string()),
-        "sequences": seqs.len(),
-        "seed": cfg.seed,
-        "gssm": {"shape": g.params.shape(), "parameters": g.params.parameter_count(),
-                 "fit": g.report, "bytes": gssm_blob.len()},
-        "ssra": {"epochs": s.report.epochs, "best_epoch": s.report.best_epoch, "pairs": s.report.pairs,
-                 "validation_before": s.initial_validation.map(|p| p.total),
-                 "validation_after": s.final_validation.map(|p| p.total),
-                 "kept_initial": s.kept_initial, "bytes": ssra_blob.len()},
-        "msra": {"configuration": configuration_name(&kinds), "weights": m.params.weights(),
-                 "epochs": m.report.epochs, "bytes": msra_blob.len()},
-        "train_config": cfg, "gssm_config": gcfg,
-    });
-    let path = a.out_dir.join("gssm-ship.json");
+    for (path, blob) in shipped.write_models(&a.out_dir)?.iter().zip(&shipped.blobs) {
+        eprintln!("riskctl: wrote {} ({} bytes)", path.display(), blob.len());
+    }
+    print_weights(
+        &msra_row_name(&shipped.kinds),
+        &shipped.msra.params.weights(),
+    );
+    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, a.common.normal.as_deref());
+    let path = a.out_dir.join(SUMMARY_FILE);
     std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
         .with_context(|| format!("writing {}", path.display()))?;
     eprintln!("riskctl: wrote {}", path.display());

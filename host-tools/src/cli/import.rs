@@ -2,8 +2,10 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use host_tools::events::PrepareConfig;
-use host_tools::import::commonroad::{import_to_dir, EgoChoice, ImportSummary, InteractionRules};
+use riskscore_data::events::PrepareConfig;
+use riskscore_data::import::commonroad::{
+    import_to_dir, EgoChoice, ImportSummary, InteractionRules,
+};
 
 /// Import recorded data as an event folder.
 #[derive(clap::Args, Debug)]

@@ -15,7 +15,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let blob = std::fs::read(&args.file)
         .with_context(|| format!("{}: cannot read", args.file.display()))?;
-    let text = host_tools::export::inspect(&blob)
+    let text = riskscore_train::export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("{}: integrity check failed: {e}", args.file.display()))?;
     println!("{}", args.file.display());
     print!("{text}");

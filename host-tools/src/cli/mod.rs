@@ -1,4 +1,9 @@
-//! One module per `riskctl` subcommand: argument struct (clap) + `run`.
+//! One module per `riskctl` subcommand: argument struct (clap) + `run`, which parses and calls the
+//! library crates; plus the one step several commands share, [`load_prepared`].
+use std::path::Path;
+
+use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
+
 pub mod ablation;
 pub mod benchmark;
 pub mod demo;
@@ -14,3 +19,13 @@ pub mod score;
 pub mod simulate;
 pub mod ssm;
 pub mod train;
+
+/// The prepared sequences of an event folder ([`events::load_prepared`] under the default
+/// preparation rules); its problems are printed on stderr and those events left out.
+pub fn load_prepared(dir: &Path) -> anyhow::Result<PreparedFolder> {
+    let folder = events::load_prepared(dir, &PrepareConfig::default())?;
+    for note in folder.problem_notes() {
+        eprintln!("{note}");
+    }
+    Ok(folder)
+}

@@ -7,12 +7,12 @@ use anyhow::{bail, Context};
 use arrow_array::builder::{Float32Builder, Float64Builder, StringBuilder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, Schema};
-use host_tools::eval::{observe_frames, Method};
-use host_tools::events::{
+use riskscore_data::events::{
     load_events, prepare_owned_event, stream_events, Event, EventSet, EventsError, Frame,
     LoadIssue, PrepareConfig, PrepareIssue, Sequence,
 };
-use host_tools::parquet_io::{is_parquet, BatchSink, BATCH_ROWS};
+use riskscore_eval::parquet_io::{is_parquet, BatchSink, BATCH_ROWS};
+use riskscore_eval::{observe_frames, Method};
 
 use super::evaluate::{named_models, read_models, report_issues};
 use super::output::{is_dash, write_output};

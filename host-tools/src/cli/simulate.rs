@@ -3,7 +3,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
 
 /// Simulate crash, near-crash and safe two-vehicle events at 10 Hz and write an event folder.
 ///

@@ -1,6 +1,6 @@
 //! `riskctl ssm`: surrogate safety measures and features for a CSV of ego/partner pairs.
 use anyhow::Context;
-use host_tools::ssm_csv::{
+use riskscore_data::ssm_csv::{
     score_csv, RowError, SsmError, SsmOptions, SsmSummary, DEFAULT_MAX_RECORD_BYTES,
 };
 use std::collections::BTreeMap;
@@ -153,7 +153,7 @@ fn run_columnar(
     input_name: &str,
     report: &mut BadRowReport,
 ) -> anyhow::Result<SsmSummary> {
-    use host_tools::parquet_io::{ssm_columnar, BatchSink, ColumnarInput};
+    use riskscore_eval::parquet_io::{ssm_columnar, BatchSink, ColumnarInput};
     let input = if is_parquet(&args.input) {
         ColumnarInput::Parquet(
             File::open(&args.input)
@@ -181,7 +181,7 @@ fn run_columnar(
         report.bad_row(input_name, &bad.to_string().replacen("line", unit, 1), bad)
     })
     .map_err(|e| match e {
-        host_tools::parquet_io::ColumnarError::Ssm(SsmError::BadRow(bad)) => anyhow::anyhow!(
+        riskscore_eval::parquet_io::ColumnarError::Ssm(SsmError::BadRow(bad)) => anyhow::anyhow!(
             "{input_name}: {} (--strict: stopping at the first bad row)",
             bad.to_string().replacen("line", unit, 1)
         ),
@@ -243,7 +243,7 @@ fn stream<R: Read, W: Write>(
     options: SsmOptions,
     input_name: &str,
     report: &mut BadRowReport,
-) -> anyhow::Result<host_tools::ssm_csv::SsmSummary> {
+) -> anyhow::Result<riskscore_data::ssm_csv::SsmSummary> {
     let result = score_csv(input, output, options, |bad| {
         report.bad_row(input_name, &bad.to_string(), bad)
     });

@@ -2,9 +2,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::comparisons::from_sequences;
-use host_tools::demo;
-use host_tools::train::{Progress, TrainConfig};
+use riskscore_train::comparisons::from_sequences;
+use riskscore_train::final_models::train_and_export;
+use riskscore_train::train::{Progress, TrainConfig};
 use serde_json::json;
 
 /// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs.
@@ -36,14 +36,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = match &args.config {
-        Some(p) => TrainConfig::load(p)?,
-        None => TrainConfig::default(),
-    };
-    if let Some(seed) = args.seed {
-        config.seed = seed;
-    }
-    let (seqs, counts) = demo::load_sequences(&args.events)?;
+    let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
+    let folder = super::load_prepared(&args.events)?;
+    let (seqs, counts) = (folder.sequences, folder.counts.to_string());
     eprintln!(
         "{}: {counts}; {} sequences",
         args.events.display(),
@@ -51,7 +46,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let augmentation = match &args.augment {
         Some(dir) => {
-            let (aug, c) = demo::load_sequences(dir)?;
+            let folder = super::load_prepared(dir)?;
+            let (aug, c) = (folder.sequences, folder.counts);
             eprintln!(
                 "{} (augmentation): {c}; {} sequences",
                 dir.display(),
@@ -73,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "config": config,
     });
     let started = std::time::Instant::now();
-    let (finals, files) = demo::train_and_export(
+    let (finals, files) = train_and_export(
         &from_sequences(&seqs),
         augmentation.as_deref(),
         &config,

@@ -1,0 +1,752 @@
+//! Event-folder loading, validation (file/line/column of every problem), writing, sequence
+//! preparation and event-level folds.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+use riskscore_data::events::{
+    cut_safe_sequences, kfold_by_event, load_events, prepare_event, prepare_sequences,
+    write_events, Dims, Event, EventKind, EventSet, EventsError, Frame, IssueProblem, LoadIssue,
+    PrepareConfig, PrepareIssue,
+};
+use scorer_core::VehicleState;
+
+const EV_HEADER: &str =
+    "event_id,kind,t_start,t_end,t_impact,length_ego,width_ego,length_sur,width_sur\n";
+const FR_HEADER: &str =
+    "event_id,time,x_ego,y_ego,vx_ego,vy_ego,hx_ego,hy_ego,acc_ego,x_sur,y_sur,vx_sur,vy_sur,hx_sur,hy_sur\n";
+
+fn folder(events: &str, frames: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("events.csv"), events).unwrap();
+    std::fs::write(dir.path().join("frames.csv"), frames).unwrap();
+    dir
+}
+
+/// A frame row: ego driving along +x at 10 m/s from x = 10 t, partner 30 m ahead at 8 m/s.
+fn row(id: &str, t: f64) -> String {
+    format!(
+        "{id},{t},{},0,10,0,1,0,-0.5,{},0,8,0,1,0\n",
+        10.0 * t,
+        30.0 + 8.0 * t
+    )
+}
+
+fn rows(id: &str, n: usize) -> String {
+    (0..n).map(|k| row(id, k as f64 / 10.0)).collect()
+}
+
+/// Two good events: a crash "c1" (t_impact 1.0) and a safe "s1", 21 frames each.
+fn good() -> (String, String) {
+    let ev = format!("{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\n");
+    let fr = format!("{FR_HEADER}{}{}", rows("c1", 21), rows("s1", 21));
+    (ev, fr)
+}
+
+fn load(ev: &str, fr: &str) -> (EventSet, Vec<LoadIssue>, tempfile::TempDir) {
+    let dir = folder(ev, fr);
+    let (set, issues) = load_events(dir.path()).unwrap();
+    (set, issues, dir)
+}
+
+fn ids(set: &EventSet) -> Vec<&str> {
+    set.iter().map(|e| e.id.as_str()).collect()
+}
+
+/// The single issue, checked for file name, line and column.
+fn only_issue<'a>(
+    issues: &'a [LoadIssue],
+    file: &str,
+    line: u64,
+    column: Option<&str>,
+) -> &'a IssueProblem {
+    assert_eq!(issues.len(), 1, "{issues:#?}");
+    let i = &issues[0];
+    assert_eq!(i.file.file_name().unwrap(), file, "{i}");
+    assert_eq!(i.line, line, "{i}");
+    assert_eq!(i.column.as_deref(), column, "{i}");
+    &i.problem
+}
+
+#[test]
+fn good_folder_loads_without_issues() {
+    let (ev, fr) = good();
+    let (set, issues, _d) = load(&ev, &fr);
+    assert!(issues.is_empty(), "{issues:#?}");
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    let c = set.get("c1").unwrap();
+    assert_eq!(c.kind, EventKind::Crash);
+    assert_eq!(c.t_impact, Some(1.0));
+    assert_eq!(c.frames.len(), 21);
+    let f = &c.frames[5];
+    assert_eq!(f.time, 0.5);
+    assert_eq!((f.ego.x, f.ego.vx, f.ego.acc), (5.0, 10.0, -0.5));
+    assert_eq!(
+        (f.ego.length, f.ego.width, f.sur.length, f.sur.width),
+        (4.5, 1.8, 5.0, 2.0)
+    );
+    assert_eq!(f.sur.x, 34.0);
+    // No acc_sur column: derived from the partner's velocity, constant here.
+    assert!(c.frames.iter().all(|f| f.sur.acc == 0.0));
+    assert!(set.get("s1").unwrap().t_impact.is_none());
+    let counts = set.counts();
+    assert_eq!((counts.crash, counts.near_crash, counts.safe), (1, 0, 1));
+}
+
+#[test]
+fn partner_acceleration_is_derived_or_read() {
+    // Partner speed 8 - 2 t along its heading: derived acc = -2 everywhere.
+    let mut fr = String::from(FR_HEADER);
+    for k in 0..11 {
+        let t = k as f64 / 10.0;
+        fr += &format!("e,{t},0,0,10,0,1,0,0,30,0,{},0,1,0\n", 8.0 - 2.0 * t);
+    }
+    let ev = format!("{EV_HEADER}e,safe,0,1,,4,2,4,2\n");
+    let (set, issues, _d) = load(&ev, &fr);
+    assert!(issues.is_empty());
+    for f in &set.events[0].frames {
+        assert!((f.sur.acc + 2.0).abs() < 1e-4, "{}", f.sur.acc);
+    }
+    // With an acc_sur column the recorded value is used.
+    let fr2 = fr
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("{l},acc_sur\n")
+            } else {
+                format!("{l},-0.25\n")
+            }
+        })
+        .collect::<String>();
+    let (set, issues, _d) = load(&ev, &fr2);
+    assert!(issues.is_empty(), "{issues:#?}");
+    assert!(set.events[0].frames.iter().all(|f| f.sur.acc == -0.25));
+}
+
+#[test]
+fn unknown_kind_is_reported_and_others_kept() {
+    let (ev, fr) = good();
+    let ev = ev + "x1,collision,0,2,1.0,4.5,1.8,5,2\n";
+    let fr = fr + &rows("x1", 21);
+    let (set, issues, _d) = load(&ev, &fr);
+    let p = only_issue(&issues, "events.csv", 4, Some("kind"));
+    assert_eq!(p, &IssueProblem::UnknownKind("collision".into()));
+    assert_eq!(issues[0].event_id.as_deref(), Some("x1"));
+    // Its frames are not reported again as frames of an unknown event.
+    assert_eq!(ids(&set), ["c1", "s1"]);
+}
+
+#[test]
+fn conflict_without_impact_time() {
+    let ev = format!("{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\nn1,near_crash,0,2,,4.5,1.8,5,2\n");
+    let fr = format!("{FR_HEADER}{}{}", rows("c1", 21), rows("n1", 21));
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(
+        only_issue(&issues, "events.csv", 3, Some("t_impact")),
+        &IssueProblem::MissingImpactTime
+    );
+    assert_eq!(ids(&set), ["c1"]);
+}
+
+#[test]
+fn safe_with_impact_time_and_impact_outside_event() {
+    let ev = format!("{EV_HEADER}s1,safe,0,2,1.0,4.5,1.8,5,2\nc1,crash,0,2,2.5,4.5,1.8,5,2\nok,safe,0,2,,4,2,4,2\n");
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        rows("s1", 21),
+        rows("c1", 21),
+        rows("ok", 21)
+    );
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(issues.len(), 2, "{issues:#?}");
+    assert_eq!(
+        (issues[0].line, issues[0].column.as_deref()),
+        (2, Some("t_impact"))
+    );
+    assert_eq!(issues[0].problem, IssueProblem::ImpactTimeOnSafe);
+    assert_eq!(
+        (issues[1].line, issues[1].column.as_deref()),
+        (3, Some("t_impact"))
+    );
+    assert!(
+        matches!(issues[1].problem, IssueProblem::ImpactOutsideEvent { t_impact, .. } if t_impact == 2.5)
+    );
+    assert_eq!(ids(&set), ["ok"]);
+}
+
+#[test]
+fn bad_event_rows() {
+    let ev = format!(
+        "{EV_HEADER}a,safe,0,2,,4.5,1.8,-5,2\nb,safe,2,1,,4.5,1.8,5,2\nc,safe,zero,2,,4.5,1.8,5,2\nd,safe,0,2,,4.5,1.8,5\n,safe,0,2,,4,2,4,2\nok,safe,0,2,,4,2,4,2\n"
+    );
+    let fr = format!("{FR_HEADER}{}{}", rows("a", 3), rows("ok", 21));
+    let (set, issues, _d) = load(&ev, &fr);
+    let got: Vec<(u64, Option<&str>)> = issues
+        .iter()
+        .map(|i| (i.line, i.column.as_deref()))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (2, Some("length_sur")),
+            (3, Some("t_end")),
+            (4, Some("t_start")),
+            (5, None),
+            (6, Some("event_id")),
+        ],
+        "{issues:#?}"
+    );
+    assert_eq!(issues[0].problem, IssueProblem::NonPositiveDimension(-5.0));
+    assert!(matches!(
+        issues[1].problem,
+        IssueProblem::EmptyInterval { .. }
+    ));
+    assert_eq!(issues[2].problem, IssueProblem::BadNumber("zero".into()));
+    assert_eq!(
+        issues[3].problem,
+        IssueProblem::RowLength {
+            found: 8,
+            expected: 9
+        }
+    );
+    assert_eq!(issues[4].problem, IssueProblem::EmptyEventId);
+    assert_eq!(ids(&set), ["ok"]);
+}
+
+#[test]
+fn duplicate_event_ids_drop_both() {
+    let ev = format!(
+        "{EV_HEADER}d,safe,0,2,,4.5,1.8,5,2\nok,safe,0,2,,4,2,4,2\nd,crash,0,2,1,4.5,1.8,5,2\n"
+    );
+    let fr = format!("{FR_HEADER}{}{}", rows("d", 21), rows("ok", 21));
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(
+        only_issue(&issues, "events.csv", 4, Some("event_id")),
+        &IssueProblem::DuplicateEventId { first_line: 2 }
+    );
+    assert_eq!(ids(&set), ["ok"]);
+}
+
+#[test]
+fn non_finite_and_unparsable_frame_values() {
+    let (ev, fr) = good();
+    // Line numbers: header 1, c1 frames 2..=22, s1 frames 23..=43.
+    let fr = fr
+        .replacen("c1,0.3,3,0,10,", "c1,0.3,3,0,NaN,", 1)
+        .replacen(
+            "s1,0.5,5,0,10,0,1,0,-0.5,34",
+            "s1,0.5,5,0,10,0,1,0,-0.5,3x4",
+            1,
+        );
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(issues.len(), 2, "{issues:#?}");
+    assert_eq!(
+        (issues[0].line, issues[0].column.as_deref()),
+        (5, Some("vx_ego"))
+    );
+    assert_eq!(issues[0].problem, IssueProblem::NonFinite("NaN".into()));
+    assert_eq!(issues[0].event_id.as_deref(), Some("c1"));
+    assert_eq!(
+        (issues[1].line, issues[1].column.as_deref()),
+        (28, Some("x_sur"))
+    );
+    assert_eq!(issues[1].problem, IssueProblem::BadNumber("3x4".into()));
+    // The whole event is dropped (policy), nothing else is.
+    assert!(set.is_empty());
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("frames.csv:5:") && text.contains("vx_ego") && text.contains("c1"),
+        "{text}"
+    );
+}
+
+#[test]
+fn unsorted_and_duplicate_times() {
+    let ev = format!(
+        "{EV_HEADER}u,safe,0,2,,4.5,1.8,5,2\nd,safe,0,2,,4.5,1.8,5,2\nok,safe,0,2,,4,2,4,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}{}{}{}",
+        row("u", 0.0),
+        row("u", 0.2),
+        row("u", 0.1),
+        row("d", 0.0),
+        row("d", 0.0),
+        rows("ok", 21)
+    );
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(issues.len(), 2, "{issues:#?}");
+    assert_eq!(
+        (issues[0].line, issues[0].column.as_deref()),
+        (4, Some("time"))
+    );
+    assert_eq!(
+        issues[0].problem,
+        IssueProblem::UnsortedTime {
+            time: 0.1,
+            previous: 0.2,
+            previous_line: 3
+        }
+    );
+    assert_eq!(
+        (issues[1].line, issues[1].column.as_deref()),
+        (6, Some("time"))
+    );
+    assert_eq!(
+        issues[1].problem,
+        IssueProblem::DuplicateTime {
+            time: 0.0,
+            previous_line: 5
+        }
+    );
+    assert_eq!(ids(&set), ["ok"]);
+}
+
+#[test]
+fn frames_for_unknown_event_are_reported_once() {
+    let (ev, fr) = good();
+    let fr = fr + &rows("ghost", 4);
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(
+        only_issue(&issues, "frames.csv", 44, Some("event_id")),
+        &IssueProblem::UnknownEvent { frames: 4 }
+    );
+    assert_eq!(issues[0].event_id.as_deref(), Some("ghost"));
+    assert_eq!(ids(&set), ["c1", "s1"]);
+}
+
+#[test]
+fn headings_are_normalised_within_tolerance_else_reported() {
+    let (ev, fr) = good();
+    // Slightly off (norm 1.005): normalised. Far off (norm 2): reported.
+    let fr = fr
+        .replacen("c1,0.2,2,0,10,0,1,0,", "c1,0.2,2,0,10,0,0.6030,0.8040,", 1)
+        .replacen(
+            "s1,0.5,5,0,10,0,1,0,-0.5,34,0,8,0,1,0",
+            "s1,0.5,5,0,10,0,1,0,-0.5,34,0,8,0,2,0",
+            1,
+        );
+    let (set, issues, _d) = load(&ev, &fr);
+    let p = only_issue(&issues, "frames.csv", 28, Some("hx_sur"));
+    assert!(matches!(p, IssueProblem::HeadingNotUnit { norm } if (norm - 2.0).abs() < 1e-9));
+    assert_eq!(ids(&set), ["c1"]);
+    let f = &set.get("c1").unwrap().frames[2];
+    assert!(
+        (f.ego.hx - 0.6).abs() < 1e-6 && (f.ego.hy - 0.8).abs() < 1e-6,
+        "{f:?}"
+    );
+}
+
+#[test]
+fn events_without_frames_and_frames_outside_the_event() {
+    let ev = format!(
+        "{EV_HEADER}empty,safe,0,2,,4.5,1.8,5,2\nlate,crash,0,2,0.5,4.5,1.8,5,2\nout,safe,0,1,,4,2,4,2\nok,safe,0,2,,4,2,4,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}{}",
+        row("late", 1.0),
+        row("late", 1.1),
+        rows("out", 12),
+        rows("ok", 21)
+    );
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(issues.len(), 3, "{issues:#?}");
+    // Frame of "out" at t = 1.1 > t_end = 1 (frames.csv line 2 + 2 + 11 = 15).
+    assert_eq!(
+        (issues[0].file.file_name().unwrap().to_str(), issues[0].line),
+        (Some("frames.csv"), 15)
+    );
+    assert!(matches!(
+        issues[0].problem,
+        IssueProblem::FrameOutsideEvent { .. }
+    ));
+    assert_eq!(
+        (issues[1].line, issues[1].problem.clone()),
+        (2, IssueProblem::NoFrames)
+    );
+    assert_eq!(issues[2].line, 3);
+    assert_eq!(issues[2].column.as_deref(), Some("t_impact"));
+    assert!(matches!(
+        issues[2].problem,
+        IssueProblem::ImpactBeforeFrames { .. }
+    ));
+    assert_eq!(ids(&set), ["ok"]);
+}
+
+#[test]
+fn missing_columns_and_files_are_errors() {
+    let (ev, fr) = good();
+    let no_kind = ev.replace("kind,", "type,");
+    let dir = folder(&no_kind, &fr);
+    match load_events(dir.path()) {
+        Err(EventsError::MissingColumn { column, path }) => {
+            assert_eq!(column, "kind");
+            assert!(path.ends_with("events.csv"));
+        }
+        other => panic!("{other:?}"),
+    }
+    let no_acc = fr.replace(",acc_ego,", ",accel,");
+    let dir = folder(&ev, &no_acc);
+    let e = load_events(dir.path()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("frames.csv: line 1: missing required column `acc_ego`"),
+        "{e}"
+    );
+    let empty = tempfile::tempdir().unwrap();
+    let e = load_events(empty.path()).unwrap_err();
+    assert!(
+        matches!(e, EventsError::Io { .. }) && e.to_string().contains("events.csv"),
+        "{e}"
+    );
+}
+
+#[test]
+fn columns_may_come_in_any_order_with_extras() {
+    let ev = "kind,event_id,note,t_start,t_end,t_impact,length_ego,width_ego,length_sur,width_sur\nsafe,z,hello,0,2,,4,2,4,2\n";
+    let mut fr = String::from(FR_HEADER);
+    fr += &rows("z", 21);
+    let (set, issues, _d) = load(ev, &fr);
+    assert!(issues.is_empty(), "{issues:#?}");
+    assert_eq!(ids(&set), ["z"]);
+}
+
+fn state(x: f32, vx: f32, acc: f32) -> VehicleState {
+    VehicleState {
+        x,
+        y: 0.25,
+        vx,
+        vy: 0.0,
+        hx: 1.0,
+        hy: 0.0,
+        acc,
+        length: 4.4,
+        width: 1.8,
+    }
+}
+
+fn event(
+    id: &str,
+    kind: EventKind,
+    n: usize,
+    t_impact: Option<f64>,
+    acc: impl Fn(usize) -> f32,
+) -> Event {
+    let frames: Vec<Frame> = (0..n)
+        .map(|k| Frame {
+            time: k as f64 / 10.0,
+            ego: state(k as f32 * 1.1 + 0.123_456_7, 11.0, acc(k)),
+            sur: state(40.0 - k as f32 * 0.3, -3.0 / 7.0, 0.0),
+        })
+        .collect();
+    Event {
+        id: id.into(),
+        kind,
+        t_start: 0.0,
+        t_end: frames.last().map_or(0.0, |f| f.time),
+        t_impact,
+        dims: Dims {
+            length_ego: 4.4,
+            width_ego: 1.8,
+            length_sur: 4.4,
+            width_sur: 1.8,
+        },
+        frames,
+    }
+}
+
+#[test]
+fn write_then_load_is_bit_exact() {
+    let set = EventSet {
+        events: vec![
+            event("a,with comma", EventKind::Crash, 30, Some(2.9), |k| {
+                -0.37 * k as f32
+            }),
+            event("b", EventKind::Safe, 25, None, |_| 0.1),
+        ],
+    };
+    let dir = tempfile::tempdir().unwrap();
+    write_events(dir.path(), &set).unwrap();
+    let (back, issues) = load_events(dir.path()).unwrap();
+    assert!(issues.is_empty(), "{issues:#?}");
+    assert_eq!(back.len(), 2);
+    for (a, b) in set.iter().zip(back.iter()) {
+        assert_eq!(
+            (&a.id, a.kind, a.t_start, a.t_end, a.t_impact, a.dims),
+            (&b.id, b.kind, b.t_start, b.t_end, b.t_impact, b.dims)
+        );
+        for (fa, fb) in a.frames.iter().zip(&b.frames) {
+            assert_eq!(fa.time, fb.time);
+            assert_eq!(fa.ego, fb.ego);
+            // sur.acc is not in the format: the loader derives it (constant velocity -> 0).
+            assert_eq!(VehicleState { acc: 0.0, ..fa.sur }, fb.sur);
+        }
+    }
+}
+
+#[test]
+fn conflict_sequence_window() {
+    let cfg = PrepareConfig::default();
+    // 100 frames (0..9.9 s), impact at 7.0: window [2.5, 7.5].
+    let ev = event("c", EventKind::Crash, 100, Some(7.0), |_| 0.0);
+    let s = prepare_event(&ev, &cfg).unwrap();
+    assert_eq!(s.endpoint, Some(7.0));
+    assert_eq!(s.frames.first().unwrap().time, 2.5);
+    assert_eq!(s.frames.last().unwrap().time, 7.5);
+    assert_eq!(s.frames.len(), 51);
+    assert_eq!(s.alert_frames().len(), 46);
+    assert_eq!(s.alert_frames().last().unwrap().time, 7.0);
+    // Impact near the start and end: clipped by t_start / t_end.
+    let ev = event("c2", EventKind::NearCrash, 30, Some(2.9), |_| 0.0);
+    let s = prepare_event(&ev, &cfg).unwrap();
+    assert_eq!(
+        (
+            s.frames.first().unwrap().time,
+            s.frames.last().unwrap().time
+        ),
+        (0.0, 2.9)
+    );
+    assert_eq!(s.alert_frames().len(), 30);
+}
+
+#[test]
+fn safe_sequences_follow_the_rules() {
+    let cfg = PrepareConfig::default();
+    let calm = event("s", EventKind::Safe, 40, None, |_| 1.5);
+    assert_eq!(prepare_event(&calm, &cfg).unwrap().frames.len(), 40);
+    // A hard-braking stretch in the middle: the longest calm run (frames 15..40, 2.4 s) is kept.
+    let bumpy = event("b", EventKind::Safe, 40, None, |k| {
+        if (10..15).contains(&k) {
+            -2.0
+        } else {
+            0.0
+        }
+    });
+    let s = prepare_event(&bumpy, &cfg).unwrap();
+    assert_eq!((s.frames.first().unwrap().time, s.frames.len()), (1.5, 25));
+    assert!(s.endpoint.is_none() && s.alert_frames().len() == 25);
+    // Too short: 20 frames span 1.9 s.
+    let short = event("t", EventKind::Safe, 20, None, |_| 0.0);
+    assert!(matches!(
+        prepare_event(&short, &cfg),
+        Err(PrepareIssue::SafeTooShort { .. })
+    ));
+    let exactly = event("x", EventKind::Safe, 21, None, |_| 0.0);
+    assert!(prepare_event(&exactly, &cfg).is_ok());
+    let (seqs, issues) = prepare_sequences(
+        &EventSet {
+            events: vec![calm, short, bumpy],
+        },
+        &cfg,
+    );
+    assert_eq!(
+        seqs.iter().map(|s| s.event_id.as_str()).collect::<Vec<_>>(),
+        ["s", "b"]
+    );
+    assert_eq!(issues.len(), 1);
+}
+
+#[test]
+fn cutting_safe_sequences_from_a_long_recording() {
+    let cfg = PrepareConfig::default();
+    // 60 s recording; an event in [20, 22]; a hard brake at 40.0..40.5 s.
+    let rec = event("trip", EventKind::Safe, 600, None, |k| {
+        if (400..405).contains(&k) {
+            -3.0
+        } else {
+            0.0
+        }
+    });
+    let seqs = cut_safe_sequences("trip", &rec.frames, &[(20.0, 22.0)], &cfg);
+    let spans: Vec<(f64, f64)> = seqs
+        .iter()
+        .map(|s| {
+            (
+                s.frames.first().unwrap().time,
+                s.frames.last().unwrap().time,
+            )
+        })
+        .collect();
+    // [0, 17) cut to <= 10 s pieces; (25, 40) likewise; (40.5, 59.9].
+    assert_eq!(
+        spans,
+        [
+            (0.0, 10.0),
+            (10.1, 16.9),
+            (25.1, 35.1),
+            (35.2, 39.9),
+            (40.5, 50.5),
+            (50.6, 59.9)
+        ]
+    );
+    assert!(seqs.iter().all(|s| s.kind == EventKind::Safe));
+    assert_eq!(seqs[1].event_id, "trip#1");
+    for s in &seqs {
+        for f in &s.frames {
+            assert!(f.time < 17.0 + 1e-9 || f.time > 25.0 - 1e-9);
+        }
+    }
+}
+
+#[test]
+fn folds_are_by_event_stratified_and_seeded() {
+    let mut events = Vec::new();
+    for i in 0..23 {
+        let kind = EventKind::ALL[i % 3];
+        events.push(event(
+            &format!("e{i}"),
+            kind,
+            2,
+            kind.is_conflict().then_some(0.1),
+            |_| 0.0,
+        ));
+    }
+    let folds = kfold_by_event(&events, 5, 42);
+    assert_eq!(folds, kfold_by_event(&events, 5, 42));
+    assert_ne!(folds, kfold_by_event(&events, 5, 43));
+    let sizes: Vec<usize> = (0..5).map(|f| folds.test(f).len()).collect();
+    assert!(
+        sizes.iter().max().unwrap() - sizes.iter().min().unwrap() <= 1,
+        "{sizes:?}"
+    );
+    for kind in EventKind::ALL {
+        let per: Vec<usize> = (0..5)
+            .map(|f| {
+                folds
+                    .test(f)
+                    .iter()
+                    .filter(|&&i| events[i].kind == kind)
+                    .count()
+            })
+            .collect();
+        assert!(
+            per.iter().max().unwrap() - per.iter().min().unwrap() <= 1,
+            "{kind}: {per:?}"
+        );
+    }
+    for f in 0..5 {
+        let (tr, te) = (folds.train(f), folds.test(f));
+        assert_eq!(tr.len() + te.len(), events.len());
+        assert!(te.iter().all(|i| !tr.contains(i)));
+    }
+    // Sequences of one event always share a fold.
+    let cfg = PrepareConfig::default();
+    let rec = event("trip", EventKind::Safe, 300, None, |_| 0.0);
+    let mut seqs = cut_safe_sequences("trip", &rec.frames, &[], &cfg);
+    for s in &mut seqs {
+        s.event_id = "trip".into();
+    }
+    seqs.push(prepare_event(&event("other", EventKind::Safe, 30, None, |_| 0.0), &cfg).unwrap());
+    let f = kfold_by_event(&seqs, 2, 1);
+    assert!(seqs.len() >= 3);
+    assert!((1..seqs.len() - 1).all(|i| f.fold_of(i) == f.fold_of(0)));
+    // Events of one recording (`recording/...` ids, as `riskctl import` writes them) share a fold,
+    // whatever the seed; ids without a `/` are their own group.
+    let mut rec_events = Vec::new();
+    for r in 0..6 {
+        for k in 0..4 {
+            rec_events.push(event(
+                &format!("REC{r}/{k}-9@0#{k}"),
+                EventKind::Safe,
+                2,
+                None,
+                |_| 0.0,
+            ));
+        }
+    }
+    rec_events.push(event("lone", EventKind::Safe, 2, None, |_| 0.0));
+    for seed in 0..5 {
+        let f = kfold_by_event(&rec_events, 3, seed);
+        for r in 0..6 {
+            let first = f.fold_of(4 * r);
+            assert!((0..4).all(|k| f.fold_of(4 * r + k) == first), "seed {seed}");
+        }
+        let used: std::collections::BTreeSet<usize> = (0..24).map(|i| f.fold_of(i)).collect();
+        assert!(used.len() > 1, "recordings are spread over folds");
+    }
+    assert_eq!(riskscore_data::events::fold_group("REC1/3-9@0#0"), "REC1");
+    assert_eq!(riskscore_data::events::fold_group("e7"), "e7");
+}
+
+#[test]
+fn good_events_survive_many_bad_ones() {
+    let (ev, fr) = good();
+    let mut ev = ev;
+    let mut fr = fr;
+    for i in 0..50 {
+        ev += &format!("bad{i},crash,0,2,,4.5,1.8,5,2\n");
+        fr += &rows(&format!("bad{i}"), 5);
+    }
+    ev += "late_good,near_crash,0,2,1.5,4,2,4,2\n";
+    fr += &rows("late_good", 21);
+    let (set, issues, _d) = load(&ev, &fr);
+    // The first 20 of a kind are listed, the other 30 counted in one issue.
+    assert_eq!(issues.len(), 21);
+    assert_eq!(issues.iter().map(|i| i.count()).sum::<u64>(), 50);
+    assert!(issues[..20]
+        .iter()
+        .all(|i| i.problem == IssueProblem::MissingImpactTime));
+    assert_eq!(
+        issues[20].problem,
+        IssueProblem::MoreOfKind {
+            kind: "MissingImpactTime",
+            more: 30
+        }
+    );
+    assert_eq!(ids(&set), ["c1", "s1", "late_good"]);
+    assert_eq!(set.get("late_good").unwrap().frames.len(), 21);
+}
+
+#[test]
+fn invalid_utf8_and_short_frame_rows_drop_their_event() {
+    let (ev, fr) = good();
+    let dir = folder(&ev, &fr);
+    // Cut s1's frame at t = 0.1 (line 24) short, and make the y_ego field of c1's frame at
+    // t = 0.4 (line 6) invalid UTF-8.
+    let short = fr.replacen(
+        "s1,0.1,1,0,10,0,1,0,-0.5,30.8,0,8,0,1,0",
+        "s1,0.1,1,0,10",
+        1,
+    );
+    assert_ne!(short, fr);
+    let mut bytes = short.into_bytes();
+    let needle = b"c1,0.4,4,0,";
+    let at = bytes
+        .windows(needle.len())
+        .position(|w| w == needle)
+        .unwrap()
+        + needle.len()
+        - 2;
+    bytes[at] = 0xff;
+    std::fs::write(dir.path().join("frames.csv"), bytes).unwrap();
+    let (set, issues) = load_events(dir.path()).unwrap();
+    assert_eq!(issues.len(), 2, "{issues:#?}");
+    assert_eq!(
+        (
+            issues[0].line,
+            issues[0].column.as_deref(),
+            issues[0].event_id.as_deref()
+        ),
+        (6, Some("y_ego"), Some("c1"))
+    );
+    assert!(matches!(issues[0].problem, IssueProblem::BadNumber(_)));
+    assert_eq!(
+        (
+            issues[1].line,
+            issues[1].column.as_deref(),
+            issues[1].event_id.as_deref()
+        ),
+        (24, None, Some("s1"))
+    );
+    assert_eq!(
+        issues[1].problem,
+        IssueProblem::RowLength {
+            found: 5,
+            expected: 15
+        }
+    );
+    assert!(set.is_empty());
+}

@@ -1,0 +1,45 @@
+//! riskscore-eval: the proactive-warning evaluation (protocol, metrics, cross-validation
+//! aggregation, reports, plots) and scoring of data through scorer-core, from event folders or from
+//! tables of pairs.
+//!
+//! - [`protocol`]: alert windows, the first-threshold rule, lead times, baseline risk directions.
+//! - [`metrics`]: operating points over all thresholds; A^ROC_alpha, P^PRC_alpha, mTTI^90_p.
+//! - [`report`]: per-method results, mean ± std over folds/seeds; Markdown, CSV and JSON.
+//! - [`plots`] (feature `plots`): ROC and PR curves, risk trajectories (SVG and PNG).
+//! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
+//! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
+//! - [`arrow_kernel`] (feature `arrow`): surrogates, features and model scores over Arrow batches.
+//! - [`parquet_io`] (feature `parquet`): Parquet input and output for `riskctl ssm` / `score`.
+//!
+//! Event folders come from `riskscore-data`; this crate has no training dependency (no candle),
+//! and without the `plots` feature no plotters either, which is how `can-bridge check` links it.
+//!
+//! The formulas and every edge-case convention are written down in `docs/evaluation.md`.
+#[cfg(feature = "arrow")]
+pub mod arrow_kernel;
+pub mod metrics;
+#[cfg(feature = "parquet")]
+pub mod parquet_io;
+#[cfg(feature = "plots")]
+pub mod plots;
+pub mod protocol;
+pub mod report;
+pub mod scoring;
+pub mod streaming;
+
+pub use metrics::{
+    evaluate_profiles, evaluate_sequences, warning_curve, warning_curve_reference, Metrics,
+    OperatingPoint, WarningCurve,
+};
+pub use protocol::{
+    AlertProfile, AlertProfileBuilder, Baseline, ProtocolError, ScoredFrame, ScoredSequence,
+    SequenceClass,
+};
+pub use report::{
+    aggregate, CvReport, EvaluationReport, EventCounts, FoldResult, MethodResult, MethodSummary,
+    Stat,
+};
+pub use scoring::{
+    evaluate_methods, evaluate_scored, observe, observe_frames, report_from_profiles, Method,
+    MethodRun, ObservedFrame, ObservedSequence, Scorer,
+};

@@ -1,0 +1,492 @@
+//! Evaluation figures (plotters), each written as SVG and PNG: ROC curves, precision-recall curves,
+//! and risk trajectories of crash events.
+//!
+//! Text needs a font in both backends (plotters measures labels to lay them out). We embed DejaVu
+//! Sans (`fonts/DejaVuSans.ttf`, unmodified, Bitstream Vera licence in `fonts/LICENSE-DejaVu.txt`,
+//! which allows redistribution inside software), so figures look the same on every machine and no
+//! system font is needed.
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::metrics::WarningCurve;
+use super::protocol::{in_alert_window, ScoredSequence, NO_CONFLICT_RISK};
+
+const FONT: &str = "sans-serif";
+static FONT_BYTES: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The embedded file is a valid TrueType font; a failure would only show as missing text.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
+    });
+}
+
+/// A figure could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct PlotError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+/// Size of every figure in pixels (SVG user units).
+const SIZE: (u32, u32) = (900, 700);
+const TRAJECTORY_SIZE: (u32, u32) = (1500, 520);
+
+/// Distinct, colour-blind-friendly line colours (Okabe-Ito), reused cyclically.
+const COLORS: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+    RGBColor(240, 228, 66),
+];
+
+fn color(i: usize) -> RGBColor {
+    COLORS.get(i % COLORS.len()).copied().unwrap_or(BLACK)
+}
+
+/// A figure file rendered in memory: its name (`roc.svg`, ...) and its bytes.
+#[derive(Clone, Debug)]
+pub struct FigureFile {
+    pub name: String,
+    pub bytes: Vec<u8>,
+}
+
+/// Renders `figure` as `<stem>.svg` and `<stem>.png` in memory, so a caller can write them
+/// through a temporary file (nothing half-drawn ever lands at the destination).
+fn both_formats(
+    stem: &str,
+    size: (u32, u32),
+    figure: &Figure<'_>,
+) -> Result<[FigureFile; 2], PlotError> {
+    register_font();
+    let failed = |name: String| {
+        move |message: String| PlotError {
+            path: PathBuf::from(name),
+            message,
+        }
+    };
+    let svg_name = format!("{stem}.svg");
+    let png_name = format!("{stem}.png");
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        figure
+            .draw(&root)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(failed(svg_name.clone()))?;
+    }
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        figure
+            .draw(&root)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(failed(png_name.clone()))?;
+    }
+    let png = encode_png(&rgb, size).map_err(|e| failed(png_name.clone())(e.to_string()))?;
+    Ok([
+        FigureFile {
+            name: svg_name,
+            bytes: svg.into_bytes(),
+        },
+        FigureFile {
+            name: png_name,
+            bytes: png,
+        },
+    ])
+}
+
+/// An 8-bit RGB buffer as a PNG file.
+fn encode_png(rgb: &[u8], (width, height): (u32, u32)) -> Result<Vec<u8>, png::EncodingError> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
+    Ok(out)
+}
+
+/// Writes figure files into `dir`, each through a temporary file renamed when complete; returns
+/// the paths written.
+fn write_figures(dir: &Path, files: &[FigureFile]) -> Result<Vec<PathBuf>, PlotError> {
+    std::fs::create_dir_all(dir).map_err(|e| PlotError {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut set = can_codec::output::AtomicSet::default();
+    for f in files {
+        let path = dir.join(&f.name);
+        let failed = |e: std::io::Error| PlotError {
+            path: path.clone(),
+            message: e.to_string(),
+        };
+        set.create(&path)
+            .and_then(|w| std::io::Write::write_all(w, &f.bytes))
+            .map_err(failed)?;
+    }
+    set.commit().map_err(|e| PlotError {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// What one figure shows, independent of the backend.
+pub enum Figure<'a> {
+    Roc(&'a [(String, WarningCurve)]),
+    Pr(&'a [(String, WarningCurve)]),
+    Trajectories(&'a [TrajectoryPanel]),
+}
+
+impl Figure<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        match self {
+            Figure::Roc(curves) => draw_roc(root, curves),
+            Figure::Pr(curves) => draw_pr(root, curves),
+            Figure::Trajectories(panels) => draw_trajectories(root, panels),
+        }
+        .map_err(|e| e.to_string())
+    }
+}
+
+type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+fn draw_roc<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    curves: &[(String, WarningCurve)],
+) -> DrawResult<DB> {
+    let mut chart = ChartBuilder::on(root)
+        .caption("ROC of the first-threshold warning", (FONT, 26))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..1f64, 0f64..1f64)?;
+    chart
+        .configure_mesh()
+        .x_desc("false positive rate (safe sequences warned)")
+        .y_desc("true positive rate (conflicts warned)")
+        .label_style((FONT, 16))
+        .light_line_style(WHITE)
+        .draw()?;
+    // Chance line and the recall levels of A^ROC_90 / A^ROC_80.
+    let grey = RGBColor(170, 170, 170);
+    chart.draw_series(LineSeries::new(
+        [(0.0, 0.0), (1.0, 1.0)],
+        grey.stroke_width(1),
+    ))?;
+    for level in [0.8, 0.9] {
+        chart.draw_series(LineSeries::new(
+            [(0.0, level), (1.0, level)],
+            grey.mix(0.6).stroke_width(1),
+        ))?;
+    }
+    for (i, (name, curve)) in curves.iter().enumerate() {
+        let Some(points) = curve.roc_curve() else {
+            continue;
+        };
+        let c = color(i);
+        let label = match curve.a_roc(90) {
+            Some(a) => format!("{name} (A^ROC_90 = {a:.1} %)"),
+            None => name.clone(),
+        };
+        chart
+            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .label_font((FONT, 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+}
+
+fn draw_pr<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    curves: &[(String, WarningCurve)],
+) -> DrawResult<DB> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Precision-recall of the first-threshold warning",
+            (FONT, 26),
+        )
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..1f64, 0f64..1.02f64)?;
+    chart
+        .configure_mesh()
+        .x_desc("recall (conflicts warned)")
+        .y_desc("precision")
+        .label_style((FONT, 16))
+        .light_line_style(WHITE)
+        .draw()?;
+    for (i, (name, curve)) in curves.iter().enumerate() {
+        let points = curve.pr_points();
+        if points.is_empty() {
+            continue;
+        }
+        let c = color(i);
+        let label = match curve.p_prc(90) {
+            Some(p) => format!("{name} (P^PRC_90 = {p:.1} %)"),
+            None => name.clone(),
+        };
+        chart
+            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .label_font((FONT, 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+}
+
+/// One crash event's normalised risk over time to its endpoint, for every method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrajectoryPanel {
+    pub event_id: String,
+    /// `(method, [(time - endpoint (s), normalised risk in [0, 1])])`.
+    pub lines: Vec<(String, Vec<(f64, f64)>)>,
+}
+
+/// Per-method scaling to the empirical CDF of the method's scores over the alert-window frames of
+/// all its sequences: a frame's value is the fraction of those frames that are less risky (ties
+/// count half). Unit-free and robust to outliers (a TTC of 10^4 s does not flatten everything
+/// else), so methods with different units share one axis. [`NO_CONFLICT_RISK`] and NaN map to 0.
+fn normaliser(sequences: &[ScoredSequence]) -> impl Fn(f32) -> f64 {
+    let mut sorted: Vec<f32> = sequences
+        .iter()
+        .flat_map(|s| {
+            s.frames
+                .iter()
+                .filter(|f| in_alert_window(s.endpoint, f.time))
+        })
+        .map(|f| f.score)
+        .filter(|r| !r.is_nan())
+        .collect();
+    sorted.sort_by(f32::total_cmp);
+    let n = sorted.len() as f64;
+    move |r: f32| {
+        if r.is_nan() || r <= NO_CONFLICT_RISK || n == 0.0 {
+            return 0.0;
+        }
+        let below = sorted.partition_point(|x| *x < r) as f64;
+        let at_or_below = sorted.partition_point(|x| *x <= r) as f64;
+        (0.5 * (below + at_or_below) / n).clamp(0.0, 1.0)
+    }
+}
+
+/// Builds the trajectory panels of `event_ids` from each method's scored sequences (methods that
+/// lack an event are left out of its panel).
+pub fn trajectory_panels(
+    methods: &[(String, Vec<ScoredSequence>)],
+    event_ids: &[String],
+) -> Vec<TrajectoryPanel> {
+    let scales: Vec<_> = methods.iter().map(|(_, seqs)| normaliser(seqs)).collect();
+    event_ids
+        .iter()
+        .map(|id| TrajectoryPanel {
+            event_id: id.clone(),
+            lines: methods
+                .iter()
+                .zip(&scales)
+                .filter_map(|((name, seqs), scale)| {
+                    let s = seqs.iter().find(|s| &s.event_id == id)?;
+                    let endpoint = s.endpoint?;
+                    let line = s
+                        .frames
+                        .iter()
+                        .map(|f| (f.time - endpoint, scale(f.score)))
+                        .collect();
+                    Some((name.clone(), line))
+                })
+                .collect(),
+        })
+        .collect()
+}
+
+/// The first `n` crash sequences in input order: the events whose trajectories are drawn.
+pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<String> {
+    sequences
+        .iter()
+        .filter(|s| s.class == super::protocol::SequenceClass::Crash && s.endpoint.is_some())
+        .take(n)
+        .map(|s| s.event_id.clone())
+        .collect()
+}
+
+fn draw_trajectories<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    panels: &[TrajectoryPanel],
+) -> DrawResult<DB> {
+    let root = root.titled(
+        "Risk trajectories of crash events (each method as its percentile over all frames)",
+        (FONT, 24),
+    )?;
+    let areas = root.split_evenly((1, panels.len().max(1)));
+    for (panel, area) in panels.iter().zip(&areas) {
+        let (lo, hi) = panel
+            .lines
+            .iter()
+            .flat_map(|(_, l)| l.iter().map(|p| p.0))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+                (lo.min(t), hi.max(t))
+            });
+        let (lo, hi) = if lo < hi { (lo, hi) } else { (-4.5, 0.5) };
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("event {}", panel.event_id), (FONT, 18))
+            .margin(10)
+            .x_label_area_size(42)
+            .y_label_area_size(48)
+            .build_cartesian_2d(lo..hi, 0f64..1.02f64)?;
+        chart
+            .configure_mesh()
+            .x_desc("time relative to impact (s)")
+            .y_desc("risk percentile")
+            .label_style((FONT, 14))
+            .light_line_style(WHITE)
+            .draw()?;
+        chart.draw_series(LineSeries::new(
+            [(0.0, 0.0), (0.0, 1.02)],
+            RGBColor(120, 120, 120).stroke_width(1),
+        ))?;
+        for (i, (name, line)) in panel.lines.iter().enumerate() {
+            let c = color(i);
+            chart
+                .draw_series(LineSeries::new(line.iter().copied(), c.stroke_width(2)))?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    Ok(())
+}
+
+/// `roc.{svg,png}` and `pr.{svg,png}`, rendered in memory.
+pub fn curve_figures(curves: &[(String, WarningCurve)]) -> Result<Vec<FigureFile>, PlotError> {
+    let mut files = Vec::from(both_formats("roc", SIZE, &Figure::Roc(curves))?);
+    files.extend(both_formats("pr", SIZE, &Figure::Pr(curves))?);
+    Ok(files)
+}
+
+/// `trajectories.{svg,png}` (one panel per event), rendered in memory.
+pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<FigureFile>, PlotError> {
+    Ok(Vec::from(both_formats(
+        "trajectories",
+        TRAJECTORY_SIZE,
+        &Figure::Trajectories(panels),
+    )?))
+}
+
+/// Writes `roc.{svg,png}` and `pr.{svg,png}` into `dir`; returns the paths written.
+pub fn plot_curves(
+    dir: &Path,
+    curves: &[(String, WarningCurve)],
+) -> Result<Vec<PathBuf>, PlotError> {
+    write_figures(dir, &curve_figures(curves)?)
+}
+
+/// Writes `trajectories.{svg,png}` into `dir` (one panel per event); returns the paths written.
+pub fn plot_trajectories(
+    dir: &Path,
+    panels: &[TrajectoryPanel],
+) -> Result<Vec<PathBuf>, PlotError> {
+    write_figures(dir, &trajectory_figures(panels)?)
+}
+
+/// File names of every figure [`curve_figures`] and [`trajectory_figures`] produce.
+pub const FIGURE_FILES: [&str; 6] = [
+    "roc.svg",
+    "roc.png",
+    "pr.svg",
+    "pr.png",
+    "trajectories.svg",
+    "trajectories.png",
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::{ScoredFrame, SequenceClass};
+
+    fn seq(id: &str, class: SequenceClass, endpoint: Option<f64>, s: &[f32]) -> ScoredSequence {
+        ScoredSequence {
+            event_id: id.into(),
+            class,
+            endpoint,
+            frames: s
+                .iter()
+                .enumerate()
+                .map(|(i, &score)| ScoredFrame {
+                    time: i as f64,
+                    score,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn trajectories_are_percentiles_over_alert_windows() {
+        // Alert-window scores of the method: 2, 4, 6, 3 and the no-conflict frame (5 frames; the
+        // 100 after c's endpoint is not among them).
+        let seqs = vec![
+            seq(
+                "c",
+                SequenceClass::Crash,
+                Some(2.0),
+                &[2.0, 4.0, 6.0, 100.0],
+            ),
+            seq("s", SequenceClass::Safe, None, &[NO_CONFLICT_RISK, 3.0]),
+        ];
+        assert_eq!(default_trajectory_events(&seqs, 3), ["c"]);
+        let panels = trajectory_panels(&[("M".into(), seqs)], &["c".to_owned()]);
+        let line = &panels[0].lines[0].1;
+        // 2: one frame below, itself half -> 1.5/5; 4: 3.5/5; 6: 4.5/5; 100: all below -> 1.
+        let expected = [(-2.0, 0.3), (-1.0, 0.7), (0.0, 0.9), (1.0, 1.0)];
+        assert_eq!(line.len(), expected.len());
+        for (got, want) in line.iter().zip(expected) {
+            assert_eq!(got.0, want.0);
+            assert!((got.1 - want.1).abs() < 1e-12, "{got:?} vs {want:?}");
+        }
+    }
+
+    #[test]
+    fn figures_render_to_svg_and_png() {
+        let dir = tempfile::tempdir().unwrap();
+        let seqs = vec![
+            seq("c", SequenceClass::Crash, Some(2.0), &[1.0, 2.0, 3.0]),
+            seq("s", SequenceClass::Safe, None, &[0.0, 2.5]),
+        ];
+        let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
+        let written = plot_curves(dir.path(), &[("M".into(), curve)]).unwrap();
+        assert_eq!(written.len(), 4);
+        let svg = std::fs::read_to_string(dir.path().join("roc.svg")).unwrap();
+        assert!(svg.contains("A^ROC_90"), "legend text is drawn");
+        let png = std::fs::read(dir.path().join("pr.png")).unwrap();
+        assert_eq!(&png[..4], b"\x89PNG");
+    }
+}

@@ -1,0 +1,76 @@
+//! `riskctl`: the command line over riskscore's library crates. Each subcommand lives in
+//! `cli/<name>.rs`, which parses its arguments and calls the libraries.
+use clap::{Parser, Subcommand};
+
+mod cli;
+
+/// Learn, evaluate and export collision-risk scores for ego/partner interactions.
+///
+/// Typical flow: `simulate` an event folder (or convert your own data to the event format), `train`
+/// DRL/MSRA models from pairwise comparisons, `evaluate` them against the TTC2D/TAdv/EI baselines,
+/// `export-model` for the ECU. `demo` runs all of it on the embedded defaults.
+#[derive(Parser, Debug)]
+#[command(name = "riskctl", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Compute surrogates (box distance, TTC2D, TAdv, EI) and the 13 features for a CSV of pairs.
+    Ssm(cli::ssm::Args),
+    /// Simulate crash, near-crash and safe events and write an event folder.
+    Simulate(cli::simulate::Args),
+    /// Build comparisons and train DRL / MSRA models on an event folder.
+    Train(cli::train::Args),
+    /// Score an event folder with model files and the baselines; print the metrics table.
+    Evaluate(cli::evaluate::Args),
+    /// Per-frame risk scores of every event under each model, with TTC2D/TAdv/EI (CSV/Parquet).
+    #[cfg(feature = "parquet")]
+    Score(cli::score::Args),
+    /// Train on each comparison source alone and in combination, over training fractions.
+    Ablation(cli::ablation::Args),
+    /// Quantise (DRL) and write a trained model as a model blob for the ECU.
+    ExportModel(cli::export_model::Args),
+    /// Print a model blob's header, sizes and parameter summary, and check its integrity.
+    InspectModel(cli::inspect_model::Args),
+    /// GSSM, SSRA and MSRA over GSSM: fit, align, msra, ship, cv, augmentation.
+    Gssm(cli::gssm::Args),
+    /// Import recorded data (CommonRoad scenarios) as an event folder of real safe interactions.
+    Import(cli::import::Args),
+    /// Encode an event folder as 10 Hz vehicle CAN traffic in candump -L format.
+    EventsToCandump(cli::events_to_candump::Args),
+    /// The main job: simulate, train under 5-fold CV, evaluate, quantise, export, plot.
+    Demo(cli::demo::Args),
+    /// Benchmarks on data the models were not trained on: `transfer` (another simulator seed and
+    /// mix, real recordings held out by scenario file).
+    Benchmark(cli::benchmark::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Ssm(a) => cli::ssm::run(a),
+        Command::Simulate(a) => cli::simulate::run(a),
+        Command::Train(a) => cli::train::run(a),
+        Command::Evaluate(a) => cli::evaluate::run(a),
+        #[cfg(feature = "parquet")]
+        Command::Score(a) => cli::score::run(a),
+        Command::Ablation(a) => cli::ablation::run(a),
+        Command::ExportModel(a) => cli::export_model::run(a),
+        Command::InspectModel(a) => cli::inspect_model::run(a),
+        Command::Gssm(a) => cli::gssm::run(a),
+        Command::Import(a) => cli::import::run(a),
+        Command::EventsToCandump(a) => cli::events_to_candump::run(a),
+        Command::Demo(a) => cli::demo::run(a),
+        Command::Benchmark(a) => cli::benchmark::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("riskctl: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

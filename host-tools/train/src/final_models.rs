@@ -1,0 +1,89 @@
+//! The final models of a training run: DRL and MSRA trained on every sequence, the DRL quantised
+//! (and checked against its float network), both written as checkpoints and model blobs. What
+//! `riskctl train` and the demo's last training step produce.
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use crate::comparisons::TrainingSequence;
+use crate::export::{self, Checkpoint, CheckpointModel, DrlFormat, ExportError};
+use crate::quantize::{self, Agreement};
+use crate::train::{self, Progress, TrainConfig, TrainError, TrainedDrl, TrainedMsra};
+
+/// Why the final models could not be trained or written.
+#[derive(Debug, thiserror::Error)]
+pub enum FinalModelsError {
+    #[error("final training: {0}")]
+    Train(#[from] TrainError),
+    #[error("export: {0}")]
+    Export(#[from] ExportError),
+}
+
+/// The final models: trained on every sequence, quantised and exported.
+pub struct FinalModels {
+    pub drl: TrainedDrl,
+    pub msra: TrainedMsra,
+    pub agreement: Agreement,
+    pub pairs_per_second: f64,
+}
+
+/// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`: `drl.json`,
+/// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk`. `meta` goes into both checkpoints.
+/// Returns the models and the files written.
+pub fn train_and_export(
+    train: &[TrainingSequence],
+    augmentation: Option<&[TrainingSequence]>,
+    config: &TrainConfig,
+    dir: &Path,
+    meta: serde_json::Value,
+    progress: Progress,
+) -> Result<(FinalModels, Vec<PathBuf>), FinalModelsError> {
+    fs::create_dir_all(dir).map_err(|source| ExportError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let prepared = train::prepare_comparisons(train, augmentation, config);
+    let drl = train::train_drl(train, &prepared, config, progress)?;
+    let msra = train::train_msra(train, &prepared, config, progress)?;
+    let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
+    let obs = train::calibration_observations(train, usize::MAX);
+    let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;
+    let mut files = Vec::new();
+    let drl_ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        json!({"model": "DRL", "meta": meta, "training": drl.report, "comparisons": prepared.fit.stats}),
+    );
+    let msra_ck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: msra.params.clone(),
+        },
+        json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
+    );
+    for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
+        let p = dir.join(name);
+        ck.save(&p)?;
+        files.push(p);
+    }
+    for (name, blob) in [
+        ("drl.rsk", export::export(&drl_ck, DrlFormat::Int8)?),
+        ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
+        ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
+    ] {
+        let p = dir.join(name);
+        export::write_blob(&p, &blob)?;
+        files.push(p);
+    }
+    Ok((
+        FinalModels {
+            drl,
+            msra,
+            agreement,
+            pairs_per_second: prepared.fit.stats.pairs_per_second(),
+        },
+        files,
+    ))
+}

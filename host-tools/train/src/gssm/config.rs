@@ -1,0 +1,247 @@
+//! GSSM / SSRA / MSRA-with-GSSM hyper-parameters (TOML; every key optional with the documented
+//! default, unknown keys rejected). The comparison objective, comparisons and the validation split
+//! are the shared ones of [`crate::train::TrainConfig`].
+use std::path::Path;
+
+use scorer_core::SurrogateKind;
+use serde::{Deserialize, Serialize};
+
+use super::GssmError;
+
+/// Lognormal NLL training of the GSSM on safe-driving observations.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FitConfig {
+    /// Hidden widths of the context encoder (ReLU). The output layer has the 2 heads `mu`,
+    /// `log sigma^2`. The core runs at most 4 layers of width <= 64, so at most 3 hidden layers.
+    pub hidden: Vec<usize>,
+    pub learning_rate: f64,
+    pub weight_decay: f64,
+    /// Observations per mini-batch.
+    pub batch: usize,
+    pub max_epochs: usize,
+    /// Early stopping on the validation NLL (safe frames of the held-out training events).
+    pub patience: usize,
+    pub min_delta: f64,
+    /// Weight of the smoothness regulariser (0 = off): KL divergence between the predicted
+    /// lognormals at `x` and at `x + noise`.
+    pub smoothness: f32,
+    /// Standard deviation of the perturbation, in standardised feature units.
+    pub smoothness_noise: f32,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        FitConfig {
+            hidden: vec![16, 16],
+            learning_rate: 3e-3,
+            weight_decay: 1e-4,
+            batch: 512,
+            max_epochs: 80,
+            patience: 10,
+            min_delta: 1e-4,
+            smoothness: 1.0,
+            smoothness_noise: 0.05,
+        }
+    }
+}
+
+/// Which GSSM score SSRA reports (and exports).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SsraScore {
+    /// `ln(F / (1 - F))` of the clipped `F_S` (default: keeps resolution near `F_S = 1`).
+    #[default]
+    Logit,
+    /// `F_S` itself.
+    Cdf,
+}
+
+/// SSRA: fine-tuning every GSSM parameter under the comparison objective.
+///
+/// The pair term is the shared source-weighted Bradley-Terry loss. The anchoring terms are the
+/// shared ones too, but with SSRA's own weights and targets, on SSRA's training scale (the
+/// log-compressed logit of `F_S`, see `GssmNet::score`): the shared targets are set for DRL's
+/// unbounded scale, and a GSSM fitted on safe driving starts with late conflict frames at training
+/// scores of 50 or more, whose squared anchoring errors would swamp the pair term at the shared
+/// weights. With small weights (0.05) they do what matters for deployment: they draw conflict
+/// states from the saturated tail back inside the range the deployed logit resolves
+/// (`|logit| <= 13.8`, i.e. training scores <= 9.1), with `r* = 6` (`F_S ~ 0.9997`) and `u = 4`
+/// (`F_S ~ 0.993`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SsraConfig {
+    pub score: SsraScore,
+    /// Small: alignment should move the distribution, not forget it.
+    pub learning_rate: f64,
+    pub max_epochs: usize,
+    pub patience: usize,
+    /// Weight of the impact anchoring term for SSRA.
+    pub lambda_impact: f32,
+    /// Weight of the upper-bound term for SSRA.
+    pub lambda_upper: f32,
+    /// Impact target on the training scale (6.0 ~ `F_S = 0.9999`).
+    pub r_star: f32,
+    /// Upper bound for earlier conflict states on the training scale (4.0 ~ `F_S = 0.99`).
+    pub u: f32,
+}
+
+impl Default for SsraConfig {
+    fn default() -> Self {
+        SsraConfig {
+            score: SsraScore::Logit,
+            learning_rate: 1e-3,
+            max_epochs: 30,
+            patience: 6,
+            lambda_impact: 0.05,
+            lambda_upper: 0.05,
+            r_star: 6.0,
+            u: 4.0,
+        }
+    }
+}
+
+impl SsraConfig {
+    /// The shared objective with SSRA's anchoring weights and targets.
+    pub fn objective(&self) -> crate::train::config::ObjectiveConfig {
+        crate::train::config::ObjectiveConfig {
+            lambda_impact: self.lambda_impact,
+            lambda_upper: self.lambda_upper,
+            r_star: self.r_star,
+            u: self.u,
+        }
+    }
+}
+
+/// MSRA over surrogates that include the GSSM (frozen; its intensity is the term's input).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MsraGssmConfig {
+    /// Configurations, each a `+`-separated list of `ttc2d`, `tadv`, `ei`, `gssm` (at most 4).
+    pub configurations: Vec<String>,
+    /// The configuration exported as `msra-gssm.rsk` by `riskctl gssm ship`.
+    pub shipped: String,
+    pub learning_rate: f64,
+}
+
+impl Default for MsraGssmConfig {
+    fn default() -> Self {
+        MsraGssmConfig {
+            configurations: vec![
+                "ei+gssm".into(),
+                "tadv+ei+gssm".into(),
+                "ttc2d+gssm".into(),
+                "ttc2d+ei+gssm".into(),
+            ],
+            shipped: "tadv+ei+gssm".into(),
+            learning_rate: 3e-2,
+        }
+    }
+}
+
+/// The whole GSSM configuration (`configs/gssm.toml` layout, see docs/gssm.md).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GssmConfig {
+    pub fit: FitConfig,
+    pub ssra: SsraConfig,
+    pub msra: MsraGssmConfig,
+}
+
+/// A finite, strictly positive rate.
+fn positive(x: f64) -> bool {
+    x > 0.0 && x.is_finite()
+}
+
+impl GssmConfig {
+    pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmError> {
+        let cfg: GssmConfig = toml::from_str(text).map_err(|e| GssmError::File {
+            path: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        cfg.validate().map_err(|message| GssmError::File {
+            path: origin.to_string(),
+            message,
+        })?;
+        Ok(cfg)
+    }
+
+    pub fn load(path: &Path) -> Result<GssmConfig, GssmError> {
+        let text = std::fs::read_to_string(path).map_err(|e| GssmError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// The configuration in `path` when given, else the defaults (`--gssm-config FILE`).
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmError> {
+        path.map_or_else(|| Ok(Self::default()), Self::load)
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        let f = &self.fit;
+        if f.hidden.is_empty() || f.hidden.len() > 3 || f.hidden.iter().any(|&w| w == 0 || w > 64) {
+            return Err(
+                "fit.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
+                    .into(),
+            );
+        }
+        if !positive(f.learning_rate) || f.batch == 0 || f.max_epochs == 0 {
+            return Err("fit: learning_rate, batch and max_epochs must be > 0".into());
+        }
+        if !(f.smoothness >= 0.0
+            && f.smoothness.is_finite()
+            && f.smoothness_noise > 0.0
+            && f.smoothness_noise.is_finite())
+        {
+            return Err("fit: smoothness >= 0 and smoothness_noise > 0 required".into());
+        }
+        let r = &self.ssra;
+        if !positive(r.learning_rate) || r.max_epochs == 0 {
+            return Err("ssra: learning_rate and max_epochs must be > 0".into());
+        }
+        if !(r.lambda_impact >= 0.0
+            && r.lambda_upper >= 0.0
+            && r.u < r.r_star
+            && r.r_star.is_finite())
+        {
+            return Err(
+                "ssra: lambda_impact, lambda_upper >= 0 and finite u < r_star required".into(),
+            );
+        }
+        if !positive(self.msra.learning_rate) {
+            return Err("msra.learning_rate must be > 0".into());
+        }
+        for c in self.msra.configurations.iter().chain([&self.msra.shipped]) {
+            parse_configuration(c)?;
+        }
+        Ok(())
+    }
+}
+
+/// A surrogate of an MSRA configuration by name (`gssm` or one of the core's surrogates).
+pub(super) fn parse_kind(name: &str) -> Option<SurrogateKind> {
+    match name.trim().to_ascii_lowercase().as_str() {
+        "gssm" => Some(SurrogateKind::Gssm),
+        other => crate::train::msra::parse_surrogate(other),
+    }
+}
+
+/// Parse a configuration such as `tadv+ei+gssm` (1 to 4 distinct surrogates).
+pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, String> {
+    let mut kinds = Vec::new();
+    for part in text.split('+') {
+        let kind = parse_kind(part).ok_or_else(|| {
+            format!("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")
+        })?;
+        if kinds.contains(&kind) {
+            return Err(format!("configuration {text:?}: {part:?} appears twice"));
+        }
+        kinds.push(kind);
+    }
+    if kinds.len() > scorer_core::msra::MAX_TERMS {
+        return Err(format!("configuration {text:?}: at most 4 surrogates"));
+    }
+    Ok(kinds)
+}

@@ -1,0 +1,220 @@
+//! Source ablation: cross-validated metrics when training on each comparison source alone and on
+//! every combination of sources, over fractions of the training events.
+//!
+//! Each (source set, fraction) cell runs the same event-level CV as the demo (same folds, same
+//! seeds), with the other sources' pair targets set to zero, and keeps each fold's training events
+//! down to `fraction` (stratified by kind). Baselines are evaluated once per fraction-free run since
+//! they do not train.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::cv::{self, CvOptions, Models};
+use super::{Progress, TrainConfig};
+use crate::comparisons::{Source, TrainingSequence};
+use riskscore_data::events::Sequence;
+use riskscore_eval::{self as eval, CvReport, EventCounts};
+
+/// Ablation settings.
+#[derive(Clone, Debug)]
+pub struct AblationOptions {
+    /// Source sets to train on (each non-empty).
+    pub source_sets: Vec<Vec<Source>>,
+    /// Fractions of each fold's training events.
+    pub fractions: Vec<f64>,
+    pub folds: usize,
+    pub models: Models,
+    pub progress: Progress,
+}
+
+/// Every non-empty subset of `sources`, singletons first, then pairs, ... (stable order).
+pub fn all_combinations(sources: &[Source]) -> Vec<Vec<Source>> {
+    let n = sources.len();
+    let mut sets: Vec<Vec<Source>> = (1u32..(1 << n))
+        .map(|mask| {
+            (0..n)
+                .filter(|i| mask & (1 << i) != 0)
+                .map(|i| sources[i])
+                .collect()
+        })
+        .collect();
+    sets.sort_by_key(|s| s.len());
+    sets
+}
+
+/// Display name of a source set (`temporal+physics`).
+pub fn set_name(set: &[Source]) -> String {
+    set.iter().map(|s| s.name()).collect::<Vec<_>>().join("+")
+}
+
+/// One cell of the ablation: the CV report of one source set at one fraction.
+#[derive(Clone, Debug, Serialize)]
+pub struct AblationCell {
+    pub sources: String,
+    pub fraction: f64,
+    pub report: CvReport,
+    pub seconds: f64,
+}
+
+/// Run the ablation; `on_cell` is called after each cell (for incremental output).
+pub fn run(
+    seqs: &[Sequence],
+    augmentation: Option<&[TrainingSequence]>,
+    config: &TrainConfig,
+    opts: &AblationOptions,
+    mut on_cell: impl FnMut(&AblationCell),
+) -> Result<Vec<AblationCell>, cv::CvError> {
+    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let mut cells = Vec::new();
+    for &fraction in &opts.fractions {
+        for set in &opts.source_sets {
+            let started = std::time::Instant::now();
+            let mut cfg = config.clone();
+            cfg.comparisons = config.comparisons.restricted_to(set);
+            let cv_opts = CvOptions {
+                folds: opts.folds,
+                seed: config.seed,
+                train_fraction: fraction,
+                models: Models {
+                    drl_f32: false,
+                    ..opts.models
+                },
+                baselines: false,
+                progress: opts.progress,
+            };
+            let folds = cv::cross_validate(seqs, augmentation, &cfg, &cv_opts)?;
+            let results: Vec<_> = folds.into_iter().map(|f| f.result).collect();
+            let cell = AblationCell {
+                sources: set_name(set),
+                fraction,
+                report: eval::aggregate(events, &results),
+                seconds: started.elapsed().as_secs_f64(),
+            };
+            on_cell(&cell);
+            cells.push(cell);
+        }
+    }
+    Ok(cells)
+}
+
+/// Baseline rows (no training) under the same folds, for reference.
+pub fn baselines(seqs: &[Sequence], folds: usize, seed: u64) -> Result<CvReport, cv::CvError> {
+    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let split = riskscore_data::events::kfold_by_event(seqs, folds, seed);
+    let mut results = Vec::new();
+    for fold in 0..split.k() {
+        let test: Vec<Sequence> = split
+            .test(fold)
+            .into_iter()
+            .map(|i| seqs[i].clone())
+            .collect();
+        let observed = eval::observe(&test);
+        let (report, _) = eval::evaluate_methods(&observed, &eval::Method::baselines())
+            .map_err(|source| cv::CvError::Eval { fold, source })?;
+        results.push(eval::FoldResult {
+            seed,
+            fold,
+            methods: report.methods,
+        });
+    }
+    Ok(eval::aggregate(events, &results))
+}
+
+/// Metric keys of the ablation tables, in `MethodSummary::stats` order.
+const TABLE_METRICS: [&str; 5] = ["A_ROC_90", "A_ROC_80", "P_PRC_90", "P_PRC_80", "mTTI_90"];
+
+/// The ablation's tables, written as the cells come in (a long run leaves usable partial tables):
+/// `ablation.csv` (one row per cell, method and metric: `sources,fraction,method,metric,mean,std,n`)
+/// and `ablation.md` (the baselines, then one row per cell and method), rewritten after each cell.
+pub struct AblationTables {
+    csv: std::fs::File,
+    csv_path: PathBuf,
+    md: String,
+    md_path: PathBuf,
+    /// The first write error; later cells are still tried so the console output goes on.
+    error: Option<std::io::Error>,
+}
+
+impl AblationTables {
+    /// Creates `ablation.csv` and `ablation.md` in `dir`; `data` describes the event folder and its
+    /// counts in the Markdown header.
+    pub fn create(
+        dir: &Path,
+        data: &str,
+        folds: usize,
+        baselines: &CvReport,
+    ) -> std::io::Result<Self> {
+        let csv_path = dir.join("ablation.csv");
+        let mut csv = std::fs::File::create(&csv_path)?;
+        writeln!(csv, "sources,fraction,method,metric,mean,std,n")?;
+        let mut md = String::from("# Comparison-source ablation\n\n");
+        md.push_str(&format!(
+            "Data: {data}; {folds}-fold event-level CV; fractions of each fold's training events.\n\n"
+        ));
+        md.push_str("## Baselines (no training)\n\n");
+        md.push_str(&baselines.to_markdown());
+        md.push_str("\n## Learned models\n\n| sources | fraction | method | A_ROC_90 | P_PRC_90 | mTTI_90 (s) |\n|---|---|---|---|---|---|\n");
+        Ok(AblationTables {
+            csv,
+            csv_path,
+            md,
+            md_path: dir.join("ablation.md"),
+            error: None,
+        })
+    }
+
+    /// Adds one cell to both tables; returns its console lines (one per method).
+    pub fn add(&mut self, cell: &AblationCell) -> Vec<String> {
+        let mut lines = Vec::new();
+        for m in &cell.report.methods {
+            let cell_of = |i: usize| {
+                m.stats[i].map_or("n/a".to_string(), |s| {
+                    format!("{:.2} ± {:.2}", s.mean, s.std)
+                })
+            };
+            lines.push(format!(
+                "{:<40} {:>4.0}%  {:<5} A_ROC_90 {:<16} P_PRC_90 {:<16} mTTI_90 {}  ({:.0} s)",
+                cell.sources,
+                cell.fraction * 100.0,
+                m.name,
+                cell_of(0),
+                cell_of(2),
+                cell_of(4),
+                cell.seconds
+            ));
+            self.md.push_str(&format!(
+                "| {} | {:.0} % | {} | {} | {} | {} |\n",
+                cell.sources,
+                cell.fraction * 100.0,
+                m.name,
+                cell_of(0),
+                cell_of(2),
+                cell_of(4)
+            ));
+            for (i, key) in TABLE_METRICS.iter().enumerate() {
+                if let Some(s) = m.stats[i] {
+                    if let Err(e) = writeln!(
+                        self.csv,
+                        "{},{},{},{},{},{},{}",
+                        cell.sources, cell.fraction, m.name, key, s.mean, s.std, s.n
+                    ) {
+                        self.error.get_or_insert(e);
+                    }
+                }
+            }
+        }
+        if let Err(e) = std::fs::write(&self.md_path, &self.md) {
+            self.error.get_or_insert(e);
+        }
+        lines
+    }
+
+    /// The paths written (`ablation.csv`, `ablation.md`), or the first write error.
+    pub fn finish(self) -> std::io::Result<(PathBuf, PathBuf)> {
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok((self.csv_path, self.md_path)),
+        }
+    }
+}

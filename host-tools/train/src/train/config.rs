@@ -1,0 +1,287 @@
+//! Training configuration (`configs/train.toml`): every hyper-parameter with a documented default.
+//!
+//! A missing key takes its default, an unknown key is an error (typos must not silently fall back).
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::comparisons::ComparisonConfig;
+
+/// Weights and targets of the objective `L = L_pair + lambda_impact L_impact + lambda_upper L_upper`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ObjectiveConfig {
+    /// Weight of the impact anchoring term.
+    pub lambda_impact: f32,
+    /// Weight of the upper-bound term.
+    pub lambda_upper: f32,
+    /// Target risk `r*` of impact-window states.
+    pub r_star: f32,
+    /// Bound `u < r*` that earlier conflict states should stay under.
+    pub u: f32,
+}
+
+impl Default for ObjectiveConfig {
+    fn default() -> Self {
+        ObjectiveConfig {
+            lambda_impact: 0.1,
+            lambda_upper: 0.0,
+            r_star: 4.0,
+            u: 3.0,
+        }
+    }
+}
+
+impl ObjectiveConfig {
+    // `!(x > y)` on purpose: NaN must fail every check.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn validate(&self, table: &str) -> Result<(), String> {
+        if !(self.lambda_impact >= 0.0 && self.lambda_upper >= 0.0) {
+            return Err(format!(
+                "{table}: lambda_impact and lambda_upper must be >= 0"
+            ));
+        }
+        if !(self.u < self.r_star && self.u.is_finite() && self.r_star.is_finite()) {
+            return Err(format!(
+                "{table}: need u < r_star, got u = {}, r_star = {}",
+                self.u, self.r_star
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Optimiser, batching and early stopping shared by all parameterisations.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OptimiserConfig {
+    /// AdamW learning rate.
+    pub learning_rate: f64,
+    /// AdamW decoupled weight decay.
+    pub weight_decay: f64,
+    /// Pairs per mini-batch (anchors are batched in the same proportion).
+    pub batch_pairs: usize,
+    /// Upper bound on epochs (passes over the pairs).
+    pub max_epochs: usize,
+    /// Stop after this many epochs without a validation improvement larger than `min_delta`.
+    pub patience: usize,
+    pub min_delta: f64,
+    /// Fraction of the training EVENTS held out (stratified by kind) for early stopping.
+    pub validation_fraction: f64,
+}
+
+impl Default for OptimiserConfig {
+    fn default() -> Self {
+        OptimiserConfig {
+            learning_rate: 3e-3,
+            weight_decay: 1e-4,
+            batch_pairs: 512,
+            max_epochs: 60,
+            patience: 8,
+            min_delta: 1e-4,
+            validation_fraction: 0.2,
+        }
+    }
+}
+
+/// DRL: the MLP over the 13 standardised features.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DrlConfig {
+    /// Hidden layer widths (ReLU); the output layer (width 1, linear) is implicit. The core runs up
+    /// to 4 layers of width <= 64.
+    pub hidden: Vec<usize>,
+    /// Overrides `optimiser.learning_rate` when set.
+    pub learning_rate: Option<f64>,
+}
+
+impl Default for DrlConfig {
+    fn default() -> Self {
+        DrlConfig {
+            hidden: vec![32, 16],
+            learning_rate: None,
+        }
+    }
+}
+
+/// MSRA: `R = sum_k w_k sigmoid(a_k g_k(f_k) + b_k)` over the listed surrogates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MsraConfig {
+    /// Surrogates combined, by name: `ttc2d`, `tadv`, `ei`.
+    pub surrogates: Vec<String>,
+    /// Overrides `optimiser.learning_rate` when set (MSRA has few parameters and tolerates more).
+    pub learning_rate: Option<f64>,
+    /// Upper clip (s) of TTC2D and TAdv in the transform: longer times count as no conflict.
+    pub time_clip: f32,
+    /// Overrides the comparison sources' weights `beta` for MSRA when set: `[temporal,
+    /// cross_sequence, physics, simulation]`.
+    pub beta: Option<[f32; 4]>,
+    /// Overrides `[objective]` for MSRA when set (a table with the same keys; missing keys take
+    /// the built-in defaults, not the `[objective]` values).
+    pub objective: Option<ObjectiveConfig>,
+}
+
+impl Default for MsraConfig {
+    fn default() -> Self {
+        MsraConfig {
+            surrogates: vec!["tadv".into(), "ei".into()],
+            learning_rate: Some(3e-2),
+            time_clip: 5.0,
+            beta: Some([0.3, 1.0, 1.0, 0.5]),
+            objective: Some(ObjectiveConfig {
+                lambda_impact: 0.0,
+                ..ObjectiveConfig::default()
+            }),
+        }
+    }
+}
+
+impl MsraConfig {
+    /// Clip range `[lo, hi]` of surrogate `kind`'s transform under this configuration.
+    pub fn range(&self, kind: scorer_core::SurrogateKind) -> (f32, f32) {
+        use scorer_core::SurrogateKind::{Tadv, Ttc2d};
+        match kind {
+            Ttc2d | Tadv => (0.0, self.time_clip),
+            other => super::msra::default_range(other),
+        }
+    }
+}
+
+/// Post-training int8 quantisation of DRL.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct QuantisationConfig {
+    /// Fraction of values clipped at each end of every tensor's calibration distribution
+    /// (0 = plain min/max).
+    pub clip_fraction: f64,
+    /// At most this many training observations are used for calibration (evenly strided).
+    pub max_observations: usize,
+}
+
+impl Default for QuantisationConfig {
+    fn default() -> Self {
+        QuantisationConfig {
+            clip_fraction: 0.0,
+            max_observations: 50_000,
+        }
+    }
+}
+
+/// The whole training configuration.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Seed of every random choice (splits, comparisons, initialisation, batch order).
+    pub seed: u64,
+    pub comparisons: ComparisonConfig,
+    pub objective: ObjectiveConfig,
+    pub optimiser: OptimiserConfig,
+    pub drl: DrlConfig,
+    pub msra: MsraConfig,
+    pub quantisation: QuantisationConfig,
+}
+
+/// A configuration file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("{path}: {message}")]
+    Invalid { path: String, message: String },
+}
+
+impl TrainConfig {
+    /// Parse TOML text; `origin` names the file in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<TrainConfig, ConfigError> {
+        let cfg: TrainConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        cfg.validate().map_err(|message| ConfigError::Invalid {
+            path: origin.to_string(),
+            message,
+        })?;
+        Ok(cfg)
+    }
+
+    pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// The configuration in `path` when given, else the defaults; `seed` (when given) replaces
+    /// its seed. What every command's `--config FILE` / `--seed N` pair means.
+    pub fn load_or_default(path: Option<&Path>, seed: Option<u64>) -> Result<Self, ConfigError> {
+        let mut config = match path {
+            Some(p) => Self::load(p)?,
+            None => Self::default(),
+        };
+        if let Some(seed) = seed {
+            config.seed = seed;
+        }
+        Ok(config)
+    }
+
+    // `!(x > y)` on purpose: NaN must fail every check.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    pub fn validate(&self) -> Result<(), String> {
+        self.comparisons.validate()?;
+        self.objective.validate("objective")?;
+        if let Some(o) = &self.msra.objective {
+            o.validate("msra.objective")?;
+        }
+        let p = &self.optimiser;
+        if !(p.learning_rate > 0.0) || p.batch_pairs == 0 || p.max_epochs == 0 {
+            return Err("optimiser: learning_rate, batch_pairs and max_epochs must be > 0".into());
+        }
+        if !(0.0..0.9).contains(&p.validation_fraction) {
+            return Err("optimiser.validation_fraction must be in [0, 0.9)".into());
+        }
+        if self.drl.hidden.is_empty()
+            || self.drl.hidden.len() > 3
+            || self.drl.hidden.iter().any(|&w| w == 0 || w > 64)
+        {
+            return Err(
+                "drl.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
+                    .into(),
+            );
+        }
+        let q = &self.quantisation;
+        if !(0.0..0.1).contains(&q.clip_fraction) || q.max_observations == 0 {
+            return Err(
+                "quantisation: clip_fraction in [0, 0.1) and max_observations > 0 required".into(),
+            );
+        }
+        if !(self.msra.time_clip > 0.0 && self.msra.time_clip <= 1e3) {
+            return Err(format!(
+                "msra.time_clip must be in (0, 1000] s, got {}",
+                self.msra.time_clip
+            ));
+        }
+        if let Some(b) = &self.msra.beta {
+            if b.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err("msra.beta: four finite weights >= 0".into());
+            }
+        }
+        if self.msra.surrogates.is_empty() || self.msra.surrogates.len() > 4 {
+            return Err("msra.surrogates: 1 to 4 names".into());
+        }
+        for s in &self.msra.surrogates {
+            if super::msra::parse_surrogate(s).is_none() {
+                return Err(format!(
+                    "msra.surrogates: unknown surrogate {s:?} (expected ttc2d, tadv or ei)"
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,229 @@
+//! The transfer benchmark: train on one simulator seed plus part of the real recordings, test on a
+//! folder simulated with another seed and event mix plus the real recordings held out by scenario
+//! file, so a score that only learned our simulator (or one recording) shows it.
+//!
+//! Per seed `k` and fold `f` (the real scenario files are dealt into `folds` groups, shuffled by
+//! `seed + k`): train = the training simulation + the real sequences of every other group; test =
+//! the test simulation + the real sequences of group `f`. DRL and MSRA are trained exactly as in
+//! cross-validation ([`crate::train::cv::run_fold`]); the GSSM is fitted on the training part's
+//! real sequences only (normal driving), aligned to SSRA on the training comparisons
+//! ([`crate::gssm::study::train_fold`]). Every model is scored through its exported blob. The
+//! result is the same [`CvReport`] (table, CSV, JSON schema) as `riskctl evaluate` and the demo.
+use std::collections::BTreeMap;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use crate::comparisons::from_sequences;
+use crate::gssm::{self, GssmConfig, GssmError};
+use crate::train::cv::{self, CvError, CvOptions};
+use crate::train::{Progress, TrainConfig};
+use riskscore_data::events::Sequence;
+use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
+
+/// What the benchmark trains and tests on.
+#[derive(Clone, Debug)]
+pub struct TransferData {
+    /// Simulated training sequences (one seed and mix).
+    pub train_sim: Vec<Sequence>,
+    /// Simulated test sequences (another seed and mix).
+    pub test_sim: Vec<Sequence>,
+    /// Real recorded sequences (normal driving), split by scenario file.
+    pub real: Vec<Sequence>,
+}
+
+/// How the benchmark runs.
+#[derive(Clone, Debug)]
+pub struct TransferOptions {
+    /// Groups of real scenario files (one is held out per fold).
+    pub folds: usize,
+    /// Repetitions with seeds `config.seed + k` (scenario grouping and training).
+    pub seeds: usize,
+    pub progress: Progress,
+}
+
+/// Benchmark failures.
+#[derive(Debug, thiserror::Error)]
+pub enum TransferError {
+    #[error("transfer benchmark: {0}")]
+    Cv(#[from] CvError),
+    #[error("transfer benchmark (GSSM/SSRA): {0}")]
+    Gssm(#[from] GssmError),
+    #[error(
+        "transfer benchmark: need at least 2 folds and as many real scenario files ({scenarios} found for {folds} folds)"
+    )]
+    TooFewScenarios { folds: usize, scenarios: usize },
+    #[error("transfer benchmark: the {0} part has no sequences")]
+    Empty(&'static str),
+}
+
+/// Where the held-out real data of one fold came from.
+#[derive(Clone, Debug, Serialize)]
+pub struct FoldSplit {
+    pub seed: u64,
+    pub fold: usize,
+    pub test_scenarios: Vec<String>,
+    pub train_sequences: usize,
+    pub test_sequences: usize,
+}
+
+/// The benchmark's result.
+#[derive(Clone, Debug)]
+pub struct TransferResult {
+    pub report: CvReport,
+    pub folds: Vec<FoldResult>,
+    pub splits: Vec<FoldSplit>,
+}
+
+/// The scenario (recording file) a real sequence came from: [`riskscore_data::events::fold_group`] (the
+/// event id up to its first `/`, as `riskctl import` writes it; an id without one is its own
+/// scenario).
+pub use riskscore_data::events::fold_group as scenario_of;
+
+/// Deal the scenario files of `real` into `folds` groups, shuffled by `seed`.
+fn scenario_groups(real: &[Sequence], folds: usize, seed: u64) -> Vec<Vec<String>> {
+    let mut names: Vec<String> = real
+        .iter()
+        .map(|s| scenario_of(&s.event_id).to_string())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    names.shuffle(&mut ChaCha8Rng::seed_from_u64(seed ^ 0x7AA5_5F3E));
+    let mut groups = vec![Vec::new(); folds];
+    for (i, n) in names.into_iter().enumerate() {
+        groups[i % folds].push(n);
+    }
+    groups
+}
+
+/// Run the benchmark.
+pub fn run(
+    data: &TransferData,
+    config: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &TransferOptions,
+) -> Result<TransferResult, TransferError> {
+    if data.train_sim.is_empty() {
+        return Err(TransferError::Empty("training simulation"));
+    }
+    if data.test_sim.is_empty() {
+        return Err(TransferError::Empty("test simulation"));
+    }
+    let scenarios = data
+        .real
+        .iter()
+        .map(|s| scenario_of(&s.event_id))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    if options.folds < 2 || scenarios < options.folds {
+        return Err(TransferError::TooFewScenarios {
+            folds: options.folds,
+            scenarios,
+        });
+    }
+    let mut folds = Vec::new();
+    let mut splits = Vec::new();
+    let gssm_options = gssm::study::CvOptions {
+        folds: options.folds,
+        seeds: Vec::new(),
+        configurations: Vec::new(),
+        baselines: false,
+    };
+    for k in 0..options.seeds.max(1) {
+        let seed = config.seed.wrapping_add(k as u64);
+        let groups = scenario_groups(&data.real, options.folds, seed);
+        for (fold, held_out) in groups.iter().enumerate() {
+            let is_test = |s: &Sequence| held_out.iter().any(|n| n == scenario_of(&s.event_id));
+            let real_train: Vec<Sequence> =
+                data.real.iter().filter(|s| !is_test(s)).cloned().collect();
+            let real_test: Vec<Sequence> =
+                data.real.iter().filter(|s| is_test(s)).cloned().collect();
+            let mut train = data.train_sim.clone();
+            train.extend(real_train.iter().cloned());
+            let mut test = data.test_sim.clone();
+            test.extend(real_test.iter().cloned());
+
+            let mut cfg = config.clone();
+            cfg.seed = seed;
+            let cv_opts = CvOptions {
+                folds: options.folds,
+                seed,
+                progress: options.progress,
+                ..CvOptions::default()
+            };
+            let outcome = cv::run_fold(fold, &train, &test, None, &cfg, &cv_opts)?;
+            let mut methods = outcome.result.methods;
+
+            let mut gcfg = cfg.clone();
+            gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
+            let g = gssm::study::train_fold(
+                &from_sequences(&train),
+                Some(&from_sequences(&real_train)),
+                &eval::observe(&test),
+                &gcfg,
+                gssm_config,
+                &gssm_options,
+                options.progress,
+            )?;
+            methods.extend(g.methods);
+            folds.push(FoldResult {
+                seed,
+                fold,
+                methods,
+            });
+            splits.push(FoldSplit {
+                seed,
+                fold,
+                test_scenarios: held_out.clone(),
+                train_sequences: train.len(),
+                test_sequences: test.len(),
+            });
+            if options.progress != Progress::Hidden {
+                eprintln!(
+                    "      transfer seed {seed} fold {fold}: {} train / {} test sequences",
+                    train.len(),
+                    test.len()
+                );
+            }
+        }
+    }
+    // Event counts of one test set as the table header reports them (simulated test events plus
+    // every real sequence, each held out once per seed).
+    let counts = EventCounts::from_classes(
+        data.test_sim
+            .iter()
+            .chain(&data.real)
+            .map(|s| s.kind.into()),
+    );
+    let report = eval::aggregate(counts, &folds);
+    Ok(TransferResult {
+        report,
+        folds,
+        splits,
+    })
+}
+
+/// Sequences per scenario file (for the report).
+pub fn sequences_per_scenario(real: &[Sequence]) -> BTreeMap<String, usize> {
+    let mut m = BTreeMap::new();
+    for s in real {
+        *m.entry(scenario_of(&s.event_id).to_string()).or_insert(0) += 1;
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenario_is_the_event_id_prefix() {
+        assert_eq!(
+            scenario_of("USA_US101-3_1_T-1/12-40#2"),
+            "USA_US101-3_1_T-1"
+        );
+        assert_eq!(scenario_of("plain"), "plain");
+    }
+}

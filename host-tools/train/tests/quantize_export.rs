@@ -1,0 +1,231 @@
+//! Quantisation (int8 vs float agreement through the core), checkpoints, export -> decode -> score
+//! round trips and blob inspection.
+use riskscore_train::comparisons::{SequenceClass, TrainingSequence};
+use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
+use riskscore_train::quantize;
+use riskscore_train::train::{self, Progress, TrainConfig};
+use scorer_core::model::{decode, Model};
+use scorer_core::VehicleState;
+
+fn car(x: f32, y: f32, vx: f32, vy: f32, length: f32) -> VehicleState {
+    let v = (vx * vx + vy * vy).sqrt().max(1e-3);
+    VehicleState {
+        x,
+        y,
+        vx,
+        vy,
+        hx: vx / v,
+        hy: vy / v,
+        acc: 0.0,
+        length,
+        width: 1.8,
+    }
+}
+
+/// Mixed geometry: rear-end approaches, crossing paths and safe following.
+fn dataset(n: usize) -> Vec<TrainingSequence> {
+    let mut out = Vec::new();
+    for i in 0..n {
+        let t_impact = 6.0f64;
+        let closing = 4.0 + (i % 7) as f32;
+        let v = 10.0 + (i % 5) as f32 * 2.0;
+        let crossing = i % 3 == 0;
+        let mut c = TrainingSequence {
+            event_id: format!("c{i}"),
+            class: SequenceClass::Conflict { endpoint: t_impact },
+            times: vec![],
+            ego: vec![],
+            partner: vec![],
+        };
+        let mut s = TrainingSequence {
+            event_id: format!("s{i}"),
+            class: SequenceClass::Safe,
+            times: vec![],
+            ego: vec![],
+            partner: vec![],
+        };
+        for k in 15..=65 {
+            let t = k as f64 * 0.1;
+            let tt = (t_impact - t) as f32;
+            let x_e = v * t as f32;
+            c.times.push(t);
+            c.ego.push(car(x_e, 0.0, v, 0.0, 4.5));
+            if crossing {
+                // Partner crosses from the right, reaching the conflict point with the ego.
+                let xc = v * t_impact as f32 + 3.5;
+                c.partner
+                    .push(car(xc, -3.0 - closing * tt, 0.0, closing, 4.8));
+            } else {
+                c.partner.push(car(
+                    x_e + 4.5 + closing * tt,
+                    0.3,
+                    v - closing,
+                    0.0,
+                    4.5 + (i % 3) as f32,
+                ));
+            }
+            s.times.push(t);
+            s.ego.push(car(x_e, 0.0, v, 0.0, 4.5));
+            s.partner.push(car(
+                x_e + 30.0 + (i % 4) as f32 * 5.0,
+                3.5 * (i % 2) as f32,
+                v,
+                0.0,
+                4.5,
+            ));
+        }
+        out.push(c);
+        out.push(s);
+    }
+    out
+}
+
+fn config() -> TrainConfig {
+    let mut c = TrainConfig::default();
+    c.comparisons.temporal.pairs = 600;
+    c.comparisons.cross_sequence.pairs = 600;
+    c.comparisons.physics.pairs = 300;
+    c.optimiser.max_epochs = 12;
+    c
+}
+
+fn trained() -> (Vec<TrainingSequence>, train::TrainedDrl, train::TrainedMsra) {
+    let seqs = dataset(18);
+    let cfg = config();
+    let prepared = train::prepare_comparisons(&seqs, None, &cfg);
+    let drl = train::train_drl(&seqs, &prepared, &cfg, Progress::Hidden).unwrap();
+    let msra = train::train_msra(&seqs, &prepared, &cfg, Progress::Hidden).unwrap();
+    (seqs, drl, msra)
+}
+
+#[test]
+fn int8_network_agrees_with_float_and_round_trips_through_the_blob() {
+    let (seqs, drl, msra) = trained();
+    let obs = train::calibration_observations(&seqs, 100_000);
+    let q = quantize::quantize(&drl.params, &drl.calibration).unwrap();
+    let agreement = quantize::verify(&drl.params, &q, &obs).unwrap();
+    assert!(agreement.correlation > 0.995, "{agreement:?}");
+    assert!(
+        agreement.mean_abs_error < 0.05 * agreement.float_std.max(1e-3),
+        "{agreement:?}"
+    );
+    // The quantiser used the core's own multipliers: every hidden pair is canonical.
+    for l in &q.layers[..q.layers.len() - 1] {
+        for (m, s) in l.multipliers.chunks_exact(4).zip(&l.shifts) {
+            let m = i32::from_le_bytes(m.try_into().unwrap());
+            assert!(scorer_core::quant::is_valid_multiplier(m, *s as i8));
+        }
+    }
+    // Export -> decode -> score is bit-identical to the in-memory core network.
+    let ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::json!({"test": true}),
+    );
+    let blob = export::export(&ck, DrlFormat::Int8).unwrap();
+    let decoded = decode(&blob).unwrap();
+    assert!(matches!(decoded, Model::DrlInt8(_)));
+    let core = q.as_core().unwrap();
+    for s in seqs.iter().take(6) {
+        for (e, p) in s.ego.iter().zip(&s.partner) {
+            let f = scorer_core::drl_inputs(e, p);
+            assert_eq!(decoded.score(e, p).to_bits(), core.forward(&f)[0].to_bits());
+        }
+    }
+    // MSRA blob: the core reproduces the candle model's scores.
+    let mblob = export::msra_blob(&msra.params).unwrap();
+    let m = decode(&mblob).unwrap();
+    assert!(matches!(m, Model::Msra(_)));
+    for s in seqs.iter().take(4) {
+        for (e, p) in s.ego.iter().zip(&s.partner) {
+            let v = m.score(e, p);
+            assert!(v.is_finite());
+        }
+    }
+}
+
+#[test]
+fn conflicts_outscore_safe_frames_in_the_deployed_int8_path() {
+    let (seqs, drl, _) = trained();
+    let q = quantize::quantize(&drl.params, &drl.calibration).unwrap();
+    let core = q.as_core().unwrap();
+    let max_score = |s: &TrainingSequence| {
+        s.ego
+            .iter()
+            .zip(&s.partner)
+            .take(s.frames_up_to_endpoint())
+            .map(|(e, p)| core.forward(&scorer_core::drl_inputs(e, p))[0])
+            .fold(f32::MIN, f32::max)
+    };
+    let conflict_min = seqs
+        .iter()
+        .filter(|s| s.is_conflict())
+        .map(max_score)
+        .fold(f32::MAX, f32::min);
+    let safe_max = seqs
+        .iter()
+        .filter(|s| !s.is_conflict())
+        .map(max_score)
+        .fold(f32::MIN, f32::max);
+    assert!(conflict_min > safe_max, "{conflict_min} <= {safe_max}");
+}
+
+#[test]
+fn checkpoints_round_trip_and_bad_files_are_named() {
+    let (_, drl, msra) = trained();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("drl.json");
+    let ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    ck.save(&path).unwrap();
+    assert_eq!(Checkpoint::load(&path).unwrap(), ck);
+    let mpath = dir.path().join("msra.json");
+    let mck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: msra.params.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    mck.save(&mpath).unwrap();
+    assert_eq!(Checkpoint::load(&mpath).unwrap(), mck);
+    // f32 export of the same checkpoint decodes as DRL-f32.
+    let f32_blob = export::export(&ck, DrlFormat::F32).unwrap();
+    assert!(matches!(decode(&f32_blob).unwrap(), Model::DrlF32(_)));
+
+    let bad = dir.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        "{\"format\": \"riskscore-checkpoint\",\n \"version\": 1, \"model\": {\"kind\": \"drl\"}}",
+    )
+    .unwrap();
+    let err = Checkpoint::load(&bad).unwrap_err().to_string();
+    assert!(err.contains("bad.json") && err.contains("line 2"), "{err}");
+}
+
+#[test]
+fn inspect_reports_structure_and_detects_corruption() {
+    let (_, drl, msra) = trained();
+    let q = quantize::quantize(&drl.params, &drl.calibration).unwrap();
+    let blob = export::drl_int8_blob(&q).unwrap();
+    let text = export::inspect(&blob).unwrap();
+    assert!(text.contains("drl-int8"), "{text}");
+    assert!(text.contains("13-32-16-1"), "{text}");
+    assert!(text.contains("integrity"), "{text}");
+    let mut corrupt = blob.clone();
+    let last = corrupt.len() - 1;
+    corrupt[last] ^= 0x55;
+    let err = export::inspect(&corrupt).unwrap_err();
+    assert!(
+        matches!(err, scorer_core::model::ModelError::CrcMismatch { .. }),
+        "{err:?}"
+    );
+    let mtext = export::inspect(&export::msra_blob(&msra.params).unwrap()).unwrap();
+    assert!(mtext.contains("msra") && mtext.contains("Ttc2d"), "{mtext}");
+}
