@@ -65,3 +65,19 @@ pub(crate) fn clamp_away_from_zero(x: f32) -> f32 {
         x
     }
 }
+
+/// A 4 m x 2 m test vehicle at `(x, y)` with velocity `(vx, vy)` and heading `(hx, hy)`.
+#[cfg(test)]
+pub(crate) fn test_car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> VehicleState {
+    VehicleState {
+        x,
+        y,
+        vx,
+        vy,
+        hx,
+        hy,
+        acc: 0.0,
+        length: 4.0,
+        width: 2.0,
+    }
+}

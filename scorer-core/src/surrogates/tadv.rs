@@ -115,19 +115,7 @@ fn crossing_time_advantage(
 mod tests {
     use super::*;
 
-    fn car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> VehicleState {
-        VehicleState {
-            x,
-            y,
-            vx,
-            vy,
-            hx,
-            hy,
-            acc: 0.0,
-            length: 4.0,
-            width: 2.0,
-        }
-    }
+    use crate::surrogates::test_car as car;
 
     #[test]
     fn right_angle_crossing_is_smallest_corner_arrival_difference() {

@@ -78,19 +78,7 @@ pub fn ttc2d(ego: &VehicleState, partner: &VehicleState) -> f32 {
 mod tests {
     use super::*;
 
-    fn car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> VehicleState {
-        VehicleState {
-            x,
-            y,
-            vx,
-            vy,
-            hx,
-            hy,
-            acc: 0.0,
-            length: 4.0,
-            width: 2.0,
-        }
-    }
+    use crate::surrogates::test_car as car;
 
     #[test]
     fn rear_end_closing_gives_gap_over_speed_difference() {
