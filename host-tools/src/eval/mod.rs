@@ -6,13 +6,17 @@
 //! - [`plots`]: ROC and PR curves, risk trajectories (SVG and PNG).
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
 //! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
+//! - [`sketch`]: a bounded, mergeable summary of a method's scores (the trajectory plot's scale).
+//! - [`outputs`]: the result files of `riskctl evaluate --out`, rendered in memory.
 //!
 //! The formulas and every edge-case convention are written down in `docs/evaluation.md`.
 pub mod metrics;
+pub mod outputs;
 pub mod plots;
 pub mod protocol;
 pub mod report;
 pub mod scoring;
+pub mod sketch;
 pub mod streaming;
 
 pub use metrics::{

@@ -14,6 +14,7 @@ use plotters::style::FontStyle;
 
 use super::metrics::WarningCurve;
 use super::protocol::{in_alert_window, ScoredSequence, NO_CONFLICT_RISK};
+use super::sketch::ScoreSketch;
 
 const FONT: &str = "sans-serif";
 static FONT_BYTES: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
@@ -271,27 +272,31 @@ pub struct TrajectoryPanel {
 /// all its sequences: a frame's value is the fraction of those frames that are less risky (ties
 /// count half). Unit-free and robust to outliers (a TTC of 10^4 s does not flatten everything
 /// else), so methods with different units share one axis. [`NO_CONFLICT_RISK`] and NaN map to 0.
-fn normaliser(sequences: &[ScoredSequence]) -> impl Fn(f32) -> f64 {
-    let mut sorted: Vec<f32> = sequences
-        .iter()
-        .flat_map(|s| {
-            s.frames
-                .iter()
-                .filter(|f| in_alert_window(s.endpoint, f.time))
-        })
-        .map(|f| f.score)
-        .filter(|r| !r.is_nan())
-        .collect();
-    sorted.sort_by(f32::total_cmp);
-    let n = sorted.len() as f64;
-    move |r: f32| {
-        if r.is_nan() || r <= NO_CONFLICT_RISK || n == 0.0 {
-            return 0.0;
-        }
-        let below = sorted.partition_point(|x| *x < r) as f64;
-        let at_or_below = sorted.partition_point(|x| *x <= r) as f64;
-        (0.5 * (below + at_or_below) / n).clamp(0.0, 1.0)
+///
+/// The counts come from a [`ScoreSketch`] of those scores: exact when the sketch is
+/// ([`ScoreSketch::is_exact`]), else each value is within `rank_error / count` of the exact one.
+pub fn percentile(scores: &mut ScoreSketch, r: f32) -> f64 {
+    let n = scores.count() as f64;
+    if r.is_nan() || r <= NO_CONFLICT_RISK || n == 0.0 {
+        return 0.0;
     }
+    let (below, at_or_below) = scores.ranks(r);
+    (0.5 * (below as f64 + at_or_below as f64) / n).clamp(0.0, 1.0)
+}
+
+/// The alert-window scores of `sequences`, counted exactly (what [`percentile`] ranks against).
+pub fn alert_window_scores(sequences: &[ScoredSequence]) -> ScoreSketch {
+    let mut scores = ScoreSketch::exact();
+    for s in sequences {
+        for f in s
+            .frames
+            .iter()
+            .filter(|f| in_alert_window(s.endpoint, f.time))
+        {
+            scores.push(f.score);
+        }
+    }
+    scores
 }
 
 /// Builds the trajectory panels of `event_ids` from each method's scored sequences (methods that
@@ -300,21 +305,35 @@ pub fn trajectory_panels(
     methods: &[(String, Vec<ScoredSequence>)],
     event_ids: &[String],
 ) -> Vec<TrajectoryPanel> {
-    let scales: Vec<_> = methods.iter().map(|(_, seqs)| normaliser(seqs)).collect();
+    let mut scales: Vec<ScoreSketch> = methods
+        .iter()
+        .map(|(_, seqs)| alert_window_scores(seqs))
+        .collect();
+    trajectory_panels_ranked(methods, &mut scales, event_ids)
+}
+
+/// [`trajectory_panels`] with each method's percentiles taken from `scales` (in `methods` order,
+/// the method's alert-window scores over *all* its sequences) rather than from the sequences given,
+/// which then need only include the events drawn.
+pub fn trajectory_panels_ranked(
+    methods: &[(String, Vec<ScoredSequence>)],
+    scales: &mut [ScoreSketch],
+    event_ids: &[String],
+) -> Vec<TrajectoryPanel> {
     event_ids
         .iter()
         .map(|id| TrajectoryPanel {
             event_id: id.clone(),
             lines: methods
                 .iter()
-                .zip(&scales)
+                .zip(scales.iter_mut())
                 .filter_map(|((name, seqs), scale)| {
                     let s = seqs.iter().find(|s| &s.event_id == id)?;
                     let endpoint = s.endpoint?;
                     let line = s
                         .frames
                         .iter()
-                        .map(|f| (f.time - endpoint, scale(f.score)))
+                        .map(|f| (f.time - endpoint, percentile(scale, f.score)))
                         .collect();
                     Some((name.clone(), line))
                 })
