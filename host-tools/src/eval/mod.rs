@@ -6,6 +6,7 @@
 //! - [`plots`]: ROC and PR curves, risk trajectories (SVG and PNG).
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
 //! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
+//! - [`staircase`]: one method's alert profiles of a folder, packed for the streamed evaluation.
 //! - [`sketch`]: a bounded, mergeable summary of a method's scores (the trajectory plot's scale).
 //! - [`outputs`]: the result files of `riskctl evaluate --out`, rendered in memory.
 //!
@@ -17,6 +18,7 @@ pub mod protocol;
 pub mod report;
 pub mod scoring;
 pub mod sketch;
+pub mod staircase;
 pub mod streaming;
 
 pub use metrics::{

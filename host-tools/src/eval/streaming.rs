@@ -24,13 +24,13 @@ use std::path::Path;
 
 use super::plots::{trajectory_panels_ranked, TrajectoryPanel};
 use super::protocol::{
-    in_alert_window, AlertProfile, AlertProfileBuilder, ProtocolError, ScoredFrame, ScoredSequence,
-    SequenceClass,
+    in_alert_window, AlertProfileBuilder, ProtocolError, ScoredFrame, ScoredSequence, SequenceClass,
 };
 use super::report::{EvaluationReport, EventCounts};
 use super::scoring::{observe_frames, report_of, Method};
 use super::sketch::ScoreSketch;
-use super::{metrics::warning_curve, WarningCurve};
+use super::staircase::{classes_in_order, warning_curve_of, Staircases};
+use super::WarningCurve;
 use crate::events::{
     load_events, prepare_owned_event, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
     PrepareIssue,
@@ -53,8 +53,8 @@ pub struct ProfileAccumulator<'a, 'm> {
     methods: &'a [Method<'m>],
     config: PrepareConfig,
     events: usize,
-    /// Per method: (events.csv position, profile), in arrival order until [`Self::finish`].
-    profiles: Vec<Vec<(usize, AlertProfile)>>,
+    /// Per method: the packed profiles, one block per accumulator merged in.
+    profiles: Vec<Vec<Staircases>>,
     prepare_issues: Vec<(usize, PrepareIssue)>,
     trajectories: Option<TrajectoryCollector>,
 }
@@ -208,7 +208,10 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             methods,
             config,
             events: 0,
-            profiles: methods.iter().map(|_| Vec::new()).collect(),
+            profiles: methods
+                .iter()
+                .map(|_| vec![Staircases::default()])
+                .collect(),
             prepare_issues: Vec::new(),
             trajectories: None,
         }
@@ -279,11 +282,8 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 .collect();
             t.keep(position, sequences);
         }
-        for (builder, profiles) in builders.into_iter().zip(&mut self.profiles) {
+        for (builder, blocks) in builders.into_iter().zip(&mut self.profiles) {
             let mut profile = builder.finish();
-            // The metrics never read the id (errors above have named it): sequences x methods
-            // copies would cost more than the records.
-            profile.event_id = String::new();
             if !class.is_conflict() {
                 // A safe sequence only counts as a false alarm at every threshold up to its
                 // maximum: the metrics read nothing else of it (see `warning_curve`).
@@ -291,8 +291,9 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 profile.records.clear();
                 profile.records.extend(max);
             }
-            profile.records.shrink_to_fit();
-            profiles.push((position, profile));
+            if let Some(block) = blocks.first_mut() {
+                block.push(position, &profile);
+            }
         }
         Ok(())
     }
@@ -313,18 +314,20 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
 
     /// Everything in `events.csv` order.
     pub fn finish(self) -> FolderEvaluation {
-        let profiles: Vec<Vec<AlertProfile>> = self.profiles.into_iter().map(in_order).collect();
-        let sequences = profiles.first().map_or(0, Vec::len);
+        let classes = self
+            .profiles
+            .first()
+            .map(|blocks| classes_in_order(blocks))
+            .unwrap_or_default();
+        let sequences = classes.len();
+        let events = EventCounts::from_classes(classes);
+        // One method's profiles unpacked at a time.
         let curves: Vec<(String, WarningCurve)> = self
             .methods
             .iter()
-            .zip(&profiles)
-            .map(|(m, p)| (m.name.clone(), warning_curve(p)))
+            .zip(self.profiles)
+            .map(|(m, blocks)| (m.name.clone(), warning_curve_of(blocks)))
             .collect();
-        let events = profiles
-            .first()
-            .map(|p| EventCounts::from_classes(p.iter().map(|p| p.class)))
-            .unwrap_or_default();
         let report = report_of(events, curves.iter().map(|(name, curve)| (name, curve)));
         FolderEvaluation {
             load_issues: Vec::new(),
