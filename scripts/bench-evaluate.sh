@@ -25,12 +25,13 @@ frames=$(($(wc -l < "$events/frames.csv") - 1))
 models=(--model models/drl-default.rsk --model models/msra-default.rsk
         --model models/ssra-default.rsk --model models/gssm-default.rsk)
 
-# One run: label, binary, then riskctl arguments; stdout to $dir/<label>.out.
+# One run: label, binary, then riskctl arguments; stdout and stderr to $dir/<label>.{out,err}.
 run() {
     local label=$1 bin=$2
     shift 2
     local log="$dir/time.log"
-    /usr/bin/time -f '%e %U %S %M' -o "$log" "$bin" "$@" > "$dir/$label.out" 2>/dev/null
+    /usr/bin/time -f '%e %U %S %M' -o "$log" "$bin" "$@" > "$dir/$label.out" 2> "$dir/$label.err" \
+        || { echo "$label failed:"; tail -n 3 "$dir/$label.err"; return 1; }
     read -r wall user sys rss < "$log"
     awk -v l="$label" -v w="$wall" -v u="$user" -v s="$sys" -v m="$rss" -v n="$frames" 'BEGIN {
         printf "%-26s %7.2f s wall %7.2f s CPU %9.0f frames/s wall %6.2f us CPU/frame %8.1f MB max RSS\n",
