@@ -53,7 +53,9 @@ pub struct Args {
     /// Also write results.{md,csv,json}, curves.csv and the ROC, PR and trajectory plots
     /// (SVG and PNG) into DIR. They are written under temporary names and renamed into place
     /// together at the end: a failed run changes none of them. A name that is one of the
-    /// input files is refused.
+    /// input files is refused. The folder is still read one event at a time: the trajectory
+    /// plot's percentiles are exact up to 65,536 frames per method and beyond that within a
+    /// small error that is printed (see docs/scale.md).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Evaluate the valid events of a folder that has bad rows (each listed on stderr) instead of
