@@ -8,6 +8,10 @@
 //! - [`plots`] (feature `plots`): ROC and PR curves, risk trajectories (SVG and PNG).
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
 //! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
+//! - [`staircase`]: one method's alert profiles of a folder, packed for the streamed evaluation.
+//! - [`sketch`]: a bounded, mergeable summary of a method's scores (the trajectory plot's scale).
+//! - [`trajectory`]: the trajectory plot's data (each drawn frame at its method's percentile).
+//! - [`outputs`] (feature `plots`): the result files of `riskctl evaluate --out`, rendered in memory.
 //! - [`arrow_kernel`] (feature `arrow`): surrogates, features and model scores over Arrow batches.
 //! - [`parquet_io`] (feature `parquet`): Parquet input and output for `riskctl ssm` / `score`.
 //!
@@ -18,6 +22,8 @@
 #[cfg(feature = "arrow")]
 pub mod arrow_kernel;
 pub mod metrics;
+#[cfg(feature = "plots")]
+pub mod outputs;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 #[cfg(feature = "plots")]
@@ -25,7 +31,10 @@ pub mod plots;
 pub mod protocol;
 pub mod report;
 pub mod scoring;
+pub mod sketch;
+pub mod staircase;
 pub mod streaming;
+pub mod trajectory;
 
 pub use metrics::{
     evaluate_profiles, evaluate_sequences, warning_curve, warning_curve_reference, Metrics,

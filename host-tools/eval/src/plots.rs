@@ -13,7 +13,10 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use super::metrics::WarningCurve;
-use super::protocol::{in_alert_window, ScoredSequence, NO_CONFLICT_RISK};
+pub use super::trajectory::{
+    alert_window_scores, default_trajectory_events, percentile, trajectory_panels,
+    trajectory_panels_ranked, TrajectoryPanel,
+};
 
 const FONT: &str = "sans-serif";
 static FONT_BYTES: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
@@ -259,80 +262,6 @@ fn draw_pr<DB: DrawingBackend>(
         .draw()
 }
 
-/// One crash event's normalised risk over time to its endpoint, for every method.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TrajectoryPanel {
-    pub event_id: String,
-    /// `(method, [(time - endpoint (s), normalised risk in [0, 1])])`.
-    pub lines: Vec<(String, Vec<(f64, f64)>)>,
-}
-
-/// Per-method scaling to the empirical CDF of the method's scores over the alert-window frames of
-/// all its sequences: a frame's value is the fraction of those frames that are less risky (ties
-/// count half). Unit-free and robust to outliers (a TTC of 10^4 s does not flatten everything
-/// else), so methods with different units share one axis. [`NO_CONFLICT_RISK`] and NaN map to 0.
-fn normaliser(sequences: &[ScoredSequence]) -> impl Fn(f32) -> f64 {
-    let mut sorted: Vec<f32> = sequences
-        .iter()
-        .flat_map(|s| {
-            s.frames
-                .iter()
-                .filter(|f| in_alert_window(s.endpoint, f.time))
-        })
-        .map(|f| f.score)
-        .filter(|r| !r.is_nan())
-        .collect();
-    sorted.sort_by(f32::total_cmp);
-    let n = sorted.len() as f64;
-    move |r: f32| {
-        if r.is_nan() || r <= NO_CONFLICT_RISK || n == 0.0 {
-            return 0.0;
-        }
-        let below = sorted.partition_point(|x| *x < r) as f64;
-        let at_or_below = sorted.partition_point(|x| *x <= r) as f64;
-        (0.5 * (below + at_or_below) / n).clamp(0.0, 1.0)
-    }
-}
-
-/// Builds the trajectory panels of `event_ids` from each method's scored sequences (methods that
-/// lack an event are left out of its panel).
-pub fn trajectory_panels(
-    methods: &[(String, Vec<ScoredSequence>)],
-    event_ids: &[String],
-) -> Vec<TrajectoryPanel> {
-    let scales: Vec<_> = methods.iter().map(|(_, seqs)| normaliser(seqs)).collect();
-    event_ids
-        .iter()
-        .map(|id| TrajectoryPanel {
-            event_id: id.clone(),
-            lines: methods
-                .iter()
-                .zip(&scales)
-                .filter_map(|((name, seqs), scale)| {
-                    let s = seqs.iter().find(|s| &s.event_id == id)?;
-                    let endpoint = s.endpoint?;
-                    let line = s
-                        .frames
-                        .iter()
-                        .map(|f| (f.time - endpoint, scale(f.score)))
-                        .collect();
-                    Some((name.clone(), line))
-                })
-                .collect(),
-        })
-        .collect()
-}
-
-/// The first `n` crash sequences in input order: the events whose trajectories are drawn.
-pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<String> {
-    sequences
-        .iter()
-        .filter(|s| s.class == super::protocol::SequenceClass::Crash && s.endpoint.is_some())
-        .take(n)
-        .map(|s| s.event_id.clone())
-        .collect()
-}
-
 fn draw_trajectories<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     panels: &[TrajectoryPanel],
@@ -431,48 +360,8 @@ pub const FIGURE_FILES: [&str; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::{ScoredFrame, SequenceClass};
-
-    fn seq(id: &str, class: SequenceClass, endpoint: Option<f64>, s: &[f32]) -> ScoredSequence {
-        ScoredSequence {
-            event_id: id.into(),
-            class,
-            endpoint,
-            frames: s
-                .iter()
-                .enumerate()
-                .map(|(i, &score)| ScoredFrame {
-                    time: i as f64,
-                    score,
-                })
-                .collect(),
-        }
-    }
-
-    #[test]
-    fn trajectories_are_percentiles_over_alert_windows() {
-        // Alert-window scores of the method: 2, 4, 6, 3 and the no-conflict frame (5 frames; the
-        // 100 after c's endpoint is not among them).
-        let seqs = vec![
-            seq(
-                "c",
-                SequenceClass::Crash,
-                Some(2.0),
-                &[2.0, 4.0, 6.0, 100.0],
-            ),
-            seq("s", SequenceClass::Safe, None, &[NO_CONFLICT_RISK, 3.0]),
-        ];
-        assert_eq!(default_trajectory_events(&seqs, 3), ["c"]);
-        let panels = trajectory_panels(&[("M".into(), seqs)], &["c".to_owned()]);
-        let line = &panels[0].lines[0].1;
-        // 2: one frame below, itself half -> 1.5/5; 4: 3.5/5; 6: 4.5/5; 100: all below -> 1.
-        let expected = [(-2.0, 0.3), (-1.0, 0.7), (0.0, 0.9), (1.0, 1.0)];
-        assert_eq!(line.len(), expected.len());
-        for (got, want) in line.iter().zip(expected) {
-            assert_eq!(got.0, want.0);
-            assert!((got.1 - want.1).abs() < 1e-12, "{got:?} vs {want:?}");
-        }
-    }
+    use crate::protocol::test_sequence as seq;
+    use crate::protocol::SequenceClass;
 
     #[test]
     fn figures_render_to_svg_and_png() {

@@ -347,6 +347,30 @@ pub fn intensity_surrogate_risk(value: f32) -> f32 {
     value.max(NO_CONFLICT_RISK)
 }
 
+/// A scored sequence with frames at 0, 1, 2, ... s carrying `scores` (unit tests of the modules
+/// that read scored sequences).
+#[cfg(test)]
+pub(crate) fn test_sequence(
+    id: &str,
+    class: SequenceClass,
+    endpoint: Option<f64>,
+    scores: &[f32],
+) -> ScoredSequence {
+    ScoredSequence {
+        event_id: id.into(),
+        class,
+        endpoint,
+        frames: scores
+            .iter()
+            .enumerate()
+            .map(|(i, &score)| ScoredFrame {
+                time: i as f64,
+                score,
+            })
+            .collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

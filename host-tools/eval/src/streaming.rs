@@ -1,23 +1,36 @@
 //! Evaluating an event folder one event at a time, in memory bounded by the largest event.
 //!
 //! The metrics need, per sequence and method, only its class, endpoint and running-maximum records
-//! ([`AlertProfile`]): the warning time at any threshold is read off those records, and the
-//! thresholds are the sequence maxima. So each event is prepared, observed and scored through the
-//! same path as [`evaluate_methods`](super::evaluate_methods) (scorer-core for every number), its
-//! profiles kept and its frames dropped. Profiles are put back in `events.csv` order before the
-//! curves are swept, so the report is bit for bit the one of the in-memory path.
+//! ([`AlertProfile`](super::AlertProfile)): the warning time at any threshold is read off those
+//! records, and the thresholds are the sequence maxima. So each event is prepared, observed and
+//! scored through the same path as [`evaluate_methods`](super::evaluate_methods) (scorer-core for
+//! every number), its profiles kept and its frames dropped. Profiles are put back in `events.csv`
+//! order before the curves are swept, so the report is bit for bit the one of the in-memory path.
+//!
+//! The trajectory plot of `riskctl evaluate --out` needs two more things, gathered in the same
+//! pass when asked for ([`TrajectoryRequest`]): the scored frames of the few events drawn (the
+//! first crashes by `events.csv` position, or named ones), and per method the distribution of all
+//! its alert-window scores, which places each drawn frame at its percentile. That distribution is
+//! a [`ScoreSketch`]: exact up to its capacity (65,536 scores by default, more than the default
+//! 310-event folder has), within a stated, small rank error beyond.
 //!
 //! Memory: one event's frames at a time plus, per conflict sequence and method, its records
-//! (16 bytes each; a conflict sequence's risk usually rises on most frames towards its endpoint),
-//! and one record per safe sequence and method (its maximum: all the metrics read of it). A folder
-//! whose `frames.csv` cannot be streamed (an event's frames split into several runs) is read whole
-//! instead, with the old memory: see [`stream_events`](riskscore_data::events::stream_events).
+//! (a conflict sequence's risk usually rises on most frames towards its endpoint), and one record
+//! per safe sequence and method (its maximum: all the metrics read of it); with trajectories, a
+//! few megabytes of sketches and the drawn events. A folder whose `frames.csv` cannot be streamed
+//! (an event's frames split into several runs) is read whole instead, with the old memory and an
+//! exact percentile scale: see [`stream_events`](riskscore_data::events::stream_events).
 use std::path::Path;
 
-use super::protocol::{AlertProfile, AlertProfileBuilder, ProtocolError, SequenceClass};
+use super::protocol::{
+    in_alert_window, AlertProfileBuilder, ProtocolError, ScoredFrame, ScoredSequence, SequenceClass,
+};
 use super::report::{EvaluationReport, EventCounts};
 use super::scoring::{observe_frames, report_of, Method};
-use super::{metrics::warning_curve, WarningCurve};
+use super::sketch::ScoreSketch;
+use super::staircase::{classes_in_order, warning_curve_of, Staircases};
+use super::trajectory::{trajectory_panels_ranked, TrajectoryPanel};
+use super::WarningCurve;
 use riskscore_data::events::{
     load_events, prepare_owned_event, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
     PrepareIssue,
@@ -40,9 +53,153 @@ pub struct ProfileAccumulator<'a, 'm> {
     methods: &'a [Method<'m>],
     config: PrepareConfig,
     events: usize,
-    /// Per method: (events.csv position, profile), in arrival order until [`Self::finish`].
-    profiles: Vec<Vec<(usize, AlertProfile)>>,
+    /// Per method: the packed profiles, one block per accumulator merged in.
+    profiles: Vec<Vec<Staircases>>,
     prepare_issues: Vec<(usize, PrepareIssue)>,
+    trajectories: Option<TrajectoryCollector>,
+}
+
+/// The crash events whose risk trajectories are drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrajectoryEvents {
+    /// The first `n` crash sequences in `events.csv` order.
+    FirstCrashes(usize),
+    /// These events (each must be a crash or near-crash sequence with an endpoint), in this order.
+    Named(Vec<String>),
+}
+
+/// What the trajectory plot needs gathered while the folder streams by.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrajectoryRequest {
+    pub events: TrajectoryEvents,
+    /// Scores per level of each method's [`ScoreSketch`]: the percentile scale is exact up to this
+    /// many alert-window frames, within the sketch's stated error beyond.
+    pub sketch_capacity: usize,
+}
+
+/// Per method, a summary of all alert-window scores, plus the scored frames of the events drawn.
+#[derive(Debug)]
+struct TrajectoryCollector {
+    events: TrajectoryEvents,
+    scores: Vec<ScoreSketch>,
+    /// `(events.csv position, one scored sequence per method)` of the events kept so far.
+    kept: Vec<(usize, Vec<ScoredSequence>)>,
+}
+
+impl TrajectoryCollector {
+    fn new(request: &TrajectoryRequest, methods: usize) -> Self {
+        Self {
+            events: request.events.clone(),
+            scores: (0..methods)
+                .map(|_| ScoreSketch::new(request.sketch_capacity))
+                .collect(),
+            kept: Vec::new(),
+        }
+    }
+
+    /// Whether the sequence at `position` may be drawn (given what is kept so far).
+    fn wants(
+        &self,
+        position: usize,
+        event_id: &str,
+        class: SequenceClass,
+        endpoint: Option<f64>,
+    ) -> bool {
+        if endpoint.is_none() {
+            return false;
+        }
+        match &self.events {
+            TrajectoryEvents::FirstCrashes(n) => {
+                class == SequenceClass::Crash
+                    && (self.kept.len() < *n || self.kept.iter().any(|(p, _)| *p > position))
+            }
+            TrajectoryEvents::Named(ids) => ids.iter().any(|id| id == event_id),
+        }
+    }
+
+    /// Keeps `sequences` (one per method); of the first crashes only the `n` earliest stay.
+    fn keep(&mut self, position: usize, sequences: Vec<ScoredSequence>) {
+        self.kept.push((position, sequences));
+        self.kept.sort_by_key(|(p, _)| *p);
+        if let TrajectoryEvents::FirstCrashes(n) = self.events {
+            self.kept.truncate(n);
+        }
+    }
+
+    fn merge(&mut self, other: Self) {
+        for (mine, theirs) in self.scores.iter_mut().zip(other.scores) {
+            mine.merge(theirs);
+        }
+        for (position, sequences) in other.kept {
+            self.keep(position, sequences);
+        }
+    }
+
+    fn finish(self, methods: &[Method<'_>]) -> Trajectories {
+        let event_ids: Vec<String> = match &self.events {
+            TrajectoryEvents::FirstCrashes(_) => self
+                .kept
+                .iter()
+                .filter_map(|(_, s)| s.first().map(|s| s.event_id.clone()))
+                .collect(),
+            TrajectoryEvents::Named(ids) => ids.clone(),
+        };
+        let unknown = event_ids
+            .iter()
+            .filter(|id| {
+                !self
+                    .kept
+                    .iter()
+                    .any(|(_, s)| s.first().is_some_and(|s| &s.event_id == *id))
+            })
+            .cloned()
+            .collect();
+        let mut sequences: Vec<(String, Vec<ScoredSequence>)> = methods
+            .iter()
+            .map(|m| (m.name.clone(), Vec::new()))
+            .collect();
+        for (_, kept) in self.kept {
+            for ((_, mine), s) in sequences.iter_mut().zip(kept) {
+                mine.push(s);
+            }
+        }
+        Trajectories {
+            event_ids,
+            unknown,
+            sequences,
+            scores: self.scores,
+        }
+    }
+}
+
+/// What the trajectory plot of a streamed folder needs: the events drawn, their scored frames, and
+/// each method's percentile scale over all its alert-window frames.
+#[derive(Debug)]
+pub struct Trajectories {
+    /// The events to draw, in panel order.
+    pub event_ids: Vec<String>,
+    /// Named events that are not a crash or near-crash sequence of the folder.
+    pub unknown: Vec<String>,
+    /// Per method (in `methods` order), the scored sequences of the events drawn.
+    pub sequences: Vec<(String, Vec<ScoredSequence>)>,
+    /// Per method, its alert-window scores over all sequences.
+    pub scores: Vec<ScoreSketch>,
+}
+
+impl Trajectories {
+    /// One panel per event drawn ([`trajectory_panels_ranked`]).
+    pub fn panels(&mut self) -> Vec<TrajectoryPanel> {
+        trajectory_panels_ranked(&self.sequences, &mut self.scores, &self.event_ids)
+    }
+
+    /// The largest error of any plotted percentile (0 to 1 scale; 0: exact), over all methods.
+    pub fn percentile_error(&self) -> f64 {
+        self.scores
+            .iter()
+            .filter(|s| s.count() > 0)
+            .map(|s| s.rank_error() as f64 / s.count() as f64)
+            .fold(0.0, f64::max)
+    }
 }
 
 impl<'a, 'm> ProfileAccumulator<'a, 'm> {
@@ -51,9 +208,19 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             methods,
             config,
             events: 0,
-            profiles: methods.iter().map(|_| Vec::new()).collect(),
+            profiles: methods
+                .iter()
+                .map(|_| vec![Staircases::default()])
+                .collect(),
             prepare_issues: Vec::new(),
+            trajectories: None,
         }
+    }
+
+    /// Also gathers what the trajectory plot needs ([`FolderEvaluation::trajectories`]).
+    pub fn with_trajectories(mut self, request: &TrajectoryRequest) -> Self {
+        self.trajectories = Some(TrajectoryCollector::new(request, self.methods.len()));
+        self
     }
 
     /// Prepares, observes and scores one event (at `position` in `events.csv`) with every method
@@ -74,19 +241,49 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             .iter()
             .map(|_| AlertProfileBuilder::new(&sequence.event_id, class, sequence.endpoint))
             .collect::<Result<Vec<_>, _>>()?;
+        let keep = self
+            .trajectories
+            .as_ref()
+            .is_some_and(|t| t.wants(position, &sequence.event_id, class, sequence.endpoint));
+        let mut kept_frames: Vec<Vec<ScoredFrame>> = self
+            .methods
+            .iter()
+            .map(|_| Vec::with_capacity(if keep { sequence.frames.len() } else { 0 }))
+            .collect();
         for frames in sequence.frames.chunks(OBSERVED_SLICE) {
             let observed = observe_frames(frames);
-            for (method, builder) in self.methods.iter().zip(&mut builders) {
+            for (m, (method, builder)) in self.methods.iter().zip(&mut builders).enumerate() {
                 for frame in &observed {
-                    builder.push(frame.time, method.scorer.score(&frame.observation))?;
+                    let score = method.scorer.score(&frame.observation);
+                    builder.push(frame.time, score)?;
+                    if let Some(t) = &mut self.trajectories {
+                        if in_alert_window(sequence.endpoint, frame.time) {
+                            t.scores[m].push(score);
+                        }
+                        if keep {
+                            kept_frames[m].push(ScoredFrame {
+                                time: frame.time,
+                                score,
+                            });
+                        }
+                    }
                 }
             }
         }
-        for (builder, profiles) in builders.into_iter().zip(&mut self.profiles) {
+        if let (true, Some(t)) = (keep, &mut self.trajectories) {
+            let sequences = kept_frames
+                .into_iter()
+                .map(|frames| ScoredSequence {
+                    event_id: sequence.event_id.clone(),
+                    class,
+                    endpoint: sequence.endpoint,
+                    frames,
+                })
+                .collect();
+            t.keep(position, sequences);
+        }
+        for (builder, blocks) in builders.into_iter().zip(&mut self.profiles) {
             let mut profile = builder.finish();
-            // The metrics never read the id (errors above have named it): sequences x methods
-            // copies would cost more than the records.
-            profile.event_id = String::new();
             if !class.is_conflict() {
                 // A safe sequence only counts as a false alarm at every threshold up to its
                 // maximum: the metrics read nothing else of it (see `warning_curve`).
@@ -94,8 +291,9 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 profile.records.clear();
                 profile.records.extend(max);
             }
-            profile.records.shrink_to_fit();
-            profiles.push((position, profile));
+            if let Some(block) = blocks.first_mut() {
+                block.push(position, &profile);
+            }
         }
         Ok(())
     }
@@ -107,22 +305,29 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             mine.extend(theirs);
         }
         self.prepare_issues.extend(other.prepare_issues);
+        match (&mut self.trajectories, other.trajectories) {
+            (Some(mine), Some(theirs)) => mine.merge(theirs),
+            (None, theirs) => self.trajectories = theirs,
+            (Some(_), None) => {}
+        }
     }
 
     /// Everything in `events.csv` order.
     pub fn finish(self) -> FolderEvaluation {
-        let profiles: Vec<Vec<AlertProfile>> = self.profiles.into_iter().map(in_order).collect();
-        let sequences = profiles.first().map_or(0, Vec::len);
+        let classes = self
+            .profiles
+            .first()
+            .map(|blocks| classes_in_order(blocks))
+            .unwrap_or_default();
+        let sequences = classes.len();
+        let events = EventCounts::from_classes(classes);
+        // One method's profiles unpacked at a time.
         let curves: Vec<(String, WarningCurve)> = self
             .methods
             .iter()
-            .zip(&profiles)
-            .map(|(m, p)| (m.name.clone(), warning_curve(p)))
+            .zip(self.profiles)
+            .map(|(m, blocks)| (m.name.clone(), warning_curve_of(blocks)))
             .collect();
-        let events = profiles
-            .first()
-            .map(|p| EventCounts::from_classes(p.iter().map(|p| p.class)))
-            .unwrap_or_default();
         let report = report_of(events, curves.iter().map(|(name, curve)| (name, curve)));
         FolderEvaluation {
             load_issues: Vec::new(),
@@ -132,6 +337,7 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             prepare_issues: in_order(self.prepare_issues),
             report,
             curves,
+            trajectories: self.trajectories.map(|t| t.finish(self.methods)),
         }
     }
 }
@@ -158,6 +364,8 @@ pub struct FolderEvaluation {
     pub report: EvaluationReport,
     /// Each method's operating points, in `methods` order.
     pub curves: Vec<(String, WarningCurve)>,
+    /// What the trajectory plot needs, when asked for ([`evaluate_folder_with_trajectories`]).
+    pub trajectories: Option<Trajectories>,
 }
 
 /// Evaluates the event folder `dir` with `methods`, one event at a time (see the module docs):
@@ -170,6 +378,26 @@ pub fn evaluate_folder(
     config: PrepareConfig,
     workers: usize,
 ) -> Result<FolderEvaluation, FolderEvaluationError> {
+    evaluate_folder_with_trajectories(dir, methods, config, workers, None)
+}
+
+/// [`evaluate_folder`], also gathering what the trajectory plot needs when `trajectories` is
+/// given ([`FolderEvaluation::trajectories`]). When the folder has to be read whole, the
+/// percentile scales are exact (the frames are in memory anyway).
+pub fn evaluate_folder_with_trajectories(
+    dir: &Path,
+    methods: &[Method<'_>],
+    config: PrepareConfig,
+    workers: usize,
+    trajectories: Option<&TrajectoryRequest>,
+) -> Result<FolderEvaluation, FolderEvaluationError> {
+    let accumulator = |request: Option<&TrajectoryRequest>| {
+        let acc = ProfileAccumulator::new(methods, config);
+        match request {
+            Some(r) => acc.with_trajectories(r),
+            None => acc,
+        }
+    };
     let workers = workers.max(1);
     // A few events in flight per worker: memory stays a handful of events.
     let (send, receive) = std::sync::mpsc::sync_channel::<(usize, Event)>(2 * workers);
@@ -179,7 +407,7 @@ pub fn evaluate_folder(
             .map(|_| {
                 let receive = &receive;
                 scope.spawn(move || {
-                    let mut acc = ProfileAccumulator::new(methods, config);
+                    let mut acc = accumulator(trajectories);
                     let mut failure = None;
                     loop {
                         // The guard is dropped before scoring, so workers score concurrently.
@@ -200,7 +428,7 @@ pub fn evaluate_folder(
             Ok::<(), EventsError>(())
         });
         drop(send);
-        let mut merged = ProfileAccumulator::new(methods, config);
+        let mut merged = accumulator(trajectories);
         let mut failure = None;
         for handle in handles {
             let (acc, f) = handle
@@ -222,7 +450,11 @@ pub fn evaluate_folder(
         Ok(evaluation) => Ok(evaluation),
         Err(FolderEvaluationError::Events(EventsError::NotStreamable { .. })) => {
             let (set, load_issues) = load_events(dir)?;
-            let mut acc = ProfileAccumulator::new(methods, config);
+            let exact = trajectories.map(|r| TrajectoryRequest {
+                sketch_capacity: usize::MAX,
+                ..r.clone()
+            });
+            let mut acc = accumulator(exact.as_ref());
             for (position, event) in set.events.into_iter().enumerate() {
                 acc.add(position, event)?;
             }

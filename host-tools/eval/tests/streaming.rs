@@ -9,18 +9,27 @@ use riskscore_data::events::{
     load_events, prepare_sequences, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
 };
 use riskscore_data::sim::{simulate_to_dir, SimConfig};
-use riskscore_eval::streaming::evaluate_folder;
+use riskscore_eval::outputs::result_files;
+use riskscore_eval::plots::{default_trajectory_events, trajectory_panels, FigureFile};
+use riskscore_eval::sketch::DEFAULT_CAPACITY;
+use riskscore_eval::streaming::{
+    evaluate_folder, evaluate_folder_with_trajectories, Trajectories, TrajectoryEvents,
+    TrajectoryRequest,
+};
 use riskscore_eval::{evaluate_methods, observe, Method};
 
 /// A simulated folder (grouped frames, events.csv order), as `riskctl simulate` writes it.
 fn simulated(events: usize) -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let cfg = SimConfig {
+    simulated_with(SimConfig {
         seed: 5,
         events,
         threads: 1,
         ..SimConfig::default()
-    };
+    })
+}
+
+fn simulated_with(cfg: SimConfig) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
     simulate_to_dir(dir.path(), &cfg).unwrap();
     dir
 }
@@ -173,10 +182,9 @@ fn in_memory_report(dir: &Path, methods: &[Method<'_>]) -> String {
     report.to_json_string()
 }
 
-#[test]
-fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
-    let dir = simulated(150);
-    let files: Vec<Vec<u8>> = ["drl-default.rsk", "msra-default.rsk"]
+/// The shipped DRL and MSRA model files.
+fn model_files() -> Vec<Vec<u8>> {
+    ["drl-default.rsk", "msra-default.rsk"]
         .iter()
         .map(|m| {
             std::fs::read(
@@ -186,15 +194,28 @@ fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
             )
             .unwrap()
         })
-        .collect();
+        .collect()
+}
+
+/// The models of `files` and the three baselines.
+fn methods_of(files: &[Vec<u8>]) -> Vec<Method<'_>> {
     let mut methods: Vec<Method<'_>> = files
         .iter()
-        .map(|bytes| Method {
-            name: "model".into(),
+        .zip(["DRL", "MSRA"])
+        .map(|(bytes, name)| Method {
+            name: name.into(),
             scorer: riskscore_eval::Scorer::Model(scorer_core::model::decode(bytes).unwrap()),
         })
         .collect();
     methods.extend(Method::baselines());
+    methods
+}
+
+#[test]
+fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
+    let dir = simulated(150);
+    let files = model_files();
+    let methods = methods_of(&files);
     let expected = in_memory_report(dir.path(), &methods);
     for workers in [1, 3] {
         let got = evaluate_folder(dir.path(), &methods, PrepareConfig::default(), workers).unwrap();
@@ -214,4 +235,188 @@ fn streamed_evaluation_is_bit_identical_to_the_in_memory_one() {
         got.report.to_json_string(),
         in_memory_report(dir.path(), &methods)
     );
+}
+
+/// Every `riskctl evaluate --out` file as the whole-folder path rendered them before streaming:
+/// all sequences scored in memory, each trajectory percentile ranked among all scores kept.
+fn whole_folder_files(
+    dir: &Path,
+    methods: &[Method<'_>],
+    ids: Option<&[String]>,
+) -> Vec<FigureFile> {
+    let (set, _) = load_events(dir).unwrap();
+    let (sequences, _) = prepare_sequences(&set, &PrepareConfig::default());
+    let (report, runs) = evaluate_methods(&observe(&sequences), methods).unwrap();
+    let curves: Vec<_> = runs
+        .iter()
+        .map(|r| (r.name.clone(), r.curve.clone()))
+        .collect();
+    let scored: Vec<_> = runs
+        .iter()
+        .map(|r| (r.name.clone(), r.scored.clone()))
+        .collect();
+    let ids = ids.map_or_else(
+        || default_trajectory_events(&scored[0].1, 3),
+        <[String]>::to_vec,
+    );
+    result_files(&report, &curves, &trajectory_panels(&scored, &ids)).unwrap()
+}
+
+fn streamed_files(
+    dir: &Path,
+    methods: &[Method<'_>],
+    workers: usize,
+    request: &TrajectoryRequest,
+) -> (bool, f64, Vec<FigureFile>) {
+    let folder = evaluate_folder_with_trajectories(
+        dir,
+        methods,
+        PrepareConfig::default(),
+        workers,
+        Some(request),
+    )
+    .unwrap();
+    let mut trajectories = folder.trajectories.unwrap();
+    assert!(
+        trajectories.unknown.is_empty(),
+        "{:?}",
+        trajectories.unknown
+    );
+    let files = result_files(&folder.report, &folder.curves, &trajectories.panels()).unwrap();
+    (folder.streamed, trajectories.percentile_error(), files)
+}
+
+/// What the streamed evaluation (2 workers) gathers for the trajectory plot.
+fn streamed_trajectories(
+    dir: &Path,
+    methods: &[Method<'_>],
+    request: &TrajectoryRequest,
+) -> Trajectories {
+    evaluate_folder_with_trajectories(dir, methods, PrepareConfig::default(), 2, Some(request))
+        .unwrap()
+        .trajectories
+        .unwrap()
+}
+
+fn assert_same_files(got: &[FigureFile], expected: &[FigureFile], what: &str) {
+    let names = |f: &[FigureFile]| f.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(got), names(expected), "{what}");
+    assert_eq!(got.len(), 10, "{what}: tables, ROC, PR and trajectories");
+    for (g, e) in got.iter().zip(expected) {
+        assert!(g.bytes == e.bytes, "{what}: {} differs", g.name);
+    }
+}
+
+#[test]
+fn streamed_out_files_are_byte_identical_to_the_whole_folder_ones() {
+    // The default folder of `riskctl simulate` / the demo (310 events, seed 1).
+    let dir = simulated_with(SimConfig {
+        threads: 1,
+        ..SimConfig::default()
+    });
+    let files = model_files();
+    let methods = methods_of(&files);
+    let first_crashes = TrajectoryRequest {
+        events: TrajectoryEvents::FirstCrashes(3),
+        sketch_capacity: DEFAULT_CAPACITY,
+    };
+    let expected = whole_folder_files(dir.path(), &methods, None);
+    for workers in [1, 2] {
+        let (streamed, error, got) = streamed_files(dir.path(), &methods, workers, &first_crashes);
+        assert!(streamed);
+        assert_eq!(error, 0.0, "the default folder fits the sketch exactly");
+        assert_same_files(&got, &expected, &format!("{workers} workers"));
+    }
+
+    // Named events, in the order given (a later one first).
+    let conflicts: Vec<String> = read(dir.path(), "events.csv")[1..]
+        .iter()
+        .filter(|l| l.contains(",crash,") || l.contains(",near_crash,"))
+        .map(|l| l.split(',').next().unwrap().to_owned())
+        .collect();
+    let named = vec![conflicts[conflicts.len() - 1].clone(), conflicts[1].clone()];
+    let request = TrajectoryRequest {
+        events: TrajectoryEvents::Named(named.clone()),
+        sketch_capacity: DEFAULT_CAPACITY,
+    };
+    let (_, _, got) = streamed_files(dir.path(), &methods, 2, &request);
+    assert_same_files(
+        &got,
+        &whole_folder_files(dir.path(), &methods, Some(&named)),
+        "named",
+    );
+
+    // An unknown event is reported, not drawn.
+    let request = TrajectoryRequest {
+        events: TrajectoryEvents::Named(vec!["no-such-event".into()]),
+        sketch_capacity: DEFAULT_CAPACITY,
+    };
+    assert_eq!(
+        streamed_trajectories(dir.path(), &methods, &request).unknown,
+        ["no-such-event"]
+    );
+
+    // Frames not grouped by event: read whole, and the same files.
+    let mut frames = read(dir.path(), "frames.csv");
+    let last = frames.remove(1);
+    frames.push(last);
+    write(dir.path(), "frames.csv", &frames);
+    let (streamed, error, got) = streamed_files(
+        dir.path(),
+        &methods,
+        2,
+        &TrajectoryRequest {
+            sketch_capacity: 2,
+            ..first_crashes
+        },
+    );
+    assert!(!streamed);
+    assert_eq!(error, 0.0, "a folder read whole is ranked exactly");
+    assert_same_files(
+        &got,
+        &whole_folder_files(dir.path(), &methods, None),
+        "read whole",
+    );
+}
+
+#[test]
+fn summarised_trajectory_percentiles_stay_within_the_stated_error() {
+    let dir = simulated(60);
+    let files = model_files();
+    let methods = methods_of(&files);
+    let (set, _) = load_events(dir.path()).unwrap();
+    let (sequences, _) = prepare_sequences(&set, &PrepareConfig::default());
+    let (_, runs) = evaluate_methods(&observe(&sequences), &methods).unwrap();
+    let scored: Vec<_> = runs
+        .iter()
+        .map(|r| (r.name.clone(), r.scored.clone()))
+        .collect();
+    let ids = default_trajectory_events(&scored[0].1, 3);
+    assert!(!ids.is_empty());
+    let exact = trajectory_panels(&scored, &ids);
+
+    // A tiny sketch, so that the percentile scale is summarised many times over.
+    let request = TrajectoryRequest {
+        events: TrajectoryEvents::FirstCrashes(3),
+        sketch_capacity: 64,
+    };
+    let mut trajectories = streamed_trajectories(dir.path(), &methods, &request);
+    let error = trajectories.percentile_error();
+    assert!(error > 0.0 && error < 0.25, "{error}");
+    assert_eq!(trajectories.event_ids, ids);
+    let got = trajectories.panels();
+    let mut worst = 0.0f64;
+    for (g, e) in got.iter().zip(&exact) {
+        assert_eq!(g.event_id, e.event_id);
+        for ((gn, gl), (en, el)) in g.lines.iter().zip(&e.lines) {
+            assert_eq!(gn, en);
+            assert_eq!(gl.len(), el.len());
+            for (gp, ep) in gl.iter().zip(el) {
+                assert_eq!(gp.0, ep.0, "times are the frames' own");
+                worst = worst.max((gp.1 - ep.1).abs());
+            }
+        }
+    }
+    assert!(worst <= error + 1e-12, "{worst} > stated {error}");
+    assert!(worst > 0.0, "the summary is not exact at this size");
 }

@@ -5,14 +5,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use can_codec::output::AtomicSet;
-use riskscore_data::events::{load_events, prepare_sequences, PrepareConfig};
-use riskscore_eval::plots::{
-    curve_figures, default_trajectory_events, trajectory_figures, trajectory_panels, FIGURE_FILES,
-};
-use riskscore_eval::report::write_curves_csv;
+use riskscore_data::events::PrepareConfig;
+use riskscore_eval::outputs::{result_files, RESULT_FILES};
+use riskscore_eval::plots::FIGURE_FILES;
 use riskscore_eval::scoring::{model_row_name, row_names};
-use riskscore_eval::streaming::evaluate_folder;
-use riskscore_eval::{evaluate_methods, observe, Method, Scorer};
+use riskscore_eval::sketch::DEFAULT_CAPACITY;
+use riskscore_eval::streaming::{
+    evaluate_folder_with_trajectories, FolderEvaluation, TrajectoryEvents, TrajectoryRequest,
+};
+use riskscore_eval::{Method, Scorer};
 
 /// What `riskctl evaluate --help` explains after the options.
 const ABOUT_EVALUATION: &str = "\
@@ -52,7 +53,9 @@ pub struct Args {
     /// Also write results.{md,csv,json}, curves.csv and the ROC, PR and trajectory plots
     /// (SVG and PNG) into DIR. They are written under temporary names and renamed into place
     /// together at the end: a failed run changes none of them. A name that is one of the
-    /// input files is refused.
+    /// input files is refused. The folder is still read one event at a time: the trajectory
+    /// plot's percentiles are exact up to 65,536 frames per method and beyond that within a
+    /// small error that is printed (see docs/scale.md).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Evaluate the valid events of a folder that has bad rows (each listed on stderr) instead of
@@ -146,51 +149,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     methods.extend(Method::baselines());
 
     let dir = &args.events;
-    let Some(out) = &args.out else {
-        // Only the metrics: one event at a time, in bounded memory.
-        return evaluate_streaming(dir, &methods, args.json, args.skip_bad_events);
-    };
-    refuse_output_overlaps(&files, dir, out)?;
-    let (set, issues) =
-        load_events(dir).with_context(|| format!("event folder {}", dir.display()))?;
-    report_load_issues(&issues);
-    if set.is_empty() {
-        bail!(
-            "event folder {}: no valid events to evaluate",
-            dir.display()
-        );
+    if let Some(out) = &args.out {
+        refuse_output_overlaps(&files, dir, out)?;
     }
-    if !issues.is_empty() && !args.skip_bad_events {
-        bail!(
-            "event folder {}: the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {} valid events",
-            dir.display(),
-            set.len()
-        );
-    }
-    let (sequences, prep_issues) = prepare_sequences(&set, &PrepareConfig::default());
-    report_issues(
-        "event(s) yield no sequence under the preparation rules",
-        &prep_issues,
-    );
-    if sequences.is_empty() {
-        bail!(
-            "event folder {}: none of its {} events yields a sequence to evaluate",
-            dir.display(),
-            set.len()
-        );
-    }
-
-    let observed = observe(&sequences);
-    let (report, runs) = evaluate_methods(&observed, &methods)
-        .with_context(|| format!("event folder {}", dir.display()))?;
-
+    // With --out, the same pass also gathers the trajectory plot's events and percentile scales.
+    let trajectories = args.out.as_ref().map(|_| TrajectoryRequest {
+        events: if args.trajectory_events.is_empty() {
+            TrajectoryEvents::FirstCrashes(DEFAULT_TRAJECTORIES)
+        } else {
+            TrajectoryEvents::Named(args.trajectory_events.clone())
+        },
+        sketch_capacity: DEFAULT_CAPACITY,
+    });
+    let folder = evaluate_checked(dir, &methods, trajectories.as_ref(), args.skip_bad_events)?;
     if args.json {
-        println!("{}", report.to_json_string());
+        println!("{}", folder.report.to_json_string());
     } else {
-        print!("{}", report.to_markdown());
+        print!("{}", folder.report.to_markdown());
     }
-
-    let written = write_outputs(out, &report, &runs, &args.trajectory_events)?;
+    let Some(out) = &args.out else {
+        return Ok(());
+    };
+    let written = write_outputs(out, folder)?;
     eprintln!(
         "riskctl: wrote {} files to {}:",
         written.len(),
@@ -202,17 +182,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The metrics of `dir` without `--out`: streamed ([`evaluate_folder`]), same output.
-fn evaluate_streaming(
+/// Crash events drawn when no --trajectory-event is given.
+const DEFAULT_TRAJECTORIES: usize = 3;
+
+/// Evaluates `dir` one event at a time ([`evaluate_folder_with_trajectories`]) and refuses, after
+/// listing them, problems that would leave events out of the metrics.
+fn evaluate_checked(
     dir: &Path,
     methods: &[Method<'_>],
-    json: bool,
+    trajectories: Option<&TrajectoryRequest>,
     skip_bad_events: bool,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<FolderEvaluation> {
     // The calling thread reads frames.csv; one scoring worker per core.
     let workers = std::thread::available_parallelism().map_or(1, usize::from);
-    let folder = evaluate_folder(dir, methods, PrepareConfig::default(), workers)
-        .with_context(|| format!("event folder {}", dir.display()))?;
+    let folder = evaluate_folder_with_trajectories(
+        dir,
+        methods,
+        PrepareConfig::default(),
+        workers,
+        trajectories,
+    )
+    .with_context(|| format!("event folder {}", dir.display()))?;
     if !folder.streamed {
         eprintln!(
             "riskctl: note: the frames of {} are not grouped by event, so the folder was read whole (more memory)",
@@ -244,12 +234,7 @@ fn evaluate_streaming(
             folder.events
         );
     }
-    if json {
-        println!("{}", folder.report.to_json_string());
-    } else {
-        print!("{}", folder.report.to_markdown());
-    }
-    Ok(())
+    Ok(folder)
 }
 
 /// The loader keeps the first problems of each kind (and counts the rest), so all are listed.
@@ -272,83 +257,47 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     let mut inputs: Vec<(&str, &Path)> =
         models.iter().map(|m| ("--model", m.1.as_path())).collect();
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
-    let result_files: Vec<PathBuf> = RESULT_FILES
+    let outputs: Vec<PathBuf> = RESULT_FILES
         .iter()
         .chain(&FIGURE_FILES)
         .map(|n| out.join(n))
         .collect();
-    let outputs: Vec<(&str, &Path)> = result_files
-        .iter()
-        .map(|p| ("--out", p.as_path()))
-        .collect();
+    let outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
     can_codec::output::refuse_overlaps(&inputs, &outputs)?;
     Ok(())
 }
 
-/// The tables `--out` holds besides the figures.
-const RESULT_FILES: [&str; 4] = ["results.csv", "results.json", "results.md", "curves.csv"];
-
 /// Writes every `--out` file; all of them are renamed into place only when all are written.
-fn write_outputs(
-    out: &Path,
-    report: &riskscore_eval::EvaluationReport,
-    runs: &[riskscore_eval::MethodRun],
-    trajectory_events: &[String],
-) -> anyhow::Result<Vec<PathBuf>> {
+fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    let mut files = AtomicSet::default();
-    let mut stage = |name: &str, write: &mut dyn FnMut(&mut dyn Write) -> anyhow::Result<()>| {
-        let p = out.join(name);
-        let w = files
-            .create(&p)
-            .with_context(|| format!("{}: cannot create", p.display()))?;
-        write(w).with_context(|| format!("{}: cannot write", p.display()))
-    };
-
-    stage("results.csv", &mut |w| Ok(report.write_csv(w)?))?;
-    stage("results.json", &mut |w| {
-        Ok(w.write_all((report.to_json_string() + "\n").as_bytes())?)
-    })?;
-    stage("results.md", &mut |w| {
-        Ok(w.write_all(report.to_markdown().as_bytes())?)
-    })?;
-    let curves: Vec<(String, _)> = runs
-        .iter()
-        .map(|r| (r.name.clone(), r.curve.clone()))
-        .collect();
-    stage("curves.csv", &mut |w| Ok(write_curves_csv(&curves, w)?))?;
-    let mut figures = curve_figures(&curves)?;
-
-    let scored: Vec<(String, Vec<_>)> = runs
-        .iter()
-        .map(|r| (r.name.clone(), r.scored.clone()))
-        .collect();
-    let ids = if trajectory_events.is_empty() {
-        scored
-            .first()
-            .map(|(_, s)| default_trajectory_events(s, 3))
-            .unwrap_or_default()
-    } else {
-        for id in trajectory_events {
-            let known = scored
-                .first()
-                .is_some_and(|(_, s)| s.iter().any(|q| &q.event_id == id && q.endpoint.is_some()));
-            if !known {
-                bail!(
-                    "--trajectory-event {id}: no crash or near-crash sequence with that event id (nothing written to {})",
-                    out.display()
-                );
-            }
+    let mut panels = Vec::new();
+    if let Some(mut trajectories) = folder.trajectories {
+        if let Some(id) = trajectories.unknown.first() {
+            bail!(
+                "--trajectory-event {id}: no crash or near-crash sequence with that event id (nothing written to {})",
+                out.display()
+            );
         }
-        trajectory_events.to_vec()
-    };
-    if ids.is_empty() {
-        eprintln!("riskctl: no crash events, so no trajectory plot");
-    } else {
-        figures.extend(trajectory_figures(&trajectory_panels(&scored, &ids))?);
+        if trajectories.event_ids.is_empty() {
+            eprintln!("riskctl: no crash events, so no trajectory plot");
+        }
+        let error = trajectories.percentile_error();
+        if error > 0.0 {
+            eprintln!(
+                "riskctl: note: the trajectory percentiles are summarised (bounded memory): each is within {:.4} percentile points of the exact value",
+                100.0 * error
+            );
+        }
+        panels = trajectories.panels();
     }
-    for f in &figures {
-        stage(&f.name, &mut |w| Ok(w.write_all(&f.bytes)?))?;
+    let rendered = result_files(&folder.report, &folder.curves, &panels)?;
+    let mut files = AtomicSet::default();
+    for f in &rendered {
+        let p = out.join(&f.name);
+        files
+            .create(&p)
+            .and_then(|w| w.write_all(&f.bytes))
+            .with_context(|| format!("{}: cannot write", p.display()))?;
     }
     files
         .commit()
