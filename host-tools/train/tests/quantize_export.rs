@@ -227,5 +227,8 @@ fn inspect_reports_structure_and_detects_corruption() {
         "{err:?}"
     );
     let mtext = export::inspect(&export::msra_blob(&msra.params).unwrap()).unwrap();
-    assert!(mtext.contains("msra") && mtext.contains("Ttc2d"), "{mtext}");
+    assert!(
+        mtext.contains("msra") && mtext.contains("Tadv") && mtext.contains("Ei"),
+        "{mtext}"
+    );
 }
