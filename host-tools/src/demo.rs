@@ -630,7 +630,7 @@ pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
         .surrogates
         .iter()
         .filter_map(|n| riskscore_train::train::msra::parse_surrogate(n))
-        .map(|k| riskscore_train::train::msra::surrogate_name(k).to_string())
+        .map(|k| k.name().to_string())
         .collect()
 }
 

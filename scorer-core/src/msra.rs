@@ -55,18 +55,13 @@ pub struct MsraModel<'a> {
     pub gssm: Option<GssmModel<'a>>,
 }
 
-/// True for surrogates where a larger value means more risk (EI, GSSM).
-pub fn larger_is_riskier(kind: SurrogateKind) -> bool {
-    matches!(kind, SurrogateKind::Ei | SurrogateKind::Gssm)
-}
-
 /// `g_k`: `raw` clipped to `[lo, hi]`; `+inf -> hi`, `-inf -> lo`, NaN -> the "no conflict" bound
 /// (`hi` for TTC2D/TAdv, `lo` for EI/GSSM). For a finite `lo <= hi` the result lies in `[lo, hi]`;
 /// for a malformed range (never accepted by model validation) the result is still finite (0 if a
 /// bound is NaN).
 pub fn transform(kind: SurrogateKind, raw: f32, lo: f32, hi: f32) -> f32 {
     let v = if raw.is_nan() {
-        if larger_is_riskier(kind) {
+        if kind.larger_is_riskier() {
             lo
         } else {
             hi

@@ -311,21 +311,29 @@ pub enum Baseline {
 impl Baseline {
     pub const ALL: [Baseline; 3] = [Baseline::Ttc2d, Baseline::Tadv, Baseline::Ei];
 
-    /// Row name in tables and JSON.
-    pub fn name(self) -> &'static str {
+    /// The core surrogate the baseline reads.
+    pub const fn surrogate(self) -> scorer_core::SurrogateKind {
         match self {
-            Baseline::Ttc2d => "TTC2D",
-            Baseline::Tadv => "TAdv",
-            Baseline::Ei => "EI",
+            Baseline::Ttc2d => scorer_core::SurrogateKind::Ttc2d,
+            Baseline::Tadv => scorer_core::SurrogateKind::Tadv,
+            Baseline::Ei => scorer_core::SurrogateKind::Ei,
         }
     }
 
-    /// The baseline's risk for one pair, from the core's surrogates.
+    /// Row name in tables and JSON (the surrogate's own name).
+    pub const fn name(self) -> &'static str {
+        self.surrogate().name()
+    }
+
+    /// The baseline's risk for one pair, from the core's surrogates, in the surrogate's risk
+    /// direction.
     pub fn risk(self, s: &scorer_core::Surrogates) -> f32 {
-        match self {
-            Baseline::Ttc2d => time_surrogate_risk(s.ttc2d),
-            Baseline::Tadv => time_surrogate_risk(s.tadv),
-            Baseline::Ei => intensity_surrogate_risk(s.ei),
+        let kind = self.surrogate();
+        let value = kind.value_in(s);
+        if kind.larger_is_riskier() {
+            intensity_surrogate_risk(value)
+        } else {
+            time_surrogate_risk(value)
         }
     }
 }

@@ -30,6 +30,65 @@ pub enum SurrogateKind {
     Gssm = 3,
 }
 
+impl SurrogateKind {
+    /// Every kind, in wire order.
+    pub const ALL: [SurrogateKind; 4] = [
+        SurrogateKind::Ttc2d,
+        SurrogateKind::Tadv,
+        SurrogateKind::Ei,
+        SurrogateKind::Gssm,
+    ];
+
+    /// The name reports and tables print (`TTC2D`, `TAdv`, `EI`, `GSSM`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            SurrogateKind::Ttc2d => "TTC2D",
+            SurrogateKind::Tadv => "TAdv",
+            SurrogateKind::Ei => "EI",
+            SurrogateKind::Gssm => "GSSM",
+        }
+    }
+
+    /// The key configuration and model files use (`ttc2d`, `tadv`, `ei`, `gssm`).
+    pub const fn key(self) -> &'static str {
+        match self {
+            SurrogateKind::Ttc2d => "ttc2d",
+            SurrogateKind::Tadv => "tadv",
+            SurrogateKind::Ei => "ei",
+            SurrogateKind::Gssm => "gssm",
+        }
+    }
+
+    /// Reads a key or a name, case-insensitively and ignoring surrounding white space; `ttc` is
+    /// accepted for TTC2D. `None` for anything else.
+    pub fn parse(text: &str) -> Option<SurrogateKind> {
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("ttc") {
+            return Some(SurrogateKind::Ttc2d);
+        }
+        SurrogateKind::ALL
+            .into_iter()
+            .find(|kind| text.eq_ignore_ascii_case(kind.key()))
+    }
+
+    /// True where a larger value means more risk (EI, GSSM); TTC2D and TAdv are riskier when
+    /// smaller.
+    pub const fn larger_is_riskier(self) -> bool {
+        matches!(self, SurrogateKind::Ei | SurrogateKind::Gssm)
+    }
+
+    /// The value of this surrogate in `surrogates`; NaN for GSSM, which is a learned model, not a
+    /// geometric measure (its value comes from [`crate::gssm`]).
+    pub const fn value_in(self, surrogates: &Surrogates) -> f32 {
+        match self {
+            SurrogateKind::Ttc2d => surrogates.ttc2d,
+            SurrogateKind::Tadv => surrogates.tadv,
+            SurrogateKind::Ei => surrogates.ei,
+            SurrogateKind::Gssm => f32::NAN,
+        }
+    }
+}
+
 /// All surrogates of one pair, computed once and shared by MSRA and baselines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surrogates {
@@ -79,5 +138,41 @@ pub(crate) fn test_car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> Ve
         acc: 0.0,
         length: 4.0,
         width: 2.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_parses_from_its_key_and_name() {
+        for kind in SurrogateKind::ALL {
+            assert_eq!(SurrogateKind::parse(kind.key()), Some(kind));
+            assert_eq!(SurrogateKind::parse(kind.name()), Some(kind));
+            assert_eq!(
+                SurrogateKind::ALL[kind as usize],
+                kind,
+                "ALL is in wire order"
+            );
+        }
+        assert_eq!(SurrogateKind::parse(" TTC "), Some(SurrogateKind::Ttc2d));
+        assert_eq!(SurrogateKind::parse("ttc3d"), None);
+        assert_eq!(SurrogateKind::parse(""), None);
+    }
+
+    #[test]
+    fn risk_direction_matches_the_no_conflict_sentinels() {
+        // "No conflict" is the least risky value: +inf for the times, -inf for EI.
+        let far = surrogates(
+            &test_car(0.0, 0.0, -10.0, 0.0, -1.0, 0.0),
+            &test_car(0.0, 50.0, 0.0, 10.0, 0.0, 1.0),
+        );
+        for kind in [SurrogateKind::Ttc2d, SurrogateKind::Tadv, SurrogateKind::Ei] {
+            let v = kind.value_in(&far);
+            assert!(v.is_infinite(), "{kind:?}: {v}");
+            assert_eq!(kind.larger_is_riskier(), v < 0.0, "{kind:?}");
+        }
+        assert!(SurrogateKind::Gssm.value_in(&far).is_nan());
     }
 }

@@ -220,19 +220,11 @@ impl GssmConfig {
     }
 }
 
-/// A surrogate of an MSRA configuration by name (`gssm` or one of the core's surrogates).
-pub(super) fn parse_kind(name: &str) -> Option<SurrogateKind> {
-    match name.trim().to_ascii_lowercase().as_str() {
-        "gssm" => Some(SurrogateKind::Gssm),
-        other => crate::train::msra::parse_surrogate(other),
-    }
-}
-
 /// Parse a configuration such as `tadv+ei+gssm` (1 to 4 distinct surrogates).
 pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, String> {
     let mut kinds = Vec::new();
     for part in text.split('+') {
-        let kind = parse_kind(part).ok_or_else(|| {
+        let kind = SurrogateKind::parse(part).ok_or_else(|| {
             format!("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")
         })?;
         if kinds.contains(&kind) {

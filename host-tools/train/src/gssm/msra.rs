@@ -17,17 +17,16 @@
 use candle_core::{DType, Device, Tensor, Var};
 use scorer_core::gssm::{GssmModel, GssmScore};
 use scorer_core::model::BoundedVec;
-use scorer_core::msra::{larger_is_riskier, sigmoid, transform, MsraModel, MsraTerm};
+use scorer_core::msra::{sigmoid, transform, MsraModel, MsraTerm};
 use scorer_core::{Features, Model, SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
 // The configuration grammar lives with the configuration that names it (no config <-> msra cycle).
 pub use super::config::parse_configuration;
-use super::config::parse_kind;
 use super::net::GssmParams;
 use super::GssmError;
 use crate::comparisons::{ObservationTable, TrainingSequence};
-use crate::train::msra::{default_range, surrogate_name, MsraTermParams};
+use crate::train::msra::{default_range, MsraTermParams};
 use crate::train::{self, PreparedComparisons, Progress, RiskModel, TrainConfig, TrainReport};
 
 /// Clip range of the GSSM term: the intensity lies in `[0, log10(ln 0.5 / ln(1 - 1e-6))] ~ [0, 5.84]`.
@@ -45,7 +44,7 @@ pub fn term_range(kind: SurrogateKind) -> (f32, f32) {
 pub fn configuration_name(kinds: &[SurrogateKind]) -> String {
     kinds
         .iter()
-        .map(|&k| surrogate_name(k))
+        .map(|&k| k.name())
         .collect::<Vec<_>>()
         .join("+")
 }
@@ -53,15 +52,6 @@ pub fn configuration_name(kinds: &[SurrogateKind]) -> String {
 /// The evaluation row name of a configuration: `MSRA(TAdv+EI+GSSM)`.
 pub fn row_name(kinds: &[SurrogateKind]) -> String {
     format!("MSRA({})", configuration_name(kinds))
-}
-
-fn kind_key(kind: SurrogateKind) -> &'static str {
-    match kind {
-        SurrogateKind::Ttc2d => "ttc2d",
-        SurrogateKind::Tadv => "tadv",
-        SurrogateKind::Ei => "ei",
-        SurrogateKind::Gssm => "gssm",
-    }
 }
 
 /// The raw surrogate values the terms read, from the core (GSSM through the embedded network).
@@ -106,7 +96,7 @@ impl MsraGssmParams {
         self.terms
             .iter()
             .map(|t| {
-                parse_kind(&t.surrogate).ok_or_else(|| {
+                SurrogateKind::parse(&t.surrogate).ok_or_else(|| {
                     GssmError::Config(format!("unknown surrogate {:?}", t.surrogate))
                 })
             })
@@ -148,7 +138,8 @@ impl MsraGssmParams {
             .terms
             .iter()
             .map(|t| {
-                let larger = parse_kind(&t.surrogate).is_some_and(larger_is_riskier);
+                let larger = SurrogateKind::parse(&t.surrogate)
+                    .is_some_and(SurrogateKind::larger_is_riskier);
                 let (risky, safe) = if larger { (t.hi, t.lo) } else { (t.lo, t.hi) };
                 t.w * (sigmoid(t.a * risky + t.b) - sigmoid(t.a * safe + t.b))
             })
@@ -158,8 +149,8 @@ impl MsraGssmParams {
             .iter()
             .zip(&spans)
             .map(|(t, &span)| TermWeight {
-                surrogate: parse_kind(&t.surrogate)
-                    .map_or_else(|| t.surrogate.clone(), |k| surrogate_name(k).to_string()),
+                surrogate: SurrogateKind::parse(&t.surrogate)
+                    .map_or_else(|| t.surrogate.clone(), |k| k.name().to_string()),
                 w: t.w,
                 a: t.a,
                 b: t.b,
@@ -226,7 +217,7 @@ impl MsraGssm {
         // Start every term in its risk direction (the transform is increasing in the raw value).
         let init_a: Vec<f32> = kinds
             .iter()
-            .map(|&kind| if larger_is_riskier(kind) { 1.0 } else { -1.0 })
+            .map(|&kind| if kind.larger_is_riskier() { 1.0 } else { -1.0 })
             .collect();
         Ok(MsraGssm {
             kinds: kinds.to_vec(),
@@ -267,7 +258,7 @@ impl MsraGssm {
             .map(|k| {
                 let (m, s) = (self.centre[k], self.spread[k]);
                 MsraTermParams {
-                    surrogate: kind_key(self.kinds[k]).to_string(),
+                    surrogate: self.kinds[k].key().to_string(),
                     lo: self.ranges[k].0,
                     hi: self.ranges[k].1,
                     w: w[k],
@@ -280,7 +271,7 @@ impl MsraGssm {
             configuration: self
                 .kinds
                 .iter()
-                .map(|&k| kind_key(k))
+                .map(|&k| k.key())
                 .collect::<Vec<_>>()
                 .join("+"),
             terms,

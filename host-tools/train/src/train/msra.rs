@@ -14,35 +14,10 @@ use serde::{Deserialize, Serialize};
 use super::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
 
-/// Parse a surrogate name (`ttc2d`, `tadv`, `ei`; case-insensitive).
+/// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`; case-insensitive, see
+/// [`SurrogateKind::parse`]). GSSM is not one: it is a learned model, trained by `gssm`.
 pub fn parse_surrogate(name: &str) -> Option<SurrogateKind> {
-    match name.trim().to_ascii_lowercase().as_str() {
-        "ttc2d" | "ttc" => Some(SurrogateKind::Ttc2d),
-        "tadv" => Some(SurrogateKind::Tadv),
-        "ei" => Some(SurrogateKind::Ei),
-        _ => None,
-    }
-}
-
-/// Display name of a surrogate as used in reports (`TTC2D`, `TAdv`, `EI`, `GSSM`).
-pub fn surrogate_name(kind: SurrogateKind) -> &'static str {
-    match kind {
-        SurrogateKind::Ttc2d => "TTC2D",
-        SurrogateKind::Tadv => "TAdv",
-        SurrogateKind::Ei => "EI",
-        SurrogateKind::Gssm => "GSSM",
-    }
-}
-
-/// The raw value of surrogate `kind` in a precomputed set (GSSM is not a geometric surrogate and
-/// is not available here).
-pub fn raw_surrogate(kind: SurrogateKind, s: &Surrogates) -> f32 {
-    match kind {
-        SurrogateKind::Ttc2d => s.ttc2d,
-        SurrogateKind::Tadv => s.tadv,
-        SurrogateKind::Ei => s.ei,
-        SurrogateKind::Gssm => f32::NAN,
-    }
+    SurrogateKind::parse(name).filter(|&kind| kind != SurrogateKind::Gssm)
 }
 
 /// Clip range `[lo, hi]` of the transform of each surrogate (TTC2D and TAdv in s, EI in m/s).
@@ -107,9 +82,10 @@ fn transform_slope_sign(kind: SurrogateKind, lo: f32, hi: f32) -> f32 {
 
 /// +1 when a larger raw value is riskier (EI), -1 when smaller is riskier (TTC2D, TAdv).
 fn risk_direction(kind: SurrogateKind) -> f32 {
-    match kind {
-        SurrogateKind::Ei | SurrogateKind::Gssm => 1.0,
-        SurrogateKind::Ttc2d | SurrogateKind::Tadv => -1.0,
+    if kind.larger_is_riskier() {
+        1.0
+    } else {
+        -1.0
     }
 }
 
@@ -152,7 +128,7 @@ impl Msra {
         for surr in surrogates {
             n += 1;
             for (k, (&kind, &(lo, hi))) in kinds.iter().zip(&ranges).enumerate() {
-                let g = transformed(kind, raw_surrogate(kind, &surr), lo, hi) as f64;
+                let g = transformed(kind, kind.value_in(&surr), lo, hi) as f64;
                 sum[k] += g;
                 sq[k] += g * g;
             }
@@ -197,13 +173,7 @@ impl Msra {
             .map(|k| {
                 let (m, s) = (self.centre[k], self.spread[k]);
                 MsraTermParams {
-                    surrogate: match self.kinds[k] {
-                        SurrogateKind::Ttc2d => "ttc2d",
-                        SurrogateKind::Tadv => "tadv",
-                        SurrogateKind::Ei => "ei",
-                        SurrogateKind::Gssm => "gssm",
-                    }
-                    .to_string(),
+                    surrogate: self.kinds[k].key().to_string(),
                     lo: self.ranges[k].0,
                     hi: self.ranges[k].1,
                     w: w[k],
@@ -229,7 +199,7 @@ impl RiskModel for Msra {
         let mut rows = Vec::with_capacity(table.len() * self.kinds.len());
         for s in &table.surrogates {
             for (k, (&kind, &(lo, hi))) in self.kinds.iter().zip(&self.ranges).enumerate() {
-                let g = transformed(kind, raw_surrogate(kind, s), lo, hi);
+                let g = transformed(kind, kind.value_in(s), lo, hi);
                 let z = (g - self.centre[k]) / self.spread[k];
                 rows.push(if z.is_finite() { z } else { 0.0 });
             }
