@@ -24,6 +24,7 @@ use serde_json::json;
 
 use riskscore_data::events::{self, PrepareConfig, Sequence};
 use riskscore_data::sim::{self, SimConfig};
+use riskscore_eval::metrics::Metric;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
 use riskscore_train::comparisons::from_sequences;
 use riskscore_train::export;
@@ -137,8 +138,8 @@ pub enum DemoError {
     Eval(#[from] eval::ProtocolError),
     #[error("plots: {0}")]
     Plot(#[from] plots::PlotError),
-    #[error("{path}: writing CSV: {source}")]
-    Csv { path: String, source: csv::Error },
+    #[error("report: {0}")]
+    Report(#[from] eval::bundle::BundleError),
     #[error("{0}")]
     Transfer(#[from] riskscore_train::transfer::TransferError),
 }
@@ -187,32 +188,21 @@ impl DemoSummary {
     }
 }
 
-/// Mean of a metric for a method in a CV report (`metric` = index in table order: 0 A_ROC_90,
-/// 1 A_ROC_80, 2 P_PRC_90, 3 P_PRC_80, 4 mTTI_90).
-pub fn cv_mean(report: &CvReport, method: &str, metric: usize) -> Option<f64> {
-    report
-        .methods
-        .iter()
-        .find(|m| m.name == method)
-        .and_then(|m| m.stats.get(metric).copied().flatten())
-        .map(|s| s.mean)
-}
-
 /// The acceptance claims: DRL beats each baseline on A_ROC_90, P_PRC_90 and mTTI_90; MSRA beats
 /// each of its inputs on the same metrics (fold means, strictly greater); where the report has SSRA
 /// and GSSM rows (the transfer benchmark), SSRA is at least GSSM on A_ROC_90 and P_PRC_90.
 pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim> {
-    let metrics = [(0usize, "A_ROC_90"), (2, "P_PRC_90"), (4, "mTTI_90")];
+    let metrics = [Metric::ARoc90, Metric::PPrc90, Metric::MTti90];
     let mut claims = Vec::new();
     let has = |name: &str| report.methods.iter().any(|m| m.name == name);
     if has("SSRA") && has("GSSM") {
-        for (i, name) in [(0usize, "A_ROC_90"), (2, "P_PRC_90")] {
-            let m = cv_mean(report, "SSRA", i);
-            let b = cv_mean(report, "GSSM", i);
+        for metric in [Metric::ARoc90, Metric::PPrc90] {
+            let m = report.mean("SSRA", metric);
+            let b = report.mean("GSSM", metric);
             claims.push(Claim {
                 method: "SSRA".into(),
                 baseline: "GSSM".into(),
-                metric: format!("{name} (>=)"),
+                metric: format!("{} (>=)", metric.key()),
                 method_mean: m,
                 baseline_mean: b,
                 holds: matches!((m, b), (Some(m), Some(b)) if m >= b),
@@ -220,13 +210,13 @@ pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim
         }
     }
     let mut add = |method: &str, baseline: &str| {
-        for (i, name) in metrics {
-            let m = cv_mean(report, method, i);
-            let b = cv_mean(report, baseline, i);
+        for metric in metrics {
+            let m = report.mean(method, metric);
+            let b = report.mean(baseline, metric);
             claims.push(Claim {
                 method: method.into(),
                 baseline: baseline.into(),
-                metric: name.into(),
+                metric: metric.key().into(),
                 method_mean: m,
                 baseline_mean: b,
                 holds: match (m, b) {
@@ -256,17 +246,6 @@ fn load_sequences(dir: &Path) -> Result<(Vec<Sequence>, String), DemoError> {
     Ok((folder.sequences, folder.counts.to_string()))
 }
 
-fn write_csv_file(
-    path: &Path,
-    f: impl FnOnce(fs::File) -> csv::Result<()>,
-) -> Result<(), DemoError> {
-    let file = fs::File::create(path).map_err(io_err(path))?;
-    f(file).map_err(|source| DemoError::Csv {
-        path: path.display().to_string(),
-        source,
-    })
-}
-
 /// Pool every fold's out-of-fold scored sequences per method (each event appears once, scored by
 /// the model that did not see it).
 pub fn pooled_runs(folds: &[FoldOutcome]) -> Vec<(String, Vec<ScoredSequence>)> {
@@ -280,31 +259,6 @@ pub fn pooled_runs(folds: &[FoldOutcome]) -> Vec<(String, Vec<ScoredSequence>)> 
         }
     }
     pooled
-}
-
-/// Write the CV report files into `dir`; returns the paths.
-pub fn write_cv_reports(
-    dir: &Path,
-    report: &CvReport,
-    folds: &[FoldOutcome],
-) -> Result<Vec<PathBuf>, DemoError> {
-    fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let mut files = Vec::new();
-    let md = dir.join("results.md");
-    fs::write(&md, report.to_markdown()).map_err(io_err(&md))?;
-    files.push(md);
-    let js = dir.join("results.json");
-    let text = serde_json::to_string_pretty(&report.to_json()).unwrap_or_default();
-    fs::write(&js, text).map_err(io_err(&js))?;
-    files.push(js);
-    let csvp = dir.join("results.csv");
-    write_csv_file(&csvp, |f| report.write_csv(f))?;
-    files.push(csvp);
-    let results: Vec<_> = folds.iter().map(|f| f.result.clone()).collect();
-    let fp = dir.join("folds.csv");
-    write_csv_file(&fp, |f| eval::report::write_folds_csv(&results, f))?;
-    files.push(fp);
-    Ok(files)
 }
 
 /// Run the demo. Prints progress and the table on stdout/stderr as it goes.
@@ -396,7 +350,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let t0 = Instant::now();
     eprintln!("[3/6] writing the reports");
     let report_dir = opts.out.join("report");
-    files.extend(write_cv_reports(&report_dir, &report, &folds)?);
+    let mut bundle = eval::bundle::cv_report_bundle(&report, &results)?;
     // Pooled out-of-fold scores of the first seed: every event exactly once.
     let pooled = pooled_runs(&folds[..first_seed_folds]);
     let (_, pooled_runs) = eval::evaluate_scored(pooled.clone())?;
@@ -404,12 +358,11 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         .iter()
         .map(|r| (r.name.clone(), r.curve.clone()))
         .collect();
-    let mp = report_dir.join("sequence_maxima.csv");
-    write_csv_file(&mp, |f| write_sequence_maxima(&pooled, f))?;
-    files.push(mp);
-    let cp = report_dir.join("curves.csv");
-    write_csv_file(&cp, |f| eval::report::write_curves_csv(&curves, f))?;
-    files.push(cp);
+    bundle.add_csv("sequence_maxima.csv", |w| {
+        eval::report::write_sequence_maxima(&pooled, w)
+    })?;
+    bundle.add_csv("curves.csv", |w| eval::report::write_curves_csv(&curves, w))?;
+    files.extend(bundle.write_to(&report_dir)?);
     stages.push(("report".into(), t0.elapsed().as_secs_f64()));
     println!();
     println!(
@@ -577,52 +530,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     Ok(summary)
 }
 
-/// Per method and sequence: the maximum out-of-fold score inside the alert window and when it
-/// occurred relative to the endpoint (what decides whether and how early a sequence is warned).
-pub fn write_sequence_maxima<W: std::io::Write>(
-    pooled: &[(String, Vec<ScoredSequence>)],
-    writer: W,
-) -> csv::Result<()> {
-    let mut w = csv::Writer::from_writer(writer);
-    w.write_record([
-        "method",
-        "event_id",
-        "class",
-        "max_score",
-        "time_of_max_to_endpoint",
-    ])?;
-    for (name, seqs) in pooled {
-        for s in seqs {
-            let best = s
-                .frames
-                .iter()
-                .filter(|f| eval::protocol::in_alert_window(s.endpoint, f.time))
-                .filter(|f| !f.score.is_nan())
-                .fold(None::<(f32, f64)>, |acc, f| match acc {
-                    Some((m, _)) if m >= f.score => acc,
-                    _ => Some((f.score, f.time)),
-                });
-            let (max, at) = match best {
-                Some((m, t)) => (
-                    m.to_string(),
-                    s.endpoint
-                        .map_or(String::new(), |e| format!("{:.2}", t - e)),
-                ),
-                None => (String::new(), String::new()),
-            };
-            w.write_record([
-                name.as_str(),
-                s.event_id.as_str(),
-                s.class.as_str(),
-                max.as_str(),
-                at.as_str(),
-            ])?;
-        }
-    }
-    w.flush()?;
-    Ok(())
-}
-
 /// Display names of the surrogates MSRA combines (its "inputs" for the claims).
 pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
     config
@@ -639,26 +546,9 @@ pub fn write_transfer_report(
     dir: &Path,
     result: &riskscore_train::transfer::TransferResult,
 ) -> Result<Vec<PathBuf>, DemoError> {
-    fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let mut files = Vec::new();
-    let md = dir.join("results.md");
-    fs::write(&md, result.report.to_markdown()).map_err(io_err(&md))?;
-    files.push(md);
-    let js = dir.join("results.json");
-    let text = serde_json::to_string_pretty(&result.report.to_json()).unwrap_or_default();
-    fs::write(&js, text).map_err(io_err(&js))?;
-    files.push(js);
-    let csvp = dir.join("results.csv");
-    write_csv_file(&csvp, |f| result.report.write_csv(f))?;
-    files.push(csvp);
-    let fp = dir.join("folds.csv");
-    write_csv_file(&fp, |f| eval::report::write_folds_csv(&result.folds, f))?;
-    files.push(fp);
-    let sp = dir.join("splits.json");
-    let text = serde_json::to_string_pretty(&result.splits).unwrap_or_default();
-    fs::write(&sp, text).map_err(io_err(&sp))?;
-    files.push(sp);
-    Ok(files)
+    let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
+    bundle.add_json("splits.json", &result.splits)?;
+    Ok(bundle.write_to(dir)?)
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
@@ -695,7 +585,10 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
     if let Some(cv) = &s.cv {
         println!("Float vs int8 DRL (fold means; DRL-f32 = same network before quantisation):");
         for name in ["DRL-f32", "DRL"] {
-            let m: Vec<String> = (0..5).map(|i| fmt_opt(cv_mean(cv, name, i))).collect();
+            let m: Vec<String> = Metric::ALL
+                .iter()
+                .map(|&metric| fmt_opt(cv.mean(name, metric)))
+                .collect();
             println!(
                 "  {name:<8} A_ROC_90 {}  A_ROC_80 {}  P_PRC_90 {}  P_PRC_80 {}  mTTI_90 {} s",
                 m[0], m[1], m[2], m[3], m[4]

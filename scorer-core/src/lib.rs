@@ -43,6 +43,7 @@ pub mod observation;
 pub mod quant;
 pub mod state;
 pub mod surrogates;
+pub mod vec2;
 pub mod warning;
 
 pub use encoding::{drl_inputs, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES};

@@ -21,7 +21,7 @@ pub struct VehicleState {
 impl VehicleState {
     /// Speed `|(vx, vy)|`.
     pub fn speed(&self) -> f32 {
-        crate::geometry::velocity(self).norm()
+        crate::vec2::Vec2::new(self.vx, self.vy).norm()
     }
 
     /// True when every field is finite.

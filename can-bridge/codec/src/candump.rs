@@ -357,50 +357,25 @@ mod tests {
     #[test]
     fn rejects_bad_lines_with_a_reason() {
         assert_eq!(parse_line("   "), Err(LineError::Empty));
-        assert!(matches!(
-            parse_line("1.0 can0 123#00"),
-            Err(LineError::BadTimestamp(_))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0"),
-            Err(LineError::MissingFrame)
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 12#00"),
-            Err(LineError::BadId(_))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 800#00"),
-            Err(LineError::BadId(_))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123#0"),
-            Err(LineError::BadData(..))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123#001122334455667788"),
-            Err(LineError::BadData(..))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123##0001122334455667788"),
-            Err(LineError::BadData(..))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123###00"),
-            Err(LineError::CanXl)
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123#00 X"),
-            Err(LineError::Trailing(_))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123ZZ"),
-            Err(LineError::NoSeparator(_))
-        ));
-        assert!(matches!(
-            parse_line("(1.0) can0 123#GG"),
-            Err(LineError::BadData(..))
-        ));
+        for (line, reason) in [
+            ("1.0 can0 123#00", "BadTimestamp"),
+            ("(1.0) can0", "MissingFrame"),
+            ("(1.0) can0 12#00", "BadId"),
+            ("(1.0) can0 800#00", "BadId"),
+            ("(1.0) can0 123#0", "BadData"),
+            ("(1.0) can0 123#001122334455667788", "BadData"),
+            ("(1.0) can0 123##0001122334455667788", "BadData"),
+            ("(1.0) can0 123###00", "CanXl"),
+            ("(1.0) can0 123#00 X", "Trailing"),
+            ("(1.0) can0 123ZZ", "NoSeparator"),
+            ("(1.0) can0 123#GG", "BadData"),
+        ] {
+            let err = parse_line(line).expect_err(line);
+            assert!(
+                format!("{err:?}").starts_with(reason),
+                "{line:?}: {err:?}, not {reason}"
+            );
+        }
     }
 
     #[test]

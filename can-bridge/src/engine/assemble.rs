@@ -5,9 +5,9 @@
 //! sensor frame, rotated and shifted by the sensor mounting into the ego frame; velocity components
 //! the sensor does not send are taken from the track's own motion (position change over the map's
 //! window) or are zero; relative velocities get the ego velocity added.
-use super::track::{update_motion, ObjectSlots, Stamped};
+use super::track::{update_motion, PartnerSlots, Stamped};
 use crate::map::{
-    CompiledMap, EgoField, MissingVelocity, ObjField, PositionKind, VelocityFrame, EGO_FIELDS,
+    CompiledMap, EgoField, MissingVelocity, PartnerField, PositionKind, VelocityFrame, EGO_FIELDS,
 };
 use scorer_core::VehicleState;
 
@@ -26,7 +26,7 @@ pub(super) enum Unscored {
     /// The ego speed is missing or stale.
     EgoSpeedMissing,
     /// A required object input is missing or stale.
-    InputMissing(ObjField),
+    InputMissing(PartnerField),
     /// The velocity derived from the track's motion is not known yet.
     MotionPending,
     /// The state is not finite or has a non-positive size.
@@ -58,18 +58,18 @@ pub(super) fn assemble(
     map: &CompiledMap,
     stale_us: u64,
     ego_inputs: &[Option<Stamped>; EGO_FIELDS],
-    track: &mut ObjectSlots,
+    track: &mut PartnerSlots,
     t_us: u64,
 ) -> Result<States, Unscored> {
     if track.last_trigger_us == Some(t_us) {
         return Err(Unscored::Duplicate);
     }
-    let has = map.has_obj_field;
+    let has = map.has_partner_field;
     let values = track.values;
-    let obj = |f: ObjField| values[f as usize];
-    let value = |f: ObjField| Stamped::fresh(obj(f), t_us, stale_us);
-    if has[ObjField::Valid as usize] {
-        match value(ObjField::Valid) {
+    let partner = |f: PartnerField| values[f as usize];
+    let value = |f: PartnerField| Stamped::fresh(partner(f), t_us, stale_us);
+    if has[PartnerField::Valid as usize] {
+        match value(PartnerField::Valid) {
             Some(v) if v != 0.0 => {}
             None => return Err(Unscored::ValidFlagMissing),
             Some(_) => return Err(Unscored::Invalid),
@@ -80,12 +80,15 @@ pub(super) fn assemble(
         return Err(Unscored::EgoSpeedMissing);
     };
     let (pos_fields, vel_field) = match map.position {
-        PositionKind::Cartesian => ([ObjField::PosX, ObjField::PosY], ObjField::VelX),
-        PositionKind::Polar => ([ObjField::Range, ObjField::Azimuth], ObjField::RangeRate),
+        PositionKind::Cartesian => ([PartnerField::PosX, PartnerField::PosY], PartnerField::VelX),
+        PositionKind::Polar => (
+            [PartnerField::Range, PartnerField::Azimuth],
+            PartnerField::RangeRate,
+        ),
     };
     let required = pos_fields
         .into_iter()
-        .chain([vel_field, ObjField::VelX, ObjField::VelY])
+        .chain([vel_field, PartnerField::VelX, PartnerField::VelY])
         .filter(|f| has[*f as usize]);
     for f in required {
         if value(f).is_none() {
@@ -106,7 +109,7 @@ pub(super) fn assemble(
     } else {
         None
     };
-    let complete = has[ObjField::VelX as usize] && has[ObjField::VelY as usize];
+    let complete = has[PartnerField::VelX as usize] && has[PartnerField::VelY as usize];
     if derive && !complete && derived.is_none() {
         return Err(Unscored::MotionPending);
     }
@@ -132,9 +135,9 @@ pub(super) fn assemble(
         VelocityFrame::Relative => ((vx + ego_vx) as f32, (vy + ego_vy) as f32),
         VelocityFrame::Absolute => (vx as f32, vy as f32),
     };
-    let heading_valid = !has[ObjField::HeadingValid as usize]
-        || value(ObjField::HeadingValid).is_some_and(|v| v != 0.0);
-    let heading = match value(ObjField::Heading) {
+    let heading_valid = !has[PartnerField::HeadingValid as usize]
+        || value(PartnerField::HeadingValid).is_some_and(|v| v != 0.0);
+    let heading = match value(PartnerField::Heading) {
         Some(h) if heading_valid => Some((libm::cos(h) as f32, libm::sin(h) as f32)),
         _ => {
             let speed = libm::hypotf(abs_vx, abs_vy);
@@ -149,9 +152,9 @@ pub(super) fn assemble(
         vy: abs_vy,
         hx,
         hy,
-        acc: value(ObjField::Accel).unwrap_or(0.0) as f32,
-        length: obj(ObjField::Length).map_or(map.object_defaults.0, |s| s.value as f32),
-        width: obj(ObjField::Width).map_or(map.object_defaults.1, |s| s.value as f32),
+        acc: value(PartnerField::Accel).unwrap_or(0.0) as f32,
+        length: partner(PartnerField::Length).map_or(map.partner_defaults.0, |s| s.value as f32),
+        width: partner(PartnerField::Width).map_or(map.partner_defaults.1, |s| s.value as f32),
     };
     track.last_trigger_us = Some(t_us);
     track.last_heading = Some((hx, hy));
@@ -167,19 +170,19 @@ pub(super) fn assemble(
 /// `(cos, sin)` of the azimuth) in the sensor frame.
 fn position(
     map: &CompiledMap,
-    value: impl Fn(ObjField) -> Option<f64>,
+    value: impl Fn(PartnerField) -> Option<f64>,
 ) -> ((f64, f64), Option<(f64, f64)>) {
     let (p_sensor, line_of_sight) = match map.position {
         PositionKind::Cartesian => (
             (
-                value(ObjField::PosX).unwrap_or(0.0),
-                value(ObjField::PosY).unwrap_or(0.0),
+                value(PartnerField::PosX).unwrap_or(0.0),
+                value(PartnerField::PosY).unwrap_or(0.0),
             ),
             None,
         ),
         PositionKind::Polar => {
-            let r = value(ObjField::Range).unwrap_or(0.0);
-            let az = value(ObjField::Azimuth).unwrap_or(0.0);
+            let r = value(PartnerField::Range).unwrap_or(0.0);
+            let az = value(PartnerField::Azimuth).unwrap_or(0.0);
             let (c, s) = (libm::cos(az), libm::sin(az));
             ((r * c, r * s), Some((c, s)))
         }
@@ -195,14 +198,14 @@ fn velocity(
     complete: bool,
     line_of_sight: Option<(f64, f64)>,
     derived: Option<(f64, f64)>,
-    value: impl Fn(ObjField) -> Option<f64>,
+    value: impl Fn(PartnerField) -> Option<f64>,
 ) -> (f64, f64) {
     let mount = map.mount;
     let d = mount.unrotate(derived.unwrap_or((0.0, 0.0)));
-    let v_sensor = match (line_of_sight, value(ObjField::RangeRate)) {
+    let v_sensor = match (line_of_sight, value(PartnerField::RangeRate)) {
         _ if complete => (
-            value(ObjField::VelX).unwrap_or(0.0),
-            value(ObjField::VelY).unwrap_or(0.0),
+            value(PartnerField::VelX).unwrap_or(0.0),
+            value(PartnerField::VelY).unwrap_or(0.0),
         ),
         (Some((c, s)), Some(rr)) => {
             // Radial from the sensor, tangential from the track's motion (or zero).
@@ -210,8 +213,8 @@ fn velocity(
             (rr * c - tangential * s, rr * s + tangential * c)
         }
         _ => (
-            value(ObjField::VelX).unwrap_or(d.0),
-            value(ObjField::VelY).unwrap_or(d.1),
+            value(PartnerField::VelX).unwrap_or(d.0),
+            value(PartnerField::VelY).unwrap_or(d.1),
         ),
     };
     mount.rotate(v_sensor)
@@ -229,18 +232,18 @@ mod tests {
     }
 
     /// The project map's inputs of one healthy track and an ego at 10 m/s, all received at `T`.
-    fn inputs() -> ([Option<Stamped>; EGO_FIELDS], ObjectSlots) {
+    fn inputs() -> ([Option<Stamped>; EGO_FIELDS], PartnerSlots) {
         let mut ego = [None; EGO_FIELDS];
         ego[EgoField::VelLong as usize] = stamped(10.0, T);
-        let mut track = ObjectSlots::default();
+        let mut track = PartnerSlots::default();
         for (f, v) in [
-            (ObjField::PosX, 20.0),
-            (ObjField::PosY, 1.5),
-            (ObjField::VelX, -4.0),
-            (ObjField::VelY, 0.0),
-            (ObjField::Valid, 1.0),
-            (ObjField::Heading, 0.3),
-            (ObjField::HeadingValid, 0.0),
+            (PartnerField::PosX, 20.0),
+            (PartnerField::PosY, 1.5),
+            (PartnerField::VelX, -4.0),
+            (PartnerField::VelY, 0.0),
+            (PartnerField::Valid, 1.0),
+            (PartnerField::Heading, 0.3),
+            (PartnerField::HeadingValid, 0.0),
         ] {
             track.values[f as usize] = stamped(v, T);
         }
@@ -269,12 +272,12 @@ mod tests {
     #[test]
     fn missing_stale_and_invalid_inputs_say_why_in_check_order() {
         let (_db, map) = CompiledMap::project_default().unwrap();
-        let run = |edit: &dyn Fn(&mut [Option<Stamped>; EGO_FIELDS], &mut ObjectSlots)| {
+        let run = |edit: &dyn Fn(&mut [Option<Stamped>; EGO_FIELDS], &mut PartnerSlots)| {
             let (mut ego, mut track) = inputs();
             edit(&mut ego, &mut track);
             assemble(&map, STALE, &ego, &mut track, T).err()
         };
-        let valid = ObjField::Valid as usize;
+        let valid = PartnerField::Valid as usize;
         assert_eq!(
             run(&|_, t| t.values[valid] = stamped(0.0, T)),
             Some(Unscored::Invalid)
@@ -287,16 +290,16 @@ mod tests {
         assert_eq!(
             run(&|e, t| {
                 e[EgoField::VelLong as usize] = None;
-                t.values[ObjField::PosX as usize] = None;
+                t.values[PartnerField::PosX as usize] = None;
             }),
             Some(Unscored::EgoSpeedMissing)
         );
         assert_eq!(
-            run(&|_, t| t.values[ObjField::PosY as usize] = stamped(1.5, T - STALE - 1)),
-            Some(Unscored::InputMissing(ObjField::PosY))
+            run(&|_, t| t.values[PartnerField::PosY as usize] = stamped(1.5, T - STALE - 1)),
+            Some(Unscored::InputMissing(PartnerField::PosY))
         );
         assert_eq!(
-            run(&|_, t| t.values[ObjField::Length as usize] = stamped(0.0, T)),
+            run(&|_, t| t.values[PartnerField::Length as usize] = stamped(0.0, T)),
             Some(Unscored::BadState)
         );
         assert!(Unscored::BadState.after_ego_speed() && !Unscored::Invalid.after_ego_speed());

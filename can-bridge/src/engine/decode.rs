@@ -1,14 +1,14 @@
 //! Decoding one frame of a mapped message into the ego and object field values it carries.
 use super::DecodeError;
-use crate::map::{EgoField, InputMessage, ObjField, EGO_FIELDS, OBJ_FIELDS};
+use crate::map::{EgoField, InputMessage, PartnerField, EGO_FIELDS, PARTNER_FIELDS};
 use can_codec::SignalError;
 
 /// The field values of one frame, in the order of the message's field slots.
 pub(super) struct Decoded {
     pub ego: [(EgoField, f64); EGO_FIELDS],
     pub n_ego: usize,
-    pub object: [(ObjField, f64); OBJ_FIELDS],
-    pub n_object: usize,
+    pub partner: [(PartnerField, f64); PARTNER_FIELDS],
+    pub n_partner: usize,
     pub track: Option<u32>,
 }
 
@@ -45,8 +45,8 @@ pub(super) fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded,
     let mut d = Decoded {
         ego: [(EgoField::VelLong, 0.0); EGO_FIELDS],
         n_ego: 0,
-        object: [(ObjField::PosX, 0.0); OBJ_FIELDS],
-        n_object: 0,
+        partner: [(PartnerField::PosX, 0.0); PARTNER_FIELDS],
+        n_partner: 0,
         track: None,
     };
     for slot in &msg.ego {
@@ -69,13 +69,13 @@ pub(super) fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded,
         (None, None) => return Ok(d),
     };
     d.track = Some(track);
-    for slot in &msg.object {
+    for slot in &msg.partner {
         if let Some(v) = read(slot.signal, slot.check_range)? {
             let v = slot.apply(v);
-            d.object[d.n_object] = (slot.field, v);
-            d.n_object += 1;
+            d.partner[d.n_partner] = (slot.field, v);
+            d.n_partner += 1;
             // An invalid object's other signals are filler: not read, never a decode error.
-            if slot.field == ObjField::Valid && v == 0.0 {
+            if slot.field == PartnerField::Valid && v == 0.0 {
                 break;
             }
         }

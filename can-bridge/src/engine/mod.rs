@@ -46,14 +46,14 @@ pub use config::{ConfigError, EngineConfig, MAX_TRACKS};
 pub use output::{LossKind, Lost, Observation, Output, ReleaseReason, Stats};
 pub use problem::{DecodeError, EncodeError, Problem};
 
-use crate::map::{CompiledMap, EgoField, ObjField, EGO_FIELDS};
+use crate::map::{CompiledMap, EgoField, PartnerField, EGO_FIELDS};
 use crate::timeline::{Action, Timeline};
 use assemble::{assemble, Unscored};
 use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind};
 use decode::decode_message;
 use scorer_core::model::Model;
 use scorer_core::warning::TrackTable;
-use track::{ObjectSlots, Stamped, TrackMap};
+use track::{PartnerSlots, Stamped, TrackMap};
 
 /// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
 pub struct Engine<'m> {
@@ -62,7 +62,7 @@ pub struct Engine<'m> {
     config: EngineConfig,
     table: TrackTable<MAX_TRACKS>,
     ego: [Option<Stamped>; EGO_FIELDS],
-    objects: TrackMap<ObjectSlots>,
+    partners: TrackMap<PartnerSlots>,
     protector: E2eProtector,
     /// Each held frame comes with its source (log line), handed back when it is dropped.
     timeline: Timeline<(Frame, u64)>,
@@ -95,7 +95,7 @@ impl<'m> Engine<'m> {
             config,
             table,
             ego: [None; EGO_FIELDS],
-            objects: TrackMap::default(),
+            partners: TrackMap::default(),
             protector,
             timeline: Timeline::default(),
             source: 0,
@@ -231,7 +231,7 @@ impl<'m> Engine<'m> {
         }
         self.table.expire(u64::MAX);
         self.ego = [None; EGO_FIELDS];
-        self.objects.clear();
+        self.partners.clear();
         self.last_cleanup_us = t_us;
         self.next_expiry_us = 0;
         out(Output::Problem {
@@ -297,15 +297,15 @@ impl<'m> Engine<'m> {
                     });
                 }
                 if let Some(track) = decoded.track {
-                    let new_object = decoded.object[..decoded.n_object]
+                    let new_object = decoded.partner[..decoded.n_partner]
                         .iter()
-                        .any(|(f, v)| *f == ObjField::NewTrack && *v != 0.0);
+                        .any(|(f, v)| *f == PartnerField::NewTrack && *v != 0.0);
                     if new_object {
                         self.restart_track(track, t_us, out);
                     }
-                    let slots = self.objects.entry(track).or_default();
+                    let slots = self.partners.entry(track).or_default();
                     slots.last_seen_us = t_us;
-                    for (field, value) in decoded.object.iter().take(decoded.n_object) {
+                    for (field, value) in decoded.partner.iter().take(decoded.n_partner) {
                         slots.values[*field as usize] = Some(Stamped {
                             value: *value,
                             t_us,
@@ -326,8 +326,8 @@ impl<'m> Engine<'m> {
     fn restart_track(&mut self, track: u32, t_us: u64, out: &mut impl FnMut(Output)) {
         self.stats.new_objects += 1;
         self.end_track(track, t_us, ReleaseReason::NewObject, out);
-        if let Some(o) = self.objects.get_mut(&track) {
-            *o = ObjectSlots::default();
+        if let Some(o) = self.partners.get_mut(&track) {
+            *o = PartnerSlots::default();
         }
     }
 
@@ -352,7 +352,7 @@ impl<'m> Engine<'m> {
             self.table.remove(track);
             self.stats.tracks_dropped += 1;
         }
-        if let Some(o) = self.objects.get_mut(&track) {
+        if let Some(o) = self.partners.get_mut(&track) {
             o.motion = None;
             o.last_heading = None;
         }
@@ -365,7 +365,7 @@ impl<'m> Engine<'m> {
         self.last_cleanup_us = now_us;
         self.expire(now_us, out);
         let keep = self.config.stale_us.saturating_mul(4).max(5_000_000);
-        self.objects
+        self.partners
             .retain(|_, o| now_us.saturating_sub(o.last_seen_us) <= keep);
     }
 
@@ -401,7 +401,7 @@ impl<'m> Engine<'m> {
     /// Runs the trigger of `track` at `t_us`: assembles the track's state, then either reports
     /// why it is not scored or runs the warning step.
     fn score_track(&mut self, track: u32, t_us: u64, out: &mut impl FnMut(Output)) {
-        let Some(slots) = self.objects.get_mut(&track) else {
+        let Some(slots) = self.partners.get_mut(&track) else {
             return;
         };
         match assemble(&self.map, self.config.stale_us, &self.ego, slots, t_us) {
@@ -449,7 +449,7 @@ impl<'m> Engine<'m> {
             }
             Unscored::InputMissing(field) => {
                 self.stats.stale_drops += 1;
-                let o = self.objects.entry(track).or_default();
+                let o = self.partners.entry(track).or_default();
                 if o.waiting_reported {
                     return;
                 }
@@ -457,7 +457,7 @@ impl<'m> Engine<'m> {
                 Problem::InputMissing {
                     track,
                     field,
-                    origin: self.map.obj_source[field as usize].clone(),
+                    origin: self.map.partner_source[field as usize].clone(),
                     stale_ms,
                 }
             }

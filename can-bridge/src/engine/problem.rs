@@ -1,6 +1,6 @@
 //! What the engine reports as going wrong ([`Output::Problem`](super::Output::Problem)): one
 //! variant per data-quality rule, whose text is the diagnostic printed on stderr and in loss lists.
-use crate::map::ObjField;
+use crate::map::PartnerField;
 use can_codec::{CanId, SignalError};
 use scorer_core::warning::WarningError;
 
@@ -54,7 +54,7 @@ pub enum Problem {
     )]
     InputMissing {
         track: u32,
-        field: ObjField,
+        field: PartnerField,
         origin: String,
         stale_ms: u64,
     },
@@ -210,7 +210,7 @@ mod tests {
             (
                 Problem::InputMissing {
                     track: 3,
-                    field: ObjField::PosY,
+                    field: PartnerField::PosY,
                     origin: "signal `Y` of message `P` (0x200)".into(),
                     stale_ms: 200,
                 },

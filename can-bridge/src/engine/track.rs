@@ -1,5 +1,5 @@
 //! Received inputs kept between frames: time-stamped values, each track's state and own motion.
-use crate::map::OBJ_FIELDS;
+use crate::map::PARTNER_FIELDS;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -50,9 +50,9 @@ pub(super) struct Motion {
 
 /// What the engine holds of one track between frames.
 #[derive(Clone, Debug, Default)]
-pub(super) struct ObjectSlots {
-    /// The last value of each object field, by [`crate::map::ObjField`].
-    pub values: [Option<Stamped>; OBJ_FIELDS],
+pub(super) struct PartnerSlots {
+    /// The last value of each object field, by [`crate::map::PartnerField`].
+    pub values: [Option<Stamped>; PARTNER_FIELDS],
     pub last_trigger_us: Option<u64>,
     pub last_heading: Option<(f32, f32)>,
     pub last_seen_us: u64,

@@ -1,10 +1,10 @@
 //! Compiling a map file: every message and signal name resolved against the DBC, the object
 //! layout (slots or message-per-field) built, and the checks of [`super::validate`] run.
 use super::compiled::{
-    CompiledMap, Condition, EgoField, FieldSlot, InputMessage, Mount, ObjField, WarningSlots,
-    EGO_FIELDS, OBJ_FIELDS,
+    CompiledMap, Condition, EgoField, FieldSlot, InputMessage, Mount, PartnerField, WarningSlots,
+    EGO_FIELDS, PARTNER_FIELDS,
 };
-use super::file::{MapFile, ObjectMap, SignalRef, SlotList, TrackIdSpec, WarningMap};
+use super::file::{MapFile, PartnerMap, SignalRef, SlotList, TrackIdSpec, WarningMap};
 use super::validate::{check_kinematics, check_signal_use};
 use super::{field_error, MapError, DEFAULT_MAP};
 use can_codec::{Database, MessageSpec};
@@ -113,7 +113,7 @@ fn new_input(spec: &MessageSpec) -> InputMessage {
     InputMessage {
         spec: spec.clone(),
         ego: Vec::new(),
-        object: Vec::new(),
+        partner: Vec::new(),
         track_id: None,
         slot: None,
         is_trigger: false,
@@ -147,7 +147,7 @@ impl CompiledMap {
     pub fn compile(map: &MapFile, db: &Database) -> Result<Self, MapError> {
         let mut inputs: Vec<InputMessage> = Vec::new();
         let mut ego_source: [String; EGO_FIELDS] = Default::default();
-        let mut obj_source: [String; OBJ_FIELDS] = Default::default();
+        let mut partner_source: [String; PARTNER_FIELDS] = Default::default();
 
         let ego_refs = [
             (EgoField::VelLong, Some(&map.ego.vel_long)),
@@ -172,34 +172,36 @@ impl CompiledMap {
             has_ego_field[field as usize] = true;
         }
 
-        let o = &map.object;
-        let obj_refs = [
+        let o = &map.partner;
+        let partner_refs = [
             // `valid` first: an invalid slot's other signals are not read.
-            (ObjField::Valid, o.valid.as_ref(), true),
-            (ObjField::NewTrack, o.new_track.as_ref(), true),
-            (ObjField::PosX, o.pos_x.as_ref(), false),
-            (ObjField::PosY, o.pos_y.as_ref(), false),
-            (ObjField::Range, o.range.as_ref(), false),
-            (ObjField::Azimuth, o.azimuth.as_ref(), false),
-            (ObjField::RangeRate, o.range_rate.as_ref(), false),
-            (ObjField::VelX, o.vel_x.as_ref(), false),
-            (ObjField::VelY, o.vel_y.as_ref(), false),
-            (ObjField::Accel, o.accel.as_ref(), false),
-            (ObjField::Heading, o.heading.as_ref(), false),
-            (ObjField::HeadingValid, o.heading_valid.as_ref(), true),
-            (ObjField::Length, o.length.as_ref(), false),
-            (ObjField::Width, o.width.as_ref(), false),
+            (PartnerField::Valid, o.valid.as_ref(), true),
+            (PartnerField::NewTrack, o.new_track.as_ref(), true),
+            (PartnerField::PosX, o.pos_x.as_ref(), false),
+            (PartnerField::PosY, o.pos_y.as_ref(), false),
+            (PartnerField::Range, o.range.as_ref(), false),
+            (PartnerField::Azimuth, o.azimuth.as_ref(), false),
+            (PartnerField::RangeRate, o.range_rate.as_ref(), false),
+            (PartnerField::VelX, o.vel_x.as_ref(), false),
+            (PartnerField::VelY, o.vel_y.as_ref(), false),
+            (PartnerField::Accel, o.accel.as_ref(), false),
+            (PartnerField::Heading, o.heading.as_ref(), false),
+            (PartnerField::HeadingValid, o.heading_valid.as_ref(), true),
+            (PartnerField::Length, o.length.as_ref(), false),
+            (PartnerField::Width, o.width.as_ref(), false),
         ];
-        let mut has_obj_field = [false; OBJ_FIELDS];
-        for (field, r, _) in &obj_refs {
-            has_obj_field[*field as usize] = r.is_some();
+        let mut has_partner_field = [false; PARTNER_FIELDS];
+        for (field, r, _) in &partner_refs {
+            has_partner_field[*field as usize] = r.is_some();
         }
-        check_kinematics(o, &has_obj_field)?;
+        check_kinematics(o, &has_partner_field)?;
 
         let slots = match &o.slots {
-            Some(list) => compile_slots(o, list, &obj_refs, db, &mut inputs, &mut obj_source)?,
+            Some(list) => {
+                compile_slots(o, list, &partner_refs, db, &mut inputs, &mut partner_source)?
+            }
             None => {
-                compile_per_message(o, &obj_refs, db, &mut inputs, &mut obj_source)?;
+                compile_per_message(o, &partner_refs, db, &mut inputs, &mut partner_source)?;
                 0
             }
         };
@@ -246,11 +248,11 @@ impl CompiledMap {
                 sin: libm::sin(yaw),
             },
             ego_defaults: (map.ego.default_length, map.ego.default_width),
-            object_defaults: (o.default_length, o.default_width),
-            has_obj_field,
+            partner_defaults: (o.default_length, o.default_width),
+            has_partner_field,
             has_ego_field,
             ego_source,
-            obj_source,
+            partner_source,
             slots,
         })
     }
@@ -265,15 +267,15 @@ impl CompiledMap {
     }
 }
 
-type ObjRef<'a> = (ObjField, Option<&'a SignalRef>, bool);
+type PartnerRef<'a> = (PartnerField, Option<&'a SignalRef>, bool);
 
 fn compile_slots(
-    o: &ObjectMap,
+    o: &PartnerMap,
     list: &SlotList,
-    obj_refs: &[ObjRef<'_>],
+    partner_refs: &[PartnerRef<'_>],
     db: &Database,
     inputs: &mut Vec<InputMessage>,
-    obj_source: &mut [String; OBJ_FIELDS],
+    partner_source: &mut [String; PARTNER_FIELDS],
 ) -> Result<usize, MapError> {
     let specs: Vec<&MessageSpec> = match list {
         SlotList::Pattern(p) => {
@@ -336,7 +338,7 @@ fn compile_slots(
         let mut msg = new_input(spec);
         msg.slot = Some(slot as u32);
         msg.is_trigger = true;
-        for (field, r, is_flag) in obj_refs {
+        for (field, r, is_flag) in partner_refs {
             let Some(r) = r else { continue };
             if let Some(m) = &r.message {
                 return Err(field_error(
@@ -345,8 +347,8 @@ fn compile_slots(
                 ));
             }
             let resolved = resolve(&msg, field.name(), *field, r, *is_flag)?;
-            msg.object.push(resolved);
-            obj_source[*field as usize] = format!("signal `{}` of {names}", r.signal);
+            msg.partner.push(resolved);
+            partner_source[*field as usize] = format!("signal `{}` of {names}", r.signal);
         }
         if let Some(sig) = id_signal {
             msg.track_id = Some(msg.spec.signal_index(sig).ok_or_else(|| {
@@ -362,13 +364,13 @@ fn compile_slots(
 }
 
 fn compile_per_message(
-    o: &ObjectMap,
-    obj_refs: &[ObjRef<'_>],
+    o: &PartnerMap,
+    partner_refs: &[PartnerRef<'_>],
     db: &Database,
     inputs: &mut Vec<InputMessage>,
-    obj_source: &mut [String; OBJ_FIELDS],
+    partner_source: &mut [String; PARTNER_FIELDS],
 ) -> Result<(), MapError> {
-    for (field, r, is_flag) in obj_refs {
+    for (field, r, is_flag) in partner_refs {
         let Some(r) = r else { continue };
         let name = field.name();
         let message = r
@@ -383,8 +385,8 @@ fn compile_per_message(
             ));
         }
         let slot = resolve(msg, name, *field, r, *is_flag)?;
-        obj_source[*field as usize] = source(r, &msg.spec);
-        msg.object.push(slot);
+        partner_source[*field as usize] = source(r, &msg.spec);
+        msg.partner.push(slot);
     }
     let trigger_name = o.trigger.as_deref().ok_or_else(|| {
         field_error(
@@ -415,7 +417,7 @@ fn compile_per_message(
         None => &empty,
     };
     for msg in inputs.iter_mut() {
-        if msg.object.is_empty() && !msg.is_trigger {
+        if msg.partner.is_empty() && !msg.is_trigger {
             continue;
         }
         let name = format!("object.track_id.{}", msg.spec.name);

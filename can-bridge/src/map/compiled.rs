@@ -25,7 +25,7 @@ pub(super) const EGO_NAMES: [&str; EGO_FIELDS] = [
 
 /// Object inputs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ObjField {
+pub enum PartnerField {
     PosX = 0,
     PosY,
     VelX,
@@ -41,8 +41,8 @@ pub enum ObjField {
     RangeRate,
     NewTrack,
 }
-pub const OBJ_FIELDS: usize = 14;
-pub(super) const OBJ_NAMES: [&str; OBJ_FIELDS] = [
+pub const PARTNER_FIELDS: usize = 14;
+pub(super) const PARTNER_KEYS: [&str; PARTNER_FIELDS] = [
     "object.pos_x",
     "object.pos_y",
     "object.vel_x",
@@ -65,9 +65,9 @@ impl EgoField {
     }
 }
 
-impl ObjField {
+impl PartnerField {
     pub fn name(self) -> &'static str {
-        OBJ_NAMES[self as usize]
+        PARTNER_KEYS[self as usize]
     }
 }
 
@@ -115,7 +115,7 @@ pub struct InputMessage {
     pub spec: MessageSpec,
     pub ego: Vec<FieldSlot<EgoField>>,
     /// Object fields; a `valid` field comes first (an invalid slot's other signals are not read).
-    pub object: Vec<FieldSlot<ObjField>>,
+    pub partner: Vec<FieldSlot<PartnerField>>,
     /// Track-id signal.
     pub track_id: Option<usize>,
     /// Slot maps: the slot number (the track id when there is no id signal).
@@ -175,12 +175,12 @@ pub struct CompiledMap {
     pub motion_window_us: u64,
     pub mount: Mount,
     pub ego_defaults: (f32, f32),
-    pub object_defaults: (f32, f32),
-    pub has_obj_field: [bool; OBJ_FIELDS],
+    pub partner_defaults: (f32, f32),
+    pub has_partner_field: [bool; PARTNER_FIELDS],
     pub has_ego_field: [bool; EGO_FIELDS],
     /// Where each mapped input comes from, for messages ("signal `S` of message `M` (0x123)").
     pub ego_source: [String; EGO_FIELDS],
-    pub obj_source: [String; OBJ_FIELDS],
+    pub partner_source: [String; PARTNER_FIELDS],
     /// Slot maps: how many slot messages.
     pub slots: usize,
 }

@@ -99,7 +99,7 @@ pub enum TrackIdSpec {
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ObjectMap {
+pub struct PartnerMap {
     /// Slot map: each of these messages is one track slot.
     pub slots: Option<SlotList>,
     /// The message that completes a track update (message-per-field maps only).
@@ -168,7 +168,9 @@ pub struct MapFile {
     #[serde(default)]
     pub sensor: SensorMap,
     pub ego: EgoMap,
-    pub object: ObjectMap,
+    /// The partner's signals; the file calls the table `[object]`, the radar's word for what it tracks.
+    #[serde(rename = "object")]
+    pub partner: PartnerMap,
     pub warning: WarningMap,
 }
 

@@ -25,11 +25,11 @@ mod report;
 mod validate;
 
 pub use compiled::{
-    CompiledMap, Condition, EgoField, FieldSlot, InputMessage, Mount, ObjField, WarningSlots,
-    EGO_FIELDS, OBJ_FIELDS,
+    CompiledMap, Condition, EgoField, FieldSlot, InputMessage, Mount, PartnerField, WarningSlots,
+    EGO_FIELDS, PARTNER_FIELDS,
 };
 pub use file::{
-    EgoMap, MapFile, MissingVelocity, ObjectMap, PositionKind, SensorMap, SignalRef, SlotList,
+    EgoMap, MapFile, MissingVelocity, PartnerMap, PositionKind, SensorMap, SignalRef, SlotList,
     TrackIdSpec, VelocityFrame, WarningMap, DEFAULT_MOTION_WINDOW_MS,
 };
 pub use validate::MAX_FLAG_BITS;
@@ -56,7 +56,7 @@ pub(crate) fn field_error(field: impl Into<String>, reason: impl Into<String>) -
 #[cfg(test)]
 mod tests {
     use super::compile::glob_messages;
-    use super::compiled::OBJ_NAMES;
+    use super::compiled::PARTNER_KEYS;
     use super::*;
     use can_codec::Database;
 
@@ -65,17 +65,17 @@ mod tests {
         let (_db, map) = CompiledMap::project_default().unwrap();
         assert_eq!(map.inputs.len(), 5);
         let unused = [
-            ObjField::Range,
-            ObjField::Azimuth,
-            ObjField::RangeRate,
-            ObjField::NewTrack,
+            PartnerField::Range,
+            PartnerField::Azimuth,
+            PartnerField::RangeRate,
+            PartnerField::NewTrack,
         ];
-        for (i, has) in map.has_obj_field.iter().enumerate() {
+        for (i, has) in map.has_partner_field.iter().enumerate() {
             assert_eq!(
                 *has,
                 !unused.iter().any(|f| *f as usize == i),
                 "{}",
-                OBJ_NAMES[i]
+                PARTNER_KEYS[i]
             );
         }
         assert_eq!(map.warning.crc_byte, 0);

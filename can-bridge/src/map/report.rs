@@ -1,6 +1,6 @@
 //! The start-up report of a compiled map: where every scorer input comes from, or that it is
 //! derived or defaulted, one line each.
-use super::compiled::{CompiledMap, Mount, ObjField, EGO_NAMES};
+use super::compiled::{CompiledMap, Mount, PartnerField, EGO_NAMES};
 use super::file::{MissingVelocity, PositionKind, VelocityFrame};
 
 impl CompiledMap {
@@ -8,8 +8,8 @@ impl CompiledMap {
     /// Printed at start-up so a vehicle engineer sees what the bridge assumes.
     pub fn input_report(&self) -> Vec<String> {
         let mut lines = Vec::new();
-        let has = |f: ObjField| self.has_obj_field[f as usize];
-        let src = |f: ObjField| self.obj_source[f as usize].clone();
+        let has = |f: PartnerField| self.has_partner_field[f as usize];
+        let src = |f: PartnerField| self.partner_source[f as usize].clone();
         for (i, name) in EGO_NAMES.iter().enumerate() {
             let line = if self.has_ego_field[i] {
                 format!("{name} <- {}", self.ego_source[i])
@@ -46,12 +46,12 @@ impl CompiledMap {
         }
         match self.position {
             PositionKind::Cartesian => {
-                lines.push(format!("object.pos_x <- {}", src(ObjField::PosX)));
-                lines.push(format!("object.pos_y <- {}", src(ObjField::PosY)));
+                lines.push(format!("object.pos_x <- {}", src(PartnerField::PosX)));
+                lines.push(format!("object.pos_y <- {}", src(PartnerField::PosY)));
             }
             PositionKind::Polar => {
-                lines.push(format!("object.range <- {}", src(ObjField::Range)));
-                lines.push(format!("object.azimuth <- {}", src(ObjField::Azimuth)));
+                lines.push(format!("object.range <- {}", src(PartnerField::Range)));
+                lines.push(format!("object.azimuth <- {}", src(PartnerField::Azimuth)));
             }
         }
         let derived = match self.missing_velocity {
@@ -61,19 +61,19 @@ impl CompiledMap {
             ),
             _ => "DEFAULT 0 m/s".to_string(),
         };
-        if has(ObjField::RangeRate) {
+        if has(PartnerField::RangeRate) {
             lines.push(format!(
                 "object radial velocity <- {}",
-                src(ObjField::RangeRate)
+                src(PartnerField::RangeRate)
             ));
-            if !(has(ObjField::VelX) && has(ObjField::VelY)) {
+            if !(has(PartnerField::VelX) && has(PartnerField::VelY)) {
                 lines.push(format!("object tangential velocity: {derived}"));
             }
         }
-        for f in [ObjField::VelX, ObjField::VelY] {
+        for f in [PartnerField::VelX, PartnerField::VelY] {
             if has(f) {
                 lines.push(format!("{} <- {}", f.name(), src(f)));
-            } else if !has(ObjField::RangeRate) {
+            } else if !has(PartnerField::RangeRate) {
                 lines.push(format!("{}: {derived}", f.name()));
             }
         }
@@ -84,22 +84,22 @@ impl CompiledMap {
                 VelocityFrame::Absolute => "over ground",
             }
         ));
-        lines.push(if has(ObjField::Heading) {
-            format!("object.heading <- {}", src(ObjField::Heading))
+        lines.push(if has(PartnerField::Heading) {
+            format!("object.heading <- {}", src(PartnerField::Heading))
         } else {
             format!(
                 "object.heading: DERIVED from the partner's velocity over ground (when faster than {} m/s), else its last heading, else +x",
                 crate::engine::HEADING_FROM_VELOCITY_MIN_SPEED
             )
         });
-        lines.push(if has(ObjField::Accel) {
-            format!("object.accel <- {}", src(ObjField::Accel))
+        lines.push(if has(PartnerField::Accel) {
+            format!("object.accel <- {}", src(PartnerField::Accel))
         } else {
             "object.accel: DEFAULT 0 m/s^2".to_string()
         });
         for (f, d) in [
-            (ObjField::Length, self.object_defaults.0),
-            (ObjField::Width, self.object_defaults.1),
+            (PartnerField::Length, self.partner_defaults.0),
+            (PartnerField::Width, self.partner_defaults.1),
         ] {
             lines.push(if has(f) {
                 format!("{} <- {} (default {d} m until received)", f.name(), src(f))
@@ -107,15 +107,15 @@ impl CompiledMap {
                 format!("{}: DEFAULT {d} m (a car box)", f.name())
             });
         }
-        lines.push(if has(ObjField::Valid) {
-            format!("object.valid <- {}", src(ObjField::Valid))
+        lines.push(if has(PartnerField::Valid) {
+            format!("object.valid <- {}", src(PartnerField::Valid))
         } else {
             "object.valid: not mapped (every object is valid)".to_string()
         });
-        if has(ObjField::NewTrack) {
+        if has(PartnerField::NewTrack) {
             lines.push(format!(
                 "object.new_track <- {} (a new object in a slot starts a fresh track)",
-                src(ObjField::NewTrack)
+                src(PartnerField::NewTrack)
             ));
         }
         lines

@@ -1,22 +1,29 @@
 //! Map rules across fields and signals: which kinematic inputs are required, that absent
 //! velocities have a rule, and that every signal feeds one field and flags are small integers.
 use super::compiled::{
-    Condition, EgoField, InputMessage, ObjField, EGO_NAMES, OBJ_FIELDS, OBJ_NAMES,
+    Condition, EgoField, InputMessage, PartnerField, EGO_NAMES, PARTNER_FIELDS, PARTNER_KEYS,
 };
-use super::file::{ObjectMap, PositionKind};
+use super::file::{PartnerMap, PositionKind};
 use super::{field_error, MapError};
 
 /// Which kinematic inputs the map gives, and that absent velocities have a rule.
-pub(super) fn check_kinematics(o: &ObjectMap, has: &[bool; OBJ_FIELDS]) -> Result<(), MapError> {
-    let h = |f: ObjField| has[f as usize];
+pub(super) fn check_kinematics(
+    o: &PartnerMap,
+    has: &[bool; PARTNER_FIELDS],
+) -> Result<(), MapError> {
+    let h = |f: PartnerField| has[f as usize];
     match o.position {
         PositionKind::Cartesian => {
-            for f in [ObjField::PosX, ObjField::PosY] {
+            for f in [PartnerField::PosX, PartnerField::PosY] {
                 if !h(f) {
                     return Err(field_error(f.name(), "required for Cartesian positions"));
                 }
             }
-            for f in [ObjField::Range, ObjField::Azimuth, ObjField::RangeRate] {
+            for f in [
+                PartnerField::Range,
+                PartnerField::Azimuth,
+                PartnerField::RangeRate,
+            ] {
                 if h(f) {
                     return Err(field_error(
                         f.name(),
@@ -26,12 +33,12 @@ pub(super) fn check_kinematics(o: &ObjectMap, has: &[bool; OBJ_FIELDS]) -> Resul
             }
         }
         PositionKind::Polar => {
-            for f in [ObjField::Range, ObjField::Azimuth] {
+            for f in [PartnerField::Range, PartnerField::Azimuth] {
                 if !h(f) {
                     return Err(field_error(f.name(), "required for polar positions"));
                 }
             }
-            for f in [ObjField::PosX, ObjField::PosY] {
+            for f in [PartnerField::PosX, PartnerField::PosY] {
                 if h(f) {
                     return Err(field_error(
                         f.name(),
@@ -41,12 +48,12 @@ pub(super) fn check_kinematics(o: &ObjectMap, has: &[bool; OBJ_FIELDS]) -> Resul
             }
         }
     }
-    let complete = h(ObjField::VelX) && h(ObjField::VelY);
+    let complete = h(PartnerField::VelX) && h(PartnerField::VelY);
     if !complete && o.missing_velocity.is_none() {
-        let missing = if h(ObjField::RangeRate) {
+        let missing = if h(PartnerField::RangeRate) {
             "the tangential velocity".to_string()
         } else {
-            [ObjField::VelX, ObjField::VelY]
+            [PartnerField::VelX, PartnerField::VelY]
                 .iter()
                 .filter(|f| !h(**f))
                 .map(|f| f.name())
@@ -71,7 +78,7 @@ pub const MAX_FLAG_BITS: u8 = 8;
 /// condition, `one_of`/`below`/`above`, may read any signal).
 pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> {
     let ego_name = |f: EgoField| EGO_NAMES[f as usize];
-    let obj_name = |f: ObjField| OBJ_NAMES[f as usize];
+    let partner_name = |f: PartnerField| PARTNER_KEYS[f as usize];
     for msg in inputs {
         let mut uses: Vec<(usize, String)> = Vec::new();
         uses.extend(
@@ -82,10 +89,10 @@ pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> 
         // A flag with an explicit condition (`valid = { signal = "LONG_DIST", below = 255 }`) may
         // read a signal that also feeds a value: radars mark empty slots with sentinel values.
         uses.extend(
-            msg.object
+            msg.partner
                 .iter()
                 .filter(|s| matches!(s.condition, Condition::Value | Condition::NonZero))
-                .map(|s| (s.signal, obj_name(s.field).to_string())),
+                .map(|s| (s.signal, partner_name(s.field).to_string())),
         );
         if let Some(t) = msg.track_id {
             uses.push((t, format!("object.track_id.{}", msg.spec.name)));
@@ -101,10 +108,10 @@ pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> 
                 });
             }
         }
-        for slot in &msg.object {
+        for slot in &msg.partner {
             let is_flag = matches!(
                 slot.field,
-                ObjField::Valid | ObjField::HeadingValid | ObjField::NewTrack
+                PartnerField::Valid | PartnerField::HeadingValid | PartnerField::NewTrack
             );
             if !is_flag || slot.condition != Condition::NonZero {
                 continue;
@@ -116,7 +123,7 @@ pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> 
             );
             if !integer || s.size > MAX_FLAG_BITS {
                 return Err(MapError::Field {
-                    field: obj_name(slot.field).into(),
+                    field: partner_name(slot.field).into(),
                     reason: format!(
                         "a flag must be an integer signal of at most {MAX_FLAG_BITS} bits; `{}.{}` is a {}-bit {:?} signal",
                         msg.spec.name, s.name, s.size, s.kind

@@ -21,7 +21,9 @@
 //! The formulas and every edge-case convention are written down in `docs/evaluation.md`.
 #[cfg(feature = "arrow")]
 pub mod arrow_kernel;
+pub mod bundle;
 pub mod metrics;
+pub mod model_files;
 #[cfg(feature = "plots")]
 pub mod outputs;
 #[cfg(feature = "parquet")]
@@ -30,6 +32,8 @@ pub mod parquet_io;
 pub mod plots;
 pub mod protocol;
 pub mod report;
+#[cfg(feature = "parquet")]
+pub mod score_table;
 pub mod scoring;
 pub mod sketch;
 pub mod staircase;

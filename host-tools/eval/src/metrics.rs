@@ -73,18 +73,48 @@ pub struct Metrics {
 impl Metrics {
     /// The values in table order, with their JSON/CSV keys.
     pub fn named(&self) -> [(&'static str, Option<f64>); 5] {
-        [
-            ("A_ROC_90", self.a_roc_90),
-            ("A_ROC_80", self.a_roc_80),
-            ("P_PRC_90", self.p_prc_90),
-            ("P_PRC_80", self.p_prc_80),
-            ("mTTI_90", self.mtti_90),
-        ]
+        Metric::ALL.map(|m| (m.key(), self.get(m)))
+    }
+
+    /// One metric's value; `None` where it is undefined.
+    pub fn get(&self, metric: Metric) -> Option<f64> {
+        match metric {
+            Metric::ARoc90 => self.a_roc_90,
+            Metric::ARoc80 => self.a_roc_80,
+            Metric::PPrc90 => self.p_prc_90,
+            Metric::PPrc80 => self.p_prc_80,
+            Metric::MTti90 => self.mtti_90,
+        }
     }
 }
 
 /// Keys of [`Metrics::named`], in order.
 pub const METRIC_KEYS: [&str; 5] = ["A_ROC_90", "A_ROC_80", "P_PRC_90", "P_PRC_80", "mTTI_90"];
+
+/// The five warning metrics, in table order (the order of [`METRIC_KEYS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Metric {
+    ARoc90,
+    ARoc80,
+    PPrc90,
+    PPrc80,
+    MTti90,
+}
+
+impl Metric {
+    pub const ALL: [Metric; 5] = [
+        Metric::ARoc90,
+        Metric::ARoc80,
+        Metric::PPrc90,
+        Metric::PPrc80,
+        Metric::MTti90,
+    ];
+
+    /// The column name in tables and JSON (`A_ROC_90`, ...).
+    pub const fn key(self) -> &'static str {
+        METRIC_KEYS[self as usize]
+    }
+}
 
 impl WarningCurve {
     /// TPR (= recall) at a point; `None` without positives.

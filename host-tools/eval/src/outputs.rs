@@ -1,7 +1,8 @@
 //! The result files of `riskctl evaluate --out`, rendered in memory so the caller can write them
 //! all through temporary files and rename them into place together.
+use super::bundle::{BundleError, ReportBundle};
 use super::metrics::WarningCurve;
-use super::plots::{curve_figures, trajectory_figures, FigureFile, PlotError, TrajectoryPanel};
+use super::plots::{curve_figures, trajectory_figures, PlotError, TrajectoryPanel};
 use super::report::{write_curves_csv, EvaluationReport};
 
 /// The tables among the result files (the figures are [`FIGURE_FILES`](super::plots::FIGURE_FILES)).
@@ -10,12 +11,8 @@ pub const RESULT_FILES: [&str; 4] = ["results.csv", "results.json", "results.md"
 /// A result file could not be rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    #[error("{name}: {source}")]
-    Table {
-        name: &'static str,
-        #[source]
-        source: csv::Error,
-    },
+    #[error(transparent)]
+    Table(#[from] BundleError),
     #[error(transparent)]
     Plot(#[from] PlotError),
 }
@@ -26,35 +23,15 @@ pub fn result_files(
     report: &EvaluationReport,
     curves: &[(String, WarningCurve)],
     panels: &[TrajectoryPanel],
-) -> Result<Vec<FigureFile>, OutputError> {
-    let table = |name: &'static str, bytes: Vec<u8>| FigureFile {
-        name: name.to_owned(),
-        bytes,
-    };
-    let mut csv = Vec::new();
-    report
-        .write_csv(&mut csv)
-        .map_err(|source| OutputError::Table {
-            name: "results.csv",
-            source,
-        })?;
-    let mut curves_csv = Vec::new();
-    write_curves_csv(curves, &mut curves_csv).map_err(|source| OutputError::Table {
-        name: "curves.csv",
-        source,
-    })?;
-    let mut files = vec![
-        table("results.csv", csv),
-        table(
-            "results.json",
-            (report.to_json_string() + "\n").into_bytes(),
-        ),
-        table("results.md", report.to_markdown().into_bytes()),
-        table("curves.csv", curves_csv),
-    ];
-    files.extend(curve_figures(curves)?);
+) -> Result<ReportBundle, OutputError> {
+    let mut bundle = ReportBundle::default();
+    bundle.add_csv("results.csv", |w| report.write_csv(w))?;
+    bundle.add("results.json", report.to_json_string() + "\n");
+    bundle.add("results.md", report.to_markdown());
+    bundle.add_csv("curves.csv", |w| write_curves_csv(curves, w))?;
+    bundle.files.extend(curve_figures(curves)?);
     if !panels.is_empty() {
-        files.extend(trajectory_figures(panels)?);
+        bundle.files.extend(trajectory_figures(panels)?);
     }
-    Ok(files)
+    Ok(bundle)
 }

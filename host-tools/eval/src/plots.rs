@@ -12,6 +12,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
+use super::bundle::ReportFile;
 use super::metrics::WarningCurve;
 pub use super::trajectory::{
     alert_window_scores, default_trajectory_events, percentile, trajectory_panels,
@@ -57,20 +58,13 @@ fn color(i: usize) -> RGBColor {
     COLORS.get(i % COLORS.len()).copied().unwrap_or(BLACK)
 }
 
-/// A figure file rendered in memory: its name (`roc.svg`, ...) and its bytes.
-#[derive(Clone, Debug)]
-pub struct FigureFile {
-    pub name: String,
-    pub bytes: Vec<u8>,
-}
-
 /// Renders `figure` as `<stem>.svg` and `<stem>.png` in memory, so a caller can write them
 /// through a temporary file (nothing half-drawn ever lands at the destination).
 fn both_formats(
     stem: &str,
     size: (u32, u32),
     figure: &Figure<'_>,
-) -> Result<[FigureFile; 2], PlotError> {
+) -> Result<[ReportFile; 2], PlotError> {
     register_font();
     let failed = |name: String| {
         move |message: String| PlotError {
@@ -98,11 +92,11 @@ fn both_formats(
     }
     let png = encode_png(&rgb, size).map_err(|e| failed(png_name.clone())(e.to_string()))?;
     Ok([
-        FigureFile {
+        ReportFile {
             name: svg_name,
             bytes: svg.into_bytes(),
         },
-        FigureFile {
+        ReportFile {
             name: png_name,
             bytes: png,
         },
@@ -123,7 +117,7 @@ fn encode_png(rgb: &[u8], (width, height): (u32, u32)) -> Result<Vec<u8>, png::E
 
 /// Writes figure files into `dir`, each through a temporary file renamed when complete; returns
 /// the paths written.
-fn write_figures(dir: &Path, files: &[FigureFile]) -> Result<Vec<PathBuf>, PlotError> {
+fn write_figures(dir: &Path, files: &[ReportFile]) -> Result<Vec<PathBuf>, PlotError> {
     std::fs::create_dir_all(dir).map_err(|e| PlotError {
         path: dir.to_path_buf(),
         message: e.to_string(),
@@ -316,14 +310,14 @@ fn draw_trajectories<DB: DrawingBackend>(
 }
 
 /// `roc.{svg,png}` and `pr.{svg,png}`, rendered in memory.
-pub fn curve_figures(curves: &[(String, WarningCurve)]) -> Result<Vec<FigureFile>, PlotError> {
+pub fn curve_figures(curves: &[(String, WarningCurve)]) -> Result<Vec<ReportFile>, PlotError> {
     let mut files = Vec::from(both_formats("roc", SIZE, &Figure::Roc(curves))?);
     files.extend(both_formats("pr", SIZE, &Figure::Pr(curves))?);
     Ok(files)
 }
 
 /// `trajectories.{svg,png}` (one panel per event), rendered in memory.
-pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<FigureFile>, PlotError> {
+pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<ReportFile>, PlotError> {
     Ok(Vec::from(both_formats(
         "trajectories",
         TRAJECTORY_SIZE,

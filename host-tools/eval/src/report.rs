@@ -8,7 +8,7 @@ use std::io::Write;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 
-use super::metrics::{Metrics, WarningCurve, METRIC_KEYS};
+use super::metrics::{Metric, Metrics, WarningCurve, METRIC_KEYS};
 use super::protocol::SequenceClass;
 
 /// How many events of each kind were evaluated.
@@ -225,6 +225,13 @@ pub struct MethodSummary {
     pub stats: [Option<Stat>; 5],
 }
 
+impl MethodSummary {
+    /// The aggregate of one metric; `None` where it was never defined.
+    pub fn stat(&self, metric: Metric) -> Option<Stat> {
+        self.stats[metric as usize]
+    }
+}
+
 /// mean ± std of every method over all folds and seeds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CvReport {
@@ -233,6 +240,18 @@ pub struct CvReport {
     /// Number of fold results aggregated (folds × seeds).
     pub runs: usize,
     pub methods: Vec<MethodSummary>,
+}
+
+impl CvReport {
+    /// The fold mean of `metric` for `method`; `None` if the method is missing or the metric was
+    /// never defined.
+    pub fn mean(&self, method: &str, metric: Metric) -> Option<f64> {
+        self.methods
+            .iter()
+            .find(|m| m.name == method)
+            .and_then(|m| m.stat(metric))
+            .map(|s| s.mean)
+    }
 }
 
 /// Aggregate per-fold results: each metric's mean ± std over the runs where it is defined (a run
@@ -404,6 +423,52 @@ pub fn write_curves_csv<W: Write>(curves: &[(String, WarningCurve)], writer: W) 
                 csv_cell(c.fpr(p)),
                 csv_cell(p.precision()),
                 csv_cell(p.mean_lead_time()),
+            ])?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Per method and sequence: the maximum out-of-fold score inside the alert window and when it
+/// occurred relative to the endpoint (what decides whether and how early a sequence is warned).
+pub fn write_sequence_maxima<W: Write>(
+    pooled: &[(String, Vec<super::protocol::ScoredSequence>)],
+    writer: W,
+) -> csv::Result<()> {
+    let mut w = csv::Writer::from_writer(writer);
+    w.write_record([
+        "method",
+        "event_id",
+        "class",
+        "max_score",
+        "time_of_max_to_endpoint",
+    ])?;
+    for (name, seqs) in pooled {
+        for s in seqs {
+            let best = s
+                .frames
+                .iter()
+                .filter(|f| super::protocol::in_alert_window(s.endpoint, f.time))
+                .filter(|f| !f.score.is_nan())
+                .fold(None::<(f32, f64)>, |acc, f| match acc {
+                    Some((m, _)) if m >= f.score => acc,
+                    _ => Some((f.score, f.time)),
+                });
+            let (max, at) = match best {
+                Some((m, t)) => (
+                    m.to_string(),
+                    s.endpoint
+                        .map_or(String::new(), |e| format!("{:.2}", t - e)),
+                ),
+                None => (String::new(), String::new()),
+            };
+            w.write_record([
+                name.as_str(),
+                s.event_id.as_str(),
+                s.class.as_str(),
+                max.as_str(),
+                at.as_str(),
             ])?;
         }
     }

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::float_cmp)]
 
 use proptest::prelude::*;
-use riskscore_eval::metrics::{partial_roc_area, warning_curve, warning_curve_reference};
+use riskscore_eval::metrics::{partial_roc_area, warning_curve, warning_curve_reference, Metric};
 use riskscore_eval::protocol::{alert_profiles, decisions};
 use riskscore_eval::{
     aggregate, evaluate_sequences, EvaluationReport, EventCounts, FoldResult, MethodResult,
@@ -371,13 +371,13 @@ fn aggregation_is_mean_and_sample_std() {
     let cv = aggregate(EventCounts::default(), &folds);
     assert_eq!(cv.runs, 3);
     let drl = &cv.methods[0];
-    let a90 = drl.stats[0].unwrap();
+    let a90 = drl.stat(Metric::ARoc90).unwrap();
     // mean of 80 and 90 = 85; sample std = sqrt(((-5)^2 + 5^2) / 1) = 7.0711.
     assert!((a90.mean - 85.0).abs() < EPS);
     assert!((a90.std - 50f64.sqrt()).abs() < EPS);
     assert_eq!(a90.n, 2);
-    assert_eq!(drl.stats[2], None);
-    assert_eq!(drl.stats[1].unwrap().std, 0.0);
+    assert_eq!(drl.stat(Metric::PPrc90), None);
+    assert_eq!(drl.stat(Metric::ARoc80).unwrap().std, 0.0);
     let table = cv.to_markdown();
     assert!(
         table.contains("| DRL | 85.0 ± 7.1 (2/3) | 50.0 ± 0.0 | n/a | 10.0 ± 0.0 | 1.00 ± 0.00 |"),

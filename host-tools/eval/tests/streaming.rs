@@ -9,8 +9,9 @@ use riskscore_data::events::{
     load_events, prepare_sequences, stream_events, Event, EventsError, LoadIssue, PrepareConfig,
 };
 use riskscore_data::sim::{simulate_to_dir, SimConfig};
+use riskscore_eval::bundle::ReportFile;
 use riskscore_eval::outputs::result_files;
-use riskscore_eval::plots::{default_trajectory_events, trajectory_panels, FigureFile};
+use riskscore_eval::plots::{default_trajectory_events, trajectory_panels};
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
     evaluate_folder, evaluate_folder_with_trajectories, Trajectories, TrajectoryEvents,
@@ -243,7 +244,7 @@ fn whole_folder_files(
     dir: &Path,
     methods: &[Method<'_>],
     ids: Option<&[String]>,
-) -> Vec<FigureFile> {
+) -> Vec<ReportFile> {
     let (set, _) = load_events(dir).unwrap();
     let (sequences, _) = prepare_sequences(&set, &PrepareConfig::default());
     let (report, runs) = evaluate_methods(&observe(&sequences), methods).unwrap();
@@ -259,7 +260,9 @@ fn whole_folder_files(
         || default_trajectory_events(&scored[0].1, 3),
         <[String]>::to_vec,
     );
-    result_files(&report, &curves, &trajectory_panels(&scored, &ids)).unwrap()
+    result_files(&report, &curves, &trajectory_panels(&scored, &ids))
+        .unwrap()
+        .files
 }
 
 fn streamed_files(
@@ -267,7 +270,7 @@ fn streamed_files(
     methods: &[Method<'_>],
     workers: usize,
     request: &TrajectoryRequest,
-) -> (bool, f64, Vec<FigureFile>) {
+) -> (bool, f64, Vec<ReportFile>) {
     let folder = evaluate_folder_with_trajectories(
         dir,
         methods,
@@ -283,7 +286,11 @@ fn streamed_files(
         trajectories.unknown
     );
     let files = result_files(&folder.report, &folder.curves, &trajectories.panels()).unwrap();
-    (folder.streamed, trajectories.percentile_error(), files)
+    (
+        folder.streamed,
+        trajectories.percentile_error(),
+        files.files,
+    )
 }
 
 /// What the streamed evaluation (2 workers) gathers for the trajectory plot.
@@ -298,8 +305,8 @@ fn streamed_trajectories(
         .unwrap()
 }
 
-fn assert_same_files(got: &[FigureFile], expected: &[FigureFile], what: &str) {
-    let names = |f: &[FigureFile]| f.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
+fn assert_same_files(got: &[ReportFile], expected: &[ReportFile], what: &str) {
+    let names = |f: &[ReportFile]| f.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
     assert_eq!(names(got), names(expected), "{what}");
     assert_eq!(got.len(), 10, "{what}: tables, ROC, PR and trajectories");
     for (g, e) in got.iter().zip(expected) {

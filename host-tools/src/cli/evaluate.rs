@@ -1,19 +1,17 @@
 //! `riskctl evaluate`: score an event folder with model blobs and the surrogate baselines through
 //! the deployed scorer-core path, and report the proactive-warning metrics. No training.
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use can_codec::output::AtomicSet;
 use riskscore_data::events::PrepareConfig;
+use riskscore_eval::model_files::{named_models, ModelFile};
 use riskscore_eval::outputs::{result_files, RESULT_FILES};
 use riskscore_eval::plots::FIGURE_FILES;
-use riskscore_eval::scoring::{model_row_name, row_names};
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
     evaluate_folder_with_trajectories, FolderEvaluation, TrajectoryEvents, TrajectoryRequest,
 };
-use riskscore_eval::{Method, Scorer};
+use riskscore_eval::Method;
 
 /// What `riskctl evaluate --help` explains after the options.
 const ABOUT_EVALUATION: &str = "\
@@ -68,34 +66,6 @@ pub struct Args {
     trajectory_events: Vec<String>,
 }
 
-/// A `--model` argument split into an optional row name and the file.
-fn parse_model_spec(spec: &str) -> (Option<String>, PathBuf) {
-    match spec.split_once('=') {
-        Some((name, file))
-            if !name.is_empty() && !name.contains(['/', '\\']) && !file.is_empty() =>
-        {
-            (Some(name.to_owned()), PathBuf::from(file))
-        }
-        _ => (None, PathBuf::from(spec)),
-    }
-}
-
-/// A model file read into memory: optional row name, path, bytes.
-pub type ModelFile = (Option<String>, PathBuf, Vec<u8>);
-
-/// Reads every model file, so decoding can borrow from the bytes.
-pub fn read_models(specs: &[String]) -> anyhow::Result<Vec<ModelFile>> {
-    specs
-        .iter()
-        .map(|spec| {
-            let (name, path) = parse_model_spec(spec);
-            let bytes = std::fs::read(&path)
-                .with_context(|| format!("model file {}: cannot read", path.display()))?;
-            Ok((name, path, bytes))
-        })
-        .collect()
-}
-
 const MAX_LISTED_ISSUES: usize = 20;
 
 pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
@@ -111,40 +81,9 @@ pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
     }
 }
 
-/// Decodes model files and names each (as the rows of `riskctl evaluate`, and the columns of
-/// `riskctl score`).
-pub fn named_models(files: &[ModelFile]) -> anyhow::Result<Vec<Method<'_>>> {
-    let mut decoded = Vec::with_capacity(files.len());
-    for (name, path, bytes) in files {
-        let model = scorer_core::model::decode(bytes).map_err(|e| {
-            anyhow::anyhow!("model file {}: not a valid model blob: {e}", path.display())
-        })?;
-        let stem = path.file_stem().map_or_else(
-            || path.display().to_string(),
-            |s| s.to_string_lossy().into_owned(),
-        );
-        decoded.push((name.clone(), model, stem));
-    }
-    let names = row_names(
-        &decoded
-            .iter()
-            .map(|(n, m, stem)| (n.clone(), model_row_name(m), stem.clone()))
-            .collect::<Vec<_>>(),
-    );
-    let methods: Vec<Method<'_>> = decoded
-        .into_iter()
-        .zip(names)
-        .map(|((_, model, _), name)| Method {
-            name,
-            scorer: Scorer::Model(model),
-        })
-        .collect();
-    Ok(methods)
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
-    let files = read_models(&args.models)?;
+    let files = ModelFile::read_all(&args.models)?;
     let mut methods = named_models(&files)?;
     methods.extend(Method::baselines());
 
@@ -254,8 +193,10 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
         events.join(riskscore_data::events::EVENTS_FILE),
         events.join(riskscore_data::events::FRAMES_FILE),
     ];
-    let mut inputs: Vec<(&str, &Path)> =
-        models.iter().map(|m| ("--model", m.1.as_path())).collect();
+    let mut inputs: Vec<(&str, &Path)> = models
+        .iter()
+        .map(|m| ("--model", m.path.as_path()))
+        .collect();
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
     let outputs: Vec<PathBuf> = RESULT_FILES
         .iter()
@@ -290,16 +231,6 @@ fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<Pat
         }
         panels = trajectories.panels();
     }
-    let rendered = result_files(&folder.report, &folder.curves, &panels)?;
-    let mut files = AtomicSet::default();
-    for f in &rendered {
-        let p = out.join(&f.name);
-        files
-            .create(&p)
-            .and_then(|w| w.write_all(&f.bytes))
-            .with_context(|| format!("{}: cannot write", p.display()))?;
-    }
-    files
-        .commit()
-        .with_context(|| format!("{}: cannot write the results", out.display()))
+    let bundle = result_files(&folder.report, &folder.curves, &panels)?;
+    Ok(bundle.write_to(out)?)
 }

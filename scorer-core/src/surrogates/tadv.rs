@@ -16,7 +16,7 @@
 //! difference `|v_i| - |v_j|` (ego behind), `|v_j| - |v_i|` (partner behind, same direction) or
 //! `|v_i| + |v_j|` (opposite directions, judged along the ego heading), kept at `|dv| >= 1e-6`.
 //! A negative result (the gap opens) is `+inf`; two stopped vehicles give `D / 1e-6`, about 1e7 s.
-use super::clamp_away_from_zero;
+use super::guard::clamp_away_from_zero;
 use crate::geometry::{oriented_box_distance, velocity, OrientedBox};
 use crate::state::VehicleState;
 

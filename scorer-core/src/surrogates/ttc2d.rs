@@ -14,7 +14,7 @@
 //!
 //! `clamp` keeps `|dv| >= 1e-6`. The lateral offsets are signed (no absolute value), exactly as in
 //! the reference: a leader to the follower's left is judged by the longitudinal branch only.
-use super::clamp_away_from_zero;
+use super::guard::clamp_away_from_zero;
 use crate::geometry::{velocity, OrientedBox, Vec2};
 use crate::state::VehicleState;
 

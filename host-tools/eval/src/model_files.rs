@@ -1,0 +1,115 @@
+//! Model files named on a command line (`[NAME=]FILE`): read, decoded and named as the rows of an
+//! evaluation (and the columns of a score table).
+use std::path::PathBuf;
+
+use scorer_core::model::ModelError;
+
+use crate::scoring::{model_row_name, row_names, Method, Scorer};
+
+/// A model file read into memory, so that decoded models can borrow from its bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelFile {
+    /// The row name given as `NAME=FILE`, if any.
+    pub name: Option<String>,
+    pub path: PathBuf,
+    pub bytes: Vec<u8>,
+}
+
+/// A model file could not be read or is not a model blob.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    #[error("model file {}: cannot read", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("model file {}: not a valid model blob: {source}", path.display())]
+    Decode {
+        path: PathBuf,
+        #[source]
+        source: ModelError,
+    },
+}
+
+impl ModelFile {
+    /// Splits `[NAME=]FILE` (a name has no path separator; otherwise the whole spec is the file)
+    /// and reads the file.
+    pub fn read(spec: &str) -> Result<ModelFile, ModelFileError> {
+        let (name, path) = match spec.split_once('=') {
+            Some((name, file))
+                if !name.is_empty() && !name.contains(['/', '\\']) && !file.is_empty() =>
+            {
+                (Some(name.to_owned()), PathBuf::from(file))
+            }
+            _ => (None, PathBuf::from(spec)),
+        };
+        match std::fs::read(&path) {
+            Ok(bytes) => Ok(ModelFile { name, path, bytes }),
+            Err(source) => Err(ModelFileError::Read { path, source }),
+        }
+    }
+
+    /// Reads every spec, in order.
+    pub fn read_all(specs: &[String]) -> Result<Vec<ModelFile>, ModelFileError> {
+        specs.iter().map(|spec| ModelFile::read(spec)).collect()
+    }
+}
+
+/// Decodes model files and names each: its `NAME=`, else its family (`DRL`, `MSRA`, ...), with the
+/// file stem added only where two rows would share a name.
+pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileError> {
+    let mut decoded = Vec::with_capacity(files.len());
+    for f in files {
+        let model =
+            scorer_core::model::decode(&f.bytes).map_err(|source| ModelFileError::Decode {
+                path: f.path.clone(),
+                source,
+            })?;
+        let stem = f.path.file_stem().map_or_else(
+            || f.path.display().to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        );
+        decoded.push((f.name.clone(), model, stem));
+    }
+    let names = row_names(
+        &decoded
+            .iter()
+            .map(|(n, m, stem)| (n.clone(), model_row_name(m), stem.clone()))
+            .collect::<Vec<_>>(),
+    );
+    Ok(decoded
+        .into_iter()
+        .zip(names)
+        .map(|((_, model, _), name)| Method {
+            name,
+            scorer: Scorer::Model(model),
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_name_needs_no_path_separator_and_a_file() {
+        let dir = std::env::temp_dir().join(format!("riskscore-models-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("a=b.rsk");
+        std::fs::write(&file, b"not a model").unwrap();
+        let spec = format!("MINE={}", file.display());
+        let named = ModelFile::read(&spec).unwrap();
+        assert_eq!((named.name.as_deref(), &named.path), (Some("MINE"), &file));
+        // `dir/a=b.rsk`: the part before `=` holds a separator, so the whole spec is the file.
+        let plain = ModelFile::read(&file.display().to_string()).unwrap();
+        assert_eq!((plain.name.as_deref(), &plain.path), (None, &file));
+        let err = named_models(std::slice::from_ref(&plain)).unwrap_err();
+        assert!(matches!(err, ModelFileError::Decode { .. }), "{err}");
+        assert!(matches!(
+            ModelFile::read("X=/no/such/file"),
+            Err(ModelFileError::Read { .. })
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
