@@ -13,46 +13,14 @@ use can_bridge::engine::{Engine, EngineConfig, Output};
 use can_bridge::map::CompiledMap;
 use can_bridge::ModelFile;
 use can_codec::{project, CanId, Database, Frame};
-use scorer_core::model::{encode, BoundedVec, Model};
-use scorer_core::msra::{MsraModel, MsraTerm};
-use scorer_core::SurrogateKind;
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-fn msra_blob() -> Vec<u8> {
-    let terms = [
-        MsraTerm {
-            kind: SurrogateKind::Ttc2d,
-            weight: 2.0,
-            a: -1.5,
-            b: 3.0,
-            lo: 0.0,
-            hi: 10.0,
-        },
-        MsraTerm {
-            kind: SurrogateKind::Ei,
-            weight: 1.0,
-            a: 0.8,
-            b: -2.0,
-            lo: -5.0,
-            hi: 20.0,
-        },
-    ];
-    let model = Model::Msra(MsraModel {
-        terms: BoundedVec::from_slice(&terms).expect("two terms fit"),
-        gssm: None,
-    });
-    let mut buf = vec![0u8; 4096];
-    let n = encode(&model, &mut buf).expect("encodes");
-    buf.truncate(n);
-    buf
-}
-
-fn frame(db: &Database, name: &str, values: &[(&str, f64)]) -> Frame {
-    let m = db.message_by_name(name).expect("project message");
-    Frame::data_frame(m.id, &m.encode(values).expect("in range")).expect("classic")
-}
+/// The integration tests' MSRA model, DBC and frame builders: the VM runs what the host tests ran.
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::{frame, msra_blob, project_db};
 
 struct Obj {
     id: f64,
@@ -301,7 +269,7 @@ fn main() -> anyhow::Result<()> {
     let last = corrupt.len() - 1;
     corrupt[last] ^= 0x5A;
     std::fs::write(out.join("corrupt.rsk"), &corrupt)?;
-    let db = Database::parse(project::PROJECT_DBC)?;
+    let db = project_db();
     write_log(&out.join("faults.log"), &faults_log(&db))?;
     if let Some(d) = &drive {
         let t = median_track_max(d, &model_file);

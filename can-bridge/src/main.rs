@@ -1,24 +1,10 @@
 //! `can-bridge`: the command line over the bridge library: parses, dispatches to
-//! [`can_bridge::commands`] (or `check`, below) and turns a failure into its exit code.
+//! [`can_bridge::commands`] and turns a failure into its exit code.
+#[cfg(feature = "check")]
+use can_bridge::commands::CheckArgs;
 use can_bridge::commands::{self, LiveArgs, MonitorArgs, ReplayArgs, ScoreLogArgs};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-#[cfg(feature = "check")]
-use {
-    anyhow::{Context, Result},
-    can_bridge::check,
-    can_bridge::cli_values,
-    can_bridge::commands::{
-        engine_config, load_map, print_inputs, scoring_inputs, summary, LossArgs, ScoringArgs,
-    },
-    can_bridge::engine::Engine,
-    can_bridge::losses,
-    can_bridge::model_file::ModelFile,
-    can_codec::output::{refuse_overlaps, AtomicFile, NamedPath},
-    clap::Args,
-    std::io::Write,
-    std::path::PathBuf,
-};
 
 /// Score vehicle CAN traffic with a riskscore model and put protected warnings back on the bus.
 ///
@@ -55,34 +41,6 @@ enum Command {
     Check(CheckArgs),
 }
 
-#[cfg(feature = "check")]
-#[derive(Args, Debug)]
-struct CheckArgs {
-    /// candump -L log written by `riskctl events-to-candump` (or a recording of its replay).
-    #[arg(long)]
-    log: PathBuf,
-    /// The event folder the log was made from.
-    #[arg(long)]
-    events: PathBuf,
-    #[command(flatten)]
-    scoring: ScoringArgs,
-    /// Print the metrics as the `riskctl evaluate --json` object (same schema).
-    #[arg(long)]
-    json: bool,
-    /// Pause between events used by events-to-candump (s).
-    #[arg(long, default_value_t = riskscore_data::candump_export::DEFAULT_GAP_US as f64 / 1e6, value_parser = cli_values::seconds)]
-    gap: f64,
-    /// Write the event set as the bridge decoded it (an event folder); `riskctl evaluate --events`
-    /// on it gives exactly this command's metrics.
-    #[arg(long)]
-    decoded_events_out: Option<PathBuf>,
-    /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
-    #[arg(long)]
-    per_event_out: Option<PathBuf>,
-    #[command(flatten)]
-    loss: LossArgs,
-}
-
 /// `can-bridge --iface ...` means `can-bridge live --iface ...`.
 fn args_with_default_command() -> Vec<std::ffi::OsString> {
     let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
@@ -115,7 +73,7 @@ fn main() -> ExitCode {
         Command::Monitor(a) => commands::run_monitor(a).map_err(failure),
         Command::ScoreLog(a) => commands::run_score_log(a).map_err(failure),
         #[cfg(feature = "check")]
-        Command::Check(a) => run_check(a).map_err(|e| (1, e)),
+        Command::Check(a) => commands::run_check(a).map_err(failure),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -129,96 +87,4 @@ fn main() -> ExitCode {
 /// The exit code of a failed command, and what to print.
 fn failure(f: commands::Failure) -> (u8, anyhow::Error) {
     (f.exit_code(), f.into())
-}
-
-#[cfg(feature = "check")]
-fn run_check(args: CheckArgs) -> Result<()> {
-    let model_file = ModelFile::load(&args.scoring.model)?;
-    let map = load_map(&args.scoring)?;
-    print_inputs(&map);
-    let config = engine_config(&args.scoring, &model_file)?;
-    let mut engine = Engine::new(model_file.model()?, map, config)?;
-    let event_files = [
-        args.events.join(riskscore_data::events::EVENTS_FILE),
-        args.events.join(riskscore_data::events::FRAMES_FILE),
-    ];
-    let mut inputs = scoring_inputs(&args.scoring);
-    inputs.push(("--log", args.log.as_path()));
-    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
-    let decoded_files = args.decoded_events_out.as_ref().map(|d| {
-        [
-            d.join(riskscore_data::events::EVENTS_FILE),
-            d.join(riskscore_data::events::FRAMES_FILE),
-        ]
-    });
-    let mut outputs: Vec<NamedPath<'_>> = decoded_files
-        .iter()
-        .flatten()
-        .map(|p| ("--decoded-events-out", p.as_path()))
-        .collect();
-    if let Some(p) = &args.per_event_out {
-        outputs.push(("--per-event-out", p.as_path()));
-    }
-    refuse_overlaps(&inputs, &outputs)?;
-    let (set, issues) = riskscore_data::events::load_events(&args.events)
-        .with_context(|| format!("loading events from {}", args.events.display()))?;
-    for issue in issues.iter().take(20) {
-        eprintln!("warning: {issue}");
-    }
-    let model = model_file.model()?;
-    let report = check::check(
-        &args.log,
-        &set,
-        &mut engine,
-        riskscore_eval::scoring::model_row_name(&model),
-        (args.gap * 1e6).round() as u64,
-    )
-    .with_context(|| {
-        format!(
-            "--log {} with --events {}",
-            args.log.display(),
-            args.events.display()
-        )
-    })?;
-    losses::account(&args.log, &report.log, &report.losses, args.loss.max_lost)?;
-    if let Some(dir) = &args.decoded_events_out {
-        check::write_decoded_events(dir, &report.decoded)
-            .with_context(|| format!("writing {}", dir.display()))?;
-    }
-    if let Some(p) = &args.per_event_out {
-        write_verdicts(p, &report)?;
-    }
-    let (tp, pos, fa, neg) = report.warning_counts();
-    let missing: usize = report
-        .verdicts
-        .iter()
-        .map(|v| v.frames - v.scored.min(v.frames))
-        .sum();
-    let note = format!(
-        "check: threshold {}: warned in time on {tp}/{pos} conflict events, false alarms on {fa}/{neg} safe events; {} event frames not scored by the bridge, {} bridge outputs not traced to an event; {}",
-        report.threshold,
-        missing,
-        report.untraced,
-        summary(&report.stats)
-    );
-    if args.json {
-        println!("{}", report.report.to_json());
-        eprintln!("{note}");
-    } else {
-        println!("{}", report.verdict_table());
-        println!("{note}\n");
-        println!("{}", report.report.to_markdown());
-    }
-    Ok(())
-}
-
-#[cfg(feature = "check")]
-fn write_verdicts(path: &std::path::Path, report: &check::CheckReport) -> Result<()> {
-    let mut w = AtomicFile::create(path).with_context(|| format!("creating {}", path.display()))?;
-    for v in &report.verdicts {
-        writeln!(w, "{}", serde_json::to_string(v)?)?;
-    }
-    w.commit()
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
 }

@@ -148,3 +148,32 @@ pub struct LossArgs {
     #[arg(long, default_value_t = 0.01, value_parser = cli_values::fraction)]
     pub max_lost: f64,
 }
+
+/// Options of `check`: a log exported from an event folder, and that folder.
+#[cfg(feature = "check")]
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// candump -L log written by `riskctl events-to-candump` (or a recording of its replay).
+    #[arg(long)]
+    pub log: PathBuf,
+    /// The event folder the log was made from.
+    #[arg(long)]
+    pub events: PathBuf,
+    #[command(flatten)]
+    pub scoring: ScoringArgs,
+    /// Print the metrics as the `riskctl evaluate --json` object (same schema).
+    #[arg(long)]
+    pub json: bool,
+    /// Pause between events used by events-to-candump (s).
+    #[arg(long, default_value_t = riskscore_data::candump_export::DEFAULT_GAP_US as f64 / 1e6, value_parser = cli_values::seconds)]
+    pub gap: f64,
+    /// Write the event set as the bridge decoded it (an event folder); `riskctl evaluate --events`
+    /// on it gives exactly this command's metrics.
+    #[arg(long)]
+    pub decoded_events_out: Option<PathBuf>,
+    /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
+    #[arg(long)]
+    pub per_event_out: Option<PathBuf>,
+    #[command(flatten)]
+    pub loss: LossArgs,
+}

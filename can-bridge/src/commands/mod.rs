@@ -2,14 +2,21 @@
 //! failed; the binary only parses, dispatches and turns a [`Failure`] into its exit code.
 //!
 //! Files: `args` (the options), `setup` (DBCs, map, configuration, files), `bus` (`live`,
-//! `monitor`, `replay`: SocketCAN), `score_log` (offline scoring of a candump log).
+//! `monitor`, `replay`: SocketCAN), `score_log` (offline scoring of a candump log), `check` (the
+//! bridge against `riskctl evaluate` on an exported event folder; feature `check`).
 mod args;
 mod bus;
+#[cfg(feature = "check")]
+mod check;
 mod score_log;
 mod setup;
 
+#[cfg(feature = "check")]
+pub use args::CheckArgs;
 pub use args::{LiveArgs, LossArgs, MonitorArgs, ReplayArgs, ScoreLogArgs, ScoringArgs};
 pub use bus::{run_live, run_monitor, run_replay};
+#[cfg(feature = "check")]
+pub use check::run_check;
 pub use score_log::run_score_log;
 pub use setup::{
     engine_config, load_dbcs, load_map, open_events, print_inputs, scoring_inputs, summary,
@@ -76,6 +83,23 @@ pub enum InputError {
     Lost(#[from] TooMuchLost),
     #[error(transparent)]
     Replay(ReplayError),
+    /// `check`: the event folder could not be loaded.
+    #[cfg(feature = "check")]
+    #[error("loading events from {}", dir.display())]
+    Events {
+        dir: std::path::PathBuf,
+        #[source]
+        source: riskscore_data::events::EventsError,
+    },
+    /// `check`: the log and the event folder do not line up.
+    #[cfg(feature = "check")]
+    #[error("--log {} with --events {}", log.display(), events.display())]
+    Check {
+        log: std::path::PathBuf,
+        events: std::path::PathBuf,
+        #[source]
+        source: crate::check::CheckError,
+    },
 }
 
 /// `?` on a setup step of a command.

@@ -1,0 +1,115 @@
+//! `check`: the bridge's per-event warnings and the `riskctl evaluate` metrics for a log that
+//! `riskctl events-to-candump` exported from an event folder.
+use std::io::Write;
+use std::path::Path;
+
+use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
+
+use super::args::CheckArgs;
+use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
+use super::{writing, Failure, InputError};
+use crate::check::{self, CheckReport};
+use crate::engine::Engine;
+use crate::losses;
+use crate::model_file::ModelFile;
+
+/// Load problems of the event folder listed before the check (the rest are counted by the loader).
+const LISTED_LOAD_ISSUES: usize = 20;
+
+pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
+    let model_file = ModelFile::load(&args.scoring.model)?;
+    let map = load_map(&args.scoring)?;
+    print_inputs(&map);
+    let config = engine_config(&args.scoring, &model_file)?;
+    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let event_files = [
+        args.events.join(riskscore_data::events::EVENTS_FILE),
+        args.events.join(riskscore_data::events::FRAMES_FILE),
+    ];
+    let mut inputs = scoring_inputs(&args.scoring);
+    inputs.push(("--log", args.log.as_path()));
+    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    let decoded_files = args.decoded_events_out.as_ref().map(|d| {
+        [
+            d.join(riskscore_data::events::EVENTS_FILE),
+            d.join(riskscore_data::events::FRAMES_FILE),
+        ]
+    });
+    let mut outputs: Vec<NamedPath<'_>> = decoded_files
+        .iter()
+        .flatten()
+        .map(|p| ("--decoded-events-out", p.as_path()))
+        .collect();
+    if let Some(p) = &args.per_event_out {
+        outputs.push(("--per-event-out", p.as_path()));
+    }
+    refuse_overlaps(&inputs, &outputs)?;
+    let (set, issues) = riskscore_data::events::load_events(&args.events).map_err(|source| {
+        Failure::Input(InputError::Events {
+            dir: args.events.clone(),
+            source,
+        })
+    })?;
+    for issue in issues.iter().take(LISTED_LOAD_ISSUES) {
+        eprintln!("warning: {issue}");
+    }
+    let model = model_file.model()?;
+    let report = check::check(
+        &args.log,
+        &set,
+        &mut engine,
+        riskscore_eval::scoring::model_row_name(&model),
+        (args.gap * 1e6).round() as u64,
+    )
+    .map_err(|source| {
+        Failure::Input(InputError::Check {
+            log: args.log.clone(),
+            events: args.events.clone(),
+            source,
+        })
+    })?;
+    losses::account(&args.log, &report.log, &report.losses, args.loss.max_lost)?;
+    if let Some(dir) = &args.decoded_events_out {
+        check::write_decoded_events(dir, &report.decoded)
+            .map_err(writing("--decoded-events-out"))?;
+    }
+    if let Some(p) = &args.per_event_out {
+        write_verdicts(p, &report).map_err(writing("--per-event-out"))?;
+    }
+    print_report(&report, args.json);
+    Ok(())
+}
+
+/// The verdicts, the one-line summary and the metrics (as JSON with `json`).
+fn print_report(report: &CheckReport, json: bool) {
+    let (tp, pos, fa, neg) = report.warning_counts();
+    let missing: usize = report
+        .verdicts
+        .iter()
+        .map(|v| v.frames - v.scored.min(v.frames))
+        .sum();
+    let note = format!(
+        "check: threshold {}: warned in time on {tp}/{pos} conflict events, false alarms on {fa}/{neg} safe events; {} event frames not scored by the bridge, {} bridge outputs not traced to an event; {}",
+        report.threshold,
+        missing,
+        report.untraced,
+        summary(&report.stats)
+    );
+    if json {
+        println!("{}", report.report.to_json());
+        eprintln!("{note}");
+    } else {
+        println!("{}", report.verdict_table());
+        println!("{note}\n");
+        println!("{}", report.report.to_markdown());
+    }
+}
+
+/// The per-event verdicts as JSON Lines, written whole or not at all.
+fn write_verdicts(path: &Path, report: &CheckReport) -> std::io::Result<()> {
+    let mut w = AtomicFile::create(path)?;
+    for v in &report.verdicts {
+        writeln!(w, "{}", serde_json::to_string(v)?)?;
+    }
+    w.commit()
+}
