@@ -160,23 +160,70 @@ impl Figure<'_> {
 
 type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
+/// The ROC and PR charts' frame: `[0, 1] x [0, y_max]`, captioned, with both axes described.
+type UnitChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+fn unit_chart<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    y_max: f64,
+    (x_desc, y_desc): (&str, &str),
+) -> Result<UnitChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, (FONT, 26))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..1f64, 0f64..y_max)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .label_style((FONT, 16))
+        .light_line_style(WHITE)
+        .draw()?;
+    Ok(chart)
+}
+
+/// One line per method, coloured by its index among all methods, and the legend at `position`.
+fn draw_method_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut UnitChart<'a, DB>,
+    lines: Vec<(usize, Vec<(f64, f64)>, String)>,
+    position: SeriesLabelPosition,
+) -> DrawResult<DB> {
+    for (i, points, label) in lines {
+        let c = color(i);
+        chart
+            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font((FONT, 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+}
+
 fn draw_roc<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     curves: &[(String, WarningCurve)],
 ) -> DrawResult<DB> {
-    let mut chart = ChartBuilder::on(root)
-        .caption("ROC of the first-threshold warning", (FONT, 26))
-        .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0f64..1f64, 0f64..1f64)?;
-    chart
-        .configure_mesh()
-        .x_desc("false positive rate (safe sequences warned)")
-        .y_desc("true positive rate (conflicts warned)")
-        .label_style((FONT, 16))
-        .light_line_style(WHITE)
-        .draw()?;
+    let mut chart = unit_chart(
+        root,
+        "ROC of the first-threshold warning",
+        1.0,
+        (
+            "false positive rate (safe sequences warned)",
+            "true positive rate (conflicts warned)",
+        ),
+    )?;
     // Chance line and the recall levels of A^ROC_90 / A^ROC_80.
     let grey = RGBColor(170, 170, 170);
     chart.draw_series(LineSeries::new(
@@ -189,71 +236,43 @@ fn draw_roc<DB: DrawingBackend>(
             grey.mix(0.6).stroke_width(1),
         ))?;
     }
-    for (i, (name, curve)) in curves.iter().enumerate() {
-        let Some(points) = curve.roc_curve() else {
-            continue;
-        };
-        let c = color(i);
-        let label = match curve.a_roc(90) {
-            Some(a) => format!("{name} (A^ROC_90 = {a:.1} %)"),
-            None => name.clone(),
-        };
-        chart
-            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
-    }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .label_font((FONT, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
+    let lines = curves
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (name, curve))| {
+            let label = match curve.a_roc(90) {
+                Some(a) => format!("{name} (A^ROC_90 = {a:.1} %)"),
+                None => name.clone(),
+            };
+            Some((i, curve.roc_curve()?, label))
+        })
+        .collect();
+    draw_method_lines(&mut chart, lines, SeriesLabelPosition::LowerRight)
 }
 
 fn draw_pr<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     curves: &[(String, WarningCurve)],
 ) -> DrawResult<DB> {
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            "Precision-recall of the first-threshold warning",
-            (FONT, 26),
-        )
-        .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0f64..1f64, 0f64..1.02f64)?;
-    chart
-        .configure_mesh()
-        .x_desc("recall (conflicts warned)")
-        .y_desc("precision")
-        .label_style((FONT, 16))
-        .light_line_style(WHITE)
-        .draw()?;
-    for (i, (name, curve)) in curves.iter().enumerate() {
-        let points = curve.pr_points();
-        if points.is_empty() {
-            continue;
-        }
-        let c = color(i);
-        let label = match curve.p_prc(90) {
-            Some(p) => format!("{name} (P^PRC_90 = {p:.1} %)"),
-            None => name.clone(),
-        };
-        chart
-            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
-    }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerLeft)
-        .label_font((FONT, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
+    let mut chart = unit_chart(
+        root,
+        "Precision-recall of the first-threshold warning",
+        1.02,
+        ("recall (conflicts warned)", "precision"),
+    )?;
+    let lines = curves
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (name, curve))| {
+            let points = curve.pr_points();
+            let label = match curve.p_prc(90) {
+                Some(p) => format!("{name} (P^PRC_90 = {p:.1} %)"),
+                None => name.clone(),
+            };
+            (!points.is_empty()).then_some((i, points, label))
+        })
+        .collect();
+    draw_method_lines(&mut chart, lines, SeriesLabelPosition::LowerLeft)
 }
 
 fn draw_trajectories<DB: DrawingBackend>(
