@@ -141,11 +141,11 @@ pub fn check(
         },
     );
     let index = layout.trigger_index();
-    let mut observations: Vec<crate::engine::Observation> = Vec::new();
+    let mut scored_updates: Vec<crate::engine::ScoredUpdate> = Vec::new();
     let mut onsets: Vec<(u32, u64)> = Vec::new();
     let mut losses = FrameLosses::default();
     let mut collect = |o: Output| match o {
-        Output::Scored(obs) => observations.push(obs),
+        Output::Scored(obs) => scored_updates.push(obs),
         Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
         other => losses.handle(&other),
     };
@@ -156,15 +156,15 @@ pub fn check(
     if log_report.frames == 0 {
         return Err(CheckError::EmptyLog);
     }
-    if observations.is_empty() {
+    if scored_updates.is_empty() {
         return Err(CheckError::NothingScored);
     }
-    let keys: Vec<(u32, u64)> = observations.iter().map(|o| (o.track, o.t_us)).collect();
+    let keys: Vec<(u32, u64)> = scored_updates.iter().map(|o| (o.track, o.t_us)).collect();
     let (offset, traced) = align(&keys, &layout, &index).unwrap_or((0, 0));
-    if traced * 2 < observations.len() {
+    if traced * 2 < scored_updates.len() {
         return Err(CheckError::Mismatch(format!(
             "at best {traced} of the {} scored track updates fall on an event frame of the folder's timeline (gap {} s)",
-            observations.len(),
+            scored_updates.len(),
             gap_us as f64 / 1e6
         )));
     }
@@ -177,7 +177,7 @@ pub fn check(
     let mut onset: Vec<Option<f64>> = vec![None; set.events.len()];
     let mut untraced = 0usize;
     let mut content_mismatch = 0usize;
-    for obs in &observations {
+    for obs in &scored_updates {
         let Some((k, i)) = trace(obs.track, obs.t_us) else {
             untraced += 1;
             continue;

@@ -43,7 +43,7 @@ mod warn;
 
 pub use assemble::HEADING_FROM_VELOCITY_MIN_SPEED;
 pub use config::{ConfigError, EngineConfig, MAX_TRACKS};
-pub use output::{LossKind, Lost, Observation, Output, ReleaseReason, Stats};
+pub use output::{LossKind, Lost, Output, ReleaseReason, ScoredUpdate, Stats};
 pub use problem::{DecodeError, EncodeError, Problem};
 
 use crate::map::{CompiledMap, EgoField, PartnerField, EGO_FIELDS};

@@ -41,7 +41,7 @@ impl Stats {
 
 /// One scored track update.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Observation {
+pub struct ScoredUpdate {
     pub t_us: u64,
     pub track: u32,
     pub ego: VehicleState,
@@ -79,7 +79,7 @@ impl ReleaseReason {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Output {
     /// A track was scored.
-    Scored(Observation),
+    Scored(ScoredUpdate),
     /// A protected warning frame to send.
     WarningFrame { t_us: u64, track: u32, frame: Frame },
     /// A track's warning turned on.

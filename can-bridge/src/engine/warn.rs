@@ -2,7 +2,7 @@
 //! the core's track table, and the transitions and protected warning frame that follow.
 use super::assemble::States;
 use super::{
-    EncodeError, Engine, LossKind, Observation, Output, Problem, ReleaseReason, MAX_TRACKS,
+    EncodeError, Engine, LossKind, Output, Problem, ReleaseReason, ScoredUpdate, MAX_TRACKS,
 };
 use can_codec::Frame;
 use scorer_core::warning::{WarningError, WarningEvent};
@@ -75,7 +75,7 @@ impl Engine<'_> {
             }),
             WarningEvent::None => {}
         }
-        out(Output::Scored(Observation {
+        out(Output::Scored(ScoredUpdate {
             t_us,
             track,
             ego,
