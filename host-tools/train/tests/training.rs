@@ -211,8 +211,10 @@ fn msra_recovers_a_known_monotone_relation() {
         ..ComparisonSet::default()
     };
     let model = msra::Msra::from_table(
-        &[SurrogateKind::Ttc2d],
-        &[msra::default_range(SurrogateKind::Ttc2d)],
+        &[(
+            SurrogateKind::Ttc2d,
+            msra::default_range(SurrogateKind::Ttc2d),
+        )],
         &set.table,
     )
     .unwrap();
@@ -226,17 +228,15 @@ fn msra_recovers_a_known_monotone_relation() {
         lambda_upper: 0.0,
         ..ObjectiveConfig::default()
     };
-    train::train_on(
-        &model,
-        &set,
-        None,
-        &objective,
-        &opt,
-        5e-2,
-        1,
-        Progress::Hidden,
-    )
-    .unwrap();
+    let settings = train::TrainSettings {
+        objective: &objective,
+        optimiser: &opt,
+        learning_rate: 5e-2,
+        seed: 1,
+        progress: Progress::Hidden,
+        beta: None,
+    };
+    train::train_with(&model, &set, None, &settings).unwrap();
     let p = model.params().unwrap();
     let t = &p.terms[0];
     // R decreasing in TTC: w * a < 0.
