@@ -305,6 +305,33 @@ fn config_defaults_parse_and_typos_are_rejected() {
 }
 
 #[test]
+fn config_errors_are_typed_and_keep_their_source() {
+    use riskscore_train::train::config::{ConfigError, HiddenLayersError, InvalidConfig};
+    use std::error::Error as _;
+    let err = TrainConfig::from_toml("[drl]\nhidden = []\n", "net.toml").unwrap_err();
+    match &err {
+        ConfigError::Invalid { path, source } => {
+            assert_eq!(path, "net.toml");
+            assert_eq!(
+                *source,
+                InvalidConfig::Hidden(HiddenLayersError { table: "drl" })
+            );
+        }
+        other => panic!("expected an invalid value, got {other:?}"),
+    }
+    assert_eq!(
+        err.to_string(),
+        "net.toml: drl.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
+    );
+    let err = TrainConfig::from_toml("seed = \"x\"\n", "p.toml").unwrap_err();
+    assert!(matches!(err, ConfigError::Parse { .. }), "{err:?}");
+    assert!(
+        err.source().is_some(),
+        "the TOML error is kept as the source"
+    );
+}
+
+#[test]
 fn msra_overrides_parse_validate_and_name_their_key() {
     let text = "[msra]\ntime_clip = 3.0\nbeta = [1.0, 0.5, 0.0, 0.0]\n[msra.objective]\nlambda_impact = 0.25\n";
     let cfg = TrainConfig::from_toml(text, "m.toml").unwrap();
