@@ -112,14 +112,7 @@ impl MsraGssmParams {
             .terms
             .iter()
             .zip(kinds)
-            .map(|(t, kind)| MsraTerm {
-                kind,
-                weight: t.w,
-                a: t.a,
-                b: t.b,
-                lo: t.lo,
-                hi: t.hi,
-            })
+            .map(|(t, kind)| t.core_term(kind))
             .collect();
         let fb = self.gssm.float_buffers();
         let net = fb.as_core().map_err(|e| GssmError::Export(e.into()))?;

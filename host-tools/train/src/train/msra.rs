@@ -50,6 +50,19 @@ impl MsraTermParams {
     pub fn kind(&self) -> Option<SurrogateKind> {
         parse_surrogate(&self.surrogate)
     }
+
+    /// The core's term of these parameters for surrogate `kind` (the caller decides which kinds,
+    /// e.g. GSSM, it accepts).
+    pub fn core_term(&self, kind: SurrogateKind) -> scorer_core::msra::MsraTerm {
+        scorer_core::msra::MsraTerm {
+            kind,
+            weight: self.w,
+            a: self.a,
+            b: self.b,
+            lo: self.lo,
+            hi: self.hi,
+        }
+    }
 }
 
 /// Float MSRA parameters (the checkpoint content).
