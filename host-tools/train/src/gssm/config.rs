@@ -6,7 +6,6 @@ use std::path::Path;
 use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
-use super::GssmError;
 use crate::train::config::{check_hidden, HiddenLayersError};
 
 /// Lognormal NLL training of the GSSM on safe-driving observations.
@@ -184,21 +183,41 @@ pub enum ConfigurationError {
     TooMany { text: String },
 }
 
+/// A GSSM configuration file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum GssmConfigError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Parse {
+        path: String,
+        source: Box<toml::de::Error>,
+    },
+    #[error("{path}: {source}")]
+    Invalid {
+        path: String,
+        source: InvalidGssmConfig,
+    },
+}
+
 impl GssmConfig {
-    pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmError> {
-        let cfg: GssmConfig = toml::from_str(text).map_err(|source| GssmError::ConfigParse {
+    pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmConfigError> {
+        let cfg: GssmConfig = toml::from_str(text).map_err(|source| GssmConfigError::Parse {
             path: origin.to_string(),
             source: Box::new(source),
         })?;
-        cfg.validate().map_err(|source| GssmError::ConfigInvalid {
+        cfg.validate().map_err(|source| GssmConfigError::Invalid {
             path: origin.to_string(),
-            source: Box::new(source),
+            source,
         })?;
         Ok(cfg)
     }
 
-    pub fn load(path: &Path) -> Result<GssmConfig, GssmError> {
-        let text = std::fs::read_to_string(path).map_err(|source| GssmError::ConfigIo {
+    pub fn load(path: &Path) -> Result<GssmConfig, GssmConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| GssmConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
@@ -206,7 +225,7 @@ impl GssmConfig {
     }
 
     /// The configuration in `path` when given, else the defaults (`--gssm-config FILE`).
-    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmError> {
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmConfigError> {
         path.map_or_else(|| Ok(Self::default()), Self::load)
     }
 

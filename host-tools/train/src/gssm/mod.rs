@@ -40,21 +40,6 @@ pub enum GssmError {
     Config(String),
     #[error("invalid GSSM configuration: {0}")]
     Configuration(#[from] config::ConfigurationError),
-    #[error("{path}: {source}")]
-    ConfigIo {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: {source}")]
-    ConfigParse {
-        path: String,
-        source: Box<toml::de::Error>,
-    },
-    #[error("{path}: {source}")]
-    ConfigInvalid {
-        path: String,
-        source: Box<config::InvalidGssmConfig>,
-    },
     #[error("model blob: {0}")]
     Model(scorer_core::ModelError),
     #[error("{0}")]

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use scorer_core::{drl_inputs, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
-use super::RiskModel;
+use super::model::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
 use crate::nn::mlp::{init_layers, Init, Mlp};
 

@@ -3,24 +3,27 @@
 //! - [`config`]: the TOML hyper-parameters with documented defaults;
 //! - [`objective`]: the source-weighted Bradley-Terry loss plus the endpoint anchoring terms;
 //! - [`drl`]: DRL, the MLP over the 13 standardised features (what the core's int8 network runs);
+//! - [`model`]: [`RiskModel`], what a parameterisation offers the trainer;
 //! - [`msra`]: MSRA, `sum_k w_k sigmoid(a_k g_k(f_k) + b_k)` over the core's surrogate transforms.
 //!
 //! A parameterisation implements [`RiskModel`]: it turns each row of an [`ObservationTable`] into a
 //! fixed-width input once (standardised features, transformed surrogates, ...), and maps a batch of
-//! such rows to scores with candle ops. [`fit`] then does the rest: the validation split of the
-//! training events, comparisons for both parts, mini-batch AdamW, early stopping with the best
-//! parameters restored, progress on stderr.
+//! such rows to scores with candle ops. [`train_with`] then does the rest: mini-batch AdamW over
+//! the comparisons ([`prepare_comparisons`] builds them on the event-level validation split), and
+//! the shared early-stopping loop ([`crate::nn::trainer`]: best parameters restored, progress on
+//! stderr).
 pub mod ablation;
 pub mod config;
 pub mod cv;
 pub mod drl;
+pub mod model;
 pub mod msra;
 pub mod objective;
 
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use candle_core::{DType, Device, Tensor, Var};
+use candle_core::{DType, Device, Tensor};
 use candle_nn::Optimizer;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -31,21 +34,8 @@ use crate::comparisons::{self, ComparisonSet, ObservationTable, TrainingSequence
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
 pub use config::TrainConfig;
 use config::{ObjectiveConfig, OptimiserConfig};
+pub use model::RiskModel;
 pub use objective::LossParts;
-
-/// A trainable risk-score parameterisation.
-pub trait RiskModel {
-    /// Short name for logs ("DRL", "MSRA", ...).
-    fn name(&self) -> &str;
-    /// Width of one observation's input row.
-    fn input_width(&self) -> usize;
-    /// Input rows of every observation of the table, row-major (`table.len() * input_width()`).
-    fn encode(&self, table: &ObservationTable) -> Vec<f32>;
-    /// Scores `[n]` of a batch of input rows `[n, input_width]`.
-    fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor>;
-    /// The trainable variables.
-    fn vars(&self) -> Vec<Var>;
-}
 
 /// Training failures.
 #[derive(Debug, thiserror::Error)]

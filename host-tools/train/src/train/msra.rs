@@ -11,7 +11,7 @@ use candle_core::{DType, Device, Tensor, Var};
 use scorer_core::{SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
-use super::RiskModel;
+use super::model::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
 
 /// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`; case-insensitive, see
