@@ -6,7 +6,9 @@ use std::path::Path;
 use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
-use crate::train::config::{check_hidden, HiddenLayersError};
+use crate::train::config::{
+    check_hidden, parse_toml, read_toml, ConfigFileError, HiddenLayersError,
+};
 
 /// Lognormal NLL training of the GSSM on safe-driving observations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -184,44 +186,15 @@ pub enum ConfigurationError {
 }
 
 /// A GSSM configuration file that cannot be used.
-#[derive(Debug, thiserror::Error)]
-pub enum GssmConfigError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: {source}")]
-    Parse {
-        path: String,
-        source: Box<toml::de::Error>,
-    },
-    #[error("{path}: {source}")]
-    Invalid {
-        path: String,
-        source: InvalidGssmConfig,
-    },
-}
+pub type GssmConfigError = ConfigFileError<InvalidGssmConfig>;
 
 impl GssmConfig {
     pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmConfigError> {
-        let cfg: GssmConfig = toml::from_str(text).map_err(|source| GssmConfigError::Parse {
-            path: origin.to_string(),
-            source: Box::new(source),
-        })?;
-        cfg.validate().map_err(|source| GssmConfigError::Invalid {
-            path: origin.to_string(),
-            source,
-        })?;
-        Ok(cfg)
+        parse_toml(text, origin, GssmConfig::validate)
     }
 
     pub fn load(path: &Path) -> Result<GssmConfig, GssmConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| GssmConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        read_toml(path, GssmConfig::validate)
     }
 
     /// The configuration in `path` when given, else the defaults (`--gssm-config FILE`).

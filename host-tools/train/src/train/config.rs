@@ -229,9 +229,9 @@ pub fn check_hidden(table: &'static str, hidden: &[usize]) -> Result<(), HiddenL
     Ok(())
 }
 
-/// A configuration file that cannot be used.
+/// A configuration file that cannot be used; `E` says what is wrong with its values.
 #[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
+pub enum ConfigFileError<E> {
     #[error("{path}: {source}")]
     Io {
         path: String,
@@ -243,29 +243,55 @@ pub enum ConfigError {
         source: Box<toml::de::Error>,
     },
     #[error("{path}: {source}")]
-    Invalid { path: String, source: InvalidConfig },
+    Invalid { path: String, source: E },
+}
+
+/// A training configuration file that cannot be used.
+pub type ConfigError = ConfigFileError<InvalidConfig>;
+
+/// Parse TOML text into a configuration and check it; `origin` names the file in errors.
+pub fn parse_toml<T, E>(
+    text: &str,
+    origin: &str,
+    validate: impl FnOnce(&T) -> Result<(), E>,
+) -> Result<T, ConfigFileError<E>>
+where
+    T: serde::de::DeserializeOwned,
+{
+    let cfg: T = toml::from_str(text).map_err(|source| ConfigFileError::Parse {
+        path: origin.to_string(),
+        source: Box::new(source),
+    })?;
+    validate(&cfg).map_err(|source| ConfigFileError::Invalid {
+        path: origin.to_string(),
+        source,
+    })?;
+    Ok(cfg)
+}
+
+/// Read, parse and check a TOML configuration file.
+pub fn read_toml<T, E>(
+    path: &Path,
+    validate: impl FnOnce(&T) -> Result<(), E>,
+) -> Result<T, ConfigFileError<E>>
+where
+    T: serde::de::DeserializeOwned,
+{
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigFileError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_toml(&text, &path.display().to_string(), validate)
 }
 
 impl TrainConfig {
     /// Parse TOML text; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TrainConfig, ConfigError> {
-        let cfg: TrainConfig = toml::from_str(text).map_err(|source| ConfigError::Parse {
-            path: origin.to_string(),
-            source: Box::new(source),
-        })?;
-        cfg.validate().map_err(|source| ConfigError::Invalid {
-            path: origin.to_string(),
-            source,
-        })?;
-        Ok(cfg)
+        parse_toml(text, origin, TrainConfig::validate)
     }
 
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        read_toml(path, TrainConfig::validate)
     }
 
     /// The configuration in `path` when given, else the defaults; `seed` (when given) replaces
