@@ -137,7 +137,9 @@ pub enum DrlFormat {
     F32,
 }
 
-fn encode_model(m: &Model<'_>) -> Result<Vec<u8>, ExportError> {
+/// Owned bytes of a model blob written by `scorer_core::model::encode` (decode with
+/// `scorer_core::model::decode`).
+pub fn encode_model(m: &Model<'_>) -> Result<Vec<u8>, ExportError> {
     let len = model::encoded_len(m).map_err(ExportError::Model)?;
     let mut buf = vec![0u8; len];
     let n = model::encode(m, &mut buf).map_err(ExportError::Model)?;
@@ -153,14 +155,7 @@ pub fn msra_terms(params: &MsraParams) -> Result<BoundedVec<MsraTerm, 4>, Export
             term: k,
             name: t.surrogate.clone(),
         })?;
-        terms.push(MsraTerm {
-            kind,
-            weight: t.w,
-            a: t.a,
-            b: t.b,
-            lo: t.lo,
-            hi: t.hi,
-        });
+        terms.push(t.core_term(kind));
     }
     BoundedVec::from_slice(&terms).map_err(ExportError::Model)
 }

@@ -5,6 +5,7 @@
 //! - [`comparisons`]: pairwise comparisons, one module per source.
 //! - [`train`]: objective and training for DRL and MSRA, event-level cross-validation, ablation.
 //! - [`gssm`]: GSSM, SSRA and MSRA over GSSM (fit, align, combine, studies).
+//! - [`nn`]: the shared candle kernel: the dense network and the early-stopping trainer.
 //! - [`quantize`]: post-training int8 quantisation through the core's requantisation.
 //! - [`export`]: writing and inspecting model blobs and checkpoints.
 //! - [`final_models`]: DRL and MSRA trained on all data, quantised and written (`riskctl train`).
@@ -13,6 +14,7 @@ pub mod comparisons;
 pub mod export;
 pub mod final_models;
 pub mod gssm;
+pub mod nn;
 pub mod quantize;
 pub mod train;
 pub mod transfer;

@@ -19,7 +19,7 @@ use scorer_core::model::BoundedVec;
 use scorer_core::{quant, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
-use crate::train::drl::{Drl, DrlParams};
+use crate::train::drl::{DenseLayer, Drl, DrlParams, FeatureScaler};
 
 /// Value range of one tensor.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -192,14 +192,15 @@ pub struct FloatBuffers {
 }
 
 impl FloatBuffers {
-    pub fn from_params(p: &DrlParams) -> FloatBuffers {
-        let last = p.layers.len().saturating_sub(1);
+    /// The buffers of a dense network reading the features `inputs` (in network-input order),
+    /// standardised by `scaler`, through `layers` (ReLU on all but the last).
+    pub fn new(inputs: &[u8], scaler: &FeatureScaler, layers: &[DenseLayer]) -> FloatBuffers {
+        let last = layers.len().saturating_sub(1);
         FloatBuffers {
-            inputs: (0..FEATURE_COUNT as u8).collect(),
-            input_scale: (0..FEATURE_COUNT).map(|k| p.scaler.scale(k)).collect(),
-            input_offset: (0..FEATURE_COUNT).map(|k| p.scaler.offset(k)).collect(),
-            layers: p
-                .layers
+            inputs: inputs.to_vec(),
+            input_scale: inputs.iter().map(|&k| scaler.scale(k as usize)).collect(),
+            input_offset: inputs.iter().map(|&k| scaler.offset(k as usize)).collect(),
+            layers: layers
                 .iter()
                 .enumerate()
                 .map(|(i, l)| {
@@ -212,6 +213,12 @@ impl FloatBuffers {
                 })
                 .collect(),
         }
+    }
+
+    /// The buffers of a float DRL network (all DRL inputs in order).
+    pub fn from_params(p: &DrlParams) -> FloatBuffers {
+        let inputs: Vec<u8> = (0..FEATURE_COUNT as u8).collect();
+        FloatBuffers::new(&inputs, &p.scaler, &p.layers)
     }
 
     /// The core's view (validated).

@@ -403,6 +403,26 @@ fn configuration_defaults_validate_and_typos_are_rejected() {
     assert!(GssmConfig::from_toml("[fit]\nhiden = [16]\n", "x.toml").is_err());
     assert!(GssmConfig::from_toml("[msra]\nconfigurations = [\"ei+gsm\"]\n", "x.toml").is_err());
     assert!(GssmConfig::from_toml("[fit]\nhidden = [65]\n", "x.toml").is_err());
+    // Typed: the network check is the one DRL's configuration uses.
+    use riskscore_train::gssm::config::{ConfigurationError, GssmConfigError, InvalidGssmConfig};
+    use riskscore_train::train::config::HiddenLayersError;
+    match GssmConfig::from_toml("[fit]\nhidden = [65]\n", "x.toml") {
+        Err(GssmConfigError::Invalid { path, source }) => {
+            assert_eq!(path, "x.toml");
+            assert_eq!(
+                source,
+                InvalidGssmConfig::Hidden(HiddenLayersError { table: "fit" })
+            );
+        }
+        other => panic!("expected an invalid value, got {other:?}"),
+    }
+    assert_eq!(
+        parse_configuration("ei+ei"),
+        Err(ConfigurationError::Repeated {
+            text: "ei+ei".into(),
+            part: "ei".into()
+        })
+    );
 }
 
 #[test]

@@ -211,8 +211,10 @@ fn msra_recovers_a_known_monotone_relation() {
         ..ComparisonSet::default()
     };
     let model = msra::Msra::from_table(
-        &[SurrogateKind::Ttc2d],
-        &[msra::default_range(SurrogateKind::Ttc2d)],
+        &[(
+            SurrogateKind::Ttc2d,
+            msra::default_range(SurrogateKind::Ttc2d),
+        )],
         &set.table,
     )
     .unwrap();
@@ -226,17 +228,15 @@ fn msra_recovers_a_known_monotone_relation() {
         lambda_upper: 0.0,
         ..ObjectiveConfig::default()
     };
-    train::train_on(
-        &model,
-        &set,
-        None,
-        &objective,
-        &opt,
-        5e-2,
-        1,
-        Progress::Hidden,
-    )
-    .unwrap();
+    let settings = train::TrainSettings {
+        objective: &objective,
+        optimiser: &opt,
+        learning_rate: 5e-2,
+        seed: 1,
+        progress: Progress::Hidden,
+        beta: None,
+    };
+    train::train_with(&model, &set, None, &settings).unwrap();
     let p = model.params().unwrap();
     let t = &p.terms[0];
     // R decreasing in TTC: w * a < 0.
@@ -302,6 +302,33 @@ fn config_defaults_parse_and_typos_are_rejected() {
     // The shipped configuration is the documented defaults.
     let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/train.toml");
     assert_eq!(TrainConfig::load(&shipped).unwrap(), TrainConfig::default());
+}
+
+#[test]
+fn config_errors_are_typed_and_keep_their_source() {
+    use riskscore_train::train::config::{ConfigError, HiddenLayersError, InvalidConfig};
+    use std::error::Error as _;
+    let err = TrainConfig::from_toml("[drl]\nhidden = []\n", "net.toml").unwrap_err();
+    match &err {
+        ConfigError::Invalid { path, source } => {
+            assert_eq!(path, "net.toml");
+            assert_eq!(
+                *source,
+                InvalidConfig::Hidden(HiddenLayersError { table: "drl" })
+            );
+        }
+        other => panic!("expected an invalid value, got {other:?}"),
+    }
+    assert_eq!(
+        err.to_string(),
+        "net.toml: drl.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
+    );
+    let err = TrainConfig::from_toml("seed = \"x\"\n", "p.toml").unwrap_err();
+    assert!(matches!(err, ConfigError::Parse { .. }), "{err:?}");
+    assert!(
+        err.source().is_some(),
+        "the TOML error is kept as the source"
+    );
 }
 
 #[test]

@@ -6,7 +6,9 @@ use std::path::Path;
 use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
-use super::GssmError;
+use crate::train::config::{
+    check_hidden, parse_toml, read_toml, ConfigFileError, HiddenLayersError,
+};
 
 /// Lognormal NLL training of the GSSM on safe-driving observations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -153,65 +155,79 @@ fn positive(x: f64) -> bool {
     x > 0.0 && x.is_finite()
 }
 
+/// What is wrong with a GSSM configuration's values.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InvalidGssmConfig {
+    #[error(transparent)]
+    Hidden(#[from] HiddenLayersError),
+    #[error("fit: learning_rate, batch and max_epochs must be > 0")]
+    FitRates,
+    #[error("fit: smoothness >= 0 and smoothness_noise > 0 required")]
+    Smoothness,
+    #[error("ssra: learning_rate and max_epochs must be > 0")]
+    SsraRates,
+    #[error("ssra: lambda_impact, lambda_upper >= 0 and finite u < r_star required")]
+    SsraAnchors,
+    #[error("msra.learning_rate must be > 0")]
+    MsraRate,
+    #[error(transparent)]
+    Configuration(#[from] ConfigurationError),
+}
+
+/// An MSRA-over-GSSM configuration name that does not parse.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ConfigurationError {
+    #[error("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")]
+    UnknownSurrogate { text: String, part: String },
+    #[error("configuration {text:?}: {part:?} appears twice")]
+    Repeated { text: String, part: String },
+    #[error("configuration {text:?}: at most 4 surrogates")]
+    TooMany { text: String },
+}
+
+/// A GSSM configuration file that cannot be used.
+pub type GssmConfigError = ConfigFileError<InvalidGssmConfig>;
+
 impl GssmConfig {
-    pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmError> {
-        let cfg: GssmConfig = toml::from_str(text).map_err(|e| GssmError::File {
-            path: origin.to_string(),
-            message: e.to_string(),
-        })?;
-        cfg.validate().map_err(|message| GssmError::File {
-            path: origin.to_string(),
-            message,
-        })?;
-        Ok(cfg)
+    pub fn from_toml(text: &str, origin: &str) -> Result<GssmConfig, GssmConfigError> {
+        parse_toml(text, origin, GssmConfig::validate)
     }
 
-    pub fn load(path: &Path) -> Result<GssmConfig, GssmError> {
-        let text = std::fs::read_to_string(path).map_err(|e| GssmError::File {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+    pub fn load(path: &Path) -> Result<GssmConfig, GssmConfigError> {
+        read_toml(path, GssmConfig::validate)
     }
 
     /// The configuration in `path` when given, else the defaults (`--gssm-config FILE`).
-    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmError> {
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, GssmConfigError> {
         path.map_or_else(|| Ok(Self::default()), Self::load)
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), InvalidGssmConfig> {
         let f = &self.fit;
-        if f.hidden.is_empty() || f.hidden.len() > 3 || f.hidden.iter().any(|&w| w == 0 || w > 64) {
-            return Err(
-                "fit.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
-                    .into(),
-            );
-        }
+        check_hidden("fit", &f.hidden)?;
         if !positive(f.learning_rate) || f.batch == 0 || f.max_epochs == 0 {
-            return Err("fit: learning_rate, batch and max_epochs must be > 0".into());
+            return Err(InvalidGssmConfig::FitRates);
         }
         if !(f.smoothness >= 0.0
             && f.smoothness.is_finite()
             && f.smoothness_noise > 0.0
             && f.smoothness_noise.is_finite())
         {
-            return Err("fit: smoothness >= 0 and smoothness_noise > 0 required".into());
+            return Err(InvalidGssmConfig::Smoothness);
         }
         let r = &self.ssra;
         if !positive(r.learning_rate) || r.max_epochs == 0 {
-            return Err("ssra: learning_rate and max_epochs must be > 0".into());
+            return Err(InvalidGssmConfig::SsraRates);
         }
         if !(r.lambda_impact >= 0.0
             && r.lambda_upper >= 0.0
             && r.u < r.r_star
             && r.r_star.is_finite())
         {
-            return Err(
-                "ssra: lambda_impact, lambda_upper >= 0 and finite u < r_star required".into(),
-            );
+            return Err(InvalidGssmConfig::SsraAnchors);
         }
         if !positive(self.msra.learning_rate) {
-            return Err("msra.learning_rate must be > 0".into());
+            return Err(InvalidGssmConfig::MsraRate);
         }
         for c in self.msra.configurations.iter().chain([&self.msra.shipped]) {
             parse_configuration(c)?;
@@ -221,19 +237,26 @@ impl GssmConfig {
 }
 
 /// Parse a configuration such as `tadv+ei+gssm` (1 to 4 distinct surrogates).
-pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, String> {
+pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, ConfigurationError> {
     let mut kinds = Vec::new();
     for part in text.split('+') {
-        let kind = SurrogateKind::parse(part).ok_or_else(|| {
-            format!("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")
-        })?;
+        let kind =
+            SurrogateKind::parse(part).ok_or_else(|| ConfigurationError::UnknownSurrogate {
+                text: text.to_string(),
+                part: part.to_string(),
+            })?;
         if kinds.contains(&kind) {
-            return Err(format!("configuration {text:?}: {part:?} appears twice"));
+            return Err(ConfigurationError::Repeated {
+                text: text.to_string(),
+                part: part.to_string(),
+            });
         }
         kinds.push(kind);
     }
     if kinds.len() > scorer_core::msra::MAX_TERMS {
-        return Err(format!("configuration {text:?}: at most 4 surrogates"));
+        return Err(ConfigurationError::TooMany {
+            text: text.to_string(),
+        });
     }
     Ok(kinds)
 }

@@ -14,7 +14,7 @@
 use std::time::Instant;
 
 use candle_core::{Device, Tensor};
-use candle_nn::{AdamW, Optimizer, ParamsAdamW};
+use candle_nn::Optimizer;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -27,8 +27,8 @@ use super::config::FitConfig;
 use super::net::{GssmNet, GssmParams, CONTEXT_WIDTH, ROW_WIDTH};
 use super::GssmError;
 use crate::comparisons::TrainingSequence;
+use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome, Progress};
 use crate::train::drl::FeatureScaler;
-use crate::train::Progress;
 
 /// What a GSSM fit did.
 #[derive(Clone, Debug, Serialize)]
@@ -133,24 +133,6 @@ fn objective(
     Ok((total, nll))
 }
 
-fn progress_bar(progress: Progress, len: usize) -> indicatif::ProgressBar {
-    match progress {
-        Progress::Hidden => indicatif::ProgressBar::hidden(),
-        Progress::Bar => {
-            let pb = indicatif::ProgressBar::with_draw_target(
-                Some(len as u64),
-                indicatif::ProgressDrawTarget::stderr(),
-            );
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "    GSSM [{bar:30}] epoch {pos}/{len} {msg}",
-            ) {
-                pb.set_style(style.progress_chars("=> "));
-            }
-            pb
-        }
-    }
-}
-
 /// Fit a GSSM on given observations (all must have a finite positive spacing). The feature
 /// standardisation and the head initialisation (marginal lognormal) are measured on `obs`;
 /// `validation` (possibly empty) decides early stopping.
@@ -185,28 +167,20 @@ pub fn fit_gssm_on_observations(
         Some(net.rows_tensor(&validation)?)
     };
     let vars = net.vars();
-    let mut opt = AdamW::new(
-        vars.clone(),
-        ParamsAdamW {
-            lr: config.learning_rate,
-            weight_decay: config.weight_decay,
-            ..ParamsAdamW::default()
-        },
-    )?;
+    let mut opt = adamw(vars.clone(), config.learning_rate, config.weight_decay)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0655_DF17);
     let noise_dist = Normal::new(0.0f32, config.smoothness_noise)
         .map_err(|e| GssmError::Config(format!("smoothness_noise: {e}")))?;
     let n = obs.len();
     let batches = n.div_ceil(config.batch).max(1);
     let mut order: Vec<u32> = (0..n as u32).collect();
-    let mut best: Option<(f64, usize, Vec<Tensor>)> = None;
-    let mut since_best = 0usize;
     let mut history = Vec::new();
-    let mut stopped_early = false;
-    let pb = progress_bar(progress, config.max_epochs);
-    let mut epoch = 0;
-    while epoch < config.max_epochs {
-        epoch += 1;
+    let rule = EarlyStopping {
+        max_epochs: config.max_epochs,
+        patience: config.patience,
+        min_delta: config.min_delta,
+    };
+    let stop = rule.run(&vars, "GSSM", progress, |epoch| {
         order.shuffle(&mut rng);
         let mut sum = 0.0f64;
         for b in 0..batches {
@@ -229,7 +203,6 @@ pub fn fit_gssm_on_observations(
                 objective(&net, &batch, noise.as_ref().map(|t| (config.smoothness, t)))?;
             let value = f64::from(loss.to_scalar::<f32>()?);
             if !value.is_finite() {
-                pb.finish_and_clear();
                 return Err(GssmError::Diverged { epoch });
             }
             opt.backward_step(&loss)?;
@@ -241,41 +214,14 @@ pub fn fit_gssm_on_observations(
             None => None,
         };
         history.push((epoch, train_loss, val_nll));
-        pb.set_message(match val_nll {
-            Some(v) => format!("loss {train_loss:.4} val nll {v:.4}"),
-            None => format!("loss {train_loss:.4}"),
-        });
-        pb.inc(1);
-        let criterion = val_nll.unwrap_or(train_loss);
-        let improved = match &best {
-            None => true,
-            Some((b, _, _)) => criterion < b - config.min_delta,
-        };
-        if improved {
-            let saved = vars
-                .iter()
-                .map(|v| v.as_tensor().copy())
-                .collect::<candle_core::Result<Vec<_>>>()?;
-            best = Some((criterion, epoch, saved));
-            since_best = 0;
-        } else {
-            since_best += 1;
-            if since_best >= config.patience {
-                stopped_early = true;
-                break;
-            }
-        }
-    }
-    pb.finish_and_clear();
-    let best_epoch = match best {
-        Some((_, e, saved)) => {
-            for (v, t) in vars.iter().zip(&saved) {
-                v.set(t)?;
-            }
-            e
-        }
-        None => epoch,
-    };
+        Ok(EpochOutcome {
+            criterion: val_nll.unwrap_or(train_loss),
+            message: match val_nll {
+                Some(v) => format!("loss {train_loss:.4} val nll {v:.4}"),
+                None => format!("loss {train_loss:.4}"),
+            },
+        })
+    })?;
     let train_nll = f64::from(objective(&net, &rows, None)?.1.to_scalar::<f32>()?);
     let validation_nll = match &val_rows {
         Some(v) => Some(f64::from(objective(&net, v, None)?.1.to_scalar::<f32>()?)),
@@ -285,9 +231,9 @@ pub fn fit_gssm_on_observations(
     Ok(TrainedGssm {
         params: net.params()?,
         report: FitReport {
-            epochs: epoch,
-            best_epoch,
-            stopped_early,
+            epochs: stop.epochs,
+            best_epoch: stop.best_epoch,
+            stopped_early: stop.stopped_early,
             seconds: started.elapsed().as_secs_f64(),
             observations: n,
             validation_observations: validation.len(),

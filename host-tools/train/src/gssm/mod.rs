@@ -38,8 +38,8 @@ pub enum GssmError {
     Diverged { epoch: usize },
     #[error("invalid GSSM configuration: {0}")]
     Config(String),
-    #[error("{path}: {message}")]
-    File { path: String, message: String },
+    #[error("invalid GSSM configuration: {0}")]
+    Configuration(#[from] config::ConfigurationError),
     #[error("model blob: {0}")]
     Model(scorer_core::ModelError),
     #[error("{0}")]
@@ -61,11 +61,7 @@ impl From<scorer_core::ModelError> for GssmError {
 /// Owned bytes of a model blob written by `scorer_core::model::encode` (decode with
 /// `scorer_core::model::decode`).
 pub fn encode_blob(model: &scorer_core::Model<'_>) -> Result<Vec<u8>, GssmError> {
-    let len = scorer_core::model::encoded_len(model)?;
-    let mut buf = vec![0u8; len];
-    let n = scorer_core::model::encode(model, &mut buf)?;
-    buf.truncate(n);
-    Ok(buf)
+    Ok(crate::export::encode_model(model)?)
 }
 
 /// Row name in evaluation tables for a decoded model: `GSSM` for a GSSM blob scoring its intensity

@@ -14,10 +14,10 @@
 //! of its value from the safe to the risky end of its clip range; `share_k = span_k / sum_j
 //! |span_j|` is signed (negative = the term lowers the risk towards its risky end, i.e. it works
 //! against its surrogate's meaning).
-use candle_core::{DType, Device, Tensor, Var};
+use candle_core::{Tensor, Var};
 use scorer_core::gssm::{GssmModel, GssmScore};
 use scorer_core::model::BoundedVec;
-use scorer_core::msra::{sigmoid, transform, MsraModel, MsraTerm};
+use scorer_core::msra::{sigmoid, MsraModel, MsraTerm};
 use scorer_core::{Features, Model, SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
@@ -26,8 +26,10 @@ pub use super::config::parse_configuration;
 use super::net::GssmParams;
 use super::GssmError;
 use crate::comparisons::{ObservationTable, TrainingSequence};
-use crate::train::msra::{default_range, MsraTermParams};
-use crate::train::{self, PreparedComparisons, Progress, RiskModel, TrainConfig, TrainReport};
+use crate::train::msra::{default_range, MsraTermParams, MsraTerms};
+use crate::train::{
+    self, PreparedComparisons, Progress, RiskModel, TrainConfig, TrainReport, TrainSettings,
+};
 
 /// Clip range of the GSSM term: the intensity lies in `[0, log10(ln 0.5 / ln(1 - 1e-6))] ~ [0, 5.84]`.
 pub const GSSM_RANGE: (f32, f32) = (0.0, 5.85);
@@ -110,14 +112,7 @@ impl MsraGssmParams {
             .terms
             .iter()
             .zip(kinds)
-            .map(|(t, kind)| MsraTerm {
-                kind,
-                weight: t.w,
-                a: t.a,
-                b: t.b,
-                lo: t.lo,
-                hi: t.hi,
-            })
+            .map(|(t, kind)| t.core_term(kind))
             .collect();
         let fb = self.gssm.float_buffers();
         let net = fb.as_core().map_err(|e| GssmError::Export(e.into()))?;
@@ -162,17 +157,12 @@ impl MsraGssmParams {
     }
 }
 
-/// The trainable MSRA-with-GSSM model.
+/// The trainable MSRA-with-GSSM model: the shared [`MsraTerms`] with raw values read through the
+/// core (the GSSM term by the embedded, frozen network).
 pub struct MsraGssm {
-    kinds: Vec<SurrogateKind>,
-    ranges: Vec<(f32, f32)>,
-    centre: Vec<f32>,
-    spread: Vec<f32>,
+    terms: MsraTerms,
     gssm: GssmParams,
     gssm_blob: Vec<u8>,
-    w: Var,
-    a: Var,
-    b: Var,
 }
 
 impl MsraGssm {
@@ -184,51 +174,23 @@ impl MsraGssm {
         seqs: &[TrainingSequence],
     ) -> Result<MsraGssm, GssmError> {
         let gssm_blob = gssm.gssm_blob(GssmScore::Intensity)?;
-        let ranges: Vec<(f32, f32)> = kinds.iter().map(|&k| term_range(k)).collect();
-        let k = kinds.len();
-        let mut sum = vec![0f64; k];
-        let mut sq = vec![0f64; k];
-        let mut n = 0usize;
-        {
+        let terms: Vec<(SurrogateKind, (f32, f32))> =
+            kinds.iter().map(|&k| (k, term_range(k))).collect();
+        let terms = {
             let core = Self::core_reader(&gssm_blob)?;
-            for s in seqs {
-                for (e, p) in s.ego.iter().zip(&s.partner) {
+            let raw_rows = seqs.iter().flat_map(|s| {
+                s.ego.iter().zip(&s.partner).map(|(e, p)| {
                     let f = scorer_core::features(e, p);
                     let surr = scorer_core::surrogates(e, p);
-                    for (j, raw) in raw_values(&core, kinds, &f, &surr).into_iter().enumerate() {
-                        let g = f64::from(transform(kinds[j], raw, ranges[j].0, ranges[j].1));
-                        sum[j] += g;
-                        sq[j] += g * g;
-                    }
-                    n += 1;
-                }
-            }
-        }
-        let mut centre = vec![0f32; k];
-        let mut spread = vec![1f32; k];
-        for j in 0..k {
-            if n > 0 {
-                let m = sum[j] / n as f64;
-                let sd = (sq[j] / n as f64 - m * m).max(0.0).sqrt();
-                centre[j] = m as f32;
-                spread[j] = if sd > 1e-6 { sd as f32 } else { 1.0 };
-            }
-        }
-        // Start every term in its risk direction (the transform is increasing in the raw value).
-        let init_a: Vec<f32> = kinds
-            .iter()
-            .map(|&kind| if kind.larger_is_riskier() { 1.0 } else { -1.0 })
-            .collect();
+                    raw_values(&core, kinds, &f, &surr)
+                })
+            });
+            MsraTerms::fit(&terms, raw_rows)?
+        };
         Ok(MsraGssm {
-            kinds: kinds.to_vec(),
-            ranges,
-            centre,
-            spread,
+            terms,
             gssm: gssm.clone(),
             gssm_blob,
-            w: Var::from_vec(vec![1.0f32; k], k, &Device::Cpu)?,
-            a: Var::from_vec(init_a, k, &Device::Cpu)?,
-            b: Var::zeros(k, DType::F32, &Device::Cpu)?,
         })
     }
 
@@ -246,35 +208,19 @@ impl MsraGssm {
     }
 
     pub fn kinds(&self) -> &[SurrogateKind] {
-        &self.kinds
+        self.terms.kinds()
     }
 
     /// Deployed-form parameters.
     pub fn params(&self) -> candle_core::Result<MsraGssmParams> {
-        let w = self.w.as_tensor().to_vec1::<f32>()?;
-        let a = self.a.as_tensor().to_vec1::<f32>()?;
-        let b = self.b.as_tensor().to_vec1::<f32>()?;
-        let terms = (0..self.kinds.len())
-            .map(|k| {
-                let (m, s) = (self.centre[k], self.spread[k]);
-                MsraTermParams {
-                    surrogate: self.kinds[k].key().to_string(),
-                    lo: self.ranges[k].0,
-                    hi: self.ranges[k].1,
-                    w: w[k],
-                    a: a[k] / s,
-                    b: b[k] - a[k] * m / s,
-                }
-            })
-            .collect();
         Ok(MsraGssmParams {
             configuration: self
-                .kinds
+                .kinds()
                 .iter()
                 .map(|&k| k.key())
                 .collect::<Vec<_>>()
                 .join("+"),
-            terms,
+            terms: self.terms.params()?,
             gssm: self.gssm.clone(),
         })
     }
@@ -286,31 +232,34 @@ impl RiskModel for MsraGssm {
     }
 
     fn input_width(&self) -> usize {
-        self.kinds.len()
+        self.kinds().len()
     }
 
     fn encode(&self, table: &ObservationTable) -> Vec<f32> {
-        let mut rows = Vec::with_capacity(table.len() * self.kinds.len());
+        let kinds = self.kinds();
+        let mut rows = Vec::with_capacity(table.len() * kinds.len());
         // The blob was produced by `gssm_blob` at construction and decodes; a failure here would be
         // a core bug, and yields the "no conflict" input (0 after standardisation) for every row.
         let core = Self::core_reader(&self.gssm_blob).ok();
+        let mut raw = Vec::with_capacity(kinds.len());
         for (f, s) in table.features.iter().zip(&table.surrogates) {
-            for (k, &kind) in self.kinds.iter().enumerate() {
-                let raw = core.as_ref().map_or(f32::NAN, |c| c.raw(kind, f, s));
-                let g = transform(kind, raw, self.ranges[k].0, self.ranges[k].1);
-                let z = (g - self.centre[k]) / self.spread[k];
-                rows.push(if z.is_finite() { z } else { 0.0 });
-            }
+            raw.clear();
+            raw.extend(
+                kinds
+                    .iter()
+                    .map(|&kind| core.as_ref().map_or(f32::NAN, |c| c.raw(kind, f, s))),
+            );
+            self.terms.encode_row(&raw, &mut rows);
         }
         rows
     }
 
     fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
-        crate::train::msra::msra_forward(inputs, &self.w, &self.a, &self.b)
+        self.terms.forward(inputs)
     }
 
     fn vars(&self) -> Vec<Var> {
-        vec![self.w.clone(), self.a.clone(), self.b.clone()]
+        self.terms.vars()
     }
 }
 
@@ -333,15 +282,19 @@ pub fn align_msra_gssm(
     progress: Progress,
 ) -> Result<TrainedMsraGssm, GssmError> {
     let model = MsraGssm::new(kinds, gssm, train)?;
-    let report = train::train_on(
+    let settings = TrainSettings {
+        objective: &config.objective,
+        optimiser: &config.optimiser,
+        learning_rate,
+        seed: config.seed,
+        progress,
+        beta: None,
+    };
+    let report = train::train_with(
         &model,
         &prepared.fit,
         (!prepared.validation.pairs.is_empty()).then_some(&prepared.validation),
-        &config.objective,
-        &config.optimiser,
-        learning_rate,
-        config.seed,
-        progress,
+        &settings,
     )?;
     Ok(TrainedMsraGssm {
         params: model.params()?,

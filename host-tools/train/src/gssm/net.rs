@@ -14,7 +14,6 @@
 //! carries a guard code (`0` spacing usable, `1` contact `s <= 0` -> `F_S = 1`, `-1` no spacing
 //! `s` infinite/NaN -> `F_S = 0`).
 use candle_core::{DType, Device, Tensor, Var};
-use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use scorer_core::gssm::{
@@ -25,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::config::SsraScore;
 use super::GssmError;
+use crate::nn::mlp::{init_layers, Init, Mlp};
 use crate::quantize::FloatBuffers;
 use crate::train::drl::{DenseLayer, FeatureScaler};
 
@@ -57,29 +57,7 @@ pub struct GssmParams {
 impl GssmParams {
     /// The core's f32 network buffers (context selection, standardisation, layers).
     pub fn float_buffers(&self) -> FloatBuffers {
-        let ctx = context_indices();
-        let last = self.layers.len().saturating_sub(1);
-        FloatBuffers {
-            inputs: ctx.to_vec(),
-            input_scale: ctx.iter().map(|&k| self.scaler.scale(k as usize)).collect(),
-            input_offset: ctx
-                .iter()
-                .map(|&k| self.scaler.offset(k as usize))
-                .collect(),
-            layers: self
-                .layers
-                .iter()
-                .enumerate()
-                .map(|(i, l)| {
-                    (
-                        l.outputs as u16,
-                        i < last,
-                        l.weight.iter().flat_map(|w| w.to_le_bytes()).collect(),
-                        l.bias.iter().flat_map(|b| b.to_le_bytes()).collect(),
-                    )
-                })
-                .collect(),
-        }
+        FloatBuffers::new(&context_indices(), &self.scaler, &self.layers)
     }
 
     /// The GSSM-kind model blob with the given score mode (`Intensity` = the GSSM baseline,
@@ -187,7 +165,7 @@ fn guard(s: f32) -> (f32, f32) {
 /// The trainable GSSM network.
 pub struct GssmNet {
     scaler: FeatureScaler,
-    layers: Vec<(Var, Var)>,
+    mlp: Mlp,
 }
 
 impl GssmNet {
@@ -204,65 +182,32 @@ impl GssmNet {
         let mut sizes = vec![CONTEXT_WIDTH];
         sizes.extend_from_slice(hidden);
         sizes.push(2);
-        let n = sizes.len() - 1;
-        let mut layers = Vec::new();
-        for (i, w) in sizes.windows(2).enumerate() {
-            let (fan_in, fan_out) = (w[0], w[1]);
-            let last = i + 1 == n;
-            let bound = (6.0 / fan_in as f32).sqrt() * if last { 0.1 } else { 1.0 };
-            let weight: Vec<f32> = (0..fan_in * fan_out)
-                .map(|_| rng.random_range(-bound..bound))
-                .collect();
-            let bias = if last {
-                vec![mu0, log_var0]
-            } else {
-                vec![0.0; fan_out]
-            };
-            layers.push((
-                Var::from_vec(weight, (fan_out, fan_in), &Device::Cpu)?,
-                Var::from_vec(bias, fan_out, &Device::Cpu)?,
-            ));
-        }
-        Ok(GssmNet { scaler, layers })
+        let heads = [mu0, log_var0];
+        let init = Init {
+            last_weight_scale: 0.1,
+            last_bias: Some(&heads),
+        };
+        let layers = init_layers(&sizes, &mut rng, init);
+        GssmNet::from_params(&GssmParams { scaler, layers })
     }
 
     /// A network holding the given parameters.
     pub fn from_params(p: &GssmParams) -> candle_core::Result<GssmNet> {
-        let mut layers = Vec::new();
-        for l in &p.layers {
-            layers.push((
-                Var::from_vec(l.weight.clone(), (l.outputs, l.inputs), &Device::Cpu)?,
-                Var::from_vec(l.bias.clone(), l.outputs, &Device::Cpu)?,
-            ));
-        }
         Ok(GssmNet {
             scaler: p.scaler.clone(),
-            layers,
+            mlp: Mlp::from_layers(&p.layers)?,
         })
     }
 
     pub fn params(&self) -> candle_core::Result<GssmParams> {
-        let mut layers = Vec::new();
-        for (w, b) in &self.layers {
-            let (outputs, inputs) = w.as_tensor().dims2()?;
-            layers.push(DenseLayer {
-                inputs,
-                outputs,
-                weight: w.as_tensor().flatten_all()?.to_vec1::<f32>()?,
-                bias: b.as_tensor().to_vec1::<f32>()?,
-            });
-        }
         Ok(GssmParams {
             scaler: self.scaler.clone(),
-            layers,
+            layers: self.mlp.layers()?,
         })
     }
 
     pub fn vars(&self) -> Vec<Var> {
-        self.layers
-            .iter()
-            .flat_map(|(w, b)| [w.clone(), b.clone()])
-            .collect()
+        self.mlp.vars()
     }
 
     /// Encoded rows ([`ROW_WIDTH`] each): the context standardised through the core's
@@ -291,17 +236,7 @@ impl GssmNet {
 
     /// Unclamped network outputs `[n, 2]` for a batch of standardised contexts `[n, 12]`.
     pub fn context_forward(&self, context: &Tensor) -> candle_core::Result<Tensor> {
-        let mut x = context.clone();
-        let last = self.layers.len() - 1;
-        for (i, (w, b)) in self.layers.iter().enumerate() {
-            x = x
-                .matmul(&w.as_tensor().t()?)?
-                .broadcast_add(b.as_tensor())?;
-            if i < last {
-                x = x.relu()?;
-            }
-        }
-        Ok(x)
+        self.mlp.forward(context)
     }
 
     /// Clamped `(mu, log sigma^2)`, each `[n]`, from a batch of standardised contexts.

@@ -42,7 +42,7 @@ pub fn ship(
     gssm_config: &GssmConfig,
     progress: Progress,
 ) -> Result<Shipped, GssmError> {
-    let kinds = parse_configuration(&gssm_config.msra.shipped).map_err(GssmError::Config)?;
+    let kinds = parse_configuration(&gssm_config.msra.shipped)?;
     let gssm = fit_gssm(
         normal,
         config.optimiser.validation_fraction,

@@ -5,7 +5,7 @@
 //! the CDF in the training graph ([`GssmNet::score`]). No parameter is added: the exported model is
 //! the same GSSM network with the SSRA score mode.
 //!
-//! The generic trainer ([`crate::train::train_on`]) runs the optimisation (mini-batch AdamW, early
+//! The generic trainer ([`crate::train::train_with`]) runs the optimisation (mini-batch AdamW, early
 //! stopping on the validation comparisons, best epoch restored). Because alignment starts from a
 //! trained model, the starting point competes too: if the best fine-tuned parameters have a higher
 //! validation objective than the GSSM itself, the GSSM's parameters are kept (`kept_initial`).
@@ -18,6 +18,7 @@ use crate::comparisons::{ComparisonSet, ObservationTable};
 use crate::train::config::ObjectiveConfig;
 use crate::train::{
     self, objective, LossParts, PreparedComparisons, Progress, RiskModel, TrainConfig, TrainReport,
+    TrainSettings,
 };
 
 /// The SSRA parameterisation: a GSSM network scored through its CDF.
@@ -135,15 +136,19 @@ pub fn align_ssra(
     let mut optimiser = config.optimiser.clone();
     optimiser.max_epochs = ssra.max_epochs;
     optimiser.patience = ssra.patience;
-    let report = train::train_on(
+    let settings = TrainSettings {
+        objective: &objective,
+        optimiser: &optimiser,
+        learning_rate: ssra.learning_rate,
+        seed: config.seed,
+        progress,
+        beta: None,
+    };
+    let report = train::train_with(
         &model,
         &prepared.fit,
         has_val.then_some(&prepared.validation),
-        &objective,
-        &optimiser,
-        ssra.learning_rate,
-        config.seed,
-        progress,
+        &settings,
     )?;
     let mut params = model.params()?;
     let mut final_validation = if has_val {

@@ -121,8 +121,42 @@ pub fn baselines(seqs: &[Sequence], folds: usize, seed: u64) -> Result<CvReport,
     Ok(eval::aggregate(events, &results))
 }
 
-/// Metric keys of the ablation tables, in `MethodSummary::stats` order.
-const TABLE_METRICS: [&str; 5] = ["A_ROC_90", "A_ROC_80", "P_PRC_90", "P_PRC_80", "mTTI_90"];
+/// The metrics of a `MethodSummary`, in the order of its `stats` (`riskscore_eval`'s metric keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Metric {
+    ARoc90,
+    ARoc80,
+    PPrc90,
+    PPrc80,
+    Mtti90,
+}
+
+impl Metric {
+    /// Every metric, in `stats` order (the CSV rows' order).
+    const ALL: [Metric; 5] = [
+        Metric::ARoc90,
+        Metric::ARoc80,
+        Metric::PPrc90,
+        Metric::PPrc80,
+        Metric::Mtti90,
+    ];
+
+    /// The column key in the tables.
+    fn key(self) -> &'static str {
+        match self {
+            Metric::ARoc90 => "A_ROC_90",
+            Metric::ARoc80 => "A_ROC_80",
+            Metric::PPrc90 => "P_PRC_90",
+            Metric::PPrc80 => "P_PRC_80",
+            Metric::Mtti90 => "mTTI_90",
+        }
+    }
+
+    /// This metric's statistic of a method.
+    fn of(self, m: &eval::MethodSummary) -> Option<eval::Stat> {
+        m.stats[self as usize]
+    }
+}
 
 /// The ablation's tables, written as the cells come in (a long run leaves usable partial tables):
 /// `ablation.csv` (one row per cell, method and metric: `sources,fraction,method,metric,mean,std,n`)
@@ -168,8 +202,8 @@ impl AblationTables {
     pub fn add(&mut self, cell: &AblationCell) -> Vec<String> {
         let mut lines = Vec::new();
         for m in &cell.report.methods {
-            let cell_of = |i: usize| {
-                m.stats[i].map_or("n/a".to_string(), |s| {
+            let cell_of = |metric: Metric| {
+                metric.of(m).map_or("n/a".to_string(), |s| {
                     format!("{:.2} ± {:.2}", s.mean, s.std)
                 })
             };
@@ -178,9 +212,9 @@ impl AblationTables {
                 cell.sources,
                 cell.fraction * 100.0,
                 m.name,
-                cell_of(0),
-                cell_of(2),
-                cell_of(4),
+                cell_of(Metric::ARoc90),
+                cell_of(Metric::PPrc90),
+                cell_of(Metric::Mtti90),
                 cell.seconds
             ));
             self.md.push_str(&format!(
@@ -188,16 +222,22 @@ impl AblationTables {
                 cell.sources,
                 cell.fraction * 100.0,
                 m.name,
-                cell_of(0),
-                cell_of(2),
-                cell_of(4)
+                cell_of(Metric::ARoc90),
+                cell_of(Metric::PPrc90),
+                cell_of(Metric::Mtti90)
             ));
-            for (i, key) in TABLE_METRICS.iter().enumerate() {
-                if let Some(s) = m.stats[i] {
+            for metric in Metric::ALL {
+                if let Some(s) = metric.of(m) {
                     if let Err(e) = writeln!(
                         self.csv,
                         "{},{},{},{},{},{},{}",
-                        cell.sources, cell.fraction, m.name, key, s.mean, s.std, s.n
+                        cell.sources,
+                        cell.fraction,
+                        m.name,
+                        metric.key(),
+                        s.mean,
+                        s.std,
+                        s.n
                     ) {
                         self.error.get_or_insert(e);
                     }
@@ -216,5 +256,16 @@ impl AblationTables {
             Some(e) => Err(e),
             None => Ok((self.csv_path, self.md_path)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Metric;
+
+    #[test]
+    fn metrics_follow_the_evaluation_order() {
+        let keys: Vec<&str> = Metric::ALL.iter().map(|m| m.key()).collect();
+        assert_eq!(keys, riskscore_eval::metrics::METRIC_KEYS);
     }
 }

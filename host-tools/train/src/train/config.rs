@@ -35,17 +35,16 @@ impl Default for ObjectiveConfig {
 impl ObjectiveConfig {
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    fn validate(&self, table: &str) -> Result<(), String> {
+    fn validate(&self, table: &'static str) -> Result<(), InvalidConfig> {
         if !(self.lambda_impact >= 0.0 && self.lambda_upper >= 0.0) {
-            return Err(format!(
-                "{table}: lambda_impact and lambda_upper must be >= 0"
-            ));
+            return Err(InvalidConfig::NegativeLambda { table });
         }
         if !(self.u < self.r_star && self.u.is_finite() && self.r_star.is_finite()) {
-            return Err(format!(
-                "{table}: need u < r_star, got u = {}, r_star = {}",
-                self.u, self.r_star
-            ));
+            return Err(InvalidConfig::AnchorOrder {
+                table,
+                u: self.u,
+                r_star: self.r_star,
+            });
         }
         Ok(())
     }
@@ -182,40 +181,117 @@ pub struct TrainConfig {
     pub quantisation: QuantisationConfig,
 }
 
-/// A configuration file that cannot be used.
+/// What is wrong with a training configuration's values.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InvalidConfig {
+    #[error("{0}")]
+    Comparisons(String),
+    #[error("{table}: lambda_impact and lambda_upper must be >= 0")]
+    NegativeLambda { table: &'static str },
+    #[error("{table}: need u < r_star, got u = {u}, r_star = {r_star}")]
+    AnchorOrder {
+        table: &'static str,
+        u: f32,
+        r_star: f32,
+    },
+    #[error("optimiser: learning_rate, batch_pairs and max_epochs must be > 0")]
+    Optimiser,
+    #[error("optimiser.validation_fraction must be in [0, 0.9)")]
+    ValidationFraction,
+    #[error(transparent)]
+    Hidden(#[from] HiddenLayersError),
+    #[error("quantisation: clip_fraction in [0, 0.1) and max_observations > 0 required")]
+    Quantisation,
+    #[error("msra.time_clip must be in (0, 1000] s, got {0}")]
+    TimeClip(f32),
+    #[error("msra.beta: four finite weights >= 0")]
+    Beta,
+    #[error("msra.surrogates: 1 to 4 names")]
+    SurrogateCount,
+    #[error("msra.surrogates: unknown surrogate {0:?} (expected ttc2d, tadv or ei)")]
+    UnknownSurrogate(String),
+}
+
+/// Hidden layer widths the core cannot run (it runs at most 4 layers of width <= 64).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{table}.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)")]
+pub struct HiddenLayersError {
+    /// The TOML table, e.g. `drl` or `fit`.
+    pub table: &'static str,
+}
+
+/// The check every network configuration (DRL, GSSM) shares: 1 to 3 hidden layers of width
+/// 1..=64, so that with the output layer the core's at most 4 layers of width <= 64 hold.
+pub fn check_hidden(table: &'static str, hidden: &[usize]) -> Result<(), HiddenLayersError> {
+    if hidden.is_empty() || hidden.len() > 3 || hidden.iter().any(|&w| w == 0 || w > 64) {
+        return Err(HiddenLayersError { table });
+    }
+    Ok(())
+}
+
+/// A configuration file that cannot be used; `E` says what is wrong with its values.
 #[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
+pub enum ConfigFileError<E> {
     #[error("{path}: {source}")]
     Io {
         path: String,
         source: std::io::Error,
     },
-    #[error("{path}: {message}")]
-    Parse { path: String, message: String },
-    #[error("{path}: {message}")]
-    Invalid { path: String, message: String },
+    #[error("{path}: {source}")]
+    Parse {
+        path: String,
+        source: Box<toml::de::Error>,
+    },
+    #[error("{path}: {source}")]
+    Invalid { path: String, source: E },
+}
+
+/// A training configuration file that cannot be used.
+pub type ConfigError = ConfigFileError<InvalidConfig>;
+
+/// Parse TOML text into a configuration and check it; `origin` names the file in errors.
+pub fn parse_toml<T, E>(
+    text: &str,
+    origin: &str,
+    validate: impl FnOnce(&T) -> Result<(), E>,
+) -> Result<T, ConfigFileError<E>>
+where
+    T: serde::de::DeserializeOwned,
+{
+    let cfg: T = toml::from_str(text).map_err(|source| ConfigFileError::Parse {
+        path: origin.to_string(),
+        source: Box::new(source),
+    })?;
+    validate(&cfg).map_err(|source| ConfigFileError::Invalid {
+        path: origin.to_string(),
+        source,
+    })?;
+    Ok(cfg)
+}
+
+/// Read, parse and check a TOML configuration file.
+pub fn read_toml<T, E>(
+    path: &Path,
+    validate: impl FnOnce(&T) -> Result<(), E>,
+) -> Result<T, ConfigFileError<E>>
+where
+    T: serde::de::DeserializeOwned,
+{
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigFileError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_toml(&text, &path.display().to_string(), validate)
 }
 
 impl TrainConfig {
     /// Parse TOML text; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TrainConfig, ConfigError> {
-        let cfg: TrainConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            path: origin.to_string(),
-            message: e.to_string(),
-        })?;
-        cfg.validate().map_err(|message| ConfigError::Invalid {
-            path: origin.to_string(),
-            message,
-        })?;
-        Ok(cfg)
+        parse_toml(text, origin, TrainConfig::validate)
     }
 
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Self::from_toml(&text, &path.display().to_string())
+        read_toml(path, TrainConfig::validate)
     }
 
     /// The configuration in `path` when given, else the defaults; `seed` (when given) replaces
@@ -233,53 +309,40 @@ impl TrainConfig {
 
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    pub fn validate(&self) -> Result<(), String> {
-        self.comparisons.validate()?;
+    pub fn validate(&self) -> Result<(), InvalidConfig> {
+        self.comparisons
+            .validate()
+            .map_err(InvalidConfig::Comparisons)?;
         self.objective.validate("objective")?;
         if let Some(o) = &self.msra.objective {
             o.validate("msra.objective")?;
         }
         let p = &self.optimiser;
         if !(p.learning_rate > 0.0) || p.batch_pairs == 0 || p.max_epochs == 0 {
-            return Err("optimiser: learning_rate, batch_pairs and max_epochs must be > 0".into());
+            return Err(InvalidConfig::Optimiser);
         }
         if !(0.0..0.9).contains(&p.validation_fraction) {
-            return Err("optimiser.validation_fraction must be in [0, 0.9)".into());
+            return Err(InvalidConfig::ValidationFraction);
         }
-        if self.drl.hidden.is_empty()
-            || self.drl.hidden.len() > 3
-            || self.drl.hidden.iter().any(|&w| w == 0 || w > 64)
-        {
-            return Err(
-                "drl.hidden: 1 to 3 hidden layers of width 1..=64 (the core runs at most 4 layers)"
-                    .into(),
-            );
-        }
+        check_hidden("drl", &self.drl.hidden)?;
         let q = &self.quantisation;
         if !(0.0..0.1).contains(&q.clip_fraction) || q.max_observations == 0 {
-            return Err(
-                "quantisation: clip_fraction in [0, 0.1) and max_observations > 0 required".into(),
-            );
+            return Err(InvalidConfig::Quantisation);
         }
         if !(self.msra.time_clip > 0.0 && self.msra.time_clip <= 1e3) {
-            return Err(format!(
-                "msra.time_clip must be in (0, 1000] s, got {}",
-                self.msra.time_clip
-            ));
+            return Err(InvalidConfig::TimeClip(self.msra.time_clip));
         }
         if let Some(b) = &self.msra.beta {
             if b.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-                return Err("msra.beta: four finite weights >= 0".into());
+                return Err(InvalidConfig::Beta);
             }
         }
         if self.msra.surrogates.is_empty() || self.msra.surrogates.len() > 4 {
-            return Err("msra.surrogates: 1 to 4 names".into());
+            return Err(InvalidConfig::SurrogateCount);
         }
         for s in &self.msra.surrogates {
             if super::msra::parse_surrogate(s).is_none() {
-                return Err(format!(
-                    "msra.surrogates: unknown surrogate {s:?} (expected ttc2d, tadv or ei)"
-                ));
+                return Err(InvalidConfig::UnknownSurrogate(s.clone()));
             }
         }
         Ok(())

@@ -5,15 +5,15 @@
 //! Default shape 13-32-16-1 (ReLU hidden layers, linear output): 944 multiply-accumulates, which the
 //! core's int8 network runs in well under 20k Cortex-M4 instructions per partner. The same structure
 //! (standardisation folded into the input quantisation) is what scorer-core deploys.
-use candle_core::{Device, Tensor, Var};
-use rand::Rng;
+use candle_core::{Tensor, Var};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use scorer_core::{drl_inputs, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
-use super::RiskModel;
+use super::model::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
+use crate::nn::mlp::{init_layers, Init, Mlp};
 
 /// Standardisation of the DRL inputs, `z = (x - mean) / std`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -75,14 +75,7 @@ impl FeatureScaler {
     }
 }
 
-/// One dense layer's float parameters, `weight` row-major `[outputs][inputs]`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DenseLayer {
-    pub inputs: usize,
-    pub outputs: usize,
-    pub weight: Vec<f32>,
-    pub bias: Vec<f32>,
-}
+pub use crate::nn::DenseLayer;
 
 /// Float DRL parameters (the checkpoint content).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -95,7 +88,7 @@ pub struct DrlParams {
 /// The trainable DRL network.
 pub struct Drl {
     pub scaler: FeatureScaler,
-    layers: Vec<(Var, Var)>,
+    mlp: Mlp,
 }
 
 impl Drl {
@@ -105,67 +98,29 @@ impl Drl {
         let mut sizes = vec![FEATURE_COUNT];
         sizes.extend_from_slice(hidden);
         sizes.push(1);
-        let mut layers = Vec::new();
-        for w in sizes.windows(2) {
-            let (fan_in, fan_out) = (w[0], w[1]);
-            let bound = (6.0 / fan_in as f32).sqrt();
-            let weight: Vec<f32> = (0..fan_in * fan_out)
-                .map(|_| rng.random_range(-bound..bound))
-                .collect();
-            let weight = Var::from_vec(weight, (fan_out, fan_in), &Device::Cpu)?;
-            let bias = Var::zeros(fan_out, candle_core::DType::F32, &Device::Cpu)?;
-            layers.push((weight, bias));
-        }
-        Ok(Drl { scaler, layers })
+        let layers = init_layers(&sizes, &mut rng, Init::default());
+        Drl::from_params(&DrlParams { scaler, layers })
     }
 
     /// A network holding the given parameters (to continue training or to evaluate a checkpoint).
     pub fn from_params(p: &DrlParams) -> candle_core::Result<Drl> {
-        let mut layers = Vec::new();
-        for l in &p.layers {
-            let weight = Var::from_vec(l.weight.clone(), (l.outputs, l.inputs), &Device::Cpu)?;
-            let bias = Var::from_vec(l.bias.clone(), l.outputs, &Device::Cpu)?;
-            layers.push((weight, bias));
-        }
         Ok(Drl {
             scaler: p.scaler.clone(),
-            layers,
+            mlp: Mlp::from_layers(&p.layers)?,
         })
     }
 
     pub fn params(&self) -> candle_core::Result<DrlParams> {
-        let mut layers = Vec::new();
-        for (w, b) in &self.layers {
-            let (outputs, inputs) = w.as_tensor().dims2()?;
-            layers.push(DenseLayer {
-                inputs,
-                outputs,
-                weight: w.as_tensor().flatten_all()?.to_vec1::<f32>()?,
-                bias: b.as_tensor().to_vec1::<f32>()?,
-            });
-        }
         Ok(DrlParams {
             scaler: self.scaler.clone(),
-            layers,
+            layers: self.mlp.layers()?,
         })
     }
 
     /// The output of every layer (after ReLU for hidden layers) for a batch of standardised inputs,
     /// in order; the last entry is the score `[n, 1]`. Used for activation calibration.
     pub fn layer_outputs(&self, inputs: &Tensor) -> candle_core::Result<Vec<Tensor>> {
-        let mut x = inputs.clone();
-        let mut out = Vec::with_capacity(self.layers.len());
-        let last = self.layers.len() - 1;
-        for (i, (w, b)) in self.layers.iter().enumerate() {
-            x = x
-                .matmul(&w.as_tensor().t()?)?
-                .broadcast_add(b.as_tensor())?;
-            if i < last {
-                x = x.relu()?;
-            }
-            out.push(x.clone());
-        }
-        Ok(out)
+        self.mlp.layer_outputs(inputs)
     }
 }
 
@@ -187,17 +142,10 @@ impl RiskModel for Drl {
     }
 
     fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
-        let outs = self.layer_outputs(inputs)?;
-        match outs.last() {
-            Some(score) => score.squeeze(1),
-            None => Err(candle_core::Error::Msg("DRL network without layers".into())),
-        }
+        self.mlp.forward(inputs)?.squeeze(1)
     }
 
     fn vars(&self) -> Vec<Var> {
-        self.layers
-            .iter()
-            .flat_map(|(w, b)| [w.clone(), b.clone()])
-            .collect()
+        self.mlp.vars()
     }
 }

@@ -3,48 +3,39 @@
 //! - [`config`]: the TOML hyper-parameters with documented defaults;
 //! - [`objective`]: the source-weighted Bradley-Terry loss plus the endpoint anchoring terms;
 //! - [`drl`]: DRL, the MLP over the 13 standardised features (what the core's int8 network runs);
+//! - [`model`]: [`RiskModel`], what a parameterisation offers the trainer;
 //! - [`msra`]: MSRA, `sum_k w_k sigmoid(a_k g_k(f_k) + b_k)` over the core's surrogate transforms.
 //!
 //! A parameterisation implements [`RiskModel`]: it turns each row of an [`ObservationTable`] into a
 //! fixed-width input once (standardised features, transformed surrogates, ...), and maps a batch of
-//! such rows to scores with candle ops. [`fit`] then does the rest: the validation split of the
-//! training events, comparisons for both parts, mini-batch AdamW, early stopping with the best
-//! parameters restored, progress on stderr.
+//! such rows to scores with candle ops. [`train_with`] then does the rest: mini-batch AdamW over
+//! the comparisons ([`prepare_comparisons`] builds them on the event-level validation split), and
+//! the shared early-stopping loop ([`crate::nn::trainer`]: best parameters restored, progress on
+//! stderr).
 pub mod ablation;
 pub mod config;
 pub mod cv;
 pub mod drl;
+pub mod model;
 pub mod msra;
 pub mod objective;
 
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use candle_core::{DType, Device, Tensor, Var};
-use candle_nn::{AdamW, Optimizer, ParamsAdamW};
+use candle_core::{DType, Device, Tensor};
+use candle_nn::Optimizer;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::comparisons::{self, ComparisonSet, ObservationTable, TrainingSequence};
+use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
 pub use config::TrainConfig;
 use config::{ObjectiveConfig, OptimiserConfig};
+pub use model::RiskModel;
 pub use objective::LossParts;
-
-/// A trainable risk-score parameterisation.
-pub trait RiskModel {
-    /// Short name for logs ("DRL", "MSRA", ...).
-    fn name(&self) -> &str;
-    /// Width of one observation's input row.
-    fn input_width(&self) -> usize;
-    /// Input rows of every observation of the table, row-major (`table.len() * input_width()`).
-    fn encode(&self, table: &ObservationTable) -> Vec<f32>;
-    /// Scores `[n]` of a batch of input rows `[n, input_width]`.
-    fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor>;
-    /// The trainable variables.
-    fn vars(&self) -> Vec<Var>;
-}
 
 /// Training failures.
 #[derive(Debug, thiserror::Error)]
@@ -82,12 +73,7 @@ pub struct TrainReport {
     pub history: Vec<EpochRecord>,
 }
 
-/// How much to draw on stderr.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Progress {
-    Bar,
-    Hidden,
-}
+pub use crate::nn::Progress;
 
 /// Split sequences by EVENT into a fit part and a validation part, stratified by class (conflict /
 /// safe), deterministically in `seed`. With `fraction == 0` everything is fit data.
@@ -225,36 +211,6 @@ fn full_loss<M: RiskModel>(
     Ok(parts)
 }
 
-fn snapshot(vars: &[Var]) -> candle_core::Result<Vec<Tensor>> {
-    vars.iter().map(|v| v.as_tensor().copy()).collect()
-}
-
-fn restore(vars: &[Var], saved: &[Tensor]) -> candle_core::Result<()> {
-    for (v, t) in vars.iter().zip(saved) {
-        v.set(t)?;
-    }
-    Ok(())
-}
-
-fn progress_bar(progress: Progress, len: usize, name: &str) -> indicatif::ProgressBar {
-    match progress {
-        Progress::Hidden => indicatif::ProgressBar::hidden(),
-        Progress::Bar => {
-            let pb = indicatif::ProgressBar::with_draw_target(
-                Some(len as u64),
-                indicatif::ProgressDrawTarget::stderr(),
-            );
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "{prefix:>8} [{bar:30}] epoch {pos}/{len} {msg}",
-            ) {
-                pb.set_style(style.progress_chars("=> "));
-            }
-            pb.set_prefix(name.to_string());
-            pb
-        }
-    }
-}
-
 /// How to train: objective, optimiser, learning rate, seed, progress display.
 #[derive(Clone, Copy, Debug)]
 pub struct TrainSettings<'a> {
@@ -265,29 +221,6 @@ pub struct TrainSettings<'a> {
     pub progress: Progress,
     /// Source weights `beta` replacing the comparison sets' own (one model's override).
     pub beta: Option<[f32; 4]>,
-}
-
-/// [`train_with`] with the settings spelled out (kept for existing callers).
-#[allow(clippy::too_many_arguments)]
-pub fn train_on<M: RiskModel>(
-    model: &M,
-    train: &ComparisonSet,
-    validation: Option<&ComparisonSet>,
-    objective: &ObjectiveConfig,
-    optimiser: &OptimiserConfig,
-    learning_rate: f64,
-    seed: u64,
-    progress: Progress,
-) -> Result<TrainReport, TrainError> {
-    let settings = TrainSettings {
-        objective,
-        optimiser,
-        learning_rate,
-        seed,
-        progress,
-        beta: None,
-    };
-    train_with(model, train, validation, &settings)
 }
 
 /// Train `model` on `train` comparisons, early-stopping on `validation` (when it has pairs), and leave
@@ -311,28 +244,20 @@ pub fn train_with<M: RiskModel>(
         _ => None,
     };
     let vars = model.vars();
-    let mut opt = AdamW::new(
-        vars.clone(),
-        ParamsAdamW {
-            lr: learning_rate,
-            weight_decay: optimiser.weight_decay,
-            ..ParamsAdamW::default()
-        },
-    )?;
+    let mut opt = adamw(vars.clone(), learning_rate, optimiser.weight_decay)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0BA7_C4E5);
     let n_pairs = enc.winners.len();
     let batches = n_pairs.div_ceil(optimiser.batch_pairs).max(1);
     let mut order: Vec<usize> = (0..n_pairs).collect();
     let mut impact = enc.impact.clone();
     let mut upper = enc.upper.clone();
-    let mut best: Option<(f64, usize, Vec<Tensor>)> = None;
-    let mut since_best = 0usize;
     let mut history = Vec::new();
-    let mut stopped_early = false;
-    let pb = progress_bar(progress, optimiser.max_epochs, model.name());
-    let mut epoch = 0;
-    while epoch < optimiser.max_epochs {
-        epoch += 1;
+    let rule = EarlyStopping {
+        max_epochs: optimiser.max_epochs,
+        patience: optimiser.patience,
+        min_delta: optimiser.min_delta,
+    };
+    let stop = rule.run(&vars, model.name(), progress, |epoch| {
         order.shuffle(&mut rng);
         impact.shuffle(&mut rng);
         upper.shuffle(&mut rng);
@@ -355,7 +280,6 @@ pub fn train_with<M: RiskModel>(
             };
             let (loss, parts) = batch_loss(model, &enc, &batch, objective)?;
             if !parts.total.is_finite() {
-                pb.finish_and_clear();
                 return Err(TrainError::Diverged { epoch });
             }
             opt.backward_step(&loss)?;
@@ -376,40 +300,20 @@ pub fn train_with<M: RiskModel>(
             Some(v) => Some(full_loss(model, v, objective)?),
             None => None,
         };
-        let criterion = val_parts.map(|p| p.total).unwrap_or(train_parts.total);
         history.push(EpochRecord {
             epoch,
             train: train_parts,
             validation: val_parts,
         });
-        pb.set_message(match val_parts {
-            Some(v) => format!("loss {:.4} val {:.4}", train_parts.total, v.total),
-            None => format!("loss {:.4}", train_parts.total),
-        });
-        pb.inc(1);
-        let improved = match &best {
-            None => true,
-            Some((b, _, _)) => criterion < b - optimiser.min_delta,
-        };
-        if improved {
-            best = Some((criterion, epoch, snapshot(&vars)?));
-            since_best = 0;
-        } else {
-            since_best += 1;
-            if since_best >= optimiser.patience {
-                stopped_early = true;
-                break;
-            }
-        }
-    }
-    pb.finish_and_clear();
-    let best_epoch = match best {
-        Some((_, e, saved)) => {
-            restore(&vars, &saved)?;
-            e
-        }
-        None => epoch,
-    };
+        Ok(EpochOutcome {
+            criterion: val_parts.map(|p| p.total).unwrap_or(train_parts.total),
+            message: match val_parts {
+                Some(v) => format!("loss {:.4} val {:.4}", train_parts.total, v.total),
+                None => format!("loss {:.4}", train_parts.total),
+            },
+        })
+    })?;
+    let (epoch, best_epoch, stopped_early) = (stop.epochs, stop.best_epoch, stop.stopped_early);
     let seconds = started.elapsed().as_secs_f64();
     Ok(TrainReport {
         model: model.name().to_string(),
@@ -551,14 +455,14 @@ pub fn train_msra(
     config: &TrainConfig,
     progress: Progress,
 ) -> Result<TrainedMsra, TrainError> {
-    let kinds: Vec<scorer_core::SurrogateKind> = config
+    let terms: Vec<(scorer_core::SurrogateKind, (f32, f32))> = config
         .msra
         .surrogates
         .iter()
         .filter_map(|s| msra::parse_surrogate(s))
+        .map(|k| (k, config.msra.range(k)))
         .collect();
-    let ranges: Vec<(f32, f32)> = kinds.iter().map(|&k| config.msra.range(k)).collect();
-    let model = msra::Msra::new(&kinds, &ranges, train)?;
+    let model = msra::Msra::new(&terms, train)?;
     let lr = config
         .msra
         .learning_rate

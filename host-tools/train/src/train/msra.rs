@@ -11,7 +11,7 @@ use candle_core::{DType, Device, Tensor, Var};
 use scorer_core::{SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
-use super::RiskModel;
+use super::model::RiskModel;
 use crate::comparisons::{ObservationTable, TrainingSequence};
 
 /// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`; case-insensitive, see
@@ -50,6 +50,19 @@ impl MsraTermParams {
     pub fn kind(&self) -> Option<SurrogateKind> {
         parse_surrogate(&self.surrogate)
     }
+
+    /// The core's term of these parameters for surrogate `kind` (the caller decides which kinds,
+    /// e.g. GSSM, it accepts).
+    pub fn core_term(&self, kind: SurrogateKind) -> scorer_core::msra::MsraTerm {
+        scorer_core::msra::MsraTerm {
+            kind,
+            weight: self.w,
+            a: self.a,
+            b: self.b,
+            lo: self.lo,
+            hi: self.hi,
+        }
+    }
 }
 
 /// Float MSRA parameters (the checkpoint content).
@@ -58,8 +71,9 @@ pub struct MsraParams {
     pub terms: Vec<MsraTermParams>,
 }
 
-/// The trainable MSRA model.
-pub struct Msra {
+/// The trainable terms every MSRA shares (with or without a GSSM term): per term its kind, clip
+/// range, the standardisation `(m_k, s_k)` of `g_k` on the training frames, and `w_k, a'_k, b'_k`.
+pub struct MsraTerms {
     kinds: Vec<SurrogateKind>,
     ranges: Vec<(f32, f32)>,
     centre: Vec<f32>,
@@ -80,7 +94,7 @@ fn transform_slope_sign(kind: SurrogateKind, lo: f32, hi: f32) -> f32 {
     }
 }
 
-/// +1 when a larger raw value is riskier (EI), -1 when smaller is riskier (TTC2D, TAdv).
+/// +1 when a larger raw value is riskier (EI, GSSM), -1 when smaller is riskier (TTC2D, TAdv).
 fn risk_direction(kind: SurrogateKind) -> f32 {
     if kind.larger_is_riskier() {
         1.0
@@ -89,68 +103,43 @@ fn risk_direction(kind: SurrogateKind) -> f32 {
     }
 }
 
-impl Msra {
-    /// A model over `kinds` with the clip ranges `ranges` (one per kind, e.g. [`default_range`]),
-    /// its input normalisation fitted on the frames of `seqs` (surrogates computed by scorer-core).
-    pub fn new(
-        kinds: &[SurrogateKind],
-        ranges: &[(f32, f32)],
-        seqs: &[TrainingSequence],
-    ) -> candle_core::Result<Msra> {
-        let surrogates = seqs.iter().flat_map(|s| {
-            s.ego
-                .iter()
-                .zip(&s.partner)
-                .map(|(e, p)| scorer_core::surrogates(e, p))
-        });
-        Self::fitted(kinds, ranges, surrogates)
-    }
-
-    /// Same, with the normalisation fitted on the rows of an observation table.
-    pub fn from_table(
-        kinds: &[SurrogateKind],
-        ranges: &[(f32, f32)],
-        table: &ObservationTable,
-    ) -> candle_core::Result<Msra> {
-        Self::fitted(kinds, ranges, table.surrogates.iter().copied())
-    }
-
-    fn fitted(
-        kinds: &[SurrogateKind],
-        ranges: &[(f32, f32)],
-        surrogates: impl Iterator<Item = Surrogates>,
-    ) -> candle_core::Result<Msra> {
-        assert_eq!(kinds.len(), ranges.len(), "one clip range per surrogate");
-        let ranges = ranges.to_vec();
-        let mut sum = vec![0f64; kinds.len()];
-        let mut sq = vec![0f64; kinds.len()];
+impl MsraTerms {
+    /// Terms `(kind, clip range)` with their standardisation fitted on `raw_rows` (per frame the raw
+    /// surrogate value of every term, in term order). Every term starts with `w = 1`, `b' = 0` and
+    /// `a'` pointing in its risk direction.
+    pub fn fit(
+        terms: &[(SurrogateKind, (f32, f32))],
+        raw_rows: impl Iterator<Item = Vec<f32>>,
+    ) -> candle_core::Result<MsraTerms> {
+        let k = terms.len();
+        let (kinds, ranges): (Vec<SurrogateKind>, Vec<(f32, f32)>) = terms.iter().copied().unzip();
+        let mut sum = vec![0f64; k];
+        let mut sq = vec![0f64; k];
         let mut n = 0usize;
-        for surr in surrogates {
+        for raw in raw_rows {
             n += 1;
-            for (k, (&kind, &(lo, hi))) in kinds.iter().zip(&ranges).enumerate() {
-                let g = transformed(kind, kind.value_in(&surr), lo, hi) as f64;
-                sum[k] += g;
-                sq[k] += g * g;
+            for (j, (&(kind, (lo, hi)), &r)) in terms.iter().zip(&raw).enumerate() {
+                let g = f64::from(transformed(kind, r, lo, hi));
+                sum[j] += g;
+                sq[j] += g * g;
             }
         }
-        let mut centre = vec![0f32; kinds.len()];
-        let mut spread = vec![1f32; kinds.len()];
-        for k in 0..kinds.len() {
+        let mut centre = vec![0f32; k];
+        let mut spread = vec![1f32; k];
+        for j in 0..k {
             if n > 0 {
-                let m = sum[k] / n as f64;
-                let sd = (sq[k] / n as f64 - m * m).max(0.0).sqrt();
-                centre[k] = m as f32;
-                spread[k] = if sd > 1e-6 { sd as f32 } else { 1.0 };
+                let m = sum[j] / n as f64;
+                let sd = (sq[j] / n as f64 - m * m).max(0.0).sqrt();
+                centre[j] = m as f32;
+                spread[j] = if sd > 1e-6 { sd as f32 } else { 1.0 };
             }
         }
-        let init_a: Vec<f32> = kinds
+        let init_a: Vec<f32> = terms
             .iter()
-            .zip(&ranges)
-            .map(|(&k, &(lo, hi))| risk_direction(k) * transform_slope_sign(k, lo, hi))
+            .map(|&(kind, (lo, hi))| risk_direction(kind) * transform_slope_sign(kind, lo, hi))
             .collect();
-        let k = kinds.len();
-        Ok(Msra {
-            kinds: kinds.to_vec(),
+        Ok(MsraTerms {
+            kinds,
             ranges,
             centre,
             spread,
@@ -164,12 +153,22 @@ impl Msra {
         &self.kinds
     }
 
-    /// The parameters in the deployed form (`a_k`, `b_k` on the transformed surrogate itself).
-    pub fn params(&self) -> candle_core::Result<MsraParams> {
+    /// Appends the input row of one frame: the standardised `z_k` of its raw values (0 when not
+    /// finite).
+    pub fn encode_row(&self, raw: &[f32], rows: &mut Vec<f32>) {
+        for (k, (&kind, &(lo, hi))) in self.kinds.iter().zip(&self.ranges).enumerate() {
+            let g = transformed(kind, raw[k], lo, hi);
+            let z = (g - self.centre[k]) / self.spread[k];
+            rows.push(if z.is_finite() { z } else { 0.0 });
+        }
+    }
+
+    /// The terms in the deployed form (`a_k`, `b_k` on the transformed surrogate itself).
+    pub fn params(&self) -> candle_core::Result<Vec<MsraTermParams>> {
         let w = self.w.as_tensor().to_vec1::<f32>()?;
         let a = self.a.as_tensor().to_vec1::<f32>()?;
         let b = self.b.as_tensor().to_vec1::<f32>()?;
-        let terms = (0..self.kinds.len())
+        Ok((0..self.kinds.len())
             .map(|k| {
                 let (m, s) = (self.centre[k], self.spread[k]);
                 MsraTermParams {
@@ -181,8 +180,74 @@ impl Msra {
                     b: b[k] - a[k] * m / s,
                 }
             })
-            .collect();
-        Ok(MsraParams { terms })
+            .collect())
+    }
+
+    /// The MSRA sum `R = sum_k w_k * sigmoid(a'_k * z_k + b'_k)` over a batch of rows
+    /// (`[batch, terms]` -> `[batch]`).
+    pub fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
+        let z = inputs
+            .broadcast_mul(self.a.as_tensor())?
+            .broadcast_add(self.b.as_tensor())?;
+        candle_nn::ops::sigmoid(&z)?
+            .broadcast_mul(self.w.as_tensor())?
+            .sum(1)
+    }
+
+    pub fn vars(&self) -> Vec<Var> {
+        vec![self.w.clone(), self.a.clone(), self.b.clone()]
+    }
+}
+
+/// The trainable MSRA model over geometric surrogates.
+pub struct Msra {
+    terms: MsraTerms,
+}
+
+impl Msra {
+    /// A model over `terms` (each a surrogate with its clip range, e.g. [`default_range`]), its
+    /// input normalisation fitted on the frames of `seqs` (surrogates computed by scorer-core).
+    pub fn new(
+        terms: &[(SurrogateKind, (f32, f32))],
+        seqs: &[TrainingSequence],
+    ) -> candle_core::Result<Msra> {
+        let surrogates = seqs.iter().flat_map(|s| {
+            s.ego
+                .iter()
+                .zip(&s.partner)
+                .map(|(e, p)| scorer_core::surrogates(e, p))
+        });
+        Self::fitted(terms, surrogates)
+    }
+
+    /// Same, with the normalisation fitted on the rows of an observation table.
+    pub fn from_table(
+        terms: &[(SurrogateKind, (f32, f32))],
+        table: &ObservationTable,
+    ) -> candle_core::Result<Msra> {
+        Self::fitted(terms, table.surrogates.iter().copied())
+    }
+
+    fn fitted(
+        terms: &[(SurrogateKind, (f32, f32))],
+        surrogates: impl Iterator<Item = Surrogates>,
+    ) -> candle_core::Result<Msra> {
+        let raw_rows =
+            surrogates.map(|s| terms.iter().map(|(kind, _)| kind.value_in(&s)).collect());
+        Ok(Msra {
+            terms: MsraTerms::fit(terms, raw_rows)?,
+        })
+    }
+
+    pub fn kinds(&self) -> &[SurrogateKind] {
+        self.terms.kinds()
+    }
+
+    /// The parameters in the deployed form (`a_k`, `b_k` on the transformed surrogate itself).
+    pub fn params(&self) -> candle_core::Result<MsraParams> {
+        Ok(MsraParams {
+            terms: self.terms.params()?,
+        })
     }
 }
 
@@ -192,43 +257,26 @@ impl RiskModel for Msra {
     }
 
     fn input_width(&self) -> usize {
-        self.kinds.len()
+        self.terms.kinds().len()
     }
 
     fn encode(&self, table: &ObservationTable) -> Vec<f32> {
-        let mut rows = Vec::with_capacity(table.len() * self.kinds.len());
+        let kinds = self.terms.kinds();
+        let mut rows = Vec::with_capacity(table.len() * kinds.len());
+        let mut raw = Vec::with_capacity(kinds.len());
         for s in &table.surrogates {
-            for (k, (&kind, &(lo, hi))) in self.kinds.iter().zip(&self.ranges).enumerate() {
-                let g = transformed(kind, kind.value_in(s), lo, hi);
-                let z = (g - self.centre[k]) / self.spread[k];
-                rows.push(if z.is_finite() { z } else { 0.0 });
-            }
+            raw.clear();
+            raw.extend(kinds.iter().map(|kind| kind.value_in(s)));
+            self.terms.encode_row(&raw, &mut rows);
         }
         rows
     }
 
     fn forward(&self, inputs: &Tensor) -> candle_core::Result<Tensor> {
-        msra_forward(inputs, &self.w, &self.a, &self.b)
+        self.terms.forward(inputs)
     }
 
     fn vars(&self) -> Vec<Var> {
-        vec![self.w.clone(), self.a.clone(), self.b.clone()]
+        self.terms.vars()
     }
-}
-
-/// The MSRA sum `R = sum_k w_k * sigmoid(a_k * x_k + b_k)` over a batch of transformed,
-/// standardised surrogate rows (`[batch, terms]` -> `[batch]`): shared by every MSRA
-/// parameterisation (with or without a GSSM term).
-pub(crate) fn msra_forward(
-    inputs: &Tensor,
-    w: &Var,
-    a: &Var,
-    b: &Var,
-) -> candle_core::Result<Tensor> {
-    let z = inputs
-        .broadcast_mul(a.as_tensor())?
-        .broadcast_add(b.as_tensor())?;
-    candle_nn::ops::sigmoid(&z)?
-        .broadcast_mul(w.as_tensor())?
-        .sum(1)
 }
