@@ -353,6 +353,22 @@ pub fn evaluate_profiles(profiles: &[AlertProfile]) -> Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn metrics_are_named_in_table_order() {
+        let m = Metrics {
+            a_roc_90: Some(1.0),
+            a_roc_80: Some(2.0),
+            p_prc_90: Some(3.0),
+            p_prc_80: None,
+            mtti_90: Some(5.0),
+        };
+        for (i, metric) in Metric::ALL.into_iter().enumerate() {
+            assert_eq!(metric as usize, i);
+            assert_eq!(m.named()[i], (METRIC_KEYS[i], m.get(metric)));
+        }
+        assert_eq!(m.get(Metric::PPrc80), None);
+    }
     use crate::protocol::{AlertProfile, RunningMaxRecord, SequenceClass};
 
     fn profile(

@@ -189,10 +189,13 @@ fn unit_chart<'a, DB: DrawingBackend>(
     Ok(chart)
 }
 
+/// A method's line: its index among all methods (its colour), its points and its legend label.
+type MethodLine = (usize, Vec<(f64, f64)>, String);
+
 /// One line per method, coloured by its index among all methods, and the legend at `position`.
 fn draw_method_lines<'a, DB: DrawingBackend + 'a>(
     chart: &mut UnitChart<'a, DB>,
-    lines: Vec<(usize, Vec<(f64, f64)>, String)>,
+    lines: Vec<MethodLine>,
     position: SeriesLabelPosition,
 ) -> DrawResult<DB> {
     for (i, points, label) in lines {

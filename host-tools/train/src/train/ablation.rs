@@ -5,6 +5,7 @@
 //! seeds), with the other sources' pair targets set to zero, and keeps each fold's training events
 //! down to `fraction` (stratified by kind). Baselines are evaluated once per fraction-free run since
 //! they do not train.
+use riskscore_eval::metrics::Metric;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -121,43 +122,6 @@ pub fn baselines(seqs: &[Sequence], folds: usize, seed: u64) -> Result<CvReport,
     Ok(eval::aggregate(events, &results))
 }
 
-/// The metrics of a `MethodSummary`, in the order of its `stats` (`riskscore_eval`'s metric keys).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Metric {
-    ARoc90,
-    ARoc80,
-    PPrc90,
-    PPrc80,
-    Mtti90,
-}
-
-impl Metric {
-    /// Every metric, in `stats` order (the CSV rows' order).
-    const ALL: [Metric; 5] = [
-        Metric::ARoc90,
-        Metric::ARoc80,
-        Metric::PPrc90,
-        Metric::PPrc80,
-        Metric::Mtti90,
-    ];
-
-    /// The column key in the tables.
-    fn key(self) -> &'static str {
-        match self {
-            Metric::ARoc90 => "A_ROC_90",
-            Metric::ARoc80 => "A_ROC_80",
-            Metric::PPrc90 => "P_PRC_90",
-            Metric::PPrc80 => "P_PRC_80",
-            Metric::Mtti90 => "mTTI_90",
-        }
-    }
-
-    /// This metric's statistic of a method.
-    fn of(self, m: &eval::MethodSummary) -> Option<eval::Stat> {
-        m.stats[self as usize]
-    }
-}
-
 /// The ablation's tables, written as the cells come in (a long run leaves usable partial tables):
 /// `ablation.csv` (one row per cell, method and metric: `sources,fraction,method,metric,mean,std,n`)
 /// and `ablation.md` (the baselines, then one row per cell and method), rewritten after each cell.
@@ -203,7 +167,7 @@ impl AblationTables {
         let mut lines = Vec::new();
         for m in &cell.report.methods {
             let cell_of = |metric: Metric| {
-                metric.of(m).map_or("n/a".to_string(), |s| {
+                m.stat(metric).map_or("n/a".to_string(), |s| {
                     format!("{:.2} ± {:.2}", s.mean, s.std)
                 })
             };
@@ -214,7 +178,7 @@ impl AblationTables {
                 m.name,
                 cell_of(Metric::ARoc90),
                 cell_of(Metric::PPrc90),
-                cell_of(Metric::Mtti90),
+                cell_of(Metric::MTti90),
                 cell.seconds
             ));
             self.md.push_str(&format!(
@@ -224,10 +188,10 @@ impl AblationTables {
                 m.name,
                 cell_of(Metric::ARoc90),
                 cell_of(Metric::PPrc90),
-                cell_of(Metric::Mtti90)
+                cell_of(Metric::MTti90)
             ));
             for metric in Metric::ALL {
-                if let Some(s) = metric.of(m) {
+                if let Some(s) = m.stat(metric) {
                     if let Err(e) = writeln!(
                         self.csv,
                         "{},{},{},{},{},{},{}",
@@ -256,16 +220,5 @@ impl AblationTables {
             Some(e) => Err(e),
             None => Ok((self.csv_path, self.md_path)),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Metric;
-
-    #[test]
-    fn metrics_follow_the_evaluation_order() {
-        let keys: Vec<&str> = Metric::ALL.iter().map(|m| m.key()).collect();
-        assert_eq!(keys, riskscore_eval::metrics::METRIC_KEYS);
     }
 }
