@@ -12,7 +12,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::bundle::ReportFile;
+use super::bundle::{BundleError, ReportBundle, ReportFile};
 use super::metrics::WarningCurve;
 pub use super::trajectory::{
     alert_window_scores, default_trajectory_events, percentile, trajectory_panels,
@@ -30,12 +30,24 @@ fn register_font() {
     });
 }
 
-/// A figure could not be written.
+/// A figure could not be drawn, encoded or written.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {message}", path.display())]
-pub struct PlotError {
-    pub path: PathBuf,
-    pub message: String,
+pub enum PlotError {
+    /// plotters failed while drawing the figure `name`.
+    #[error("{name}: drawing failed")]
+    Draw {
+        name: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error("{name}: encoding the PNG failed")]
+    Png {
+        name: String,
+        #[source]
+        source: png::EncodingError,
+    },
+    #[error(transparent)]
+    Write(#[from] BundleError),
 }
 
 /// Size of every figure in pixels (SVG user units).
@@ -66,31 +78,32 @@ fn both_formats(
     figure: &Figure<'_>,
 ) -> Result<[ReportFile; 2], PlotError> {
     register_font();
-    let failed = |name: String| {
-        move |message: String| PlotError {
-            path: PathBuf::from(name),
-            message,
-        }
-    };
     let svg_name = format!("{stem}.svg");
     let png_name = format!("{stem}.png");
+    let drawing = |name: &str| {
+        let name = name.to_owned();
+        move |source: Box<dyn std::error::Error + Send + Sync>| PlotError::Draw { name, source }
+    };
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         figure
             .draw(&root)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-            .map_err(failed(svg_name.clone()))?;
+            .and_then(|()| root.present())
+            .map_err(|e| drawing(&svg_name)(e.into()))?;
     }
     let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
         figure
             .draw(&root)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-            .map_err(failed(png_name.clone()))?;
+            .and_then(|()| root.present())
+            .map_err(|e| drawing(&png_name)(e.into()))?;
     }
-    let png = encode_png(&rgb, size).map_err(|e| failed(png_name.clone())(e.to_string()))?;
+    let png = encode_png(&rgb, size).map_err(|source| PlotError::Png {
+        name: png_name.clone(),
+        source,
+    })?;
     Ok([
         ReportFile {
             name: svg_name,
@@ -115,30 +128,6 @@ fn encode_png(rgb: &[u8], (width, height): (u32, u32)) -> Result<Vec<u8>, png::E
     Ok(out)
 }
 
-/// Writes figure files into `dir`, each through a temporary file renamed when complete; returns
-/// the paths written.
-fn write_figures(dir: &Path, files: &[ReportFile]) -> Result<Vec<PathBuf>, PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| PlotError {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    let mut set = can_codec::output::AtomicSet::default();
-    for f in files {
-        let path = dir.join(&f.name);
-        let failed = |e: std::io::Error| PlotError {
-            path: path.clone(),
-            message: e.to_string(),
-        };
-        set.create(&path)
-            .and_then(|w| std::io::Write::write_all(w, &f.bytes))
-            .map_err(failed)?;
-    }
-    set.commit().map_err(|e| PlotError {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })
-}
-
 /// What one figure shows, independent of the backend.
 pub enum Figure<'a> {
     Roc(&'a [(String, WarningCurve)]),
@@ -147,14 +136,13 @@ pub enum Figure<'a> {
 }
 
 impl Figure<'_> {
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        root.fill(&WHITE)?;
         match self {
             Figure::Roc(curves) => draw_roc(root, curves),
             Figure::Pr(curves) => draw_pr(root, curves),
             Figure::Trajectories(panels) => draw_trajectories(root, panels),
         }
-        .map_err(|e| e.to_string())
     }
 }
 
@@ -352,7 +340,8 @@ pub fn plot_curves(
     dir: &Path,
     curves: &[(String, WarningCurve)],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    write_figures(dir, &curve_figures(curves)?)
+    let files = curve_figures(curves)?;
+    Ok(ReportBundle { files }.write_to(dir)?)
 }
 
 /// Writes `trajectories.{svg,png}` into `dir` (one panel per event); returns the paths written.
@@ -360,7 +349,8 @@ pub fn plot_trajectories(
     dir: &Path,
     panels: &[TrajectoryPanel],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    write_figures(dir, &trajectory_figures(panels)?)
+    let files = trajectory_figures(panels)?;
+    Ok(ReportBundle { files }.write_to(dir)?)
 }
 
 /// File names of every figure [`curve_figures`] and [`trajectory_figures`] produce.

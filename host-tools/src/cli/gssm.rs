@@ -13,7 +13,7 @@ use riskscore_train::gssm::study::{
     augmentation_study, cross_validate, mean_weights, AugmentationOptions, CvOptions, StudyModel,
 };
 use riskscore_train::gssm::{
-    align_msra_gssm, align_ssra, fit_gssm, GssmConfig, GssmParams, TermWeight,
+    align_msra_gssm, align_ssra, fit_gssm, weights_table, GssmConfig, GssmParams, TermWeight,
 };
 use riskscore_train::train::{prepare_comparisons, Progress, TrainConfig};
 use scorer_core::gssm::GssmScore;
@@ -233,15 +233,7 @@ fn write(path: &Path, blob: &[u8]) -> anyhow::Result<()> {
 }
 
 fn print_weights(name: &str, weights: &[TermWeight]) {
-    println!("{name}: learned weights after sigmoid normalisation");
-    println!("| term | w | a | b | span | share | risk-consistent |");
-    println!("|---|---|---|---|---|---|---|");
-    for w in weights {
-        println!(
-            "| {} | {:+.4} | {:+.4} | {:+.4} | {:+.4} | {:+.3} | {} |",
-            w.surrogate, w.w, w.a, w.b, w.span, w.share, w.risk_consistent
-        );
-    }
+    print!("{}", weights_table(name, weights));
 }
 
 fn run_fit(a: FitArgs) -> anyhow::Result<()> {

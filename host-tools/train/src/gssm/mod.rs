@@ -25,7 +25,9 @@ pub mod study;
 
 pub use config::GssmConfig;
 pub use fit::{fit_gssm, fit_gssm_on_observations, FitReport, TrainedGssm};
-pub use msra::{align_msra_gssm, MsraGssm, MsraGssmParams, TermWeight, TrainedMsraGssm};
+pub use msra::{
+    align_msra_gssm, weights_table, MsraGssm, MsraGssmParams, TermWeight, TrainedMsraGssm,
+};
 pub use net::{GssmNet, GssmParams};
 pub use ssra::{align_ssra, Ssra, TrainedSsra};
 

@@ -82,6 +82,20 @@ pub struct TermWeight {
     pub risk_consistent: bool,
 }
 
+/// The learned weights of `name` as a Markdown table, one row per term.
+pub fn weights_table(name: &str, weights: &[TermWeight]) -> String {
+    let mut out = format!(
+        "{name}: learned weights after sigmoid normalisation\n| term | w | a | b | span | share | risk-consistent |\n|---|---|---|---|---|---|---|\n"
+    );
+    for w in weights {
+        out.push_str(&format!(
+            "| {} | {:+.4} | {:+.4} | {:+.4} | {:+.4} | {:+.3} | {} |\n",
+            w.surrogate, w.w, w.a, w.b, w.span, w.share, w.risk_consistent
+        ));
+    }
+    out
+}
+
 /// Float parameters of an MSRA-with-GSSM model (the checkpoint content).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MsraGssmParams {
