@@ -218,7 +218,7 @@ pub fn check(
         let endpoint = ev.t_impact;
         let warned_at = onset[k];
         let (lead_time, late) = match (warned_at, endpoint) {
-            (Some(w), Some(e)) if w <= e + riskscore_eval::protocol::ENDPOINT_TOLERANCE_S => {
+            (Some(w), Some(e)) if w <= e + riskscore_data::events::TIME_TOLERANCE_S => {
                 (Some(riskscore_eval::protocol::lead_time(e, w)), false)
             }
             (Some(_), Some(_)) => (None, true),
@@ -266,7 +266,7 @@ pub fn check(
         .iter()
         .map(|s| ScoredSequence {
             event_id: s.event_id.clone(),
-            class: s.kind.into(),
+            class: s.kind,
             endpoint: s.endpoint,
             frames: s
                 .frames

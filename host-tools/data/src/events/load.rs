@@ -9,15 +9,13 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use super::{derive_partner_acceleration, FRAME_COLUMNS};
+use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
 use super::{Dims, Event, EventKind, EventSet, Frame, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE};
 use scorer_core::VehicleState;
 
 /// A heading whose norm is within this distance of 1 is normalised silently; further off is an
 /// issue (it is then not a heading but a data error, e.g. swapped columns).
 pub const HEADING_TOLERANCE: f64 = 0.02;
-/// Tolerance (s) when comparing frame times with `t_start`, `t_end` and `t_impact`.
-pub const TIME_TOLERANCE: f64 = 1e-3;
 /// Physical range of a box length (m), inclusive: a pedestrian's box (0.5 m) to a long truck or
 /// articulated bus (25.25 m in the EU) with margin; the same range as the CAN signals
 /// (`EgoLength`, `ObjLength`), so every loadable event can be sent over the bus.
@@ -368,7 +366,7 @@ fn finish_event(p: &mut Pending, events_path: &Path) -> Option<LoadIssue> {
     };
     let problem = match (ev.frames.first(), ev.t_impact) {
         (None, _) => issue(IssueProblem::NoFrames),
-        (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE => {
+        (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE_S => {
             let mut i = issue(IssueProblem::ImpactBeforeFrames {
                 t_impact,
                 first: first.time,
@@ -725,7 +723,7 @@ fn read_events(
                 if t.is_finite()
                     && t_start.is_finite()
                     && t_end.is_finite()
-                    && (t < t_start - TIME_TOLERANCE || t > t_end + TIME_TOLERANCE) =>
+                    && (t < t_start - TIME_TOLERANCE_S || t > t_end + TIME_TOLERANCE_S) =>
             {
                 f.push(
                     4,
@@ -936,7 +934,7 @@ fn read_frames<E: From<EventsError>>(
                 }
             }
             let (t0, t1) = (p.event.t_start, p.event.t_end);
-            if time < t0 - TIME_TOLERANCE || time > t1 + TIME_TOLERANCE {
+            if time < t0 - TIME_TOLERANCE_S || time > t1 + TIME_TOLERANCE_S {
                 f.push(
                     1,
                     IssueProblem::FrameOutsideEvent {

@@ -30,9 +30,16 @@ pub use load::{
 };
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_owned_event, prepare_sequences, safe_rules_hold,
-    PrepareConfig, PrepareIssue, Sequence, TIME_EPS,
+    PrepareConfig, PrepareIssue, Sequence,
 };
 pub use write::{write_events, EventWriter};
+
+/// Slack (s) for every comparison of a frame time with another time: an event's bounds and impact
+/// time when loading, the alert window's inclusive end, the anchor window and the sequence cuts.
+///
+/// Times in event tables are decimal strings (`12.3`), and a time computed elsewhere may differ from
+/// the frame time it names in the last bits; one microsecond is far below any frame period.
+pub const TIME_TOLERANCE_S: f64 = 1e-6;
 
 /// File name of the event table inside an event folder.
 pub const EVENTS_FILE: &str = "events.csv";
@@ -59,8 +66,12 @@ pub const FRAME_COLUMNS: [&str; 15] = [
     "x_sur", "y_sur", "vx_sur", "vy_sur", "hx_sur", "hy_sur",
 ];
 
-/// What happened in an event.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// What happened in an event: the class of a sequence everywhere (comparisons, the protocol,
+/// reports). Serialised as `crash`, `near_crash`, `safe`, the `events.csv` spelling.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum EventKind {
     Crash,
     NearCrash,
@@ -90,7 +101,8 @@ impl EventKind {
         }
     }
 
-    /// Crash or near-crash: a sequence with an endpoint and an alert window.
+    /// Crash or near-crash: a sequence with an endpoint and an alert window; warning on it is a
+    /// true positive.
     pub fn is_conflict(self) -> bool {
         !matches!(self, EventKind::Safe)
     }
@@ -258,6 +270,16 @@ mod tests {
         }
         assert_eq!(EventKind::parse("Crash"), None);
         assert!(EventKind::NearCrash.is_conflict() && !EventKind::Safe.is_conflict());
+    }
+
+    #[test]
+    fn kinds_serialise_as_their_events_csv_spelling() {
+        for k in EventKind::ALL {
+            let json = serde_json::to_string(&k).unwrap();
+            assert_eq!(json, format!("\"{}\"", k.as_str()));
+            assert_eq!(serde_json::from_str::<EventKind>(&json).unwrap(), k);
+        }
+        assert!(serde_json::from_str::<EventKind>("\"NearCrash\"").is_err());
     }
 
     #[test]

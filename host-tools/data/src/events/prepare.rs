@@ -34,10 +34,7 @@ impl Default for PrepareConfig {
     }
 }
 
-/// Slack (s) for comparing sampled times with window bounds (the alert window's inclusive end,
-/// the anchor window, the sequence cuts).
-pub const TIME_EPS: f64 = 1e-6;
-const EPS: f64 = TIME_EPS;
+const EPS: f64 = super::TIME_TOLERANCE_S;
 
 /// A prepared sequence: what training and evaluation consume.
 #[derive(Clone, Debug, PartialEq)]

@@ -22,6 +22,7 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use riskscore_data::events::EventKind;
 use scorer_core::{DrlInputs, Features, Observation, Surrogates, VehicleState};
 use serde::{Deserialize, Serialize};
 
@@ -75,30 +76,34 @@ impl Source {
     }
 }
 
-/// Whether a sequence ends in a conflict endpoint (crash impact or near-crash safety-critical moment)
-/// or is a safe sequence.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SequenceClass {
-    /// `endpoint` is `t_impact` of the event (seconds, same clock as the frame times).
-    Conflict {
-        endpoint: f64,
-    },
-    Safe,
-}
-
 /// One prepared sequence of an ego/partner pair, the unit comparisons are drawn from.
 ///
 /// Times are strictly increasing; `ego`, `partner` and `times` have equal lengths.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainingSequence {
     pub event_id: String,
-    pub class: SequenceClass,
+    pub kind: EventKind,
+    /// `t_impact` of the event (seconds, same clock as the frame times); only a conflict kind's
+    /// endpoint counts (see [`TrainingSequence::endpoint`]).
+    pub endpoint: Option<f64>,
     pub times: Vec<f64>,
     pub ego: Vec<VehicleState>,
     pub partner: Vec<VehicleState>,
 }
 
 impl TrainingSequence {
+    /// An empty sequence of `kind` (frames are pushed afterwards); `endpoint` is `t_impact`.
+    pub fn empty(event_id: impl Into<String>, kind: EventKind, endpoint: Option<f64>) -> Self {
+        TrainingSequence {
+            event_id: event_id.into(),
+            kind,
+            endpoint,
+            times: Vec::new(),
+            ego: Vec::new(),
+            partner: Vec::new(),
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.times.len()
     }
@@ -107,11 +112,9 @@ impl TrainingSequence {
         self.times.is_empty()
     }
 
+    /// The conflict endpoint: `None` for a safe sequence, and for a conflict kind without one.
     pub fn endpoint(&self) -> Option<f64> {
-        match self.class {
-            SequenceClass::Conflict { endpoint } => Some(endpoint),
-            SequenceClass::Safe => None,
-        }
+        self.endpoint.filter(|_| self.kind.is_conflict())
     }
 
     pub fn is_conflict(&self) -> bool {
@@ -131,10 +134,8 @@ impl From<&riskscore_data::events::Sequence> for TrainingSequence {
     fn from(s: &riskscore_data::events::Sequence) -> Self {
         TrainingSequence {
             event_id: s.event_id.clone(),
-            class: match s.endpoint {
-                Some(endpoint) if s.kind.is_conflict() => SequenceClass::Conflict { endpoint },
-                _ => SequenceClass::Safe,
-            },
+            kind: s.kind,
+            endpoint: s.endpoint,
             times: s.frames.iter().map(|f| f.time).collect(),
             ego: s.frames.iter().map(|f| f.ego).collect(),
             partner: s.frames.iter().map(|f| f.sur).collect(),
@@ -678,7 +679,7 @@ fn collect_anchors(
             continue;
         };
         for (fi, &t) in s.times.iter().enumerate() {
-            if t > endpoint + riskscore_data::events::TIME_EPS {
+            if t > endpoint + riskscore_data::events::TIME_TOLERANCE_S {
                 continue;
             }
             if endpoint - t <= config.impact_tolerance + 1e-9 {
