@@ -9,28 +9,24 @@
 //! the maximum that sets the warning threshold (a sequence warns on its maximum). Uniform safe
 //! frames alone are mostly easy negatives. Every pair has weight `a_i = 1`.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 
-use super::{
-    CrossSequenceConfig, Origin, Pair, Source, SourceStats, TableBuilder, TrainingSequence,
-};
+use super::config::CrossSequenceConfig;
+use super::draw::Draw;
+use super::types::{Pair, SourceStats, TrainingSequence};
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &CrossSequenceConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
+pub(crate) fn build(draw: Draw<'_>, config: &CrossSequenceConfig) -> (Vec<Pair>, SourceStats) {
+    let (mut stats, draw) = match draw.start() {
+        Ok(started) => started,
+        Err(empty) => return empty,
     };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
+    let Draw {
+        seqs,
+        origin,
+        target,
+        tag,
+        tb,
+        rng,
+    } = draw;
     let conflicts: Vec<(usize, usize)> = seqs
         .iter()
         .enumerate()

@@ -19,10 +19,11 @@
 //! `a_i` is the perturbation magnitude (m, m/s, m, growth factor) normalised by its mean over the
 //! source's pairs of the same kind, so the four kinds are commensurable and average 1.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 use scorer_core::{box_distance, Surrogates, VehicleState};
 
-use super::{Origin, Pair, PhysicsConfig, Source, SourceStats, TableBuilder, TrainingSequence};
+use super::config::PhysicsConfig;
+use super::draw::{normalise_mean_one, Draw};
+use super::types::{Pair, SourceStats};
 
 /// The physical variable a counterfactual changes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -174,22 +175,19 @@ pub fn is_riskier(
     }
 }
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &PhysicsConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
+pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, SourceStats) {
+    let (mut stats, draw) = match draw.start() {
+        Ok(started) => started,
+        Err(empty) => return empty,
     };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
+    let Draw {
+        seqs,
+        origin,
+        target,
+        tag,
+        tb,
+        rng,
+    } = draw;
     let usable: Vec<(usize, usize)> = seqs
         .iter()
         .enumerate()
@@ -237,7 +235,7 @@ pub(crate) fn build(
     for kind in Perturbation::ALL {
         let idx: Vec<usize> = (0..kinds.len()).filter(|&i| kinds[i] == kind).collect();
         let mut w: Vec<f32> = idx.iter().map(|&i| magnitudes[i]).collect();
-        super::normalise_mean_one(&mut w);
+        normalise_mean_one(&mut w);
         for (&i, w) in idx.iter().zip(w) {
             pairs[i].weight = w;
         }

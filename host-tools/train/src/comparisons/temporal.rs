@@ -5,12 +5,10 @@
 //! `t1` uniformly among the valid ones. The weight `a_i` is the time-to-impact difference
 //! `(t_impact - t1) - (t_impact - t2) = t2 - t1`, normalised by its mean over the source.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 
-use super::{
-    normalise_mean_one, Origin, Pair, Source, SourceStats, TableBuilder, TemporalConfig,
-    TrainingSequence,
-};
+use super::config::TemporalConfig;
+use super::draw::{normalise_mean_one, Draw};
+use super::types::{Pair, SourceStats, TrainingSequence};
 
 /// `(j, lo, hi)`: frame `j` and the range `lo..hi` of its valid earlier frames.
 type FrameRange = (usize, usize, usize);
@@ -32,22 +30,19 @@ fn valid_ranges(s: &TrainingSequence, dmin: f64, dmax: f64) -> Vec<FrameRange> {
     out
 }
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &TemporalConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
+pub(crate) fn build(draw: Draw<'_>, config: &TemporalConfig) -> (Vec<Pair>, SourceStats) {
+    let (mut stats, draw) = match draw.start() {
+        Ok(started) => started,
+        Err(empty) => return empty,
     };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
+    let Draw {
+        seqs,
+        origin,
+        target,
+        tag,
+        tb,
+        rng,
+    } = draw;
     let candidates: Vec<(usize, Vec<FrameRange>)> = seqs
         .iter()
         .enumerate()
