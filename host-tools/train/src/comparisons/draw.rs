@@ -71,19 +71,22 @@ pub(crate) struct Draw<'a> {
 }
 
 impl Draw<'_> {
-    /// The stats with the request recorded and the draw itself; `Err` holds the finished (empty)
-    /// result when no pair is requested.
-    #[allow(clippy::type_complexity)]
-    pub fn start(self) -> Result<(SourceStats, Self), (Vec<Pair>, SourceStats)> {
-        let stats = SourceStats {
+    /// Runs one construction: records the request, skips the construction when no pair is
+    /// requested, and counts the pairs it built (`construct` records its rejections).
+    pub fn run(
+        self,
+        construct: impl FnOnce(Self, &mut SourceStats) -> Vec<Pair>,
+    ) -> (Vec<Pair>, SourceStats) {
+        let mut stats = SourceStats {
             requested: self.target,
             ..SourceStats::default()
         };
         if self.target == 0 {
-            Err((Vec::new(), stats))
-        } else {
-            Ok((stats, self))
+            return (Vec::new(), stats);
         }
+        let pairs = construct(self, &mut stats);
+        stats.built = pairs.len();
+        (pairs, stats)
     }
 }
 
@@ -118,14 +121,24 @@ mod tests {
     }
 
     #[test]
-    fn a_draw_without_target_finishes_empty() {
+    fn a_run_counts_what_it_built_and_skips_an_empty_request() {
         let mut tb = TableBuilder::new();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let (pairs, stats) = draw(0, &mut tb, &mut rng).start().err().unwrap();
+        let (pairs, stats) = draw(0, &mut tb, &mut rng).run(|_, _| unreachable!());
         assert!(pairs.is_empty() && stats == SourceStats::default());
-        let (stats, d) = draw(5, &mut tb, &mut rng).start().ok().unwrap();
-        assert_eq!((stats.requested, stats.built), (5, 0));
-        assert_eq!((d.target, d.tag), (5, Source::Physics));
+        let (pairs, stats) = draw(5, &mut tb, &mut rng).run(|d, stats| {
+            assert_eq!((d.target, d.tag), (5, Source::Physics));
+            stats.rejected = 2;
+            let pair = Pair {
+                winner: 1,
+                loser: 0,
+                source: d.tag,
+                weight: 1.0,
+            };
+            vec![pair; 3]
+        });
+        assert_eq!(pairs.len(), 3);
+        assert_eq!((stats.requested, stats.built, stats.rejected), (5, 3, 2));
     }
 
     #[test]

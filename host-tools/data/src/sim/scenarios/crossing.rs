@@ -62,6 +62,13 @@ fn priority_and_yielding(
     (a, b)
 }
 
+/// A driver (desired speed `v` times a factor drawn from `factor`) who never swerves.
+fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> Driver {
+    let mut d = driver(rng, hz, v, factor);
+    d.swerve = None;
+    d
+}
+
 /// A driver at about speed `v` who swerves towards `swerve_dir` (if it swerves) and, hazardous,
 /// may be distracted for 0.5-2 s starting `before` (a range) ahead of the time `around`.
 fn swerving_driver(
@@ -83,8 +90,7 @@ fn swerving_driver(
 
 /// Straight crossing paths at an intersection: A has right of way, B gives way (or fails to).
 pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_a = rng.random_bool(0.5);
-    let (av, bv) = roles(ego_a, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.5, ego, sur);
     let alpha = sign(rng) * u(rng, 60.0, 120.0).to_radians();
     let v_a = u(rng, 8.0, 20.0);
     let v_b = u(rng, 5.0, 15.0);
@@ -115,8 +121,10 @@ pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehi
         distraction(rng, &mut ad, 0.35, t_a, (1.0, 3.0), (0.5, 2.0));
     }
     let bd = driver(rng, hz, v_b, (1.0, 1.1));
-    let a = agent(pa, -v_a * t_a, v_a, av, ad);
-    let b = agent(pb, s_b0, v_b0, bv, bd);
+    let (a, b) = (
+        agent(pa, -v_a * t_a, v_a, av, ad),
+        agent(pb, s_b0, v_b0, bv, bd),
+    );
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.45);
     (a, b, t_end, ego_a)
 }
@@ -128,8 +136,7 @@ pub(super) fn left_turn_across(
     ego: &Vehicle,
     sur: &Vehicle,
 ) -> Built {
-    let ego_a = rng.random_bool(0.5);
-    let (av, bv) = roles(ego_a, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.5, ego, sur);
     let lane = u(rng, 3.0, 3.75);
     let radius = u(rng, 6.0, 14.0);
     let l_b = 200.0;
@@ -167,10 +174,8 @@ pub(super) fn left_turn_across(
     let a_mid = 0.5 * (zone.0 + zone.1);
     let s_a0 = a_mid - v_a * (t_t + dt).max(3.0);
     let ad = swerving_driver(rng, hz, v_a, -1.0, (t_t, (0.0, 2.0)));
-    let mut bd = driver(rng, hz, v_b, (1.0, 1.1));
-    bd.swerve = None;
-    let a = agent(pa, s_a0, v_a, av, ad);
-    let b = agent(pb, s_b0, v_b, bv, bd);
+    let bd = steady_driver(rng, hz, v_b, (1.0, 1.1));
+    let (a, b) = (agent(pa, s_a0, v_a, av, ad), agent(pb, s_b0, v_b, bv, bd));
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.35);
     (a, b, t_t + dt.max(0.0) + u(rng, 4.0, 6.0), ego_a)
 }
@@ -182,8 +187,7 @@ pub(super) fn turn_into_path(
     ego: &Vehicle,
     sur: &Vehicle,
 ) -> Built {
-    let ego_a = rng.random_bool(0.6);
-    let (av, bv) = roles(ego_a, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.6, ego, sur);
     let radius = u(rng, 6.0, 12.0);
     let l_b = 60.0;
     let x_t = 0.0;
@@ -226,11 +230,9 @@ pub(super) fn turn_into_path(
     };
     let s_a0 = zone.0 - v_a * (t_b + dt).max(3.0);
     let ad = swerving_driver(rng, hz, v_a, 1.0, (t_b, (0.0, 2.0)));
-    let mut bd = driver(rng, hz, 1.0, (8.0, 15.0));
-    bd.swerve = None;
+    let mut bd = steady_driver(rng, hz, 1.0, (8.0, 15.0));
     bd.hold_until = hold;
-    let a = agent(pa, s_a0, v_a, av, ad);
-    let b = agent(pb, s_b0, v_b, bv, bd);
+    let (a, b) = (agent(pa, s_a0, v_a, av, ad), agent(pb, s_b0, v_b, bv, bd));
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.35);
     (a, b, t_b + dt.max(0.0) + u(rng, 4.0, 7.0), ego_a)
 }
@@ -243,8 +245,7 @@ pub(super) fn opposite_drift(
     ego: &Vehicle,
     sur: &Vehicle,
 ) -> Built {
-    let ego_a = rng.random_bool(0.7);
-    let (av, bv) = roles(ego_a, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.7, ego, sur);
     let lane = u(rng, 3.0, 3.7);
     let v_a = u(rng, 12.0, 27.0);
     let v_b = u(rng, 12.0, 27.0);
@@ -259,8 +260,7 @@ pub(super) fn opposite_drift(
     let t_d = t_meet - u(rng, 1.5, 4.0);
     let t_back = t_d + drift_dur + u(rng, 0.3, 2.5);
     let ad = swerving_driver(rng, hz, v_a, -1.0, (t_d, (-1.0, 1.0)));
-    let mut bd = driver(rng, hz, v_b, (1.0, 1.05));
-    bd.swerve = None;
+    let mut bd = steady_driver(rng, hz, v_b, (1.0, 1.05));
     bd.distraction.push(((t_d - 1.0).max(0.0), t_back));
     let a = agent(Path::line(0.0, 0.0, 0.0), -v_a * t_meet, v_a, av, ad);
     let mut b = agent(Path::line(0.0, lane, PI), -v_b * t_meet, v_b, bv, bd);

@@ -8,8 +8,7 @@ use crate::sim::world::*;
 /// Rear-end family: a follower behind a leader that brakes (hazardous: hard, benign: gently or
 /// just fluctuates in speed, including close following at steady speed).
 pub(super) fn lead_braking(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_follows = rng.random_bool(0.75);
-    let (fv, lv) = roles(ego_follows, ego, sur);
+    let (ego_follows, fv, lv) = roles(rng, 0.75, ego, sur);
     let v = road_speed(rng);
     let mut fd = driver(rng, hz, v, (1.0, 1.12));
     let t_init = if hz {
@@ -91,8 +90,7 @@ pub(super) fn lead_braking(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &
 /// A stationary or slow vehicle in the lane; the approaching driver is distracted (hazardous) or
 /// attentive and stops or changes lane to pass (benign).
 pub(super) fn stopped_ahead(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_approaches = rng.random_bool(0.85);
-    let (av, ov) = roles(ego_approaches, ego, sur);
+    let (ego_approaches, av, ov) = roles(rng, 0.85, ego, sur);
     let v = road_speed(rng).min(25.0);
     let v_o = if rng.random_bool(0.6) {
         0.0
@@ -146,8 +144,7 @@ pub(super) fn stopped_ahead(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: 
 /// A vehicle from the adjacent lane cuts in front of another (hazardous: small gap, slower or
 /// braking cutter, short manoeuvre; benign: ample gap, faster cutter).
 pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_victim = rng.random_bool(0.7);
-    let (vv, cv) = roles(ego_victim, ego, sur);
+    let (ego_victim, vv, cv) = roles(rng, 0.7, ego, sur);
     let lane = u(rng, 3.0, 3.75);
     let side = sign(rng);
     let v_v = road_speed(rng);
@@ -221,8 +218,7 @@ pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicl
 /// alongside, sometimes notices and aborts) or benign passing / parallel driving / lane changes
 /// into ample gaps.
 pub(super) fn lane_change(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_changes = rng.random_bool(0.5);
-    let (xv, yv) = roles(ego_changes, ego, sur);
+    let (ego_changes, xv, yv) = roles(rng, 0.5, ego, sur);
     let lane = u(rng, 3.0, 3.75);
     let side = sign(rng);
     let v_x = road_speed(rng);
@@ -271,8 +267,7 @@ pub(super) fn lane_change(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &V
 
 /// An on-ramp vehicle joins through an acceleration lane next to a main-lane vehicle.
 pub(super) fn merge(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let ego_main = rng.random_bool(0.6);
-    let (mv, rv) = roles(ego_main, ego, sur);
+    let (ego_main, mv, rv) = roles(rng, 0.6, ego, sur);
     let lane = u(rng, 3.2, 3.75);
     let v_m = u(rng, 14.0, 30.0);
     let v_r = (v_m + u(rng, -6.0, 1.0)).max(8.0);

@@ -156,16 +156,18 @@ pub(super) fn agent(path: Path, s: f64, v: f64, veh: &Vehicle, driver: Driver) -
     Agent::new(path, s, v, veh.dims, veh.limits, driver)
 }
 
-/// The role-A vehicle gets `ego` dims when `ego_first`, else `sur` dims (and vice versa).
+/// Draws whether the ego takes role A (with probability `p_ego_first`) and returns that flag with
+/// the role-A and role-B vehicles: `(ego, partner)` when it does, else `(partner, ego)`.
 pub(super) fn roles<'v>(
-    ego_first: bool,
+    rng: &mut ChaCha8Rng,
+    p_ego_first: f64,
     ego: &'v Vehicle,
-    sur: &'v Vehicle,
-) -> (&'v Vehicle, &'v Vehicle) {
-    if ego_first {
-        (ego, sur)
+    partner: &'v Vehicle,
+) -> (bool, &'v Vehicle, &'v Vehicle) {
+    if rng.random_bool(p_ego_first) {
+        (true, ego, partner)
     } else {
-        (sur, ego)
+        (false, partner, ego)
     }
 }
 
