@@ -174,7 +174,7 @@ pub struct EgoFrameState {
 
 /// World frame -> ego frame (ego at origin, heading +x), in f64.
 pub fn to_ego_frame(f: &EventFrame) -> EgoFrameState {
-    let (e, s) = (&f.ego, &f.sur);
+    let (e, s) = (&f.ego, &f.partner);
     let norm = f64::from(e.hx).hypot(f64::from(e.hy));
     let (c, sn) = if norm > 0.0 {
         (f64::from(e.hx) / norm, f64::from(e.hy) / norm)
@@ -262,8 +262,8 @@ impl Encoder {
                 project::OBJECT_SIZE,
                 &[
                     ("ObjId", id),
-                    ("ObjLength", f64::from(ev.dims.length_sur)),
-                    ("ObjWidth", f64::from(ev.dims.width_sur)),
+                    ("ObjLength", f64::from(ev.dims.length_partner)),
+                    ("ObjWidth", f64::from(ev.dims.width_partner)),
                 ],
             )?,
             self.message(
@@ -349,7 +349,7 @@ mod tests {
         let f = EventFrame {
             time: 0.0,
             ego: state(10.0, 5.0, 0.0, 10.0, std::f32::consts::FRAC_PI_2),
-            sur: state(10.0, 25.0, -5.0, 0.0, std::f32::consts::PI),
+            partner: state(10.0, 25.0, -5.0, 0.0, std::f32::consts::PI),
         };
         let s = to_ego_frame(&f);
         assert!((s.pos_x - 20.0).abs() < 1e-5, "{s:?}");
@@ -374,14 +374,14 @@ mod tests {
             dims: Dims {
                 length_ego: 4.5,
                 width_ego: 1.8,
-                length_sur: 4.8,
-                width_sur: 1.9,
+                length_partner: 4.8,
+                width_partner: 1.9,
             },
             frames: (0..n)
                 .map(|i| EventFrame {
                     time: 3.0 + i as f64 * 0.1,
                     ego: state(0.0, 0.0, 10.0, 0.0, 0.0),
-                    sur: state(if far && i == 1 { 900.0 } else { 20.0 }, 0.0, 8.0, 0.0, 0.0),
+                    partner: state(if far && i == 1 { 900.0 } else { 20.0 }, 0.0, 8.0, 0.0, 0.0),
                 })
                 .collect(),
         };

@@ -70,7 +70,7 @@ pub fn observe_frames(frames: &[Frame]) -> Vec<ObservedFrame> {
         .iter()
         .map(|f| ObservedFrame {
             time: f.time,
-            observation: Observation::of(&f.ego, &f.sur),
+            observation: Observation::of(&f.ego, &f.partner),
         })
         .collect()
 }

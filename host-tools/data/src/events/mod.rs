@@ -61,6 +61,10 @@ pub const EVENT_COLUMNS: [&str; 9] = [
 
 /// Column names of `frames.csv`, in the order the writer emits them. An optional extra column
 /// `acc_sur` (partner longitudinal acceleration) is used by the loader when present.
+///
+/// `_sur` ("surrounding road user") in file columns is the partner of the code: `x_sur` is
+/// `Frame::partner.x`, `length_sur` is `Dims::length_partner`. The file names stay for
+/// compatibility with existing event folders.
 pub const FRAME_COLUMNS: [&str; 15] = [
     "event_id", "time", "x_ego", "y_ego", "vx_ego", "vy_ego", "hx_ego", "hy_ego", "acc_ego",
     "x_sur", "y_sur", "vx_sur", "vy_sur", "hx_sur", "hy_sur",
@@ -119,23 +123,23 @@ impl std::fmt::Display for EventKind {
 pub struct Dims {
     pub length_ego: f32,
     pub width_ego: f32,
-    pub length_sur: f32,
-    pub width_sur: f32,
+    pub length_partner: f32,
+    pub width_partner: f32,
 }
 
-/// One sample of an event: ego and surrounding road user at `time` (s).
+/// One sample of an event: ego and partner (the other road user) at `time` (s).
 ///
-/// Both states carry the event's box dimensions. `ego.acc` is the recorded `acc_ego`; `sur.acc` is
+/// Both states carry the event's box dimensions. `ego.acc` is the recorded `acc_ego`; `partner.acc` is
 /// the `acc_sur` column when the file has one, otherwise it is derived from the partner's
 /// velocity (see [`derive_partner_acceleration`]).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Frame {
     pub time: f64,
     pub ego: VehicleState,
-    pub sur: VehicleState,
+    pub partner: VehicleState,
 }
 
-/// One recorded interaction between the ego vehicle and one surrounding road user.
+/// One recorded interaction between the ego vehicle and one partner (a surrounding road user).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Event {
     pub id: String,
@@ -224,7 +228,7 @@ impl<'a> IntoIterator for &'a EventSet {
     }
 }
 
-/// Fills `sur.acc` of every frame with the partner's longitudinal acceleration, estimated as the
+/// Fills `partner.acc` of every frame with the partner's longitudinal acceleration, estimated as the
 /// time derivative of its velocity projected on its heading: central differences inside the
 /// event, one-sided differences at both ends, 0 for a single frame.
 ///
@@ -234,14 +238,15 @@ pub fn derive_partner_acceleration(frames: &mut [Frame]) {
     let n = frames.len();
     if n < 2 {
         if let Some(f) = frames.first_mut() {
-            f.sur.acc = 0.0;
+            f.partner.acc = 0.0;
         }
         return;
     }
     let along: Vec<f64> = frames
         .iter()
         .map(|f| {
-            f64::from(f.sur.vx) * f64::from(f.sur.hx) + f64::from(f.sur.vy) * f64::from(f.sur.hy)
+            f64::from(f.partner.vx) * f64::from(f.partner.hx)
+                + f64::from(f.partner.vy) * f64::from(f.partner.hy)
         })
         .collect();
     for i in 0..n {
@@ -251,7 +256,7 @@ pub fn derive_partner_acceleration(frames: &mut [Frame]) {
             i => (i - 1, i + 1),
         };
         let dt = frames[b].time - frames[a].time;
-        frames[i].sur.acc = if dt > 0.0 {
+        frames[i].partner.acc = if dt > 0.0 {
             ((along[b] - along[a]) / dt) as f32
         } else {
             0.0
@@ -291,22 +296,22 @@ mod tests {
                     time: k as f64,
                     ..Frame::default()
                 };
-                f.sur.hx = 0.6;
-                f.sur.hy = 0.8;
+                f.partner.hx = 0.6;
+                f.partner.hy = 0.8;
                 let v = (k * k) as f32;
-                f.sur.vx = 0.6 * v;
-                f.sur.vy = 0.8 * v;
+                f.partner.vx = 0.6 * v;
+                f.partner.vy = 0.8 * v;
                 f
             })
             .collect();
         derive_partner_acceleration(&mut frames);
-        let acc: Vec<f32> = frames.iter().map(|f| f.sur.acc).collect();
+        let acc: Vec<f32> = frames.iter().map(|f| f.partner.acc).collect();
         for (a, want) in acc.iter().zip([1.0, 2.0, 4.0, 5.0]) {
             assert!((a - want).abs() < 1e-5, "{acc:?}");
         }
         let mut one = vec![Frame::default()];
-        one[0].sur.acc = 3.0;
+        one[0].partner.acc = 3.0;
         derive_partner_acceleration(&mut one);
-        assert_eq!(one[0].sur.acc, 0.0);
+        assert_eq!(one[0].partner.acc, 0.0);
     }
 }

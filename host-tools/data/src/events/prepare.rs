@@ -94,7 +94,7 @@ pub fn safe_rules_hold(frames: &[Frame], cfg: &PrepareConfig) -> bool {
 }
 
 fn calm(f: &Frame, cfg: &PrepareConfig) -> bool {
-    f.ego.acc.abs() <= cfg.safe_max_abs_acc && f.sur.acc.abs() <= cfg.safe_max_abs_acc
+    f.ego.acc.abs() <= cfg.safe_max_abs_acc && f.partner.acc.abs() <= cfg.safe_max_abs_acc
 }
 
 /// Prepares one event.

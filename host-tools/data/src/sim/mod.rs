@@ -298,15 +298,15 @@ fn run(scn: Scenario, place: &Placement) -> (Vec<Frame>, bool) {
         }
         let [s0, s1] = world.snaps();
         let mut ego = world.agents[0].state(&s0, acc_ego);
-        let mut sur = world.agents[1].state(&s1, 0.0);
+        let mut partner = world.agents[1].state(&s1, 0.0);
         place.apply(&mut ego, &s0);
-        place.apply(&mut sur, &s1);
+        place.apply(&mut partner, &s1);
         frames.push(Frame {
             time: k as f64 / 10.0,
             ego,
-            sur,
+            partner,
         });
-        if scorer_core::geometry::boxes_overlap(&ego, &sur) {
+        if scorer_core::geometry::boxes_overlap(&ego, &partner) {
             touched = false;
             break;
         }
@@ -381,8 +381,8 @@ pub fn simulate_one(
             dims: crate::events::Dims {
                 length_ego: e.ego.length,
                 width_ego: e.ego.width,
-                length_sur: e.sur.length,
-                width_sur: e.sur.width,
+                length_partner: e.partner.length,
+                width_partner: e.partner.width,
             },
             frames,
         };

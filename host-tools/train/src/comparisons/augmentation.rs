@@ -38,15 +38,14 @@ pub(crate) fn build(
         tb: &'a mut TableBuilder,
         rng: &'a mut ChaCha8Rng,
     ) -> Draw<'a> {
-        let (origin, tag) = (Origin::Augmentation, Source::Simulation);
-        Draw {
+        Draw::new(
             seqs,
-            origin,
+            Origin::Augmentation,
             target,
-            tag,
+            Source::Simulation,
             tb,
             rng,
-        }
+        )
     }
     let (mut pairs, s1) = temporal::build(draw(seqs, split[0], tb, rng), &config.temporal);
     let (mut p2, s2) = cross_sequence::build(draw(seqs, split[1], tb, rng), &config.cross_sequence);

@@ -70,7 +70,25 @@ pub(crate) struct Draw<'a> {
     pub rng: &'a mut ChaCha8Rng,
 }
 
-impl Draw<'_> {
+impl<'a> Draw<'a> {
+    pub fn new(
+        seqs: &'a [TrainingSequence],
+        origin: Origin,
+        target: usize,
+        tag: Source,
+        tb: &'a mut TableBuilder,
+        rng: &'a mut ChaCha8Rng,
+    ) -> Self {
+        Draw {
+            seqs,
+            origin,
+            target,
+            tag,
+            tb,
+            rng,
+        }
+    }
+
     /// Runs one construction: records the request, skips the construction when no pair is
     /// requested, and counts the pairs it built (`construct` records its rejections).
     pub fn run(
@@ -109,15 +127,7 @@ mod tests {
     use rand::SeedableRng;
 
     fn draw<'a>(target: usize, tb: &'a mut TableBuilder, rng: &'a mut ChaCha8Rng) -> Draw<'a> {
-        let (seqs, origin, tag) = (&[][..], Origin::Primary, Source::Physics);
-        Draw {
-            seqs,
-            origin,
-            target,
-            tag,
-            tb,
-            rng,
-        }
+        Draw::new(&[], Origin::Primary, target, Source::Physics, tb, rng)
     }
 
     #[test]

@@ -120,7 +120,7 @@ impl From<&riskscore_data::events::Sequence> for TrainingSequence {
             endpoint: s.endpoint,
             times: s.frames.iter().map(|f| f.time).collect(),
             ego: s.frames.iter().map(|f| f.ego).collect(),
-            partner: s.frames.iter().map(|f| f.sur).collect(),
+            partner: s.frames.iter().map(|f| f.partner).collect(),
         }
     }
 }

@@ -310,14 +310,14 @@ fn read_events(
         let dims = Dims {
             length_ego: f.f32(5),
             width_ego: f.f32(6),
-            length_sur: f.f32(7),
-            width_sur: f.f32(8),
+            length_partner: f.f32(7),
+            width_partner: f.f32(8),
         };
         for (i, v) in [
             dims.length_ego,
             dims.width_ego,
-            dims.length_sur,
-            dims.width_sur,
+            dims.length_partner,
+            dims.width_partner,
         ]
         .into_iter()
         .enumerate()
@@ -418,7 +418,7 @@ fn read_frames<E: From<EventsError>>(
 ) -> Result<(), E> {
     let mut rdr = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
-    let acc_sur_col = headers.iter().position(|h| h == "acc_sur");
+    let acc_partner_col = headers.iter().position(|h| h == "acc_sur");
     let mut rec = csv::ByteRecord::new();
     // Unknown ids: first line and frame count, reported once each.
     let mut unknown: HashMap<String, (u64, usize)> = HashMap::new();
@@ -455,7 +455,7 @@ fn read_frames<E: From<EventsError>>(
                             stream.close(
                                 previous,
                                 &mut pending[previous],
-                                acc_sur_col.is_none(),
+                                acc_partner_col.is_none(),
                             )?;
                         }
                     }
@@ -498,7 +498,7 @@ fn read_frames<E: From<EventsError>>(
             length: d.length_ego,
             width: d.width_ego,
         };
-        let mut sur = VehicleState {
+        let mut partner = VehicleState {
             x: f.f32(9),
             y: f.f32(10),
             vx: f.f32(11),
@@ -506,19 +506,19 @@ fn read_frames<E: From<EventsError>>(
             hx: hx_s,
             hy: hy_s,
             acc: 0.0,
-            length: d.length_sur,
-            width: d.width_sur,
+            length: d.length_partner,
+            width: d.width_partner,
         };
-        for (state, col) in [(&ego, 4), (&sur, 11)] {
+        for (state, col) in [(&ego, 4), (&partner, 11)] {
             let speed = state.vx.hypot(state.vy);
             if speed.is_finite() && speed > MAX_SPEED_M_S {
                 f.push(col, IssueProblem::ImplausibleSpeed { speed });
             }
         }
-        if let Some(c) = acc_sur_col {
+        if let Some(c) = acc_partner_col {
             let s = field_str(rec.get(c).unwrap_or(b""));
             match s.parse::<f32>() {
-                Ok(v) if v.is_finite() => sur.acc = v,
+                Ok(v) if v.is_finite() => partner.acc = v,
                 Ok(_) => f.issues.push(LoadIssue {
                     file: path.to_path_buf(),
                     line,
@@ -571,7 +571,7 @@ fn read_frames<E: From<EventsError>>(
         if f.issues.is_empty() {
             let newer = p.event.frames.last().is_none_or(|prev| time > prev.time);
             if newer {
-                p.event.frames.push(Frame { time, ego, sur });
+                p.event.frames.push(Frame { time, ego, partner });
                 p.last_frame_line = line;
             }
         } else {
@@ -580,7 +580,7 @@ fn read_frames<E: From<EventsError>>(
         }
     }
     if let (Some(stream), Some((_, last))) = (stream, current) {
-        stream.close(last, &mut pending[last], acc_sur_col.is_none())?;
+        stream.close(last, &mut pending[last], acc_partner_col.is_none())?;
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();
     unknown.sort_by_key(|(_, (line, _))| *line);
@@ -593,7 +593,7 @@ fn read_frames<E: From<EventsError>>(
             problem: IssueProblem::UnknownEvent { frames },
         });
     }
-    if acc_sur_col.is_none() {
+    if acc_partner_col.is_none() {
         for p in pending.iter_mut().filter(|p| p.ok) {
             derive_partner_acceleration(&mut p.event.frames);
         }

@@ -27,15 +27,15 @@ fn set_conflict(a: &mut Agent, b: &mut Agent, zone: (f64, f64, f64, f64), ra: Ro
     a.conflict = Some(Conflict {
         me_in: a_in,
         me_out: a_out,
-        other_in: b_in,
-        other_out: b_out,
+        partner_in: b_in,
+        partner_out: b_out,
         role: ra,
     });
     b.conflict = Some(Conflict {
         me_in: b_in,
         me_out: b_out,
-        other_in: a_in,
-        other_out: a_out,
+        partner_in: a_in,
+        partner_out: a_out,
         role: rb,
     });
 }
@@ -89,8 +89,8 @@ fn swerving_driver(
 }
 
 /// Straight crossing paths at an intersection: A has right of way, B gives way (or fails to).
-pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.5, ego, sur);
+pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Vehicle) -> Built {
+    let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let alpha = sign(rng) * u(rng, 60.0, 120.0).to_radians();
     let v_a = u(rng, 8.0, 20.0);
     let v_b = u(rng, 5.0, 15.0);
@@ -134,9 +134,9 @@ pub(super) fn left_turn_across(
     rng: &mut ChaCha8Rng,
     hz: bool,
     ego: &Vehicle,
-    sur: &Vehicle,
+    partner: &Vehicle,
 ) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.5, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.75);
     let radius = u(rng, 6.0, 14.0);
     let l_b = 200.0;
@@ -185,9 +185,9 @@ pub(super) fn turn_into_path(
     rng: &mut ChaCha8Rng,
     hz: bool,
     ego: &Vehicle,
-    sur: &Vehicle,
+    partner: &Vehicle,
 ) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.6, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.6, ego, partner);
     let radius = u(rng, 6.0, 12.0);
     let l_b = 60.0;
     let x_t = 0.0;
@@ -243,9 +243,9 @@ pub(super) fn opposite_drift(
     rng: &mut ChaCha8Rng,
     hz: bool,
     ego: &Vehicle,
-    sur: &Vehicle,
+    partner: &Vehicle,
 ) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.7, ego, sur);
+    let (ego_a, av, bv) = roles(rng, 0.7, ego, partner);
     let lane = u(rng, 3.0, 3.7);
     let v_a = u(rng, 12.0, 27.0);
     let v_b = u(rng, 12.0, 27.0);

@@ -7,8 +7,13 @@ use crate::sim::world::*;
 
 /// Rear-end family: a follower behind a leader that brakes (hazardous: hard, benign: gently or
 /// just fluctuates in speed, including close following at steady speed).
-pub(super) fn lead_braking(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_follows, fv, lv) = roles(rng, 0.75, ego, sur);
+pub(super) fn lead_braking(
+    rng: &mut ChaCha8Rng,
+    hz: bool,
+    ego: &Vehicle,
+    partner: &Vehicle,
+) -> Built {
+    let (ego_follows, fv, lv) = roles(rng, 0.75, ego, partner);
     let v = road_speed(rng);
     let mut fd = driver(rng, hz, v, (1.0, 1.12));
     let t_init = if hz {
@@ -52,14 +57,7 @@ pub(super) fn lead_braking(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &
         )]
     } else {
         vec![
-            (
-                0.0,
-                Piece::Accel {
-                    a: 0.0,
-                    v_lo: 0.0,
-                    v_hi: f64::MAX,
-                },
-            ),
+            (0.0, CRUISE),
             (
                 t_b,
                 Piece::Accel {
@@ -89,8 +87,13 @@ pub(super) fn lead_braking(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &
 
 /// A stationary or slow vehicle in the lane; the approaching driver is distracted (hazardous) or
 /// attentive and stops or changes lane to pass (benign).
-pub(super) fn stopped_ahead(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_approaches, av, ov) = roles(rng, 0.85, ego, sur);
+pub(super) fn stopped_ahead(
+    rng: &mut ChaCha8Rng,
+    hz: bool,
+    ego: &Vehicle,
+    partner: &Vehicle,
+) -> Built {
+    let (ego_approaches, av, ov) = roles(rng, 0.85, ego, partner);
     let v = road_speed(rng).min(25.0);
     let v_o = if rng.random_bool(0.6) {
         0.0
@@ -115,18 +118,7 @@ pub(super) fn stopped_ahead(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: 
             u(rng, 3.0, 5.0),
         ));
     }
-    let (od, script) = scripted(
-        rng,
-        v_o.max(0.1),
-        vec![(
-            0.0,
-            Piece::Accel {
-                a: 0.0,
-                v_lo: 0.0,
-                v_hi: f64::MAX,
-            },
-        )],
-    );
+    let (od, script) = scripted(rng, v_o.max(0.1), vec![(0.0, CRUISE)]);
     let road = Path::line(0.0, 0.0, 0.0);
     let mut a = agent(road.clone(), 0.0, v, av, ad);
     a.plans = plans;
@@ -143,8 +135,8 @@ pub(super) fn stopped_ahead(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: 
 
 /// A vehicle from the adjacent lane cuts in front of another (hazardous: small gap, slower or
 /// braking cutter, short manoeuvre; benign: ample gap, faster cutter).
-pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_victim, vv, cv) = roles(rng, 0.7, ego, sur);
+pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Vehicle) -> Built {
+    let (ego_victim, vv, cv) = roles(rng, 0.7, ego, partner);
     let lane = u(rng, 3.0, 3.75);
     let side = sign(rng);
     let v_v = road_speed(rng);
@@ -181,14 +173,7 @@ pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicl
             rng,
             v_c,
             vec![
-                (
-                    0.0,
-                    Piece::Accel {
-                        a: 0.0,
-                        v_lo: 0.0,
-                        v_hi: f64::MAX,
-                    },
-                ),
+                (0.0, CRUISE),
                 (
                     t_brake,
                     Piece::Accel {
@@ -217,8 +202,13 @@ pub(super) fn cut_in(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicl
 /// A lane change into an occupied adjacent lane (hazardous: the changer misses a vehicle
 /// alongside, sometimes notices and aborts) or benign passing / parallel driving / lane changes
 /// into ample gaps.
-pub(super) fn lane_change(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_changes, xv, yv) = roles(rng, 0.5, ego, sur);
+pub(super) fn lane_change(
+    rng: &mut ChaCha8Rng,
+    hz: bool,
+    ego: &Vehicle,
+    partner: &Vehicle,
+) -> Built {
+    let (ego_changes, xv, yv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.75);
     let side = sign(rng);
     let v_x = road_speed(rng);
@@ -266,8 +256,8 @@ pub(super) fn lane_change(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &V
 }
 
 /// An on-ramp vehicle joins through an acceleration lane next to a main-lane vehicle.
-pub(super) fn merge(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, sur: &Vehicle) -> Built {
-    let (ego_main, mv, rv) = roles(rng, 0.6, ego, sur);
+pub(super) fn merge(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Vehicle) -> Built {
+    let (ego_main, mv, rv) = roles(rng, 0.6, ego, partner);
     let lane = u(rng, 3.2, 3.75);
     let v_m = u(rng, 14.0, 30.0);
     let v_r = (v_m + u(rng, -6.0, 1.0)).max(8.0);

@@ -72,7 +72,7 @@ impl Family {
     }
 }
 
-/// A built scenario: ego is agent 0, the surrounding road user agent 1.
+/// A built scenario: ego is agent 0, its partner (the other road user) agent 1.
 pub(crate) struct Scenario {
     pub family: Family,
     pub agents: [Agent; 2],
@@ -99,24 +99,24 @@ pub(crate) fn draw(rng: &mut ChaCha8Rng, hazardous: bool) -> Scenario {
 /// Builds a scenario of `family`.
 pub(crate) fn build(family: Family, rng: &mut ChaCha8Rng, hz: bool) -> Scenario {
     let ego = vehicle(rng, true);
-    let sur = vehicle(rng, false);
+    let partner = vehicle(rng, false);
     // `first` is the role the family calls A; the ego takes it with probability `p_ego_first`.
     let (a, b, horizon, p_ego_first) = match family {
-        Family::LeadBraking => lead_braking(rng, hz, &ego, &sur),
-        Family::StoppedAhead => stopped_ahead(rng, hz, &ego, &sur),
-        Family::CutIn => cut_in(rng, hz, &ego, &sur),
-        Family::LaneChange => lane_change(rng, hz, &ego, &sur),
-        Family::Merge => merge(rng, hz, &ego, &sur),
-        Family::Crossing => crossing(rng, hz, &ego, &sur),
-        Family::LeftTurnAcross => left_turn_across(rng, hz, &ego, &sur),
-        Family::TurnIntoPath => turn_into_path(rng, hz, &ego, &sur),
-        Family::OppositeDrift => opposite_drift(rng, hz, &ego, &sur),
+        Family::LeadBraking => lead_braking(rng, hz, &ego, &partner),
+        Family::StoppedAhead => stopped_ahead(rng, hz, &ego, &partner),
+        Family::CutIn => cut_in(rng, hz, &ego, &partner),
+        Family::LaneChange => lane_change(rng, hz, &ego, &partner),
+        Family::Merge => merge(rng, hz, &ego, &partner),
+        Family::Crossing => crossing(rng, hz, &ego, &partner),
+        Family::LeftTurnAcross => left_turn_across(rng, hz, &ego, &partner),
+        Family::TurnIntoPath => turn_into_path(rng, hz, &ego, &partner),
+        Family::OppositeDrift => opposite_drift(rng, hz, &ego, &partner),
     };
     // Role assignment was drawn inside: `a` is the ego when the flag says so.
     let (agents, classes) = if p_ego_first {
-        ([a, b], [ego.class, sur.class])
+        ([a, b], [ego.class, partner.class])
     } else {
-        ([b, a], [ego.class, sur.class])
+        ([b, a], [ego.class, partner.class])
     };
     Scenario {
         family,

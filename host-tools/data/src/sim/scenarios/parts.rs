@@ -99,6 +99,13 @@ pub(super) fn road_speed(rng: &mut ChaCha8Rng) -> f64 {
     }
 }
 
+/// Scripted cruising: no acceleration at any speed.
+pub(super) const CRUISE: Piece = Piece::Accel {
+    a: 0.0,
+    v_lo: 0.0,
+    v_hi: f64::MAX,
+};
+
 /// A driver whose desired speed is `v` times a factor drawn from `factor`.
 pub(super) fn driver(rng: &mut ChaCha8Rng, hazardous: bool, v: f64, factor: (f64, f64)) -> Driver {
     let v0 = v * u(rng, factor.0, factor.1);

@@ -5,7 +5,7 @@ use super::path::{Path, Pose};
 /// Role of a vehicle at a crossing conflict zone.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Role {
-    /// Gives way: goes when the other's (misjudged) arrival leaves at least `margin` s after it
+    /// Gives way: goes when the partner's (misjudged) arrival leaves at least `margin` s after it
     /// would clear the zone; `blind` drivers never look.
     Yield {
         margin: f64,
@@ -22,8 +22,8 @@ pub(crate) enum Role {
 pub(crate) struct Conflict {
     pub me_in: f64,
     pub me_out: f64,
-    pub other_in: f64,
-    pub other_out: f64,
+    pub partner_in: f64,
+    pub partner_out: f64,
     pub role: Role,
 }
 
@@ -76,11 +76,11 @@ pub(super) fn conflict_stop(
             if dist > decide_at {
                 return None;
             }
-            let gone = os.s > c.other_out;
-            let inside = os.s >= c.other_in && !gone;
+            let gone = os.s > c.partner_out;
+            let inside = os.s >= c.partner_in && !gone;
             let accept = gone
                 || (!inside && {
-                    let t_o = (c.other_in - os.s) / (os.v * misjudge).max(0.1);
+                    let t_o = (c.partner_in - os.s) / (os.v * misjudge).max(0.1);
                     let t_c = travel_time(c.me_out - ms.s, ms.v, driver.a_max, driver.v0);
                     t_o - t_c >= margin
                 });
@@ -88,21 +88,21 @@ pub(super) fn conflict_stop(
                 progress.committed = true;
                 None
             } else {
-                // Stop line 2.5 m before the zone, clear of the other's lane.
+                // Stop line 2.5 m before the zone, clear of the partner's lane.
                 Some(c.me_in - 2.5)
             }
         }
         Role::Priority { margin } => {
-            if progress.released || os.s > c.other_out {
+            if progress.released || os.s > c.partner_out {
                 progress.released = true;
                 return None;
             }
             if ms.s >= c.me_in - 0.5 {
                 return None;
             }
-            let inside = os.s >= c.other_in;
-            let d_o = c.other_in - os.s;
-            // Right of way: the other is assumed to give way until it is close to the zone and
+            let inside = os.s >= c.partner_in;
+            let d_o = c.partner_in - os.s;
+            // Right of way: the partner is assumed to give way until it is close to the zone and
             // visibly not stopping (not braking, or needing more than 3.5 m/s^2 to stop).
             let close = d_o < os.v * os.v / (2.0 * 3.0) + 5.0;
             let need = os.v * os.v / (2.0 * (d_o - 1.0).max(0.5));
@@ -115,7 +115,7 @@ pub(super) fn conflict_stop(
             let t_me_out = (c.me_out - ms.s) / v;
             let ov = os.v.max(0.1);
             let t_o_in = if inside { 0.0 } else { d_o / ov };
-            let t_o_out = (c.other_out - os.s) / ov;
+            let t_o_out = (c.partner_out - os.s) / ov;
             let clash = t_o_in < t_me_out + margin && t_o_out > t_me_in - margin;
             (clash && t_me_in < 8.0).then_some(c.me_in - 1.0)
         }

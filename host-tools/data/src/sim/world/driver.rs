@@ -73,7 +73,7 @@ pub(crate) struct Driver {
     pub jerk: f64,
     /// Intervals `[a, b)` of inattention: what happens then is not perceived.
     pub distraction: Vec<(f64, f64)>,
-    /// Extra lateral margin (m) of the corridor in which the other vehicle counts as ahead.
+    /// Extra lateral margin (m) of the corridor in which the partner vehicle counts as ahead.
     pub margin: f64,
     /// Look-ahead (s) used to anticipate a vehicle moving into the corridor.
     pub anticipation: f64,
@@ -82,7 +82,7 @@ pub(crate) struct Driver {
     pub swerve: Option<Swerve>,
     /// The driver keeps the vehicle standing until this time (s), e.g. waiting at a stop line.
     pub hold_until: f64,
-    /// False for scripted vehicles that do not react to the other vehicle.
+    /// False for scripted vehicles that do not react to the partner vehicle.
     pub reactive: bool,
 }
 

@@ -112,8 +112,8 @@ impl Agent {
     }
 }
 
-/// The other vehicle as a leader in my corridor: (bumper gap, its speed along my heading).
-fn corridor_leader(me: &Agent, ms: &Snap, other: &Agent, os: &Snap) -> Option<(f64, f64)> {
+/// The partner vehicle as a leader in my corridor: (bumper gap, its speed along my heading).
+fn corridor_leader(me: &Agent, ms: &Snap, partner: &Agent, os: &Snap) -> Option<(f64, f64)> {
     let (dx, dy) = (os.x - ms.x, os.y - ms.y);
     let long = dx * ms.hx + dy * ms.hy;
     if long <= 0.0 || long > 200.0 {
@@ -123,8 +123,8 @@ fn corridor_leader(me: &Agent, ms: &Snap, other: &Agent, os: &Snap) -> Option<(f
     let v_along = ovx * ms.hx + ovy * ms.hy;
     let cosr = (os.hx * ms.hx + os.hy * ms.hy).abs();
     let sinr = (os.hx * ms.hy - os.hy * ms.hx).abs();
-    let half_long = 0.5 * (other.length * cosr + other.width * sinr);
-    let half_lat = 0.5 * (other.length * sinr + other.width * cosr);
+    let half_long = 0.5 * (partner.length * cosr + partner.width * sinr);
+    let half_lat = 0.5 * (partner.length * sinr + partner.width * cosr);
     let lat_now = ms.hx * dy - ms.hy * dx;
     let v_lat = ms.hx * ovy - ms.hy * ovx;
     let lat_ahead = lat_now + v_lat * me.driver.anticipation;
@@ -171,7 +171,7 @@ impl World {
         let p = self.perceived(tau);
         let (ms, os) = (p[i], p[j]);
         let me = &self.agents[i];
-        let other = &self.agents[j];
+        let partner = &self.agents[j];
         let drv = &me.driver;
         let mut a = match &me.script {
             Some(sc) => sc.accel(t, self.agents[i].v),
@@ -187,7 +187,7 @@ impl World {
             return me.held_cmd;
         }
         let mut threat = 0.0_f64;
-        if let Some((gap, v_lead)) = corridor_leader(me, &ms, other, &os) {
+        if let Some((gap, v_lead)) = corridor_leader(me, &ms, partner, &os) {
             let ai = drv.idm(ms.v, v_lead, gap);
             threat = threat.max(-ai);
             a = a.min(ai);
