@@ -3,8 +3,10 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use super::parts::*;
-use crate::sim::world::*;
+use super::parts::{agent, distraction, driver, roles, sign, u, Built, Vehicle};
+use crate::sim::world::{
+    conflict_zone, Agent, Conflict, Driver, LatPlan, Path, Role, Seg, Trigger,
+};
 
 fn yield_role(rng: &mut ChaCha8Rng, hz: bool, blind_p: f64) -> Role {
     if hz {

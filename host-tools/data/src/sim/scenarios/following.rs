@@ -2,8 +2,10 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use super::parts::*;
-use crate::sim::world::*;
+use super::parts::{
+    agent, distraction, driver, road_speed, roles, scripted, sign, u, Built, Vehicle, CRUISE,
+};
+use crate::sim::world::{LatPlan, Path, Piece, Seg, Trigger};
 
 /// Rear-end family: a follower behind a leader that brakes (hazardous: hard, benign: gently or
 /// just fluctuates in speed, including close following at steady speed).
