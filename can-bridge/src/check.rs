@@ -193,7 +193,7 @@ pub fn check(
             EventFrame {
                 time: frame.time,
                 ego: obs.ego,
-                sur: obs.partner,
+                partner: obs.partner,
             },
             obs.score,
         ));
@@ -218,7 +218,7 @@ pub fn check(
         let endpoint = ev.t_impact;
         let warned_at = onset[k];
         let (lead_time, late) = match (warned_at, endpoint) {
-            (Some(w), Some(e)) if w <= e + riskscore_eval::protocol::ENDPOINT_TOLERANCE_S => {
+            (Some(w), Some(e)) if w <= e + riskscore_data::events::TIME_TOLERANCE_S => {
                 (Some(riskscore_eval::protocol::lead_time(e, w)), false)
             }
             (Some(_), Some(_)) => (None, true),
@@ -240,8 +240,8 @@ pub fn check(
             let dims = riskscore_data::events::Dims {
                 length_ego: first.ego.length,
                 width_ego: first.ego.width,
-                length_sur: first.sur.length,
-                width_sur: first.sur.width,
+                length_partner: first.partner.length,
+                width_partner: first.partner.width,
             };
             decoded_events.push(Event {
                 id: ev.id.clone(),
@@ -266,7 +266,7 @@ pub fn check(
         .iter()
         .map(|s| ScoredSequence {
             event_id: s.event_id.clone(),
-            class: s.kind.into(),
+            class: s.kind,
             endpoint: s.endpoint,
             frames: s
                 .frames
@@ -318,8 +318,8 @@ pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
             e.t_impact.map(|t| t.to_string()).unwrap_or_default(),
             d.length_ego,
             d.width_ego,
-            d.length_sur,
-            d.width_sur
+            d.length_partner,
+            d.width_partner
         )?;
     }
     let mut fr_out = AtomicFile::create(&dir.join(riskscore_data::events::FRAMES_FILE))?;
@@ -330,7 +330,7 @@ pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
     )?;
     for e in &set.events {
         for f in &e.frames {
-            let (a, b) = (&f.ego, &f.sur);
+            let (a, b) = (&f.ego, &f.partner);
             writeln!(
                 fr_out,
                 "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",

@@ -74,7 +74,7 @@ fn check_metrics_equal_evaluate_on_the_decoded_events_exactly() {
         assert_eq!(orig.id, dec.id);
         for (a, b) in orig.frames.iter().zip(&dec.frames) {
             assert_eq!(a.time, b.time);
-            diffs.push((model.score(&a.ego, &a.sur) - model.score(&b.ego, &b.sur)).abs());
+            diffs.push((model.score(&a.ego, &a.partner) - model.score(&b.ego, &b.partner)).abs());
         }
     }
     diffs.sort_by(f32::total_cmp);

@@ -342,7 +342,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     }
     let cv_seconds = t0.elapsed().as_secs_f64();
     stages.push(("cross-validation".into(), cv_seconds));
-    let events_counts = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let events_counts = EventCounts::from_classes(seqs.iter().map(|s| s.kind));
     let results: Vec<_> = folds.iter().map(|f| f.result.clone()).collect();
     let report = eval::aggregate(events_counts, &results);
 

@@ -137,7 +137,7 @@ fn interaction_rules_pick_near_pairs_split_at_overlaps_and_choose_the_follower()
     assert_eq!((truck.event.t_start, truck.event.t_end), (0.0, 3.0));
     let d = truck.event.dims;
     assert_eq!(
-        (d.length_ego, d.width_ego, d.length_sur, d.width_sur),
+        (d.length_ego, d.width_ego, d.length_partner, d.width_partner),
         (4.0, 1.8, 12.0, 2.5)
     );
     // Gap 12 m closes by (0.2 + 0.3) / 2 * 3^2 = 2.25 m over 3 s.
@@ -148,7 +148,7 @@ fn interaction_rules_pick_near_pairs_split_at_overlaps_and_choose_the_follower()
     );
     let f = &truck.event.frames[10];
     assert_eq!(f.time, 1.0);
-    assert_eq!((f.ego.acc, f.sur.acc), (0.2, -0.3));
+    assert_eq!((f.ego.acc, f.partner.acc), (0.2, -0.3));
     let pair = &found[1];
     assert_eq!((pair.event.t_start, pair.event.t_end), (1.5, 4.0));
     assert!(close(f64::from(pair.min_gap), 2.0, 1e-3));
@@ -356,7 +356,7 @@ fn the_imported_folder_loads_with_zero_issues_and_splits_by_scenario() {
     assert_eq!(set.counts().safe, 3);
     // The recorded partner acceleration survives the round trip.
     let truck = set.get("ZAM_Merge-1_1_T-1/10-20@0#0").unwrap();
-    assert!(truck.frames.iter().all(|f| f.sur.acc == -0.3));
+    assert!(truck.frames.iter().all(|f| f.partner.acc == -0.3));
     let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
     assert!(prep.is_empty(), "{prep:?}");
     assert_eq!(seqs.len(), 3);

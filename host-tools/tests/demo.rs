@@ -38,7 +38,7 @@ fn write_real(dir: &std::path::Path) {
                     Frame {
                         time: t,
                         ego: state(x),
-                        sur: state(x + 4.5 + gap),
+                        partner: state(x + 4.5 + gap),
                     }
                 })
                 .collect();
@@ -51,8 +51,8 @@ fn write_real(dir: &std::path::Path) {
                 dims: Dims {
                     length_ego: 4.5,
                     width_ego: 1.8,
-                    length_sur: 4.5,
-                    width_sur: 1.8,
+                    length_partner: 4.5,
+                    width_partner: 1.8,
                 },
                 frames,
             })

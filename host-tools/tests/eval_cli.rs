@@ -17,8 +17,8 @@ use scorer_core::{SurrogateKind, VehicleState};
 const DIMS: Dims = Dims {
     length_ego: 4.5,
     width_ego: 1.8,
-    length_sur: 4.8,
-    width_sur: 1.9,
+    length_partner: 4.8,
+    width_partner: 1.9,
 };
 
 fn car(x: f64, vx: f64, acc: f64, length: f32, width: f32) -> VehicleState {
@@ -53,7 +53,7 @@ fn event(
             Frame {
                 time,
                 ego: car(xe, ve, ae, DIMS.length_ego, DIMS.width_ego),
-                sur: car(xs, vs, 0.0, DIMS.length_sur, DIMS.width_sur),
+                partner: car(xs, vs, 0.0, DIMS.length_partner, DIMS.width_partner),
             }
         })
         .collect();
@@ -71,7 +71,7 @@ fn event(
 /// 6 rear-end crashes into a stopped car (impact at 5 s), 4 near-crashes braking to a stop 1 m
 /// short, 8 safe car-following events at equal speed.
 fn event_set() -> EventSet {
-    let half = f64::from(DIMS.length_ego + DIMS.length_sur) / 2.0;
+    let half = f64::from(DIMS.length_ego + DIMS.length_partner) / 2.0;
     let mut events = Vec::new();
     for i in 0..6 {
         let v = 8.0 + 2.0 * f64::from(i);

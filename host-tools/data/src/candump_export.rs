@@ -98,16 +98,28 @@ impl Layout {
     }
 }
 
+/// Why one cycle could not be encoded.
+#[derive(Debug, thiserror::Error)]
+pub enum EncodeError {
+    #[error("message {0} missing from the project DBC")]
+    MissingMessage(&'static str),
+    /// A signal value the DBC cannot carry (out of range, unknown signal).
+    #[error(transparent)]
+    Signal(#[from] can_codec::DbcError),
+    #[error("{0}: payload above 8 bytes")]
+    PayloadTooLong(&'static str),
+}
+
 /// A cycle the exporter could not encode.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug)]
 pub struct SkippedFrame {
     pub event_id: String,
     pub time: f64,
-    pub reason: String,
+    pub reason: EncodeError,
 }
 
 /// What [`write_candump`] wrote.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug, Default)]
 pub struct ExportSummary {
     pub events: usize,
     pub cycles: usize,
@@ -162,7 +174,7 @@ pub struct EgoFrameState {
 
 /// World frame -> ego frame (ego at origin, heading +x), in f64.
 pub fn to_ego_frame(f: &EventFrame) -> EgoFrameState {
-    let (e, s) = (&f.ego, &f.sur);
+    let (e, s) = (&f.ego, &f.partner);
     let norm = f64::from(e.hx).hypot(f64::from(e.hy));
     let (c, sn) = if norm > 0.0 {
         (f64::from(e.hx) / norm, f64::from(e.hy) / norm)
@@ -205,17 +217,17 @@ impl Encoder {
         })
     }
 
-    fn message(&self, name: &str, values: &[(&str, f64)]) -> Result<Frame, String> {
+    fn message(&self, name: &'static str, values: &[(&str, f64)]) -> Result<Frame, EncodeError> {
         let m = self
             .db
             .message_by_name(name)
-            .ok_or_else(|| format!("message {name} missing from the project DBC"))?;
-        let data = m.encode(values).map_err(|e| e.to_string())?;
-        Frame::data_frame(m.id, &data).ok_or_else(|| format!("{name}: payload above 8 bytes"))
+            .ok_or(EncodeError::MissingMessage(name))?;
+        let data = m.encode(values)?;
+        Frame::data_frame(m.id, &data).ok_or(EncodeError::PayloadTooLong(name))
     }
 
     /// The five frames of one cycle, in send order (trigger last).
-    pub fn cycle(&self, ev: &Event, f: &EventFrame, track: u32) -> Result<[Frame; 5], String> {
+    pub fn cycle(&self, ev: &Event, f: &EventFrame, track: u32) -> Result<[Frame; 5], EncodeError> {
         let s = to_ego_frame(f);
         let id = f64::from(track);
         Ok([
@@ -250,8 +262,8 @@ impl Encoder {
                 project::OBJECT_SIZE,
                 &[
                     ("ObjId", id),
-                    ("ObjLength", f64::from(ev.dims.length_sur)),
-                    ("ObjWidth", f64::from(ev.dims.width_sur)),
+                    ("ObjLength", f64::from(ev.dims.length_partner)),
+                    ("ObjWidth", f64::from(ev.dims.width_partner)),
                 ],
             )?,
             self.message(
@@ -337,7 +349,7 @@ mod tests {
         let f = EventFrame {
             time: 0.0,
             ego: state(10.0, 5.0, 0.0, 10.0, std::f32::consts::FRAC_PI_2),
-            sur: state(10.0, 25.0, -5.0, 0.0, std::f32::consts::PI),
+            partner: state(10.0, 25.0, -5.0, 0.0, std::f32::consts::PI),
         };
         let s = to_ego_frame(&f);
         assert!((s.pos_x - 20.0).abs() < 1e-5, "{s:?}");
@@ -362,14 +374,14 @@ mod tests {
             dims: Dims {
                 length_ego: 4.5,
                 width_ego: 1.8,
-                length_sur: 4.8,
-                width_sur: 1.9,
+                length_partner: 4.8,
+                width_partner: 1.9,
             },
             frames: (0..n)
                 .map(|i| EventFrame {
                     time: 3.0 + i as f64 * 0.1,
                     ego: state(0.0, 0.0, 10.0, 0.0, 0.0),
-                    sur: state(if far && i == 1 { 900.0 } else { 20.0 }, 0.0, 8.0, 0.0, 0.0),
+                    partner: state(if far && i == 1 { 900.0 } else { 20.0 }, 0.0, 8.0, 0.0, 0.0),
                 })
                 .collect(),
         };
@@ -396,6 +408,11 @@ mod tests {
         assert_eq!(summary.cycles, 4);
         assert_eq!(summary.skipped.len(), 1);
         assert_eq!(summary.skipped[0].event_id, "b");
+        // The codec's own error is the reason, not a copy of its text.
+        assert!(matches!(
+            summary.skipped[0].reason,
+            EncodeError::Signal(can_codec::DbcError::BadSignal { .. }) | EncodeError::Signal(_)
+        ));
         assert_eq!(summary.events_with_skips(), 1);
         let text = String::from_utf8(buf).unwrap();
         assert_eq!(text.lines().count(), 20);

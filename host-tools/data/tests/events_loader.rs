@@ -84,12 +84,12 @@ fn good_folder_loads_without_issues() {
     assert_eq!(f.time, 0.5);
     assert_eq!((f.ego.x, f.ego.vx, f.ego.acc), (5.0, 10.0, -0.5));
     assert_eq!(
-        (f.ego.length, f.ego.width, f.sur.length, f.sur.width),
+        (f.ego.length, f.ego.width, f.partner.length, f.partner.width),
         (4.5, 1.8, 5.0, 2.0)
     );
-    assert_eq!(f.sur.x, 34.0);
+    assert_eq!(f.partner.x, 34.0);
     // No acc_sur column: derived from the partner's velocity, constant here.
-    assert!(c.frames.iter().all(|f| f.sur.acc == 0.0));
+    assert!(c.frames.iter().all(|f| f.partner.acc == 0.0));
     assert!(set.get("s1").unwrap().t_impact.is_none());
     let counts = set.counts();
     assert_eq!((counts.crash, counts.near_crash, counts.safe), (1, 0, 1));
@@ -107,7 +107,7 @@ fn partner_acceleration_is_derived_or_read() {
     let (set, issues, _d) = load(&ev, &fr);
     assert!(issues.is_empty());
     for f in &set.events[0].frames {
-        assert!((f.sur.acc + 2.0).abs() < 1e-4, "{}", f.sur.acc);
+        assert!((f.partner.acc + 2.0).abs() < 1e-4, "{}", f.partner.acc);
     }
     // With an acc_sur column the recorded value is used.
     let fr2 = fr
@@ -123,7 +123,7 @@ fn partner_acceleration_is_derived_or_read() {
         .collect::<String>();
     let (set, issues, _d) = load(&ev, &fr2);
     assert!(issues.is_empty(), "{issues:#?}");
-    assert!(set.events[0].frames.iter().all(|f| f.sur.acc == -0.25));
+    assert!(set.events[0].frames.iter().all(|f| f.partner.acc == -0.25));
 }
 
 #[test]
@@ -439,7 +439,7 @@ fn event(
         .map(|k| Frame {
             time: k as f64 / 10.0,
             ego: state(k as f32 * 1.1 + 0.123_456_7, 11.0, acc(k)),
-            sur: state(40.0 - k as f32 * 0.3, -3.0 / 7.0, 0.0),
+            partner: state(40.0 - k as f32 * 0.3, -3.0 / 7.0, 0.0),
         })
         .collect();
     Event {
@@ -451,8 +451,8 @@ fn event(
         dims: Dims {
             length_ego: 4.4,
             width_ego: 1.8,
-            length_sur: 4.4,
-            width_sur: 1.8,
+            length_partner: 4.4,
+            width_partner: 1.8,
         },
         frames,
     }
@@ -481,8 +481,14 @@ fn write_then_load_is_bit_exact() {
         for (fa, fb) in a.frames.iter().zip(&b.frames) {
             assert_eq!(fa.time, fb.time);
             assert_eq!(fa.ego, fb.ego);
-            // sur.acc is not in the format: the loader derives it (constant velocity -> 0).
-            assert_eq!(VehicleState { acc: 0.0, ..fa.sur }, fb.sur);
+            // partner.acc is not in the format: the loader derives it (constant velocity -> 0).
+            assert_eq!(
+                VehicleState {
+                    acc: 0.0,
+                    ..fa.partner
+                },
+                fb.partner
+            );
         }
     }
 }

@@ -75,7 +75,7 @@ fn check_kinematics(e: &Event) {
     for w in e.frames.windows(2) {
         let dt = w[1].time - w[0].time;
         assert!((dt - 0.1).abs() < 1e-9, "{}: not 10 Hz ({dt})", e.id);
-        for (a, b) in [(&w[0].ego, &w[1].ego), (&w[0].sur, &w[1].sur)] {
+        for (a, b) in [(&w[0].ego, &w[1].ego), (&w[0].partner, &w[1].partner)] {
             // Positions advance with the mean velocity (trapezoid) to within a few cm.
             let ex = b.x - a.x - 0.05 * (a.vx + b.vx);
             let ey = b.y - a.y - 0.05 * (a.vy + b.vy);
@@ -88,7 +88,7 @@ fn check_kinematics(e: &Event) {
         }
     }
     for f in &e.frames {
-        for s in [&f.ego, &f.sur] {
+        for s in [&f.ego, &f.partner] {
             assert!(s.is_finite());
             assert!(
                 (s.hx.hypot(s.hy) - 1.0).abs() < 1e-5,
@@ -128,12 +128,12 @@ fn labels_hold_on_the_written_frames() {
         let overlaps: Vec<bool> = e
             .frames
             .iter()
-            .map(|f| boxes_overlap(&f.ego, &f.sur))
+            .map(|f| boxes_overlap(&f.ego, &f.partner))
             .collect();
         let gaps: Vec<f32> = e
             .frames
             .iter()
-            .map(|f| box_distance(&f.ego, &f.sur))
+            .map(|f| box_distance(&f.ego, &f.partner))
             .collect();
         match e.kind {
             EventKind::Crash => {
@@ -182,9 +182,9 @@ fn labels_hold_on_the_written_frames() {
                     f.time <= t + 1e-9
                         && f.time >= t - rules.evasive_window - 1e-9
                         && (-f.ego.acc >= rules.evasive_decel
-                            || -f.sur.acc >= rules.evasive_decel
+                            || -f.partner.acc >= rules.evasive_decel
                             || lat(|f| &f.ego) >= rules.evasive_lat_acc
-                            || lat(|f| &f.sur) >= rules.evasive_lat_acc)
+                            || lat(|f| &f.partner) >= rules.evasive_lat_acc)
                 });
                 assert!(evasive, "{}: near-crash without an evasive manoeuvre", e.id);
             }
@@ -232,7 +232,7 @@ fn default_set_is_diverse() {
     }
     let classes: BTreeSet<&str> = sims.iter().map(|s| s.classes[1].name()).collect();
     assert!(classes.len() == 4, "partner classes {classes:?}");
-    let lengths: Vec<f32> = set.iter().map(|e| e.dims.length_sur).collect();
+    let lengths: Vec<f32> = set.iter().map(|e| e.dims.length_partner).collect();
     assert!(lengths.iter().any(|&l| l > 7.0) && lengths.iter().any(|&l| l < 2.5));
     // Speeds and closest approaches spread widely.
     let speeds: Vec<f32> = set.iter().map(|e| e.frames[0].ego.speed()).collect();

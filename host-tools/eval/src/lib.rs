@@ -45,8 +45,8 @@ pub use metrics::{
     OperatingPoint, WarningCurve,
 };
 pub use protocol::{
-    AlertProfile, AlertProfileBuilder, Baseline, ProtocolError, ScoredFrame, ScoredSequence,
-    SequenceClass,
+    AlertProfile, AlertProfileBuilder, Baseline, EventKind, ProtocolError, ScoredFrame,
+    ScoredSequence,
 };
 pub use report::{
     aggregate, CvReport, EvaluationReport, EventCounts, FoldResult, MethodResult, MethodSummary,

@@ -353,6 +353,7 @@ pub fn evaluate_profiles(profiles: &[AlertProfile]) -> Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::protocol::{AlertProfile, EventKind, RunningMaxRecord};
 
     #[test]
     fn metrics_are_named_in_table_order() {
@@ -369,13 +370,8 @@ mod tests {
         }
         assert_eq!(m.get(Metric::PPrc80), None);
     }
-    use crate::protocol::{AlertProfile, RunningMaxRecord, SequenceClass};
 
-    fn profile(
-        class: SequenceClass,
-        endpoint: Option<f64>,
-        records: &[(f64, f32)],
-    ) -> AlertProfile {
+    fn profile(class: EventKind, endpoint: Option<f64>, records: &[(f64, f32)]) -> AlertProfile {
         AlertProfile {
             event_id: String::new(),
             class,
@@ -399,10 +395,10 @@ mod tests {
     #[test]
     fn thresholds_are_distinct_maxima_highest_first() {
         let p = [
-            profile(SequenceClass::Safe, None, &[(0.0, 0.0)]),
-            profile(SequenceClass::Safe, None, &[(0.0, -1.0), (1.0, -0.0)]),
-            profile(SequenceClass::Crash, Some(2.0), &[(0.0, 3.0)]),
-            profile(SequenceClass::Crash, Some(2.0), &[]),
+            profile(EventKind::Safe, None, &[(0.0, 0.0)]),
+            profile(EventKind::Safe, None, &[(0.0, -1.0), (1.0, -0.0)]),
+            profile(EventKind::Crash, Some(2.0), &[(0.0, 3.0)]),
+            profile(EventKind::Crash, Some(2.0), &[]),
         ];
         let t = thresholds(&p);
         assert_eq!(t.len(), 2, "0.0 and -0.0 are one threshold: {t:?}");
@@ -418,12 +414,12 @@ mod tests {
         // maxima 3 (this one) and 1.5 and 0.5 (safe sequences).
         let p = [
             profile(
-                SequenceClass::Crash,
+                EventKind::Crash,
                 Some(4.0),
                 &[(1.0, 1.0), (2.0, 2.0), (3.0, 3.0)],
             ),
-            profile(SequenceClass::Safe, None, &[(0.0, 1.5)]),
-            profile(SequenceClass::Safe, None, &[(0.0, 0.5)]),
+            profile(EventKind::Safe, None, &[(0.0, 1.5)]),
+            profile(EventKind::Safe, None, &[(0.0, 0.5)]),
         ];
         let c = warning_curve(&p);
         let leads: Vec<_> = c
@@ -440,7 +436,7 @@ mod tests {
 
     #[test]
     fn undefined_inputs_give_none() {
-        let c = warning_curve(&[profile(SequenceClass::Crash, Some(1.0), &[(0.0, 1.0)])]);
+        let c = warning_curve(&[profile(EventKind::Crash, Some(1.0), &[(0.0, 1.0)])]);
         assert_eq!(c.roc_curve(), None, "no negatives");
         assert_eq!(c.a_roc(90), None);
         assert_eq!(c.a_roc(100), None);

@@ -367,14 +367,14 @@ pub const FIGURE_FILES: [&str; 6] = [
 mod tests {
     use super::*;
     use crate::protocol::test_sequence as seq;
-    use crate::protocol::SequenceClass;
+    use crate::protocol::EventKind;
 
     #[test]
     fn figures_render_to_svg_and_png() {
         let dir = tempfile::tempdir().unwrap();
         let seqs = vec![
-            seq("c", SequenceClass::Crash, Some(2.0), &[1.0, 2.0, 3.0]),
-            seq("s", SequenceClass::Safe, None, &[0.0, 2.5]),
+            seq("c", EventKind::Crash, Some(2.0), &[1.0, 2.0, 3.0]),
+            seq("s", EventKind::Safe, None, &[0.0, 2.5]),
         ];
         let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
         let written = plot_curves(dir.path(), &[("M".into(), curve)]).unwrap();

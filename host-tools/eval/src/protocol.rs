@@ -10,36 +10,10 @@
 use scorer_core::warning::FirstThreshold;
 use serde::{Deserialize, Serialize};
 
+pub use riskscore_data::events::EventKind;
+
 /// Frames whose time exceeds the endpoint by at most this much still belong to the alert window.
-///
-/// Times in event tables are decimal strings (`12.3`), and an endpoint computed elsewhere may differ
-/// from the frame time it names in the last bits; one microsecond is far below any frame period.
-pub const ENDPOINT_TOLERANCE_S: f64 = 1e-6;
-
-/// What a sequence is, as far as the protocol cares.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SequenceClass {
-    Crash,
-    NearCrash,
-    Safe,
-}
-
-impl SequenceClass {
-    /// Crash and near-crash sequences are the positives: warning on them is a true positive.
-    pub fn is_conflict(self) -> bool {
-        !matches!(self, SequenceClass::Safe)
-    }
-
-    /// The name used in event tables (`crash`, `near_crash`, `safe`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            SequenceClass::Crash => "crash",
-            SequenceClass::NearCrash => "near_crash",
-            SequenceClass::Safe => "safe",
-        }
-    }
-}
+pub use riskscore_data::events::TIME_TOLERANCE_S;
 
 /// One scored frame: its time (s, the event table's clock) and the method's risk `R`.
 ///
@@ -54,7 +28,7 @@ pub struct ScoredFrame {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ScoredSequence {
     pub event_id: String,
-    pub class: SequenceClass,
+    pub class: EventKind,
     /// The end of the alert window (inclusive): `t_impact` for conflict sequences. `None` for safe
     /// sequences, whose window is every frame (an endpoint given for a safe sequence is honoured).
     pub endpoint: Option<f64>,
@@ -103,7 +77,7 @@ pub struct RunningMaxRecord {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlertProfile {
     pub event_id: String,
-    pub class: SequenceClass,
+    pub class: EventKind,
     pub endpoint: Option<f64>,
     /// Strictly increasing in time and in level.
     pub records: Vec<RunningMaxRecord>,
@@ -144,7 +118,7 @@ impl AlertProfile {
     }
 }
 
-/// `endpoint - alert_time`, clamped at zero (see [`ENDPOINT_TOLERANCE_S`]).
+/// `endpoint - alert_time`, clamped at zero (see [`TIME_TOLERANCE_S`]).
 pub fn lead_time(endpoint: f64, alert_time: f64) -> f64 {
     (endpoint - alert_time).max(0.0)
 }
@@ -161,7 +135,7 @@ impl AlertProfileBuilder {
     /// Conflict sequences need a finite endpoint; safe ones may have none.
     pub fn new(
         event_id: &str,
-        class: SequenceClass,
+        class: EventKind,
         endpoint: Option<f64>,
     ) -> Result<Self, ProtocolError> {
         match endpoint {
@@ -237,7 +211,7 @@ impl AlertProfileBuilder {
 
 /// True when a frame at `time` is inside the alert window ending at `endpoint` (inclusive).
 pub fn in_alert_window(endpoint: Option<f64>, time: f64) -> bool {
-    endpoint.is_none_or(|e| time <= e + ENDPOINT_TOLERANCE_S)
+    endpoint.is_none_or(|e| time <= e + TIME_TOLERANCE_S)
 }
 
 /// The first frame of the alert window at which the sequence is warned at `threshold`, by the
@@ -262,7 +236,7 @@ pub fn first_alert(sequence: &ScoredSequence, threshold: f32) -> Option<f64> {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Decision {
     pub event_id: String,
-    pub class: SequenceClass,
+    pub class: EventKind,
     pub alert_time: Option<f64>,
     pub lead_time: Option<f64>,
 }
@@ -360,7 +334,7 @@ pub fn intensity_surrogate_risk(value: f32) -> f32 {
 #[cfg(test)]
 pub(crate) fn test_sequence(
     id: &str,
-    class: SequenceClass,
+    class: EventKind,
     endpoint: Option<f64>,
     scores: &[f32],
 ) -> ScoredSequence {
@@ -383,7 +357,7 @@ pub(crate) fn test_sequence(
 mod tests {
     use super::*;
 
-    fn seq(class: SequenceClass, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
+    fn seq(class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
         ScoredSequence {
             event_id: "e".into(),
             class,
@@ -398,7 +372,7 @@ mod tests {
     #[test]
     fn records_are_the_running_max_rises_inside_the_window() {
         let s = seq(
-            SequenceClass::Crash,
+            EventKind::Crash,
             Some(0.3),
             &[(0.0, 0.2), (0.1, 0.1), (0.2, 0.5), (0.3, 0.5), (0.4, 9.0)],
         );
@@ -424,22 +398,22 @@ mod tests {
 
     #[test]
     fn nan_scores_never_warn() {
-        let s = seq(SequenceClass::Safe, None, &[(0.0, f32::NAN), (0.1, 1.0)]);
+        let s = seq(EventKind::Safe, None, &[(0.0, f32::NAN), (0.1, 1.0)]);
         let p = AlertProfile::from_sequence(&s).unwrap();
         assert_eq!(p.records.len(), 1);
         assert_eq!(p.alert_time(0.0), Some(0.1));
-        let all_nan = seq(SequenceClass::Safe, None, &[(0.0, f32::NAN)]);
+        let all_nan = seq(EventKind::Safe, None, &[(0.0, f32::NAN)]);
         assert_eq!(AlertProfile::from_sequence(&all_nan).unwrap().max(), None);
     }
 
     #[test]
     fn bad_input_is_named() {
-        let missing = seq(SequenceClass::NearCrash, None, &[(0.0, 1.0)]);
+        let missing = seq(EventKind::NearCrash, None, &[(0.0, 1.0)]);
         assert!(matches!(
             AlertProfile::from_sequence(&missing),
             Err(ProtocolError::MissingEndpoint { .. })
         ));
-        let unsorted = seq(SequenceClass::Safe, None, &[(0.1, 1.0), (0.1, 2.0)]);
+        let unsorted = seq(EventKind::Safe, None, &[(0.1, 1.0), (0.1, 2.0)]);
         let err = AlertProfile::from_sequence(&unsorted).unwrap_err();
         assert!(err.to_string().contains("frame 1"), "{err}");
     }

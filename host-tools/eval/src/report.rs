@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 
 use super::metrics::{Metric, Metrics, WarningCurve, METRIC_KEYS};
-use super::protocol::SequenceClass;
+use super::protocol::EventKind;
 
 /// How many events of each kind were evaluated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -20,13 +20,13 @@ pub struct EventCounts {
 }
 
 impl EventCounts {
-    pub fn from_classes(classes: impl IntoIterator<Item = SequenceClass>) -> Self {
+    pub fn from_classes(classes: impl IntoIterator<Item = EventKind>) -> Self {
         let mut c = EventCounts::default();
         for class in classes {
             match class {
-                SequenceClass::Crash => c.crash += 1,
-                SequenceClass::NearCrash => c.near_crash += 1,
-                SequenceClass::Safe => c.safe += 1,
+                EventKind::Crash => c.crash += 1,
+                EventKind::NearCrash => c.near_crash += 1,
+                EventKind::Safe => c.safe += 1,
             }
         }
         c
@@ -493,7 +493,7 @@ mod tests {
     #[test]
     fn single_report_table_prints_values_and_na() {
         let r = EvaluationReport {
-            events: EventCounts::from_classes([SequenceClass::Crash, SequenceClass::Safe]),
+            events: EventCounts::from_classes([EventKind::Crash, EventKind::Safe]),
             methods: vec![MethodResult {
                 name: "EI".into(),
                 metrics: Metrics {

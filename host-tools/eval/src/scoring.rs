@@ -11,20 +11,9 @@ use scorer_core::Observation;
 use super::metrics::{warning_curve, WarningCurve};
 use super::protocol::{
     alert_profiles, AlertProfile, Baseline, ProtocolError, ScoredFrame, ScoredSequence,
-    SequenceClass,
 };
 use super::report::{EvaluationReport, EventCounts, MethodResult};
 use riskscore_data::events::{EventKind, Frame, Sequence};
-
-impl From<EventKind> for SequenceClass {
-    fn from(kind: EventKind) -> Self {
-        match kind {
-            EventKind::Crash => SequenceClass::Crash,
-            EventKind::NearCrash => SequenceClass::NearCrash,
-            EventKind::Safe => SequenceClass::Safe,
-        }
-    }
-}
 
 /// One frame's inputs to every method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -37,7 +26,7 @@ pub struct ObservedFrame {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObservedSequence {
     pub event_id: String,
-    pub class: SequenceClass,
+    pub class: EventKind,
     pub endpoint: Option<f64>,
     pub frames: Vec<ObservedFrame>,
 }
@@ -67,7 +56,7 @@ pub fn observe(sequences: &[Sequence]) -> Vec<ObservedSequence> {
         .iter()
         .map(|s| ObservedSequence {
             event_id: s.event_id.clone(),
-            class: s.kind.into(),
+            class: s.kind,
             endpoint: s.endpoint,
             frames: observe_frames(&s.frames),
         })
@@ -81,7 +70,7 @@ pub fn observe_frames(frames: &[Frame]) -> Vec<ObservedFrame> {
         .iter()
         .map(|f| ObservedFrame {
             time: f.time,
-            observation: Observation::of(&f.ego, &f.sur),
+            observation: Observation::of(&f.ego, &f.partner),
         })
         .collect()
 }

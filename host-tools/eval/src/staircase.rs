@@ -8,7 +8,7 @@
 //! last bits. So the records are kept, only without per-sequence overhead, and turned back into
 //! [`AlertProfile`]s one method at a time for the sweep.
 use super::metrics::{warning_curve, WarningCurve};
-use super::protocol::{AlertProfile, RunningMaxRecord, SequenceClass};
+use super::protocol::{AlertProfile, EventKind, RunningMaxRecord};
 
 /// One sequence in a [`Staircases`] block.
 #[derive(Clone, Copy, Debug)]
@@ -18,7 +18,7 @@ struct Entry {
     endpoint: Option<f64>,
     /// Its records start here in `times` and `levels` and end where the next entry's start.
     start: usize,
-    class: SequenceClass,
+    class: EventKind,
 }
 
 /// The profiles of one method gathered by one worker, packed (see the module docs).
@@ -83,8 +83,8 @@ impl Staircases {
 }
 
 /// Sequence classes of `blocks` in `events.csv` order.
-pub fn classes_in_order(blocks: &[Staircases]) -> Vec<SequenceClass> {
-    let mut classes: Vec<(usize, SequenceClass)> = blocks
+pub fn classes_in_order(blocks: &[Staircases]) -> Vec<EventKind> {
+    let mut classes: Vec<(usize, EventKind)> = blocks
         .iter()
         .flat_map(|b| b.entries.iter().map(|e| (e.position, e.class)))
         .collect();
@@ -123,7 +123,7 @@ mod tests {
     use crate::protocol::AlertProfileBuilder;
 
     /// The profile of a sequence with these `(time, score)` frames.
-    fn profile(class: SequenceClass, endpoint: Option<f64>, frames: &[(f64, f32)]) -> AlertProfile {
+    fn profile(class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> AlertProfile {
         let mut builder = AlertProfileBuilder::new("x", class, endpoint).unwrap();
         for &(time, score) in frames {
             builder.push(time, score).unwrap();
@@ -135,18 +135,14 @@ mod tests {
     fn packed_blocks_give_the_curve_of_the_profiles_in_position_order() {
         let p = [
             profile(
-                SequenceClass::Crash,
+                EventKind::Crash,
                 Some(3.0),
                 &[(0.1, 0.2), (0.4, 0.1), (0.7, 0.5), (2.9, 0.9)],
             ),
-            profile(SequenceClass::Safe, None, &[(4.0, 0.6)]),
-            profile(
-                SequenceClass::NearCrash,
-                Some(1.0),
-                &[(0.3, 0.5), (0.9, 0.95)],
-            ),
-            profile(SequenceClass::Safe, None, &[]),
-            profile(SequenceClass::Crash, Some(2.0), &[(1.3, 0.1), (1.4, 0.4)]),
+            profile(EventKind::Safe, None, &[(4.0, 0.6)]),
+            profile(EventKind::NearCrash, Some(1.0), &[(0.3, 0.5), (0.9, 0.95)]),
+            profile(EventKind::Safe, None, &[]),
+            profile(EventKind::Crash, Some(2.0), &[(1.3, 0.1), (1.4, 0.4)]),
         ];
         let expected = warning_curve(&p);
         // Two workers, each with the events it happened to get.

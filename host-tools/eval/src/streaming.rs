@@ -23,7 +23,7 @@
 use std::path::Path;
 
 use super::protocol::{
-    in_alert_window, AlertProfileBuilder, ProtocolError, ScoredFrame, ScoredSequence, SequenceClass,
+    in_alert_window, AlertProfileBuilder, EventKind, ProtocolError, ScoredFrame, ScoredSequence,
 };
 use super::report::{EvaluationReport, EventCounts};
 use super::scoring::{observe_frames, report_of, Method};
@@ -102,7 +102,7 @@ impl TrajectoryCollector {
         &self,
         position: usize,
         event_id: &str,
-        class: SequenceClass,
+        class: EventKind,
         endpoint: Option<f64>,
     ) -> bool {
         if endpoint.is_none() {
@@ -110,7 +110,7 @@ impl TrajectoryCollector {
         }
         match &self.events {
             TrajectoryEvents::FirstCrashes(n) => {
-                class == SequenceClass::Crash
+                class == EventKind::Crash
                     && (self.kept.len() < *n || self.kept.iter().any(|(p, _)| *p > position))
             }
             TrajectoryEvents::Named(ids) => ids.iter().any(|id| id == event_id),
@@ -235,7 +235,7 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 return Ok(());
             }
         };
-        let class = SequenceClass::from(sequence.kind);
+        let class = sequence.kind;
         let mut builders = self
             .methods
             .iter()

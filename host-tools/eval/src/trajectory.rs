@@ -90,7 +90,7 @@ pub fn trajectory_panels_ranked(
 pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<String> {
     sequences
         .iter()
-        .filter(|s| s.class == super::protocol::SequenceClass::Crash && s.endpoint.is_some())
+        .filter(|s| s.class == super::protocol::EventKind::Crash && s.endpoint.is_some())
         .take(n)
         .map(|s| s.event_id.clone())
         .collect()
@@ -100,20 +100,15 @@ pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<
 mod tests {
     use super::*;
     use crate::protocol::test_sequence as seq;
-    use crate::protocol::SequenceClass;
+    use crate::protocol::EventKind;
 
     #[test]
     fn trajectories_are_percentiles_over_alert_windows() {
         // Alert-window scores of the method: 2, 4, 6, 3 and the no-conflict frame (5 frames; the
         // 100 after c's endpoint is not among them).
         let seqs = vec![
-            seq(
-                "c",
-                SequenceClass::Crash,
-                Some(2.0),
-                &[2.0, 4.0, 6.0, 100.0],
-            ),
-            seq("s", SequenceClass::Safe, None, &[NO_CONFLICT_RISK, 3.0]),
+            seq("c", EventKind::Crash, Some(2.0), &[2.0, 4.0, 6.0, 100.0]),
+            seq("s", EventKind::Safe, None, &[NO_CONFLICT_RISK, 3.0]),
         ];
         assert_eq!(default_trajectory_events(&seqs, 3), ["c"]);
         let panels = trajectory_panels(&[("M".into(), seqs)], &["c".to_owned()]);

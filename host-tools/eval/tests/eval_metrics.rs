@@ -6,8 +6,8 @@ use proptest::prelude::*;
 use riskscore_eval::metrics::{partial_roc_area, warning_curve, warning_curve_reference, Metric};
 use riskscore_eval::protocol::{alert_profiles, decisions};
 use riskscore_eval::{
-    aggregate, evaluate_sequences, EvaluationReport, EventCounts, FoldResult, MethodResult,
-    Metrics, ScoredFrame, ScoredSequence, SequenceClass,
+    aggregate, evaluate_sequences, EvaluationReport, EventCounts, EventKind, FoldResult,
+    MethodResult, Metrics, ScoredFrame, ScoredSequence,
 };
 
 const EPS: f64 = 1e-9;
@@ -17,12 +17,7 @@ fn close(a: Option<f64>, b: f64) -> bool {
 }
 
 /// A sequence whose frames are `(time, score)`; conflict sequences end at `endpoint`.
-fn seq(
-    id: &str,
-    class: SequenceClass,
-    endpoint: Option<f64>,
-    frames: &[(f64, f32)],
-) -> ScoredSequence {
+fn seq(id: &str, class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
     ScoredSequence {
         event_id: id.into(),
         class,
@@ -39,7 +34,7 @@ fn seq(
 fn conflict(id: &str, max: f32) -> ScoredSequence {
     seq(
         id,
-        SequenceClass::Crash,
+        EventKind::Crash,
         Some(1.0),
         &[(0.5, -1000.0), (1.0, max)],
     )
@@ -48,7 +43,7 @@ fn conflict(id: &str, max: f32) -> ScoredSequence {
 fn safe(id: &str, max: f32) -> ScoredSequence {
     seq(
         id,
-        SequenceClass::Safe,
+        EventKind::Safe,
         None,
         &[(0.0, max - 1.0), (0.1, max), (0.2, max - 2.0)],
     )
@@ -171,7 +166,7 @@ fn recall_never_reaching_alpha() {
         conflict("c3", 7.0),
         seq(
             "c4",
-            SequenceClass::NearCrash,
+            EventKind::NearCrash,
             Some(1.0),
             &[(1.0, f32::NAN), (1.1, 100.0)],
         ),
@@ -207,13 +202,8 @@ fn all_safe_and_all_conflict() {
 
     // No safe sequences: FPR is undefined, so A^ROC is; precision is 100 % everywhere.
     let all_conflict = vec![
-        seq(
-            "a",
-            SequenceClass::Crash,
-            Some(2.0),
-            &[(1.0, 0.5), (2.0, 0.9)],
-        ),
-        seq("b", SequenceClass::Crash, Some(3.0), &[(1.0, 0.5)]),
+        seq("a", EventKind::Crash, Some(2.0), &[(1.0, 0.5), (2.0, 0.9)]),
+        seq("b", EventKind::Crash, Some(3.0), &[(1.0, 0.5)]),
     ];
     let m = metrics(&all_conflict);
     assert_eq!(m.a_roc_90, None);
@@ -268,11 +258,11 @@ fn lead_time_with_an_alert_exactly_at_the_endpoint() {
     let s = vec![
         seq(
             "a",
-            SequenceClass::Crash,
+            EventKind::Crash,
             Some(5.0),
             &[(4.0, 0.1), (4.5, 0.3), (5.0, 0.8), (5.1, 2.0)],
         ),
-        seq("b", SequenceClass::NearCrash, Some(2.0), &[(2.0, 0.3)]),
+        seq("b", EventKind::NearCrash, Some(2.0), &[(2.0, 0.3)]),
     ];
     let curve = warning_curve(&alert_profiles(&s).unwrap());
     let thresholds: Vec<f32> = curve.points.iter().map(|p| p.threshold).collect();
@@ -307,13 +297,13 @@ fn mtti_picks_the_best_threshold_with_enough_precision() {
             let max = 10.0 + i as f32;
             seq(
                 &format!("c{i}"),
-                SequenceClass::Crash,
+                EventKind::Crash,
                 Some(3.0),
                 &[(1.0, 0.0), (2.0, max), (3.0, max - 0.5)],
             )
         })
         .collect();
-    s.push(seq("c9", SequenceClass::Crash, Some(3.0), &[(3.0, 5.0)]));
+    s.push(seq("c9", EventKind::Crash, Some(3.0), &[(3.0, 5.0)]));
     s.push(safe("s", 7.0));
     let curve = warning_curve(&alert_profiles(&s).unwrap());
     let at7 = curve.points.iter().find(|p| p.threshold == 7.0).unwrap();
@@ -464,9 +454,9 @@ fn arb_sequences() -> impl Strategy<Value = Vec<ScoredSequence>> {
     );
     let one = (0u8..3, frame_scores, 0u32..14, 0u32..3).prop_map(|(class, scores, end, dt)| {
         let class = match class {
-            0 => SequenceClass::Crash,
-            1 => SequenceClass::NearCrash,
-            _ => SequenceClass::Safe,
+            0 => EventKind::Crash,
+            1 => EventKind::NearCrash,
+            _ => EventKind::Safe,
         };
         let step = [0.1, 0.25, 1.0][dt as usize];
         let frames = scores

@@ -191,12 +191,7 @@ pub fn run(
     }
     // Event counts of one test set as the table header reports them (simulated test events plus
     // every real sequence, each held out once per seed).
-    let counts = EventCounts::from_classes(
-        data.test_sim
-            .iter()
-            .chain(&data.real)
-            .map(|s| s.kind.into()),
-    );
+    let counts = EventCounts::from_classes(data.test_sim.iter().chain(&data.real).map(|s| s.kind));
     let report = eval::aggregate(counts, &folds);
     Ok(TransferResult {
         report,

@@ -1,7 +1,8 @@
 //! Comparison construction: temporal ordering, training-partition only, determinism, weights, and
 //! physics counterfactuals that scorer-core agrees are riskier.
+use riskscore_data::events::EventKind;
 use riskscore_train::comparisons::{
-    self, physics, ComparisonConfig, RowOrigin, SequenceClass, Source, TrainingSequence,
+    self, physics, ComparisonConfig, RowOrigin, Source, TrainingSequence,
 };
 
 mod common;
@@ -12,13 +13,7 @@ fn safe(id: usize) -> TrainingSequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
     let lateral = if id.is_multiple_of(2) { 0.0 } else { 3.5 };
-    let mut s = TrainingSequence {
-        event_id: format!("s{id}"),
-        class: SequenceClass::Safe,
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
+    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
     for k in 0..50 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;

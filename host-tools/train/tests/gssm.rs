@@ -5,9 +5,10 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use riskscore_data::events::EventKind;
 use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_train::comparisons::from_sequences;
-use riskscore_train::comparisons::{ObservationTable, RowOrigin, SequenceClass, TrainingSequence};
+use riskscore_train::comparisons::{ObservationTable, RowOrigin, TrainingSequence};
 use riskscore_train::gssm::config::{FitConfig, SsraConfig, SsraScore};
 use riskscore_train::gssm::fit::{fit_gssm_on_observations, nll};
 use riskscore_train::gssm::msra::parse_configuration;
@@ -26,13 +27,7 @@ use common::{car, conflict};
 fn safe(id: usize) -> TrainingSequence {
     let v = 8.0 + (id % 11) as f32 * 1.5;
     let gap = 8.0 + 1.5 * v;
-    let mut s = TrainingSequence {
-        event_id: format!("s{id}"),
-        class: SequenceClass::Safe,
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
+    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
     for k in 0..40 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;

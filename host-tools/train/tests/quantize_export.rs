@@ -1,6 +1,7 @@
 //! Quantisation (int8 vs float agreement through the core), checkpoints, export -> decode -> score
 //! round trips and blob inspection.
-use riskscore_train::comparisons::{SequenceClass, TrainingSequence};
+use riskscore_data::events::EventKind;
+use riskscore_train::comparisons::TrainingSequence;
 use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
 use riskscore_train::quantize;
 use riskscore_train::train::{self, Progress, TrainConfig};
@@ -30,20 +31,8 @@ fn dataset(n: usize) -> Vec<TrainingSequence> {
         let closing = 4.0 + (i % 7) as f32;
         let v = 10.0 + (i % 5) as f32 * 2.0;
         let crossing = i % 3 == 0;
-        let mut c = TrainingSequence {
-            event_id: format!("c{i}"),
-            class: SequenceClass::Conflict { endpoint: t_impact },
-            times: vec![],
-            ego: vec![],
-            partner: vec![],
-        };
-        let mut s = TrainingSequence {
-            event_id: format!("s{i}"),
-            class: SequenceClass::Safe,
-            times: vec![],
-            ego: vec![],
-            partner: vec![],
-        };
+        let mut c = TrainingSequence::empty(format!("c{i}"), EventKind::Crash, Some(t_impact));
+        let mut s = TrainingSequence::empty(format!("s{i}"), EventKind::Safe, None);
         for k in 15..=65 {
             let t = k as f64 * 0.1;
             let tt = (t_impact - t) as f32;

@@ -1,9 +1,10 @@
 //! Objective and training: the loss, gradient steps that lower it, MSRA recovering a known monotone
 //! relation, the validation split, and the TOML configuration.
 use candle_core::{Device, Tensor};
+use riskscore_data::events::EventKind;
 use riskscore_train::comparisons::{
-    self, ComparisonConfig, ComparisonSet, ObservationTable, Pair, RowOrigin, SequenceClass,
-    Source, TrainingSequence,
+    self, ComparisonConfig, ComparisonSet, ObservationTable, Pair, RowOrigin, Source,
+    TrainingSequence,
 };
 use riskscore_train::train::config::{ObjectiveConfig, OptimiserConfig};
 use riskscore_train::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
@@ -15,13 +16,7 @@ use common::{car, conflict};
 fn safe(id: usize) -> TrainingSequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
-    let mut s = TrainingSequence {
-        event_id: format!("s{id}"),
-        class: SequenceClass::Safe,
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
+    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
     for k in 0..50 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;

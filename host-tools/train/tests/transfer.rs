@@ -46,7 +46,7 @@ fn real(scenarios: usize, per: usize) -> Vec<Sequence> {
                     Frame {
                         time: t,
                         ego: state(x),
-                        sur: state(x + 4.5 + gap),
+                        partner: state(x + 4.5 + gap),
                     }
                 })
                 .collect();

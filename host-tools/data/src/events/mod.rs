@@ -30,9 +30,18 @@ pub use load::{
 };
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_owned_event, prepare_sequences, safe_rules_hold,
-    PrepareConfig, PrepareIssue, Sequence, TIME_EPS,
+    PrepareConfig, PrepareIssue, Sequence,
 };
 pub use write::{write_events, EventWriter};
+
+/// Slack (s) for every comparison of a frame time with another time: an event's bounds and impact
+/// time when loading, the alert window's inclusive end, the anchor window and the sequence cuts.
+///
+/// Times in event tables are decimal strings (`12.3`), often rounded to the millisecond, and a time
+/// computed elsewhere may differ from the frame time it names in its last bits. One millisecond
+/// absorbs both (it is the loader's slack the event format has always documented) and is still far
+/// below any frame period a vehicle sensor has (10 ms at 100 Hz).
+pub const TIME_TOLERANCE_S: f64 = 1e-3;
 
 /// File name of the event table inside an event folder.
 pub const EVENTS_FILE: &str = "events.csv";
@@ -54,13 +63,21 @@ pub const EVENT_COLUMNS: [&str; 9] = [
 
 /// Column names of `frames.csv`, in the order the writer emits them. An optional extra column
 /// `acc_sur` (partner longitudinal acceleration) is used by the loader when present.
+///
+/// `_sur` ("surrounding road user") in file columns is the partner of the code: `x_sur` is
+/// `Frame::partner.x`, `length_sur` is `Dims::length_partner`. The file names stay for
+/// compatibility with existing event folders.
 pub const FRAME_COLUMNS: [&str; 15] = [
     "event_id", "time", "x_ego", "y_ego", "vx_ego", "vy_ego", "hx_ego", "hy_ego", "acc_ego",
     "x_sur", "y_sur", "vx_sur", "vy_sur", "hx_sur", "hy_sur",
 ];
 
-/// What happened in an event.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// What happened in an event: the class of a sequence everywhere (comparisons, the protocol,
+/// reports). Serialised as `crash`, `near_crash`, `safe`, the `events.csv` spelling.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum EventKind {
     Crash,
     NearCrash,
@@ -90,7 +107,8 @@ impl EventKind {
         }
     }
 
-    /// Crash or near-crash: a sequence with an endpoint and an alert window.
+    /// Crash or near-crash: a sequence with an endpoint and an alert window; warning on it is a
+    /// true positive.
     pub fn is_conflict(self) -> bool {
         !matches!(self, EventKind::Safe)
     }
@@ -107,23 +125,23 @@ impl std::fmt::Display for EventKind {
 pub struct Dims {
     pub length_ego: f32,
     pub width_ego: f32,
-    pub length_sur: f32,
-    pub width_sur: f32,
+    pub length_partner: f32,
+    pub width_partner: f32,
 }
 
-/// One sample of an event: ego and surrounding road user at `time` (s).
+/// One sample of an event: ego and partner (the other road user) at `time` (s).
 ///
-/// Both states carry the event's box dimensions. `ego.acc` is the recorded `acc_ego`; `sur.acc` is
+/// Both states carry the event's box dimensions. `ego.acc` is the recorded `acc_ego`; `partner.acc` is
 /// the `acc_sur` column when the file has one, otherwise it is derived from the partner's
 /// velocity (see [`derive_partner_acceleration`]).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Frame {
     pub time: f64,
     pub ego: VehicleState,
-    pub sur: VehicleState,
+    pub partner: VehicleState,
 }
 
-/// One recorded interaction between the ego vehicle and one surrounding road user.
+/// One recorded interaction between the ego vehicle and one partner (a surrounding road user).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Event {
     pub id: String,
@@ -212,7 +230,7 @@ impl<'a> IntoIterator for &'a EventSet {
     }
 }
 
-/// Fills `sur.acc` of every frame with the partner's longitudinal acceleration, estimated as the
+/// Fills `partner.acc` of every frame with the partner's longitudinal acceleration, estimated as the
 /// time derivative of its velocity projected on its heading: central differences inside the
 /// event, one-sided differences at both ends, 0 for a single frame.
 ///
@@ -222,14 +240,15 @@ pub fn derive_partner_acceleration(frames: &mut [Frame]) {
     let n = frames.len();
     if n < 2 {
         if let Some(f) = frames.first_mut() {
-            f.sur.acc = 0.0;
+            f.partner.acc = 0.0;
         }
         return;
     }
     let along: Vec<f64> = frames
         .iter()
         .map(|f| {
-            f64::from(f.sur.vx) * f64::from(f.sur.hx) + f64::from(f.sur.vy) * f64::from(f.sur.hy)
+            f64::from(f.partner.vx) * f64::from(f.partner.hx)
+                + f64::from(f.partner.vy) * f64::from(f.partner.hy)
         })
         .collect();
     for i in 0..n {
@@ -239,7 +258,7 @@ pub fn derive_partner_acceleration(frames: &mut [Frame]) {
             i => (i - 1, i + 1),
         };
         let dt = frames[b].time - frames[a].time;
-        frames[i].sur.acc = if dt > 0.0 {
+        frames[i].partner.acc = if dt > 0.0 {
             ((along[b] - along[a]) / dt) as f32
         } else {
             0.0
@@ -261,6 +280,16 @@ mod tests {
     }
 
     #[test]
+    fn kinds_serialise_as_their_events_csv_spelling() {
+        for k in EventKind::ALL {
+            let json = serde_json::to_string(&k).unwrap();
+            assert_eq!(json, format!("\"{}\"", k.as_str()));
+            assert_eq!(serde_json::from_str::<EventKind>(&json).unwrap(), k);
+        }
+        assert!(serde_json::from_str::<EventKind>("\"NearCrash\"").is_err());
+    }
+
+    #[test]
     fn partner_acceleration_uses_central_differences() {
         // Partner speed along its heading: 0, 1, 4, 9 (t^2 at 1 s steps): central 2, 4; ends 1, 5.
         let mut frames: Vec<Frame> = (0..4)
@@ -269,22 +298,22 @@ mod tests {
                     time: k as f64,
                     ..Frame::default()
                 };
-                f.sur.hx = 0.6;
-                f.sur.hy = 0.8;
+                f.partner.hx = 0.6;
+                f.partner.hy = 0.8;
                 let v = (k * k) as f32;
-                f.sur.vx = 0.6 * v;
-                f.sur.vy = 0.8 * v;
+                f.partner.vx = 0.6 * v;
+                f.partner.vy = 0.8 * v;
                 f
             })
             .collect();
         derive_partner_acceleration(&mut frames);
-        let acc: Vec<f32> = frames.iter().map(|f| f.sur.acc).collect();
+        let acc: Vec<f32> = frames.iter().map(|f| f.partner.acc).collect();
         for (a, want) in acc.iter().zip([1.0, 2.0, 4.0, 5.0]) {
             assert!((a - want).abs() < 1e-5, "{acc:?}");
         }
         let mut one = vec![Frame::default()];
-        one[0].sur.acc = 3.0;
+        one[0].partner.acc = 3.0;
         derive_partner_acceleration(&mut one);
-        assert_eq!(one[0].sur.acc, 0.0);
+        assert_eq!(one[0].partner.acc, 0.0);
     }
 }

@@ -34,10 +34,7 @@ impl Default for PrepareConfig {
     }
 }
 
-/// Slack (s) for comparing sampled times with window bounds (the alert window's inclusive end,
-/// the anchor window, the sequence cuts).
-pub const TIME_EPS: f64 = 1e-6;
-const EPS: f64 = TIME_EPS;
+const EPS: f64 = super::TIME_TOLERANCE_S;
 
 /// A prepared sequence: what training and evaluation consume.
 #[derive(Clone, Debug, PartialEq)]
@@ -97,7 +94,7 @@ pub fn safe_rules_hold(frames: &[Frame], cfg: &PrepareConfig) -> bool {
 }
 
 fn calm(f: &Frame, cfg: &PrepareConfig) -> bool {
-    f.ego.acc.abs() <= cfg.safe_max_abs_acc && f.sur.acc.abs() <= cfg.safe_max_abs_acc
+    f.ego.acc.abs() <= cfg.safe_max_abs_acc && f.partner.acc.abs() <= cfg.safe_max_abs_acc
 }
 
 /// Prepares one event.

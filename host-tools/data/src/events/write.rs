@@ -41,7 +41,7 @@ impl EventWriter {
     }
 
     /// Like [`EventWriter::create`], but `frames.csv` also gets the optional `acc_sur` column,
-    /// written from `sur.acc`: for sources that record the partner's acceleration, so the loader
+    /// written from `partner.acc`: for sources that record the partner's acceleration, so the loader
     /// uses it instead of deriving it from the partner's velocity.
     pub fn create_with_partner_acceleration(dir: &Path) -> Result<Self, EventsError> {
         Self::open(dir, true)
@@ -76,7 +76,7 @@ impl EventWriter {
     }
 
     /// Appends one event (its `events.csv` row and all its frames). The partner acceleration
-    /// (`sur.acc`) is written only by a writer made with
+    /// (`partner.acc`) is written only by a writer made with
     /// [`EventWriter::create_with_partner_acceleration`].
     pub fn write_event(&mut self, ev: &Event) -> Result<(), EventsError> {
         let ep = self.dir.join(EVENTS_FILE);
@@ -92,14 +92,14 @@ impl EventWriter {
                 &t_impact,
                 &d.length_ego.to_string(),
                 &d.width_ego.to_string(),
-                &d.length_sur.to_string(),
-                &d.width_sur.to_string(),
+                &d.length_partner.to_string(),
+                &d.width_partner.to_string(),
             ])
             .map_err(|e| csv_err(&ep, e))?;
         for fr in &ev.frames {
             let w = &mut self.frames;
             w.write_field(&ev.id).map_err(|e| csv_err(&fp, e))?;
-            let (e, s) = (&fr.ego, &fr.sur);
+            let (e, s) = (&fr.ego, &fr.partner);
             self.buf.clear();
             let _ = write!(self.buf, "{}", fr.time);
             w.write_field(&self.buf).map_err(|e| csv_err(&fp, e))?;

@@ -125,13 +125,13 @@ fn lateral_acc(frames: &[Frame]) -> Vec<[f32; 2]> {
             let f = &frames[i];
             [
                 lat(&frames[a].ego, &frames[b].ego, &f.ego),
-                lat(&frames[a].sur, &frames[b].sur, &f.sur),
+                lat(&frames[a].partner, &frames[b].partner, &f.partner),
             ]
         })
         .collect()
 }
 
-/// Classifies a trajectory pair (with `sur.acc` already derived as the loader does).
+/// Classifies a trajectory pair (with `partner.acc` already derived as the loader does).
 ///
 /// In order: the first overlapping frame is a crash; otherwise a minimum gap below
 /// `near_crash_gap` with an evasive manoeuvre (deceleration >= `evasive_decel` or lateral
@@ -145,21 +145,21 @@ pub fn classify(frames: &[Frame], rules: &LabelRules) -> (Verdict, Measures) {
     };
     let lat = lateral_acc(frames);
     let reach = frames.first().map_or(0.0, |f| {
-        0.5 * (f.ego.length.hypot(f.ego.width) + f.sur.length.hypot(f.sur.width)) + 0.01
+        0.5 * (f.ego.length.hypot(f.ego.width) + f.partner.length.hypot(f.partner.width)) + 0.01
     });
     for (i, f) in frames.iter().enumerate() {
-        m.max_decel = m.max_decel.max(-f.ego.acc).max(-f.sur.acc);
+        m.max_decel = m.max_decel.max(-f.ego.acc).max(-f.partner.acc);
         m.max_lat_acc = m.max_lat_acc.max(lat[i][0]).max(lat[i][1]);
         // The box distance is at least the centre distance minus both half diagonals: skip the
         // exact geometry when that bound rules out contact and cannot beat the current minimum.
-        let centre = (f.ego.x - f.sur.x).hypot(f.ego.y - f.sur.y);
-        if m.first_overlap.is_none() && centre <= reach && boxes_overlap(&f.ego, &f.sur) {
+        let centre = (f.ego.x - f.partner.x).hypot(f.ego.y - f.partner.y);
+        if m.first_overlap.is_none() && centre <= reach && boxes_overlap(&f.ego, &f.partner) {
             m.first_overlap = Some(i);
         }
         if centre - reach >= m.min_gap {
             continue;
         }
-        let g = box_distance(&f.ego, &f.sur);
+        let g = box_distance(&f.ego, &f.partner);
         if g < m.min_gap {
             m.min_gap = g;
             m.min_gap_index = i;
@@ -183,7 +183,7 @@ pub fn classify(frames: &[Frame], rules: &LabelRules) -> (Verdict, Measures) {
         f.time <= t_min + 1e-9
             && f.time >= t_min - rules.evasive_window - 1e-9
             && (-f.ego.acc >= rules.evasive_decel
-                || -f.sur.acc >= rules.evasive_decel
+                || -f.partner.acc >= rules.evasive_decel
                 || l[0] >= rules.evasive_lat_acc
                 || l[1] >= rules.evasive_lat_acc)
     });

@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use crate::events::{
     derive_partner_acceleration, Event, EventKind, EventSet, EventWriter, EventsError, Frame,
@@ -57,16 +58,32 @@ impl Default for Mix {
     }
 }
 
+/// A `--mix` text that is not three weights.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MixError {
+    #[error("mix `{text}`: expected three numbers C,N,S ({source})")]
+    NotANumber {
+        text: String,
+        #[source]
+        source: std::num::ParseFloatError,
+    },
+    #[error("mix `{text}`: expected three non-negative finite weights C,N,S with a positive sum")]
+    BadWeights { text: String },
+}
+
 impl std::str::FromStr for Mix {
-    type Err = String;
+    type Err = MixError;
 
     /// `C,N,S`: three non-negative finite weights (crash, near-crash, safe) with a positive sum.
-    fn from_str(s: &str) -> Result<Mix, String> {
+    fn from_str(s: &str) -> Result<Mix, MixError> {
         let v: Vec<f64> = s
             .split(',')
             .map(|p| p.trim().parse::<f64>())
             .collect::<Result<_, _>>()
-            .map_err(|e| format!("mix `{s}`: expected three numbers C,N,S ({e})"))?;
+            .map_err(|source| MixError::NotANumber {
+                text: s.to_string(),
+                source,
+            })?;
         match v[..] {
             [crash, near_crash, safe]
                 if v.iter().all(|x| x.is_finite() && *x >= 0.0) && v.iter().sum::<f64>() > 0.0 =>
@@ -77,9 +94,9 @@ impl std::str::FromStr for Mix {
                     safe,
                 })
             }
-            _ => Err(format!(
-                "mix `{s}`: expected three non-negative finite weights C,N,S with a positive sum"
-            )),
+            _ => Err(MixError::BadWeights {
+                text: s.to_string(),
+            }),
         }
     }
 }
@@ -129,7 +146,7 @@ pub struct SimConfig {
     pub events: usize,
     pub mix: Mix,
     pub rules: LabelRules,
-    /// Worker threads; 0 = available parallelism.
+    /// Worker threads; 0 = rayon's default (`RAYON_NUM_THREADS`, else the available parallelism).
     pub threads: usize,
     /// Show a progress bar on stderr (hidden automatically when stderr is not a terminal).
     pub progress: bool,
@@ -165,6 +182,8 @@ pub enum SimError {
         kind: EventKind,
         attempts: u64,
     },
+    #[error("cannot start the simulation threads: {0}")]
+    ThreadPool(#[source] rayon::ThreadPoolBuildError),
 }
 
 /// One accepted simulated event with its provenance.
@@ -279,15 +298,15 @@ fn run(scn: Scenario, place: &Placement) -> (Vec<Frame>, bool) {
         }
         let [s0, s1] = world.snaps();
         let mut ego = world.agents[0].state(&s0, acc_ego);
-        let mut sur = world.agents[1].state(&s1, 0.0);
+        let mut partner = world.agents[1].state(&s1, 0.0);
         place.apply(&mut ego, &s0);
-        place.apply(&mut sur, &s1);
+        place.apply(&mut partner, &s1);
         frames.push(Frame {
             time: k as f64 / 10.0,
             ego,
-            sur,
+            partner,
         });
-        if scorer_core::geometry::boxes_overlap(&ego, &sur) {
+        if scorer_core::geometry::boxes_overlap(&ego, &partner) {
             touched = false;
             break;
         }
@@ -362,8 +381,8 @@ pub fn simulate_one(
             dims: crate::events::Dims {
                 length_ego: e.ego.length,
                 width_ego: e.ego.width,
-                length_sur: e.sur.length,
-                width_sur: e.sur.width,
+                length_partner: e.partner.length,
+                width_partner: e.partner.width,
             },
             frames,
         };
@@ -410,7 +429,7 @@ fn id_width(n: usize) -> usize {
 }
 
 /// Simulates the configured events and hands each to `sink` in index order, computing waves of
-/// chunks on worker threads. Memory stays bounded by one wave.
+/// events on a rayon pool of `cfg.threads` threads. Memory stays bounded by one wave.
 fn generate(
     cfg: &SimConfig,
     mut sink: impl FnMut(SimulatedEvent) -> Result<(), SimError>,
@@ -418,10 +437,10 @@ fn generate(
     const CHUNK: usize = 16;
     let start = Instant::now();
     let kinds = targets(cfg);
-    let threads = match cfg.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(cfg.threads)
+        .build()
+        .map_err(SimError::ThreadPool)?;
     let bar = if cfg.progress {
         let b = indicatif::ProgressBar::with_draw_target(
             Some(kinds.len() as u64),
@@ -438,43 +457,22 @@ fn generate(
     };
     let width = id_width(kinds.len());
     let mut summary = SimSummary::default();
-    let wave = CHUNK * threads * 4;
+    let wave = CHUNK * pool.current_num_threads() * 4;
     for wave_start in (0..kinds.len()).step_by(wave.max(1)) {
         let wave_end = (wave_start + wave).min(kinds.len());
-        let next = std::sync::atomic::AtomicUsize::new(wave_start);
-        let results: Vec<(usize, Result<SimulatedEvent, SimError>)> = std::thread::scope(|s| {
-            let handles: Vec<_> = (0..threads)
-                .map(|_| {
-                    s.spawn(|| {
-                        let mut out = Vec::new();
-                        loop {
-                            let c = next.fetch_add(CHUNK, std::sync::atomic::Ordering::Relaxed);
-                            if c >= wave_end {
-                                break;
-                            }
-                            let end = (c + CHUNK).min(wave_end);
-                            for (i, &kind) in kinds.iter().enumerate().take(end).skip(c) {
-                                out.push((i, simulate_one(cfg.seed, i, kind, &cfg.rules)));
-                                bar.inc(1);
-                            }
-                        }
-                        out
-                    })
+        // Each event draws from its own seed (`simulate_one(seed, index, ..)`), and `collect` keeps
+        // index order, so the output is the same whatever the thread count or scheduling.
+        let results: Vec<(usize, Result<SimulatedEvent, SimError>)> = pool.install(|| {
+            (wave_start..wave_end)
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|i| {
+                    let r = simulate_one(cfg.seed, i, kinds[i], &cfg.rules);
+                    bar.inc(1);
+                    (i, r)
                 })
-                .collect();
-            handles
-                .into_iter()
-                .flat_map(|h| h.join().unwrap_or_default())
                 .collect()
         });
-        let mut results = results;
-        results.sort_by_key(|(i, _)| *i);
-        if results.len() != wave_end - wave_start {
-            return Err(SimError::Io {
-                path: PathBuf::from("<worker>"),
-                source: std::io::Error::other("a simulation worker panicked"),
-            });
-        }
         for (i, r) in results {
             let mut e = r?;
             e.event.id = format!("{:0width$}", i + 1);
@@ -582,6 +580,25 @@ mod tests {
                 f.name()
             );
             assert!(bn[2] > 0, "{}: no safe event from benign draws", f.name());
+        }
+    }
+
+    #[test]
+    fn mix_parses_three_weights_and_names_what_is_wrong() {
+        let m: Mix = " 1, 2 ,3".parse().unwrap();
+        assert_eq!((m.crash, m.near_crash, m.safe), (1.0, 2.0, 3.0));
+        let e = "1,x,3".parse::<Mix>().unwrap_err();
+        assert!(matches!(e, MixError::NotANumber { .. }));
+        assert!(
+            std::error::Error::source(&e).is_some(),
+            "the float error is kept"
+        );
+        for bad in ["1,2", "1,2,3,4", "0,0,0", "1,-1,1", "1,inf,1"] {
+            assert_eq!(
+                bad.parse::<Mix>(),
+                Err(MixError::BadWeights { text: bad.into() }),
+                "{bad}"
+            );
         }
     }
 }

@@ -7,10 +7,10 @@
 //! each construction (mean 1 per construction).
 use rand_chacha::ChaCha8Rng;
 
-use super::{
-    cross_sequence, physics, temporal, ComparisonConfig, Origin, Pair, Source, SourceStats,
-    TableBuilder, TrainingSequence,
-};
+use super::config::ComparisonConfig;
+use super::draw::{Draw, Origin, TableBuilder};
+use super::types::{Pair, Source, SourceStats, TrainingSequence};
+use super::{cross_sequence, physics, temporal};
 
 pub(crate) fn build(
     seqs: &[TrainingSequence],
@@ -32,12 +32,24 @@ pub(crate) fn build(
             [a, b, total - a - b]
         }
     };
-    let origin = Origin::Augmentation;
-    let tag = Source::Simulation;
-    let (mut pairs, s1) = temporal::build(seqs, origin, &config.temporal, split[0], tag, tb, rng);
-    let (mut p2, s2) =
-        cross_sequence::build(seqs, origin, &config.cross_sequence, split[1], tag, tb, rng);
-    let (mut p3, s3) = physics::build(seqs, origin, &config.physics, split[2], tag, tb, rng);
+    fn draw<'a>(
+        seqs: &'a [TrainingSequence],
+        target: usize,
+        tb: &'a mut TableBuilder,
+        rng: &'a mut ChaCha8Rng,
+    ) -> Draw<'a> {
+        Draw::new(
+            seqs,
+            Origin::Augmentation,
+            target,
+            Source::Simulation,
+            tb,
+            rng,
+        )
+    }
+    let (mut pairs, s1) = temporal::build(draw(seqs, split[0], tb, rng), &config.temporal);
+    let (mut p2, s2) = cross_sequence::build(draw(seqs, split[1], tb, rng), &config.cross_sequence);
+    let (mut p3, s3) = physics::build(draw(seqs, split[2], tb, rng), &config.physics);
     pairs.append(&mut p2);
     pairs.append(&mut p3);
     let stats = SourceStats {

@@ -9,70 +9,57 @@
 //! the maximum that sets the warning threshold (a sequence warns on its maximum). Uniform safe
 //! frames alone are mostly easy negatives. Every pair has weight `a_i = 1`.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 
-use super::{
-    CrossSequenceConfig, Origin, Pair, Source, SourceStats, TableBuilder, TrainingSequence,
-};
+use super::config::CrossSequenceConfig;
+use super::draw::Draw;
+use super::types::{Pair, SourceStats, TrainingSequence};
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &CrossSequenceConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
-    };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
-    let conflicts: Vec<(usize, usize)> = seqs
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| s.is_conflict())
-        .map(|(i, s)| (i, s.frames_up_to_endpoint()))
-        .filter(|&(_, n)| n > 0)
-        .collect();
-    let safes: Vec<(usize, usize, (usize, usize))> = seqs
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| !s.is_conflict() && !s.is_empty())
-        .map(|(i, s)| (i, s.len(), approach_window(s, config.closest_window)))
-        .collect();
-    if conflicts.is_empty() || safes.is_empty() {
-        stats.rejected = target;
-        return (Vec::new(), stats);
-    }
-    let mut pairs = Vec::with_capacity(target);
-    for _ in 0..target {
-        let (ci, cn) = conflicts[rng.random_range(0..conflicts.len())];
-        let (si, sn, (first, closest)) = safes[rng.random_range(0..safes.len())];
-        let cf = rng.random_range(0..cn);
-        let sf = if rng.random_bool(config.closest_fraction.clamp(0.0, 1.0)) {
-            if first == closest {
-                closest
+pub(crate) fn build(draw: Draw<'_>, config: &CrossSequenceConfig) -> (Vec<Pair>, SourceStats) {
+    draw.run(|d, stats| {
+        let conflicts: Vec<(usize, usize)> = d
+            .seqs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_conflict())
+            .map(|(i, s)| (i, s.frames_up_to_endpoint()))
+            .filter(|&(_, n)| n > 0)
+            .collect();
+        let safes: Vec<(usize, usize, (usize, usize))> = d
+            .seqs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !s.is_conflict() && !s.is_empty())
+            .map(|(i, s)| (i, s.len(), approach_window(s, config.closest_window)))
+            .collect();
+        if conflicts.is_empty() || safes.is_empty() {
+            stats.rejected = d.target;
+            return Vec::new();
+        }
+        let mut pairs = Vec::with_capacity(d.target);
+        for _ in 0..d.target {
+            let (ci, cn) = conflicts[d.rng.random_range(0..conflicts.len())];
+            let (si, sn, (first, closest)) = safes[d.rng.random_range(0..safes.len())];
+            let cf = d.rng.random_range(0..cn);
+            let sf = if d.rng.random_bool(config.closest_fraction.clamp(0.0, 1.0)) {
+                if first == closest {
+                    closest
+                } else {
+                    d.rng.random_range(first..=closest)
+                }
             } else {
-                rng.random_range(first..=closest)
-            }
-        } else {
-            rng.random_range(0..sn)
-        };
-        let winner = tb.frame(origin, seqs, ci, cf);
-        let loser = tb.frame(origin, seqs, si, sf);
-        pairs.push(Pair {
-            winner,
-            loser,
-            source: tag,
-            weight: 1.0,
-        });
-    }
-    stats.built = pairs.len();
-    (pairs, stats)
+                d.rng.random_range(0..sn)
+            };
+            let winner = d.tb.frame(d.origin, d.seqs, ci, cf);
+            let loser = d.tb.frame(d.origin, d.seqs, si, sf);
+            pairs.push(Pair {
+                winner,
+                loser,
+                source: d.tag,
+                weight: 1.0,
+            });
+        }
+        pairs
+    })
 }
 
 /// Frame indices `(first, closest)`: `closest` has the smallest box gap, `first` is the earliest

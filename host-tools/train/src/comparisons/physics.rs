@@ -19,10 +19,11 @@
 //! `a_i` is the perturbation magnitude (m, m/s, m, growth factor) normalised by its mean over the
 //! source's pairs of the same kind, so the four kinds are commensurable and average 1.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 use scorer_core::{box_distance, Surrogates, VehicleState};
 
-use super::{Origin, Pair, PhysicsConfig, Source, SourceStats, TableBuilder, TrainingSequence};
+use super::config::PhysicsConfig;
+use super::draw::{normalise_mean_one, Draw};
+use super::types::{Pair, SourceStats};
 
 /// The physical variable a counterfactual changes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -174,74 +175,61 @@ pub fn is_riskier(
     }
 }
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &PhysicsConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
-    };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
-    let usable: Vec<(usize, usize)> = seqs
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (i, s.frames_up_to_endpoint()))
-        .filter(|&(_, n)| n > 0)
-        .collect();
-    if usable.is_empty() {
-        stats.rejected = target;
-        return (Vec::new(), stats);
-    }
-    let mut pairs = Vec::with_capacity(target);
-    let mut kinds = Vec::with_capacity(target);
-    let mut magnitudes = Vec::with_capacity(target);
-    let max_attempts = target.saturating_mul(20);
-    let mut attempts = 0usize;
-    while pairs.len() < target && attempts < max_attempts {
-        attempts += 1;
-        let kind = Perturbation::ALL[pairs.len() % Perturbation::ALL.len()];
-        let (si, n) = usable[rng.random_range(0..usable.len())];
-        let fi = rng.random_range(0..n);
-        let u: f32 = rng.random();
-        let s = &seqs[si];
-        let (ego, partner) = (&s.ego[fi], &s.partner[fi]);
-        let Some(cf) = perturb(ego, partner, kind, u, config) else {
-            stats.rejected += 1;
-            continue;
-        };
-        let original_surr = scorer_core::surrogates(ego, partner);
-        let cf_surr = scorer_core::surrogates(ego, &cf.partner);
-        if !is_riskier(ego, partner, &cf, &original_surr, &cf_surr, config) {
-            stats.rejected += 1;
-            continue;
+pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, SourceStats) {
+    draw.run(|d, stats| {
+        let usable: Vec<(usize, usize)> = d
+            .seqs
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (i, s.frames_up_to_endpoint()))
+            .filter(|&(_, n)| n > 0)
+            .collect();
+        if usable.is_empty() {
+            stats.rejected = d.target;
+            return Vec::new();
         }
-        let loser = tb.frame(origin, seqs, si, fi);
-        let winner = tb.counterfactual(ego, &cf.partner, loser);
-        pairs.push(Pair {
-            winner,
-            loser,
-            source: tag,
-            weight: 0.0,
-        });
-        kinds.push(kind);
-        magnitudes.push(cf.magnitude);
-    }
-    for kind in Perturbation::ALL {
-        let idx: Vec<usize> = (0..kinds.len()).filter(|&i| kinds[i] == kind).collect();
-        let mut w: Vec<f32> = idx.iter().map(|&i| magnitudes[i]).collect();
-        super::normalise_mean_one(&mut w);
-        for (&i, w) in idx.iter().zip(w) {
-            pairs[i].weight = w;
+        let mut pairs = Vec::with_capacity(d.target);
+        let mut kinds = Vec::with_capacity(d.target);
+        let mut magnitudes = Vec::with_capacity(d.target);
+        let max_attempts = d.target.saturating_mul(20);
+        let mut attempts = 0usize;
+        while pairs.len() < d.target && attempts < max_attempts {
+            attempts += 1;
+            let kind = Perturbation::ALL[pairs.len() % Perturbation::ALL.len()];
+            let (si, n) = usable[d.rng.random_range(0..usable.len())];
+            let fi = d.rng.random_range(0..n);
+            let u: f32 = d.rng.random();
+            let s = &d.seqs[si];
+            let (ego, partner) = (&s.ego[fi], &s.partner[fi]);
+            let Some(cf) = perturb(ego, partner, kind, u, config) else {
+                stats.rejected += 1;
+                continue;
+            };
+            let original_surr = scorer_core::surrogates(ego, partner);
+            let cf_surr = scorer_core::surrogates(ego, &cf.partner);
+            if !is_riskier(ego, partner, &cf, &original_surr, &cf_surr, config) {
+                stats.rejected += 1;
+                continue;
+            }
+            let loser = d.tb.frame(d.origin, d.seqs, si, fi);
+            let winner = d.tb.counterfactual(ego, &cf.partner, loser);
+            pairs.push(Pair {
+                winner,
+                loser,
+                source: d.tag,
+                weight: 0.0,
+            });
+            kinds.push(kind);
+            magnitudes.push(cf.magnitude);
         }
-    }
-    stats.built = pairs.len();
-    (pairs, stats)
+        for kind in Perturbation::ALL {
+            let idx: Vec<usize> = (0..kinds.len()).filter(|&i| kinds[i] == kind).collect();
+            let mut w: Vec<f32> = idx.iter().map(|&i| magnitudes[i]).collect();
+            normalise_mean_one(&mut w);
+            for (&i, w) in idx.iter().zip(w) {
+                pairs[i].weight = w;
+            }
+        }
+        pairs
+    })
 }

@@ -5,12 +5,10 @@
 //! `t1` uniformly among the valid ones. The weight `a_i` is the time-to-impact difference
 //! `(t_impact - t1) - (t_impact - t2) = t2 - t1`, normalised by its mean over the source.
 use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 
-use super::{
-    normalise_mean_one, Origin, Pair, Source, SourceStats, TableBuilder, TemporalConfig,
-    TrainingSequence,
-};
+use super::config::TemporalConfig;
+use super::draw::{normalise_mean_one, Draw};
+use super::types::{Pair, SourceStats, TrainingSequence};
 
 /// `(j, lo, hi)`: frame `j` and the range `lo..hi` of its valid earlier frames.
 type FrameRange = (usize, usize, usize);
@@ -32,59 +30,47 @@ fn valid_ranges(s: &TrainingSequence, dmin: f64, dmax: f64) -> Vec<FrameRange> {
     out
 }
 
-pub(crate) fn build(
-    seqs: &[TrainingSequence],
-    origin: Origin,
-    config: &TemporalConfig,
-    target: usize,
-    tag: Source,
-    tb: &mut TableBuilder,
-    rng: &mut ChaCha8Rng,
-) -> (Vec<Pair>, SourceStats) {
-    let mut stats = SourceStats {
-        requested: target,
-        ..SourceStats::default()
-    };
-    if target == 0 {
-        return (Vec::new(), stats);
-    }
-    let candidates: Vec<(usize, Vec<FrameRange>)> = seqs
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| s.is_conflict())
-        .map(|(i, s)| (i, valid_ranges(s, config.dmin, config.dmax)))
-        .filter(|(_, r)| !r.is_empty())
-        .collect();
-    stats.rejected = seqs
-        .iter()
-        .filter(|s| s.is_conflict())
-        .count()
-        .saturating_sub(candidates.len());
-    if candidates.is_empty() {
-        return (Vec::new(), stats);
-    }
-    let mut pairs = Vec::with_capacity(target);
-    let mut weights = Vec::with_capacity(target);
-    for _ in 0..target {
-        let (si, ranges) = &candidates[rng.random_range(0..candidates.len())];
-        let (j, lo, hi) = ranges[rng.random_range(0..ranges.len())];
-        let i = rng.random_range(lo..hi);
-        let s = &seqs[*si];
-        let dt = (s.times[j] - s.times[i]) as f32;
-        let winner = tb.frame(origin, seqs, *si, j);
-        let loser = tb.frame(origin, seqs, *si, i);
-        pairs.push(Pair {
-            winner,
-            loser,
-            source: tag,
-            weight: 0.0,
-        });
-        weights.push(dt);
-    }
-    normalise_mean_one(&mut weights);
-    for (p, w) in pairs.iter_mut().zip(weights) {
-        p.weight = w;
-    }
-    stats.built = pairs.len();
-    (pairs, stats)
+pub(crate) fn build(draw: Draw<'_>, config: &TemporalConfig) -> (Vec<Pair>, SourceStats) {
+    draw.run(|d, stats| {
+        let candidates: Vec<(usize, Vec<FrameRange>)> = d
+            .seqs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_conflict())
+            .map(|(i, s)| (i, valid_ranges(s, config.dmin, config.dmax)))
+            .filter(|(_, r)| !r.is_empty())
+            .collect();
+        stats.rejected = d
+            .seqs
+            .iter()
+            .filter(|s| s.is_conflict())
+            .count()
+            .saturating_sub(candidates.len());
+        if candidates.is_empty() {
+            return Vec::new();
+        }
+        let mut pairs = Vec::with_capacity(d.target);
+        let mut weights = Vec::with_capacity(d.target);
+        for _ in 0..d.target {
+            let (si, ranges) = &candidates[d.rng.random_range(0..candidates.len())];
+            let (j, lo, hi) = ranges[d.rng.random_range(0..ranges.len())];
+            let i = d.rng.random_range(lo..hi);
+            let s = &d.seqs[*si];
+            let dt = (s.times[j] - s.times[i]) as f32;
+            let winner = d.tb.frame(d.origin, d.seqs, *si, j);
+            let loser = d.tb.frame(d.origin, d.seqs, *si, i);
+            pairs.push(Pair {
+                winner,
+                loser,
+                source: d.tag,
+                weight: 0.0,
+            });
+            weights.push(dt);
+        }
+        normalise_mean_one(&mut weights);
+        for (p, w) in pairs.iter_mut().zip(weights) {
+            p.weight = w;
+        }
+        pairs
+    })
 }

@@ -56,7 +56,7 @@ pub struct GssmCvResult {
 }
 
 fn counts(seqs: &[Sequence]) -> EventCounts {
-    EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()))
+    EventCounts::from_classes(seqs.iter().map(|s| s.kind))
 }
 
 fn pick(seqs: &[Sequence], idx: &[usize]) -> Vec<Sequence> {

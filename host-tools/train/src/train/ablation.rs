@@ -66,7 +66,7 @@ pub fn run(
     opts: &AblationOptions,
     mut on_cell: impl FnMut(&AblationCell),
 ) -> Result<Vec<AblationCell>, cv::CvError> {
-    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind));
     let mut cells = Vec::new();
     for &fraction in &opts.fractions {
         for set in &opts.source_sets {
@@ -101,7 +101,7 @@ pub fn run(
 
 /// Baseline rows (no training) under the same folds, for reference.
 pub fn baselines(seqs: &[Sequence], folds: usize, seed: u64) -> Result<CvReport, cv::CvError> {
-    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind.into()));
+    let events = EventCounts::from_classes(seqs.iter().map(|s| s.kind));
     let split = riskscore_data::events::kfold_by_event(seqs, folds, seed);
     let mut results = Vec::new();
     for fold in 0..split.k() {

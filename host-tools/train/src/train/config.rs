@@ -184,8 +184,8 @@ pub struct TrainConfig {
 /// What is wrong with a training configuration's values.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum InvalidConfig {
-    #[error("{0}")]
-    Comparisons(String),
+    #[error(transparent)]
+    Comparisons(#[from] crate::comparisons::ComparisonConfigError),
     #[error("{table}: lambda_impact and lambda_upper must be >= 0")]
     NegativeLambda { table: &'static str },
     #[error("{table}: need u < r_star, got u = {u}, r_star = {r_star}")]
@@ -310,9 +310,7 @@ impl TrainConfig {
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn validate(&self) -> Result<(), InvalidConfig> {
-        self.comparisons
-            .validate()
-            .map_err(InvalidConfig::Comparisons)?;
+        self.comparisons.validate()?;
         self.objective.validate("objective")?;
         if let Some(o) = &self.msra.objective {
             o.validate("msra.objective")?;

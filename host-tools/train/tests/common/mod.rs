@@ -1,5 +1,6 @@
 //! Synthetic training sequences shared by the comparison, training and GSSM tests.
-use riskscore_train::comparisons::{SequenceClass, TrainingSequence};
+use riskscore_data::events::EventKind;
+use riskscore_train::comparisons::TrainingSequence;
 use scorer_core::VehicleState;
 
 /// A 4.5 m x 1.8 m car at `(x, y)` driving along +x at `v` m/s.
@@ -22,13 +23,7 @@ pub fn car(x: f32, y: f32, v: f32) -> VehicleState {
 pub fn conflict(id: usize, closing: f32, lateral: f32) -> TrainingSequence {
     let t_impact = 6.0f64;
     let v_ego = 14.0 + id as f32 % 5.0;
-    let mut s = TrainingSequence {
-        event_id: format!("c{id}"),
-        class: SequenceClass::Conflict { endpoint: t_impact },
-        times: vec![],
-        ego: vec![],
-        partner: vec![],
-    };
+    let mut s = TrainingSequence::empty(format!("c{id}"), EventKind::Crash, Some(t_impact));
     for k in 15..=65 {
         let t = k as f64 * 0.1;
         let x_e = v_ego * t as f32;

@@ -265,7 +265,7 @@ fn emit(
                 Frame {
                     time: step_time(p.step, scenario.dt),
                     ego: e,
-                    sur: s,
+                    partner: s,
                 }
             })
             .collect();
@@ -278,8 +278,8 @@ fn emit(
             let (t_start, t_end) = (f0.time, f1.time);
             let (mut min_gap, mut min_centre) = (f32::INFINITY, f32::INFINITY);
             for f in &seq.frames {
-                min_gap = min_gap.min(box_distance(&f.ego, &f.sur));
-                min_centre = min_centre.min((f.sur.x - f.ego.x).hypot(f.sur.y - f.ego.y));
+                min_gap = min_gap.min(box_distance(&f.ego, &f.partner));
+                min_centre = min_centre.min((f.partner.x - f.ego.x).hypot(f.partner.y - f.ego.y));
             }
             counts.sequences += 1;
             counts.frames += seq.frames.len();
@@ -293,8 +293,8 @@ fn emit(
                     dims: Dims {
                         length_ego: ego.length,
                         width_ego: ego.width,
-                        length_sur: partner.length,
-                        width_sur: partner.width,
+                        length_partner: partner.length,
+                        width_partner: partner.width,
                     },
                     frames: seq.frames,
                 },

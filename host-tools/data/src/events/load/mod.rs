@@ -4,233 +4,22 @@
 //! Policy: an event with any problem (in its `events.csv` row or in any of its frames) is dropped
 //! as a whole, because a trajectory with a hole or a wrong sample would silently distort features,
 //! sequences and lead times. All of its problems are still reported, not just the first.
+mod fields;
+mod issues;
+
 use std::collections::HashMap;
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use super::{derive_partner_acceleration, FRAME_COLUMNS};
+pub use issues::{
+    EventsError, IssueProblem, LoadIssue, KEPT_PER_KIND, LENGTH_RANGE_M, MAX_SPEED_M_S,
+    WIDTH_RANGE_M,
+};
+
+use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
 use super::{Dims, Event, EventKind, EventSet, Frame, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE};
+use fields::{column_map, field_str, next_record, open, Fields};
+use issues::Issues;
 use scorer_core::VehicleState;
-
-/// A heading whose norm is within this distance of 1 is normalised silently; further off is an
-/// issue (it is then not a heading but a data error, e.g. swapped columns).
-pub const HEADING_TOLERANCE: f64 = 0.02;
-/// Tolerance (s) when comparing frame times with `t_start`, `t_end` and `t_impact`.
-pub const TIME_TOLERANCE: f64 = 1e-3;
-/// Physical range of a box length (m), inclusive: a pedestrian's box (0.5 m) to a long truck or
-/// articulated bus (25.25 m in the EU) with margin; the same range as the CAN signals
-/// (`EgoLength`, `ObjLength`), so every loadable event can be sent over the bus.
-pub const LENGTH_RANGE_M: (f32, f32) = (0.5, 30.0);
-/// Physical range of a box width (m), inclusive: a pedestrian or cyclist (0.3 m) to an oversize
-/// load (5 m); the CAN signals' range too.
-pub const WIDTH_RANGE_M: (f32, f32) = (0.3, 5.0);
-/// Largest speed (m/s, magnitude of the velocity) of any road user: 360 km/h.
-pub const MAX_SPEED_M_S: f32 = 100.0;
-/// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
-pub const KEPT_PER_KIND: usize = 20;
-
-/// A problem that stops a folder from being read at all.
-#[derive(Debug, thiserror::Error)]
-pub enum EventsError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{}: line {line}: {source}", path.display())]
-    Csv {
-        path: PathBuf,
-        line: u64,
-        #[source]
-        source: csv::Error,
-    },
-    #[error("{}: line 1: missing required column `{column}`", path.display())]
-    MissingColumn { path: PathBuf, column: &'static str },
-    /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
-    /// caller reads it whole with [`load_events`] instead.
-    #[error("{}: line {line}: event `{event_id}`: {reason}; it cannot be streamed event by event", path.display())]
-    NotStreamable {
-        path: PathBuf,
-        line: u64,
-        event_id: String,
-        reason: &'static str,
-    },
-    /// [`load_prepared`](super::load_prepared) only: no event of the folder yields a sequence.
-    #[error("{}: contains no usable sequences", path.display())]
-    NoSequences { path: PathBuf },
-}
-
-/// One validation problem. Display: `file:line: column `c`: event `id`: problem`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LoadIssue {
-    pub file: PathBuf,
-    /// 1-based line in `file` (the header is line 1).
-    pub line: u64,
-    /// The offending column, when the problem is about one field.
-    pub column: Option<String>,
-    /// The event concerned (dropped as a whole), when known.
-    pub event_id: Option<String>,
-    pub problem: IssueProblem,
-}
-
-impl std::fmt::Display for LoadIssue {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}:{}:", self.file.display(), self.line)?;
-        if let Some(c) = &self.column {
-            write!(f, " column `{c}`:")?;
-        }
-        if let Some(id) = &self.event_id {
-            write!(f, " event `{id}`:")?;
-        }
-        write!(f, " {}", self.problem)
-    }
-}
-
-/// What is wrong. Every variant except [`IssueProblem::UnknownEvent`] drops the named event.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum IssueProblem {
-    #[error("row has {found} fields, the header has {expected}")]
-    RowLength { found: usize, expected: usize },
-    #[error("row is not valid CSV/UTF-8: {0}")]
-    BadRow(String),
-    #[error("empty event_id")]
-    EmptyEventId,
-    #[error("event_id already used on line {first_line}; both rows are dropped")]
-    DuplicateEventId { first_line: u64 },
-    #[error("unknown kind `{0}` (expected crash, near_crash or safe)")]
-    UnknownKind(String),
-    #[error("`{0}` is not a number")]
-    BadNumber(String),
-    #[error("`{0}` is not finite")]
-    NonFinite(String),
-    #[error("conflict event without t_impact")]
-    MissingImpactTime,
-    #[error("safe event with a t_impact")]
-    ImpactTimeOnSafe,
-    #[error("t_end {t_end} is not after t_start {t_start}")]
-    EmptyInterval { t_start: f64, t_end: f64 },
-    #[error("t_impact {t_impact} outside [t_start {t_start}, t_end {t_end}]")]
-    ImpactOutsideEvent {
-        t_impact: f64,
-        t_start: f64,
-        t_end: f64,
-    },
-    #[error("dimension {0} is not positive")]
-    NonPositiveDimension(f32),
-    #[error("dimension {value} m is outside the physical range [{min}, {max}] m")]
-    ImplausibleDimension { value: f32, min: f32, max: f32 },
-    #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
-    ImplausibleSpeed { speed: f32 },
-    #[error("... and {more} more `{kind}` problems in this file (not listed)")]
-    MoreOfKind { kind: &'static str, more: u64 },
-    #[error("{frames} frame(s) for an event that is not in events.csv")]
-    UnknownEvent { frames: usize },
-    #[error("time {time} repeats the frame on line {previous_line}")]
-    DuplicateTime { time: f64, previous_line: u64 },
-    #[error("time {time} is before the previous frame's {previous} (line {previous_line})")]
-    UnsortedTime {
-        time: f64,
-        previous: f64,
-        previous_line: u64,
-    },
-    #[error("heading norm {norm} is not 1 (tolerance {HEADING_TOLERANCE})")]
-    HeadingNotUnit { norm: f64 },
-    #[error("frame time {time} outside [t_start {t_start}, t_end {t_end}]")]
-    FrameOutsideEvent { time: f64, t_start: f64, t_end: f64 },
-    #[error("event has no frames")]
-    NoFrames,
-    #[error("t_impact {t_impact} is before the first frame ({first})")]
-    ImpactBeforeFrames { t_impact: f64, first: f64 },
-}
-
-impl IssueProblem {
-    /// A stable name of the kind of problem (the variant).
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Self::RowLength { .. } => "RowLength",
-            Self::BadRow(_) => "BadRow",
-            Self::EmptyEventId => "EmptyEventId",
-            Self::DuplicateEventId { .. } => "DuplicateEventId",
-            Self::UnknownKind(_) => "UnknownKind",
-            Self::BadNumber(_) => "BadNumber",
-            Self::NonFinite(_) => "NonFinite",
-            Self::MissingImpactTime => "MissingImpactTime",
-            Self::ImpactTimeOnSafe => "ImpactTimeOnSafe",
-            Self::EmptyInterval { .. } => "EmptyInterval",
-            Self::ImpactOutsideEvent { .. } => "ImpactOutsideEvent",
-            Self::NonPositiveDimension(_) => "NonPositiveDimension",
-            Self::ImplausibleDimension { .. } => "ImplausibleDimension",
-            Self::ImplausibleSpeed { .. } => "ImplausibleSpeed",
-            Self::MoreOfKind { .. } => "MoreOfKind",
-            Self::UnknownEvent { .. } => "UnknownEvent",
-            Self::DuplicateTime { .. } => "DuplicateTime",
-            Self::UnsortedTime { .. } => "UnsortedTime",
-            Self::HeadingNotUnit { .. } => "HeadingNotUnit",
-            Self::FrameOutsideEvent { .. } => "FrameOutsideEvent",
-            Self::NoFrames => "NoFrames",
-            Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
-        }
-    }
-}
-
-impl LoadIssue {
-    /// How many problems this issue stands for (more than 1 for [`IssueProblem::MoreOfKind`]).
-    pub fn count(&self) -> u64 {
-        match self.problem {
-            IssueProblem::MoreOfKind { more, .. } => more,
-            _ => 1,
-        }
-    }
-}
-
-/// A kind of problem in one file.
-type KindKey = (PathBuf, &'static str);
-
-/// The issues of one load, bounded: the first [`KEPT_PER_KIND`] of each kind per file are kept,
-/// the others counted, so millions of bad rows cost a counter, not memory.
-#[derive(Default)]
-struct Issues {
-    kept: Vec<LoadIssue>,
-    /// (file, kind) -> (problems not kept, first line not kept).
-    more: Vec<(KindKey, (u64, u64))>,
-    per_kind: HashMap<KindKey, usize>,
-}
-
-impl Issues {
-    fn push(&mut self, issue: LoadIssue) {
-        let key = (issue.file.clone(), issue.problem.kind());
-        let n = self.per_kind.entry(key.clone()).or_insert(0);
-        *n += 1;
-        if *n <= KEPT_PER_KIND {
-            self.kept.push(issue);
-        } else if let Some(m) = self.more.iter_mut().find(|m| m.0 == key) {
-            m.1 .0 += 1;
-        } else {
-            self.more.push((key, (1, issue.line)));
-        }
-    }
-
-    fn extend(&mut self, issues: impl IntoIterator<Item = LoadIssue>) {
-        for i in issues {
-            self.push(i);
-        }
-    }
-
-    fn finish(mut self) -> Vec<LoadIssue> {
-        for ((file, kind), (more, line)) in self.more {
-            self.kept.push(LoadIssue {
-                file,
-                line,
-                column: None,
-                event_id: None,
-                problem: IssueProblem::MoreOfKind { kind, more },
-            });
-        }
-        self.kept
-    }
-}
 
 struct Pending {
     event: Event,
@@ -368,7 +157,7 @@ fn finish_event(p: &mut Pending, events_path: &Path) -> Option<LoadIssue> {
     };
     let problem = match (ev.frames.first(), ev.t_impact) {
         (None, _) => issue(IssueProblem::NoFrames),
-        (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE => {
+        (Some(first), Some(t_impact)) if t_impact < first.time - TIME_TOLERANCE_S => {
             let mut i = issue(IssueProblem::ImpactBeforeFrames {
                 t_impact,
                 first: first.time,
@@ -471,174 +260,6 @@ impl<E: From<EventsError>> Stream<'_, E> {
     }
 }
 
-fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
-    let file = File::open(path).map_err(|source| EventsError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(csv::ReaderBuilder::new()
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(BufReader::with_capacity(1 << 20, file)))
-}
-
-fn column_map(
-    path: &Path,
-    rdr: &mut csv::Reader<BufReader<File>>,
-    required: &[&'static str],
-) -> Result<(Vec<usize>, csv::StringRecord), EventsError> {
-    let headers = rdr
-        .headers()
-        .map_err(|source| EventsError::Csv {
-            path: path.to_path_buf(),
-            line: 1,
-            source,
-        })?
-        .clone();
-    let cols = required
-        .iter()
-        .map(|&name| {
-            headers
-                .iter()
-                .position(|h| h == name)
-                .ok_or(EventsError::MissingColumn {
-                    path: path.to_path_buf(),
-                    column: name,
-                })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok((cols, headers))
-}
-
-/// Reads one record; `Ok(None)` at end of file, `Err(issue)` for a malformed row.
-fn next_record(
-    path: &Path,
-    rdr: &mut csv::Reader<BufReader<File>>,
-    rec: &mut csv::ByteRecord,
-    expected: usize,
-    id_col: usize,
-) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
-    let line = rdr.position().line();
-    match rdr.read_byte_record(rec) {
-        Ok(false) => Ok(None),
-        Ok(true) => {
-            let line = rec.position().map_or(line, |p| p.line());
-            if rec.len() != expected {
-                Ok(Some(Err(LoadIssue {
-                    file: path.to_path_buf(),
-                    line,
-                    column: None,
-                    event_id: rec
-                        .get(id_col)
-                        .filter(|s| !s.is_empty())
-                        .map(|s| String::from_utf8_lossy(s).into_owned()),
-                    problem: IssueProblem::RowLength {
-                        found: rec.len(),
-                        expected,
-                    },
-                })))
-            } else {
-                Ok(Some(Ok(line)))
-            }
-        }
-        Err(e) if matches!(e.kind(), csv::ErrorKind::Io(_)) => Err(EventsError::Csv {
-            path: path.to_path_buf(),
-            line,
-            source: e,
-        }),
-        Err(e) => {
-            let line = e.position().map_or(line, |p| p.line());
-            Ok(Some(Err(LoadIssue {
-                file: path.to_path_buf(),
-                line,
-                column: None,
-                event_id: None,
-                problem: IssueProblem::BadRow(e.to_string()),
-            })))
-        }
-    }
-}
-
-fn field_str(b: &[u8]) -> &str {
-    std::str::from_utf8(b).unwrap_or("\u{fffd}")
-}
-
-/// Field parser that records an issue per bad field.
-struct Fields<'a> {
-    path: &'a Path,
-    line: u64,
-    id: &'a str,
-    rec: &'a csv::ByteRecord,
-    cols: &'a [usize],
-    names: &'a [&'static str],
-    issues: Vec<LoadIssue>,
-}
-
-impl Fields<'_> {
-    /// The field as text; invalid UTF-8 becomes U+FFFD and then fails to parse as a number.
-    fn raw(&self, i: usize) -> &str {
-        field_str(self.rec.get(self.cols[i]).unwrap_or(b""))
-    }
-    fn push(&mut self, i: usize, problem: IssueProblem) {
-        self.issues.push(LoadIssue {
-            file: self.path.to_path_buf(),
-            line: self.line,
-            column: Some(self.names[i].to_owned()),
-            event_id: Some(self.id.to_owned()),
-            problem,
-        });
-    }
-    fn f64(&mut self, i: usize) -> f64 {
-        let s = self.raw(i);
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => v,
-            Ok(_) => {
-                let s = s.to_owned();
-                self.push(i, IssueProblem::NonFinite(s));
-                f64::NAN
-            }
-            Err(_) => {
-                let s = s.to_owned();
-                self.push(i, IssueProblem::BadNumber(s));
-                f64::NAN
-            }
-        }
-    }
-    fn f32(&mut self, i: usize) -> f32 {
-        let s = self.raw(i);
-        match s.parse::<f32>() {
-            Ok(v) if v.is_finite() => v,
-            Ok(_) => {
-                let s = s.to_owned();
-                self.push(i, IssueProblem::NonFinite(s));
-                f32::NAN
-            }
-            Err(_) => {
-                let s = s.to_owned();
-                self.push(i, IssueProblem::BadNumber(s));
-                f32::NAN
-            }
-        }
-    }
-    /// A unit heading from columns `ix`, `iy`: normalised when within tolerance, else an issue.
-    fn heading(&mut self, ix: usize, iy: usize) -> (f32, f32) {
-        let (hx, hy) = (self.f32(ix), self.f32(iy));
-        if !(hx.is_finite() && hy.is_finite()) {
-            return (hx, hy);
-        }
-        let norm = f64::from(hx).hypot(f64::from(hy));
-        if (norm - 1.0).abs() > HEADING_TOLERANCE {
-            self.push(ix, IssueProblem::HeadingNotUnit { norm });
-            (f32::NAN, f32::NAN)
-        } else if (norm - 1.0).abs() > 1e-5 {
-            ((f64::from(hx) / norm) as f32, (f64::from(hy) / norm) as f32)
-        } else {
-            // Already unit to f32 precision: keep the exact values (write/load round-trips bit-exactly).
-            (hx, hy)
-        }
-    }
-}
-
 fn read_events(
     path: &Path,
     pending: &mut Vec<Pending>,
@@ -689,14 +310,14 @@ fn read_events(
         let dims = Dims {
             length_ego: f.f32(5),
             width_ego: f.f32(6),
-            length_sur: f.f32(7),
-            width_sur: f.f32(8),
+            length_partner: f.f32(7),
+            width_partner: f.f32(8),
         };
         for (i, v) in [
             dims.length_ego,
             dims.width_ego,
-            dims.length_sur,
-            dims.width_sur,
+            dims.length_partner,
+            dims.width_partner,
         ]
         .into_iter()
         .enumerate()
@@ -725,7 +346,7 @@ fn read_events(
                 if t.is_finite()
                     && t_start.is_finite()
                     && t_end.is_finite()
-                    && (t < t_start - TIME_TOLERANCE || t > t_end + TIME_TOLERANCE) =>
+                    && (t < t_start - TIME_TOLERANCE_S || t > t_end + TIME_TOLERANCE_S) =>
             {
                 f.push(
                     4,
@@ -797,7 +418,7 @@ fn read_frames<E: From<EventsError>>(
 ) -> Result<(), E> {
     let mut rdr = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
-    let acc_sur_col = headers.iter().position(|h| h == "acc_sur");
+    let acc_partner_col = headers.iter().position(|h| h == "acc_sur");
     let mut rec = csv::ByteRecord::new();
     // Unknown ids: first line and frame count, reported once each.
     let mut unknown: HashMap<String, (u64, usize)> = HashMap::new();
@@ -834,7 +455,7 @@ fn read_frames<E: From<EventsError>>(
                             stream.close(
                                 previous,
                                 &mut pending[previous],
-                                acc_sur_col.is_none(),
+                                acc_partner_col.is_none(),
                             )?;
                         }
                     }
@@ -877,7 +498,7 @@ fn read_frames<E: From<EventsError>>(
             length: d.length_ego,
             width: d.width_ego,
         };
-        let mut sur = VehicleState {
+        let mut partner = VehicleState {
             x: f.f32(9),
             y: f.f32(10),
             vx: f.f32(11),
@@ -885,19 +506,19 @@ fn read_frames<E: From<EventsError>>(
             hx: hx_s,
             hy: hy_s,
             acc: 0.0,
-            length: d.length_sur,
-            width: d.width_sur,
+            length: d.length_partner,
+            width: d.width_partner,
         };
-        for (state, col) in [(&ego, 4), (&sur, 11)] {
+        for (state, col) in [(&ego, 4), (&partner, 11)] {
             let speed = state.vx.hypot(state.vy);
             if speed.is_finite() && speed > MAX_SPEED_M_S {
                 f.push(col, IssueProblem::ImplausibleSpeed { speed });
             }
         }
-        if let Some(c) = acc_sur_col {
+        if let Some(c) = acc_partner_col {
             let s = field_str(rec.get(c).unwrap_or(b""));
             match s.parse::<f32>() {
-                Ok(v) if v.is_finite() => sur.acc = v,
+                Ok(v) if v.is_finite() => partner.acc = v,
                 Ok(_) => f.issues.push(LoadIssue {
                     file: path.to_path_buf(),
                     line,
@@ -936,7 +557,7 @@ fn read_frames<E: From<EventsError>>(
                 }
             }
             let (t0, t1) = (p.event.t_start, p.event.t_end);
-            if time < t0 - TIME_TOLERANCE || time > t1 + TIME_TOLERANCE {
+            if time < t0 - TIME_TOLERANCE_S || time > t1 + TIME_TOLERANCE_S {
                 f.push(
                     1,
                     IssueProblem::FrameOutsideEvent {
@@ -950,7 +571,7 @@ fn read_frames<E: From<EventsError>>(
         if f.issues.is_empty() {
             let newer = p.event.frames.last().is_none_or(|prev| time > prev.time);
             if newer {
-                p.event.frames.push(Frame { time, ego, sur });
+                p.event.frames.push(Frame { time, ego, partner });
                 p.last_frame_line = line;
             }
         } else {
@@ -959,7 +580,7 @@ fn read_frames<E: From<EventsError>>(
         }
     }
     if let (Some(stream), Some((_, last))) = (stream, current) {
-        stream.close(last, &mut pending[last], acc_sur_col.is_none())?;
+        stream.close(last, &mut pending[last], acc_partner_col.is_none())?;
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();
     unknown.sort_by_key(|(_, (line, _))| *line);
@@ -972,7 +593,7 @@ fn read_frames<E: From<EventsError>>(
             problem: IssueProblem::UnknownEvent { frames },
         });
     }
-    if acc_sur_col.is_none() {
+    if acc_partner_col.is_none() {
         for p in pending.iter_mut().filter(|p| p.ok) {
             derive_partner_acceleration(&mut p.event.frames);
         }

@@ -1,0 +1,171 @@
+//! Reading the CSV tables: opening a file, finding the required columns, one record at a time, and
+//! parsing its fields into numbers and headings with one issue per bad field.
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+use super::issues::{EventsError, IssueProblem, LoadIssue, HEADING_TOLERANCE};
+
+pub(super) fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
+    let file = File::open(path).map_err(|source| EventsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(csv::ReaderBuilder::new()
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(BufReader::with_capacity(1 << 20, file)))
+}
+
+pub(super) fn column_map(
+    path: &Path,
+    rdr: &mut csv::Reader<BufReader<File>>,
+    required: &[&'static str],
+) -> Result<(Vec<usize>, csv::StringRecord), EventsError> {
+    let headers = rdr
+        .headers()
+        .map_err(|source| EventsError::Csv {
+            path: path.to_path_buf(),
+            line: 1,
+            source,
+        })?
+        .clone();
+    let cols = required
+        .iter()
+        .map(|&name| {
+            headers
+                .iter()
+                .position(|h| h == name)
+                .ok_or(EventsError::MissingColumn {
+                    path: path.to_path_buf(),
+                    column: name,
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((cols, headers))
+}
+
+/// Reads one record; `Ok(None)` at end of file, `Err(issue)` for a malformed row.
+pub(super) fn next_record(
+    path: &Path,
+    rdr: &mut csv::Reader<BufReader<File>>,
+    rec: &mut csv::ByteRecord,
+    expected: usize,
+    id_col: usize,
+) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
+    let line = rdr.position().line();
+    match rdr.read_byte_record(rec) {
+        Ok(false) => Ok(None),
+        Ok(true) => {
+            let line = rec.position().map_or(line, |p| p.line());
+            if rec.len() != expected {
+                Ok(Some(Err(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: None,
+                    event_id: rec
+                        .get(id_col)
+                        .filter(|s| !s.is_empty())
+                        .map(|s| String::from_utf8_lossy(s).into_owned()),
+                    problem: IssueProblem::RowLength {
+                        found: rec.len(),
+                        expected,
+                    },
+                })))
+            } else {
+                Ok(Some(Ok(line)))
+            }
+        }
+        Err(e) if matches!(e.kind(), csv::ErrorKind::Io(_)) => Err(EventsError::Csv {
+            path: path.to_path_buf(),
+            line,
+            source: e,
+        }),
+        Err(e) => {
+            let line = e.position().map_or(line, |p| p.line());
+            Ok(Some(Err(LoadIssue {
+                file: path.to_path_buf(),
+                line,
+                column: None,
+                event_id: None,
+                problem: IssueProblem::BadRow(e.to_string()),
+            })))
+        }
+    }
+}
+
+pub(super) fn field_str(b: &[u8]) -> &str {
+    std::str::from_utf8(b).unwrap_or("\u{fffd}")
+}
+
+/// Field parser that records an issue per bad field.
+pub(super) struct Fields<'a> {
+    pub(super) path: &'a Path,
+    pub(super) line: u64,
+    pub(super) id: &'a str,
+    pub(super) rec: &'a csv::ByteRecord,
+    pub(super) cols: &'a [usize],
+    pub(super) names: &'a [&'static str],
+    pub(super) issues: Vec<LoadIssue>,
+}
+
+impl Fields<'_> {
+    /// The field as text; invalid UTF-8 becomes U+FFFD and then fails to parse as a number.
+    pub(super) fn raw(&self, i: usize) -> &str {
+        field_str(self.rec.get(self.cols[i]).unwrap_or(b""))
+    }
+    pub(super) fn push(&mut self, i: usize, problem: IssueProblem) {
+        self.issues.push(LoadIssue {
+            file: self.path.to_path_buf(),
+            line: self.line,
+            column: Some(self.names[i].to_owned()),
+            event_id: Some(self.id.to_owned()),
+            problem,
+        });
+    }
+    /// The field as a finite number; anything else is an issue and reads as NaN.
+    fn number<T: std::str::FromStr + Copy>(
+        &mut self,
+        i: usize,
+        is_finite: fn(T) -> bool,
+        nan: T,
+    ) -> T {
+        let s = self.raw(i);
+        match s.parse::<T>() {
+            Ok(v) if is_finite(v) => v,
+            Ok(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::NonFinite(s));
+                nan
+            }
+            Err(_) => {
+                let s = s.to_owned();
+                self.push(i, IssueProblem::BadNumber(s));
+                nan
+            }
+        }
+    }
+    pub(super) fn f64(&mut self, i: usize) -> f64 {
+        self.number(i, f64::is_finite, f64::NAN)
+    }
+    pub(super) fn f32(&mut self, i: usize) -> f32 {
+        self.number(i, f32::is_finite, f32::NAN)
+    }
+    /// A unit heading from columns `ix`, `iy`: normalised when within tolerance, else an issue.
+    pub(super) fn heading(&mut self, ix: usize, iy: usize) -> (f32, f32) {
+        let (hx, hy) = (self.f32(ix), self.f32(iy));
+        if !(hx.is_finite() && hy.is_finite()) {
+            return (hx, hy);
+        }
+        let norm = f64::from(hx).hypot(f64::from(hy));
+        if (norm - 1.0).abs() > HEADING_TOLERANCE {
+            self.push(ix, IssueProblem::HeadingNotUnit { norm });
+            (f32::NAN, f32::NAN)
+        } else if (norm - 1.0).abs() > 1e-5 {
+            ((f64::from(hx) / norm) as f32, (f64::from(hy) / norm) as f32)
+        } else {
+            // Already unit to f32 precision: keep the exact values (write/load round-trips bit-exactly).
+            (hx, hy)
+        }
+    }
+}

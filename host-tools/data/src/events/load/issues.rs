@@ -1,0 +1,221 @@
+//! What can be wrong with an event folder: the fatal [`EventsError`]s, the per-row [`LoadIssue`]s,
+//! the validation limits they refer to, and the bounded list that keeps them.
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// A heading whose norm is within this distance of 1 is normalised silently; further off is an
+/// issue (it is then not a heading but a data error, e.g. swapped columns).
+pub const HEADING_TOLERANCE: f64 = 0.02;
+/// Physical range of a box length (m), inclusive: a pedestrian's box (0.5 m) to a long truck or
+/// articulated bus (25.25 m in the EU) with margin; the same range as the CAN signals
+/// (`EgoLength`, `ObjLength`), so every loadable event can be sent over the bus.
+pub const LENGTH_RANGE_M: (f32, f32) = (0.5, 30.0);
+/// Physical range of a box width (m), inclusive: a pedestrian or cyclist (0.3 m) to an oversize
+/// load (5 m); the CAN signals' range too.
+pub const WIDTH_RANGE_M: (f32, f32) = (0.3, 5.0);
+/// Largest speed (m/s, magnitude of the velocity) of any road user: 360 km/h.
+pub const MAX_SPEED_M_S: f32 = 100.0;
+/// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
+pub const KEPT_PER_KIND: usize = 20;
+
+/// A problem that stops a folder from being read at all.
+#[derive(Debug, thiserror::Error)]
+pub enum EventsError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: line {line}: {source}", path.display())]
+    Csv {
+        path: PathBuf,
+        line: u64,
+        #[source]
+        source: csv::Error,
+    },
+    #[error("{}: line 1: missing required column `{column}`", path.display())]
+    MissingColumn { path: PathBuf, column: &'static str },
+    /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
+    /// caller reads it whole with [`load_events`] instead.
+    #[error("{}: line {line}: event `{event_id}`: {reason}; it cannot be streamed event by event", path.display())]
+    NotStreamable {
+        path: PathBuf,
+        line: u64,
+        event_id: String,
+        reason: &'static str,
+    },
+    /// [`load_prepared`](super::load_prepared) only: no event of the folder yields a sequence.
+    #[error("{}: contains no usable sequences", path.display())]
+    NoSequences { path: PathBuf },
+}
+
+/// One validation problem. Display: `file:line: column `c`: event `id`: problem`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadIssue {
+    pub file: PathBuf,
+    /// 1-based line in `file` (the header is line 1).
+    pub line: u64,
+    /// The offending column, when the problem is about one field.
+    pub column: Option<String>,
+    /// The event concerned (dropped as a whole), when known.
+    pub event_id: Option<String>,
+    pub problem: IssueProblem,
+}
+
+impl std::fmt::Display for LoadIssue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:", self.file.display(), self.line)?;
+        if let Some(c) = &self.column {
+            write!(f, " column `{c}`:")?;
+        }
+        if let Some(id) = &self.event_id {
+            write!(f, " event `{id}`:")?;
+        }
+        write!(f, " {}", self.problem)
+    }
+}
+
+/// What is wrong. Every variant except [`IssueProblem::UnknownEvent`] drops the named event.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IssueProblem {
+    #[error("row has {found} fields, the header has {expected}")]
+    RowLength { found: usize, expected: usize },
+    #[error("row is not valid CSV/UTF-8: {0}")]
+    BadRow(String),
+    #[error("empty event_id")]
+    EmptyEventId,
+    #[error("event_id already used on line {first_line}; both rows are dropped")]
+    DuplicateEventId { first_line: u64 },
+    #[error("unknown kind `{0}` (expected crash, near_crash or safe)")]
+    UnknownKind(String),
+    #[error("`{0}` is not a number")]
+    BadNumber(String),
+    #[error("`{0}` is not finite")]
+    NonFinite(String),
+    #[error("conflict event without t_impact")]
+    MissingImpactTime,
+    #[error("safe event with a t_impact")]
+    ImpactTimeOnSafe,
+    #[error("t_end {t_end} is not after t_start {t_start}")]
+    EmptyInterval { t_start: f64, t_end: f64 },
+    #[error("t_impact {t_impact} outside [t_start {t_start}, t_end {t_end}]")]
+    ImpactOutsideEvent {
+        t_impact: f64,
+        t_start: f64,
+        t_end: f64,
+    },
+    #[error("dimension {0} is not positive")]
+    NonPositiveDimension(f32),
+    #[error("dimension {value} m is outside the physical range [{min}, {max}] m")]
+    ImplausibleDimension { value: f32, min: f32, max: f32 },
+    #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
+    ImplausibleSpeed { speed: f32 },
+    #[error("... and {more} more `{kind}` problems in this file (not listed)")]
+    MoreOfKind { kind: &'static str, more: u64 },
+    #[error("{frames} frame(s) for an event that is not in events.csv")]
+    UnknownEvent { frames: usize },
+    #[error("time {time} repeats the frame on line {previous_line}")]
+    DuplicateTime { time: f64, previous_line: u64 },
+    #[error("time {time} is before the previous frame's {previous} (line {previous_line})")]
+    UnsortedTime {
+        time: f64,
+        previous: f64,
+        previous_line: u64,
+    },
+    #[error("heading norm {norm} is not 1 (tolerance {HEADING_TOLERANCE})")]
+    HeadingNotUnit { norm: f64 },
+    #[error("frame time {time} outside [t_start {t_start}, t_end {t_end}]")]
+    FrameOutsideEvent { time: f64, t_start: f64, t_end: f64 },
+    #[error("event has no frames")]
+    NoFrames,
+    #[error("t_impact {t_impact} is before the first frame ({first})")]
+    ImpactBeforeFrames { t_impact: f64, first: f64 },
+}
+
+impl IssueProblem {
+    /// A stable name of the kind of problem (the variant).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::RowLength { .. } => "RowLength",
+            Self::BadRow(_) => "BadRow",
+            Self::EmptyEventId => "EmptyEventId",
+            Self::DuplicateEventId { .. } => "DuplicateEventId",
+            Self::UnknownKind(_) => "UnknownKind",
+            Self::BadNumber(_) => "BadNumber",
+            Self::NonFinite(_) => "NonFinite",
+            Self::MissingImpactTime => "MissingImpactTime",
+            Self::ImpactTimeOnSafe => "ImpactTimeOnSafe",
+            Self::EmptyInterval { .. } => "EmptyInterval",
+            Self::ImpactOutsideEvent { .. } => "ImpactOutsideEvent",
+            Self::NonPositiveDimension(_) => "NonPositiveDimension",
+            Self::ImplausibleDimension { .. } => "ImplausibleDimension",
+            Self::ImplausibleSpeed { .. } => "ImplausibleSpeed",
+            Self::MoreOfKind { .. } => "MoreOfKind",
+            Self::UnknownEvent { .. } => "UnknownEvent",
+            Self::DuplicateTime { .. } => "DuplicateTime",
+            Self::UnsortedTime { .. } => "UnsortedTime",
+            Self::HeadingNotUnit { .. } => "HeadingNotUnit",
+            Self::FrameOutsideEvent { .. } => "FrameOutsideEvent",
+            Self::NoFrames => "NoFrames",
+            Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
+        }
+    }
+}
+
+impl LoadIssue {
+    /// How many problems this issue stands for (more than 1 for [`IssueProblem::MoreOfKind`]).
+    pub fn count(&self) -> u64 {
+        match self.problem {
+            IssueProblem::MoreOfKind { more, .. } => more,
+            _ => 1,
+        }
+    }
+}
+
+/// A kind of problem in one file.
+type KindKey = (PathBuf, &'static str);
+
+/// The issues of one load, bounded: the first [`KEPT_PER_KIND`] of each kind per file are kept,
+/// the others counted, so millions of bad rows cost a counter, not memory.
+#[derive(Default)]
+pub(super) struct Issues {
+    kept: Vec<LoadIssue>,
+    /// (file, kind) -> (problems not kept, first line not kept).
+    more: Vec<(KindKey, (u64, u64))>,
+    per_kind: HashMap<KindKey, usize>,
+}
+
+impl Issues {
+    pub(super) fn push(&mut self, issue: LoadIssue) {
+        let key = (issue.file.clone(), issue.problem.kind());
+        let n = self.per_kind.entry(key.clone()).or_insert(0);
+        *n += 1;
+        if *n <= KEPT_PER_KIND {
+            self.kept.push(issue);
+        } else if let Some(m) = self.more.iter_mut().find(|m| m.0 == key) {
+            m.1 .0 += 1;
+        } else {
+            self.more.push((key, (1, issue.line)));
+        }
+    }
+
+    pub(super) fn extend(&mut self, issues: impl IntoIterator<Item = LoadIssue>) {
+        for i in issues {
+            self.push(i);
+        }
+    }
+
+    pub(super) fn finish(mut self) -> Vec<LoadIssue> {
+        for ((file, kind), (more, line)) in self.more {
+            self.kept.push(LoadIssue {
+                file,
+                line,
+                column: None,
+                event_id: None,
+                problem: IssueProblem::MoreOfKind { kind, more },
+            });
+        }
+        self.kept
+    }
+}

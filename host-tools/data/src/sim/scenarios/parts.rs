@@ -1,0 +1,195 @@
+//! The random parts every scenario family draws: vehicles, road speeds, drivers, scripts,
+//! distraction, and the assignment of the ego to a role.
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::sim::world::{Agent, Driver, Path, Piece, Script, Swerve};
+
+/// Vehicle classes and their dimension/performance ranges.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VehicleClass {
+    Car,
+    Van,
+    Truck,
+    Motorbike,
+}
+
+impl VehicleClass {
+    pub fn name(self) -> &'static str {
+        match self {
+            VehicleClass::Car => "car",
+            VehicleClass::Van => "van",
+            VehicleClass::Truck => "truck",
+            VehicleClass::Motorbike => "motorbike",
+        }
+    }
+}
+
+/// A drawn vehicle: class, (length, width), (braking limit, acceleration limit).
+#[derive(Clone, Copy, Debug)]
+pub struct Vehicle {
+    pub class: VehicleClass,
+    pub dims: (f64, f64),
+    pub limits: (f64, f64),
+}
+
+pub(super) fn u(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    rng.random_range(lo..hi)
+}
+
+pub(super) fn sign(rng: &mut ChaCha8Rng) -> f64 {
+    if rng.random_bool(0.5) {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+pub(super) fn vehicle(rng: &mut ChaCha8Rng, ego: bool) -> Vehicle {
+    let r: f64 = rng.random();
+    let class = if ego {
+        if r < 0.75 {
+            VehicleClass::Car
+        } else {
+            VehicleClass::Van
+        }
+    } else if r < 0.55 {
+        VehicleClass::Car
+    } else if r < 0.75 {
+        VehicleClass::Van
+    } else if r < 0.92 {
+        VehicleClass::Truck
+    } else {
+        VehicleClass::Motorbike
+    };
+    let (dims, limits) = match class {
+        VehicleClass::Car => (
+            (u(rng, 3.9, 4.9), u(rng, 1.70, 1.90)),
+            (u(rng, 7.0, 9.5), 3.0),
+        ),
+        VehicleClass::Van => (
+            (u(rng, 4.7, 5.9), u(rng, 1.85, 2.05)),
+            (u(rng, 6.5, 8.5), 2.5),
+        ),
+        VehicleClass::Truck => (
+            (u(rng, 7.5, 16.5), u(rng, 2.40, 2.55)),
+            (u(rng, 4.5, 6.5), 1.2),
+        ),
+        VehicleClass::Motorbike => (
+            (u(rng, 1.9, 2.3), u(rng, 0.70, 0.95)),
+            (u(rng, 5.5, 9.0), 4.0),
+        ),
+    };
+    Vehicle {
+        class,
+        dims,
+        limits,
+    }
+}
+
+/// Travel speed (m/s) of a road class: urban, arterial or highway.
+pub(super) fn road_speed(rng: &mut ChaCha8Rng) -> f64 {
+    let r: f64 = rng.random();
+    if r < 0.4 {
+        u(rng, 8.0, 16.0)
+    } else if r < 0.75 {
+        u(rng, 14.0, 22.0)
+    } else {
+        u(rng, 22.0, 33.0)
+    }
+}
+
+/// Scripted cruising: no acceleration at any speed.
+pub(super) const CRUISE: Piece = Piece::Accel {
+    a: 0.0,
+    v_lo: 0.0,
+    v_hi: f64::MAX,
+};
+
+/// A driver whose desired speed is `v` times a factor drawn from `factor`.
+pub(super) fn driver(rng: &mut ChaCha8Rng, hazardous: bool, v: f64, factor: (f64, f64)) -> Driver {
+    let v0 = v * u(rng, factor.0, factor.1);
+    let swerve = (hazardous && rng.random_bool(0.35)).then(|| Swerve {
+        dir: sign(rng),
+        dd: u(rng, 0.8, 2.2),
+        alat: u(rng, 3.0, 7.0),
+        trigger: u(rng, 4.0, 7.0),
+    });
+    Driver {
+        v0,
+        headway: if hazardous {
+            u(rng, 0.6, 1.6)
+        } else {
+            u(rng, 1.0, 2.2)
+        },
+        s0: u(rng, 1.0, 2.5),
+        a_max: u(rng, 0.8, 1.8),
+        b_comf: u(rng, 1.0, 2.0),
+        tau: if hazardous {
+            u(rng, 0.6, 2.0)
+        } else {
+            u(rng, 0.4, 1.2)
+        },
+        b_max: if hazardous {
+            u(rng, 4.0, 9.5)
+        } else {
+            u(rng, 5.0, 9.5)
+        },
+        jerk: u(rng, 8.0, 30.0),
+        distraction: Vec::new(),
+        margin: u(rng, 0.1, 0.5),
+        anticipation: u(rng, 0.0, 1.0),
+        a_lat_curve: u(rng, 1.2, 2.8),
+        swerve,
+        hold_until: 0.0,
+        reactive: true,
+    }
+}
+
+/// A vehicle that follows a script and does not react.
+pub(super) fn scripted(
+    rng: &mut ChaCha8Rng,
+    v: f64,
+    pieces: Vec<(f64, Piece)>,
+) -> (Driver, Script) {
+    let mut d = driver(rng, false, v.max(0.1), (1.0, 1.0 + 1e-9));
+    d.reactive = false;
+    d.swerve = None;
+    d.jerk = u(rng, 5.0, 15.0);
+    (d, Script { pieces })
+}
+
+pub(super) fn agent(path: Path, s: f64, v: f64, veh: &Vehicle, driver: Driver) -> Agent {
+    Agent::new(path, s, v, veh.dims, veh.limits, driver)
+}
+
+/// Draws whether the ego takes role A (with probability `p_ego_first`) and returns that flag with
+/// the role-A and role-B vehicles: `(ego, partner)` when it does, else `(partner, ego)`.
+pub(super) fn roles<'v>(
+    rng: &mut ChaCha8Rng,
+    p_ego_first: f64,
+    ego: &'v Vehicle,
+    partner: &'v Vehicle,
+) -> (bool, &'v Vehicle, &'v Vehicle) {
+    if rng.random_bool(p_ego_first) {
+        (true, ego, partner)
+    } else {
+        (false, partner, ego)
+    }
+}
+
+pub(super) type Built = (Agent, Agent, f64, bool);
+
+pub(super) fn distraction(
+    rng: &mut ChaCha8Rng,
+    d: &mut Driver,
+    p: f64,
+    around: f64,
+    before: (f64, f64),
+    dur: (f64, f64),
+) {
+    if rng.random_bool(p) {
+        let start = (around - u(rng, before.0, before.1)).max(0.3);
+        d.distraction.push((start, start + u(rng, dur.0, dur.1)));
+    }
+}
