@@ -133,6 +133,9 @@ impl<'ast> Visit<'ast> for Collector {
         }
     }
 
+    /// A macro call (`write!`, `format!`) names a macro, not a module of this crate.
+    fn visit_macro(&mut self, _: &'ast syn::Macro) {}
+
     /// `pub(super)` and `pub(in path)` name where an item is visible, not what it uses.
     fn visit_visibility(&mut self, _: &'ast syn::Visibility) {}
 
