@@ -14,15 +14,14 @@
 use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
 use crate::losses::FrameLosses;
-use can_codec::output::AtomicFile;
 use riskscore_data::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
 use riskscore_data::events::{
-    prepare_sequences, Event, EventKind, EventSet, Frame as EventFrame, PrepareConfig,
+    prepare_sequences, Event, EventKind, EventSet, EventWriter, EventsError, Frame as EventFrame,
+    PrepareConfig,
 };
 use riskscore_eval::scoring::evaluate_scored;
 use riskscore_eval::{EvaluationReport, ScoredFrame, ScoredSequence};
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::Path;
 
 /// Per-event result of the bridge's live warning logic.
@@ -296,66 +295,13 @@ pub fn check(
 }
 
 /// Writes an event set as an event folder, with the partner acceleration in an `acc_sur` column so
-/// the loader uses exactly the value the bridge scored with. Floats are written in Rust's shortest
-/// round-trip form, so reading the folder back gives bit-identical states.
-pub fn write_decoded_events(dir: &Path, set: &EventSet) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    let mut ev_out = AtomicFile::create(&dir.join(riskscore_data::events::EVENTS_FILE))?;
-    writeln!(
-        ev_out,
-        "{}",
-        riskscore_data::events::EVENT_COLUMNS.join(",")
-    )?;
-    for e in &set.events {
-        let d = &e.dims;
-        writeln!(
-            ev_out,
-            "{},{},{},{},{},{},{},{},{}",
-            e.id,
-            e.kind.as_str(),
-            e.t_start,
-            e.t_end,
-            e.t_impact.map(|t| t.to_string()).unwrap_or_default(),
-            d.length_ego,
-            d.width_ego,
-            d.length_partner,
-            d.width_partner
-        )?;
+/// the loader uses exactly the value the bridge scored with (the folder reads back bit-exactly).
+pub fn write_decoded_events(dir: &Path, set: &EventSet) -> Result<(), EventsError> {
+    let mut w = EventWriter::create_with_partner_acceleration(dir)?;
+    for event in set {
+        w.write_event(event)?;
     }
-    let mut fr_out = AtomicFile::create(&dir.join(riskscore_data::events::FRAMES_FILE))?;
-    writeln!(
-        fr_out,
-        "{},acc_sur",
-        riskscore_data::events::FRAME_COLUMNS.join(",")
-    )?;
-    for e in &set.events {
-        for f in &e.frames {
-            let (a, b) = (&f.ego, &f.partner);
-            writeln!(
-                fr_out,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                e.id,
-                f.time,
-                a.x,
-                a.y,
-                a.vx,
-                a.vy,
-                a.hx,
-                a.hy,
-                a.acc,
-                b.x,
-                b.y,
-                b.vx,
-                b.vy,
-                b.hx,
-                b.hy,
-                b.acc
-            )?;
-        }
-    }
-    // Both files or neither: a failure above leaves the folder as it was.
-    ev_out.commit()?;
-    fr_out.commit()
+    w.finish()
 }
 
 impl CheckReport {

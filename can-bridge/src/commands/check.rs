@@ -71,7 +71,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
     losses::account(&args.log, &report.log, &report.losses, args.loss.max_lost)?;
     if let Some(dir) = &args.decoded_events_out {
         check::write_decoded_events(dir, &report.decoded)
-            .map_err(writing("--decoded-events-out"))?;
+            .map_err(|source| Failure::Input(InputError::DecodedEvents { source }))?;
     }
     if let Some(p) = &args.per_event_out {
         write_verdicts(p, &report).map_err(writing("--per-event-out"))?;

@@ -91,6 +91,13 @@ pub enum InputError {
         #[source]
         source: riskscore_data::events::EventsError,
     },
+    /// `check`: the decoded event folder could not be written.
+    #[cfg(feature = "check")]
+    #[error("writing --decoded-events-out")]
+    DecodedEvents {
+        #[source]
+        source: riskscore_data::events::EventsError,
+    },
     /// `check`: the log and the event folder do not line up.
     #[cfg(feature = "check")]
     #[error("--log {} with --events {}", log.display(), events.display())]

@@ -1,9 +1,11 @@
 //! Writing event folders. Numbers are written in Rust's shortest round-trip form, so a folder
-//! written here loads back bit-exactly (f32 states, f64 times).
+//! written here loads back bit-exactly (f32 states, f64 times). Both files are written through
+//! temporary files and renamed into place by [`EventWriter::finish`], so a failed or interrupted
+//! write never leaves half a folder over a good one.
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+
+use can_codec::output::AtomicFile;
 
 use super::load::EventsError;
 use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLUMNS};
@@ -12,8 +14,8 @@ use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLU
 /// so a writer of 100,000 events holds one event at a time.
 pub struct EventWriter {
     dir: PathBuf,
-    events: csv::Writer<BufWriter<File>>,
-    frames: csv::Writer<BufWriter<File>>,
+    events: csv::Writer<AtomicFile>,
+    frames: csv::Writer<AtomicFile>,
     buf: String,
     /// Also write the optional `acc_sur` column (partner acceleration known from the source).
     partner_acc: bool,
@@ -49,13 +51,10 @@ impl EventWriter {
 
     fn open(dir: &Path, partner_acc: bool) -> Result<Self, EventsError> {
         std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
-        let open = |name: &str| -> Result<csv::Writer<BufWriter<File>>, EventsError> {
+        let open = |name: &str| -> Result<csv::Writer<AtomicFile>, EventsError> {
             let path = dir.join(name);
-            let f = File::create(&path).map_err(|e| io_err(&path, e))?;
-            Ok(csv::Writer::from_writer(BufWriter::with_capacity(
-                1 << 20,
-                f,
-            )))
+            let f = AtomicFile::create(&path).map_err(|e| io_err(&path, e))?;
+            Ok(csv::Writer::from_writer(f))
         };
         let mut events = open(EVENTS_FILE)?;
         let mut frames = open(FRAMES_FILE)?;
@@ -120,15 +119,20 @@ impl EventWriter {
         Ok(())
     }
 
-    /// Flushes both files.
-    pub fn finish(mut self) -> Result<(), EventsError> {
-        self.events
-            .flush()
-            .map_err(|e| io_err(&self.dir.join(EVENTS_FILE), e))?;
-        self.frames
-            .flush()
-            .map_err(|e| io_err(&self.dir.join(FRAMES_FILE), e))?;
-        Ok(())
+    /// Flushes both files and renames them into place (`events.csv` first). Without `finish` (an
+    /// error, a panic) the folder keeps its previous files.
+    pub fn finish(self) -> Result<(), EventsError> {
+        let (ep, fp) = (self.dir.join(EVENTS_FILE), self.dir.join(FRAMES_FILE));
+        let events = self
+            .events
+            .into_inner()
+            .map_err(|e| io_err(&ep, e.into_error()))?;
+        let frames = self
+            .frames
+            .into_inner()
+            .map_err(|e| io_err(&fp, e.into_error()))?;
+        events.commit().map_err(|e| io_err(&ep, e))?;
+        frames.commit().map_err(|e| io_err(&fp, e))
     }
 }
 
@@ -139,4 +143,67 @@ pub fn write_events(dir: &Path, set: &EventSet) -> Result<(), EventsError> {
         w.write_event(ev)?;
     }
     w.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::events::{load_events, Dims, EventKind, Frame};
+
+    fn event(id: &str) -> Event {
+        let state = scorer_core::VehicleState {
+            vx: 10.0,
+            hx: 1.0,
+            length: 4.5,
+            width: 1.8,
+            ..Default::default()
+        };
+        Event {
+            id: id.to_owned(),
+            kind: EventKind::Safe,
+            t_start: 0.0,
+            t_end: 0.1,
+            t_impact: None,
+            dims: Dims {
+                length_ego: 4.5,
+                width_ego: 1.8,
+                length_partner: 4.5,
+                width_partner: 1.8,
+            },
+            frames: (0..2)
+                .map(|i| Frame {
+                    time: f64::from(i) * 0.1,
+                    ego: state,
+                    partner: scorer_core::VehicleState { x: 20.0, ..state },
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn an_unfinished_writer_leaves_the_folder_as_it_was() {
+        let dir = tempfile::tempdir().unwrap();
+        write_events(
+            dir.path(),
+            &EventSet {
+                events: vec![event("old")],
+            },
+        )
+        .unwrap();
+        let before = std::fs::read(dir.path().join(FRAMES_FILE)).unwrap();
+        {
+            let mut w = EventWriter::create(dir.path()).unwrap();
+            w.write_event(&event("new")).unwrap();
+            // Dropped without `finish`, as on an error or a panic.
+        }
+        assert_eq!(std::fs::read(dir.path().join(FRAMES_FILE)).unwrap(), before);
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "temporary files left: {names:?}");
+        let (set, issues) = load_events(dir.path()).unwrap();
+        assert!(issues.is_empty());
+        assert_eq!(set.events[0].id, "old");
+    }
 }
