@@ -265,7 +265,7 @@ pub fn check(
         .iter()
         .map(|s| ScoredSequence {
             event_id: s.event_id.clone(),
-            class: s.kind,
+            kind: s.kind,
             endpoint: s.endpoint,
             frames: s
                 .frames

@@ -26,7 +26,6 @@ use riskscore_data::events::{self, PrepareConfig, Sequence};
 use riskscore_data::sim::{self, SimConfig};
 use riskscore_eval::metrics::Metric;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
-use riskscore_train::comparisons::from_sequences;
 use riskscore_train::export;
 use riskscore_train::final_models::{train_and_export, FinalModelsError};
 use riskscore_train::gssm::GssmConfig;
@@ -426,7 +425,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     // 4. Final models on all data.
     let t0 = Instant::now();
     eprintln!("[4/6] training the final DRL and MSRA on all events, quantising, exporting");
-    let all = from_sequences(&seqs);
+    let all = seqs.clone();
     let model_dir = opts.out.join("models");
     let meta = json!({
         "data": data_dir.display().to_string(),

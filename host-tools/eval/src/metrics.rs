@@ -248,7 +248,7 @@ pub fn warning_curve(profiles: &[AlertProfile]) -> WarningCurve {
         let Some(last) = p.records.last() else {
             continue;
         };
-        match (p.class.is_conflict(), p.endpoint) {
+        match (p.kind.is_conflict(), p.endpoint) {
             (true, Some(endpoint)) => {
                 steps.push(Step {
                     level: last.level,
@@ -295,7 +295,7 @@ pub fn warning_curve(profiles: &[AlertProfile]) -> WarningCurve {
             lead_time_sum: lead,
         });
     }
-    let positives = profiles.iter().filter(|p| p.class.is_conflict()).count();
+    let positives = profiles.iter().filter(|p| p.kind.is_conflict()).count();
     WarningCurve {
         positives,
         negatives: profiles.len() - positives,
@@ -321,7 +321,7 @@ pub fn warning_curve_reference(
             let Some(alert) = super::protocol::first_alert(s, threshold) else {
                 continue;
             };
-            if s.class.is_conflict() {
+            if s.kind.is_conflict() {
                 point.true_positives += 1;
                 if let Some(endpoint) = s.endpoint {
                     point.lead_time_sum += lead_time(endpoint, alert);
@@ -332,7 +332,7 @@ pub fn warning_curve_reference(
         }
         points.push(point);
     }
-    let positives = sequences.iter().filter(|s| s.class.is_conflict()).count();
+    let positives = sequences.iter().filter(|s| s.kind.is_conflict()).count();
     Ok(WarningCurve {
         positives,
         negatives: sequences.len() - positives,
@@ -371,10 +371,10 @@ mod tests {
         assert_eq!(m.get(Metric::PPrc80), None);
     }
 
-    fn profile(class: EventKind, endpoint: Option<f64>, records: &[(f64, f32)]) -> AlertProfile {
+    fn profile(kind: EventKind, endpoint: Option<f64>, records: &[(f64, f32)]) -> AlertProfile {
         AlertProfile {
             event_id: String::new(),
-            class,
+            kind,
             endpoint,
             records: records
                 .iter()

@@ -15,6 +15,18 @@ pub use riskscore_data::events::EventKind;
 /// Frames whose time exceeds the endpoint by at most this much still belong to the alert window.
 pub use riskscore_data::events::TIME_TOLERANCE_S;
 
+/// One sequence scored by one method, frame by frame, in time order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScoredSequence {
+    pub event_id: String,
+    #[serde(rename = "class")]
+    pub kind: EventKind,
+    /// The end of the alert window (inclusive): `t_impact` for conflict sequences. `None` for safe
+    /// sequences, whose window is every frame (an endpoint given for a safe sequence is honoured).
+    pub endpoint: Option<f64>,
+    pub frames: Vec<ScoredFrame>,
+}
+
 /// One scored frame: its time (s, the event table's clock) and the method's risk `R`.
 ///
 /// A NaN score means "no score at this frame": it can never reach a threshold.
@@ -24,24 +36,13 @@ pub struct ScoredFrame {
     pub score: f32,
 }
 
-/// One sequence scored by one method, frame by frame, in time order.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ScoredSequence {
-    pub event_id: String,
-    pub class: EventKind,
-    /// The end of the alert window (inclusive): `t_impact` for conflict sequences. `None` for safe
-    /// sequences, whose window is every frame (an endpoint given for a safe sequence is honoured).
-    pub endpoint: Option<f64>,
-    pub frames: Vec<ScoredFrame>,
-}
-
 /// Bad input to the protocol. Each names the event.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProtocolError {
-    #[error("event {event_id}: a {class} sequence needs an endpoint (t_impact)")]
+    #[error("event {event_id}: a {kind} sequence needs an endpoint (t_impact)")]
     MissingEndpoint {
         event_id: String,
-        class: &'static str,
+        kind: &'static str,
     },
     #[error("event {event_id}: endpoint {endpoint} is not finite")]
     NonFiniteEndpoint { event_id: String, endpoint: f64 },
@@ -69,7 +70,7 @@ pub struct RunningMaxRecord {
     pub level: f32,
 }
 
-/// Everything the metrics need from one sequence: its class, endpoint and running-maximum records.
+/// Everything the metrics need from one sequence: its kind, endpoint and running-maximum records.
 ///
 /// For any threshold `T`, the sequence is warned at the time of the first record with
 /// `level >= T`, and not at all when `T` exceeds the last (largest) level. This is the per-sequence
@@ -77,7 +78,8 @@ pub struct RunningMaxRecord {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlertProfile {
     pub event_id: String,
-    pub class: EventKind,
+    #[serde(rename = "class")]
+    pub kind: EventKind,
     pub endpoint: Option<f64>,
     /// Strictly increasing in time and in level.
     pub records: Vec<RunningMaxRecord>,
@@ -87,7 +89,7 @@ impl AlertProfile {
     /// Summarise a scored sequence (frames after the endpoint are ignored).
     pub fn from_sequence(sequence: &ScoredSequence) -> Result<Self, ProtocolError> {
         let mut builder =
-            AlertProfileBuilder::new(&sequence.event_id, sequence.class, sequence.endpoint)?;
+            AlertProfileBuilder::new(&sequence.event_id, sequence.kind, sequence.endpoint)?;
         for frame in &sequence.frames {
             builder.push(frame.time, frame.score)?;
         }
@@ -111,7 +113,7 @@ impl AlertProfile {
     /// that are warned. Never negative (an alert inside the endpoint tolerance counts as 0 s).
     pub fn lead_time(&self, threshold: f32) -> Option<f64> {
         let endpoint = self.endpoint?;
-        if !self.class.is_conflict() {
+        if !self.kind.is_conflict() {
             return None;
         }
         self.alert_time(threshold).map(|t| lead_time(endpoint, t))
@@ -135,14 +137,14 @@ impl AlertProfileBuilder {
     /// Conflict sequences need a finite endpoint; safe ones may have none.
     pub fn new(
         event_id: &str,
-        class: EventKind,
+        kind: EventKind,
         endpoint: Option<f64>,
     ) -> Result<Self, ProtocolError> {
         match endpoint {
-            None if class.is_conflict() => {
+            None if kind.is_conflict() => {
                 return Err(ProtocolError::MissingEndpoint {
                     event_id: event_id.to_owned(),
-                    class: class.as_str(),
+                    kind: kind.as_str(),
                 })
             }
             Some(e) if !e.is_finite() => {
@@ -156,7 +158,7 @@ impl AlertProfileBuilder {
         Ok(Self {
             profile: AlertProfile {
                 event_id: event_id.to_owned(),
-                class,
+                kind,
                 endpoint,
                 records: Vec::new(),
             },
@@ -236,7 +238,8 @@ pub fn first_alert(sequence: &ScoredSequence, threshold: f32) -> Option<f64> {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Decision {
     pub event_id: String,
-    pub class: EventKind,
+    #[serde(rename = "class")]
+    pub kind: EventKind,
     pub alert_time: Option<f64>,
     pub lead_time: Option<f64>,
 }
@@ -247,13 +250,13 @@ pub fn decisions(sequences: &[ScoredSequence], threshold: f32) -> Vec<Decision> 
         .iter()
         .map(|s| {
             let alert_time = first_alert(s, threshold);
-            let lead = match (s.class.is_conflict(), s.endpoint, alert_time) {
+            let lead = match (s.kind.is_conflict(), s.endpoint, alert_time) {
                 (true, Some(e), Some(t)) => Some(lead_time(e, t)),
                 _ => None,
             };
             Decision {
                 event_id: s.event_id.clone(),
-                class: s.class,
+                kind: s.kind,
                 alert_time,
                 lead_time: lead,
             }
@@ -334,13 +337,13 @@ pub fn intensity_surrogate_risk(value: f32) -> f32 {
 #[cfg(test)]
 pub(crate) fn test_sequence(
     id: &str,
-    class: EventKind,
+    kind: EventKind,
     endpoint: Option<f64>,
     scores: &[f32],
 ) -> ScoredSequence {
     ScoredSequence {
         event_id: id.into(),
-        class,
+        kind,
         endpoint,
         frames: scores
             .iter()
@@ -357,10 +360,10 @@ pub(crate) fn test_sequence(
 mod tests {
     use super::*;
 
-    fn seq(class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
+    fn seq(kind: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
         ScoredSequence {
             event_id: "e".into(),
-            class,
+            kind,
             endpoint,
             frames: frames
                 .iter()

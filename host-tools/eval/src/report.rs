@@ -22,8 +22,8 @@ pub struct EventCounts {
 impl EventCounts {
     pub fn from_classes(classes: impl IntoIterator<Item = EventKind>) -> Self {
         let mut c = EventCounts::default();
-        for class in classes {
-            match class {
+        for kind in classes {
+            match kind {
                 EventKind::Crash => c.crash += 1,
                 EventKind::NearCrash => c.near_crash += 1,
                 EventKind::Safe => c.safe += 1,
@@ -466,7 +466,7 @@ pub fn write_sequence_maxima<W: Write>(
             w.write_record([
                 name.as_str(),
                 s.event_id.as_str(),
-                s.class.as_str(),
+                s.kind.as_str(),
                 max.as_str(),
                 at.as_str(),
             ])?;

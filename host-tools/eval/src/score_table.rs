@@ -57,7 +57,7 @@ impl ScoreTableError {
 struct Columns {
     event_id: StringBuilder,
     time: Float64Builder,
-    class: StringBuilder,
+    kind: StringBuilder,
     scores: Vec<Float32Builder>,
     surrogates: [Float32Builder; 3],
     rows: usize,
@@ -68,7 +68,7 @@ impl Columns {
         Self {
             event_id: StringBuilder::new(),
             time: Float64Builder::new(),
-            class: StringBuilder::new(),
+            kind: StringBuilder::new(),
             scores: (0..models).map(|_| Float32Builder::new()).collect(),
             surrogates: std::array::from_fn(|_| Float32Builder::new()),
             rows: 0,
@@ -79,7 +79,7 @@ impl Columns {
         let mut arrays: Vec<ArrayRef> = vec![
             Arc::new(self.event_id.finish()),
             Arc::new(self.time.finish()),
-            Arc::new(self.class.finish()),
+            Arc::new(self.kind.finish()),
         ];
         arrays.extend(
             self.scores
@@ -141,7 +141,7 @@ impl<'a, 'm, W: std::io::Write + Send> ScoreTable<'a, 'm, W> {
             let columns = &mut self.columns;
             columns.event_id.append_value(&sequence.event_id);
             columns.time.append_value(frame.time);
-            columns.class.append_value(sequence.kind.as_str());
+            columns.kind.append_value(sequence.kind.as_str());
             for (builder, method) in columns.scores.iter_mut().zip(self.methods) {
                 builder.append_value(method.scorer.score(&frame.observation));
             }

@@ -26,7 +26,7 @@ pub struct ObservedFrame {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObservedSequence {
     pub event_id: String,
-    pub class: EventKind,
+    pub kind: EventKind,
     pub endpoint: Option<f64>,
     pub frames: Vec<ObservedFrame>,
 }
@@ -36,7 +36,7 @@ impl ObservedSequence {
     pub fn score(&self, score: impl Fn(&ObservedFrame) -> f32) -> ScoredSequence {
         ScoredSequence {
             event_id: self.event_id.clone(),
-            class: self.class,
+            kind: self.kind,
             endpoint: self.endpoint,
             frames: self
                 .frames
@@ -56,7 +56,7 @@ pub fn observe(sequences: &[Sequence]) -> Vec<ObservedSequence> {
         .iter()
         .map(|s| ObservedSequence {
             event_id: s.event_id.clone(),
-            class: s.kind,
+            kind: s.kind,
             endpoint: s.endpoint,
             frames: observe_frames(&s.frames),
         })
@@ -202,7 +202,7 @@ pub fn evaluate_scored(
 ) -> Result<(EvaluationReport, Vec<MethodRun>), ProtocolError> {
     let events = methods
         .first()
-        .map(|(_, seqs)| EventCounts::from_classes(seqs.iter().map(|s| s.class)))
+        .map(|(_, seqs)| EventCounts::from_classes(seqs.iter().map(|s| s.kind)))
         .unwrap_or_default();
     let mut runs = Vec::with_capacity(methods.len());
     for (name, scored) in methods {
@@ -239,7 +239,7 @@ pub(crate) fn report_of<'c>(
 pub fn report_from_profiles(methods: &[(String, Vec<AlertProfile>)]) -> EvaluationReport {
     let events = methods
         .first()
-        .map(|(_, p)| EventCounts::from_classes(p.iter().map(|p| p.class)))
+        .map(|(_, p)| EventCounts::from_classes(p.iter().map(|p| p.kind)))
         .unwrap_or_default();
     let curves: Vec<WarningCurve> = methods.iter().map(|(_, p)| warning_curve(p)).collect();
     report_of(events, methods.iter().map(|(name, _)| name).zip(&curves))

@@ -18,7 +18,7 @@ struct Entry {
     endpoint: Option<f64>,
     /// Its records start here in `times` and `levels` and end where the next entry's start.
     start: usize,
-    class: EventKind,
+    kind: EventKind,
 }
 
 /// The profiles of one method gathered by one worker, packed (see the module docs).
@@ -37,7 +37,7 @@ impl Staircases {
             position,
             endpoint: profile.endpoint,
             start: self.times.len(),
-            class: profile.class,
+            kind: profile.kind,
         });
         for r in &profile.records {
             self.times.push(r.time);
@@ -61,7 +61,7 @@ impl Staircases {
             .collect();
         Some(AlertProfile {
             event_id: String::new(),
-            class: e.class,
+            kind: e.kind,
             endpoint: e.endpoint,
             records,
         })
@@ -86,7 +86,7 @@ impl Staircases {
 pub fn classes_in_order(blocks: &[Staircases]) -> Vec<EventKind> {
     let mut classes: Vec<(usize, EventKind)> = blocks
         .iter()
-        .flat_map(|b| b.entries.iter().map(|e| (e.position, e.class)))
+        .flat_map(|b| b.entries.iter().map(|e| (e.position, e.kind)))
         .collect();
     classes.sort_by_key(|(position, _)| *position);
     classes.into_iter().map(|(_, c)| c).collect()
@@ -123,8 +123,8 @@ mod tests {
     use crate::protocol::AlertProfileBuilder;
 
     /// The profile of a sequence with these `(time, score)` frames.
-    fn profile(class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> AlertProfile {
-        let mut builder = AlertProfileBuilder::new("x", class, endpoint).unwrap();
+    fn profile(kind: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> AlertProfile {
+        let mut builder = AlertProfileBuilder::new("x", kind, endpoint).unwrap();
         for &(time, score) in frames {
             builder.push(time, score).unwrap();
         }
@@ -158,7 +158,7 @@ mod tests {
         let blocks = vec![a, b];
         assert_eq!(
             classes_in_order(&blocks),
-            p.iter().map(|p| p.class).collect::<Vec<_>>()
+            p.iter().map(|p| p.kind).collect::<Vec<_>>()
         );
         assert_eq!(warning_curve_of(blocks), expected);
     }

@@ -1,6 +1,6 @@
 //! Evaluating an event folder one event at a time, in memory bounded by the largest event.
 //!
-//! The metrics need, per sequence and method, only its class, endpoint and running-maximum records
+//! The metrics need, per sequence and method, only its kind, endpoint and running-maximum records
 //! ([`AlertProfile`](super::AlertProfile)): the warning time at any threshold is read off those
 //! records, and the thresholds are the sequence maxima. So each event is prepared, observed and
 //! scored through the same path as [`evaluate_methods`](super::evaluate_methods) (scorer-core for
@@ -102,7 +102,7 @@ impl TrajectoryCollector {
         &self,
         position: usize,
         event_id: &str,
-        class: EventKind,
+        kind: EventKind,
         endpoint: Option<f64>,
     ) -> bool {
         if endpoint.is_none() {
@@ -110,7 +110,7 @@ impl TrajectoryCollector {
         }
         match &self.events {
             TrajectoryEvents::FirstCrashes(n) => {
-                class == EventKind::Crash
+                kind == EventKind::Crash
                     && (self.kept.len() < *n || self.kept.iter().any(|(p, _)| *p > position))
             }
             TrajectoryEvents::Named(ids) => ids.iter().any(|id| id == event_id),
@@ -235,16 +235,16 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 return Ok(());
             }
         };
-        let class = sequence.kind;
+        let kind = sequence.kind;
         let mut builders = self
             .methods
             .iter()
-            .map(|_| AlertProfileBuilder::new(&sequence.event_id, class, sequence.endpoint))
+            .map(|_| AlertProfileBuilder::new(&sequence.event_id, kind, sequence.endpoint))
             .collect::<Result<Vec<_>, _>>()?;
         let keep = self
             .trajectories
             .as_ref()
-            .is_some_and(|t| t.wants(position, &sequence.event_id, class, sequence.endpoint));
+            .is_some_and(|t| t.wants(position, &sequence.event_id, kind, sequence.endpoint));
         let mut kept_frames: Vec<Vec<ScoredFrame>> = self
             .methods
             .iter()
@@ -275,7 +275,7 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 .into_iter()
                 .map(|frames| ScoredSequence {
                     event_id: sequence.event_id.clone(),
-                    class,
+                    kind,
                     endpoint: sequence.endpoint,
                     frames,
                 })
@@ -284,7 +284,7 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
         }
         for (builder, blocks) in builders.into_iter().zip(&mut self.profiles) {
             let mut profile = builder.finish();
-            if !class.is_conflict() {
+            if !kind.is_conflict() {
                 // A safe sequence only counts as a false alarm at every threshold up to its
                 // maximum: the metrics read nothing else of it (see `warning_curve`).
                 let max = profile.records.pop();

@@ -90,7 +90,7 @@ pub fn trajectory_panels_ranked(
 pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<String> {
     sequences
         .iter()
-        .filter(|s| s.class == super::protocol::EventKind::Crash && s.endpoint.is_some())
+        .filter(|s| s.kind == super::protocol::EventKind::Crash && s.endpoint.is_some())
         .take(n)
         .map(|s| s.event_id.clone())
         .collect()

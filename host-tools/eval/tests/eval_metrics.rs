@@ -17,10 +17,10 @@ fn close(a: Option<f64>, b: f64) -> bool {
 }
 
 /// A sequence whose frames are `(time, score)`; conflict sequences end at `endpoint`.
-fn seq(id: &str, class: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
+fn seq(id: &str, kind: EventKind, endpoint: Option<f64>, frames: &[(f64, f32)]) -> ScoredSequence {
     ScoredSequence {
         event_id: id.into(),
-        class,
+        kind,
         endpoint,
         frames: frames
             .iter()
@@ -452,8 +452,8 @@ fn arb_sequences() -> impl Strategy<Value = Vec<ScoredSequence>> {
         prop_oneof![9 => (0i8..8).prop_map(|k| f32::from(k) * 0.5), 1 => Just(f32::NAN)],
         0..12,
     );
-    let one = (0u8..3, frame_scores, 0u32..14, 0u32..3).prop_map(|(class, scores, end, dt)| {
-        let class = match class {
+    let one = (0u8..3, frame_scores, 0u32..14, 0u32..3).prop_map(|(kind, scores, end, dt)| {
+        let kind = match kind {
             0 => EventKind::Crash,
             1 => EventKind::NearCrash,
             _ => EventKind::Safe,
@@ -469,8 +469,8 @@ fn arb_sequences() -> impl Strategy<Value = Vec<ScoredSequence>> {
             .collect();
         ScoredSequence {
             event_id: String::new(),
-            class,
-            endpoint: class.is_conflict().then(|| 3.0 + f64::from(end) * step),
+            kind,
+            endpoint: kind.is_conflict().then(|| 3.0 + f64::from(end) * step),
             frames,
         }
     });
@@ -495,8 +495,8 @@ proptest! {
         // And the per-threshold decisions reproduce each point.
         for p in &reference.points {
             let d = decisions(&seqs, p.threshold);
-            let tp = d.iter().filter(|d| d.class.is_conflict() && d.alert_time.is_some()).count();
-            let fp = d.iter().filter(|d| !d.class.is_conflict() && d.alert_time.is_some()).count();
+            let tp = d.iter().filter(|d| d.kind.is_conflict() && d.alert_time.is_some()).count();
+            let fp = d.iter().filter(|d| !d.kind.is_conflict() && d.alert_time.is_some()).count();
             prop_assert_eq!((tp, fp), (p.true_positives, p.false_positives));
         }
     }

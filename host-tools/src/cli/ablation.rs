@@ -3,7 +3,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use riskscore_data::sim::{self, SimConfig};
-use riskscore_train::comparisons::{from_sequences, Source};
+use riskscore_train::comparisons::Source;
 use riskscore_train::train::ablation::{self, AblationOptions, AblationTables};
 use riskscore_train::train::cv::Models;
 use riskscore_train::train::{Progress, TrainConfig};
@@ -128,7 +128,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seqs.len()
     );
     let aug = match &args.augment {
-        Some(d) => Some(from_sequences(&super::load_prepared(d)?.sequences)),
+        Some(d) => Some(super::load_prepared(d)?.sequences),
         None => None,
     };
     let source_sets = if args.singles_only {

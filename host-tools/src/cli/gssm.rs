@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use riskscore_data::events::Sequence;
-use riskscore_train::comparisons::{from_sequences, TrainingSequence};
 use riskscore_train::export::write_blob;
 use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
 use riskscore_train::gssm::ship::{ship, SUMMARY_FILE};
@@ -204,12 +203,9 @@ fn load_all(dirs: &[PathBuf]) -> anyhow::Result<Vec<Sequence>> {
 }
 
 /// The sequences the GSSM is fitted on: `--normal` when given, else the training sequences.
-fn normal_sequences(
-    common: &Common,
-    train: &[TrainingSequence],
-) -> anyhow::Result<Vec<TrainingSequence>> {
+fn normal_sequences(common: &Common, train: &[Sequence]) -> anyhow::Result<Vec<Sequence>> {
     match &common.normal {
-        Some(dir) => Ok(from_sequences(&load_sequences(dir)?)),
+        Some(dir) => Ok(load_sequences(dir)?),
         None => Ok(train.to_vec()),
     }
 }
@@ -242,7 +238,7 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
-    let seqs = from_sequences(&load_all(&a.common.events)?);
+    let seqs = load_all(&a.common.events)?;
     let g = fit_gssm(
         &normal_sequences(&a.common, &seqs)?,
         cfg.optimiser.validation_fraction,
@@ -270,7 +266,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
         a.common.seed,
     )?;
     let gssm = read_gssm(&a.gssm)?;
-    let seqs = from_sequences(&load_all(&a.common.events)?);
+    let seqs = load_all(&a.common.events)?;
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let s = align_ssra(&gssm, &prepared, &cfg, &gcfg.ssra, progress())?;
     println!(
@@ -299,7 +295,7 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
     )?;
     let kinds = parse_configuration(&a.terms).map_err(anyhow::Error::msg)?;
     let gssm = read_gssm(&a.gssm)?;
-    let seqs = from_sequences(&load_all(&a.common.events)?);
+    let seqs = load_all(&a.common.events)?;
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let m = align_msra_gssm(
         &kinds,
@@ -320,7 +316,7 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
-    let seqs = from_sequences(&load_all(&a.common.events)?);
+    let seqs = load_all(&a.common.events)?;
     let shipped = ship(
         &seqs,
         &normal_sequences(&a.common, &seqs)?,
@@ -360,7 +356,7 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seqs = load_all(&a.common.events)?;
     let normal = match &a.common.normal {
-        Some(dir) => Some(from_sequences(&load_sequences(dir)?)),
+        Some(dir) => Some(load_sequences(dir)?),
         None => None,
     };
     let options = CvOptions {

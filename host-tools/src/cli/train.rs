@@ -2,7 +2,6 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use riskscore_train::comparisons::from_sequences;
 use riskscore_train::final_models::train_and_export;
 use riskscore_train::train::{Progress, TrainConfig};
 use serde_json::json;
@@ -53,7 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 dir.display(),
                 aug.len()
             );
-            Some(from_sequences(&aug))
+            Some(aug)
         }
         None => None,
     };
@@ -70,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let started = std::time::Instant::now();
     let (finals, files) = train_and_export(
-        &from_sequences(&seqs),
+        &seqs,
         augmentation.as_deref(),
         &config,
         &args.out,

@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 
-use crate::comparisons::TrainingSequence;
 use crate::export::{self, Checkpoint, CheckpointModel, DrlFormat, ExportError};
 use crate::quantize::{self, Agreement};
 use crate::train::{self, Progress, TrainConfig, TrainError, TrainedDrl, TrainedMsra};
+use riskscore_data::events::Sequence;
 
 /// Why the final models could not be trained or written.
 #[derive(Debug, thiserror::Error)]
@@ -32,8 +32,8 @@ pub struct FinalModels {
 /// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk`. `meta` goes into both checkpoints.
 /// Returns the models and the files written.
 pub fn train_and_export(
-    train: &[TrainingSequence],
-    augmentation: Option<&[TrainingSequence]>,
+    train: &[Sequence],
+    augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     dir: &Path,
     meta: serde_json::Value,

@@ -16,7 +16,6 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::comparisons::from_sequences;
 use crate::gssm::{self, GssmConfig, GssmError};
 use crate::train::cv::{self, CvError, CvOptions};
 use crate::train::{Progress, TrainConfig};
@@ -159,8 +158,8 @@ pub fn run(
             let mut gcfg = cfg.clone();
             gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
             let g = gssm::study::train_fold(
-                &from_sequences(&train),
-                Some(&from_sequences(&real_train)),
+                &train,
+                Some(&real_train),
                 &eval::observe(&test),
                 &gcfg,
                 gssm_config,

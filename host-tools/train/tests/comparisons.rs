@@ -1,30 +1,30 @@
 //! Comparison construction: temporal ordering, training-partition only, determinism, weights, and
 //! physics counterfactuals that scorer-core agrees are riskier.
-use riskscore_data::events::EventKind;
-use riskscore_train::comparisons::{
-    self, physics, ComparisonConfig, RowOrigin, Source, TrainingSequence,
-};
+use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_train::comparisons::{self, physics, ComparisonConfig, RowOrigin, Source};
 
 mod common;
 use common::{car, conflict};
 
 /// Steady following at a comfortable gap, possibly in the next lane.
-fn safe(id: usize) -> TrainingSequence {
+fn safe(id: usize) -> Sequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
     let lateral = if id.is_multiple_of(2) { 0.0 } else { 3.5 };
-    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
+    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
     for k in 0..50 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v));
-        s.partner.push(car(x_e + 4.5 + gap, lateral, v));
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x_e, 0.0, v),
+            partner: car(x_e + 4.5 + gap, lateral, v),
+        });
     }
     s
 }
 
-fn dataset() -> Vec<TrainingSequence> {
+fn dataset() -> Vec<Sequence> {
     let mut v = Vec::new();
     for i in 0..12 {
         v.push(conflict(i, 5.0 + i as f32 * 0.6, 0.1 * (i % 6) as f32));
@@ -71,9 +71,9 @@ fn temporal_pairs_are_ordered_within_one_conflict_sequence() {
         assert_eq!(sw, sl, "temporal pair across sequences");
         let s = &seqs[sw];
         let endpoint = s
-            .endpoint()
+            .conflict_endpoint()
             .expect("temporal pairs come from conflict sequences");
-        let (t2, t1) = (s.times[fw], s.times[fl]);
+        let (t2, t1) = (s.frames[fw].time, s.frames[fl].time);
         assert!(
             t1 < t2 && t2 <= endpoint + 1e-9,
             "t1 {t1} t2 {t2} endpoint {endpoint}"
@@ -90,7 +90,7 @@ fn temporal_pairs_are_ordered_within_one_conflict_sequence() {
     let ratio = |p: &&comparisons::Pair| {
         let (_, s, fw) = frame_of(&set, p.winner);
         let (_, _, fl) = frame_of(&set, p.loser);
-        p.weight as f64 / (seqs[s].times[fw] - seqs[s].times[fl])
+        p.weight as f64 / (seqs[s].frames[fw].time - seqs[s].frames[fl].time)
     };
     let r0 = ratio(&temporal[0]);
     for p in &temporal {
@@ -114,7 +114,7 @@ fn cross_sequence_pairs_put_a_conflict_frame_over_a_safe_frame() {
         let (_, sl, _) = frame_of(&set, p.loser);
         assert!(seqs[sw].is_conflict());
         assert!(!seqs[sl].is_conflict());
-        assert!(seqs[sw].times[fw] <= seqs[sw].endpoint().unwrap() + 1e-9);
+        assert!(seqs[sw].frames[fw].time <= seqs[sw].conflict_endpoint().unwrap() + 1e-9);
         assert_eq!(p.weight, 1.0);
         conflict_events.insert(sw);
     }
@@ -126,7 +126,7 @@ fn cross_sequence_pairs_put_a_conflict_frame_over_a_safe_frame() {
 fn only_the_sequences_passed_in_are_used() {
     let all = dataset();
     // Hold out every third event as "test": the build never sees them.
-    let train: Vec<TrainingSequence> = all
+    let train: Vec<Sequence> = all
         .iter()
         .enumerate()
         .filter(|(i, _)| i % 3 != 0)
@@ -149,12 +149,12 @@ fn only_the_sequences_passed_in_are_used() {
     // Anchors come from training conflict sequences only, inside / before the impact window, and
     // never after the endpoint (the fixtures run 0.5 s past it, when a near-crash pair opens).
     assert!(train.iter().any(|s| s
-        .endpoint()
-        .is_some_and(|e| s.times.iter().any(|&t| t > e + 0.05))));
+        .conflict_endpoint()
+        .is_some_and(|e| s.frames.iter().any(|f| f.time > e + 0.05))));
     for &row in &set.anchors.impact {
         let (_, s, f) = frame_of(&set, row);
-        let endpoint = train[s].endpoint().unwrap();
-        let t = train[s].times[f];
+        let endpoint = train[s].conflict_endpoint().unwrap();
+        let t = train[s].frames[f].time;
         assert!(
             t <= endpoint + 1e-6,
             "impact anchor {t} after endpoint {endpoint}"
@@ -163,7 +163,7 @@ fn only_the_sequences_passed_in_are_used() {
     }
     for &row in &set.anchors.upper {
         let (_, s, f) = frame_of(&set, row);
-        assert!(train[s].times[f] < train[s].endpoint().unwrap() - 0.2);
+        assert!(train[s].frames[f].time < train[s].conflict_endpoint().unwrap() - 0.2);
     }
     assert!(!set.anchors.impact.is_empty() && !set.anchors.upper.is_empty());
 }
@@ -171,7 +171,7 @@ fn only_the_sequences_passed_in_are_used() {
 #[test]
 fn construction_is_deterministic_and_seeded() {
     let seqs = dataset();
-    let aug: Vec<TrainingSequence> = dataset().into_iter().rev().collect();
+    let aug: Vec<Sequence> = dataset().into_iter().rev().collect();
     let a = comparisons::build(&seqs, Some(&aug), &small_config(), 11);
     let b = comparisons::build(&seqs, Some(&aug), &small_config(), 11);
     let c = comparisons::build(&seqs, Some(&aug), &small_config(), 12);
@@ -308,11 +308,11 @@ fn build_statistics_report_rates() {
 
 /// The test data set with every safe sequence closing in and opening again, so that its closest
 /// approach is one inner frame.
-fn safe_sequences_closing_in_and_opening() -> Vec<TrainingSequence> {
+fn safe_sequences_closing_in_and_opening() -> Vec<Sequence> {
     let mut seqs = dataset();
     for s in seqs.iter_mut().filter(|s| !s.is_conflict()) {
-        let n = s.times.len();
-        for (k, p) in s.partner.iter_mut().enumerate() {
+        let n = s.frames.len();
+        for (k, p) in s.frames.iter_mut().map(|f| &mut f.partner).enumerate() {
             p.x -= 20.0 * (1.0 - (k as f32 - n as f32 / 2.0).abs() / (n as f32 / 2.0));
         }
     }
@@ -320,11 +320,12 @@ fn safe_sequences_closing_in_and_opening() -> Vec<TrainingSequence> {
 }
 
 /// Index of the frame with the smallest box gap (per scorer-core).
-fn closest_frame(s: &TrainingSequence) -> usize {
+fn closest_frame(s: &Sequence) -> usize {
     (0..s.len())
         .min_by(|&a, &b| {
-            scorer_core::box_distance(&s.ego[a], &s.partner[a])
-                .total_cmp(&scorer_core::box_distance(&s.ego[b], &s.partner[b]))
+            scorer_core::box_distance(&s.frames[a].ego, &s.frames[a].partner).total_cmp(
+                &scorer_core::box_distance(&s.frames[b].ego, &s.frames[b].partner),
+            )
         })
         .unwrap()
 }
@@ -380,9 +381,9 @@ fn cross_sequence_safe_frames_from_the_approach_window() {
         let k = closest_frame(seq);
         assert!(f <= k, "safe frame {f} after the closest approach {k}");
         assert!(
-            seq.times[k] - seq.times[f] <= window + 1e-9,
+            seq.frames[k].time - seq.frames[f].time <= window + 1e-9,
             "safe frame {f} is {} s before the closest approach",
-            seq.times[k] - seq.times[f]
+            seq.frames[k].time - seq.frames[f].time
         );
         before_closest.insert(k - f);
     }

@@ -5,10 +5,9 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use riskscore_data::events::EventKind;
 use riskscore_data::events::{load_prepared, PrepareConfig};
-use riskscore_train::comparisons::from_sequences;
-use riskscore_train::comparisons::{ObservationTable, RowOrigin, TrainingSequence};
+use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_train::comparisons::{ObservationTable, RowOrigin};
 use riskscore_train::gssm::config::{FitConfig, SsraConfig, SsraScore};
 use riskscore_train::gssm::fit::{fit_gssm_on_observations, nll};
 use riskscore_train::gssm::msra::parse_configuration;
@@ -24,22 +23,24 @@ mod common;
 use common::{car, conflict};
 
 /// Safe following: the gap grows with speed (about 1.5 s headway plus 8 m), with slow oscillation.
-fn safe(id: usize) -> TrainingSequence {
+fn safe(id: usize) -> Sequence {
     let v = 8.0 + (id % 11) as f32 * 1.5;
     let gap = 8.0 + 1.5 * v;
-    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
+    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
     for k in 0..40 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;
         let g = gap * (1.0 + 0.1 * (t as f32 + id as f32).sin());
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v));
-        s.partner.push(car(x_e + 4.5 + g, 0.0, v));
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x_e, 0.0, v),
+            partner: car(x_e + 4.5 + g, 0.0, v),
+        });
     }
     s
 }
 
-fn dataset(n: usize) -> Vec<TrainingSequence> {
+fn dataset(n: usize) -> Vec<Sequence> {
     (0..n)
         .flat_map(|i| [conflict(i, 4.0 + (i % 8) as f32, 0.0), safe(i)])
         .collect()
@@ -274,7 +275,7 @@ fn export_decode_score_equals_the_candle_forward() {
     let mut table = ObservationTable::default();
     let mut pairs = Vec::new();
     for s in &data {
-        for (e, p) in s.ego.iter().zip(&s.partner).step_by(3) {
+        for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)).step_by(3) {
             table.push(e, p, RowOrigin::External);
             pairs.push((*e, *p));
         }
@@ -365,7 +366,7 @@ fn msra_with_gssm_trains_and_round_trips_through_the_blob() {
     assert_eq!(mode, GssmScore::Intensity);
     assert_eq!(embedded.layers, g.params.layers);
     for s in data.iter().take(6) {
-        for (e, p) in s.ego.iter().zip(&s.partner) {
+        for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)) {
             let f = scorer_core::features(e, p);
             let surr: Surrogates = scorer_core::surrogates(e, p);
             let mut expected = 0.0f32;
@@ -381,10 +382,10 @@ fn msra_with_gssm_trains_and_round_trips_through_the_blob() {
     }
     // The trained combination ranks the impact frame of a conflict above a safe frame.
     let c = &data[0];
-    let last = c.frames_up_to_endpoint() - 1;
+    let last = c.alert_frames().len() - 1;
     assert!(
-        decoded.score(&c.ego[last], &c.partner[last])
-            > decoded.score(&data[1].ego[0], &data[1].partner[0])
+        decoded.score(&c.frames[last].ego, &c.frames[last].partner)
+            > decoded.score(&data[1].frames[0].ego, &data[1].frames[0].partner)
     );
 }
 
@@ -433,11 +434,9 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
     // The same tiny configurations as riskctl's `gssm ship` test.
     let tiny = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny");
     let (train_toml, gssm_toml) = (tiny.join("train.toml"), tiny.join("gssm.toml"));
-    let train = from_sequences(
-        &load_prepared(&events, &PrepareConfig::default())
-            .unwrap()
-            .sequences,
-    );
+    let train = load_prepared(&events, &PrepareConfig::default())
+        .unwrap()
+        .sequences;
     let config = TrainConfig::load_or_default(Some(&train_toml), Some(1)).unwrap();
     assert_eq!(config.seed, 1);
     let gssm_config = GssmConfig::load_or_default(Some(&gssm_toml)).unwrap();

@@ -1,7 +1,7 @@
 //! Quantisation (int8 vs float agreement through the core), checkpoints, export -> decode -> score
 //! round trips and blob inspection.
 use riskscore_data::events::EventKind;
-use riskscore_train::comparisons::TrainingSequence;
+use riskscore_data::events::{Frame, Sequence};
 use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
 use riskscore_train::quantize;
 use riskscore_train::train::{self, Progress, TrainConfig};
@@ -24,44 +24,48 @@ fn car(x: f32, y: f32, vx: f32, vy: f32, length: f32) -> VehicleState {
 }
 
 /// Mixed geometry: rear-end approaches, crossing paths and safe following.
-fn dataset(n: usize) -> Vec<TrainingSequence> {
+fn dataset(n: usize) -> Vec<Sequence> {
     let mut out = Vec::new();
     for i in 0..n {
         let t_impact = 6.0f64;
         let closing = 4.0 + (i % 7) as f32;
         let v = 10.0 + (i % 5) as f32 * 2.0;
         let crossing = i % 3 == 0;
-        let mut c = TrainingSequence::empty(format!("c{i}"), EventKind::Crash, Some(t_impact));
-        let mut s = TrainingSequence::empty(format!("s{i}"), EventKind::Safe, None);
+        let mut c = Sequence::new(format!("c{i}"), EventKind::Crash, Some(t_impact));
+        let mut s = Sequence::new(format!("s{i}"), EventKind::Safe, None);
         for k in 15..=65 {
             let t = k as f64 * 0.1;
             let tt = (t_impact - t) as f32;
             let x_e = v * t as f32;
-            c.times.push(t);
-            c.ego.push(car(x_e, 0.0, v, 0.0, 4.5));
-            if crossing {
+            let partner = if crossing {
                 // Partner crosses from the right, reaching the conflict point with the ego.
                 let xc = v * t_impact as f32 + 3.5;
-                c.partner
-                    .push(car(xc, -3.0 - closing * tt, 0.0, closing, 4.8));
+                car(xc, -3.0 - closing * tt, 0.0, closing, 4.8)
             } else {
-                c.partner.push(car(
+                car(
                     x_e + 4.5 + closing * tt,
                     0.3,
                     v - closing,
                     0.0,
                     4.5 + (i % 3) as f32,
-                ));
-            }
-            s.times.push(t);
-            s.ego.push(car(x_e, 0.0, v, 0.0, 4.5));
-            s.partner.push(car(
-                x_e + 30.0 + (i % 4) as f32 * 5.0,
-                3.5 * (i % 2) as f32,
-                v,
-                0.0,
-                4.5,
-            ));
+                )
+            };
+            c.frames.push(Frame {
+                time: t,
+                ego: car(x_e, 0.0, v, 0.0, 4.5),
+                partner,
+            });
+            s.frames.push(Frame {
+                time: t,
+                ego: car(x_e, 0.0, v, 0.0, 4.5),
+                partner: car(
+                    x_e + 30.0 + (i % 4) as f32 * 5.0,
+                    3.5 * (i % 2) as f32,
+                    v,
+                    0.0,
+                    4.5,
+                ),
+            });
         }
         out.push(c);
         out.push(s);
@@ -78,7 +82,7 @@ fn config() -> TrainConfig {
     c
 }
 
-fn trained() -> (Vec<TrainingSequence>, train::TrainedDrl, train::TrainedMsra) {
+fn trained() -> (Vec<Sequence>, train::TrainedDrl, train::TrainedMsra) {
     let seqs = dataset(18);
     let cfg = config();
     let prepared = train::prepare_comparisons(&seqs, None, &cfg);
@@ -118,7 +122,7 @@ fn int8_network_agrees_with_float_and_round_trips_through_the_blob() {
     assert!(matches!(decoded, Model::DrlInt8(_)));
     let core = q.as_core().unwrap();
     for s in seqs.iter().take(6) {
-        for (e, p) in s.ego.iter().zip(&s.partner) {
+        for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)) {
             let f = scorer_core::drl_inputs(e, p);
             assert_eq!(decoded.score(e, p).to_bits(), core.forward(&f)[0].to_bits());
         }
@@ -128,7 +132,7 @@ fn int8_network_agrees_with_float_and_round_trips_through_the_blob() {
     let m = decode(&mblob).unwrap();
     assert!(matches!(m, Model::Msra(_)));
     for s in seqs.iter().take(4) {
-        for (e, p) in s.ego.iter().zip(&s.partner) {
+        for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)) {
             let v = m.score(e, p);
             assert!(v.is_finite());
         }
@@ -140,12 +144,10 @@ fn conflicts_outscore_safe_frames_in_the_deployed_int8_path() {
     let (seqs, drl, _) = trained();
     let q = quantize::quantize(&drl.params, &drl.calibration).unwrap();
     let core = q.as_core().unwrap();
-    let max_score = |s: &TrainingSequence| {
-        s.ego
+    let max_score = |s: &Sequence| {
+        s.alert_frames()
             .iter()
-            .zip(&s.partner)
-            .take(s.frames_up_to_endpoint())
-            .map(|(e, p)| core.forward(&scorer_core::drl_inputs(e, p))[0])
+            .map(|f| core.forward(&scorer_core::drl_inputs(&f.ego, &f.partner))[0])
             .fold(f32::MIN, f32::max)
     };
     let conflict_min = seqs

@@ -1,10 +1,9 @@
 //! Objective and training: the loss, gradient steps that lower it, MSRA recovering a known monotone
 //! relation, the validation split, and the TOML configuration.
 use candle_core::{Device, Tensor};
-use riskscore_data::events::EventKind;
+use riskscore_data::events::{EventKind, Frame, Sequence};
 use riskscore_train::comparisons::{
     self, ComparisonConfig, ComparisonSet, ObservationTable, Pair, RowOrigin, Source,
-    TrainingSequence,
 };
 use riskscore_train::train::config::{ObjectiveConfig, OptimiserConfig};
 use riskscore_train::train::{self, drl, msra, objective, Progress, RiskModel, TrainConfig};
@@ -13,21 +12,23 @@ use scorer_core::{Observation, SurrogateKind, Surrogates, FEATURE_COUNT};
 mod common;
 use common::{car, conflict};
 
-fn safe(id: usize) -> TrainingSequence {
+fn safe(id: usize) -> Sequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
-    let mut s = TrainingSequence::empty(format!("s{id}"), EventKind::Safe, None);
+    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
     for k in 0..50 {
         let t = k as f64 * 0.1;
         let x_e = v * t as f32;
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v));
-        s.partner.push(car(x_e + 4.5 + gap, 0.0, v));
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x_e, 0.0, v),
+            partner: car(x_e + 4.5 + gap, 0.0, v),
+        });
     }
     s
 }
 
-fn dataset(n: usize) -> Vec<TrainingSequence> {
+fn dataset(n: usize) -> Vec<Sequence> {
     (0..n)
         .flat_map(|i| [conflict(i, 5.0 + (i % 8) as f32, 0.0), safe(i)])
         .collect()
@@ -257,7 +258,7 @@ fn validation_split_is_by_event_and_stratified() {
     let mut seqs = dataset(20);
     // Two sequences of one event must stay together.
     let mut twin = seqs[0].clone();
-    twin.times.iter_mut().for_each(|t| *t += 100.0);
+    twin.frames.iter_mut().for_each(|f| f.time += 100.0);
     seqs.push(twin);
     let (fit, val) = train::split_validation(&seqs, 0.25, 3);
     assert_eq!(fit.len() + val.len(), seqs.len());

@@ -49,6 +49,16 @@ pub struct Sequence {
 }
 
 impl Sequence {
+    /// A sequence without frames yet (frames are pushed in time order).
+    pub fn new(event_id: impl Into<String>, kind: EventKind, endpoint: Option<f64>) -> Self {
+        Sequence {
+            event_id: event_id.into(),
+            kind,
+            frames: Vec::new(),
+            endpoint,
+        }
+    }
+
     /// The frames a warning may be raised on: up to and including the endpoint (all for safe).
     pub fn alert_frames(&self) -> &[Frame] {
         match self.endpoint {
@@ -58,6 +68,25 @@ impl Sequence {
                 &self.frames[..n]
             }
         }
+    }
+
+    /// Number of frames.
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// The endpoint of a crash or near-crash sequence; `None` for a safe one.
+    pub fn conflict_endpoint(&self) -> Option<f64> {
+        self.endpoint.filter(|_| self.kind.is_conflict())
+    }
+
+    /// True for a crash or near-crash sequence with its endpoint.
+    pub fn is_conflict(&self) -> bool {
+        self.conflict_endpoint().is_some()
     }
 
     /// Last minus first frame time (s); 0 for fewer than two frames.

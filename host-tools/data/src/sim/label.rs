@@ -1,5 +1,6 @@
 //! Labelling from what happened: the outcome of a trajectory pair is read off its frames (the
 //! same f32 values that are written to disk), never decided before simulating.
+use crate::events::TIME_TOLERANCE_S;
 use scorer_core::geometry::{box_distance, boxes_overlap};
 
 use crate::events::{safe_rules_hold, EventKind, Frame, PrepareConfig};
@@ -170,7 +171,7 @@ pub fn classify(frames: &[Frame], rules: &LabelRules) -> (Verdict, Measures) {
     };
     let t0 = first.time;
     if let Some(k) = m.first_overlap {
-        let v = if frames[k].time - t0 + 1e-9 < rules.min_history {
+        let v = if frames[k].time - t0 + TIME_TOLERANCE_S < rules.min_history {
             Verdict::Rejected(Rejection::TooEarly)
         } else {
             Verdict::Crash { index: k }
@@ -180,15 +181,15 @@ pub fn classify(frames: &[Frame], rules: &LabelRules) -> (Verdict, Measures) {
     let k = m.min_gap_index;
     let t_min = frames[k].time;
     m.evasive = frames.iter().zip(&lat).any(|(f, l)| {
-        f.time <= t_min + 1e-9
-            && f.time >= t_min - rules.evasive_window - 1e-9
+        f.time <= t_min + TIME_TOLERANCE_S
+            && f.time >= t_min - rules.evasive_window - TIME_TOLERANCE_S
             && (-f.ego.acc >= rules.evasive_decel
                 || -f.partner.acc >= rules.evasive_decel
                 || l[0] >= rules.evasive_lat_acc
                 || l[1] >= rules.evasive_lat_acc)
     });
     if m.min_gap < rules.near_crash_gap && m.evasive {
-        let v = if t_min - t0 + 1e-9 < rules.min_history {
+        let v = if t_min - t0 + TIME_TOLERANCE_S < rules.min_history {
             Verdict::Rejected(Rejection::TooEarly)
         } else if k + 1 == frames.len() {
             Verdict::Rejected(Rejection::Unresolved)

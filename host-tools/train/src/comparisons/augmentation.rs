@@ -9,11 +9,13 @@ use rand_chacha::ChaCha8Rng;
 
 use super::config::ComparisonConfig;
 use super::draw::{Draw, Origin, TableBuilder};
-use super::types::{Pair, Source, SourceStats, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use super::types::{Pair, Source, SourceStats};
 use super::{cross_sequence, physics, temporal};
 
 pub(crate) fn build(
-    seqs: &[TrainingSequence],
+    seqs: &[Sequence],
     config: &ComparisonConfig,
     tb: &mut TableBuilder,
     rng: &mut ChaCha8Rng,
@@ -33,7 +35,7 @@ pub(crate) fn build(
         }
     };
     fn draw<'a>(
-        seqs: &'a [TrainingSequence],
+        seqs: &'a [Sequence],
         target: usize,
         tb: &'a mut TableBuilder,
         rng: &'a mut ChaCha8Rng,

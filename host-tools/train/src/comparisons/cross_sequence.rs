@@ -12,7 +12,9 @@ use rand::Rng;
 
 use super::config::CrossSequenceConfig;
 use super::draw::Draw;
-use super::types::{Pair, SourceStats, TrainingSequence};
+use riskscore_data::events::{Sequence, TIME_TOLERANCE_S};
+
+use super::types::{Pair, SourceStats};
 
 pub(crate) fn build(draw: Draw<'_>, config: &CrossSequenceConfig) -> (Vec<Pair>, SourceStats) {
     draw.run(|d, stats| {
@@ -21,7 +23,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &CrossSequenceConfig) -> (Vec<Pair>,
             .iter()
             .enumerate()
             .filter(|(_, s)| s.is_conflict())
-            .map(|(i, s)| (i, s.frames_up_to_endpoint()))
+            .map(|(i, s)| (i, s.alert_frames().len()))
             .filter(|&(_, n)| n > 0)
             .collect();
         let safes: Vec<(usize, usize, (usize, usize))> = d
@@ -64,22 +66,21 @@ pub(crate) fn build(draw: Draw<'_>, config: &CrossSequenceConfig) -> (Vec<Pair>,
 
 /// Frame indices `(first, closest)`: `closest` has the smallest box gap, `first` is the earliest
 /// frame at most `window` seconds before it.
-fn approach_window(s: &TrainingSequence, window: f64) -> (usize, usize) {
+fn approach_window(s: &Sequence, window: f64) -> (usize, usize) {
     let closest = closest_approach(s);
-    let t_closest = s.times[closest];
-    let first = s.times[..closest]
+    let t_closest = s.frames[closest].time;
+    let first = s.frames[..closest]
         .iter()
-        .position(|&t| t >= t_closest - window - 1e-9)
+        .position(|f| f.time >= t_closest - window - TIME_TOLERANCE_S)
         .unwrap_or(closest);
     (first, closest)
 }
 
 /// Index of the frame with the smallest box gap (the first on ties; 0 for an empty sequence).
-fn closest_approach(s: &TrainingSequence) -> usize {
-    s.ego
+fn closest_approach(s: &Sequence) -> usize {
+    s.frames
         .iter()
-        .zip(&s.partner)
-        .map(|(e, p)| scorer_core::box_distance(e, p))
+        .map(|f| scorer_core::box_distance(&f.ego, &f.partner))
         .enumerate()
         .fold(
             (0, f32::INFINITY),

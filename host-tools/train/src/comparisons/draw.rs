@@ -6,7 +6,9 @@ use rand_chacha::ChaCha8Rng;
 use scorer_core::VehicleState;
 
 use super::table::{ObservationTable, RowOrigin};
-use super::types::{Pair, Source, SourceStats, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use super::types::{Pair, Source, SourceStats};
 
 /// Which set of sequences a frame belongs to (primary training data or the augmentation folder).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -30,13 +32,7 @@ impl TableBuilder {
     }
 
     /// Row of frame `frame` of sequence `seq` (computed on first use).
-    pub fn frame(
-        &mut self,
-        origin: Origin,
-        seqs: &[TrainingSequence],
-        seq: usize,
-        frame: usize,
-    ) -> u32 {
+    pub fn frame(&mut self, origin: Origin, seqs: &[Sequence], seq: usize, frame: usize) -> u32 {
         let key = (origin, seq, frame);
         if let Some(&row) = self.frame_rows.get(&key) {
             return row;
@@ -47,7 +43,9 @@ impl TableBuilder {
             sequence: seq as u32,
             frame: frame as u32,
         };
-        let row = self.table.push(&s.ego[frame], &s.partner[frame], origin);
+        let row = self
+            .table
+            .push(&s.frames[frame].ego, &s.frames[frame].partner, origin);
         self.frame_rows.insert(key, row);
         row
     }
@@ -62,7 +60,7 @@ impl TableBuilder {
 /// One construction's draw: `target` pairs from `seqs` (the `origin` set), tagged `tag`, rows
 /// added to `tb`, randomness from the source's own stream `rng`.
 pub(crate) struct Draw<'a> {
-    pub seqs: &'a [TrainingSequence],
+    pub seqs: &'a [Sequence],
     pub origin: Origin,
     pub target: usize,
     pub tag: Source,
@@ -72,7 +70,7 @@ pub(crate) struct Draw<'a> {
 
 impl<'a> Draw<'a> {
     pub fn new(
-        seqs: &'a [TrainingSequence],
+        seqs: &'a [Sequence],
         origin: Origin,
         target: usize,
         tag: Source,

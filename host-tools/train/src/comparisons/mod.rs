@@ -25,6 +25,7 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use riskscore_data::events::{Sequence, TIME_TOLERANCE_S};
 
 pub use config::{
     AnchorConfig, ComparisonConfig, ComparisonConfigError, CrossSequenceConfig, PhysicsConfig,
@@ -32,9 +33,7 @@ pub use config::{
 };
 use draw::{Draw, Origin, TableBuilder};
 pub use table::{ObservationTable, RowOrigin};
-pub use types::{
-    from_sequences, Anchors, BuildStats, ComparisonSet, Pair, Source, SourceStats, TrainingSequence,
-};
+pub use types::{Anchors, BuildStats, ComparisonSet, Pair, Source, SourceStats};
 
 /// Build all comparisons and anchors from the training sequences (and, optionally, the sequences of
 /// an augmentation folder). Deterministic in `seed`.
@@ -42,8 +41,8 @@ pub use types::{
 /// Only the sequences passed in are read, so passing the training partition guarantees that no
 /// validation or test event leaks into the comparisons.
 pub fn build(
-    train: &[TrainingSequence],
-    augmentation: Option<&[TrainingSequence]>,
+    train: &[Sequence],
+    augmentation: Option<&[Sequence]>,
     config: &ComparisonConfig,
     seed: u64,
 ) -> ComparisonSet {
@@ -121,7 +120,7 @@ pub fn build(
 /// its maximum. Frames after the endpoint are never anchors: a near-crash pair is already opening
 /// there, and pulling such states to `r*` teaches the model that separating is dangerous.
 fn collect_anchors(
-    train: &[TrainingSequence],
+    train: &[Sequence],
     config: &AnchorConfig,
     tb: &mut TableBuilder,
     seed: u64,
@@ -130,14 +129,14 @@ fn collect_anchors(
     let mut impact = Vec::new();
     let mut upper = Vec::new();
     for (si, s) in train.iter().enumerate() {
-        let Some(endpoint) = s.endpoint() else {
+        let Some(endpoint) = s.conflict_endpoint() else {
             continue;
         };
-        for (fi, &t) in s.times.iter().enumerate() {
-            if t > endpoint + riskscore_data::events::TIME_TOLERANCE_S {
+        for (fi, t) in s.frames.iter().map(|f| f.time).enumerate() {
+            if t > endpoint + TIME_TOLERANCE_S {
                 continue;
             }
-            if endpoint - t <= config.impact_tolerance + 1e-9 {
+            if endpoint - t <= config.impact_tolerance + TIME_TOLERANCE_S {
                 impact.push((si, fi));
             } else {
                 upper.push((si, fi));

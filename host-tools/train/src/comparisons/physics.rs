@@ -181,7 +181,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, Sourc
             .seqs
             .iter()
             .enumerate()
-            .map(|(i, s)| (i, s.frames_up_to_endpoint()))
+            .map(|(i, s)| (i, s.alert_frames().len()))
             .filter(|&(_, n)| n > 0)
             .collect();
         if usable.is_empty() {
@@ -200,7 +200,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, Sourc
             let fi = d.rng.random_range(0..n);
             let u: f32 = d.rng.random();
             let s = &d.seqs[si];
-            let (ego, partner) = (&s.ego[fi], &s.partner[fi]);
+            let (ego, partner) = (&s.frames[fi].ego, &s.frames[fi].partner);
             let Some(cf) = perturb(ego, partner, kind, u, config) else {
                 stats.rejected += 1;
                 continue;

@@ -8,21 +8,23 @@ use rand::Rng;
 
 use super::config::TemporalConfig;
 use super::draw::{normalise_mean_one, Draw};
-use super::types::{Pair, SourceStats, TrainingSequence};
+use riskscore_data::events::{Sequence, TIME_TOLERANCE_S};
+
+use super::types::{Pair, SourceStats};
 
 /// `(j, lo, hi)`: frame `j` and the range `lo..hi` of its valid earlier frames.
 type FrameRange = (usize, usize, usize);
 
 /// For each usable frame `j` (at or before the endpoint), the range `lo..hi` of frames `i` with
 /// `dmin <= t_j - t_i <= dmax`.
-fn valid_ranges(s: &TrainingSequence, dmin: f64, dmax: f64) -> Vec<FrameRange> {
-    let n = s.frames_up_to_endpoint();
+fn valid_ranges(s: &Sequence, dmin: f64, dmax: f64) -> Vec<FrameRange> {
+    let n = s.alert_frames().len();
     let mut out = Vec::new();
     for j in 0..n {
-        let tj = s.times[j];
+        let tj = s.frames[j].time;
         // times are increasing: frames with t_i <= tj - dmin and t_i >= tj - dmax.
-        let hi = s.times[..j].partition_point(|&t| t <= tj - dmin + 1e-9);
-        let lo = s.times[..j].partition_point(|&t| t < tj - dmax - 1e-9);
+        let hi = s.frames[..j].partition_point(|f| f.time <= tj - dmin + TIME_TOLERANCE_S);
+        let lo = s.frames[..j].partition_point(|f| f.time < tj - dmax - TIME_TOLERANCE_S);
         if lo < hi {
             out.push((j, lo, hi));
         }
@@ -56,7 +58,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &TemporalConfig) -> (Vec<Pair>, Sour
             let (j, lo, hi) = ranges[d.rng.random_range(0..ranges.len())];
             let i = d.rng.random_range(lo..hi);
             let s = &d.seqs[*si];
-            let dt = (s.times[j] - s.times[i]) as f32;
+            let dt = (s.frames[j].time - s.frames[i].time) as f32;
             let winner = d.tb.frame(d.origin, d.seqs, *si, j);
             let loser = d.tb.frame(d.origin, d.seqs, *si, i);
             pairs.push(Pair {

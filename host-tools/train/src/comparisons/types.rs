@@ -2,8 +2,6 @@
 //! a build produced.
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use riskscore_data::events::EventKind;
-use scorer_core::VehicleState;
 use serde::{Deserialize, Serialize};
 
 use super::table::ObservationTable;
@@ -56,78 +54,6 @@ impl Source {
         let tag = 0x9E37_79B9_7F4A_7C15u64.wrapping_mul(self.index() as u64 + 1);
         ChaCha8Rng::seed_from_u64(seed ^ tag)
     }
-}
-
-/// One prepared sequence of an ego/partner pair, the unit comparisons are drawn from.
-///
-/// Times are strictly increasing; `ego`, `partner` and `times` have equal lengths.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TrainingSequence {
-    pub event_id: String,
-    pub kind: EventKind,
-    /// `t_impact` of the event (seconds, same clock as the frame times); only a conflict kind's
-    /// endpoint counts (see [`TrainingSequence::endpoint`]).
-    pub endpoint: Option<f64>,
-    pub times: Vec<f64>,
-    pub ego: Vec<VehicleState>,
-    pub partner: Vec<VehicleState>,
-}
-
-impl TrainingSequence {
-    /// An empty sequence of `kind` (frames are pushed afterwards); `endpoint` is `t_impact`.
-    pub fn empty(event_id: impl Into<String>, kind: EventKind, endpoint: Option<f64>) -> Self {
-        TrainingSequence {
-            event_id: event_id.into(),
-            kind,
-            endpoint,
-            times: Vec::new(),
-            ego: Vec::new(),
-            partner: Vec::new(),
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.times.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.times.is_empty()
-    }
-
-    /// The conflict endpoint: `None` for a safe sequence, and for a conflict kind without one.
-    pub fn endpoint(&self) -> Option<f64> {
-        self.endpoint.filter(|_| self.kind.is_conflict())
-    }
-
-    pub fn is_conflict(&self) -> bool {
-        self.endpoint().is_some()
-    }
-
-    /// Indices of frames at or before the endpoint (the alert window of a conflict sequence).
-    pub fn frames_up_to_endpoint(&self) -> usize {
-        match self.endpoint() {
-            Some(t) => self.times.iter().take_while(|&&x| x <= t + 1e-9).count(),
-            None => self.len(),
-        }
-    }
-}
-
-impl From<&riskscore_data::events::Sequence> for TrainingSequence {
-    fn from(s: &riskscore_data::events::Sequence) -> Self {
-        TrainingSequence {
-            event_id: s.event_id.clone(),
-            kind: s.kind,
-            endpoint: s.endpoint,
-            times: s.frames.iter().map(|f| f.time).collect(),
-            ego: s.frames.iter().map(|f| f.ego).collect(),
-            partner: s.frames.iter().map(|f| f.partner).collect(),
-        }
-    }
-}
-
-/// Convert prepared sequences (see [`riskscore_data::events::prepare_sequences`]).
-pub fn from_sequences(seqs: &[riskscore_data::events::Sequence]) -> Vec<TrainingSequence> {
-    seqs.iter().map(TrainingSequence::from).collect()
 }
 
 /// One comparison: `winner` is riskier than `loser` (rows of the observation table).

@@ -26,9 +26,9 @@ use serde::Serialize;
 use super::config::FitConfig;
 use super::net::{GssmNet, GssmParams, CONTEXT_WIDTH, ROW_WIDTH};
 use super::GssmError;
-use crate::comparisons::TrainingSequence;
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome, Progress};
 use crate::train::drl::FeatureScaler;
+use riskscore_data::events::Sequence;
 
 /// What a GSSM fit did.
 #[derive(Clone, Debug, Serialize)]
@@ -55,14 +55,13 @@ pub struct TrainedGssm {
 }
 
 /// Features of every frame of the safe sequences whose spacing is finite and positive.
-pub fn safe_observations(seqs: &[TrainingSequence]) -> Vec<Features> {
+pub fn safe_observations(seqs: &[Sequence]) -> Vec<Features> {
     seqs.iter()
         .filter(|s| !s.is_conflict())
         .flat_map(|s| {
-            s.ego
+            s.frames
                 .iter()
-                .zip(&s.partner)
-                .map(|(e, p)| scorer_core::features(e, p))
+                .map(|f| scorer_core::features(&f.ego, &f.partner))
         })
         .filter(|f| f[S_INDEX].is_finite() && f[S_INDEX] > 0.0)
         .collect()
@@ -93,7 +92,7 @@ pub fn scaler_of(obs: &[Features]) -> FeatureScaler {
 /// Fit a GSSM on the safe frames of the training sequences (validation split by event as the
 /// comparison trainer does with `validation_fraction` and `seed`).
 pub fn fit_gssm(
-    train: &[TrainingSequence],
+    train: &[Sequence],
     validation_fraction: f64,
     seed: u64,
     config: &FitConfig,

@@ -25,7 +25,9 @@ use serde::{Deserialize, Serialize};
 pub use super::config::parse_configuration;
 use super::net::GssmParams;
 use super::GssmError;
-use crate::comparisons::{ObservationTable, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use crate::comparisons::ObservationTable;
 use crate::train::msra::{default_range, MsraTermParams, MsraTerms};
 use crate::train::{
     self, PreparedComparisons, Progress, RiskModel, TrainConfig, TrainReport, TrainSettings,
@@ -185,7 +187,7 @@ impl MsraGssm {
     pub fn new(
         kinds: &[SurrogateKind],
         gssm: &GssmParams,
-        seqs: &[TrainingSequence],
+        seqs: &[Sequence],
     ) -> Result<MsraGssm, GssmError> {
         let gssm_blob = gssm.gssm_blob(GssmScore::Intensity)?;
         let terms: Vec<(SurrogateKind, (f32, f32))> =
@@ -193,7 +195,7 @@ impl MsraGssm {
         let terms = {
             let core = Self::core_reader(&gssm_blob)?;
             let raw_rows = seqs.iter().flat_map(|s| {
-                s.ego.iter().zip(&s.partner).map(|(e, p)| {
+                s.frames.iter().map(|f| (&f.ego, &f.partner)).map(|(e, p)| {
                     let f = scorer_core::features(e, p);
                     let surr = scorer_core::surrogates(e, p);
                     raw_values(&core, kinds, &f, &surr)
@@ -289,7 +291,7 @@ pub struct TrainedMsraGssm {
 pub fn align_msra_gssm(
     kinds: &[SurrogateKind],
     gssm: &GssmParams,
-    train: &[TrainingSequence],
+    train: &[Sequence],
     prepared: &PreparedComparisons,
     config: &TrainConfig,
     learning_rate: f64,

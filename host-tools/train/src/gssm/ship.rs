@@ -11,9 +11,9 @@ use super::{
     align_msra_gssm, align_ssra, fit_gssm, GssmConfig, GssmError, TrainedGssm, TrainedMsraGssm,
     TrainedSsra,
 };
-use crate::comparisons::TrainingSequence;
 use crate::export::write_blob;
 use crate::train::{prepare_comparisons, Progress, TrainConfig};
+use riskscore_data::events::Sequence;
 
 /// File names of the shipped models, in the order [`Shipped::blobs`] returns them.
 pub const SHIPPED_FILES: [&str; 3] = ["gssm-default.rsk", "ssra-default.rsk", "msra-gssm.rsk"];
@@ -36,8 +36,8 @@ pub struct Shipped {
 /// Fits the GSSM on `normal` (safe sequences are used), aligns SSRA and trains MSRA over it on the
 /// comparisons of `train`.
 pub fn ship(
-    train: &[TrainingSequence],
-    normal: &[TrainingSequence],
+    train: &[Sequence],
+    normal: &[Sequence],
     config: &TrainConfig,
     gssm_config: &GssmConfig,
     progress: Progress,

@@ -12,7 +12,6 @@ use super::fit::{fit_gssm, FitReport};
 use super::msra::{align_msra_gssm, row_name as msra_row_name, TermWeight};
 use super::ssra::align_ssra;
 use super::GssmError;
-use crate::comparisons::{from_sequences, TrainingSequence};
 use crate::train::{self, Progress, TrainConfig};
 use riskscore_data::events::{kfold_by_event, Sequence};
 use riskscore_eval::report::{aggregate, CvReport, EventCounts, FoldResult};
@@ -95,8 +94,8 @@ pub struct GssmFold {
 /// comparisons of `train`, train the MSRA configurations over it, and score `test` through the
 /// deployed path. `cfg.seed` seeds everything.
 pub fn train_fold(
-    train: &[TrainingSequence],
-    normal: Option<&[TrainingSequence]>,
+    train: &[Sequence],
+    normal: Option<&[Sequence]>,
     test: &[ObservedSequence],
     cfg: &TrainConfig,
     gssm_config: &GssmConfig,
@@ -156,7 +155,7 @@ pub fn train_fold(
 /// fold's own safe sequences.
 pub fn cross_validate(
     seqs: &[Sequence],
-    normal: Option<&[TrainingSequence]>,
+    normal: Option<&[Sequence]>,
     train_config: &TrainConfig,
     gssm_config: &GssmConfig,
     options: &CvOptions,
@@ -167,7 +166,7 @@ pub fn cross_validate(
     for &seed in &options.seeds {
         let folds = kfold_by_event(seqs, options.folds, seed);
         for fold in 0..folds.k() {
-            let train_seqs = from_sequences(&pick(seqs, &folds.train(fold)));
+            let train_seqs = pick(seqs, &folds.train(fold));
             let test = observe(&pick(seqs, &folds.test(fold)));
             let mut cfg = train_config.clone();
             cfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
@@ -312,7 +311,7 @@ impl AugmentationReport {
 /// Train the study's model on prepared comparisons and return its blob.
 fn train_blob(
     model: StudyModel,
-    primary: &[TrainingSequence],
+    primary: &[Sequence],
     prepared: &train::PreparedComparisons,
     cfg: &TrainConfig,
     gssm_config: &GssmConfig,
@@ -358,7 +357,7 @@ pub fn augmentation_study(
     options: &AugmentationOptions,
     progress: Progress,
 ) -> Result<AugmentationReport, GssmError> {
-    let sim_ts = from_sequences(sim);
+    let sim_ts = sim.to_vec();
     let folds = kfold_by_event(real, options.folds, options.seed);
     let mut per_budget: Vec<Vec<FoldResult>> = vec![Vec::new(); options.budgets.len()];
     let real_target = {
@@ -366,7 +365,7 @@ pub fn augmentation_study(
         c.temporal.pairs + c.cross_sequence.pairs + c.physics.pairs
     };
     for fold in 0..folds.k() {
-        let train_all = from_sequences(&pick(real, &folds.train(fold)));
+        let train_all = pick(real, &folds.train(fold));
         let test = observe(&pick(real, &folds.test(fold)));
         let mut cfg = train_config.clone();
         cfg.seed = options.seed.wrapping_mul(1000).wrapping_add(fold as u64);

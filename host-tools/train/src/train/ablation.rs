@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::cv::{self, CvOptions, Models};
 use super::{Progress, TrainConfig};
-use crate::comparisons::{Source, TrainingSequence};
+use crate::comparisons::Source;
 use riskscore_data::events::Sequence;
 use riskscore_eval::{self as eval, CvReport, EventCounts};
 
@@ -61,7 +61,7 @@ pub struct AblationCell {
 /// Run the ablation; `on_cell` is called after each cell (for incremental output).
 pub fn run(
     seqs: &[Sequence],
-    augmentation: Option<&[TrainingSequence]>,
+    augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     opts: &AblationOptions,
     mut on_cell: impl FnMut(&AblationCell),

@@ -15,7 +15,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::{Progress, TrainConfig, TrainError, TrainReport};
-use crate::comparisons::{from_sequences, BuildStats, TrainingSequence};
+use crate::comparisons::BuildStats;
 use crate::export::{self, ExportError};
 use crate::quantize::{self, Agreement};
 use riskscore_data::events::{kfold_by_event, Sequence};
@@ -115,11 +115,7 @@ pub struct FoldOutcome {
 }
 
 /// Keep `fraction` of the events of each kind (at least one per kind present), seeded.
-pub fn subsample_events(
-    seqs: &[TrainingSequence],
-    fraction: f64,
-    seed: u64,
-) -> Vec<TrainingSequence> {
+pub fn subsample_events(seqs: &[Sequence], fraction: f64, seed: u64) -> Vec<Sequence> {
     if fraction >= 1.0 {
         return seqs.to_vec();
     }
@@ -150,7 +146,7 @@ pub fn subsample_events(
 /// folder) only ever feeds the comparisons of the simulation source.
 pub fn cross_validate(
     seqs: &[Sequence],
-    augmentation: Option<&[TrainingSequence]>,
+    augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     opts: &CvOptions,
 ) -> Result<Vec<FoldOutcome>, CvError> {
@@ -190,7 +186,7 @@ pub fn run_fold(
     fold: usize,
     train: &[Sequence],
     test: &[Sequence],
-    augmentation: Option<&[TrainingSequence]>,
+    augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     opts: &CvOptions,
 ) -> Result<FoldOutcome, CvError> {
@@ -198,7 +194,7 @@ pub fn run_fold(
     let mut cfg = config.clone();
     // Distinct but reproducible training randomness per fold.
     cfg.seed = config.seed.wrapping_add(1000 * fold as u64);
-    let train_ts = subsample_events(&from_sequences(train), opts.train_fraction, cfg.seed);
+    let train_ts = subsample_events(train, opts.train_fraction, cfg.seed);
 
     let t0 = Instant::now();
     let prepared = super::prepare_comparisons(&train_ts, augmentation, &cfg);

@@ -12,7 +12,9 @@ use scorer_core::{drl_inputs, DrlInputs, DRL_INPUT_COUNT as FEATURE_COUNT};
 use serde::{Deserialize, Serialize};
 
 use super::model::RiskModel;
-use crate::comparisons::{ObservationTable, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use crate::comparisons::ObservationTable;
 use crate::nn::mlp::{init_layers, Init, Mlp};
 
 /// Standardisation of the DRL inputs, `z = (x - mean) / std`.
@@ -25,12 +27,12 @@ pub struct FeatureScaler {
 impl FeatureScaler {
     /// Mean and standard deviation of every finite DRL input over all frames of the sequences
     /// (inputs computed by scorer-core). Degenerate inputs get `std = 1`.
-    pub fn fit(seqs: &[TrainingSequence]) -> FeatureScaler {
+    pub fn fit(seqs: &[Sequence]) -> FeatureScaler {
         let mut sum = [0f64; FEATURE_COUNT];
         let mut sq = [0f64; FEATURE_COUNT];
         let mut n = [0usize; FEATURE_COUNT];
         for s in seqs {
-            for (e, p) in s.ego.iter().zip(&s.partner) {
+            for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)) {
                 let f = drl_inputs(e, p);
                 for k in 0..FEATURE_COUNT {
                     if f[k].is_finite() {

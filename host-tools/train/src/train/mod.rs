@@ -30,7 +30,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::comparisons::{self, ComparisonSet, ObservationTable, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use crate::comparisons::{self, ComparisonSet, ObservationTable};
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
 pub use config::TrainConfig;
 use config::{ObjectiveConfig, OptimiserConfig};
@@ -78,10 +80,10 @@ pub use crate::nn::Progress;
 /// Split sequences by EVENT into a fit part and a validation part, stratified by class (conflict /
 /// safe), deterministically in `seed`. With `fraction == 0` everything is fit data.
 pub fn split_validation(
-    seqs: &[TrainingSequence],
+    seqs: &[Sequence],
     fraction: f64,
     seed: u64,
-) -> (Vec<TrainingSequence>, Vec<TrainingSequence>) {
+) -> (Vec<Sequence>, Vec<Sequence>) {
     if fraction <= 0.0 {
         return (seqs.to_vec(), Vec::new());
     }
@@ -336,14 +338,14 @@ pub fn train_with<M: RiskModel>(
 pub struct PreparedComparisons {
     pub fit: ComparisonSet,
     pub validation: ComparisonSet,
-    pub fit_sequences: Vec<TrainingSequence>,
+    pub fit_sequences: Vec<Sequence>,
 }
 
 /// Split the training sequences by event and build comparisons on both parts (the validation part
 /// gets targets scaled by its share, so its loss is comparable).
 pub fn prepare_comparisons(
-    train: &[TrainingSequence],
-    augmentation: Option<&[TrainingSequence]>,
+    train: &[Sequence],
+    augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
 ) -> PreparedComparisons {
     let frac = config.optimiser.validation_fraction;
@@ -395,16 +397,13 @@ pub struct TrainedMsra {
 }
 
 /// DRL inputs of the frames of `seqs`, evenly strided down to at most `max` observations.
-pub fn calibration_observations(
-    seqs: &[TrainingSequence],
-    max: usize,
-) -> Vec<scorer_core::DrlInputs> {
+pub fn calibration_observations(seqs: &[Sequence], max: usize) -> Vec<scorer_core::DrlInputs> {
     let total: usize = seqs.iter().map(|s| s.len()).sum();
     let stride = total.div_ceil(max.max(1)).max(1);
     let mut out = Vec::with_capacity(total / stride + 1);
     let mut i = 0usize;
     for s in seqs {
-        for (e, p) in s.ego.iter().zip(&s.partner) {
+        for (e, p) in s.frames.iter().map(|f| (&f.ego, &f.partner)) {
             if i.is_multiple_of(stride) {
                 out.push(scorer_core::drl_inputs(e, p));
             }
@@ -417,7 +416,7 @@ pub fn calibration_observations(
 /// Train DRL on prepared comparisons; the feature standardisation and the int8 calibration are
 /// measured on `train` (the whole training partition).
 pub fn train_drl(
-    train: &[TrainingSequence],
+    train: &[Sequence],
     prepared: &PreparedComparisons,
     config: &TrainConfig,
     progress: Progress,
@@ -450,7 +449,7 @@ pub fn train_drl(
 
 /// Train MSRA on prepared comparisons; input normalisation measured on `train`.
 pub fn train_msra(
-    train: &[TrainingSequence],
+    train: &[Sequence],
     prepared: &PreparedComparisons,
     config: &TrainConfig,
     progress: Progress,

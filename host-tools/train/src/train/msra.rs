@@ -12,7 +12,9 @@ use scorer_core::{SurrogateKind, Surrogates};
 use serde::{Deserialize, Serialize};
 
 use super::model::RiskModel;
-use crate::comparisons::{ObservationTable, TrainingSequence};
+use riskscore_data::events::Sequence;
+
+use crate::comparisons::ObservationTable;
 
 /// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`; case-insensitive, see
 /// [`SurrogateKind::parse`]). GSSM is not one: it is a learned model, trained by `gssm`.
@@ -209,13 +211,12 @@ impl Msra {
     /// input normalisation fitted on the frames of `seqs` (surrogates computed by scorer-core).
     pub fn new(
         terms: &[(SurrogateKind, (f32, f32))],
-        seqs: &[TrainingSequence],
+        seqs: &[Sequence],
     ) -> candle_core::Result<Msra> {
         let surrogates = seqs.iter().flat_map(|s| {
-            s.ego
+            s.frames
                 .iter()
-                .zip(&s.partner)
-                .map(|(e, p)| scorer_core::surrogates(e, p))
+                .map(|f| scorer_core::surrogates(&f.ego, &f.partner))
         });
         Self::fitted(terms, surrogates)
     }

@@ -1,6 +1,6 @@
 //! Synthetic training sequences shared by the comparison, training and GSSM tests.
 use riskscore_data::events::EventKind;
-use riskscore_train::comparisons::TrainingSequence;
+use riskscore_data::events::{Frame, Sequence};
 use scorer_core::VehicleState;
 
 /// A 4.5 m x 1.8 m car at `(x, y)` driving along +x at `v` m/s.
@@ -20,18 +20,19 @@ pub fn car(x: f32, y: f32, v: f32) -> VehicleState {
 
 /// A rear-end approach at 10 Hz: the ego closes on a slower leader (offset `lateral` m sideways)
 /// at `closing` m/s and touches it at `t_impact` = 6 s.
-pub fn conflict(id: usize, closing: f32, lateral: f32) -> TrainingSequence {
+pub fn conflict(id: usize, closing: f32, lateral: f32) -> Sequence {
     let t_impact = 6.0f64;
     let v_ego = 14.0 + id as f32 % 5.0;
-    let mut s = TrainingSequence::empty(format!("c{id}"), EventKind::Crash, Some(t_impact));
+    let mut s = Sequence::new(format!("c{id}"), EventKind::Crash, Some(t_impact));
     for k in 15..=65 {
         let t = k as f64 * 0.1;
         let x_e = v_ego * t as f32;
         let gap = closing * (t_impact - t) as f32; // box distance along x
-        s.times.push(t);
-        s.ego.push(car(x_e, 0.0, v_ego));
-        s.partner
-            .push(car(x_e + 4.5 + gap, lateral, v_ego - closing));
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x_e, 0.0, v_ego),
+            partner: car(x_e + 4.5 + gap, lateral, v_ego - closing),
+        });
     }
     s
 }
