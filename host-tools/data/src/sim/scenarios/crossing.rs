@@ -182,6 +182,42 @@ pub(super) fn left_turn_across(
     (a, b, t_t + dt.max(0.0) + u(rng, 4.0, 6.0), ego_a)
 }
 
+/// An oncoming vehicle drifts over the centre line (hazardous) or stays in lane / drifts
+/// slightly (benign, close oncoming passes).
+pub(super) fn opposite_drift(
+    rng: &mut ChaCha8Rng,
+    hz: bool,
+    ego: &Vehicle,
+    partner: &Vehicle,
+) -> Built {
+    let (ego_a, av, bv) = roles(rng, 0.7, ego, partner);
+    let lane = u(rng, 3.0, 3.7);
+    let v_a = u(rng, 12.0, 27.0);
+    let v_b = u(rng, 12.0, 27.0);
+    let t_meet = u(rng, 6.5, 9.5);
+    let dd = if hz {
+        u(rng, 1.4, 3.6)
+    } else {
+        u(rng, 0.0, 0.5)
+    };
+    let v_lat = u(rng, 0.3, 1.2);
+    let drift_dur = (dd / v_lat).max(0.5);
+    let t_d = t_meet - u(rng, 1.5, 4.0);
+    let t_back = t_d + drift_dur + u(rng, 0.3, 2.5);
+    let ad = swerving_driver(rng, hz, v_a, -1.0, (t_d, (-1.0, 1.0)));
+    let mut bd = steady_driver(rng, hz, v_b, (1.0, 1.05));
+    bd.distraction.push(((t_d - 1.0).max(0.0), t_back));
+    let a = agent(Path::line(0.0, 0.0, 0.0), -v_a * t_meet, v_a, av, ad);
+    let mut b = agent(Path::line(0.0, lane, PI), -v_b * t_meet, v_b, bv, bd);
+    if dd > 0.0 {
+        b.plans
+            .push(LatPlan::new(Trigger::Time(t_d), dd, drift_dur));
+        b.plans
+            .push(LatPlan::new(Trigger::Time(t_back), -dd, u(rng, 1.0, 2.5)));
+    }
+    (a, b, t_meet + u(rng, 2.0, 4.0), ego_a)
+}
+
 /// A vehicle from a side road turns right into the lane in front of an approaching vehicle.
 pub(super) fn turn_into_path(
     rng: &mut ChaCha8Rng,
@@ -237,40 +273,4 @@ pub(super) fn turn_into_path(
     let (a, b) = (agent(pa, s_a0, v_a, av, ad), agent(pb, s_b0, v_b, bv, bd));
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.35);
     (a, b, t_b + dt.max(0.0) + u(rng, 4.0, 7.0), ego_a)
-}
-
-/// An oncoming vehicle drifts over the centre line (hazardous) or stays in lane / drifts
-/// slightly (benign, close oncoming passes).
-pub(super) fn opposite_drift(
-    rng: &mut ChaCha8Rng,
-    hz: bool,
-    ego: &Vehicle,
-    partner: &Vehicle,
-) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.7, ego, partner);
-    let lane = u(rng, 3.0, 3.7);
-    let v_a = u(rng, 12.0, 27.0);
-    let v_b = u(rng, 12.0, 27.0);
-    let t_meet = u(rng, 6.5, 9.5);
-    let dd = if hz {
-        u(rng, 1.4, 3.6)
-    } else {
-        u(rng, 0.0, 0.5)
-    };
-    let v_lat = u(rng, 0.3, 1.2);
-    let drift_dur = (dd / v_lat).max(0.5);
-    let t_d = t_meet - u(rng, 1.5, 4.0);
-    let t_back = t_d + drift_dur + u(rng, 0.3, 2.5);
-    let ad = swerving_driver(rng, hz, v_a, -1.0, (t_d, (-1.0, 1.0)));
-    let mut bd = steady_driver(rng, hz, v_b, (1.0, 1.05));
-    bd.distraction.push(((t_d - 1.0).max(0.0), t_back));
-    let a = agent(Path::line(0.0, 0.0, 0.0), -v_a * t_meet, v_a, av, ad);
-    let mut b = agent(Path::line(0.0, lane, PI), -v_b * t_meet, v_b, bv, bd);
-    if dd > 0.0 {
-        b.plans
-            .push(LatPlan::new(Trigger::Time(t_d), dd, drift_dur));
-        b.plans
-            .push(LatPlan::new(Trigger::Time(t_back), -dd, u(rng, 1.0, 2.5)));
-    }
-    (a, b, t_meet + u(rng, 2.0, 4.0), ego_a)
 }
