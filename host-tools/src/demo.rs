@@ -226,7 +226,7 @@ pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim
             });
         }
     };
-    for b in ["TTC2D", "TAdv", "EI"] {
+    for b in eval::Baseline::ALL.map(eval::Baseline::name) {
         add("DRL", b);
     }
     for b in msra_inputs {

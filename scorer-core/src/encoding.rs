@@ -118,14 +118,14 @@ fn encode(
     ego: &VehicleState,
     heading_ego: Option<Vec2>,
     partner: &VehicleState,
-    heading_sur: Option<Vec2>,
+    heading_partner: Option<Vec2>,
     box_distance: f32,
 ) -> DrlInputs {
     let hi = heading_ego.unwrap_or(Vec2::new(0.0, 1.0));
-    let hj = heading_sur.unwrap_or(hi);
-    let (v_ego, v_sur) = (velocity(ego), velocity(partner));
+    let hj = heading_partner.unwrap_or(hi);
+    let (v_ego, v_partner) = (velocity(ego), velocity(partner));
     let dp = position(partner) - position(ego);
-    let dv = v_ego - v_sur;
+    let dv = v_ego - v_partner;
     let s = dp.norm();
     let dv_norm = dv.norm();
     let w_comb = (ego.width + partner.width) * 0.5;
@@ -150,8 +150,8 @@ fn encode(
         partner.length,
         w_comb,
         v_ego.norm(),
-        v_sur.cross(hi),
-        v_sur.dot(hi),
+        v_partner.cross(hi),
+        v_partner.dot(hi),
         hi.dot(hj),
         hi.cross(hj),
         log_gap(box_distance),
@@ -265,11 +265,12 @@ mod tests {
     /// features (`rho`, `psi_sur`) through sin/cos, assuming no side slip.
     fn encoding_2(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
         let f = crate::features(ego, partner);
-        let [_, l_sur, w_comb, v_ego, vx_sur, vy_sur, _, _, _, delta_v, psi, rho, s] = f;
+        let [_, l_partner, w_comb, v_ego, vx_partner, vy_partner, _, _, _, delta_v, psi, rho, s] =
+            f;
         let dv_norm = delta_v.abs();
         let (sin_rho, cos_rho) = (libm::sinf(rho), libm::cosf(rho));
         let (ax, ay) = {
-            let (dx, dy) = (-vx_sur, v_ego - vy_sur);
+            let (dx, dy) = (-vx_partner, v_ego - vy_partner);
             let n = libm::sqrtf(dx * dx + dy * dy);
             if dv_norm > 0.0 && n > 0.0 {
                 (dx / n, dy / n)
@@ -285,11 +286,11 @@ mod tests {
         };
         [
             slog(tca),
-            l_sur,
+            l_partner,
             w_comb,
             v_ego,
-            vx_sur,
-            vy_sur,
+            vx_partner,
+            vy_partner,
             libm::cosf(psi),
             libm::sinf(psi),
             log_gap(crate::box_distance(ego, partner)),

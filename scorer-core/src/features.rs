@@ -1,6 +1,7 @@
 //! The 13 observation features of an ego/partner pair, in model-input order.
 //!
-//! Ego `i`, partner `j`; `h_i` is the ego's unit heading, `v` velocities, `p` box centres.
+//! Ego `i`, partner `j`; `h_i` is the ego's unit heading, `v` velocities, `p` box centres. The
+//! names are the published ones (also the golden file's columns), where `sur` is the partner.
 //! The ego frame has `+y` along `h_i` and `+x` to the ego's right.
 //!
 //! | # | name       | definition                                                               |
@@ -67,19 +68,22 @@ fn finite_or_clamped(x: f32) -> f32 {
 /// The 13 features of the pair (`ego`, `partner`), see the module table.
 pub fn features(ego: &VehicleState, partner: &VehicleState) -> Features {
     let heading_ego = unit_heading(ego).unwrap_or(Vec2::new(0.0, 1.0));
-    let heading_sur = unit_heading(partner).unwrap_or(heading_ego);
+    let heading_partner = unit_heading(partner).unwrap_or(heading_ego);
     let v_ego = velocity(ego);
-    let v_sur = velocity(partner);
-    let dv = v_ego - v_sur;
+    let v_partner = velocity(partner);
+    let dv = v_ego - v_partner;
     let dp = position(partner) - position(ego);
 
     let speed_ego = v_ego.norm();
     let v_ego2 = v_ego.norm2();
-    let v_sur2 = v_sur.norm2();
+    let v_partner2 = v_partner.norm2();
     let delta_v2 = dv.norm2();
     let dv_norm = dv.norm();
-    let v_sur_ego_frame = in_frame(heading_ego, v_sur);
-    let psi_sur = libm::atan2f(heading_ego.cross(heading_sur), heading_ego.dot(heading_sur));
+    let v_partner_ego_frame = in_frame(heading_ego, v_partner);
+    let psi_partner = libm::atan2f(
+        heading_ego.cross(heading_partner),
+        heading_ego.dot(heading_partner),
+    );
     let relative_axis = if dv_norm > 0.0 && dv_norm.is_finite() {
         dv.scale(1.0 / dv_norm)
     } else {
@@ -93,13 +97,13 @@ pub fn features(ego: &VehicleState, partner: &VehicleState) -> Features {
         partner.length,
         (ego.width + partner.width) * 0.5,
         speed_ego,
-        v_sur_ego_frame.x,
-        v_sur_ego_frame.y,
+        v_partner_ego_frame.x,
+        v_partner_ego_frame.y,
         v_ego2,
-        v_sur2,
+        v_partner2,
         delta_v2,
-        dv_norm * sign(v_ego2 - v_sur2),
-        psi_sur,
+        dv_norm * sign(v_ego2 - v_partner2),
+        psi_partner,
         rho,
         dp.norm(),
     ]

@@ -1,5 +1,6 @@
 //! The per-frame score table of `riskctl score`: every frame's risk under each method and its
 //! surrogates, built in Arrow batches and written to a CSV or Parquet sink, one event at a time.
+use scorer_core::SurrogateKind;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -108,7 +109,10 @@ fn schema(model_names: &[String]) -> Arc<Schema> {
             .iter()
             .map(|n| Field::new(n, DataType::Float32, false)),
     );
-    fields.extend(["ttc2d", "tadv", "ei"].map(|n| Field::new(n, DataType::Float32, false)));
+    fields.extend(
+        [SurrogateKind::Ttc2d, SurrogateKind::Tadv, SurrogateKind::Ei]
+            .map(|kind| Field::new(kind.key(), DataType::Float32, false)),
+    );
     Arc::new(Schema::new(fields))
 }
 

@@ -3,6 +3,7 @@
 //! A missing key takes its default, an unknown key is an error (typos must not silently fall back).
 use std::path::Path;
 
+use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
 use crate::comparisons::ComparisonConfig;
@@ -124,7 +125,10 @@ pub struct MsraConfig {
 impl Default for MsraConfig {
     fn default() -> Self {
         MsraConfig {
-            surrogates: vec!["tadv".into(), "ei".into()],
+            surrogates: vec![
+                SurrogateKind::Tadv.key().into(),
+                SurrogateKind::Ei.key().into(),
+            ],
             learning_rate: Some(3e-2),
             time_clip: 5.0,
             beta: Some([0.3, 1.0, 1.0, 0.5]),
@@ -138,7 +142,7 @@ impl Default for MsraConfig {
 
 impl MsraConfig {
     /// Clip range `[lo, hi]` of surrogate `kind`'s transform under this configuration.
-    pub fn range(&self, kind: scorer_core::SurrogateKind) -> (f32, f32) {
+    pub fn range(&self, kind: SurrogateKind) -> (f32, f32) {
         use scorer_core::SurrogateKind::{Tadv, Ttc2d};
         match kind {
             Ttc2d | Tadv => (0.0, self.time_clip),
