@@ -203,7 +203,9 @@ pub fn score_kernel(
     let scorer = Scorer::Model(model.clone());
     let mut scores = Vec::with_capacity(batch.num_rows());
     let bad = for_each_pair(columns, batch, first_row, |_, pair| {
-        scores.push(pair.map(|(ego, sur)| scorer.score(&scorer_core::Observation::of(&ego, &sur))));
+        scores.push(
+            pair.map(|(ego, partner)| scorer.score(&scorer_core::Observation::of(&ego, &partner))),
+        );
     })?;
     Ok((Float32Array::from(scores), bad))
 }
