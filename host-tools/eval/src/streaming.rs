@@ -368,6 +368,38 @@ pub struct FolderEvaluation {
     pub trajectories: Option<Trajectories>,
 }
 
+/// Why a folder's metrics would not describe the folder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FolderRefusal {
+    #[error("no valid events to evaluate")]
+    NoValidEvents,
+    /// Bad rows leave their events out of the metrics (allowed with `skip_bad_events`).
+    #[error("the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {valid_events} valid events")]
+    BadRows { valid_events: usize },
+    #[error("none of its {events} events yields a sequence to evaluate")]
+    NoSequences { events: usize },
+}
+
+impl FolderEvaluation {
+    /// `Err` when the metrics would leave events out or have nothing to measure: no valid event,
+    /// bad rows (unless `skip_bad_events`), or no event that yields a sequence.
+    pub fn check(&self, skip_bad_events: bool) -> Result<(), FolderRefusal> {
+        if self.events == 0 {
+            Err(FolderRefusal::NoValidEvents)
+        } else if !self.load_issues.is_empty() && !skip_bad_events {
+            Err(FolderRefusal::BadRows {
+                valid_events: self.events,
+            })
+        } else if self.sequences == 0 {
+            Err(FolderRefusal::NoSequences {
+                events: self.events,
+            })
+        } else {
+            Ok(())
+        }
+    }
+}
+
 /// Evaluates the event folder `dir` with `methods`, one event at a time (see the module docs):
 /// the calling thread reads and validates `frames.csv`, `workers` threads (at least one) score
 /// the events it hands over. Falls back to reading the folder whole when its frames are not

@@ -9,7 +9,8 @@ use riskscore_eval::outputs::{result_files, RESULT_FILES};
 use riskscore_eval::plots::FIGURE_FILES;
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
-    evaluate_folder_with_trajectories, FolderEvaluation, TrajectoryEvents, TrajectoryRequest,
+    evaluate_folder_with_trajectories, FolderEvaluation, FolderRefusal, TrajectoryEvents,
+    TrajectoryRequest,
 };
 use riskscore_eval::Method;
 
@@ -149,30 +150,17 @@ fn evaluate_checked(
         );
     }
     report_load_issues(&folder.load_issues);
-    if folder.events == 0 {
-        bail!(
-            "event folder {}: no valid events to evaluate",
-            dir.display()
+    let refusal = folder.check(skip_bad_events);
+    if !matches!(
+        refusal,
+        Err(FolderRefusal::NoValidEvents | FolderRefusal::BadRows { .. })
+    ) {
+        report_issues(
+            "event(s) yield no sequence under the preparation rules",
+            &folder.prepare_issues,
         );
     }
-    if !folder.load_issues.is_empty() && !skip_bad_events {
-        bail!(
-            "event folder {}: the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {} valid events",
-            dir.display(),
-            folder.events
-        );
-    }
-    report_issues(
-        "event(s) yield no sequence under the preparation rules",
-        &folder.prepare_issues,
-    );
-    if folder.sequences == 0 {
-        bail!(
-            "event folder {}: none of its {} events yields a sequence to evaluate",
-            dir.display(),
-            folder.events
-        );
-    }
+    refusal.with_context(|| format!("event folder {}", dir.display()))?;
     Ok(folder)
 }
 

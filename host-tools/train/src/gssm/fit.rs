@@ -168,8 +168,8 @@ pub fn fit_gssm_on_observations(
     let vars = net.vars();
     let mut opt = adamw(vars.clone(), config.learning_rate, config.weight_decay)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0655_DF17);
-    let noise_dist = Normal::new(0.0f32, config.smoothness_noise)
-        .map_err(|e| GssmError::Config(format!("smoothness_noise: {e}")))?;
+    let noise_dist =
+        Normal::new(0.0f32, config.smoothness_noise).map_err(GssmError::SmoothnessNoise)?;
     let n = obs.len();
     let batches = n.div_ceil(config.batch).max(1);
     let mut order: Vec<u32> = (0..n as u32).collect();

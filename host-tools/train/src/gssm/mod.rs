@@ -40,6 +40,8 @@ pub enum GssmError {
     Diverged { epoch: usize },
     #[error("invalid GSSM configuration: {0}")]
     Config(String),
+    #[error("invalid GSSM configuration: smoothness_noise")]
+    SmoothnessNoise(#[source] rand_distr::NormalError),
     #[error("invalid GSSM configuration: {0}")]
     Configuration(#[from] config::ConfigurationError),
     #[error("model blob: {0}")]
