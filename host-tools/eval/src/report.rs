@@ -272,11 +272,8 @@ pub fn aggregate(events: EventCounts, folds: &[FoldResult]) -> CvReport {
                 .filter_map(|f| f.methods.iter().find(|m| m.name == *name))
                 .map(|m| &m.metrics)
                 .collect();
-            let stats = std::array::from_fn(|i| {
-                let values: Vec<f64> = per_run
-                    .iter()
-                    .filter_map(|m| m.named().get(i).and_then(|(_, v)| *v))
-                    .collect();
+            let stats = Metric::ALL.map(|metric| {
+                let values: Vec<f64> = per_run.iter().filter_map(|m| m.get(metric)).collect();
                 Stat::of(&values)
             });
             MethodSummary {
