@@ -13,9 +13,6 @@ use crate::engine::Engine;
 use crate::losses;
 use crate::model_file::ModelFile;
 
-/// Load problems of the event folder listed before the check (the rest are counted by the loader).
-const LISTED_LOAD_ISSUES: usize = 20;
-
 pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
@@ -50,7 +47,10 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
             source,
         })
     })?;
-    for issue in issues.iter().take(LISTED_LOAD_ISSUES) {
+    for issue in issues
+        .iter()
+        .take(riskscore_data::events::LISTED_LOAD_ISSUES)
+    {
         eprintln!("warning: {issue}");
     }
     let model = model_file.model()?;

@@ -67,18 +67,22 @@ pub struct Args {
     trajectory_events: Vec<String>,
 }
 
-const MAX_LISTED_ISSUES: usize = 20;
-
 pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
     if issues.is_empty() {
         return;
     }
     eprintln!("riskctl: {} {what}:", issues.len());
-    for issue in issues.iter().take(MAX_LISTED_ISSUES) {
+    for issue in issues
+        .iter()
+        .take(riskscore_data::events::LISTED_LOAD_ISSUES)
+    {
         eprintln!("  {issue}");
     }
-    if issues.len() > MAX_LISTED_ISSUES {
-        eprintln!("  ... and {} more", issues.len() - MAX_LISTED_ISSUES);
+    if issues.len() > riskscore_data::events::LISTED_LOAD_ISSUES {
+        eprintln!(
+            "  ... and {} more",
+            issues.len() - riskscore_data::events::LISTED_LOAD_ISSUES
+        );
     }
 }
 

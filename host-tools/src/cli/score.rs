@@ -56,10 +56,15 @@ pub struct Args {
     sequences: bool,
 }
 
+/// The library's [`ScoreTableError::NoEvents`] for a folder read whole, after listing why.
 fn no_events_is_an_error(dir: &Path, events: usize, issues: &[LoadIssue]) -> anyhow::Result<()> {
     if events == 0 {
         report_load_issues(issues);
-        anyhow::bail!("event folder {}: no valid events to score", dir.display());
+        return Err(ScoreTableError::NoEvents {
+            dir: dir.to_path_buf(),
+            load_issues: issues.to_vec(),
+        }
+        .into());
     }
     Ok(())
 }

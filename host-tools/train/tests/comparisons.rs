@@ -1,27 +1,17 @@
 //! Comparison construction: temporal ordering, training-partition only, determinism, weights, and
 //! physics counterfactuals that scorer-core agrees are riskier.
-use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_data::events::Sequence;
 use riskscore_train::comparisons::{self, physics, ComparisonConfig, RowOrigin, Source};
 
 mod common;
-use common::{car, conflict};
+use common::{car, conflict, following};
 
 /// Steady following at a comfortable gap, possibly in the next lane.
 fn safe(id: usize) -> Sequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
     let lateral = if id.is_multiple_of(2) { 0.0 } else { 3.5 };
-    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
-    for k in 0..50 {
-        let t = k as f64 * 0.1;
-        let x_e = v * t as f32;
-        s.frames.push(Frame {
-            time: t,
-            ego: car(x_e, 0.0, v),
-            partner: car(x_e + 4.5 + gap, lateral, v),
-        });
-    }
-    s
+    following(id, v, gap, lateral)
 }
 
 fn dataset() -> Vec<Sequence> {

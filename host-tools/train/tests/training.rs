@@ -1,7 +1,7 @@
 //! Objective and training: the loss, gradient steps that lower it, MSRA recovering a known monotone
 //! relation, the validation split, and the TOML configuration.
 use candle_core::{Device, Tensor};
-use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_data::events::Sequence;
 use riskscore_train::comparisons::{
     self, ComparisonConfig, ComparisonSet, ObservationTable, Pair, RowOrigin, Source,
 };
@@ -10,22 +10,12 @@ use riskscore_train::train::{self, drl, msra, objective, Progress, RiskModel, Tr
 use scorer_core::{Observation, SurrogateKind, Surrogates, FEATURE_COUNT};
 
 mod common;
-use common::{car, conflict};
+use common::{conflict, following};
 
 fn safe(id: usize) -> Sequence {
     let v = 12.0 + id as f32 % 7.0;
     let gap = 25.0 + 3.0 * (id % 5) as f32;
-    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
-    for k in 0..50 {
-        let t = k as f64 * 0.1;
-        let x_e = v * t as f32;
-        s.frames.push(Frame {
-            time: t,
-            ego: car(x_e, 0.0, v),
-            partner: car(x_e + 4.5 + gap, 0.0, v),
-        });
-    }
-    s
+    following(id, v, gap, 0.0)
 }
 
 fn dataset(n: usize) -> Vec<Sequence> {

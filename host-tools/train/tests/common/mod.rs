@@ -1,6 +1,6 @@
 //! Synthetic training sequences shared by the comparison, training and GSSM tests.
-use riskscore_data::events::EventKind;
-use riskscore_data::events::{Frame, Sequence};
+#![allow(dead_code)] // each test crate uses some of these
+use riskscore_data::events::{EventKind, Frame, Sequence};
 use scorer_core::VehicleState;
 
 /// A 4.5 m x 1.8 m car at `(x, y)` driving along +x at `v` m/s.
@@ -32,6 +32,22 @@ pub fn conflict(id: usize, closing: f32, lateral: f32) -> Sequence {
             time: t,
             ego: car(x_e, 0.0, v_ego),
             partner: car(x_e + 4.5 + gap, lateral, v_ego - closing),
+        });
+    }
+    s
+}
+
+/// Steady following at 10 Hz for 5 s: a leader `gap` m ahead (box to box), `lateral` m sideways,
+/// both at `v` m/s.
+pub fn following(id: usize, v: f32, gap: f32, lateral: f32) -> Sequence {
+    let mut s = Sequence::new(format!("s{id}"), EventKind::Safe, None);
+    for k in 0..50 {
+        let t = k as f64 * 0.1;
+        let x_e = v * t as f32;
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x_e, 0.0, v),
+            partner: car(x_e + 4.5 + gap, lateral, v),
         });
     }
     s
