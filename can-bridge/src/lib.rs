@@ -34,21 +34,3 @@ pub use engine::{Engine, EngineConfig, Output, Stats};
 pub use map::{CompiledMap, MapFile};
 pub use model_file::ModelFile;
 
-/// Default warning threshold when `--threshold` is not given, by model kind: DRL is trained to
-/// put impact states at r* = 4 and earlier conflict states under u, so half of r* is a neutral
-/// start; MSRA scores lie in [0, sum |w_k|] and GSSM in [0, 1], so half of the range.
-pub fn default_threshold(model: &scorer_core::model::Model<'_>) -> f32 {
-    use scorer_core::model::Model;
-    match model {
-        Model::DrlInt8(_) | Model::DrlF32(_) => 2.0,
-        Model::Msra(m) => {
-            0.5 * m
-                .terms
-                .as_slice()
-                .iter()
-                .map(|t| t.weight.abs())
-                .sum::<f32>()
-        }
-        Model::Gssm(_) => 0.5,
-    }
-}

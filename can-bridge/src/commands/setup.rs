@@ -151,11 +151,11 @@ pub fn print_inputs(map: &CompiledMap) {
 }
 
 /// The engine's warning and freshness parameters from the options (the threshold defaults by
-/// model kind, [`crate::default_threshold`]).
+/// model kind, [`scorer_core::model::Model::kind_default_threshold`]).
 pub fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig, SetupError> {
     let threshold = match args.threshold {
         Some(t) => t,
-        None => crate::default_threshold(&model.model()?),
+        None => model.model()?.kind_default_threshold(),
     };
     if !threshold.is_finite() {
         return Err(SetupError::Threshold);

@@ -178,6 +178,24 @@ impl<'a> Model<'a> {
         }
     }
 
+    /// The warning threshold used when the user gives none, by model kind: DRL is trained to put
+    /// impact states at r* = 4 and earlier conflict states under u, so half of r* is a neutral
+    /// start; MSRA scores lie in [0, sum |w_k|] and GSSM in [0, 1], so half of the range.
+    pub fn kind_default_threshold(&self) -> f32 {
+        match self {
+            Self::DrlInt8(_) | Self::DrlF32(_) => 2.0,
+            Self::Msra(m) => {
+                0.5 * m
+                    .terms
+                    .as_slice()
+                    .iter()
+                    .map(|t| libm::fabsf(t.weight))
+                    .sum::<f32>()
+            }
+            Self::Gssm(_) => 0.5,
+        }
+    }
+
     /// The same score from an observation computed once ([`Observation::of`]) and shared by every
     /// model: DRL reads its `drl_inputs`, MSRA the features and surrogates, GSSM the features.
     pub fn score_observation(&self, observation: &Observation) -> f32 {
