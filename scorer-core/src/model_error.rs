@@ -70,6 +70,8 @@ pub enum ModelError {
     MissingGssm { term: usize },
     /// The output buffer given to `encode` is too small.
     BufferTooSmall { needed: usize, available: usize },
+    /// A metadata record of a version-2 blob appears twice.
+    DuplicateRecord { tag: u8 },
 }
 
 impl fmt::Display for ModelError {
@@ -138,6 +140,9 @@ impl fmt::Display for ModelError {
             }
             Self::BufferTooSmall { needed, available } => {
                 write!(f, "output buffer too small: needs {needed} bytes, has {available}")
+            }
+            Self::DuplicateRecord { tag } => {
+                write!(f, "metadata record with tag {tag} appears twice")
             }
         }
     }

@@ -388,8 +388,8 @@ fn err_bad_magic() {
 #[test]
 fn err_unsupported_version() {
     let mut blob = valid_drl_blob();
-    blob[4] = 2;
-    assert_eq!(model::decode(&blob), Err(ModelError::UnsupportedVersion(2)));
+    blob[4] = 3;
+    assert_eq!(model::decode(&blob), Err(ModelError::UnsupportedVersion(3)));
     blob[4] = 0;
     assert_eq!(model::decode(&blob), Err(ModelError::UnsupportedVersion(0)));
 }

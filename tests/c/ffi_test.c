@@ -138,6 +138,18 @@ static void test_error_paths(size_t drl_len) {
     CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8, "truncated blob: kind %d", (int)info.kind);
     CHECK(info.expected == drl_len && info.found == drl_len - 1,
           "truncated blob: expected/found %u/%u", info.expected, info.found);
+    /* The model's default threshold (calibrated in a version-2 blob, else the kind's rule). */
+    float default_threshold = NAN;
+    EXPECT_STATUS(riskscore_model_default_threshold(drl_blob, drl_len, &default_threshold),
+                  RISKSCORE_STATUS_OK);
+    CHECK(isfinite(default_threshold) && default_threshold > 0.0f,
+          "default threshold %f", (double)default_threshold);
+    EXPECT_STATUS(riskscore_model_default_threshold(NULL, drl_len, &default_threshold),
+                  RISKSCORE_STATUS_NULL_POINTER);
+    EXPECT_STATUS(riskscore_model_default_threshold(drl_blob, drl_len, NULL),
+                  RISKSCORE_STATUS_NULL_POINTER);
+    EXPECT_STATUS(riskscore_model_default_threshold(drl_blob, 10, &default_threshold),
+                  RISKSCORE_STATUS_MODEL_TRUNCATED);
     memcpy(scratch, drl_blob, drl_len);
     scratch[0] = 'X';
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info), RISKSCORE_STATUS_MODEL_BAD_MAGIC);

@@ -305,6 +305,18 @@ RiskscoreStatus riskscore_load_model(RiskscoreContext *context,
                                      size_t len,
                                      RiskscoreLoadInfo *info);
 
+// Writes the default warning threshold of the model `blob` (`len` bytes) to `*threshold`: the
+// calibrated threshold a version-2 blob carries, else the rule of its kind (DRL 2.0, MSRA half
+// the sum of its weights, GSSM 0.5). Fill `RiskscoreWarningConfig::threshold` with it when the
+// integration has no threshold of its own; `riskctl inspect-model` prints how it was chosen.
+// The blob is fully decoded and validated; `*threshold` is written only on success.
+//
+// # Safety
+// `blob` must be NULL or point to `len` readable bytes; `threshold` must be NULL or writable.
+RiskscoreStatus riskscore_model_default_threshold(const uint8_t *blob,
+                                                  size_t len,
+                                                  float *threshold);
+
 // Scores one ego/partner pair: features, surrogates and the score of every loaded model.
 //
 // # Safety

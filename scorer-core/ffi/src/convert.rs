@@ -163,6 +163,11 @@ pub(crate) fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> Risks
             info.index = sat_u32(*term);
             RiskscoreStatus::ModelInvalid
         }
+        ModelError::DuplicateRecord { tag } => {
+            field("metadata");
+            info.found = u32::from(*tag);
+            RiskscoreStatus::ModelInvalid
+        }
         // Encoding-only errors and variants added to the core later.
         _ => RiskscoreStatus::ModelInvalid,
     }

@@ -47,7 +47,7 @@ mod tracks;
 
 pub use abi::{riskscore_abi_version, riskscore_context_size, riskscore_status_str};
 pub use context::context_bytes_used;
-pub use load::{riskscore_init, riskscore_load_model};
+pub use load::{riskscore_init, riskscore_load_model, riskscore_model_default_threshold};
 pub use score::riskscore_score_pair;
 pub use tracks::{
     riskscore_any_warning, riskscore_track_get, riskscore_track_remove, riskscore_track_update,

@@ -1,6 +1,6 @@
 //! Setting up a context: initialisation with a warning configuration, and loading model blobs.
 use crate::convert::{kind_code, model_error, status, warning_config, warning_error};
-use crate::ptr::{blob_slice, context_mut, init_context, read, write_optional};
+use crate::ptr::{blob_slice, context_mut, init_context, read, write, write_optional};
 use crate::types::{
     RiskscoreContext, RiskscoreLoadInfo, RiskscoreModelKind, RiskscoreStatus,
     RiskscoreWarningConfig,
@@ -75,4 +75,35 @@ pub unsafe extern "C" fn riskscore_load_model(
     // SAFETY: caller contract above; `info` is optional.
     unsafe { write_optional(info, details) };
     status(result)
+}
+
+/// Writes the default warning threshold of the model `blob` (`len` bytes) to `*threshold`: the
+/// calibrated threshold a version-2 blob carries, else the rule of its kind (DRL 2.0, MSRA half
+/// the sum of its weights, GSSM 0.5). Fill `RiskscoreWarningConfig::threshold` with it when the
+/// integration has no threshold of its own; `riskctl inspect-model` prints how it was chosen.
+/// The blob is fully decoded and validated; `*threshold` is written only on success.
+///
+/// # Safety
+/// `blob` must be NULL or point to `len` readable bytes; `threshold` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn riskscore_model_default_threshold(
+    blob: *const u8,
+    len: usize,
+    threshold: *mut f32,
+) -> RiskscoreStatus {
+    let run = || {
+        // SAFETY: caller contract above (the slice is only read within this call).
+        let bytes = unsafe { blob_slice(blob, len) }?;
+        let mut details = RiskscoreLoadInfo {
+            kind: RiskscoreModelKind::None,
+            field: [0; RISKSCORE_FIELD_NAME_LEN],
+            index: RISKSCORE_NONE_U32,
+            expected: RISKSCORE_NONE_U32,
+            found: RISKSCORE_NONE_U32,
+        };
+        let decoded = model::decode_blob(bytes).map_err(|e| model_error(&e, &mut details))?;
+        // SAFETY: caller contract above.
+        unsafe { write(threshold, decoded.default_threshold()) }
+    };
+    status(run())
 }

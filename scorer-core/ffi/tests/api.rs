@@ -142,3 +142,36 @@ fn truncated_blob_reports_needed_and_available_bytes() {
         assert_eq!(info.kind, RiskscoreModelKind::None);
     }
 }
+
+#[test]
+fn default_threshold_is_the_blobs_own_or_the_kinds_rule() {
+    use scorer_core::model::{self, DefaultThreshold, ModelBlob, ModelMeta, ThresholdRule};
+    let plain = test_models::drl_int8();
+    let mut t = f32::NAN;
+    // SAFETY: valid pointers and lengths.
+    let status = unsafe { riskscore_model_default_threshold(plain.as_ptr(), plain.len(), &mut t) };
+    assert_eq!(status, RiskscoreStatus::Ok);
+    assert_eq!(t, 2.0);
+    let calibrated = ModelBlob {
+        model: model::decode(&plain).unwrap(),
+        meta: ModelMeta {
+            default_threshold: Some(DefaultThreshold {
+                threshold: 2.75,
+                rule: ThresholdRule::KindDefault,
+                data: "",
+            }),
+        },
+    };
+    let mut blob = vec![0u8; model::encoded_blob_len(&calibrated).unwrap()];
+    model::encode_blob(&calibrated, &mut blob).unwrap();
+    // SAFETY: as above.
+    let status = unsafe { riskscore_model_default_threshold(blob.as_ptr(), blob.len(), &mut t) };
+    assert_eq!(status, RiskscoreStatus::Ok);
+    assert_eq!(t, 2.75);
+    // A corrupt blob leaves the output alone.
+    blob[30] ^= 1;
+    // SAFETY: as above.
+    let status = unsafe { riskscore_model_default_threshold(blob.as_ptr(), blob.len(), &mut t) };
+    assert_eq!(status, RiskscoreStatus::ModelCrcMismatch);
+    assert_eq!(t, 2.75);
+}

@@ -5,7 +5,7 @@
 //! | offset | size | field                                                     |
 //! |--------|------|-----------------------------------------------------------|
 //! | 0      | 4    | magic `"RSKM"`                                            |
-//! | 4      | 2    | format version (`u16`, [`FORMAT_VERSION`])                |
+//! | 4      | 2    | format version (`u16`, 1 or [`FORMAT_VERSION`])          |
 //! | 6      | 1    | model kind ([`ModelKind`])                                |
 //! | 7      | 1    | reserved, 0                                               |
 //! | 8      | 2    | input schema id (`u16`, [`ModelKind::input_schema`])      |
@@ -13,6 +13,7 @@
 //! | 12     | 4    | payload length in bytes (`u32`)                           |
 //! | 16     | 4    | CRC-32/ISO-HDLC of the payload (`u32`, [`crate::crc`])    |
 //! | 20     | n    | payload: postcard encoding of the kind's model struct     |
+//! |        |      | (version 2: then the metadata records of [`meta`])        |
 //!
 //! [`decode`] checks, in this order: header length, magic, version, kind, reserved bytes, input
 //! schema (the one the kind is scored with in this build), declared payload length against the blob (short: `Truncated`, long: `TrailingBytes`),
@@ -20,8 +21,11 @@
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
 
+pub mod meta;
+
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
+pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};
 
 use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
 use crate::features::features;
@@ -34,8 +38,12 @@ use crate::surrogates::surrogates;
 
 /// First four bytes of every model blob.
 pub const MAGIC: [u8; 4] = *b"RSKM";
-/// The format version this build reads and writes.
-pub const FORMAT_VERSION: u16 = 1;
+/// The newest format version this build reads and writes: version 2 adds metadata records after
+/// the model ([`ModelMeta`]). A blob without metadata is written as version 1, which every build
+/// reads.
+pub const FORMAT_VERSION: u16 = 2;
+/// The version of a blob that carries only its model.
+pub const MODEL_ONLY_VERSION: u16 = 1;
 /// Input schema id 1: the 13 features of [`crate::FEATURE_NAMES`] in that order, as computed by
 /// [`crate::features()`] (with the surrogates, for MSRA). MSRA and GSSM blobs are scored with it.
 pub const FEATURE_SCHEMA: u16 = 1;
@@ -246,7 +254,7 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
         return Err(ModelError::BadMagic(magic));
     }
     let version = le_u16(blob, 4);
-    if version != FORMAT_VERSION {
+    if !(MODEL_ONLY_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(ModelError::UnsupportedVersion(version));
     }
     let kind = ModelKind::from_u8(blob.get(6).copied().unwrap_or(0))?;
@@ -275,18 +283,36 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
     })
 }
 
-fn payload<'a, T: serde::Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, ModelError> {
-    let (value, rest) = postcard::take_from_bytes::<T>(bytes)?;
-    if rest.is_empty() {
-        Ok(value)
-    } else {
-        Err(ModelError::TrailingBytes { extra: rest.len() })
+/// A decoded blob: the model and what the blob says about using it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelBlob<'a> {
+    pub model: Model<'a>,
+    pub meta: ModelMeta<'a>,
+}
+
+impl ModelBlob<'_> {
+    /// The warning threshold to use when the user gives none: the blob's calibrated operating
+    /// point, else the kind's rule ([`Model::kind_default_threshold`]).
+    pub fn default_threshold(&self) -> f32 {
+        self.meta
+            .default_threshold
+            .map_or_else(|| self.model.kind_default_threshold(), |op| op.threshold)
     }
+}
+
+/// The kind's model struct at the front of `bytes`, and what follows it.
+fn take_model<'a, T: serde::Deserialize<'a>>(bytes: &'a [u8]) -> Result<(T, &'a [u8]), ModelError> {
+    Ok(postcard::take_from_bytes::<T>(bytes)?)
 }
 
 /// Decodes and validates a model blob. Borrows the weights from `blob`; allocates nothing; returns
 /// a typed error (never panics) for any malformed input.
 pub fn decode(blob: &[u8]) -> Result<Model<'_>, ModelError> {
+    decode_blob(blob).map(|b| b.model)
+}
+
+/// Decodes and validates a model blob and its metadata records (none for version 1).
+pub fn decode_blob(blob: &[u8]) -> Result<ModelBlob<'_>, ModelError> {
     let header = decode_header(blob)?;
     let body = blob.get(HEADER_LEN..).unwrap_or(&[]);
     let declared = usize::try_from(header.payload_len).unwrap_or(usize::MAX);
@@ -308,14 +334,22 @@ pub fn decode(blob: &[u8]) -> Result<Model<'_>, ModelError> {
             computed,
         });
     }
-    let model = match header.kind {
-        ModelKind::DrlInt8 => Model::DrlInt8(payload(body)?),
-        ModelKind::DrlF32 => Model::DrlF32(payload(body)?),
-        ModelKind::Msra => Model::Msra(payload(body)?),
-        ModelKind::Gssm => Model::Gssm(payload(body)?),
+    let (model, rest) = match header.kind {
+        ModelKind::DrlInt8 => take_model(body).map(|(m, r)| (Model::DrlInt8(m), r)),
+        ModelKind::DrlF32 => take_model(body).map(|(m, r)| (Model::DrlF32(m), r)),
+        ModelKind::Msra => take_model(body).map(|(m, r)| (Model::Msra(m), r)),
+        ModelKind::Gssm => take_model(body).map(|(m, r)| (Model::Gssm(m), r)),
+    }?;
+    let meta = if header.version == MODEL_ONLY_VERSION {
+        if !rest.is_empty() {
+            return Err(ModelError::TrailingBytes { extra: rest.len() });
+        }
+        ModelMeta::default()
+    } else {
+        ModelMeta::decode(rest)?
     };
     model.validate()?;
-    Ok(model)
+    Ok(ModelBlob { model, meta })
 }
 
 fn payload_size(model: &Model<'_>) -> Result<usize, ModelError> {
@@ -333,28 +367,57 @@ pub fn encoded_len(model: &Model<'_>) -> Result<usize, ModelError> {
     Ok(HEADER_LEN + payload_size(model)?)
 }
 
-/// Validates `model` and writes its blob into `out`; returns the number of bytes written.
+/// Exact size in bytes of the blob [`encode_blob`] writes.
+pub fn encoded_blob_len(blob: &ModelBlob<'_>) -> Result<usize, ModelError> {
+    Ok(encoded_len(&blob.model)? + blob.meta.encoded_len()?)
+}
+
+/// Validates `model` and writes its blob (version 1, no metadata) into `out`; returns the number
+/// of bytes written.
 pub fn encode(model: &Model<'_>, out: &mut [u8]) -> Result<usize, ModelError> {
+    encode_blob(
+        &ModelBlob {
+            model: model.clone(),
+            meta: ModelMeta::default(),
+        },
+        out,
+    )
+}
+
+/// Validates the model and its metadata and writes the blob into `out` (version 1 when the
+/// metadata is empty, else [`FORMAT_VERSION`]); returns the number of bytes written.
+pub fn encode_blob(blob: &ModelBlob<'_>, out: &mut [u8]) -> Result<usize, ModelError> {
+    let model = &blob.model;
     model.validate()?;
-    let needed = encoded_len(model)?;
+    blob.meta.validate()?;
+    let needed = encoded_blob_len(blob)?;
     let available = out.len();
     let too_small = ModelError::BufferTooSmall { needed, available };
     let (head, body) = out
         .split_at_mut_checked(HEADER_LEN)
         .ok_or(too_small.clone())?;
-    let written = match model {
+    let model_len = match model {
         Model::DrlInt8(m) => postcard::to_slice(m, body),
         Model::DrlF32(m) => postcard::to_slice(m, body),
         Model::Msra(m) => postcard::to_slice(m, body),
         Model::Gssm(m) => postcard::to_slice(m, body),
     }
     .map_err(|e| match e {
-        postcard::Error::SerializeBufferFull => too_small,
+        postcard::Error::SerializeBufferFull => too_small.clone(),
         other => ModelError::Payload(other),
-    })?;
-    let payload_len = written.len();
+    })?
+    .len();
+    let meta_len = blob
+        .meta
+        .encode(body.get_mut(model_len..).ok_or(too_small.clone())?)?;
+    let payload_len = model_len + meta_len;
+    let written = body.get(..payload_len).ok_or(too_small)?;
     let header = ModelHeader {
-        version: FORMAT_VERSION,
+        version: if blob.meta.is_empty() {
+            MODEL_ONLY_VERSION
+        } else {
+            FORMAT_VERSION
+        },
         kind: model.kind(),
         feature_schema: model.kind().input_schema(),
         payload_len: u32::try_from(payload_len).map_err(|_| ModelError::CapacityExceeded {

@@ -9,7 +9,7 @@
 )]
 
 use scorer_core::mlp::{FloatLayer, FloatMlp, QuantLayer, QuantMlp};
-use scorer_core::model::{BoundedVec, FEATURE_SCHEMA, FORMAT_VERSION};
+use scorer_core::model::{BoundedVec, FEATURE_SCHEMA, MODEL_ONLY_VERSION};
 use scorer_core::{quant, Features, FEATURE_COUNT};
 
 /// Deterministic generator (SplitMix64).
@@ -271,7 +271,7 @@ pub const CONTEXT_FEATURES: [u8; 12] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11];
 pub fn wrap(kind: u8, payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"RSKM");
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&MODEL_ONLY_VERSION.to_le_bytes());
     out.push(kind);
     out.push(0);
     let schema = scorer_core::ModelKind::from_u8(kind).map_or(FEATURE_SCHEMA, |k| k.input_schema());

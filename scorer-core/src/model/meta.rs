@@ -1,0 +1,153 @@
+//! The metadata records a version-2 blob carries after its model: what a model says about how to
+//! use it (today: its default warning threshold and how that was chosen).
+//!
+//! Wire form (inside the CRC-covered payload, right after the kind's model struct): zero or more
+//! records, each `tag: u8`, `length: varint u32`, then `length` body bytes. A record of an unknown
+//! tag is skipped (a newer exporter may add records an older reader does not need); a known tag
+//! whose body is not exactly its postcard encoding, or a tag given twice, is an error. Byte-level
+//! specification: `docs/model-format.md`.
+use serde::{Deserialize, Serialize};
+
+use super::ModelError;
+
+/// Record tag of the [`DefaultThreshold`].
+pub const DEFAULT_THRESHOLD_TAG: u8 = 1;
+/// Longest description of the calibration data a blob may carry (bytes of UTF-8).
+pub const MAX_DATA_DESCRIPTION: usize = 200;
+
+/// How a default threshold was chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum ThresholdRule {
+    /// The kind's rule of thumb without data ([`super::Model::kind_default_threshold`]).
+    KindDefault,
+    /// The smallest sequence maximum at which at most `target` of `sequences` normal-driving
+    /// sequences warn; `measured` is the share that does (both fractions in `[0, 1]`).
+    SafeShare {
+        target: f32,
+        measured: f32,
+        sequences: u32,
+    },
+}
+
+/// A model's default warning threshold, the rule that chose it and a description of the data.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DefaultThreshold<'a> {
+    /// Warn when the score is `>= threshold`.
+    pub threshold: f32,
+    pub rule: ThresholdRule,
+    /// What the rule was measured on (for people: shown by `inspect-model`), at most
+    /// [`MAX_DATA_DESCRIPTION`] bytes.
+    pub data: &'a str,
+}
+
+impl DefaultThreshold<'_> {
+    /// Finite threshold, fractions in `[0, 1]`, a bounded description.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        let field = "default_threshold";
+        if !self.threshold.is_finite() {
+            return Err(ModelError::NonFinite { field, index: 0 });
+        }
+        if let ThresholdRule::SafeShare {
+            target, measured, ..
+        } = self.rule
+        {
+            for (index, share) in [target, measured].into_iter().enumerate() {
+                if !(0.0..=1.0).contains(&share) {
+                    return Err(ModelError::NonFinite {
+                        field: "default_threshold.rule",
+                        index,
+                    });
+                }
+            }
+        }
+        if self.data.len() > MAX_DATA_DESCRIPTION {
+            return Err(ModelError::CapacityExceeded {
+                field: "default_threshold.data",
+                len: self.data.len(),
+                max: MAX_DATA_DESCRIPTION,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Everything a blob says beside its model. The default (no records) is what a version-1 blob has.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ModelMeta<'a> {
+    pub default_threshold: Option<DefaultThreshold<'a>>,
+}
+
+impl<'a> ModelMeta<'a> {
+    /// True when there is nothing to write (the blob is then written as version 1).
+    pub fn is_empty(&self) -> bool {
+        self.default_threshold.is_none()
+    }
+
+    pub fn validate(&self) -> Result<(), ModelError> {
+        match &self.default_threshold {
+            Some(op) => op.validate(),
+            None => Ok(()),
+        }
+    }
+
+    /// Reads the records that fill `bytes` entirely.
+    pub fn decode(mut bytes: &'a [u8]) -> Result<Self, ModelError> {
+        let mut meta = ModelMeta::default();
+        while let Some((&tag, rest)) = bytes.split_first() {
+            let (len, rest) = postcard::take_from_bytes::<u32>(rest)?;
+            let len = usize::try_from(len).unwrap_or(usize::MAX);
+            let (body, rest) = rest.split_at_checked(len).ok_or(ModelError::Truncated {
+                needed: len,
+                available: rest.len(),
+            })?;
+            if tag == DEFAULT_THRESHOLD_TAG {
+                if meta.default_threshold.is_some() {
+                    return Err(ModelError::DuplicateRecord { tag });
+                }
+                let (op, extra) = postcard::take_from_bytes::<DefaultThreshold<'a>>(body)?;
+                if !extra.is_empty() {
+                    return Err(ModelError::TrailingBytes { extra: extra.len() });
+                }
+                op.validate()?;
+                meta.default_threshold = Some(op);
+            }
+            bytes = rest;
+        }
+        Ok(meta)
+    }
+
+    /// Writes the records into `out`; returns the bytes written.
+    pub fn encode(&self, out: &mut [u8]) -> Result<usize, ModelError> {
+        self.validate()?;
+        let Some(op) = &self.default_threshold else {
+            return Ok(0);
+        };
+        let body_len = postcard::experimental::serialized_size(op)?;
+        let needed = self.encoded_len()?;
+        let available = out.len();
+        let too_small = || ModelError::BufferTooSmall { needed, available };
+        let (tag, rest) = out.split_first_mut().ok_or_else(too_small)?;
+        *tag = DEFAULT_THRESHOLD_TAG;
+        let len = u32::try_from(body_len).map_err(|_| ModelError::CapacityExceeded {
+            field: "default_threshold",
+            len: body_len,
+            max: u32::MAX as usize,
+        })?;
+        let len_bytes = postcard::to_slice(&len, rest)
+            .map_err(|_| too_small())?
+            .len();
+        let body = rest.get_mut(len_bytes..).ok_or_else(too_small)?;
+        let written = postcard::to_slice(op, body).map_err(|_| too_small())?.len();
+        Ok(1 + len_bytes + written)
+    }
+
+    /// Exact size of [`ModelMeta::encode`]'s output.
+    pub fn encoded_len(&self) -> Result<usize, ModelError> {
+        let Some(op) = &self.default_threshold else {
+            return Ok(0);
+        };
+        let body = postcard::experimental::serialized_size(op)?;
+        let len = u32::try_from(body).unwrap_or(u32::MAX);
+        Ok(1 + postcard::experimental::serialized_size(&len)? + body)
+    }
+}

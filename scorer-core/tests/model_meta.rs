@@ -1,0 +1,232 @@
+//! Version-2 blobs: the metadata records after the model (the default warning threshold), their
+//! byte layout as docs/model-format.md gives it, and every way they are refused.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+use scorer_core::mlp::{FloatLayer, FloatMlp};
+use scorer_core::model::{
+    self, BoundedVec, DefaultThreshold, Model, ModelBlob, ModelError, ModelMeta, ThresholdRule,
+    HEADER_LEN,
+};
+
+const W: [u8; 4] = (-1.0f32).to_le_bytes();
+const B: [u8; 4] = 0.5f32.to_le_bytes();
+
+/// The worked example of docs/model-format.md: `R = 1.5 - 0.1 log_gap`.
+fn example_model() -> Model<'static> {
+    let mut layers = BoundedVec::new();
+    layers
+        .push(FloatLayer {
+            out_dim: 1,
+            relu: false,
+            weights: &W,
+            bias: &B,
+        })
+        .unwrap();
+    Model::DrlF32(FloatMlp {
+        inputs: BoundedVec::from_slice(&[8]).unwrap(),
+        input_scale: BoundedVec::from_slice(&[0.1]).unwrap(),
+        input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
+        layers,
+    })
+}
+
+fn calibrated(threshold: f32) -> DefaultThreshold<'static> {
+    DefaultThreshold {
+        threshold,
+        rule: ThresholdRule::SafeShare {
+            target: 0.05,
+            measured: 0.0495,
+            sequences: 606,
+        },
+        data: "ngsim-us101-safe (606 sequences)",
+    }
+}
+
+fn encode(blob: &ModelBlob<'_>) -> Vec<u8> {
+    let mut out = vec![0u8; model::encoded_blob_len(blob).unwrap()];
+    let n = model::encode_blob(blob, &mut out).unwrap();
+    assert_eq!(n, out.len());
+    out
+}
+
+/// A blob of the example model whose payload is the model followed by `records`, with a correct
+/// length and CRC (so only the records can be at fault).
+fn blob_with_records(records: &[u8]) -> Vec<u8> {
+    let plain = encode(&ModelBlob {
+        model: example_model(),
+        meta: ModelMeta::default(),
+    });
+    let mut payload = plain[HEADER_LEN..].to_vec();
+    payload.extend_from_slice(records);
+    let mut blob = plain[..HEADER_LEN].to_vec();
+    blob[4] = 2;
+    blob[12..16].copy_from_slice(&(payload.len() as u32).to_le_bytes());
+    blob[16..20].copy_from_slice(&scorer_core::crc::crc32(&payload).to_le_bytes());
+    blob.extend_from_slice(&payload);
+    blob
+}
+
+fn threshold_record(op: &DefaultThreshold<'_>) -> Vec<u8> {
+    let mut buf = [0u8; 256];
+    let body = postcard::to_slice(op, &mut buf).unwrap();
+    let mut record = vec![model::meta::DEFAULT_THRESHOLD_TAG, body.len() as u8];
+    record.extend_from_slice(body);
+    record
+}
+
+#[test]
+fn a_blob_without_metadata_is_version_1_and_uses_the_kind_rule() {
+    let blob = encode(&ModelBlob {
+        model: example_model(),
+        meta: ModelMeta::default(),
+    });
+    assert_eq!(&blob[4..6], &[1, 0]);
+    let decoded = model::decode_blob(&blob).unwrap();
+    assert!(decoded.meta.is_empty());
+    assert_eq!(decoded.default_threshold(), 2.0);
+    // The plain encoder writes the same bytes.
+    let mut plain = vec![0u8; model::encoded_len(&example_model()).unwrap()];
+    model::encode(&example_model(), &mut plain).unwrap();
+    assert_eq!(plain, blob);
+}
+
+#[test]
+fn the_default_threshold_round_trips_in_a_version_2_blob() {
+    let original = ModelBlob {
+        model: example_model(),
+        meta: ModelMeta {
+            default_threshold: Some(calibrated(2.5)),
+        },
+    };
+    let blob = encode(&original);
+    assert_eq!(&blob[4..6], &[2, 0]);
+    let back = model::decode_blob(&blob).unwrap();
+    assert_eq!(back, original);
+    assert_eq!(back.default_threshold(), 2.5);
+    // The model alone decodes as before, and scores the same.
+    assert_eq!(model::decode(&blob).unwrap(), example_model());
+}
+
+#[test]
+fn the_record_bytes_are_the_documented_ones() {
+    let blob = encode(&ModelBlob {
+        model: example_model(),
+        meta: ModelMeta {
+            default_threshold: Some(calibrated(2.5)),
+        },
+    });
+    let model_len = model::encoded_len(&example_model()).unwrap();
+    let record = &blob[model_len..];
+    let mut expected = vec![0x01, 0x30, 0x00, 0x00, 0x20, 0x40, 0x01];
+    expected.extend_from_slice(&0.05f32.to_le_bytes());
+    expected.extend_from_slice(&0.0495f32.to_le_bytes());
+    expected.extend_from_slice(&[0xde, 0x04, 0x20]);
+    expected.extend_from_slice(b"ngsim-us101-safe (606 sequences)");
+    assert_eq!(record, expected.as_slice());
+}
+
+#[test]
+fn unknown_records_are_skipped() {
+    let mut records = vec![9, 3, 0xaa, 0xbb, 0xcc];
+    records.extend(threshold_record(&calibrated(3.0)));
+    records.extend([200, 0]);
+    let blob = blob_with_records(&records);
+    assert_eq!(model::decode_blob(&blob).unwrap().default_threshold(), 3.0);
+}
+
+#[test]
+fn bad_records_are_refused() {
+    let good = threshold_record(&calibrated(3.0));
+    // Twice.
+    let twice = [good.clone(), good.clone()].concat();
+    assert_eq!(
+        model::decode_blob(&blob_with_records(&twice)),
+        Err(ModelError::DuplicateRecord { tag: 1 })
+    );
+    // A length past the end.
+    let mut long = good.clone();
+    long[1] += 1;
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&long)),
+        Err(ModelError::Truncated { .. })
+    ));
+    // A body longer than the struct.
+    let mut padded = good.clone();
+    padded[1] += 1;
+    padded.push(0);
+    assert_eq!(
+        model::decode_blob(&blob_with_records(&padded)),
+        Err(ModelError::TrailingBytes { extra: 1 })
+    );
+    // A non-finite threshold and a share outside [0, 1].
+    let nan = threshold_record(&calibrated(f32::NAN));
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&nan)),
+        Err(ModelError::NonFinite { .. })
+    ));
+    let mut share = calibrated(1.0);
+    share.rule = ThresholdRule::SafeShare {
+        target: 1.5,
+        measured: 0.0,
+        sequences: 1,
+    };
+    assert!(model::decode_blob(&blob_with_records(&threshold_record(&share))).is_err());
+    // The encoder refuses what the decoder would.
+    let bad = ModelBlob {
+        model: example_model(),
+        meta: ModelMeta {
+            default_threshold: Some(calibrated(f32::INFINITY)),
+        },
+    };
+    let mut out = vec![0u8; 256];
+    assert!(model::encode_blob(&bad, &mut out).is_err());
+    let mut long_data = calibrated(1.0);
+    let text = "x".repeat(model::meta::MAX_DATA_DESCRIPTION + 1);
+    long_data.data = &text;
+    let bad = ModelBlob {
+        model: example_model(),
+        meta: ModelMeta {
+            default_threshold: Some(long_data),
+        },
+    };
+    assert!(matches!(
+        model::encode_blob(&bad, &mut out),
+        Err(ModelError::CapacityExceeded { .. })
+    ));
+}
+
+#[test]
+fn a_version_1_blob_with_records_is_refused() {
+    let mut blob = blob_with_records(&threshold_record(&calibrated(3.0)));
+    blob[4] = 1;
+    assert!(matches!(
+        model::decode_blob(&blob),
+        Err(ModelError::TrailingBytes { .. })
+    ));
+}
+
+#[test]
+fn every_truncation_and_byte_flip_of_a_version_2_blob_is_handled() {
+    let blob = encode(&ModelBlob {
+        model: example_model(),
+        meta: ModelMeta {
+            default_threshold: Some(calibrated(2.5)),
+        },
+    });
+    for n in 0..blob.len() {
+        assert!(model::decode_blob(&blob[..n]).is_err(), "prefix {n}");
+    }
+    for i in 0..blob.len() {
+        for bit in 0..8 {
+            let mut flipped = blob.clone();
+            flipped[i] ^= 1 << bit;
+            // Never a panic; the CRC catches every flip inside the payload.
+            let _ = model::decode_blob(&flipped);
+        }
+    }
+}
