@@ -33,4 +33,3 @@ pub mod timeline;
 pub use engine::{Engine, EngineConfig, Output, Stats};
 pub use map::{CompiledMap, MapFile};
 pub use model_file::ModelFile;
-

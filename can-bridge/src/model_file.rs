@@ -1,5 +1,5 @@
 //! Loading a model blob for the bridge: read, decode, validate, or refuse with the reason.
-use scorer_core::model::{decode, Model, ModelKind};
+use scorer_core::model::{decode, decode_blob, Model, ModelKind};
 use std::path::{Path, PathBuf};
 
 /// A model file that decoded and validated. Holds the bytes the decoded model borrows from.
@@ -56,9 +56,21 @@ impl ModelFile {
 
     /// The decoded model (the blob was checked at load, so this cannot fail in practice).
     pub fn model(&self) -> Result<Model<'_>, ModelFileError> {
-        decode(&self.bytes).map_err(|e| ModelFileError::Refused {
+        decode(&self.bytes).map_err(|e| self.refused(e))
+    }
+
+    /// The warning threshold when the user gives none: the blob's calibrated default, else its
+    /// kind's rule ([`scorer_core::model::ModelBlob::default_threshold`]).
+    pub fn default_threshold(&self) -> Result<f32, ModelFileError> {
+        decode_blob(&self.bytes)
+            .map(|b| b.default_threshold())
+            .map_err(|e| self.refused(e))
+    }
+
+    fn refused(&self, e: scorer_core::model::ModelError) -> ModelFileError {
+        ModelFileError::Refused {
             path: self.path.clone(),
             reason: e.to_string(),
-        })
+        }
     }
 }

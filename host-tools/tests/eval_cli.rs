@@ -226,7 +226,338 @@ fn json_output_follows_the_schema_and_matches_the_library() {
     }];
     methods.extend(Method::baselines());
     let (report, _) = evaluate_methods(&observe(&seqs), &methods).unwrap();
+    let mut v = v;
+    let points = v
+        .as_object_mut()
+        .unwrap()
+        .remove("operating_points")
+        .unwrap();
     assert_eq!(report.to_json(), v);
+    // The model row at its own default threshold (this hand-made blob has none stored, so its
+    // kind's: MSRA's); the baselines have none.
+    assert_eq!(points.as_array().unwrap().len(), 1, "{points}");
+    assert_eq!(points[0]["name"], "MSRA");
+    let kind_default = scorer_core::model::decode(&blob)
+        .unwrap()
+        .kind_default_threshold();
+    assert_eq!(
+        points[0]["threshold"].as_f64().unwrap() as f32,
+        kind_default
+    );
+}
+
+/// Ten safe events, ego at 15 m/s behind a partner 40 m ahead closing at `i` m/s (i = 0..9): the
+/// smallest TTC2D differs per event and none collides.
+fn safe_only_set() -> EventSet {
+    let half = f64::from(DIMS.length_ego + DIMS.length_partner) / 2.0;
+    let events = (0..10)
+        .map(|i| {
+            let dv = f64::from(i);
+            event(
+                format!("calm{i}"),
+                EventKind::Safe,
+                4.0,
+                None,
+                move |t| (15.0 * t, 15.0, 0.0),
+                move |t| (40.0 + half + (15.0 - dv) * t, 15.0 - dv),
+            )
+        })
+        .collect();
+    EventSet { events }
+}
+
+#[test]
+fn operating_points_on_safe_only_driving_give_the_false_alarm_rate() {
+    let fx = fixture();
+    let safe_dir = fx.root.join("safe-only");
+    write_events(&safe_dir, &safe_only_set()).unwrap();
+    // MSRA over TTC2D: R = sigmoid(2 - TTC2D); R >= 0.5 exactly when TTC2D <= 2 s.
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&safe_dir),
+        "--threshold",
+        "0.5",
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let point = &v["operating_points"][0];
+    assert_eq!(point["name"], "MSRA");
+    assert_eq!(point["threshold"], 0.5);
+    let safe = &point["safe"];
+
+    // The library's count: sequences whose TTC2D-driven score reaches 0.5 in their alert window.
+    let (set, _) = load_events(&safe_dir).unwrap();
+    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
+    let blob = std::fs::read(&fx.model).unwrap();
+    let model = scorer_core::model::decode(&blob).unwrap();
+    let scored: Vec<_> = observe(&seqs)
+        .iter()
+        .map(|s| s.score(|f| model.score_observation(&f.observation)))
+        .collect();
+    let warned = scored
+        .iter()
+        .filter(|s| riskscore_eval::protocol::first_alert(s, 0.5).is_some())
+        .count();
+    assert!(
+        warned > 0 && warned < 10,
+        "the fixture spans the threshold: {warned}"
+    );
+    let hours: f64 = seqs.iter().map(|s| s.duration()).sum::<f64>() / 3600.0;
+    assert_eq!(safe["sequences"], 10);
+    assert_eq!(safe["warned"], warned);
+    assert_eq!(safe["not_warned"], 10 - warned);
+    assert!((safe["false_alarm_rate"].as_f64().unwrap() - 10.0 * warned as f64).abs() < 1e-9);
+    let per_hour = safe["false_alarms_per_hour"].as_f64().unwrap();
+    assert!(
+        (per_hour - warned as f64 / hours).abs() < 1e-6 * per_hour,
+        "{per_hour} vs {}",
+        warned as f64 / hours
+    );
+    assert_eq!(point["crash"]["recall"], serde_json::Value::Null);
+
+    // The Markdown table says the same.
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&safe_dir),
+        "--threshold",
+        "MSRA=0.5",
+    ]);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        table.contains(&format!("{warned}/10")) || table.contains(&format!("| {warned} |")),
+        "{table}"
+    );
+
+    // Bad threshold specs are refused with the reason.
+    for (spec, needle) in [
+        ("NOPE=1", "no row named \"NOPE\""),
+        ("abc", "not a finite number"),
+        ("TTC2D=default", "baseline and has no default"),
+    ] {
+        let out = riskctl(&[
+            "evaluate",
+            "--model",
+            p(&fx.model),
+            "--events",
+            p(&safe_dir),
+            "--threshold",
+            spec,
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && stderr.contains(needle),
+            "{spec}: {stderr}"
+        );
+    }
+}
+
+#[test]
+fn calibrate_stores_the_threshold_and_inspect_model_prints_its_rule() {
+    let fx = fixture();
+    let safe_dir = fx.root.join("safe-only");
+    write_events(&safe_dir, &safe_only_set()).unwrap();
+    let calibrated = fx.root.join("calibrated.rsk");
+    let out = riskctl(&[
+        "calibrate",
+        "--model",
+        p(&fx.model),
+        "--normal",
+        p(&safe_dir),
+        "--false-alarm-rate",
+        "20",
+        "--out",
+        p(&calibrated),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let bytes = std::fs::read(&calibrated).unwrap();
+    let blob = scorer_core::model::decode_blob(&bytes).unwrap();
+    let default = blob
+        .meta
+        .default_threshold
+        .expect("a stored default threshold");
+    // At most 2 of the 10 sequences may warn; the rule picks the smallest such maximum.
+    let model = blob.model;
+    let (set, _) = load_events(&safe_dir).unwrap();
+    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
+    let mut maxima: Vec<f32> = observe(&seqs)
+        .iter()
+        .map(|s| {
+            s.frames
+                .iter()
+                .map(|f| model.score_observation(&f.observation))
+                .fold(f32::NEG_INFINITY, f32::max)
+        })
+        .collect();
+    maxima.sort_by(f32::total_cmp);
+    let warned = maxima.iter().filter(|&&m| m >= default.threshold).count();
+    assert!(warned <= 2, "{warned} of 10 warn at {}", default.threshold);
+    let lower = maxima.iter().rfind(|&&m| m < default.threshold);
+    if let Some(&lower) = lower {
+        assert!(
+            maxima.iter().filter(|&&m| m >= lower).count() > 2,
+            "a lower maximum would also have met the target"
+        );
+    }
+    // The model itself is unchanged, and inspect-model prints the threshold with its rule.
+    assert_eq!(
+        scorer_core::model::decode(&std::fs::read(&fx.model).unwrap()).unwrap(),
+        model
+    );
+    let out = riskctl(&["inspect-model", p(&calibrated)]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("default threshold"), "{text}");
+    assert!(text.contains("20"), "the target is stated: {text}");
+    assert!(text.contains("safe-only"), "the data is named: {text}");
+    // evaluate uses the stored default when no --threshold is given.
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&calibrated),
+        "--events",
+        p(&safe_dir),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        v["operating_points"][0]["threshold"].as_f64().unwrap() as f32,
+        default.threshold
+    );
+    assert_eq!(v["operating_points"][0]["safe"]["warned"], warned);
+
+    // The output may not be the input, and bad rates are refused before anything is written.
+    let before = std::fs::read(&fx.model).unwrap();
+    for (rate, out_path) in [("5", p(&fx.model)), ("150", p(&calibrated))] {
+        let out = riskctl(&[
+            "calibrate",
+            "--model",
+            p(&fx.model),
+            "--normal",
+            p(&safe_dir),
+            "--false-alarm-rate",
+            rate,
+            "--out",
+            out_path,
+        ]);
+        assert!(!out.status.success(), "rate {rate} -> {out_path}");
+    }
+    assert_eq!(std::fs::read(&fx.model).unwrap(), before);
+}
+
+#[test]
+fn plot_draws_any_event_and_names_what_is_wrong() {
+    let fx = fixture();
+    for (event, file) in [
+        ("crash2", "crash2.png"),
+        ("safe0", "safe0.svg"),
+        ("near1", "near1.png"),
+    ] {
+        let image = fx.root.join(file);
+        let out = riskctl(&[
+            "plot",
+            "--events",
+            p(&fx.events),
+            "--event",
+            event,
+            "--model",
+            p(&fx.model),
+            "--threshold",
+            "0.5",
+            "--out",
+            p(&image),
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{event}: {stderr}");
+        let bytes = std::fs::read(&image).unwrap();
+        if file.ends_with(".png") {
+            assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+            // IHDR: width and height, big-endian, at bytes 16..24. One strip per method
+            // (the model and the three baselines) below the map.
+            let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+            let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+            assert_eq!((width, height), (1100, 64 + 520 + 4 * 150 + 56));
+            assert!(bytes.len() > 20_000, "{file}: {} bytes", bytes.len());
+        } else {
+            let svg = String::from_utf8(bytes).unwrap();
+            for needle in ["<svg", "safe0", "MSRA", "TTC2D", "TAdv", "EI"] {
+                assert!(svg.contains(needle), "{file} lacks {needle}");
+            }
+        }
+        if event == "crash2" {
+            assert!(
+                stderr.contains("MSRA: threshold 0.5, first warning at"),
+                "{stderr}"
+            );
+        }
+    }
+    for (args, needle) in [
+        (
+            vec!["--event", "nope", "--out", "x.png"],
+            "no event \"nope\"",
+        ),
+        (
+            vec!["--event", "crash0", "--out", "x.gif"],
+            "must end in .svg or .png",
+        ),
+    ] {
+        let mut all = vec!["plot", "--events", p(&fx.events)];
+        all.extend(args);
+        let out = riskctl(&all);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(needle), "{stderr}");
+    }
+    // An input file is never the image.
+    let frames = fx.events.join("frames.csv");
+    let before = std::fs::read(&frames).unwrap();
+    let out = riskctl(&[
+        "plot",
+        "--events",
+        p(&fx.events),
+        "--event",
+        "crash0",
+        "--out",
+        p(&frames),
+    ]);
+    assert!(!out.status.success());
+    assert_eq!(std::fs::read(&frames).unwrap(), before);
+}
+
+#[test]
+fn completions_and_man_pages_come_from_the_cli_definition() {
+    let out = riskctl(&["completions", "bash"]);
+    let script = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    for sub in ["evaluate", "calibrate", "plot", "inspect-model"] {
+        assert!(script.contains(sub), "bash completion lacks {sub}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = riskctl(&["man", "--out-dir", p(dir.path())]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = std::fs::read_to_string(dir.path().join("riskctl.1")).unwrap();
+    assert!(page.contains(".TH") && page.contains("evaluate"), "{page}");
+    assert!(dir.path().join("riskctl-plot.1").exists());
 }
 
 #[test]

@@ -150,12 +150,12 @@ pub fn print_inputs(map: &CompiledMap) {
     }
 }
 
-/// The engine's warning and freshness parameters from the options (the threshold defaults by
-/// model kind, [`scorer_core::model::Model::kind_default_threshold`]).
+/// The engine's warning and freshness parameters from the options (the threshold defaults to the
+/// model's own, [`ModelFile::default_threshold`]).
 pub fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig, SetupError> {
     let threshold = match args.threshold {
         Some(t) => t,
-        None => model.model()?.kind_default_threshold(),
+        None => model.default_threshold()?,
     };
     if !threshold.is_finite() {
         return Err(SetupError::Threshold);

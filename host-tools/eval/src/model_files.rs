@@ -54,6 +54,21 @@ impl ModelFile {
     pub fn read_all(specs: &[String]) -> Result<Vec<ModelFile>, ModelFileError> {
         specs.iter().map(|spec| ModelFile::read(spec)).collect()
     }
+
+    /// The decoded blob: the model and its metadata.
+    pub fn blob(&self) -> Result<scorer_core::model::ModelBlob<'_>, ModelFileError> {
+        scorer_core::model::decode_blob(&self.bytes).map_err(|source| ModelFileError::Decode {
+            path: self.path.clone(),
+            source,
+        })
+    }
+
+    /// The warning threshold the model's users get when they choose none: the calibrated
+    /// threshold the blob carries, else its kind's rule
+    /// ([`ModelBlob::default_threshold`](scorer_core::model::ModelBlob::default_threshold)).
+    pub fn default_threshold(&self) -> Result<f32, ModelFileError> {
+        Ok(self.blob()?.default_threshold())
+    }
 }
 
 /// Decodes model files and names each: its `NAME=`, else its family (`DRL`, `MSRA`, ...), with the
@@ -61,11 +76,7 @@ impl ModelFile {
 pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileError> {
     let mut decoded = Vec::with_capacity(files.len());
     for f in files {
-        let model =
-            scorer_core::model::decode(&f.bytes).map_err(|source| ModelFileError::Decode {
-                path: f.path.clone(),
-                source,
-            })?;
+        let model = f.blob()?.model;
         let stem = f.path.file_stem().map_or_else(
             || f.path.display().to_string(),
             |s| s.to_string_lossy().into_owned(),

@@ -29,6 +29,7 @@ use super::report::{EvaluationReport, EventCounts};
 use super::scoring::{observe_frames, report_of, Method};
 use super::sketch::ScoreSketch;
 use super::staircase::{classes_in_order, warning_curve_of, Staircases};
+use super::threshold::{ThresholdCollector, ThresholdReport};
 use super::trajectory::{trajectory_panels_ranked, TrajectoryPanel};
 use super::WarningCurve;
 use riskscore_data::events::{
@@ -57,6 +58,8 @@ pub struct ProfileAccumulator<'a, 'm> {
     profiles: Vec<Vec<Staircases>>,
     prepare_issues: Vec<(usize, PrepareIssue)>,
     trajectories: Option<TrajectoryCollector>,
+    /// Per method: its outcomes at the threshold asked for, if any.
+    thresholds: Vec<Option<ThresholdCollector>>,
 }
 
 /// The crash events whose risk trajectories are drawn.
@@ -214,7 +217,17 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 .collect(),
             prepare_issues: Vec::new(),
             trajectories: None,
+            thresholds: methods.iter().map(|_| None).collect(),
         }
+    }
+
+    /// Also tallies each method at its threshold (`None`: not that method), in `methods` order
+    /// ([`FolderEvaluation::thresholds`]).
+    pub fn with_thresholds(mut self, thresholds: &[Option<f32>]) -> Self {
+        for (slot, t) in self.thresholds.iter_mut().zip(thresholds) {
+            *slot = t.map(ThresholdCollector::new);
+        }
+        self
     }
 
     /// Also gathers what the trajectory plot needs ([`FolderEvaluation::trajectories`]).
@@ -282,8 +295,16 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
                 .collect();
             t.keep(position, sequences);
         }
-        for (builder, blocks) in builders.into_iter().zip(&mut self.profiles) {
+        let seconds = alert_window_seconds(&sequence.frames, sequence.endpoint);
+        for ((builder, blocks), at_threshold) in builders
+            .into_iter()
+            .zip(&mut self.profiles)
+            .zip(&mut self.thresholds)
+        {
             let mut profile = builder.finish();
+            if let Some(collector) = at_threshold {
+                collector.add(position, &profile, seconds);
+            }
             if !kind.is_conflict() {
                 // A safe sequence only counts as a false alarm at every threshold up to its
                 // maximum: the metrics read nothing else of it (see `warning_curve`).
@@ -305,6 +326,13 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             mine.extend(theirs);
         }
         self.prepare_issues.extend(other.prepare_issues);
+        for (mine, theirs) in self.thresholds.iter_mut().zip(other.thresholds) {
+            match (mine, theirs) {
+                (Some(mine), Some(theirs)) => mine.merge(theirs),
+                (mine @ None, theirs) => *mine = theirs,
+                (Some(_), None) => {}
+            }
+        }
         match (&mut self.trajectories, other.trajectories) {
             (Some(mine), Some(theirs)) => mine.merge(theirs),
             (None, theirs) => self.trajectories = theirs,
@@ -329,6 +357,12 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             .map(|(m, blocks)| (m.name.clone(), warning_curve_of(blocks)))
             .collect();
         let report = report_of(events, curves.iter().map(|(name, curve)| (name, curve)));
+        let thresholds = self
+            .methods
+            .iter()
+            .zip(self.thresholds)
+            .filter_map(|(m, c)| c.map(|c| c.finish(&m.name)))
+            .collect();
         FolderEvaluation {
             load_issues: Vec::new(),
             streamed: true,
@@ -338,7 +372,22 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             report,
             curves,
             trajectories: self.trajectories.map(|t| t.finish(self.methods)),
+            thresholds,
         }
+    }
+}
+
+/// The span (s) of a sequence's alert window: first frame to the last frame at or before the
+/// endpoint.
+fn alert_window_seconds(frames: &[riskscore_data::events::Frame], endpoint: Option<f64>) -> f64 {
+    let mut times = frames
+        .iter()
+        .map(|f| f.time)
+        .filter(|&t| in_alert_window(endpoint, t));
+    let first = times.next();
+    match (first, times.next_back()) {
+        (Some(a), Some(b)) => (b - a).max(0.0),
+        _ => 0.0,
     }
 }
 
@@ -366,6 +415,8 @@ pub struct FolderEvaluation {
     pub curves: Vec<(String, WarningCurve)>,
     /// What the trajectory plot needs, when asked for ([`evaluate_folder_with_trajectories`]).
     pub trajectories: Option<Trajectories>,
+    /// Each method asked for at a threshold, at that threshold ([`Gather::thresholds`]).
+    pub thresholds: Vec<ThresholdReport>,
 }
 
 /// Why a folder's metrics would not describe the folder.
@@ -423,8 +474,33 @@ pub fn evaluate_folder_with_trajectories(
     workers: usize,
     trajectories: Option<&TrajectoryRequest>,
 ) -> Result<FolderEvaluation, FolderEvaluationError> {
+    let gather = Gather {
+        trajectories,
+        thresholds: &[],
+    };
+    evaluate_folder_gathering(dir, methods, config, workers, gather)
+}
+
+/// What an evaluation gathers beside the metrics.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Gather<'r> {
+    /// The trajectory plot's data ([`FolderEvaluation::trajectories`]).
+    pub trajectories: Option<&'r TrajectoryRequest>,
+    /// Per method, in `methods` order, a threshold to tally it at ([`FolderEvaluation::thresholds`]).
+    pub thresholds: &'r [Option<f32>],
+}
+
+/// [`evaluate_folder`], also gathering what `gather` asks for.
+pub fn evaluate_folder_gathering(
+    dir: &Path,
+    methods: &[Method<'_>],
+    config: PrepareConfig,
+    workers: usize,
+    gather: Gather<'_>,
+) -> Result<FolderEvaluation, FolderEvaluationError> {
+    let trajectories = gather.trajectories;
     let accumulator = |request: Option<&TrajectoryRequest>| {
-        let acc = ProfileAccumulator::new(methods, config);
+        let acc = ProfileAccumulator::new(methods, config).with_thresholds(gather.thresholds);
         match request {
             Some(r) => acc.with_trajectories(r),
             None => acc,

@@ -9,7 +9,7 @@ use riskscore_eval::outputs::{result_files, RESULT_FILES};
 use riskscore_eval::plots::FIGURE_FILES;
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
-    evaluate_folder_with_trajectories, FolderEvaluation, FolderRefusal, TrajectoryEvents,
+    evaluate_folder_gathering, FolderEvaluation, FolderRefusal, Gather, TrajectoryEvents,
     TrajectoryRequest,
 };
 use riskscore_eval::Method;
@@ -25,16 +25,32 @@ thresholds (the distinct sequence maxima) this gives A^ROC_90/80 (%), P^PRC_90/8
 Rows are named from the model (DRL, DRL-f32, MSRA, GSSM, SSRA); when two models share a name each
 row takes its file stem, and --model NAME=FILE sets a name explicitly. The baselines follow.
 
-Output: the Markdown table, or with --json one JSON object (stable schema):
+Operating points: the metrics above sweep every threshold; a deployed model warns at one. Each
+model row is also reported at one threshold (by default the model's own default threshold, the one
+the CAN bridge and the C ABI use; `riskctl inspect-model` says how it was chosen): per event kind
+the sequences warned and not warned, recall (conflicts) or false-alarm rate (safe), false alarms
+per hour of safe driving (the alert windows' spans), and the mean lead time. --threshold T puts
+every model at T, --threshold NAME=T one row (baselines too), --threshold none reports no
+operating point. On a folder of real normal driving only (no conflicts) the metrics are n/a but
+the false-alarm rate at the threshold is what a user wants to know.
+
+Output: the Markdown tables, or with --json one JSON object (stable schema):
   {\"events\": {\"crash\": n, \"near_crash\": n, \"safe\": n},
-   \"methods\": [{\"name\", \"A_ROC_90\", \"A_ROC_80\", \"P_PRC_90\", \"P_PRC_80\", \"mTTI_90\"}, ...]}
+   \"methods\": [{\"name\", \"A_ROC_90\", \"A_ROC_80\", \"P_PRC_90\", \"P_PRC_80\", \"mTTI_90\"}, ...],
+   \"operating_points\": [{\"name\", \"threshold\",
+       \"crash\" and \"near_crash\": {\"sequences\", \"warned\", \"not_warned\", \"driving_hours\",
+                                   \"recall\", \"mean_lead_time\"},
+       \"safe\": {\"sequences\", \"warned\", \"not_warned\", \"driving_hours\",
+                \"false_alarm_rate\", \"false_alarms_per_hour\"}}, ...]}
 percentages 0-100, lead time in seconds, null where undefined. Problems in the event folder are
 listed on stderr (file:line, the first of each kind and a count) and fail the run: the metrics
 would silently leave those events out. With --skip-bad-events the valid events are evaluated.
 
-Example:
+Examples:
   riskctl evaluate --model models/drl-default.rsk --model models/msra-default.rsk \\
-                   --events data/events --out report/";
+                   --events data/events --out report/
+  riskctl evaluate --model models/drl-default.rsk --events data/ngsim-us101-safe \\
+                   --threshold 2.0 --json        # false alarms on real driving at T = 2.0";
 
 /// Score an event folder with model files and the TTC2D, TAdv and EI baselines.
 #[derive(clap::Args, Debug)]
@@ -61,6 +77,11 @@ pub struct Args {
     /// failing; the metrics then leave out the events those rows name.
     #[arg(long)]
     skip_bad_events: bool,
+    /// Report the model rows at this threshold (`T`, default: each model's own default
+    /// threshold), one row at it (`NAME=T`, baselines too), or `none` (repeatable; later ones
+    /// win for the same row). See the operating points below.
+    #[arg(long = "threshold", value_name = "T|NAME=T|default|none")]
+    thresholds: Vec<String>,
     /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
     /// events of the folder).
     #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
@@ -91,6 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let files = ModelFile::read_all(&args.models)?;
     let mut methods = named_models(&files)?;
     methods.extend(Method::baselines());
+    let thresholds = operating_thresholds(&args.thresholds, &files, &methods)?;
 
     let dir = &args.events;
     if let Some(out) = &args.out {
@@ -105,11 +127,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         sketch_capacity: DEFAULT_CAPACITY,
     });
-    let folder = evaluate_checked(dir, &methods, trajectories.as_ref(), args.skip_bad_events)?;
+    let gather = Gather {
+        trajectories: trajectories.as_ref(),
+        thresholds: &thresholds,
+    };
+    let folder = evaluate_checked(dir, &methods, gather, args.skip_bad_events)?;
     if args.json {
-        println!("{}", folder.report.to_json_string());
+        println!("{}", json_with_operating_points(&folder)?);
     } else {
         print!("{}", folder.report.to_markdown());
+        if !folder.thresholds.is_empty() {
+            print!(
+                "{}",
+                riskscore_eval::threshold::markdown(&folder.thresholds)
+            );
+        }
     }
     let Some(out) = &args.out else {
         return Ok(());
@@ -129,24 +161,86 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// Crash events drawn when no --trajectory-event is given.
 const DEFAULT_TRAJECTORIES: usize = 3;
 
-/// Evaluates `dir` one event at a time ([`evaluate_folder_with_trajectories`]) and refuses, after
+/// The threshold of each row (in `methods` order) that `--threshold` asks for: by default every
+/// model row at its own default threshold.
+pub(super) fn operating_thresholds(
+    specs: &[String],
+    files: &[ModelFile],
+    methods: &[Method<'_>],
+) -> anyhow::Result<Vec<Option<f32>>> {
+    let defaults = files
+        .iter()
+        .map(|f| f.default_threshold().map(Some))
+        .collect::<Result<Vec<_>, _>>()?;
+    // Model rows come first, in file order; the baselines follow and have no default.
+    let default_of = |row: usize| defaults.get(row).copied().flatten();
+    let mut chosen: Vec<Option<f32>> = (0..methods.len()).map(default_of).collect();
+    let value = |text: &str, spec: &str| -> anyhow::Result<f32> {
+        match text.parse::<f32>() {
+            Ok(t) if t.is_finite() => Ok(t),
+            _ => bail!("--threshold {spec}: {text:?} is not a finite number, `default` or `none`"),
+        }
+    };
+    for spec in specs {
+        match spec.split_once('=') {
+            Some((name, text)) => {
+                let Some(row) = methods.iter().position(|m| m.name == name) else {
+                    let names: Vec<&str> = methods.iter().map(|m| m.name.as_str()).collect();
+                    bail!(
+                        "--threshold {spec}: no row named {name:?} (rows: {})",
+                        names.join(", ")
+                    );
+                };
+                chosen[row] = match text {
+                    "none" => None,
+                    "default" => Some(default_of(row).with_context(|| {
+                        format!(
+                            "--threshold {spec}: {name} is a baseline and has no default threshold"
+                        )
+                    })?),
+                    _ => Some(value(text, spec)?),
+                };
+            }
+            None => {
+                let all: Option<Option<f32>> = match spec.as_str() {
+                    "none" => Some(None),
+                    "default" => None,
+                    text => Some(Some(value(text, spec)?)),
+                };
+                for (row, slot) in chosen.iter_mut().enumerate().take(files.len()) {
+                    *slot = all.unwrap_or_else(|| default_of(row));
+                }
+            }
+        }
+    }
+    Ok(chosen)
+}
+
+/// The report's JSON with the operating points added under `"operating_points"`.
+fn json_with_operating_points(folder: &FolderEvaluation) -> anyhow::Result<String> {
+    let mut json: serde_json::Value = serde_json::from_str(&folder.report.to_json_string())?;
+    if let Some(object) = json.as_object_mut() {
+        let points = folder.thresholds.iter().map(|t| t.to_json()).collect();
+        object.insert(
+            "operating_points".to_owned(),
+            serde_json::Value::Array(points),
+        );
+    }
+    Ok(serde_json::to_string_pretty(&json)?)
+}
+
+/// Evaluates `dir` one event at a time ([`evaluate_folder_gathering`]) and refuses, after
 /// listing them, problems that would leave events out of the metrics.
 fn evaluate_checked(
     dir: &Path,
     methods: &[Method<'_>],
-    trajectories: Option<&TrajectoryRequest>,
+    gather: Gather<'_>,
     skip_bad_events: bool,
 ) -> anyhow::Result<FolderEvaluation> {
     // The calling thread reads frames.csv; one scoring worker per core.
     let workers = std::thread::available_parallelism().map_or(1, usize::from);
-    let folder = evaluate_folder_with_trajectories(
-        dir,
-        methods,
-        PrepareConfig::default(),
-        workers,
-        trajectories,
-    )
-    .with_context(|| format!("event folder {}", dir.display()))?;
+    let folder = evaluate_folder_gathering(dir, methods, PrepareConfig::default(), workers, gather)
+        .with_context(|| format!("event folder {}", dir.display()))?;
     if !folder.streamed {
         eprintln!(
             "riskctl: note: the frames of {} are not grouped by event, so the folder was read whole (more memory)",
@@ -181,23 +275,13 @@ fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
 
 /// Refuses an `--out` folder whose result files would overwrite a model or event file.
 fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> anyhow::Result<()> {
-    let event_files = [
-        events.join(riskscore_data::events::EVENTS_FILE),
-        events.join(riskscore_data::events::FRAMES_FILE),
-    ];
-    let mut inputs: Vec<(&str, &Path)> = models
-        .iter()
-        .map(|m| ("--model", m.path.as_path()))
-        .collect();
-    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
     let outputs: Vec<PathBuf> = RESULT_FILES
         .iter()
         .chain(&FIGURE_FILES)
         .map(|n| out.join(n))
         .collect();
     let outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
-    can_codec::output::refuse_overlaps(&inputs, &outputs)?;
-    Ok(())
+    super::output::refuse_overwriting_inputs(models, events, &outputs)
 }
 
 /// Writes every `--out` file; all of them are renamed into place only when all are written.

@@ -68,3 +68,32 @@ fn partial_path(output: &Path) -> PathBuf {
     name.push(".partial");
     PathBuf::from(name)
 }
+
+/// Writes `bytes` to `path` through a temporary file renamed into place when complete: a failed
+/// run leaves the old file as it was.
+pub fn write_file_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let mut out = can_codec::output::AtomicFile::create(path)
+        .with_context(|| format!("{}: cannot create", path.display()))?;
+    out.write_all(bytes)
+        .and_then(|()| out.commit())
+        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Refuses `outputs` that are, or overwrite, a `--model` file or the `--events` folder's files.
+pub fn refuse_overwriting_inputs(
+    models: &[riskscore_eval::model_files::ModelFile],
+    events: &Path,
+    outputs: &[(&str, &Path)],
+) -> anyhow::Result<()> {
+    let event_files = [
+        events.join(riskscore_data::events::EVENTS_FILE),
+        events.join(riskscore_data::events::FRAMES_FILE),
+    ];
+    let mut inputs: Vec<(&str, &Path)> = models
+        .iter()
+        .map(|m| ("--model", m.path.as_path()))
+        .collect();
+    inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    can_codec::output::refuse_overlaps(&inputs, outputs)?;
+    Ok(())
+}

@@ -214,7 +214,8 @@ pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ExportError> {
 /// Decode a blob (header, CRC, payload, validation) and describe it for humans.
 pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
     let header = model::decode_header(blob)?;
-    let decoded = model::decode(blob)?;
+    let decoded_blob = model::decode_blob(blob)?;
+    let decoded = &decoded_blob.model;
     let mut s = String::new();
     let _ = writeln!(s, "header");
     let _ = writeln!(s, "  magic           RSKM");
@@ -244,8 +245,15 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         HEADER_LEN,
         header.payload_len
     );
+    let _ = writeln!(s, "warning");
+    let _ = writeln!(
+        s,
+        "  default threshold {} ({})",
+        decoded_blob.default_threshold(),
+        threshold_rule_text(&decoded_blob)
+    );
     let _ = writeln!(s, "parameters");
-    match &decoded {
+    match decoded {
         Model::DrlInt8(m) => {
             let mut dims = vec![m.inputs.len().to_string()];
             let mut macs = 0usize;
@@ -309,4 +317,31 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         "integrity         OK (decoded, CRC and validation passed)"
     );
     Ok(s)
+}
+
+/// How the default threshold of a blob was chosen, in words.
+pub fn threshold_rule_text(blob: &model::ModelBlob<'_>) -> String {
+    let Some(op) = blob.meta.default_threshold else {
+        return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half its weight sum, \
+                GSSM 0.5)"
+            .to_owned();
+    };
+    let data = if op.data.is_empty() {
+        String::new()
+    } else {
+        format!(" of {}", op.data)
+    };
+    match op.rule {
+        model::ThresholdRule::KindDefault => format!("the kind's rule, stored{data}"),
+        model::ThresholdRule::SafeShare {
+            target,
+            measured,
+            sequences,
+        } => format!(
+            "calibrated: the smallest sequence maximum at which at most {:.1} % of {sequences} \
+             normal-driving sequences{data} warn; {:.1} % do",
+            100.0 * target,
+            100.0 * measured
+        ),
+    }
 }

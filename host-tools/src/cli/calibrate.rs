@@ -1,0 +1,148 @@
+//! `riskctl calibrate`: store a model's default warning threshold, chosen on normal driving by a
+//! target false-alarm rate, in its blob.
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use riskscore_data::events::PrepareConfig;
+use riskscore_eval::model_files::{named_models, ModelFile};
+use riskscore_eval::streaming::evaluate_folder;
+use riskscore_eval::threshold::{calibrate_safe_share, safe_maxima};
+use scorer_core::model::{self, DefaultThreshold, ModelBlob, ThresholdRule};
+
+const ABOUT_CALIBRATION: &str = "\
+The rule: score every safe sequence of the --normal folders (real, uneventful driving) exactly as on
+the ECU, take each sequence's maximum, and choose the smallest of those maxima at which at most
+--false-alarm-rate percent of the sequences warn. The threshold, the rule, the target, the share
+measured and a description of the data are stored in the blob (format version 2; the model bytes
+are unchanged). The CAN bridge, the C ABI (riskscore_model_default_threshold) and riskctl use it
+whenever no --threshold is given; `riskctl inspect-model` prints it.
+
+Calibrate on normal driving the model was not trained on where you can: a threshold measured on the
+training sequences is optimistic. Check the operating point on other data with
+`riskctl evaluate --model OUT --events DIR` (it reports recall, false alarms per hour and lead time
+at the default threshold).
+
+Example:
+  riskctl calibrate --model models/drl-default.rsk --normal data/ngsim-us101-safe \\
+                    --false-alarm-rate 5 --out drl-calibrated.rsk";
+
+/// Choose and store a model's default warning threshold from real normal driving.
+#[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_CALIBRATION)]
+pub struct Args {
+    /// Model blob to calibrate (`*.rsk`).
+    #[arg(long, value_name = "FILE")]
+    model: PathBuf,
+    /// Event folder of normal driving (its safe sequences are used; repeatable).
+    #[arg(long, value_name = "DIR", required = true)]
+    normal: Vec<PathBuf>,
+    /// Largest share of the normal-driving sequences allowed to warn, in percent (0-100).
+    #[arg(long, value_name = "PERCENT")]
+    false_alarm_rate: f64,
+    /// Output blob; must not be the input (write to a new file, then move it).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(0.0..=100.0).contains(&args.false_alarm_rate) {
+        bail!(
+            "--false-alarm-rate {}: must be a percentage from 0 to 100",
+            args.false_alarm_rate
+        );
+    }
+    let file = ModelFile::read(&args.model.display().to_string())?;
+    refuse_overlaps(&args)?;
+    let methods = named_models(std::slice::from_ref(&file))?;
+    let mut maxima = Vec::new();
+    for dir in &args.normal {
+        let folder = evaluate_folder(dir, &methods, PrepareConfig::default(), workers())
+            .with_context(|| format!("event folder {}", dir.display()))?;
+        folder
+            .check(false)
+            .with_context(|| format!("event folder {}", dir.display()))?;
+        let curve = &folder
+            .curves
+            .first()
+            .context("no model row was evaluated")?
+            .1;
+        maxima.extend(safe_maxima(curve));
+    }
+    let target = args.false_alarm_rate / 100.0;
+    let Some(calibration) = calibrate_safe_share(&maxima, target) else {
+        bail!("the --normal folders hold no safe sequence to calibrate on");
+    };
+    let data = describe(&args.normal);
+    let blob = file.blob()?;
+    let calibrated = ModelBlob {
+        model: blob.model,
+        meta: model::ModelMeta {
+            default_threshold: Some(DefaultThreshold {
+                threshold: calibration.threshold,
+                rule: ThresholdRule::SafeShare {
+                    target: target as f32,
+                    measured: calibration.measured as f32,
+                    sequences: u32::try_from(calibration.sequences).unwrap_or(u32::MAX),
+                },
+                data: &data,
+            }),
+        },
+    };
+    let mut bytes = vec![0u8; model::encoded_blob_len(&calibrated)?];
+    let n = model::encode_blob(&calibrated, &mut bytes)?;
+    bytes.truncate(n);
+    let summary = riskscore_train::export::inspect(&bytes)
+        .map_err(|e| anyhow::anyhow!("the calibrated blob does not decode: {e}"))?;
+    super::output::write_file_atomically(&args.out, &bytes)?;
+    println!(
+        "{} -> {}: default threshold {} ({:.1} % of {} normal-driving sequences warn; target {} %)",
+        args.model.display(),
+        args.out.display(),
+        calibration.threshold,
+        100.0 * calibration.measured,
+        calibration.sequences,
+        args.false_alarm_rate
+    );
+    print!("{summary}");
+    Ok(())
+}
+
+fn workers() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from)
+}
+
+/// The folders' names (not their absolute paths: the blob travels), within the blob's limit.
+/// The sequence count is stored in the rule itself.
+fn describe(folders: &[PathBuf]) -> String {
+    let names: Vec<String> = folders
+        .iter()
+        .map(|d| {
+            d.file_name()
+                .map_or_else(|| d.display().to_string(), |n| n.to_string_lossy().into())
+        })
+        .collect();
+    let text = names.join(" + ");
+    if text.len() > model::meta::MAX_DATA_DESCRIPTION {
+        format!("{} folders", folders.len())
+    } else {
+        text
+    }
+}
+
+/// The output must not be the model or a file of a --normal folder.
+fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
+    let event_files: Vec<PathBuf> = args
+        .normal
+        .iter()
+        .flat_map(|d| {
+            [
+                d.join(riskscore_data::events::EVENTS_FILE),
+                d.join(riskscore_data::events::FRAMES_FILE),
+            ]
+        })
+        .collect();
+    let mut inputs: Vec<(&str, &Path)> = vec![("--model", args.model.as_path())];
+    inputs.extend(event_files.iter().map(|p| ("--normal", p.as_path())));
+    can_codec::output::refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
+    Ok(())
+}
