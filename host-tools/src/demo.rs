@@ -14,7 +14,8 @@
 //!   `splits.json`);
 //! - `models/`: `drl.rsk` (int8), `drl-f32.rsk`, `msra.rsk`, and their checkpoints `drl.json`,
 //!   `msra.json`;
-//! - `plots/`: `roc`, `pr`, `trajectories` (SVG and PNG).
+//! - `plots/`: `roc`, `pr`, `trajectories` and `event-1..3` (the trajectory events drawn as
+//!   `riskctl plot` draws them), SVG and PNG.
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -96,6 +97,12 @@ pub fn default_real_data() -> Option<PathBuf> {
 /// Where the committed NGSIM US-101 extract of real safe interactions lives in the repository.
 pub const REAL_DATA: &str = "data/ngsim-us101-safe";
 
+/// What the demo's figures plot (printed on each): one pooled curve per method, where the summary
+/// table averages folds and seeds, so the legends' figures differ from the table's.
+const POOLED_SCORES: &str =
+    "scores: out-of-fold scores of the first seed, pooled over the 5 folds \
+     (the summary table instead averages per-fold metrics over folds and seeds)";
+
 impl Default for DemoOptions {
     fn default() -> Self {
         let sim = SimConfig::default();
@@ -137,6 +144,8 @@ pub enum DemoError {
     Eval(#[from] eval::ProtocolError),
     #[error("plots: {0}")]
     Plot(#[from] plots::PlotError),
+    #[error("event figures: {0}")]
+    ModelFile(#[from] eval::model_files::ModelFileError),
     #[error("report: {0}")]
     Report(#[from] eval::bundle::BundleError),
     #[error("{0}")]
@@ -258,6 +267,46 @@ pub fn pooled_runs(folds: &[FoldOutcome]) -> Vec<(String, Vec<ScoredSequence>)> 
         }
     }
     pooled
+}
+
+/// `event-<k>.{svg,png}`: the trajectory figure's events drawn as `riskctl plot` draws them, with
+/// the final models (at their default thresholds) and the baselines.
+fn event_figures(
+    data_dir: &Path,
+    model_dir: &Path,
+    ids: &[String],
+    plot_dir: &Path,
+) -> Result<Vec<PathBuf>, DemoError> {
+    use eval::event_figure::EventPicture;
+    use eval::model_files::{named_models, ModelFile};
+    if ids.is_empty() {
+        return Ok(Vec::new());
+    }
+    let specs: Vec<String> = ["drl.rsk", "msra.rsk"]
+        .iter()
+        .map(|n| model_dir.join(n).display().to_string())
+        .collect();
+    let models = ModelFile::read_all(&specs)?;
+    let mut methods = named_models(&models)?;
+    methods.extend(eval::Method::baselines());
+    let mut thresholds = models
+        .iter()
+        .map(|m| m.default_threshold().map(Some))
+        .collect::<Result<Vec<_>, _>>()?;
+    thresholds.resize(methods.len(), None);
+    let (set, _) = events::load_events(data_dir)?;
+    let mut bundle = eval::bundle::ReportBundle::default();
+    for (k, id) in ids.iter().enumerate() {
+        let Some(event) = set.get(id) else { continue };
+        let picture = EventPicture::score(event.clone(), &methods, &thresholds);
+        for (ext, format) in [
+            ("svg", plots::ImageFormat::Svg),
+            ("png", plots::ImageFormat::Png),
+        ] {
+            bundle.add(&format!("event-{}.{ext}", k + 1), picture.render(format)?);
+        }
+    }
+    Ok(bundle.write_to(plot_dir)?)
 }
 
 /// Run the demo. Prints progress and the table on stdout/stderr as it goes.
@@ -449,7 +498,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         .filter(|(n, _)| n != "DRL-f32")
         .cloned()
         .collect();
-    files.extend(plots::plot_curves(&plot_dir, &plotted)?);
+    files.extend(plots::plot_curves(&plot_dir, &plotted, POOLED_SCORES)?);
     let traj_methods: Vec<_> = pooled
         .iter()
         .filter(|(n, _)| n != "DRL-f32")
@@ -460,7 +509,8 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         .map(|(_, s)| plots::default_trajectory_events(s, 3))
         .unwrap_or_default();
     let panels = plots::trajectory_panels(&traj_methods, &crash_ids);
-    files.extend(plots::plot_trajectories(&plot_dir, &panels)?);
+    files.extend(plots::plot_trajectories(&plot_dir, &panels, POOLED_SCORES)?);
+    files.extend(event_figures(&data_dir, &model_dir, &crash_ids, &plot_dir)?);
     stages.push(("plots".into(), t0.elapsed().as_secs_f64()));
 
     // 6. Summary.
@@ -563,13 +613,23 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
 }
 
-/// Print claims as `[ok]` / `[FAIL]` lines under a title.
+/// A claim's verdict: `ok`, `FAIL`, or `n/a` where the baseline has no value (e.g. a baseline
+/// that never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
+pub fn verdict(c: &Claim) -> &'static str {
+    match (c.method_mean, c.baseline_mean) {
+        (Some(_), None) => "n/a",
+        _ if c.holds => "ok",
+        _ => "FAIL",
+    }
+}
+
+/// Print claims as `[ok]` / `[FAIL]` / `[n/a]` lines under a title.
 pub fn print_claims(title: &str, claims: &[Claim]) {
     println!("{title}");
     for c in claims {
         println!(
             "  [{}] {} {} {} vs {} {}",
-            if c.holds { "ok" } else { "FAIL" },
+            verdict(c),
             c.method,
             c.metric,
             fmt_opt(c.method_mean),
@@ -578,6 +638,97 @@ pub fn print_claims(title: &str, claims: &[Claim]) {
         );
     }
     println!();
+}
+
+/// What the metric names in the tables and claims mean.
+pub const METRIC_LEGEND: &str = "\
+Metrics (docs/evaluation.md): a method warns at the first frame whose risk reaches a threshold;
+sweeping the threshold over all sequence maxima gives, for conflicts (crash + near-crash) vs safe
+sequences: A_ROC_90/80 = area under the ROC curve where recall >= 90/80 %, normalised to 0-100;
+P_PRC_90/80 = the best precision (%) at recall >= 90/80 %; mTTI_90 = the longest mean warning lead
+time (s) of any threshold with precision >= 90 %. mean ± std over folds x seeds; \"(14/15)\" = the
+metric exists in 14 of 15 folds (the mean is over those); n/a = it exists in none.";
+
+/// The default run's and the `--no-real` run's headline figures, from the run recorded here
+/// (`scripts/demo.sh` and `scripts/demo.sh --no-real` at commit time; docs/benchmarks.md has the
+/// full tables). Quoted, not computed: the other mode is not run.
+pub const WITH_REAL_FIGURES: &str =
+    "with the 606 real US-101 sequences (the default): DRL A_ROC_90 90.9 vs TAdv 87.3, transfer 80.8 vs 77.2";
+pub const WITHOUT_REAL_FIGURES: &str =
+    "without them (--no-real): DRL A_ROC_90 62.2 vs TAdv 64.7 in distribution, so DRL loses to TAdv";
+
+/// One short paragraph: what was shown on which data, and the caveats that were measured.
+pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
+    let count = |claims: &[Claim]| {
+        let ok = claims.iter().filter(|c| verdict(c) == "ok").count();
+        let na = claims.iter().filter(|c| verdict(c) == "n/a").count();
+        let na = if na > 0 {
+            format!(", {na} n/a")
+        } else {
+            String::new()
+        };
+        format!("{ok} of {} claims hold{na}", claims.len())
+    };
+    let figure = |claims: &[Claim], baseline: &str| {
+        claims
+            .iter()
+            .find(|c| c.method == "DRL" && c.baseline == baseline && c.metric == "A_ROC_90")
+            .map(|c| {
+                format!(
+                    "DRL A_ROC_90 {} vs {baseline} {}",
+                    fmt_opt(c.method_mean),
+                    fmt_opt(c.baseline_mean)
+                )
+            })
+            .unwrap_or_default()
+    };
+    let mut text = format!(
+        "Conclusion: on {} ({} sequences), 5-fold event-level CV x {} seeds: {} ({}).",
+        s.events,
+        s.sequences,
+        opts.seeds.max(1),
+        count(&s.claims),
+        figure(&s.claims, "TAdv")
+    );
+    if !s.transfer_claims.is_empty() {
+        text.push_str(&format!(
+            " Transfer: {} ({}); its test data is another simulator seed and mix with the same \
+             speed ranges plus US-101 recordings held out by file: the same freeway, not another \
+             place, city or speed band.",
+            count(&s.transfer_claims),
+            figure(&s.transfer_claims, "TAdv")
+        ));
+    }
+    if opts.real.is_some() {
+        text.push_str(&format!(
+            " The win depends on the real normal driving: {WITHOUT_REAL_FIGURES} (quoted from \
+             the recorded run, docs/benchmarks.md)."
+        ));
+    } else {
+        text.push_str(&format!(
+            " This run used no real normal driving; {WITH_REAL_FIGURES} (quoted from the \
+             recorded run, docs/benchmarks.md)."
+        ));
+    }
+    text
+}
+
+/// `text` wrapped at `width` columns.
+fn wrap(text: &str, width: usize) -> String {
+    let mut out = String::new();
+    let mut line = 0;
+    for word in text.split_whitespace() {
+        if line > 0 && line + 1 + word.len() > width {
+            out.push('\n');
+            line = 0;
+        } else if line > 0 {
+            out.push(' ');
+            line += 1;
+        }
+        out.push_str(word);
+        line += word.len();
+    }
+    out
 }
 
 fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
@@ -601,8 +752,10 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
         );
     }
     println!();
+    println!("{METRIC_LEGEND}");
+    println!();
     print_claims(
-        "Acceptance, in distribution (fold means, strictly better):",
+        "Acceptance, in distribution (fold means, strictly better; n/a: the baseline has no value to beat):",
         &s.claims,
     );
     if !s.transfer_claims.is_empty() {
@@ -631,4 +784,6 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
         opts.out.join("models/drl.rsk").display(),
         opts.out.join("models/drl.rsk").display()
     );
+    println!();
+    println!("{}", wrap(&conclusion(s, opts), 100));
 }

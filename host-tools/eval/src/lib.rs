@@ -6,10 +6,14 @@
 //! - [`metrics`]: operating points over all thresholds; A^ROC_alpha, P^PRC_alpha, mTTI^90_p.
 //! - [`report`]: per-method results, mean ± std over folds/seeds; Markdown, CSV and JSON.
 //! - [`plots`] (feature `plots`): ROC and PR curves, risk trajectories (SVG and PNG).
+//! - [`event_figure`] (feature `plots`): one event's paths, boxes and every method's risk.
+//! - [`palette`]: one colour and line style per method in every figure.
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
 //! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
 //! - [`staircase`]: one method's alert profiles of a folder, packed for the streamed evaluation.
 //! - [`sketch`]: a bounded, mergeable summary of a method's scores (the trajectory plot's scale).
+//! - [`threshold`]: one method at one threshold (recall, false alarms per hour, lead time) and the
+//!   calibration rule of a model's default threshold.
 //! - [`trajectory`]: the trajectory plot's data (each drawn frame at its method's percentile).
 //! - [`outputs`] (feature `plots`): the result files of `riskctl evaluate --out`, rendered in memory.
 //! - [`arrow_kernel`] (feature `arrow`): surrogates, features and model scores over Arrow batches.
@@ -22,10 +26,13 @@
 #[cfg(feature = "arrow")]
 pub mod arrow_kernel;
 pub mod bundle;
+#[cfg(feature = "plots")]
+pub mod event_figure;
 pub mod metrics;
 pub mod model_files;
 #[cfg(feature = "plots")]
 pub mod outputs;
+pub mod palette;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 #[cfg(feature = "plots")]
@@ -38,6 +45,7 @@ pub mod scoring;
 pub mod sketch;
 pub mod staircase;
 pub mod streaming;
+pub mod threshold;
 pub mod trajectory;
 
 pub use metrics::{

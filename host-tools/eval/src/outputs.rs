@@ -8,6 +8,11 @@ use super::report::{write_curves_csv, EvaluationReport};
 /// The tables among the result files (the figures are [`FIGURE_FILES`](super::plots::FIGURE_FILES)).
 pub const RESULT_FILES: [&str; 4] = ["results.csv", "results.json", "results.md", "curves.csv"];
 
+/// What the figures of `riskctl evaluate --out` plot: the scores behind the table, so the legend's
+/// A^ROC_90 and P^PRC_90 are the table's.
+const TABLE_SCORES: &str =
+    "scores: every sequence of the folder, scored once (the same scores as results.md)";
+
 /// A result file could not be rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
@@ -29,9 +34,11 @@ pub fn result_files(
     bundle.add("results.json", report.to_json_string() + "\n");
     bundle.add("results.md", report.to_markdown());
     bundle.add_csv("curves.csv", |w| write_curves_csv(curves, w))?;
-    bundle.files.extend(curve_figures(curves)?);
+    bundle.files.extend(curve_figures(curves, TABLE_SCORES)?);
     if !panels.is_empty() {
-        bundle.files.extend(trajectory_figures(panels)?);
+        bundle
+            .files
+            .extend(trajectory_figures(panels, TABLE_SCORES)?);
     }
     Ok(bundle)
 }

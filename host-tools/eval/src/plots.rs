@@ -14,6 +14,7 @@ use plotters::style::FontStyle;
 
 use super::bundle::{BundleError, ReportBundle, ReportFile};
 use super::metrics::WarningCurve;
+use super::palette::{LineStyle, MethodStyle, Palette};
 pub use super::trajectory::{
     alert_window_scores, default_trajectory_events, percentile, trajectory_panels,
     trajectory_panels_ranked, TrajectoryPanel,
@@ -54,64 +55,142 @@ pub enum PlotError {
 const SIZE: (u32, u32) = (900, 700);
 const TRAJECTORY_SIZE: (u32, u32) = (1500, 520);
 
-/// Distinct, colour-blind-friendly line colours (Okabe-Ito), reused cyclically.
-const COLORS: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-    RGBColor(86, 180, 233),
-    RGBColor(0, 0, 0),
-    RGBColor(240, 228, 66),
-];
+/// The plotters colour of a palette style.
+pub(crate) fn rgb(style: MethodStyle) -> RGBColor {
+    let (r, g, b) = style.rgb;
+    RGBColor(r, g, b)
+}
 
-fn color(i: usize) -> RGBColor {
-    COLORS.get(i % COLORS.len()).copied().unwrap_or(BLACK)
+/// Draws `points` in `style` on `chart`, broken into separate runs wherever a y value is NaN
+/// (a gap, e.g. where a surrogate is infinite), and labels the method in the chart's legend.
+pub(crate) fn draw_styled<'a, DB: DrawingBackend + 'a>(
+    chart: &mut UnitChart<'a, DB>,
+    points: &[(f64, f64)],
+    style: MethodStyle,
+    label: Option<String>,
+) -> DrawResult<DB> {
+    let colour = rgb(style);
+    let stroke = colour.stroke_width(style.width);
+    let mut labelled = label.is_none();
+    for run in points
+        .split(|p| !p.1.is_finite() || !p.0.is_finite())
+        .filter(|r| !r.is_empty())
+    {
+        if let [point] = run {
+            // A lone frame between gaps would draw nothing as a line.
+            chart.draw_series(std::iter::once(Circle::new(
+                *point,
+                style.width + 1,
+                colour.filled(),
+            )))?;
+            continue;
+        }
+        let anno = match style.line {
+            LineStyle::Solid => chart.draw_series(LineSeries::new(run.iter().copied(), stroke))?,
+            LineStyle::Dashed => {
+                chart.draw_series(DashedLineSeries::new(run.iter().copied(), 8, 5, stroke))?
+            }
+        };
+        if !labelled {
+            labelled = true;
+            let gap = if style.line == LineStyle::Dashed {
+                5
+            } else {
+                0
+            };
+            anno.label(label.clone().unwrap_or_default())
+                .legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + PathElement::new([(0, 0), (8, 0)], stroke)
+                        + PathElement::new([(8 + gap, 0), (22, 0)], stroke)
+                });
+        }
+    }
+    Ok(())
+}
+
+/// Something drawable on any plotters backend (so one figure renders as SVG and as PNG).
+pub(crate) trait Picture {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB>;
+}
+
+/// The image formats a figure is written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    Svg,
+    Png,
+}
+
+impl ImageFormat {
+    /// The format a file name asks for by its extension (`.svg` or `.png`, any case).
+    pub fn of_path(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "svg" => Some(Self::Svg),
+            "png" => Some(Self::Png),
+            _ => None,
+        }
+    }
+}
+
+/// Renders `figure` in `format` in memory; `name` names the figure in errors.
+pub(crate) fn render(
+    name: &str,
+    format: ImageFormat,
+    size: (u32, u32),
+    figure: &impl Picture,
+) -> Result<Vec<u8>, PlotError> {
+    register_font();
+    let drawing = |source: Box<dyn std::error::Error + Send + Sync>| PlotError::Draw {
+        name: name.to_owned(),
+        source,
+    };
+    match format {
+        ImageFormat::Svg => {
+            let mut svg = String::new();
+            {
+                let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+                root.fill(&WHITE)
+                    .and_then(|()| figure.draw(&root))
+                    .and_then(|()| root.present())
+                    .map_err(|e| drawing(e.into()))?;
+            }
+            Ok(svg.into_bytes())
+        }
+        ImageFormat::Png => {
+            let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+            {
+                let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+                root.fill(&WHITE)
+                    .and_then(|()| figure.draw(&root))
+                    .and_then(|()| root.present())
+                    .map_err(|e| drawing(e.into()))?;
+            }
+            encode_png(&rgb, size).map_err(|source| PlotError::Png {
+                name: name.to_owned(),
+                source,
+            })
+        }
+    }
 }
 
 /// Renders `figure` as `<stem>.svg` and `<stem>.png` in memory, so a caller can write them
 /// through a temporary file (nothing half-drawn ever lands at the destination).
-fn both_formats(
+pub(crate) fn both_formats(
     stem: &str,
     size: (u32, u32),
-    figure: &Figure<'_>,
+    figure: &impl Picture,
 ) -> Result<[ReportFile; 2], PlotError> {
-    register_font();
     let svg_name = format!("{stem}.svg");
     let png_name = format!("{stem}.png");
-    let drawing = |name: &str| {
-        let name = name.to_owned();
-        move |source: Box<dyn std::error::Error + Send + Sync>| PlotError::Draw { name, source }
-    };
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        figure
-            .draw(&root)
-            .and_then(|()| root.present())
-            .map_err(|e| drawing(&svg_name)(e.into()))?;
-    }
-    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
-        figure
-            .draw(&root)
-            .and_then(|()| root.present())
-            .map_err(|e| drawing(&png_name)(e.into()))?;
-    }
-    let png = encode_png(&rgb, size).map_err(|source| PlotError::Png {
-        name: png_name.clone(),
-        source,
-    })?;
     Ok([
         ReportFile {
+            bytes: render(&svg_name, ImageFormat::Svg, size, figure)?,
             name: svg_name,
-            bytes: svg.into_bytes(),
         },
         ReportFile {
+            bytes: render(&png_name, ImageFormat::Png, size, figure)?,
             name: png_name,
-            bytes: png,
         },
     ])
 }
@@ -128,41 +207,68 @@ fn encode_png(rgb: &[u8], (width, height): (u32, u32)) -> Result<Vec<u8>, png::E
     Ok(out)
 }
 
-/// What one figure shows, independent of the backend.
-pub enum Figure<'a> {
-    Roc(&'a [(String, WarningCurve)]),
-    Pr(&'a [(String, WarningCurve)]),
-    Trajectories(&'a [TrajectoryPanel]),
+/// What one figure shows, independent of the backend. `scores` says which scores are drawn (it
+/// is printed under the caption, so a figure cannot be mistaken for a table it does not match).
+pub(crate) enum Figure<'a> {
+    Roc {
+        curves: &'a [(String, WarningCurve)],
+        scores: &'a str,
+    },
+    Pr {
+        curves: &'a [(String, WarningCurve)],
+        scores: &'a str,
+    },
+    Trajectories {
+        panels: &'a [TrajectoryPanel],
+        scores: &'a str,
+    },
 }
 
-impl Figure<'_> {
+impl Picture for Figure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
-        root.fill(&WHITE)?;
         match self {
-            Figure::Roc(curves) => draw_roc(root, curves),
-            Figure::Pr(curves) => draw_pr(root, curves),
-            Figure::Trajectories(panels) => draw_trajectories(root, panels),
+            Figure::Roc { curves, scores } => draw_roc(root, curves, scores),
+            Figure::Pr { curves, scores } => draw_pr(root, curves, scores),
+            Figure::Trajectories { panels, scores } => draw_trajectories(root, panels, scores),
         }
     }
 }
 
-type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+pub(crate) type DrawResult<DB> =
+    Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
-/// The ROC and PR charts' frame: `[0, 1] x [0, y_max]`, captioned, with both axes described.
-type UnitChart<'a, DB> = ChartContext<
+/// A chart with `f64` axes (ROC, PR, trajectories, event pictures).
+pub(crate) type UnitChart<'a, DB> = ChartContext<
     'a,
     DB,
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
+/// Splits off a caption line and a smaller note line under it; returns the area below.
+pub(crate) fn captioned<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    caption: &str,
+    note: &str,
+) -> Result<DrawingArea<DB, Shift>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let (head, body) = root.split_vertically(64);
+    head.draw_text(caption, &(FONT, 24).into_text_style(&head), (16, 8))?;
+    head.draw_text(
+        note,
+        &(FONT, 15)
+            .into_text_style(&head)
+            .color(&RGBColor(80, 80, 80)),
+        (16, 40),
+    )?;
+    Ok(body)
+}
+
+/// The ROC and PR charts' frame: `[0, 1] x [0, y_max]`, both axes described.
 fn unit_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
-    caption: &str,
     y_max: f64,
     (x_desc, y_desc): (&str, &str),
 ) -> Result<UnitChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
     let mut chart = ChartBuilder::on(root)
-        .caption(caption, (FONT, 26))
         .margin(16)
         .x_label_area_size(48)
         .y_label_area_size(60)
@@ -177,21 +283,18 @@ fn unit_chart<'a, DB: DrawingBackend>(
     Ok(chart)
 }
 
-/// A method's line: its index among all methods (its colour), its points and its legend label.
-type MethodLine = (usize, Vec<(f64, f64)>, String);
+/// A method's line: its name (its style), its points and its legend label.
+type MethodLine = (String, Vec<(f64, f64)>, String);
 
-/// One line per method, coloured by its index among all methods, and the legend at `position`.
+/// One line per method in the method's own style, and the legend at `position`.
 fn draw_method_lines<'a, DB: DrawingBackend + 'a>(
     chart: &mut UnitChart<'a, DB>,
+    palette: &mut Palette,
     lines: Vec<MethodLine>,
     position: SeriesLabelPosition,
 ) -> DrawResult<DB> {
-    for (i, points, label) in lines {
-        let c = color(i);
-        chart
-            .draw_series(LineSeries::new(points, c.stroke_width(2)))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    for (name, points, label) in lines {
+        draw_styled(chart, &points, palette.style(&name), Some(label))?;
     }
     chart
         .configure_series_labels()
@@ -202,13 +305,19 @@ fn draw_method_lines<'a, DB: DrawingBackend + 'a>(
         .draw()
 }
 
+/// The palette of a figure over `names`: extras numbered in this order in every figure of a run.
+fn palette_of<'a>(names: impl IntoIterator<Item = &'a String>) -> Palette {
+    Palette::for_methods(names.into_iter().map(String::as_str))
+}
+
 fn draw_roc<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     curves: &[(String, WarningCurve)],
+    scores: &str,
 ) -> DrawResult<DB> {
+    let body = captioned(root, "ROC of the first-threshold warning", scores)?;
     let mut chart = unit_chart(
-        root,
-        "ROC of the first-threshold warning",
+        &body,
         1.0,
         (
             "false positive rate (safe sequences warned)",
@@ -227,54 +336,109 @@ fn draw_roc<DB: DrawingBackend>(
             grey.mix(0.6).stroke_width(1),
         ))?;
     }
+    let mut palette = palette_of(curves.iter().map(|(n, _)| n));
     let lines = curves
         .iter()
-        .enumerate()
-        .filter_map(|(i, (name, curve))| {
+        .filter_map(|(name, curve)| {
             let label = match curve.a_roc(90) {
                 Some(a) => format!("{name} (A^ROC_90 = {a:.1} %)"),
                 None => name.clone(),
             };
-            Some((i, curve.roc_curve()?, label))
+            Some((name.clone(), curve.roc_curve()?, label))
         })
         .collect();
-    draw_method_lines(&mut chart, lines, SeriesLabelPosition::LowerRight)
+    draw_method_lines(
+        &mut chart,
+        &mut palette,
+        lines,
+        SeriesLabelPosition::LowerRight,
+    )
 }
 
 fn draw_pr<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     curves: &[(String, WarningCurve)],
+    scores: &str,
 ) -> DrawResult<DB> {
-    let mut chart = unit_chart(
+    let body = captioned(
         root,
         "Precision-recall of the first-threshold warning",
-        1.02,
-        ("recall (conflicts warned)", "precision"),
+        scores,
     )?;
+    let mut chart = unit_chart(&body, 1.02, ("recall (conflicts warned)", "precision"))?;
+    let mut palette = palette_of(curves.iter().map(|(n, _)| n));
     let lines = curves
         .iter()
-        .enumerate()
-        .filter_map(|(i, (name, curve))| {
+        .filter_map(|(name, curve)| {
             let points = curve.pr_points();
             let label = match curve.p_prc(90) {
                 Some(p) => format!("{name} (P^PRC_90 = {p:.1} %)"),
                 None => name.clone(),
             };
-            (!points.is_empty()).then_some((i, points, label))
+            (!points.is_empty()).then_some((name.clone(), points, label))
         })
         .collect();
-    draw_method_lines(&mut chart, lines, SeriesLabelPosition::LowerLeft)
+    draw_method_lines(
+        &mut chart,
+        &mut palette,
+        lines,
+        SeriesLabelPosition::LowerLeft,
+    )
+}
+
+/// A row of legend entries (line sample and name) across `area`, outside every chart.
+pub(crate) fn draw_legend_strip<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[(String, MethodStyle)],
+) -> DrawResult<DB> {
+    let (width, height) = area.dim_in_pixel();
+    let per_row = ((width as usize).saturating_sub(32) / 190).max(1);
+    let text = (FONT, 15).into_text_style(area);
+    for (i, (name, style)) in entries.iter().enumerate() {
+        let x = 24 + (i % per_row) as i32 * 190;
+        let y = 12 + (i / per_row) as i32 * 22;
+        if y as u32 >= height {
+            break;
+        }
+        let stroke = rgb(*style).stroke_width(style.width);
+        let gap = if style.line == LineStyle::Dashed {
+            6
+        } else {
+            0
+        };
+        area.draw(&PathElement::new([(x, y + 8), (x + 12, y + 8)], stroke))?;
+        area.draw(&PathElement::new(
+            [(x + 12 + gap, y + 8), (x + 32, y + 8)],
+            stroke,
+        ))?;
+        area.draw_text(name, &text, (x + 40, y))?;
+    }
+    Ok(())
 }
 
 fn draw_trajectories<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     panels: &[TrajectoryPanel],
+    scores: &str,
 ) -> DrawResult<DB> {
-    let root = root.titled(
+    let body = captioned(
+        root,
         "Risk trajectories of crash events (each method as its percentile over all frames)",
-        (FONT, 24),
+        scores,
     )?;
-    let areas = root.split_evenly((1, panels.len().max(1)));
+    let (charts, legend) = body.split_vertically(body.dim_in_pixel().1.saturating_sub(56));
+    let names: Vec<&String> = panels
+        .iter()
+        .flat_map(|p| p.lines.iter().map(|(n, _)| n))
+        .collect();
+    let mut palette = palette_of(names.iter().copied());
+    let mut seen: Vec<(String, MethodStyle)> = Vec::new();
+    for name in names {
+        if !seen.iter().any(|(n, _)| n == name) {
+            seen.push((name.clone(), palette.style(name)));
+        }
+    }
+    let areas = charts.split_evenly((1, panels.len().max(1)));
     for (panel, area) in panels.iter().zip(&areas) {
         let (lo, hi) = panel
             .lines
@@ -301,37 +465,33 @@ fn draw_trajectories<DB: DrawingBackend>(
             [(0.0, 0.0), (0.0, 1.02)],
             RGBColor(120, 120, 120).stroke_width(1),
         ))?;
-        for (i, (name, line)) in panel.lines.iter().enumerate() {
-            let c = color(i);
-            chart
-                .draw_series(LineSeries::new(line.iter().copied(), c.stroke_width(2)))?
-                .label(name.clone())
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+        for (name, line) in &panel.lines {
+            draw_styled(&mut chart, line, palette.style(name), None)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
     }
-    Ok(())
+    draw_legend_strip(&legend, &seen)
 }
 
-/// `roc.{svg,png}` and `pr.{svg,png}`, rendered in memory.
-pub fn curve_figures(curves: &[(String, WarningCurve)]) -> Result<Vec<ReportFile>, PlotError> {
-    let mut files = Vec::from(both_formats("roc", SIZE, &Figure::Roc(curves))?);
-    files.extend(both_formats("pr", SIZE, &Figure::Pr(curves))?);
+/// `roc.{svg,png}` and `pr.{svg,png}`, rendered in memory; `scores` says which scores the curves
+/// come from (printed under each caption).
+pub fn curve_figures(
+    curves: &[(String, WarningCurve)],
+    scores: &str,
+) -> Result<Vec<ReportFile>, PlotError> {
+    let mut files = Vec::from(both_formats("roc", SIZE, &Figure::Roc { curves, scores })?);
+    files.extend(both_formats("pr", SIZE, &Figure::Pr { curves, scores })?);
     Ok(files)
 }
 
 /// `trajectories.{svg,png}` (one panel per event), rendered in memory.
-pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<ReportFile>, PlotError> {
+pub fn trajectory_figures(
+    panels: &[TrajectoryPanel],
+    scores: &str,
+) -> Result<Vec<ReportFile>, PlotError> {
     Ok(Vec::from(both_formats(
         "trajectories",
         TRAJECTORY_SIZE,
-        &Figure::Trajectories(panels),
+        &Figure::Trajectories { panels, scores },
     )?))
 }
 
@@ -339,8 +499,9 @@ pub fn trajectory_figures(panels: &[TrajectoryPanel]) -> Result<Vec<ReportFile>,
 pub fn plot_curves(
     dir: &Path,
     curves: &[(String, WarningCurve)],
+    scores: &str,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let files = curve_figures(curves)?;
+    let files = curve_figures(curves, scores)?;
     Ok(ReportBundle { files }.write_to(dir)?)
 }
 
@@ -348,8 +509,9 @@ pub fn plot_curves(
 pub fn plot_trajectories(
     dir: &Path,
     panels: &[TrajectoryPanel],
+    scores: &str,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let files = trajectory_figures(panels)?;
+    let files = trajectory_figures(panels, scores)?;
     Ok(ReportBundle { files }.write_to(dir)?)
 }
 
@@ -377,10 +539,11 @@ mod tests {
             seq("s", EventKind::Safe, None, &[0.0, 2.5]),
         ];
         let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
-        let written = plot_curves(dir.path(), &[("M".into(), curve)]).unwrap();
+        let written = plot_curves(dir.path(), &[("M".into(), curve)], "the test's scores").unwrap();
         assert_eq!(written.len(), 4);
         let svg = std::fs::read_to_string(dir.path().join("roc.svg")).unwrap();
         assert!(svg.contains("A^ROC_90"), "legend text is drawn");
+        assert!(svg.contains("the test&apos;s scores") || svg.contains("the test's scores"));
         let png = std::fs::read(dir.path().join("pr.png")).unwrap();
         assert_eq!(&png[..4], b"\x89PNG");
     }

@@ -8,7 +8,8 @@ use super::sketch::ScoreSketch;
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrajectoryPanel {
     pub event_id: String,
-    /// `(method, [(time - endpoint (s), normalised risk in [0, 1])])`.
+    /// `(method, [(time - endpoint (s), normalised risk in [0, 1])])`; the risk is NaN at frames
+    /// where the method sees no conflict (an infinite TTC2D, say), drawn as a gap, not as zero.
     pub lines: Vec<(String, Vec<(f64, f64)>)>,
 }
 
@@ -77,13 +78,22 @@ pub fn trajectory_panels_ranked(
                     let line = s
                         .frames
                         .iter()
-                        .map(|f| (f.time - endpoint, percentile(scale, f.score)))
+                        .map(|f| (f.time - endpoint, plotted_percentile(scale, f.score)))
                         .collect();
                     Some((name.clone(), line))
                 })
                 .collect(),
         })
         .collect()
+}
+
+/// [`percentile`], but NaN where the method sees no conflict: a gap in the line.
+fn plotted_percentile(scale: &mut ScoreSketch, r: f32) -> f64 {
+    if r.is_nan() || r <= NO_CONFLICT_RISK {
+        f64::NAN
+    } else {
+        percentile(scale, r)
+    }
 }
 
 /// The first `n` crash sequences in input order: the events whose trajectories are drawn.
@@ -104,17 +114,30 @@ mod tests {
 
     #[test]
     fn trajectories_are_percentiles_over_alert_windows() {
-        // Alert-window scores of the method: 2, 4, 6, 3 and the no-conflict frame (5 frames; the
-        // 100 after c's endpoint is not among them).
+        // Alert-window scores of the method: 2, 4, 6, 3, 3 and two no-conflict frames (7 frames;
+        // the 100 after c's endpoint is not among them).
         let seqs = vec![
             seq("c", EventKind::Crash, Some(2.0), &[2.0, 4.0, 6.0, 100.0]),
             seq("s", EventKind::Safe, None, &[NO_CONFLICT_RISK, 3.0]),
+            seq("g", EventKind::Crash, Some(1.0), &[NO_CONFLICT_RISK, 3.0]),
         ];
-        assert_eq!(default_trajectory_events(&seqs, 3), ["c"]);
-        let panels = trajectory_panels(&[("M".into(), seqs)], &["c".to_owned()]);
+        assert_eq!(default_trajectory_events(&seqs, 3), ["c", "g"]);
+        let panels = trajectory_panels(&[("M".into(), seqs)], &["c".to_owned(), "g".to_owned()]);
+        // g's no-conflict frame is a gap; its 3.0 ranks among all alert-window frames.
+        let gap = &panels[1].lines[0].1;
+        assert!(
+            gap[0].1.is_nan(),
+            "no conflict is a gap, not a zero: {gap:?}"
+        );
+        assert!(gap[1].1 > 0.0);
         let line = &panels[0].lines[0].1;
-        // 2: one frame below, itself half -> 1.5/5; 4: 3.5/5; 6: 4.5/5; 100: all below -> 1.
-        let expected = [(-2.0, 0.3), (-1.0, 0.7), (0.0, 0.9), (1.0, 1.0)];
+        // 2: two frames below, itself half -> 2.5/7; 4: 5.5/7; 6: 6.5/7; 100: all below -> 1.
+        let expected = [
+            (-2.0, 2.5 / 7.0),
+            (-1.0, 5.5 / 7.0),
+            (0.0, 6.5 / 7.0),
+            (1.0, 1.0),
+        ];
         assert_eq!(line.len(), expected.len());
         for (got, want) in line.iter().zip(expected) {
             assert_eq!(got.0, want.0);
