@@ -6,22 +6,27 @@ scripts/setup.sh test
 
 step() { printf '\n==> %s\n' "$*"; }
 
-step "cargo fmt --check"
+# Expected times are for a cold clean clone on a 2-core machine (docs/benchmarks.md); a warm run
+# takes a fraction. Cargo prints one line per crate it compiles, so a cold run is never silent.
+step "cargo fmt --check (seconds)"
 cargo fmt --all -- --check
 
-step "cargo clippy (all targets, warnings are errors)"
-cargo clippy --workspace --all-targets --quiet -- -D warnings
+step "cargo clippy, all targets, warnings are errors (cold about 5 min)"
+cargo clippy --workspace --all-targets -- -D warnings
 
-step "scorer-core for thumbv7em-none-eabihf (release, no_std)"
-cargo build --quiet -p scorer-core --release --target thumbv7em-none-eabihf
+step "scorer-core for thumbv7em-none-eabihf, release, no_std (cold about 30 s)"
+cargo build -p scorer-core --release --target thumbv7em-none-eabihf
 
 step "ECU firmware crate: fmt + clippy (outside the workspace; its tests run in cargo test)"
 tests/firmware/run-tests.sh --lint-only
 
-step "cargo test (workspace)"
+step "cargo test: building the test binaries (cold about 6 min)"
+cargo test --workspace --no-run
+
+step "cargo test: running the workspace tests (about 3-5 min)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
 
-step "vcan VM tests (SocketCAN in QEMU; Debian kernel cached in .cache/vm)"
+step "vcan VM tests: SocketCAN in QEMU (cold about 7 min, Debian kernel cached in .cache/vm)"
 tests/vm/run.sh
 
 # One closing line over every cargo test binary (the VM and firmware checks above fail the run on

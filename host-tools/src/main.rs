@@ -1,6 +1,6 @@
 //! `riskctl`: the command line over riskscore's library crates. Each subcommand lives in
 //! `cli/<name>.rs`, which parses its arguments and calls the libraries.
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 mod cli;
 
@@ -35,6 +35,12 @@ enum Command {
     ExportModel(cli::export_model::Args),
     /// Print a model blob's header, sizes and parameter summary, and check its integrity.
     InspectModel(cli::inspect_model::Args),
+    /// Store a model's default warning threshold, chosen on normal driving by a target
+    /// false-alarm rate, in its blob.
+    Calibrate(cli::calibrate::Args),
+    /// Draw one event: both road users' paths and boxes, and every method's risk over time with
+    /// its threshold and first warning (SVG or PNG).
+    Plot(cli::plot::Args),
     /// GSSM, SSRA and MSRA over GSSM: fit, align, msra, ship, cv, augmentation.
     Gssm(cli::gssm::Args),
     /// Import recorded data (CommonRoad scenarios) as an event folder of real safe interactions.
@@ -46,6 +52,10 @@ enum Command {
     /// Benchmarks on data the models were not trained on: `transfer` (another simulator seed and
     /// mix, real recordings held out by scenario file).
     Benchmark(cli::benchmark::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to standard output.
+    Completions(cli::completions::Args),
+    /// Write man pages (riskctl.1 and one per subcommand) into a folder.
+    Man(cli::completions::ManArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -58,13 +68,17 @@ fn main() -> std::process::ExitCode {
         #[cfg(feature = "parquet")]
         Command::Score(a) => cli::score::run(a),
         Command::Ablation(a) => cli::ablation::run(a),
+        Command::Calibrate(a) => cli::calibrate::run(a),
         Command::ExportModel(a) => cli::export_model::run(a),
         Command::InspectModel(a) => cli::inspect_model::run(a),
+        Command::Plot(a) => cli::plot::run(a),
         Command::Gssm(a) => cli::gssm::run(a),
         Command::Import(a) => cli::import::run(a),
         Command::EventsToCandump(a) => cli::events_to_candump::run(a),
         Command::Demo(a) => cli::demo::run(a),
         Command::Benchmark(a) => cli::benchmark::run(a),
+        Command::Completions(a) => cli::completions::run(a, Cli::command()),
+        Command::Man(a) => cli::completions::man(a, Cli::command()),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

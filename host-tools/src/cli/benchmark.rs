@@ -137,6 +137,11 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         )?,
         real: super::load_prepared(&real_dir)?.sequences,
     };
+    eprintln!(
+        "riskctl: real recordings from {} ({} sequences, split into folds by scenario file)",
+        real_dir.display(),
+        data.real.len()
+    );
     let options = TransferOptions {
         folds: a.folds,
         seeds: a.seeds,

@@ -12,9 +12,12 @@ use riskscore_train::export::{self, Checkpoint, DrlFormat};
 /// before the command succeeds.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Checkpoint written by `riskctl train` (JSON).
-    #[arg(long)]
-    pub checkpoint: PathBuf,
+    /// Checkpoint written by `riskctl train` (JSON), as `inspect-model` takes its file.
+    #[arg(value_name = "CHECKPOINT", required_unless_present = "checkpoint")]
+    pub file: Option<PathBuf>,
+    /// The checkpoint as an option (the older spelling; same as the positional CHECKPOINT).
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with = "file")]
+    pub checkpoint: Option<PathBuf>,
     /// Output blob (conventionally `*.rsk`).
     #[arg(long)]
     pub out: PathBuf,
@@ -24,20 +27,24 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let ck = Checkpoint::load(&args.checkpoint)?;
+    let checkpoint = args
+        .file
+        .or(args.checkpoint)
+        .context("no checkpoint given")?;
+    let ck = Checkpoint::load(&checkpoint)?;
     let format = if args.f32 {
         DrlFormat::F32
     } else {
         DrlFormat::Int8
     };
     let blob = export::export(&ck, format)
-        .with_context(|| format!("{}: cannot export", args.checkpoint.display()))?;
+        .with_context(|| format!("{}: cannot export", checkpoint.display()))?;
     let summary = export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
     export::write_blob(&args.out, &blob)?;
     println!(
         "{} ({}) -> {} ({} bytes)",
-        args.checkpoint.display(),
+        checkpoint.display(),
         ck.kind_name(),
         args.out.display(),
         blob.len()

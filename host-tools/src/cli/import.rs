@@ -39,8 +39,10 @@ Rules (docs/real-data.md):
 Errors name the file, line, obstacle and element (e.g. `x.xml:812: <dynamicObstacle id=42>
 <state> #3: missing <velocity>`); the malformed road user or file is skipped, the rest written.
 
-Example:
-  riskctl import commonroad --out data/ngsim-us101-safe ../shared/data/ngsim-us101/";
+Example (SCENARIOS is a folder of CommonRoad XML files, e.g. the NGSIM US-101 benchmark
+scenarios USA_US101-*.xml from the CommonRoad scenario collection; data/ngsim-us101-safe/
+PROVENANCE.md lists the files and their checksum):
+  riskctl import commonroad --out my-safe-events SCENARIOS/";
 
 /// Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
 #[derive(clap::Args, Debug)]

@@ -6,6 +6,8 @@ use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
 
 pub mod ablation;
 pub mod benchmark;
+pub mod calibrate;
+pub mod completions;
 pub mod demo;
 pub mod evaluate;
 pub mod events_to_candump;
@@ -14,6 +16,7 @@ pub mod gssm;
 pub mod import;
 pub mod inspect_model;
 pub mod output;
+pub mod plot;
 #[cfg(feature = "parquet")]
 pub mod score;
 pub mod simulate;

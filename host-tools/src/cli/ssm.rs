@@ -23,7 +23,10 @@ INPUT COLUMNS (header names matched case-insensitively, any order):
 OUTPUT COLUMNS (appended after the input columns):
   box_distance  exact gap between the two boxes (m), 0 when they touch or overlap
   ttc2d         two-dimensional time-to-collision (s); inf = no conflict; smaller is riskier
-  tadv          time advantage (s); inf = no conflict; smaller is riskier
+  tadv          time advantage (s); inf = no conflict; smaller is riskier. Near-parallel
+                pairs with no closing speed (same-speed following, both stopped) give a
+                huge finite value, box distance / 1e-6 (about 1e7 s), exactly as the
+                reference implementation does (golden cases same_velocity, both_stopped)
   ei            emergency index (m/s); -inf = no conflict; larger is riskier
   f_l_ego f_l_sur f_w_comb f_vy_ego f_vx_sur f_vy_sur f_v_ego2 f_v_sur2 f_delta_v2 f_delta_v
   f_psi_sur f_rho f_s

@@ -1,0 +1,40 @@
+//! `riskctl completions` and `riskctl man`: shell completion scripts and man pages, generated from
+//! the same clap definitions as `--help`.
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+/// Print a completion script for SHELL to standard output.
+///
+/// Install, for example:
+///   riskctl completions bash > ~/.local/share/bash-completion/completions/riskctl
+///   riskctl completions zsh  > ~/.zfunc/_riskctl        (with fpath+=~/.zfunc)
+///   riskctl completions fish > ~/.config/fish/completions/riskctl.fish
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The shell to complete for.
+    pub shell: clap_complete::Shell,
+}
+
+/// Write `riskctl.1` and `riskctl-<subcommand>.1` into DIR (created if missing); read one with
+/// `man -l DIR/riskctl.1`, or put DIR on MANPATH.
+#[derive(clap::Args, Debug)]
+pub struct ManArgs {
+    /// Folder for the man pages.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: PathBuf,
+}
+
+pub fn run(args: Args, mut command: clap::Command) -> anyhow::Result<()> {
+    clap_complete::generate(args.shell, &mut command, "riskctl", &mut std::io::stdout());
+    Ok(())
+}
+
+pub fn man(args: ManArgs, command: clap::Command) -> anyhow::Result<()> {
+    std::fs::create_dir_all(&args.out_dir)
+        .with_context(|| format!("{}: cannot create", args.out_dir.display()))?;
+    clap_mangen::generate_to(command, &args.out_dir)
+        .with_context(|| format!("{}: cannot write the man pages", args.out_dir.display()))?;
+    println!("man pages written to {}", args.out_dir.display());
+    Ok(())
+}
