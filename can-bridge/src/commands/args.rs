@@ -20,7 +20,8 @@ pub struct ScoringArgs {
     /// docs/can-bridge.md, "Bring your own vehicle").
     #[arg(long)]
     pub map: Option<PathBuf>,
-    /// Warn when the score is >= this (default: 2.0 for DRL = r*/2, half the score range for
+    /// Warn when the score is >= this (default: the model's default threshold stored in its blob,
+    /// printed at start; for blobs without one, 2.0 for DRL = r*/2, half the score range for
     /// MSRA/GSSM).
     #[arg(long, value_parser = cli_values::finite_f32)]
     pub threshold: Option<f32>,

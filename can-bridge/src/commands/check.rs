@@ -95,6 +95,16 @@ fn print_report(report: &CheckReport, json: bool) {
         report.untraced,
         summary(&report.stats)
     );
+    let note = if fa > 0 {
+        format!(
+            "{note}\ncheck: the safe events warned are false alarms at this threshold ({:.0} %); how \
+             often a threshold warns on real normal driving: `riskctl evaluate --threshold T` on a \
+             real folder (the shipped models' rates are in models/README.md)",
+            100.0 * fa as f64 / neg.max(1) as f64
+        )
+    } else {
+        note
+    };
     if json {
         println!("{}", report.report.to_json());
         eprintln!("{note}");

@@ -155,7 +155,12 @@ pub fn print_inputs(map: &CompiledMap) {
 pub fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConfig, SetupError> {
     let threshold = match args.threshold {
         Some(t) => t,
-        None => model.default_threshold()?,
+        None => {
+            let t = model.default_threshold()?;
+            // Said once at start: warnings mean little without the threshold they fire at.
+            eprintln!("can-bridge: threshold {t} (the model's default; --threshold overrides)");
+            t
+        }
     };
     if !threshold.is_finite() {
         return Err(SetupError::Threshold);
