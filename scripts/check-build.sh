@@ -33,9 +33,10 @@ stamped_build() {
 }
 
 echo "==> 1. the demo's build (scripts/build.sh)"
-stamped_build | tee "$scratch/first.log" | grep -E '^[0-9.]+ +(Compiling|Finished)' | sed -n '1p;$p'
-first=$(grep -E '^[0-9.]+ +(Updating|Locking|Downloading|Downloaded|Compiling|Checking|Fresh|Finished)' \
-  "$scratch/first.log" | head -n1 | cut -d' ' -f1)
+stamped_build > "$scratch/first.log"
+awk '$2 == "Compiling" && !shown { print; shown = 1 } $2 == "Finished" { print }' "$scratch/first.log"
+first=$(awk '$2 ~ /^(Updating|Locking|Downloading|Downloaded|Compiling|Checking|Finished)$/ { print $1; exit }' \
+  "$scratch/first.log")
 total=$(tail -n1 "$scratch/first.log" | cut -d' ' -f1)
 compiled=$(grep -cE '^[0-9.]+ +Compiling' "$scratch/first.log" || true)
 
@@ -54,7 +55,7 @@ if [ -z "$first" ] || [ "${first%%.*}" -ge 5 ]; then
 fi
 if [ "$again" != 0 ]; then
   echo "FAIL: the second build compiled $again crates (it must reuse the demo's build):" >&2
-  grep -E 'Compiling' "$scratch/second.log" | head -n 10 >&2
+  awk '$2 == "Compiling"' "$scratch/second.log" >&2
   status=1
 fi
 [ "$status" = 0 ] && echo "OK"

@@ -112,6 +112,8 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "plots/roc.png",
         "plots/pr.svg",
         "plots/trajectories.svg",
+        "plots/event-1.svg",
+        "plots/event-1.png",
     ] {
         let p = out.join(f);
         assert!(p.is_file(), "missing {}", p.display());
@@ -158,6 +160,53 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     let stage_names = stage_names_of(&summary);
     assert_eq!(stage_names[0], "simulate + load");
     assert!(stage_names.contains(&"cross-validation"));
+
+    // The event figures draw the trajectory figure's events; every figure says what it plots.
+    let trajectories = std::fs::read_to_string(out.join("plots/trajectories.svg")).unwrap();
+    let event = std::fs::read_to_string(out.join("plots/event-1.svg")).unwrap();
+    let first_event = event
+        .split("event ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap();
+    assert!(trajectories.contains(first_event), "{first_event}");
+    assert!(trajectories.contains("pooled over the"));
+    assert!(std::fs::read_to_string(out.join("plots/roc.svg"))
+        .unwrap()
+        .contains("pooled over the"));
+
+    // The closing paragraph: what was shown on which data, with the measured caveats.
+    let text = demo::conclusion(&summary, &opts);
+    assert!(text.starts_with("Conclusion: on "), "{text}");
+    assert!(text.contains("5-fold event-level CV x 1 seeds"), "{text}");
+    assert!(text.contains("held out by file"), "transfer caveat: {text}");
+    assert!(text.contains(demo::WITHOUT_REAL_FIGURES), "{text}");
+    let ok = summary
+        .claims
+        .iter()
+        .filter(|c| demo::verdict(c) == "ok")
+        .count();
+    assert!(
+        text.contains(&format!("{ok} of {} claims hold", summary.claims.len())),
+        "{text}"
+    );
+    let no_real = DemoOptions { real: None, ..opts };
+    assert!(demo::conclusion(&summary, &no_real).contains(demo::WITH_REAL_FIGURES));
+}
+
+#[test]
+fn a_claim_against_a_baseline_without_a_value_is_na_not_ok() {
+    let claim = |method_mean, baseline_mean, holds| demo::Claim {
+        method: "DRL".into(),
+        baseline: "TTC2D".into(),
+        metric: "mTTI_90".into(),
+        method_mean,
+        baseline_mean,
+        holds,
+    };
+    assert_eq!(demo::verdict(&claim(Some(3.4), None, true)), "n/a");
+    assert_eq!(demo::verdict(&claim(Some(3.4), Some(0.7), true)), "ok");
+    assert_eq!(demo::verdict(&claim(Some(0.5), Some(0.7), false)), "FAIL");
 }
 
 fn stage_names_of(summary: &demo::DemoSummary) -> Vec<&str> {
