@@ -298,7 +298,12 @@ fn event_figures(
     let mut bundle = eval::bundle::ReportBundle::default();
     for (k, id) in ids.iter().enumerate() {
         let Some(event) = set.get(id) else { continue };
-        let picture = EventPicture::score(event.clone(), &methods, &thresholds);
+        let mut picture = EventPicture::score(event.clone(), &methods, &thresholds);
+        picture.note = Some(
+            "models: the demo's final DRL and MSRA, trained on every event (this one too), \
+             at their kinds' default thresholds"
+                .to_owned(),
+        );
         for (ext, format) in [
             ("svg", plots::ImageFormat::Svg),
             ("png", plots::ImageFormat::Png),

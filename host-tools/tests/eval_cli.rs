@@ -341,6 +341,43 @@ fn operating_points_on_safe_only_driving_give_the_false_alarm_rate() {
         "{table}"
     );
 
+    // A negative threshold needs no `=`, and a later `none` clears every row, baselines too.
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&safe_dir),
+        "--json",
+        "--threshold",
+        "-0.5",
+        "--threshold",
+        "TTC2D=-1.5",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["operating_points"][0]["threshold"], -0.5);
+    assert_eq!(v["operating_points"][0]["safe"]["warned"], 10);
+    assert_eq!(v["operating_points"][1]["name"], "TTC2D");
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&fx.model),
+        "--events",
+        p(&safe_dir),
+        "--json",
+        "--threshold",
+        "TTC2D=-1.5",
+        "--threshold",
+        "none",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["operating_points"], serde_json::json!([]));
+
     // Bad threshold specs are refused with the reason.
     for (spec, needle) in [
         ("NOPE=1", "no row named \"NOPE\""),
@@ -493,7 +530,8 @@ fn plot_draws_any_event_and_names_what_is_wrong() {
             // (the model and the three baselines) below the map.
             let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
             let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
-            assert_eq!((width, height), (1100, 64 + 520 + 4 * 150 + 56));
+            // Caption with two note lines, map, four strips, one legend row.
+            assert_eq!((width, height), (1100, 82 + 520 + 4 * 150 + 44));
             assert!(bytes.len() > 20_000, "{file}: {} bytes", bytes.len());
         } else {
             let svg = String::from_utf8(bytes).unwrap();

@@ -72,6 +72,11 @@ pub enum ModelError {
     BufferTooSmall { needed: usize, available: usize },
     /// A metadata record of a version-2 blob appears twice.
     DuplicateRecord { tag: u8 },
+    /// A metadata record's fields contradict each other or cannot be shown safely.
+    BadRecord {
+        field: &'static str,
+        reason: &'static str,
+    },
 }
 
 impl fmt::Display for ModelError {
@@ -144,6 +149,7 @@ impl fmt::Display for ModelError {
             Self::DuplicateRecord { tag } => {
                 write!(f, "metadata record with tag {tag} appears twice")
             }
+            Self::BadRecord { field, reason } => write!(f, "{field}: {reason}"),
         }
     }
 }

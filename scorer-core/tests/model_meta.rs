@@ -175,7 +175,28 @@ fn bad_records_are_refused() {
         measured: 0.0,
         sequences: 1,
     };
-    assert!(model::decode_blob(&blob_with_records(&threshold_record(&share))).is_err());
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&threshold_record(&share))),
+        Err(ModelError::BadRecord { .. })
+    ));
+    // A rule that contradicts itself (more warn than it allows) and a description that would
+    // forge terminal output are refused.
+    let mut over = calibrated(1.0);
+    over.rule = ThresholdRule::SafeShare {
+        target: 0.01,
+        measured: 0.9,
+        sequences: 100,
+    };
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&threshold_record(&over))),
+        Err(ModelError::BadRecord { .. })
+    ));
+    let mut escape = calibrated(1.0);
+    escape.data = "x\u{1b}]0;title\u{7}\nintegrity OK";
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&threshold_record(&escape))),
+        Err(ModelError::BadRecord { .. })
+    ));
     // The encoder refuses what the decoder would.
     let bad = ModelBlob {
         model: example_model(),

@@ -23,10 +23,10 @@ pub struct ScoringArgs {
     /// Warn when the score is >= this (default: the model's default threshold stored in its blob,
     /// printed at start; for blobs without one, 2.0 for DRL = r*/2, half the score range for
     /// MSRA/GSSM).
-    #[arg(long, value_parser = cli_values::finite_f32)]
+    #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
     pub threshold: Option<f32>,
     /// Warning level 2 (urgent) when the score is >= this.
-    #[arg(long, value_parser = cli_values::finite_f32)]
+    #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
     pub urgent: Option<f32>,
     /// Release a warning when the score falls below threshold - hysteresis (>= 0).
     #[arg(long, default_value_t = 0.0, value_parser = cli_values::non_negative_f32)]

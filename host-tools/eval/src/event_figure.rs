@@ -9,7 +9,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::palette::{MethodStyle, Palette};
-use super::plots::{captioned, draw_legend_strip, draw_styled, render, DrawResult, Picture};
+use super::plots::{
+    caption_height, captioned, draw_legend_strip, draw_styled, render, DrawResult, Picture,
+};
 use super::plots::{ImageFormat, PlotError};
 use super::protocol::{first_alert, NO_CONFLICT_RISK};
 use super::scoring::{observe_frames, Method, ObservedSequence};
@@ -33,14 +35,20 @@ pub struct MethodTrace {
 pub struct EventPicture {
     pub event: Event,
     pub methods: Vec<MethodTrace>,
+    /// Which models scored it, when that needs saying (printed under the caption).
+    pub note: Option<String>,
 }
 
 /// Width of an event picture in pixels, and the heights of its parts.
 const WIDTH: u32 = 1100;
 const MAP_HEIGHT: u32 = 520;
 const STRIP_HEIGHT: u32 = 150;
-const HEAD_HEIGHT: u32 = 64;
-const LEGEND_HEIGHT: u32 = 56;
+/// Room for the map's y labels: world coordinates can have seven digits and a decimal.
+const MAP_Y_LABELS: u32 = 96;
+/// Left edge of the map's key, clear of the y labels.
+const KEY_X: i32 = MAP_Y_LABELS as i32 + 28;
+/// Legend entries per row at this width (see `plots::draw_legend_strip`).
+const LEGEND_PER_ROW: usize = (WIDTH as usize - 32) / 190;
 
 impl EventPicture {
     /// Scores `event` with every method (through scorer-core) and finds each first warning at the
@@ -74,6 +82,7 @@ impl EventPicture {
         EventPicture {
             event,
             methods: traces,
+            note: None,
         }
     }
 
@@ -82,7 +91,10 @@ impl EventPicture {
         let strips = self.methods.len().max(1) as u32;
         (
             WIDTH,
-            HEAD_HEIGHT + MAP_HEIGHT + strips * STRIP_HEIGHT + LEGEND_HEIGHT,
+            caption_height(&self.subtitle())
+                + MAP_HEIGHT
+                + strips * STRIP_HEIGHT
+                + legend_height(self.methods.len()),
         )
     }
 
@@ -93,10 +105,33 @@ impl EventPicture {
             .find_map(|m| Some((m.name.as_str(), m.first_warning?)))
     }
 
+    /// The lines under the caption: the endpoint, how risk and warnings are computed, the note.
+    fn subtitle(&self) -> String {
+        let endpoint = match self.event.t_impact {
+            Some(t) if self.event.kind == EventKind::Crash => format!("impact at t = {t:.2} s"),
+            Some(t) => format!("safety-critical moment at t = {t:.2} s"),
+            None => "no endpoint (safe): boxes filled at the last frame".to_owned(),
+        };
+        let mut text = format!(
+            "{endpoint}; time in s\nrisk R as scored by riskctl evaluate (scorer-core); first \
+             warning = first frame with R >= threshold up to the endpoint"
+        );
+        if let Some(note) = &self.note {
+            text.push('\n');
+            text.push_str(note);
+        }
+        text
+    }
+
     /// The picture as an SVG or PNG file's bytes.
     pub fn render(&self, format: ImageFormat) -> Result<Vec<u8>, PlotError> {
         render(&self.event.id, format, self.size(), self)
     }
+}
+
+/// Height of the legend strip for `n` methods (every entry shown).
+fn legend_height(n: usize) -> u32 {
+    22 + 22 * n.div_ceil(LEGEND_PER_ROW).max(1) as u32
 }
 
 /// A score as drawn: no conflict and no score are gaps.
@@ -115,28 +150,17 @@ const PARTNER: RGBColor = RGBColor(200, 40, 60);
 impl Picture for EventPicture {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
         let ev = &self.event;
-        let endpoint = match ev.t_impact {
-            Some(t) => format!(
-                "{} at t = {t:.2} s",
-                if ev.kind == EventKind::Crash {
-                    "impact"
-                } else {
-                    "safety-critical moment"
-                }
-            ),
-            None => "no endpoint (safe): boxes at the last frame".to_owned(),
-        };
         let body = captioned(
             root,
             &format!("event {} ({})", ev.id, ev.kind.as_str()),
-            &format!(
-                "{endpoint}; time in s; risk as scored by riskctl evaluate (scorer-core); first \
-                 warning = first frame with R >= threshold up to the endpoint"
-            ),
+            &self.subtitle(),
         )?;
         let (map, rest) = body.split_vertically(MAP_HEIGHT);
-        let (strips, legend) =
-            rest.split_vertically(rest.dim_in_pixel().1.saturating_sub(LEGEND_HEIGHT));
+        let (strips, legend) = rest.split_vertically(
+            rest.dim_in_pixel()
+                .1
+                .saturating_sub(legend_height(self.methods.len())),
+        );
         self.draw_map(&map)?;
         let mut palette = Palette::for_methods(self.methods.iter().map(|m| m.name.as_str()));
         let (t0, t1) = time_range(ev);
@@ -168,7 +192,7 @@ impl EventPicture {
         let mut chart = ChartBuilder::on(area)
             .margin(12)
             .x_label_area_size(40)
-            .y_label_area_size(60)
+            .y_label_area_size(MAP_Y_LABELS)
             .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
         chart
             .configure_mesh()
@@ -232,14 +256,14 @@ impl EventPicture {
             (PARTNER, "partner path"),
         ] {
             area.draw(&PathElement::new(
-                [(80, y + 7), (104, y + 7)],
+                [(KEY_X, y + 7), (KEY_X + 24, y + 7)],
                 colour.stroke_width(3),
             ))?;
-            area.draw_text(what, &text, (112, y))?;
+            area.draw_text(what, &text, (KEY_X + 32, y))?;
             y += 18;
         }
         for (_, what) in labels {
-            area.draw_text(&what, &text, (80, y))?;
+            area.draw_text(&what, &text, (KEY_X, y))?;
             y += 18;
         }
         Ok(())
@@ -323,12 +347,19 @@ fn axis_name(name: &str) -> String {
     }
 }
 
-/// The time axis: the event's frames (at least 1 s wide).
+/// The time axis: the event's frames and its endpoint, at least 1 s wide (a shorter span is
+/// centred in a 1 s window).
 fn time_range(ev: &Event) -> (f64, f64) {
-    let t0 = ev.frames.first().map_or(0.0, |f| f.time);
-    let t1 = ev.frames.last().map_or(1.0, |f| f.time);
+    let times = ev.frames.iter().map(|f| f.time).chain(ev.t_impact);
+    let (t0, t1) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+        (lo.min(t), hi.max(t))
+    });
+    if !(t0.is_finite() && t1.is_finite()) {
+        return (0.0, 1.0);
+    }
     if t1 - t0 < 1.0 {
-        (t0 - 0.5, t0 + 0.5)
+        let mid = 0.5 * (t0 + t1);
+        (mid - 0.5, mid + 0.5)
     } else {
         (t0, t1)
     }
@@ -383,7 +414,7 @@ fn map_ranges(ev: &Event, (width, height): (u32, u32)) -> ((f64, f64), (f64, f64
     let (x0, x1, y0, y1) = (x0 - 3.0, x1 + 3.0, y0 - 3.0, y1 + 3.0);
     // Metres per pixel of the plotting area (less the axis label areas), equal on both axes.
     let (w, h) = (
-        f64::from(width.saturating_sub(96).max(1)),
+        f64::from(width.saturating_sub(MAP_Y_LABELS + 36).max(1)),
         f64::from(height.saturating_sub(64).max(1)),
     );
     let scale = ((x1 - x0) / w).max((y1 - y0) / h);
@@ -442,6 +473,31 @@ mod tests {
         assert_eq!(c[0], (9.0, 7.0));
         assert_eq!(c[1], (11.0, 7.0));
         assert_eq!(c[2], (11.0, 3.0));
+    }
+
+    #[test]
+    fn the_time_axis_holds_every_frame_and_the_endpoint() {
+        let frame = |time| riskscore_data::events::Frame {
+            time,
+            ..Default::default()
+        };
+        let mut ev = Event {
+            id: "e".into(),
+            kind: EventKind::Crash,
+            t_start: 1.8,
+            t_end: 2.7,
+            t_impact: Some(2.75),
+            dims: Default::default(),
+            frames: (18..=27).map(|k| frame(f64::from(k) / 10.0)).collect(),
+        };
+        let (a, b) = time_range(&ev);
+        assert!(
+            a <= 1.8 && b >= 2.75 && (b - a - 1.0).abs() < 1e-9,
+            "{a}..{b}"
+        );
+        ev.t_impact = None;
+        ev.frames = (0..=40).map(|k| frame(f64::from(k) / 10.0)).collect();
+        assert_eq!(time_range(&ev), (0.0, 4.0));
     }
 
     #[test]

@@ -244,21 +244,25 @@ pub(crate) type UnitChart<'a, DB> = ChartContext<
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
-/// Splits off a caption line and a smaller note line under it; returns the area below.
+/// Height in pixels of a caption with `note` under it (one line per `\n`-separated line).
+pub(crate) fn caption_height(note: &str) -> u32 {
+    46 + 18 * note.lines().count().max(1) as u32
+}
+
+/// Splits off a caption line and smaller note lines under it; returns the area below.
 pub(crate) fn captioned<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     caption: &str,
     note: &str,
 ) -> Result<DrawingArea<DB, Shift>, DrawingAreaErrorKind<DB::ErrorType>> {
-    let (head, body) = root.split_vertically(64);
+    let (head, body) = root.split_vertically(caption_height(note));
     head.draw_text(caption, &(FONT, 24).into_text_style(&head), (16, 8))?;
-    head.draw_text(
-        note,
-        &(FONT, 15)
-            .into_text_style(&head)
-            .color(&RGBColor(80, 80, 80)),
-        (16, 40),
-    )?;
+    let style = (FONT, 15)
+        .into_text_style(&head)
+        .color(&RGBColor(80, 80, 80));
+    for (i, line) in note.lines().enumerate() {
+        head.draw_text(line, &style, (16, 40 + 18 * i as i32))?;
+    }
     Ok(body)
 }
 
@@ -546,5 +550,43 @@ mod tests {
         assert!(svg.contains("the test&apos;s scores") || svg.contains("the test's scores"));
         let png = std::fs::read(dir.path().join("pr.png")).unwrap();
         assert_eq!(&png[..4], b"\x89PNG");
+    }
+
+    /// A method's stroke colour in an SVG, as plotters writes it.
+    fn stroke_of(name: &str) -> String {
+        let (r, g, b) = Palette::new().style(name).rgb;
+        format!("stroke=\"#{r:02X}{g:02X}{b:02X}\"")
+    }
+
+    #[test]
+    fn a_method_keeps_its_colour_whatever_its_row() {
+        let seqs = vec![
+            seq("c", EventKind::Crash, Some(2.0), &[1.0, 2.0, 3.0]),
+            seq("s", EventKind::Safe, None, &[0.0, 2.5]),
+        ];
+        let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
+        let svg_of = |names: &[&str]| {
+            let curves: Vec<(String, WarningCurve)> = names
+                .iter()
+                .map(|n| ((*n).to_owned(), curve.clone()))
+                .collect();
+            let files = curve_figures(&curves, "test").unwrap();
+            String::from_utf8(files[0].bytes.clone()).unwrap()
+        };
+        let alone = svg_of(&["DRL"]);
+        let second = svg_of(&["TAdv", "DRL"]);
+        for svg in [&alone, &second] {
+            assert!(
+                svg.contains(&stroke_of("DRL")),
+                "DRL is drawn in its colour"
+            );
+        }
+        assert!(second.contains(&stroke_of("TAdv")));
+        // Two identical extras both show: different colours.
+        let twins = svg_of(&["drl-a", "drl-b"]);
+        assert!(twins.contains(&stroke_of("drl-a")));
+        let mut palette = Palette::for_methods(["drl-a"]);
+        let (r, g, b) = palette.style("drl-b").rgb;
+        assert!(twins.contains(&format!("stroke=\"#{r:02X}{g:02X}{b:02X}\"")));
     }
 }

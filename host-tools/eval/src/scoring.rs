@@ -128,11 +128,13 @@ pub fn kind_row_name(kind: ModelKind) -> &'static str {
 }
 
 /// Row name of a decoded model: [`kind_row_name`], except that a GSSM blob scoring the spacing CDF
-/// (`GssmScore::Cdf` / `Logit`, the fine-tuned SSRA risk) is `SSRA`; the GSSM baseline reports its
-/// intensity (`GssmScore::Intensity`).
+/// (`GssmScore::Cdf` / `Logit`, the fine-tuned SSRA risk) is `SSRA` (the GSSM baseline reports its
+/// intensity, `GssmScore::Intensity`), and an MSRA with an embedded GSSM term is `MSRA-GSSM`: each
+/// method of the paper has its own name, so its own colour in every figure.
 pub fn model_row_name(model: &Model<'_>) -> &'static str {
     match model {
         Model::Gssm(g) if g.score != GssmScore::Intensity => "SSRA",
+        Model::Msra(m) if m.gssm.is_some() => "MSRA-GSSM",
         m => kind_row_name(m.kind()),
     }
 }

@@ -237,7 +237,9 @@ pub fn calibrate_safe_share(maxima: &[f32], target: f64) -> Option<Calibration> 
     }
     let mut sorted: Vec<f32> = maxima.iter().copied().filter(|m| !m.is_nan()).collect();
     sorted.sort_by(|a, b| b.total_cmp(a));
-    let allowed = (target.clamp(0.0, 1.0) * sequences as f64).floor() as usize;
+    // A little room before flooring: 0.29 * 100 is 28.999999999999996 in f64, and 29 of 100
+    // sequences are allowed to warn at a 29 % target.
+    let allowed = (target.clamp(0.0, 1.0) * sequences as f64 + 1e-9).floor() as usize;
     // Walk the distinct maxima from the largest down; `warned` sequences reach each one.
     let mut chosen: Option<(f32, usize)> = None;
     let mut warned = 0;
@@ -298,6 +300,14 @@ mod tests {
         let c = calibrate_safe_share(&tied, 0.2).unwrap();
         assert!(c.threshold > 5.0 && c.measured == 0.0);
         assert!(calibrate_safe_share(&[], 0.1).is_none());
+        // A percentage that is not exact in binary: 29 % of 100 allows 29 (29 / 100 = 0.29 is
+        // 0.28999... once multiplied back).
+        let hundred: Vec<f32> = (1..=100).map(|k| k as f32).collect();
+        for percent in [29.0, 57.0, 58.0] {
+            let c = calibrate_safe_share(&hundred, percent / 100.0).unwrap();
+            assert_eq!(c.threshold, 101.0 - percent as f32, "{percent} %");
+            assert!((c.measured - percent / 100.0).abs() < 1e-12);
+        }
     }
 
     #[test]

@@ -26,8 +26,15 @@ pub struct ManArgs {
 }
 
 pub fn run(args: Args, mut command: clap::Command) -> anyhow::Result<()> {
-    clap_complete::generate(args.shell, &mut command, "riskctl", &mut std::io::stdout());
-    Ok(())
+    use std::io::Write as _;
+    // Generated into memory first: clap_complete panics when its writer fails, and a reader that
+    // closes the pipe early (`| head`) is normal for a filter.
+    let mut script = Vec::new();
+    clap_complete::generate(args.shell, &mut command, "riskctl", &mut script);
+    match std::io::stdout().write_all(&script) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
 }
 
 pub fn man(args: ManArgs, command: clap::Command) -> anyhow::Result<()> {

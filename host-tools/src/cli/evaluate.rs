@@ -80,7 +80,11 @@ pub struct Args {
     /// Report the model rows at this threshold (`T`, default: each model's own default
     /// threshold), one row at it (`NAME=T`, baselines too), or `none` (repeatable; later ones
     /// win for the same row). See the operating points below.
-    #[arg(long = "threshold", value_name = "T|NAME=T|default|none")]
+    #[arg(
+        long = "threshold",
+        value_name = "T|NAME=T|default|none",
+        allow_negative_numbers = true
+    )]
     thresholds: Vec<String>,
     /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
     /// events of the folder).
@@ -207,7 +211,13 @@ pub(super) fn operating_thresholds(
                     "default" => None,
                     text => Some(Some(value(text, spec)?)),
                 };
-                for (row, slot) in chosen.iter_mut().enumerate().take(files.len()) {
+                // `none` clears every row; a value or `default` applies to the model rows.
+                let rows = if all == Some(None) {
+                    methods.len()
+                } else {
+                    files.len()
+                };
+                for (row, slot) in chosen.iter_mut().enumerate().take(rows) {
                     *slot = all.unwrap_or_else(|| default_of(row));
                 }
             }

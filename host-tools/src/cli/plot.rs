@@ -27,8 +27,9 @@ its R units: --threshold TTC2D=-1.5 warns at TTC2D <= 1.5 s).
 Examples:
   riskctl plot --events data/ngsim-us101-safe --event 'USA_US101-10_1_T-1/529-558@0#0' \\
                --model models/drl-default.rsk --out event.svg
-  riskctl plot --events sim/ --event crash-0003 --model models/msra-default.rsk \\
-               --threshold TTC2D=-1.5 --out crash-0003.png";
+  riskctl simulate --out sim --seed 7
+  riskctl plot --events sim --event 000003 --model models/msra-default.rsk \\
+               --threshold TTC2D=-1.5 --out 000003.png";
 
 /// Draw one event: both road users' paths, and every method's risk over time.
 #[derive(clap::Args, Debug)]
@@ -45,7 +46,11 @@ pub struct Args {
     #[arg(long = "model", value_name = "[NAME=]FILE")]
     models: Vec<String>,
     /// Threshold per method: `T` (every model), `NAME=T`, `default` or `none` (as in `evaluate`).
-    #[arg(long = "threshold", value_name = "T|NAME=T|default|none")]
+    #[arg(
+        long = "threshold",
+        value_name = "T|NAME=T|default|none",
+        allow_negative_numbers = true
+    )]
     thresholds: Vec<String>,
     /// Output image: `.svg` or `.png`. Written under a temporary name and renamed into place;
     /// an input file is refused.

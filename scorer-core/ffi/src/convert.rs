@@ -168,6 +168,10 @@ pub(crate) fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> Risks
             info.found = u32::from(*tag);
             RiskscoreStatus::ModelInvalid
         }
+        ModelError::BadRecord { field: name, .. } => {
+            field(name);
+            RiskscoreStatus::ModelInvalid
+        }
         // Encoding-only errors and variants added to the core later.
         _ => RiskscoreStatus::ModelInvalid,
     }

@@ -14,6 +14,8 @@ use super::ModelError;
 pub const DEFAULT_THRESHOLD_TAG: u8 = 1;
 /// Longest description of the calibration data a blob may carry (bytes of UTF-8).
 pub const MAX_DATA_DESCRIPTION: usize = 200;
+/// Rounding room between a stored measured share and its target (both `f32`).
+const SHARE_TOLERANCE: f32 = 1e-6;
 
 /// How a default threshold was chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -51,14 +53,27 @@ impl DefaultThreshold<'_> {
             target, measured, ..
         } = self.rule
         {
-            for (index, share) in [target, measured].into_iter().enumerate() {
-                if !(0.0..=1.0).contains(&share) {
-                    return Err(ModelError::NonFinite {
-                        field: "default_threshold.rule",
-                        index,
-                    });
-                }
+            if !((0.0..=1.0).contains(&target) && (0.0..=1.0).contains(&measured)) {
+                return Err(ModelError::BadRecord {
+                    field: "default_threshold.rule",
+                    reason: "target and measured shares must lie in [0, 1]",
+                });
             }
+            // The rule allows at most the target share; a little room for the f32 rounding.
+            if measured > target + SHARE_TOLERANCE {
+                return Err(ModelError::BadRecord {
+                    field: "default_threshold.rule",
+                    reason: "the measured share exceeds the target the rule promises",
+                });
+            }
+        }
+        // The description is printed by tools and logs: no control characters (escape codes,
+        // line breaks) that could forge output.
+        if self.data.chars().any(char::is_control) {
+            return Err(ModelError::BadRecord {
+                field: "default_threshold.data",
+                reason: "control characters are not allowed",
+            });
         }
         if self.data.len() > MAX_DATA_DESCRIPTION {
             return Err(ModelError::CapacityExceeded {
