@@ -191,12 +191,26 @@ fn bad_records_are_refused() {
         model::decode_blob(&blob_with_records(&threshold_record(&over))),
         Err(ModelError::BadRecord { .. })
     ));
-    let mut escape = calibrated(1.0);
-    escape.data = "x\u{1b}]0;title\u{7}\nintegrity OK";
-    assert!(matches!(
-        model::decode_blob(&blob_with_records(&threshold_record(&escape))),
-        Err(ModelError::BadRecord { .. })
-    ));
+    for forged in [
+        "x\u{1b}]0;title\u{7}",
+        "a\nintegrity OK",
+        "csi\u{9b}2J",
+        "del\u{7f}",
+    ] {
+        let mut escape = calibrated(1.0);
+        escape.data = forged;
+        assert!(
+            matches!(
+                model::decode_blob(&blob_with_records(&threshold_record(&escape))),
+                Err(ModelError::BadRecord { .. })
+            ),
+            "{forged:?}"
+        );
+    }
+    // Text that merely is not ASCII is fine.
+    let mut accented = calibrated(1.0);
+    accented.data = "Lankershim \u{e9}t\u{e9} \u{a0}\u{2014} 5 %";
+    assert!(model::decode_blob(&blob_with_records(&threshold_record(&accented))).is_ok());
     // The encoder refuses what the decoder would.
     let bad = ModelBlob {
         model: example_model(),

@@ -69,7 +69,7 @@ impl DefaultThreshold<'_> {
         }
         // The description is printed by tools and logs: no control characters (escape codes,
         // line breaks) that could forge output.
-        if self.data.chars().any(char::is_control) {
+        if has_control_character(self.data) {
             return Err(ModelError::BadRecord {
                 field: "default_threshold.data",
                 reason: "control characters are not allowed",
@@ -165,4 +165,19 @@ impl<'a> ModelMeta<'a> {
         let len = u32::try_from(body).unwrap_or(u32::MAX);
         Ok(1 + postcard::experimental::serialized_size(&len)? + body)
     }
+}
+
+/// True when `text` holds a C0 or C1 control character or DEL (what `char::is_control` means),
+/// found on the UTF-8 bytes: C1 controls are `C2 80`..`C2 9F`. Byte-wise, so the firmware links no
+/// Unicode tables.
+fn has_control_character(text: &str) -> bool {
+    let bytes = text.as_bytes();
+    bytes.iter().enumerate().any(|(i, &b)| {
+        b < 0x20
+            || b == 0x7f
+            || (b == 0xc2
+                && bytes
+                    .get(i + 1)
+                    .is_some_and(|&n| (0x80..=0x9f).contains(&n)))
+    })
 }
