@@ -2,7 +2,7 @@
 //! failed run never leaves half a report behind.
 use std::path::{Path, PathBuf};
 
-use can_codec::output::AtomicSet;
+use riskscore_output::AtomicSet;
 
 use super::report::{write_folds_csv, CvReport, FoldResult};
 

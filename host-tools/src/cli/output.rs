@@ -1,7 +1,7 @@
 //! Where a subcommand's table goes: a file (written to `<FILE>.partial`, renamed when complete,
 //! removed on error), a device or pipe (written directly), or standard output for `-`.
 use anyhow::Context;
-use can_codec::output::is_special_file;
+use riskscore_output::is_special_file;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -72,7 +72,7 @@ fn partial_path(output: &Path) -> PathBuf {
 /// Writes `bytes` to `path` through a temporary file renamed into place when complete: a failed
 /// run leaves the old file as it was.
 pub fn write_file_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let mut out = can_codec::output::AtomicFile::create(path)
+    let mut out = riskscore_output::AtomicFile::create(path)
         .with_context(|| format!("{}: cannot create", path.display()))?;
     out.write_all(bytes)
         .and_then(|()| out.commit())
@@ -94,6 +94,6 @@ pub fn refuse_overwriting_inputs(
         .map(|m| ("--model", m.path.as_path()))
         .collect();
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
-    can_codec::output::refuse_overlaps(&inputs, outputs)?;
+    riskscore_output::refuse_overlaps(&inputs, outputs)?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use can_codec::output::AtomicFile;
+use riskscore_output::AtomicFile;
 
 use super::load::EventsError;
 use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLUMNS};
