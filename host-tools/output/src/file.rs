@@ -170,6 +170,11 @@ impl AtomicSet {
         Ok(self.files.last_mut().expect("just pushed"))
     }
 
+    /// Adds a file created elsewhere, so it is renamed together with the others.
+    pub fn push(&mut self, file: AtomicFile) {
+        self.files.push(file);
+    }
+
     /// Syncs every file, then renames each over its destination; returns the destinations.
     pub fn commit(mut self) -> io::Result<Vec<PathBuf>> {
         let mut synced = Vec::with_capacity(self.files.len());
