@@ -117,6 +117,9 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
             ..PrepareConfig::default()
         },
     };
+    let inputs: Vec<(&str, &std::path::Path)> =
+        a.inputs.iter().map(|p| ("INPUT", p.as_path())).collect();
+    super::output::refuse(&inputs, &[("--out", &a.out)])?;
     let s = import_to_dir(&a.inputs, &a.out, &rules)
         .with_context(|| format!("importing into {}", a.out.display()))?;
     for issue in &s.issues {
