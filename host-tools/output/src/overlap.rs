@@ -208,7 +208,7 @@ mod tests {
         // Contains: the output folder holds the input file.
         let e = refuse_overlaps(
             &[("--model", &events.join("frames.csv"))],
-            &[("--out", &d.path().to_path_buf())],
+            &[("--out", d.path())],
         )
         .unwrap_err();
         assert_eq!(e.overlap, Overlap::Contains);
