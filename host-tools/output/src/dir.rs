@@ -57,6 +57,8 @@ impl OutputDir {
         let tmp = tempfile::Builder::new()
             .prefix(prefix.file_name().unwrap_or_default())
             .suffix(".tmp")
+            // What `create_dir` would give (0o777 less the umask), not tempfile's 0o700.
+            .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777))
             .tempdir_in(parent)
             .map_err(|e| err(target, "cannot create a temporary folder beside it", e))?
             .keep();
@@ -89,6 +91,9 @@ impl OutputDir {
                 if std::fs::symlink_metadata(&new).is_err() {
                     carry(&e.path(), &new).map_err(|x| err(&e.path(), "cannot keep", x))?;
                 }
+            }
+            if let Ok(m) = std::fs::metadata(&target) {
+                let _ = std::fs::set_permissions(&tmp, m.permissions());
             }
             sync_dir(&tmp);
             let aside = tempfile::Builder::new()

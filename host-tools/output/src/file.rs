@@ -2,6 +2,7 @@
 //! only on commit.
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 
 use tempfile::NamedTempFile;
@@ -36,11 +37,17 @@ pub struct AtomicFile {
 pub(crate) fn temp_beside(dest: &Path) -> io::Result<NamedTempFile> {
     let prefix = hidden_name(dest, ".")?;
     let prefix = prefix.file_name().unwrap_or_default().to_os_string();
+    // The mode a plain `File::create` would give (0o666 less the umask), not tempfile's 0o600;
+    // a file that is replaced keeps its own mode.
     let tmp = tempfile::Builder::new()
         .prefix(&prefix)
         .suffix(".tmp")
+        .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(parent_of(dest))?;
     crate::cleanup::register(tmp.path());
+    if let Ok(old) = std::fs::metadata(dest) {
+        tmp.as_file().set_permissions(old.permissions())?;
+    }
     Ok(tmp)
 }
 
@@ -238,6 +245,21 @@ mod tests {
         f.commit().unwrap();
         assert_eq!(std::fs::read_to_string(&dest).unwrap(), "new");
         assert_eq!(names(d.path()), ["out.log"]);
+        // A replaced file keeps its mode; a new one is readable like File::create's.
+        std::fs::set_permissions(&dest, std::fs::Permissions::from_mode(0o640)).unwrap();
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"newer").unwrap();
+        f.commit().unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&dest), 0o640);
+        let fresh = d.path().join("fresh.log");
+        AtomicFile::create(&fresh).unwrap().commit().unwrap();
+        assert_ne!(
+            mode(&fresh) & 0o044,
+            0,
+            "new file is private: {:o}",
+            mode(&fresh)
+        );
     }
 
     #[test]
