@@ -125,10 +125,13 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
     for issue in &s.issues {
         eprintln!("riskctl: skipped: {issue}");
     }
-    print_summary(&s, &a);
     if s.files == 0 {
-        bail!("no scenario file could be read");
+        bail!(
+            "no scenario file could be read: nothing written, {} left as it was",
+            a.out.display()
+        );
     }
+    print_summary(&s, &a);
     Ok(())
 }
 
