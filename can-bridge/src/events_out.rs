@@ -1,6 +1,6 @@
 //! The bridge's human- and machine-readable outputs: JSON Lines warning events and the status line.
 use crate::engine::{Output, Stats};
-use can_codec::output::AtomicFile;
+use riskscore_output::AtomicFile;
 use std::io::Write;
 
 /// Seconds with microsecond precision, as JSON numbers.

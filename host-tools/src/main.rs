@@ -60,6 +60,10 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    // Ctrl-C / SIGTERM: remove the output layer's temporaries, leave old outputs as they were.
+    if let Err(e) = riskscore_output::remove_temporaries_on_signals() {
+        eprintln!("riskctl: warning: cannot install the Ctrl-C handler: {e}");
+    }
     let result = match cli.command {
         Command::Ssm(a) => cli::ssm::run(a),
         Command::Simulate(a) => cli::simulate::run(a),

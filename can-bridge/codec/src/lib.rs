@@ -7,14 +7,11 @@
 //! - [`dbc`]: a DBC file (parsed by `can-dbc`) compiled into messages and signals, with
 //!   multiplexing.
 //! - [`e2e`]: end-to-end protection (4-bit alive counter + CRC-8 SAE J1850 over data id and payload).
-//! - [`output`]: output files written through a temporary file, and refused when they name an
-//!   input.
 //! - [`project`]: the project's own DBC and the names the bridge and exporter use.
 pub mod candump;
 pub mod dbc;
 pub mod e2e;
 pub mod frame;
-pub mod output;
 pub mod project;
 pub mod signal;
 

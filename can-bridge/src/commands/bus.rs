@@ -8,7 +8,7 @@ use crate::engine::Engine;
 use crate::events_out::ProblemPrinter;
 use crate::model_file::ModelFile;
 use crate::{live, losses, monitor, replay};
-use can_codec::output::{refuse_overlaps, NamedPath};
+use riskscore_output::{refuse_overlaps, NamedPath};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Duration;

@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
 
 use super::args::CheckArgs;
 use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};

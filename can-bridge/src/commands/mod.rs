@@ -28,7 +28,7 @@ use crate::losses::TooMuchLost;
 use crate::model_file::ModelFileError;
 use crate::replay::ReplayError;
 use crate::socket::SocketError;
-use can_codec::output::SamePathError;
+use riskscore_output::SamePathError;
 
 /// How a command failed; the exit code follows from the kind ([`Failure::exit_code`]).
 #[derive(Debug, thiserror::Error)]

@@ -9,7 +9,7 @@ use crate::events_out::ProblemPrinter;
 use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
-use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
 use std::io::Write;
 use std::time::Instant;
 

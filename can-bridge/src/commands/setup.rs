@@ -5,8 +5,8 @@ use crate::engine::{EngineConfig, Stats};
 use crate::events_out::{EventWriter, Sink};
 use crate::map::{CompiledMap, MapError, MapFile, DEFAULT_MAP};
 use crate::model_file::{ModelFile, ModelFileError};
-use can_codec::output::{AtomicFile, NamedPath};
 use can_codec::{CanId, Database, DbcError, DbcFileError};
+use riskscore_output::{AtomicFile, NamedPath};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //! failed run never leaves half a report behind.
 use std::path::{Path, PathBuf};
 
-use can_codec::output::AtomicSet;
+use riskscore_output::OutputDir;
 
 use super::report::{write_folds_csv, CvReport, FoldResult};
 
@@ -80,22 +80,20 @@ impl ReportBundle {
         Ok(())
     }
 
-    /// Writes every file into `dir` (created if needed) through temporary files, renamed into place
-    /// only when all are written; returns their paths in bundle order.
+    /// Writes every file into `dir` as a whole ([`OutputDir`]): a new folder beside it is written
+    /// complete, then swapped in (files of the old folder the bundle does not write are kept).
+    /// On error the old folder is untouched. Returns the paths in bundle order.
     pub fn write_to(&self, dir: &Path) -> Result<Vec<PathBuf>, BundleError> {
         let io = |path: &Path| {
             let path = path.to_path_buf();
             move |source| BundleError::Io { path, source }
         };
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
-        let mut set = AtomicSet::default();
+        let out = OutputDir::create(dir).map_err(io(dir))?;
         for f in &self.files {
-            let path = dir.join(&f.name);
-            set.create(&path)
-                .and_then(|w| std::io::Write::write_all(w, &f.bytes))
-                .map_err(io(&path))?;
+            std::fs::write(out.path().join(&f.name), &f.bytes).map_err(io(&dir.join(&f.name)))?;
         }
-        set.commit().map_err(io(dir))
+        out.commit().map_err(io(dir))?;
+        Ok(self.files.iter().map(|f| dir.join(&f.name)).collect())
     }
 }
 

@@ -143,6 +143,6 @@ fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
         .collect();
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", args.model.as_path())];
     inputs.extend(event_files.iter().map(|p| ("--normal", p.as_path())));
-    can_codec::output::refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
+    riskscore_output::refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
     Ok(())
 }

@@ -294,9 +294,8 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     super::output::refuse_overwriting_inputs(models, events, &outputs)
 }
 
-/// Writes every `--out` file; all of them are renamed into place only when all are written.
+/// Writes the `--out` folder as a whole: a complete new folder is swapped in for the old one.
 fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     let mut panels = Vec::new();
     if let Some(mut trajectories) = folder.trajectories {
         if let Some(id) = trajectories.unknown.first() {

@@ -1,9 +1,9 @@
 //! `riskctl events-to-candump`: an event folder as 10 Hz CAN traffic in candump -L format.
 use anyhow::{bail, Context};
-use can_codec::output::{refuse_overlaps, AtomicFile, NamedPath};
 use riskscore_data::candump_export::{
     write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US,
 };
+use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
 use std::path::PathBuf;
 
 /// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format.

@@ -31,6 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .file
         .or(args.checkpoint)
         .context("no checkpoint given")?;
+    super::output::refuse(&[("CHECKPOINT", &checkpoint)], &[("--out", &args.out)])?;
     let ck = Checkpoint::load(&checkpoint)?;
     let format = if args.f32 {
         DrlFormat::F32

@@ -232,7 +232,29 @@ fn print_weights(name: &str, weights: &[TermWeight]) {
     print!("{}", weights_table(name, weights));
 }
 
+/// Refuses an output file that is, or lies inside, one of the inputs of `common` (event files,
+/// configurations) or `more`.
+fn refuse_inputs(common: &Common, more: &[(&str, &Path)], out: &Path) -> anyhow::Result<()> {
+    let mut files = Vec::new();
+    for dir in common.events.iter().chain(&common.normal) {
+        files.push(("--events", dir.join(riskscore_data::events::EVENTS_FILE)));
+        files.push(("--events", dir.join(riskscore_data::events::FRAMES_FILE)));
+    }
+    for (flag, f) in [
+        ("--config", &common.config),
+        ("--gssm-config", &common.gssm_config),
+    ] {
+        if let Some(f) = f {
+            files.push((flag, f.clone()));
+        }
+    }
+    let mut inputs: Vec<(&str, &Path)> = files.iter().map(|(f, p)| (*f, p.as_path())).collect();
+    inputs.extend_from_slice(more);
+    super::output::refuse(&inputs, &[("--out", out)])
+}
+
 fn run_fit(a: FitArgs) -> anyhow::Result<()> {
+    refuse_inputs(&a.common, &[], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -260,6 +282,7 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
 }
 
 fn run_align(a: AlignArgs) -> anyhow::Result<()> {
+    refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -288,6 +311,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
 }
 
 fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
+    refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),

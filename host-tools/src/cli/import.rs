@@ -117,15 +117,21 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
             ..PrepareConfig::default()
         },
     };
+    let inputs: Vec<(&str, &std::path::Path)> =
+        a.inputs.iter().map(|p| ("INPUT", p.as_path())).collect();
+    super::output::refuse(&inputs, &[("--out", &a.out)])?;
     let s = import_to_dir(&a.inputs, &a.out, &rules)
         .with_context(|| format!("importing into {}", a.out.display()))?;
     for issue in &s.issues {
         eprintln!("riskctl: skipped: {issue}");
     }
-    print_summary(&s, &a);
     if s.files == 0 {
-        bail!("no scenario file could be read");
+        bail!(
+            "no scenario file could be read: nothing written, {} left as it was",
+            a.out.display()
+        );
     }
+    print_summary(&s, &a);
     Ok(())
 }
 

@@ -1,10 +1,11 @@
-//! Where a subcommand's table goes: a file (written to `<FILE>.partial`, renamed when complete,
-//! removed on error), a device or pipe (written directly), or standard output for `-`.
+//! Where a subcommand's output goes: a file (through riskscore-output: a unique temporary beside
+//! it, renamed when complete, removed on error or Ctrl-C), a device or pipe (written directly), or
+//! standard output for `-`.
 use anyhow::Context;
-use can_codec::output::is_special_file;
-use std::fs::File;
+use riskscore_output::is_special_file;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
 
 /// `-` names standard input or output.
 pub fn is_dash(p: &Path) -> bool {
@@ -35,21 +36,37 @@ pub fn write_output<T>(
             .with_context(|| format!("cannot open output {}", path.display()))?;
         return write(Box::new(BufWriter::with_capacity(1 << 16, file))).map(Some);
     }
-    let partial = partial_path(path);
-    let file = File::create(&partial)
-        .with_context(|| format!("cannot create output {}", partial.display()))?;
-    match write(Box::new(BufWriter::with_capacity(1 << 16, file))) {
-        Ok(v) => {
-            std::fs::rename(&partial, path).with_context(|| {
-                format!("cannot move {} to {}", partial.display(), path.display())
-            })?;
-            Ok(Some(v))
-        }
-        Err(e) => {
-            // Never leave a half-written file that looks like a result.
-            let _ = std::fs::remove_file(&partial);
-            Err(e)
-        }
+    // A unique temporary beside the file, locked against a second writer, renamed into place
+    // only when `write` succeeded (riskscore-output).
+    let file = riskscore_output::AtomicFile::create(path)
+        .with_context(|| format!("cannot create output {}", path.display()))?;
+    let shared = Shared(Arc::new(Mutex::new(file)));
+    let v = write(Box::new(Shared(Arc::clone(&shared.0))))?;
+    let file = Arc::try_unwrap(shared.0)
+        .map_err(|_| anyhow::anyhow!("{}: the output is still in use", path.display()))?
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner());
+    file.commit()
+        .with_context(|| format!("cannot write output {}", path.display()))?;
+    Ok(Some(v))
+}
+
+/// The output file, shared between the writer handed to the command and [`write_output`], which
+/// commits it when the command is done.
+struct Shared(Arc<Mutex<riskscore_output::AtomicFile>>);
+
+impl Write for Shared {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).write(buf)
+    }
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .write_all(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).flush()
     }
 }
 
@@ -62,17 +79,14 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// `<output>.partial` next to the output file.
-fn partial_path(output: &Path) -> PathBuf {
-    let mut name = output.as_os_str().to_owned();
-    name.push(".partial");
-    PathBuf::from(name)
-}
-
 /// Writes `bytes` to `path` through a temporary file renamed into place when complete: a failed
 /// run leaves the old file as it was.
 pub fn write_file_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let mut out = can_codec::output::AtomicFile::create(path)
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("{}: cannot create", parent.display()))?;
+    }
+    let mut out = riskscore_output::AtomicFile::create(path)
         .with_context(|| format!("{}: cannot create", path.display()))?;
     out.write_all(bytes)
         .and_then(|()| out.commit())
@@ -94,6 +108,12 @@ pub fn refuse_overwriting_inputs(
         .map(|m| ("--model", m.path.as_path()))
         .collect();
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
-    can_codec::output::refuse_overlaps(&inputs, outputs)?;
+    riskscore_output::refuse_overlaps(&inputs, outputs)?;
+    Ok(())
+}
+
+/// Refuses `outputs` that are, contain or lie inside one of `inputs` (`-` is skipped).
+pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    riskscore_output::refuse_overlaps(inputs, outputs)?;
     Ok(())
 }

@@ -84,7 +84,7 @@ fn sink<W: std::io::Write + Send>(out: W, parquet: bool) -> BatchSink<W> {
     }
 }
 
-/// True for an output that can be written twice: a regular file (written to `.partial` and
+/// True for an output that can be written twice: a regular file (written to a temporary and
 /// renamed), not standard output, a pipe or a device, where a discarded first attempt would
 /// already have been read.
 fn restartable(out: &Path) -> bool {
@@ -96,6 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let files = ModelFile::read_all(&args.models)?;
     let methods = named_models(&files)?;
     let dir = &args.events;
+    super::output::refuse_overwriting_inputs(&files, dir, &[("--out", &args.out)])?;
     let parquet = is_parquet(&args.out);
 
     let mut scored = None;

@@ -50,7 +50,8 @@ BAD ROWS:
 
   The file is streamed in chunks of whole rows, scored in parallel (--threads, default one
   per core) and written in input order, so memory use does not depend on its size. A regular
-  output file is written to <OUTPUT>.partial and renamed when complete.
+  output file is written to a unique hidden temporary beside it and renamed when complete;
+  an output that is the input is refused, and so is a second run writing the same output.
 
 PARQUET:
   An input or output path ending in .parquet is Apache Parquet, anything else CSV (any mix).
@@ -101,6 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         threads: args.threads,
     };
     let mut report = BadRowReport::new(args.show_bad);
+    super::output::refuse(&[("--input", &args.input)], &[("--output", &args.output)])?;
     let columnar = is_parquet(&args.input) || is_parquet(&args.output);
     let summary = write_output(&args.output, |out| {
         if columnar {

@@ -205,10 +205,14 @@ pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ExportError> {
             })?;
         }
     }
-    std::fs::write(path, blob).map_err(|source| ExportError::Io {
+    // Through the output layer: a unique temporary beside `path`, renamed over it when complete.
+    let io = |source| ExportError::Io {
         path: path.display().to_string(),
         source,
-    })
+    };
+    let mut f = riskscore_output::AtomicFile::create(path).map_err(io)?;
+    std::io::Write::write_all(&mut f, blob).map_err(io)?;
+    f.commit().map_err(io)
 }
 
 /// Decode a blob (header, CRC, payload, validation) and describe it for humans.

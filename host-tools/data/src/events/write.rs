@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use can_codec::output::AtomicFile;
+use riskscore_output::{AtomicFile, AtomicSet};
 
 use super::load::EventsError;
 use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLUMNS};
@@ -122,6 +122,12 @@ impl EventWriter {
     /// Flushes both files and renames them into place (`events.csv` first). Without `finish` (an
     /// error, a panic) the folder keeps its previous files.
     pub fn finish(self) -> Result<(), EventsError> {
+        self.finish_with(Vec::new())
+    }
+
+    /// Like [`EventWriter::finish`], with more files of the same folder (`scenarios.csv`): every
+    /// file is flushed and synced before any is renamed into place.
+    pub fn finish_with(self, extra: Vec<AtomicFile>) -> Result<(), EventsError> {
         let (ep, fp) = (self.dir.join(EVENTS_FILE), self.dir.join(FRAMES_FILE));
         let events = self
             .events
@@ -131,8 +137,17 @@ impl EventWriter {
             .frames
             .into_inner()
             .map_err(|e| io_err(&fp, e.into_error()))?;
-        events.commit().map_err(|e| io_err(&ep, e))?;
-        frames.commit().map_err(|e| io_err(&fp, e))
+        let mut set = AtomicSet::default();
+        set.push(events);
+        set.push(frames);
+        extra.into_iter().for_each(|f| set.push(f));
+        // The set's errors name the file.
+        set.commit().map(drop).map_err(|e| io_err(&self.dir, e))
+    }
+
+    /// The folder being written.
+    pub fn dir(&self) -> &Path {
+        &self.dir
     }
 }
 

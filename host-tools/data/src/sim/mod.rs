@@ -494,7 +494,9 @@ pub fn simulate_to_dir(dir: &Path, cfg: &SimConfig) -> Result<SimSummary, SimErr
         path: meta_path.clone(),
         source: e,
     };
-    let mut meta = std::io::BufWriter::new(std::fs::File::create(&meta_path).map_err(meta_io)?);
+    // Through the output layer, like the event files: renamed into place with them, never
+    // truncated in place.
+    let mut meta = riskscore_output::AtomicFile::create(&meta_path).map_err(meta_io)?;
     writeln!(
         meta,
         "event_id,kind,family,ego_class,sur_class,min_gap,max_decel,max_lat_acc,attempts"
@@ -518,8 +520,7 @@ pub fn simulate_to_dir(dir: &Path, cfg: &SimConfig) -> Result<SimSummary, SimErr
         )
         .map_err(meta_io)
     })?;
-    writer.finish()?;
-    meta.flush().map_err(meta_io)?;
+    writer.finish_with(vec![meta])?;
     Ok(summary)
 }
 

@@ -129,7 +129,11 @@ pub fn import_to_dir(
             summary.closeness.push((s.min_gap, s.min_centre_distance));
         }
     }
-    writer.finish()?;
+    // No scenario could be read: nothing to write, so an existing folder is left as it was
+    // (dropping the writer removes its temporaries).
+    if summary.files > 0 {
+        writer.finish()?;
+    }
     summary.elapsed = started.elapsed();
     Ok(summary)
 }

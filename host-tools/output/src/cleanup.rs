@@ -1,0 +1,118 @@
+//! What a Ctrl-C or SIGTERM leaves behind: nothing. Every temporary file, temporary folder and
+//! lock file of the layer is registered here while it exists; [`remove_temporaries_on_signals`]
+//! installs (once) a signal-hook handler thread that removes them, puts a folder moved aside
+//! back, and exits with 130 (SIGINT) or 143 (SIGTERM).
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+#[derive(Debug, PartialEq)]
+enum Undo {
+    /// Remove this file or folder.
+    Remove(PathBuf),
+    /// A folder output moved aside during its swap: put it back at `target` if that is empty.
+    Restore { aside: PathBuf, target: PathBuf },
+}
+
+static PENDING: Mutex<Vec<Undo>> = Mutex::new(Vec::new());
+
+fn pending() -> MutexGuard<'static, Vec<Undo>> {
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+pub(crate) fn register(path: &Path) {
+    pending().push(Undo::Remove(path.to_path_buf()));
+}
+
+pub(crate) fn unregister(path: &Path) {
+    pending().retain(|u| !matches!(u, Undo::Remove(p) if p == path));
+}
+
+pub(crate) fn register_restore(aside: &Path, target: &Path) {
+    pending().push(Undo::Restore {
+        aside: aside.to_path_buf(),
+        target: target.to_path_buf(),
+    });
+}
+
+pub(crate) fn unregister_restore(aside: &Path) {
+    pending().retain(|u| !matches!(u, Undo::Restore { aside: a, .. } if a == aside));
+}
+
+fn undo(u: Undo) {
+    match u {
+        Undo::Remove(p) => {
+            if p.is_dir() {
+                let _ = std::fs::remove_dir_all(&p);
+            } else {
+                let _ = std::fs::remove_file(&p);
+            }
+        }
+        Undo::Restore { aside, target } => {
+            if !target.exists() {
+                let _ = std::fs::rename(&aside, &target);
+            }
+        }
+    }
+}
+
+/// Undoes everything registered, newest first. Holds the registry until the process exits, so
+/// no new temporary can appear behind it.
+fn undo_all() -> MutexGuard<'static, Vec<Undo>> {
+    let mut list = pending();
+    while let Some(u) = list.pop() {
+        undo(u);
+    }
+    list
+}
+
+/// Installs, once per process, the handler that on SIGINT or SIGTERM removes every temporary
+/// and lock file of this layer and exits with 128 + the signal number (130, 143). Call it at the
+/// start of a command-line program that writes files; later calls do nothing.
+pub fn remove_temporaries_on_signals() -> std::io::Result<()> {
+    static INSTALLED: OnceLock<()> = OnceLock::new();
+    if INSTALLED.get().is_some() {
+        return Ok(());
+    }
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])?;
+    std::thread::Builder::new()
+        .name("output-cleanup".into())
+        .spawn(move || {
+            if let Some(sig) = signals.forever().next() {
+                let _held = undo_all();
+                std::process::exit(128 + sig);
+            }
+        })?;
+    let _ = INSTALLED.set(());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn undo_removes_registered_files_and_restores_an_aside_folder() {
+        let d = tempfile::tempdir().unwrap();
+        let tmp = d.path().join(".x.tmp");
+        std::fs::write(&tmp, "half").unwrap();
+        register(&tmp);
+        let (aside, target) = (d.path().join(".out.old"), d.path().join("out"));
+        std::fs::create_dir(&aside).unwrap();
+        std::fs::write(aside.join("kept"), "old").unwrap();
+        register_restore(&aside, &target);
+        // Other tests of this process register too: undo only this test's entries.
+        let mine: Vec<Undo> = {
+            let mut list = pending();
+            let (mine, rest) = list
+                .drain(..)
+                .partition(|u| matches!(u, Undo::Remove(p) | Undo::Restore { aside: p, .. } if p.starts_with(d.path())));
+            *list = rest;
+            mine
+        };
+        assert_eq!(mine.len(), 2);
+        mine.into_iter().rev().for_each(undo);
+        assert!(!tmp.exists());
+        assert_eq!(std::fs::read_to_string(target.join("kept")).unwrap(), "old");
+    }
+}

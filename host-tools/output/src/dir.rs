@@ -1,0 +1,212 @@
+//! A folder output built complete as a new sibling temporary folder, then swapped in as a whole.
+use std::io;
+use std::path::{Path, PathBuf};
+
+use crate::lock::{hidden_name, parent_of, OutputLock};
+
+/// A folder output (a report): every file is written into [`OutputDir::path`], a new temporary
+/// folder beside the target, and [`OutputDir::commit`] swaps it in as a whole: the old folder is
+/// renamed aside, the new one renamed in, the old one removed (on failure the old one is put
+/// back). Files of the old folder that the run does not write (a user's notes) are carried over
+/// by hard link, so nothing the run does not own disappears. Dropped without `commit`, the
+/// temporary folder is removed and the target is untouched. The target is locked against a
+/// second process while this lives.
+pub struct OutputDir {
+    target: PathBuf,
+    tmp: Option<PathBuf>,
+    _lock: OutputLock,
+}
+
+fn err(path: &Path, what: &str, e: io::Error) -> io::Error {
+    io::Error::new(e.kind(), format!("{}: {what}: {e}", path.display()))
+}
+
+/// Carries `src` (a file, link or folder of the old output) to `dst` without touching `src`.
+fn carry(src: &Path, dst: &Path) -> io::Result<()> {
+    let meta = std::fs::symlink_metadata(src)?;
+    if meta.is_dir() {
+        std::fs::create_dir(dst)?;
+        for e in std::fs::read_dir(src)? {
+            let e = e?;
+            carry(&e.path(), &dst.join(e.file_name()))?;
+        }
+        Ok(())
+    } else if meta.file_type().is_symlink() {
+        std::os::unix::fs::symlink(std::fs::read_link(src)?, dst)
+    } else if std::fs::hard_link(src, dst).is_err() {
+        std::fs::copy(src, dst).map(|_| ())
+    } else {
+        Ok(())
+    }
+}
+
+impl OutputDir {
+    /// Locks `target` and creates the new temporary folder beside it (creating missing parent
+    /// folders). Refuses a target that exists and is not a folder.
+    pub fn create(target: &Path) -> io::Result<Self> {
+        if target.exists() && !target.is_dir() {
+            return Err(io::Error::new(
+                io::ErrorKind::AlreadyExists,
+                format!("{} exists and is not a folder", target.display()),
+            ));
+        }
+        let parent = parent_of(target);
+        std::fs::create_dir_all(parent).map_err(|e| err(parent, "cannot create", e))?;
+        let lock = OutputLock::acquire(target).map_err(|e| err(target, "cannot lock", e))?;
+        let prefix = hidden_name(target, ".")?;
+        let tmp = tempfile::Builder::new()
+            .prefix(prefix.file_name().unwrap_or_default())
+            .suffix(".tmp")
+            // What `create_dir` would give (0o777 less the umask), not tempfile's 0o700.
+            .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777))
+            .tempdir_in(parent)
+            .map_err(|e| err(target, "cannot create a temporary folder beside it", e))?
+            .keep();
+        crate::cleanup::register(&tmp);
+        Ok(Self {
+            target: target.to_path_buf(),
+            tmp: Some(tmp),
+            _lock: lock,
+        })
+    }
+
+    /// Where the new files go until [`OutputDir::commit`].
+    pub fn path(&self) -> &Path {
+        self.tmp.as_deref().expect("open until commit")
+    }
+
+    /// The final folder.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Swaps the complete new folder in for the old one (see the type's documentation).
+    pub fn commit(mut self) -> io::Result<()> {
+        let tmp = self.tmp.clone().expect("open until commit");
+        let target = self.target.clone();
+        if target.is_dir() {
+            for e in std::fs::read_dir(&target).map_err(|e| err(&target, "cannot read", e))? {
+                let e = e.map_err(|e| err(&target, "cannot read", e))?;
+                let new = tmp.join(e.file_name());
+                if std::fs::symlink_metadata(&new).is_err() {
+                    carry(&e.path(), &new).map_err(|x| err(&e.path(), "cannot keep", x))?;
+                }
+            }
+            if let Ok(m) = std::fs::metadata(&target) {
+                let _ = std::fs::set_permissions(&tmp, m.permissions());
+            }
+            sync_dir(&tmp);
+            let aside = tempfile::Builder::new()
+                .prefix(hidden_name(&target, ".")?.file_name().unwrap_or_default())
+                .suffix(".old")
+                .tempdir_in(parent_of(&target))
+                .map_err(|e| err(&target, "cannot create a folder beside it", e))?
+                .keep();
+            crate::cleanup::register_restore(&aside, &target);
+            // `aside` is empty: renaming a folder over an empty folder replaces it.
+            if let Err(e) = std::fs::rename(&target, &aside) {
+                crate::cleanup::unregister_restore(&aside);
+                let _ = std::fs::remove_dir(&aside);
+                return Err(err(&target, "cannot move the old folder aside", e));
+            }
+            if let Err(e) = std::fs::rename(&tmp, &target) {
+                let _ = std::fs::rename(&aside, &target);
+                crate::cleanup::unregister_restore(&aside);
+                return Err(err(&target, "cannot move the new folder in", e));
+            }
+            self.done(&tmp);
+            crate::cleanup::register(&aside);
+            crate::cleanup::unregister_restore(&aside);
+            let _ = std::fs::remove_dir_all(&aside);
+            crate::cleanup::unregister(&aside);
+        } else {
+            sync_dir(&tmp);
+            std::fs::rename(&tmp, &target)
+                .map_err(|e| err(&target, "cannot move the new folder in", e))?;
+            self.done(&tmp);
+        }
+        sync_dir(parent_of(&target));
+        Ok(())
+    }
+
+    fn done(&mut self, tmp: &Path) {
+        crate::cleanup::unregister(tmp);
+        self.tmp = None;
+    }
+}
+
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+impl Drop for OutputDir {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            let _ = std::fs::remove_dir_all(&tmp);
+            crate::cleanup::unregister(&tmp);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_folder_is_swapped_whole_or_not_at_all() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("report");
+        // New folder.
+        let o = OutputDir::create(&out).unwrap();
+        std::fs::write(o.path().join("a.md"), "one").unwrap();
+        assert!(!out.exists(), "written before commit");
+        o.commit().unwrap();
+        assert_eq!(names(&out), ["a.md"]);
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        // A failed run (dropped): nothing changes, nothing is left.
+        {
+            let o = OutputDir::create(&out).unwrap();
+            std::fs::write(o.path().join("a.md"), "two").unwrap();
+            assert!(
+                OutputDir::create(&out).is_err(),
+                "a second writer was let in"
+            );
+        }
+        assert_eq!(std::fs::read_to_string(out.join("a.md")).unwrap(), "one");
+        assert_eq!(names(d.path()), ["report"]);
+        // A successful run replaces its files and keeps the user's.
+        let o = OutputDir::create(&out).unwrap();
+        std::fs::write(o.path().join("a.md"), "three").unwrap();
+        std::fs::write(o.path().join("b.csv"), "x").unwrap();
+        o.commit().unwrap();
+        assert_eq!(names(&out), ["a.md", "b.csv", "notes.txt"]);
+        assert_eq!(std::fs::read_to_string(out.join("a.md")).unwrap(), "three");
+        assert_eq!(
+            std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+            "mine"
+        );
+        assert_eq!(names(d.path()), ["report"], "temporaries left");
+    }
+
+    #[test]
+    fn a_file_in_the_way_or_a_file_parent_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let f = d.path().join("plain");
+        std::fs::write(&f, "keep").unwrap();
+        assert!(OutputDir::create(&f).is_err());
+        assert!(OutputDir::create(&f.join("sub")).is_err());
+        assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
+        assert_eq!(names(d.path()), ["plain"]);
+    }
+}

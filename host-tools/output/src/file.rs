@@ -1,0 +1,315 @@
+//! Files written under a unique temporary name beside the target, synced, and renamed into place
+//! only on commit.
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
+
+use tempfile::NamedTempFile;
+
+use crate::lock::{hidden_name, parent_of, OutputLock};
+use crate::overlap::is_special_file;
+
+enum Sink {
+    /// A unique temporary file beside the target (`.NAME.XXXXXX.tmp`).
+    Temp(BufWriter<NamedTempFile>),
+    /// A device or pipe, written directly.
+    Direct(BufWriter<File>),
+    /// Committed (or being committed).
+    Closed,
+}
+
+/// A file written under a unique temporary name in the destination's folder and renamed over the
+/// destination by [`AtomicFile::commit`]. Dropped without `commit` (an error, a panic), the
+/// temporary file is removed and the destination is untouched. While it lives, the destination
+/// is locked against a second process (see [`OutputLock`]).
+///
+/// A destination that exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is
+/// written directly: renaming a file over a device would replace the device itself.
+pub struct AtomicFile {
+    sink: Sink,
+    tmp: Option<PathBuf>,
+    dest: PathBuf,
+    _lock: Option<OutputLock>,
+}
+
+/// A unique temporary file beside `dest`, registered for removal on a signal.
+pub(crate) fn temp_beside(dest: &Path) -> io::Result<NamedTempFile> {
+    let prefix = hidden_name(dest, ".")?;
+    let prefix = prefix.file_name().unwrap_or_default().to_os_string();
+    // The mode a plain `File::create` would give (0o666 less the umask), not tempfile's 0o600;
+    // a file that is replaced keeps its own mode.
+    let tmp = tempfile::Builder::new()
+        .prefix(&prefix)
+        .suffix(".tmp")
+        .permissions(std::fs::Permissions::from_mode(0o666))
+        .tempfile_in(parent_of(dest))?;
+    crate::cleanup::register(tmp.path());
+    if let Ok(old) = std::fs::metadata(dest) {
+        tmp.as_file().set_permissions(old.permissions())?;
+    }
+    Ok(tmp)
+}
+
+impl AtomicFile {
+    /// Locks `dest` and creates its temporary file (or opens `dest` itself when it is a device or
+    /// pipe).
+    pub fn create(dest: &Path) -> io::Result<Self> {
+        if is_special_file(dest) {
+            let file = std::fs::OpenOptions::new().write(true).open(dest)?;
+            return Ok(Self {
+                sink: Sink::Direct(BufWriter::with_capacity(1 << 16, file)),
+                tmp: None,
+                dest: dest.to_path_buf(),
+                _lock: None,
+            });
+        }
+        if dest.is_dir() {
+            return Err(io::Error::new(
+                io::ErrorKind::IsADirectory,
+                "is a folder, not a file",
+            ));
+        }
+        let lock = OutputLock::acquire(dest)?;
+        let tmp = temp_beside(dest)?;
+        Ok(Self {
+            tmp: Some(tmp.path().to_path_buf()),
+            sink: Sink::Temp(BufWriter::with_capacity(1 << 16, tmp)),
+            dest: dest.to_path_buf(),
+            _lock: Some(lock),
+        })
+    }
+
+    /// The final path.
+    pub fn path(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Flushes and syncs; returns the temporary file, still unnamed (`None` for a device).
+    fn sync(&mut self) -> io::Result<Option<NamedTempFile>> {
+        match std::mem::replace(&mut self.sink, Sink::Closed) {
+            Sink::Temp(w) => {
+                let tmp = w.into_inner().map_err(|e| e.into_error())?;
+                tmp.as_file().sync_all()?;
+                Ok(Some(tmp))
+            }
+            Sink::Direct(mut w) => {
+                w.flush()?;
+                Ok(None)
+            }
+            Sink::Closed => Ok(None),
+        }
+    }
+
+    fn persist(&mut self, tmp: Option<NamedTempFile>) -> io::Result<()> {
+        if let Some(tmp) = tmp {
+            // On failure the PersistError's file is dropped: the temporary is removed.
+            tmp.persist(&self.dest).map_err(|e| e.error)?;
+            if let Some(p) = self.tmp.take() {
+                crate::cleanup::unregister(&p);
+            }
+            if let Ok(dir) = File::open(parent_of(&self.dest)) {
+                let _ = dir.sync_all();
+            }
+        }
+        Ok(())
+    }
+
+    /// Flushes, syncs and renames the temporary file over the destination.
+    pub fn commit(mut self) -> io::Result<()> {
+        let tmp = self.sync()?;
+        self.persist(tmp)
+    }
+}
+
+fn closed() -> io::Error {
+    io::Error::other("output already committed")
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match &mut self.sink {
+            Sink::Temp(w) => w.write(buf),
+            Sink::Direct(w) => w.write(buf),
+            Sink::Closed => Err(closed()),
+        }
+    }
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        match &mut self.sink {
+            Sink::Temp(w) => w.write_all(buf),
+            Sink::Direct(w) => w.write_all(buf),
+            Sink::Closed => Err(closed()),
+        }
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        match &mut self.sink {
+            Sink::Temp(w) => w.flush(),
+            Sink::Direct(w) => w.flush(),
+            Sink::Closed => Ok(()),
+        }
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        // The NamedTempFile (if still open) removes itself; forget its registration.
+        self.sink = Sink::Closed;
+        if let Some(p) = self.tmp.take() {
+            let _ = std::fs::remove_file(&p);
+            crate::cleanup::unregister(&p);
+        }
+    }
+}
+
+/// Several outputs of one run (an event folder's files), each an [`AtomicFile`], renamed into
+/// place together by [`AtomicSet::commit`] only after every one was written and synced. Dropped
+/// without `commit`, every temporary file is removed and no destination changes. For a folder
+/// that must change as a whole, use [`crate::OutputDir`].
+#[derive(Default)]
+pub struct AtomicSet {
+    files: Vec<AtomicFile>,
+}
+
+impl AtomicSet {
+    /// Starts the output `dest` (see [`AtomicFile::create`]).
+    pub fn create(&mut self, dest: &Path) -> io::Result<&mut AtomicFile> {
+        self.files.push(AtomicFile::create(dest)?);
+        Ok(self.files.last_mut().expect("just pushed"))
+    }
+
+    /// Adds a file created elsewhere, so it is renamed together with the others.
+    pub fn push(&mut self, file: AtomicFile) {
+        self.files.push(file);
+    }
+
+    /// Syncs every file, then renames each over its destination; returns the destinations.
+    pub fn commit(mut self) -> io::Result<Vec<PathBuf>> {
+        let mut synced = Vec::with_capacity(self.files.len());
+        for f in &mut self.files {
+            // On error `self` is dropped: every temporary file is removed.
+            let tmp = f
+                .sync()
+                .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", f.dest.display())))?;
+            synced.push(tmp);
+        }
+        let mut done = Vec::with_capacity(self.files.len());
+        for (f, tmp) in self.files.iter_mut().zip(synced) {
+            f.persist(tmp)
+                .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", f.dest.display())))?;
+            done.push(f.dest.clone());
+        }
+        Ok(done)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn commit_replaces_and_drop_leaves_the_destination_untouched() {
+        let d = tempfile::tempdir().unwrap();
+        let dest = d.path().join("out.log");
+        std::fs::write(&dest, "old").unwrap();
+        {
+            let mut f = AtomicFile::create(&dest).unwrap();
+            f.write_all(b"half").unwrap();
+            // The temporary is unique and hidden, beside the target; the target is locked.
+            let n = names(d.path());
+            assert_eq!(n.len(), 3, "{n:?}");
+            assert!(n
+                .iter()
+                .any(|x| x.starts_with(".out.log.") && x.ends_with(".tmp")));
+            assert!(
+                AtomicFile::create(&dest).is_err(),
+                "a second writer was let in"
+            );
+        }
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "old");
+        assert_eq!(
+            names(d.path()),
+            ["out.log"],
+            "temporary or lock left behind"
+        );
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"new").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "new");
+        assert_eq!(names(d.path()), ["out.log"]);
+        // A replaced file keeps its mode; a new one is readable like File::create's.
+        std::fs::set_permissions(&dest, std::fs::Permissions::from_mode(0o640)).unwrap();
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"newer").unwrap();
+        f.commit().unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&dest), 0o640);
+        let fresh = d.path().join("fresh.log");
+        AtomicFile::create(&fresh).unwrap().commit().unwrap();
+        assert_ne!(
+            mode(&fresh) & 0o044,
+            0,
+            "new file is private: {:o}",
+            mode(&fresh)
+        );
+    }
+
+    #[test]
+    fn a_target_that_cannot_hold_a_file_fails_before_writing() {
+        let d = tempfile::tempdir().unwrap();
+        let file = d.path().join("plain");
+        std::fs::write(&file, "keep").unwrap();
+        assert!(AtomicFile::create(&file.join("out.csv")).is_err());
+        assert!(AtomicFile::create(d.path()).is_err());
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
+        assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_set_changes_nothing_until_every_file_is_committed() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("a.csv"), d.path().join("b.png"));
+        std::fs::write(&a, "old a").unwrap();
+        {
+            let mut set = AtomicSet::default();
+            set.create(&a).unwrap().write_all(b"new a").unwrap();
+            set.create(&b).unwrap().write_all(b"new b").unwrap();
+        }
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert_eq!(names(d.path()), ["a.csv"]);
+        let mut set = AtomicSet::default();
+        set.create(&a).unwrap().write_all(b"new a").unwrap();
+        set.create(&b).unwrap().write_all(b"new b").unwrap();
+        assert_eq!(set.commit().unwrap(), vec![a.clone(), b.clone()]);
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
+        assert_eq!(names(d.path()), ["a.csv", "b.png"]);
+    }
+
+    #[test]
+    fn a_device_is_written_directly_and_never_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        if !std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            return;
+        }
+        let mut f = AtomicFile::create(null).unwrap();
+        f.write_all(b"discarded").unwrap();
+        f.commit().unwrap();
+        let mut set = AtomicSet::default();
+        set.create(null).unwrap().write_all(b"discarded").unwrap();
+        assert_eq!(set.commit().unwrap(), vec![null.to_path_buf()]);
+        assert!(std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device());
+    }
+}

@@ -1,0 +1,23 @@
+//! The one output layer of `riskctl` and `can-bridge`: nothing a user owns is ever destroyed.
+//!
+//! - [`refuse_overlaps`]: an output that is, contains or lies inside an input is refused before
+//!   anything is read or written (device and inode, so links and `./x` vs `x` count).
+//! - [`AtomicFile`] / [`AtomicSet`]: files written under a unique temporary name beside the
+//!   target, synced, and renamed into place only on commit; removed when dropped.
+//! - [`OutputDir`]: a folder built complete beside the target, then swapped in as a whole.
+//! - [`OutputLock`]: a second process writing the same target is refused.
+//! - [`remove_temporaries_on_signals`]: Ctrl-C and SIGTERM remove the temporaries (exit 130/143).
+//! - Devices and pipes (`/dev/null`) are written directly.
+//!
+//! The contract is written down in `docs/outputs.md`.
+mod cleanup;
+mod dir;
+mod file;
+mod lock;
+mod overlap;
+
+pub use cleanup::remove_temporaries_on_signals;
+pub use dir::OutputDir;
+pub use file::{AtomicFile, AtomicSet};
+pub use lock::OutputLock;
+pub use overlap::{is_special_file, refuse_overlaps, NamedPath, Overlap, SamePathError};

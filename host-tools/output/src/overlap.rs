@@ -1,0 +1,233 @@
+//! Refusing an output that is, contains, or lies inside one of the run's inputs.
+use std::path::{Path, PathBuf};
+
+/// How an output overlaps an input (or another output).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Overlap {
+    /// The same file (through a link, `./x` vs `x`, a hard link).
+    Same,
+    /// The output is a folder that holds the input.
+    Contains,
+    /// The output would be written inside the input folder.
+    Inside,
+}
+
+/// An output path that would overwrite, replace or write into one of the inputs (or another
+/// output).
+#[derive(Debug, thiserror::Error)]
+#[error("{output_flag} {} {} {input_flag} {}: {}", output.display(), self.verb(), input.display(), self.refusal())]
+pub struct SamePathError {
+    pub output_flag: String,
+    pub output: PathBuf,
+    pub input_flag: String,
+    pub input: PathBuf,
+    pub overlap: Overlap,
+}
+
+impl SamePathError {
+    fn verb(&self) -> &'static str {
+        match self.overlap {
+            Overlap::Same => "is the same file as",
+            Overlap::Contains => "contains",
+            Overlap::Inside => "lies inside",
+        }
+    }
+    fn refusal(&self) -> &'static str {
+        match self.overlap {
+            Overlap::Same => "refusing to overwrite it",
+            Overlap::Contains => "refusing to replace it",
+            Overlap::Inside => "refusing to write into an input",
+        }
+    }
+}
+
+/// `(flag, path)` of a file a command reads or writes, e.g. `("--log", drive.log)`.
+pub type NamedPath<'a> = (&'a str, &'a Path);
+
+type FileId = (u64, u64);
+
+fn file_id(p: &Path) -> Option<FileId> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
+}
+
+fn or_dot(p: &Path) -> &Path {
+    if p.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        p
+    }
+}
+
+/// The ids of `p` (when it exists) and of every folder above it, found through the deepest
+/// existing ancestor made canonical (so `..` and symlinks are resolved, not read lexically).
+fn chain(p: &Path) -> Vec<FileId> {
+    let mut ids = Vec::new();
+    let Some(existing) = p.ancestors().map(or_dot).find(|a| a.exists()) else {
+        return ids;
+    };
+    let Ok(real) = existing.canonicalize() else {
+        return ids;
+    };
+    ids.extend(real.ancestors().filter_map(file_id));
+    ids
+}
+
+/// The path with its parent directory canonicalised (the file itself need not exist), for
+/// comparing paths that are not written yet.
+fn normalised(p: &Path) -> PathBuf {
+    let parent = or_dot(p.parent().unwrap_or(Path::new("."))).to_path_buf();
+    let parent = parent.canonicalize().unwrap_or(parent);
+    match p.file_name() {
+        Some(name) => parent.join(name),
+        None => parent,
+    }
+}
+
+fn overlap(output: &Path, input: &Path) -> Option<Overlap> {
+    if normalised(output) == normalised(input) {
+        return Some(Overlap::Same);
+    }
+    let input_id = file_id(input)?;
+    let output_id = file_id(output);
+    if output_id == Some(input_id) {
+        return Some(Overlap::Same);
+    }
+    if chain(output).contains(&input_id) {
+        return Some(Overlap::Inside);
+    }
+    if let Some(o) = output_id {
+        if chain(input).contains(&o) {
+            return Some(Overlap::Contains);
+        }
+    }
+    None
+}
+
+/// True when `path` exists and is neither a regular file nor a directory (a device, FIFO or
+/// socket: written directly, never renamed over).
+pub fn is_special_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+}
+
+/// Refuses, before anything is read or written, an output that is, contains or lies inside an
+/// input (compared by device and inode, so symlinks, hard links and `./x` vs `x` count), and two
+/// outputs that name the same file. An output that is a device or pipe (`/dev/null`) or `-` is
+/// not checked: writing to it destroys nothing, and two outputs may share it.
+pub fn refuse_overlaps(
+    inputs: &[NamedPath<'_>],
+    outputs: &[NamedPath<'_>],
+) -> Result<(), SamePathError> {
+    let err = |o: &NamedPath<'_>, i: &NamedPath<'_>, overlap| SamePathError {
+        output_flag: o.0.to_string(),
+        output: o.1.to_path_buf(),
+        input_flag: i.0.to_string(),
+        input: i.1.to_path_buf(),
+        overlap,
+    };
+    let dash = |p: &Path| p.as_os_str() == "-";
+    for (n, o) in outputs.iter().enumerate() {
+        if is_special_file(o.1) || dash(o.1) {
+            continue;
+        }
+        for i in inputs {
+            if dash(i.1) || is_special_file(i.1) {
+                continue;
+            }
+            if let Some(kind) = overlap(o.1, i.1) {
+                return Err(err(o, i, kind));
+            }
+        }
+        for other in &outputs[..n] {
+            if dash(other.1) {
+                continue;
+            }
+            if normalised(o.1) == normalised(other.1)
+                || file_id(o.1).is_some() && file_id(o.1) == file_id(other.1)
+            {
+                return Err(err(o, other, Overlap::Same));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_same_file_through_links_and_dots_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let input = d.path().join("drive.log");
+        std::fs::write(&input, "x").unwrap();
+        let dotted = d.path().join(".").join("drive.log");
+        let e = refuse_overlaps(&[("--log", &input)], &[("--events-out", &dotted)]).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("--events-out") && msg.contains("--log"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("drive.log") && msg.contains("is the same file as"),
+            "{msg}"
+        );
+        let link = d.path().join("link.log");
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        assert!(refuse_overlaps(&[("--log", &input)], &[("--out", &link)]).is_err());
+        let hard = d.path().join("hard.log");
+        std::fs::hard_link(&input, &hard).unwrap();
+        assert!(refuse_overlaps(&[("--log", &input)], &[("--out", &hard)]).is_err());
+        let (a, b) = (d.path().join("a.jsonl"), d.path().join("b.jsonl"));
+        assert!(refuse_overlaps(&[], &[("--events-out", &a), ("--warnings-out", &a)]).is_err());
+        assert!(refuse_overlaps(
+            &[("--log", &input)],
+            &[("--events-out", &a), ("--warnings-out", &b)]
+        )
+        .is_ok());
+    }
+
+    #[test]
+    fn an_output_inside_or_around_an_input_folder_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let events = d.path().join("events");
+        std::fs::create_dir(&events).unwrap();
+        std::fs::write(events.join("frames.csv"), "x").unwrap();
+        // Inside, also when the file does not exist yet and through a symlinked folder.
+        let e = refuse_overlaps(
+            &[("--events", &events)],
+            &[("--out", &events.join("new.csv"))],
+        )
+        .unwrap_err();
+        assert_eq!(e.overlap, Overlap::Inside);
+        assert!(e.to_string().contains("lies inside"), "{e}");
+        let link = d.path().join("elink");
+        std::os::unix::fs::symlink(&events, &link).unwrap();
+        let deep = link.join("sub").join("x.csv");
+        assert!(refuse_overlaps(&[("--events", &events)], &[("--out", &deep)]).is_err());
+        // Contains: the output folder holds the input file.
+        let e = refuse_overlaps(
+            &[("--model", &events.join("frames.csv"))],
+            &[("--out", d.path())],
+        )
+        .unwrap_err();
+        assert_eq!(e.overlap, Overlap::Contains);
+        // `..` is resolved, not read lexically: events/../other is beside events, not in it.
+        let beside = events.join("..").join("other");
+        assert!(refuse_overlaps(&[("--events", &events)], &[("--out", &beside)]).is_ok());
+    }
+
+    #[test]
+    fn devices_dashes_and_missing_inputs_are_not_overlaps() {
+        let null = Path::new("/dev/null");
+        assert!(refuse_overlaps(&[], &[("--events-out", null), ("--warnings-out", null)]).is_ok());
+        assert!(
+            refuse_overlaps(&[("--input", Path::new("-"))], &[("--out", Path::new("-"))]).is_ok()
+        );
+        let d = tempfile::tempdir().unwrap();
+        let missing = d.path().join("missing");
+        assert!(
+            refuse_overlaps(&[("--input", &missing)], &[("--out", &d.path().join("o"))]).is_ok()
+        );
+    }
+}
