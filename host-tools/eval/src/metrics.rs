@@ -353,7 +353,7 @@ pub fn evaluate_profiles(profiles: &[AlertProfile]) -> Metrics {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::{AlertProfile, EventKind, RunningMaxRecord};
+    use crate::protocol::EventKind;
 
     #[test]
     fn metrics_are_named_in_table_order() {
@@ -371,17 +371,7 @@ mod tests {
         assert_eq!(m.get(Metric::PPrc80), None);
     }
 
-    fn profile(kind: EventKind, endpoint: Option<f64>, records: &[(f64, f32)]) -> AlertProfile {
-        AlertProfile {
-            event_id: String::new(),
-            kind,
-            endpoint,
-            records: records
-                .iter()
-                .map(|&(time, level)| RunningMaxRecord { time, level })
-                .collect(),
-        }
-    }
+    use crate::protocol::test_profile as profile;
 
     #[test]
     fn percent_levels_are_exact() {

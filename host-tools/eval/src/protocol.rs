@@ -332,6 +332,25 @@ pub fn intensity_surrogate_risk(value: f32) -> f32 {
     value.max(NO_CONFLICT_RISK)
 }
 
+/// An alert profile of `kind` with these running-maximum `records` `(time, level)` (unit tests of
+/// the modules that read profiles).
+#[cfg(test)]
+pub(crate) fn test_profile(
+    kind: EventKind,
+    endpoint: Option<f64>,
+    records: &[(f64, f32)],
+) -> AlertProfile {
+    AlertProfile {
+        event_id: String::new(),
+        kind,
+        endpoint,
+        records: records
+            .iter()
+            .map(|&(time, level)| RunningMaxRecord { time, level })
+            .collect(),
+    }
+}
+
 /// A scored sequence with frames at 0, 1, 2, ... s carrying `scores` (unit tests of the modules
 /// that read scored sequences).
 #[cfg(test)]

@@ -264,7 +264,6 @@ pub fn calibrate_safe_share(maxima: &[f32], target: f64) -> Option<Calibration> 
 mod tests {
     use super::*;
     use crate::metrics::OperatingPoint;
-    use crate::protocol::RunningMaxRecord;
 
     fn curve(fp: &[(f32, usize)], negatives: usize) -> WarningCurve {
         WarningCurve {
@@ -319,15 +318,7 @@ mod tests {
 
     #[test]
     fn tallies_count_warnings_lead_times_and_hours() {
-        let profile = |kind, endpoint, records: &[(f64, f32)]| AlertProfile {
-            event_id: String::new(),
-            kind,
-            endpoint,
-            records: records
-                .iter()
-                .map(|&(time, level)| RunningMaxRecord { time, level })
-                .collect(),
-        };
+        use crate::protocol::test_profile as profile;
         let mut c = ThresholdCollector::new(2.0);
         c.add(
             1,

@@ -47,13 +47,7 @@ pub unsafe extern "C" fn riskscore_load_model(
     len: usize,
     info: *mut RiskscoreLoadInfo,
 ) -> RiskscoreStatus {
-    let mut details = RiskscoreLoadInfo {
-        kind: RiskscoreModelKind::None,
-        field: [0; RISKSCORE_FIELD_NAME_LEN],
-        index: RISKSCORE_NONE_U32,
-        expected: RISKSCORE_NONE_U32,
-        found: RISKSCORE_NONE_U32,
-    };
+    let mut details = no_details();
     let mut run = || {
         // SAFETY: caller contract above.
         let ctx = unsafe { context_mut(context) }?;
@@ -94,16 +88,21 @@ pub unsafe extern "C" fn riskscore_model_default_threshold(
     let run = || {
         // SAFETY: caller contract above (the slice is only read within this call).
         let bytes = unsafe { blob_slice(blob, len) }?;
-        let mut details = RiskscoreLoadInfo {
-            kind: RiskscoreModelKind::None,
-            field: [0; RISKSCORE_FIELD_NAME_LEN],
-            index: RISKSCORE_NONE_U32,
-            expected: RISKSCORE_NONE_U32,
-            found: RISKSCORE_NONE_U32,
-        };
+        let mut details = no_details();
         let decoded = model::decode_blob(bytes).map_err(|e| model_error(&e, &mut details))?;
         // SAFETY: caller contract above.
         unsafe { write(threshold, decoded.default_threshold()) }
     };
     status(run())
+}
+
+/// Load details before anything is known: no kind, no field, every number "none".
+fn no_details() -> RiskscoreLoadInfo {
+    RiskscoreLoadInfo {
+        kind: RiskscoreModelKind::None,
+        field: [0; RISKSCORE_FIELD_NAME_LEN],
+        index: RISKSCORE_NONE_U32,
+        expected: RISKSCORE_NONE_U32,
+        found: RISKSCORE_NONE_U32,
+    }
 }
