@@ -85,7 +85,7 @@ pub struct Args {
     /// Messages printed per kind of bad row; the rest are counted in the summary.
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub show_bad: u64,
-    /// Worker threads (0 = one per core).
+    /// Worker threads (0 = one per core; at most 4 per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub threads: usize,
 }
@@ -96,6 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.input.display().to_string()
     };
+    riskscore_data::limits::check_threads("--threads", args.threads)?;
     let options = SsmOptions {
         strict: args.strict,
         max_record_bytes: args.max_line_bytes,
