@@ -204,3 +204,129 @@ fn train_refuses_absurd_pair_counts_and_negative_weight_decay_before_training() 
         assert!(!out.exists());
     }
 }
+
+// ---- import commonroad ----------------------------------------------------------------------
+
+/// A 2020a scenario whose dynamic obstacles have these ids, 5 s of 10 m/s each, in lanes 3.7 m
+/// apart (the generator of the reliability notes).
+fn scenario_xml(ids: &[&str], declaration: &str, comment: &str) -> String {
+    let state = |tag: &str, x0: f64, y: f64, k: usize| {
+        format!(
+            "<{tag}><position><point><x>{:.1}</x><y>{y}</y></point></position><orientation><exact>0</exact></orientation><time><exact>{k}</exact></time><velocity><exact>10</exact></velocity><acceleration><exact>0</exact></acceleration></{tag}>",
+            x0 + k as f64
+        )
+    };
+    let obstacles: Vec<String> = ids
+        .iter()
+        .enumerate()
+        .map(|(n, id)| {
+            let (x0, y) = (n as f64 * 12.0, if n % 2 == 1 { 3.7 } else { 0.0 });
+            let states: String = (1..50).map(|k| state("state", x0, y, k)).collect();
+            format!(
+                "<dynamicObstacle id=\"{id}\"><type>car</type><shape><rectangle><length>4.5</length><width>1.8</width></rectangle></shape>{}<trajectory>{states}</trajectory></dynamicObstacle>",
+                state("initialState", x0, y, 0)
+            )
+        })
+        .collect();
+    format!(
+        "<?xml version=\"1.0\"{declaration}?>\n<!-- {comment} -->\n<commonRoad commonRoadVersion=\"2020a\" timeStepSize=\"0.1\">\n{}\n</commonRoad>\n",
+        obstacles.join("\n")
+    )
+}
+
+fn import(out: &Path, inputs: &[&Path]) -> Output {
+    let mut args = vec!["import", "commonroad", "--out", s(out)];
+    args.extend(inputs.iter().map(|p| s(p)));
+    riskctl(&args)
+}
+
+#[test]
+fn two_obstacles_with_one_id_are_an_error_naming_the_file_and_the_id() {
+    // N5: imported with exit 0, and every event of the file was dropped later by evaluate.
+    let dir = tempfile::tempdir().unwrap();
+    let dup = dir.path().join("dup.xml");
+    std::fs::write(&dup, scenario_xml(&["1", "2", "1"], "", "")).unwrap();
+    let out = dir.path().join("ev");
+    let o = import(&out, &[&dup]);
+    assert_refused(
+        &o,
+        "dup.xml:6: <dynamicObstacle id=1>: obstacle id 1 is used again (first at line 4)",
+    );
+    assert!(!out.join("events.csv").exists());
+    // With another good file, that one is imported and the duplicate still named.
+    let good = dir.path().join("good.xml");
+    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
+    let o = import(&out, &[&dup, &good]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("obstacle id 1 is used again"),
+        "{}",
+        stderr(&o)
+    );
+    let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    assert!(
+        events.lines().skip(1).all(|l| l.starts_with("good/")),
+        "{events}"
+    );
+}
+
+#[test]
+fn a_latin1_file_that_declares_its_encoding_is_read_and_one_that_does_not_is_named() {
+    // N7: a legal encoding="ISO-8859-1" declaration was refused as "not valid UTF-8".
+    let dir = tempfile::tempdir().unwrap();
+    let latin1 = dir.path().join("latin1.xml");
+    let declared = scenario_xml(&["1", "2"], " encoding=\"ISO-8859-1\"", "Stra\u{df}e");
+    let bytes: Vec<u8> = declared.chars().map(|c| u8::try_from(c).unwrap()).collect();
+    assert!(std::str::from_utf8(&bytes).is_err());
+    std::fs::write(&latin1, &bytes).unwrap();
+    let out = dir.path().join("ev");
+    let o = import(&out, &[&latin1]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("wrote 2 safe sequences"));
+
+    let undeclared = dir.path().join("plain.xml");
+    let text = scenario_xml(&["1", "2"], "", "Stra\u{df}e");
+    let bytes: Vec<u8> = text.chars().map(|c| u8::try_from(c).unwrap()).collect();
+    std::fs::write(&undeclared, bytes).unwrap();
+    let o = import(&dir.path().join("ev2"), &[&undeclared]);
+    assert_refused(
+        &o,
+        "plain.xml:2: not UTF-8 (invalid byte 0xDF) and no other encoding declared",
+    );
+
+    let utf16 = dir.path().join("utf16.xml");
+    std::fs::write(&utf16, scenario_xml(&["1"], " encoding=\"UTF-16\"", "")).unwrap();
+    let o = import(&dir.path().join("ev3"), &[&utf16]);
+    assert_refused(&o, "utf16.xml:1: encoding \"UTF-16\" is not supported");
+}
+
+#[test]
+fn links_back_up_the_tree_end_the_search_and_each_file_is_read_once() {
+    // N15: two links to the parent made the search endless with growing memory; N14: one link
+    // read the same file 41 times.
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("loop");
+    std::fs::create_dir_all(root.join("d")).unwrap();
+    std::fs::write(root.join("d/good.xml"), scenario_xml(&["1", "2"], "", "")).unwrap();
+    std::os::unix::fs::symlink("..", root.join("d/up1")).unwrap();
+    std::os::unix::fs::symlink("..", root.join("d/up2")).unwrap();
+    std::os::unix::fs::symlink("good.xml", root.join("d/again.xml")).unwrap();
+    let out = dir.path().join("ev");
+    let started = Instant::now();
+    let o = import(&out, &[&root]);
+    assert!(started.elapsed() < Duration::from_secs(30));
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("read 1 scenario files"));
+    assert_eq!(err.lines().count(), 3, "{err}");
+    assert!(err.contains("d/up1:1: the same folder as "), "{err}");
+    assert!(err.contains("d/up2:1: the same folder as "), "{err}");
+    assert!(err.contains("d/good.xml:1: the same file as "), "{err}");
+
+    // Started inside the loop: the parent is searched once, the start folder not again.
+    let o = import(&dir.path().join("ev2"), &[&root.join("d")]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("read 1 scenario files"));
+    assert!(!err.contains("already imported"), "{err}");
+}
