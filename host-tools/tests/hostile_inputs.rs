@@ -330,3 +330,43 @@ fn links_back_up_the_tree_end_the_search_and_each_file_is_read_once() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("read 1 scenario files"));
     assert!(!err.contains("already imported"), "{err}");
 }
+
+// ---- Parquet page checksums -------------------------------------------------------------------
+
+fn parquet_fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/parquet")
+        .join(name)
+}
+
+#[test]
+fn a_flipped_bit_in_a_checksummed_parquet_page_is_an_error_naming_file_row_group_and_column() {
+    // N60: x_j of three rows was read as 42.0078125 instead of 42 and scored, exit 0. The
+    // fixtures and the script that made them: tests/data/parquet/.
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.csv");
+    let o = riskctl(&[
+        "ssm",
+        "-i",
+        s(&parquet_fixture("crc.parquet")),
+        "-o",
+        s(&good),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("200 rows ok, 0 rows bad"));
+
+    for out in ["flipped.csv", "flipped.parquet"] {
+        let out = dir.path().join(out);
+        let flipped = parquet_fixture("crc_flipped.parquet");
+        let o = riskctl(&["ssm", "-i", s(&flipped), "-o", s(&out)]);
+        assert_refused(
+            &o,
+            &format!(
+                "{}: row group 1 (counting from 0), column x_j: a page's CRC-32 checksum does \
+                 not match its bytes",
+                flipped.display()
+            ),
+        );
+        assert!(!out.exists());
+    }
+}

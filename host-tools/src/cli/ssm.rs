@@ -58,7 +58,9 @@ PARQUET:
   Same columns: the input columns, then the 17 computed ones (Float32). From CSV, the 18 pair
   columns become Float64 and every other column a string; from Parquet the pair columns may be
   Float64, Float32, Int64 or Int32 and other columns keep their type. Bad rows are reported
-  with their row number (Parquet input). The Parquet path runs on one thread.
+  with their row number (Parquet input). Page checksums (CRC-32, when the writer stored them) are
+  verified: a damaged page stops the run, naming the row group and column, with no output
+  written. The Parquet path runs on one thread.
 
 EXAMPLES:
   riskctl ssm --input pairs.csv --output pairs_ssm.csv
