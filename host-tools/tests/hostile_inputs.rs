@@ -370,3 +370,71 @@ fn a_flipped_bit_in_a_checksummed_parquet_page_is_an_error_naming_file_row_group
         assert!(!out.exists());
     }
 }
+
+// ---- Bytes that are not UTF-8 -------------------------------------------------------------------
+
+#[test]
+fn a_non_utf8_header_name_is_kept_byte_for_byte_in_csv_and_refused_for_parquet() {
+    // D8-d: the header `n\xf6te` came out as `n\u{FFFD}te` without a word.
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("nh.csv");
+    let mut bytes = format!("{PAIR_HEADER}, n").into_bytes();
+    bytes.extend_from_slice(b"\xf6te ,\"a\xff,b\"\n");
+    bytes.extend_from_slice(format!("{PAIR},x,y\n").as_bytes());
+    std::fs::write(&input, &bytes).unwrap();
+    let out = dir.path().join("o.csv");
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let written = std::fs::read(&out).unwrap();
+    let header = written.split(|&b| b == b'\n').next().unwrap();
+    let mut expected = format!("{PAIR_HEADER},n").into_bytes();
+    expected.extend_from_slice(b"\xf6te,\"a\xff,b\",box_distance,");
+    assert!(
+        header.starts_with(&expected),
+        "{}",
+        String::from_utf8_lossy(header)
+    );
+
+    let parquet = dir.path().join("o.parquet");
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&parquet)]);
+    assert_refused(&o, "header, column 19: name \"n\\xF6te\" is not UTF-8");
+    assert!(!parquet.exists());
+}
+
+#[test]
+fn a_non_utf8_pass_through_value_is_reported_with_its_line_when_parquet_cannot_hold_it() {
+    // N63: `caf\xe9` became `caf\u{FFFD}` in the Parquet output, exit 0, no message.
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("n.csv");
+    let mut bytes = format!("{PAIR_HEADER},note\n{PAIR},caf").into_bytes();
+    bytes.extend_from_slice(b"\xe9\n");
+    bytes.extend_from_slice(format!("{PAIR},ok\n").as_bytes());
+    std::fs::write(&input, &bytes).unwrap();
+    let parquet = dir.path().join("o.parquet");
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&parquet)]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("n.csv: line 2, column note: text \"caf\\xE9\" is not UTF-8"),
+        "{err}"
+    );
+    assert!(err.contains("1 rows ok, 1 rows bad"), "{err}");
+    // Back to CSV: only the good row, and no replacement character anywhere.
+    let back = dir.path().join("back.csv");
+    let o = riskctl(&["ssm", "-i", s(&parquet), "-o", s(&back)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&back).unwrap();
+    assert_eq!(text.lines().count(), 2, "{text}");
+    assert!(!text.contains('\u{FFFD}'));
+
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&parquet), "--strict"]);
+    assert_refused(&o, "line 2, column note: text \"caf\\xE9\" is not UTF-8");
+    // CSV output keeps the bytes as they are.
+    let csv = dir.path().join("o.csv");
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&csv)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read(&csv)
+        .unwrap()
+        .windows(5)
+        .any(|w| w == b",caf\xe9"));
+}

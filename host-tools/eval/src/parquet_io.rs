@@ -3,8 +3,10 @@
 //!
 //! Columns are the same as in CSV: the input columns, then the 17 computed ones (Float32).
 //! Parquet input -> pass-through columns keep their Arrow types; CSV input -> the 18 pair columns
-//! become Float64 (the parsed values) and every other column Utf8 (its text; bytes that are not
-//! UTF-8 are replaced by U+FFFD, as Parquet strings must be UTF-8). Parquet output is written with
+//! become Float64 (the parsed values) and every other column Utf8 (its text). Parquet strings
+//! must be UTF-8 and nothing is replaced by U+FFFD: a row whose pass-through text is not UTF-8 is a
+//! bad row (reported with its line and column, skipped; `--strict` stops), and a header name that
+//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is written with
 //! Snappy compression in row groups of up to 131,072 rows (the writer buffers one group); bad rows are skipped and reported with
 //! their 1-based row number (Parquet input) or line number (CSV input).
 //!
@@ -269,6 +271,9 @@ impl<R: Read> CsvBatches<R> {
     pub fn new(input: R, options: &SsmOptions) -> Result<Self, SsmError> {
         let mut splitter = Splitter::new(input, 1 << 20, options.max_record_bytes);
         let (columns, pending) = riskscore_data::ssm_csv::read_header(&mut splitter)?;
+        if let Some((column, name)) = columns.non_utf8_name() {
+            return Err(SsmError::NonUtf8Name { column, name });
+        }
         let pair: Vec<usize> = columns
             .ego
             .iter()
@@ -363,7 +368,10 @@ impl<R: Read> CsvBatches<R> {
                         if f.is_blank() {
                             return true;
                         }
-                        match columns.parse_values(f, line) {
+                        let values = columns
+                            .parse_values(f, line)
+                            .and_then(|v| texts_are_utf8(columns, &pair, f, line).map(|()| v));
+                        match values {
                             Ok((ego, partner)) => {
                                 for (b, v) in numbers.iter_mut().zip(ego.iter().chain(&partner)) {
                                     b.append_value(*v);
@@ -372,11 +380,9 @@ impl<R: Read> CsvBatches<R> {
                                     if pair[k].is_some() {
                                         continue;
                                     }
-                                    match f.field(k) {
-                                        Some(bytes) => {
-                                            b.append_value(String::from_utf8_lossy(bytes))
-                                        }
-                                        None => b.append_null(),
+                                    match f.field(k).map(std::str::from_utf8) {
+                                        Some(Ok(text)) => b.append_value(text),
+                                        _ => b.append_null(),
                                     }
                                 }
                                 rows += 1;
@@ -421,6 +427,29 @@ impl<R: Read> CsvBatches<R> {
                 .map_err(|e| SsmError::Io(std::io::Error::other(e)))?,
         ))
     }
+}
+
+/// A row's pass-through fields are UTF-8 (Arrow strings must be): else the row is bad, with the
+/// first offending column and its text (bytes shown `\xNN`).
+fn texts_are_utf8(
+    columns: &PairColumns,
+    pair: &[Option<usize>],
+    fields: &FieldBuf,
+    line: u64,
+) -> Result<(), RowError> {
+    for (k, is_pair) in pair.iter().enumerate() {
+        let Some(bytes) = fields.field(k).filter(|_| is_pair.is_none()) else {
+            continue;
+        };
+        if std::str::from_utf8(bytes).is_err() {
+            return Err(RowError {
+                line,
+                column: columns.names.get(k).cloned(),
+                problem: RowProblem::NotUtf8(riskscore_data::ssm_csv::escape_non_utf8(bytes)),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// `riskctl ssm` where the input or the output (or both) is Parquet.

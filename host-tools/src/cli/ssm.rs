@@ -41,8 +41,8 @@ BAD ROWS:
   line number and column, and skipped. So is a line longer than --max-line-bytes (default
   1 MiB; skipped without being held in memory) and a quoted field that is never closed (only
   the line where it starts is lost; reading resumes on the next line). Line numbers count
-  every line of the file, blank ones included. Pass-through columns are copied byte for byte,
-  in any encoding.
+  every line of the file, blank ones included. Pass-through columns and the header are copied
+  byte for byte to CSV output, in any encoding; nothing is ever replaced by U+FFFD.
 
   The first --show-bad messages of each kind of problem are printed (default 10), then a
   count per kind. With --strict the first bad row stops the run with exit status 1 and no
@@ -56,8 +56,11 @@ BAD ROWS:
 PARQUET:
   An input or output path ending in .parquet is Apache Parquet, anything else CSV (any mix).
   Same columns: the input columns, then the 17 computed ones (Float32). From CSV, the 18 pair
-  columns become Float64 and every other column a string; from Parquet the pair columns may be
-  Float64, Float32, Int64 or Int32 and other columns keep their type. Bad rows are reported
+  columns become Float64 and every other column a UTF-8 string (Parquet strings must be UTF-8:
+  a row whose pass-through text is not is reported with its line and column and skipped, and a
+  header name that is not stops the run; write CSV output to keep such bytes, or convert the
+  input with iconv); from Parquet the pair columns may be Float64, Float32, Int64 or Int32 and
+  other columns keep their type. Bad rows are reported
   with their row number (Parquet input). Page checksums (CRC-32, when the writer stored them) are
   verified: a damaged page stops the run, naming the row group and column, with no output
   written. The Parquet path runs on one thread.
