@@ -438,3 +438,22 @@ fn a_non_utf8_pass_through_value_is_reported_with_its_line_when_parquet_cannot_h
         .windows(5)
         .any(|w| w == b",caf\xe9"));
 }
+
+#[test]
+fn ssm_output_that_is_a_folder_is_refused_before_any_input_is_read() {
+    // N73: refused only after the whole input was processed, leaving `outdir.partial` behind.
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("bad.csv");
+    std::fs::write(&input, format!("{PAIR_HEADER}\n{PAIR}\n0,zz\n")).unwrap();
+    let folder = dir.path().join("outdir");
+    std::fs::create_dir(&folder).unwrap();
+    for output in [folder.clone(), dir.path().join("outdir.parquet")] {
+        std::fs::create_dir_all(&output).unwrap();
+        let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&output)]);
+        assert_refused(&o, "is a folder, not a file");
+        // The bad row was never reached.
+        assert!(!stderr(&o).contains("row skipped"), "{}", stderr(&o));
+        assert_eq!(std::fs::read_dir(&output).unwrap().count(), 0);
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+}
