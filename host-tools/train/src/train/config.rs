@@ -216,7 +216,7 @@ pub enum InvalidConfig {
         why: &'static str,
     },
     #[error(transparent)]
-    Limit(#[from] riskscore_data::limits::LimitError),
+    Limit(Box<riskscore_data::limits::LimitError>),
     #[error("optimiser.validation_fraction must be in [0, 0.9)")]
     ValidationFraction,
     #[error(transparent)]
@@ -387,8 +387,8 @@ impl TrainConfig {
         .iter()
         .map(|&n| n as u128)
         .sum();
-        riskscore_data::limits::check_memory("comparisons.*.pairs", pairs, c.memory_estimate())?;
-        Ok(())
+        riskscore_data::limits::check_memory("comparisons.*.pairs", pairs, c.memory_estimate())
+            .map_err(|e| InvalidConfig::Limit(Box::new(e)))
     }
 
     // `!(x > y)` on purpose: NaN must fail every check.
