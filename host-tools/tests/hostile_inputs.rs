@@ -457,3 +457,21 @@ fn ssm_output_that_is_a_folder_is_refused_before_any_input_is_read() {
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
 }
+
+#[test]
+fn ssm_line_limit_above_its_cap_is_refused_before_reading() {
+    // A limit of 100 GB let /dev/zero (no line break) grow the process without bound.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.csv");
+    let o = riskctl(&[
+        "ssm",
+        "-i",
+        "/dev/zero",
+        "-o",
+        s(&out),
+        "--max-line-bytes",
+        "100000000000",
+    ]);
+    assert_refused(&o, "--max-line-bytes 100000000000: at most 1073741824");
+    assert!(!out.exists());
+}

@@ -84,7 +84,7 @@ pub struct Args {
     /// Stop with an error (exit status 1) at the first bad row instead of skipping it.
     #[arg(long)]
     pub strict: bool,
-    /// Longest accepted line (bytes); longer lines are reported and skipped.
+    /// Longest accepted line (bytes, at most 1 GiB); longer lines are reported and skipped.
     #[arg(long, value_name = "BYTES", default_value_t = DEFAULT_MAX_RECORD_BYTES)]
     pub max_line_bytes: usize,
     /// Messages printed per kind of bad row; the rest are counted in the summary.
@@ -101,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.input.display().to_string()
     };
-    riskscore_data::limits::check_threads("--threads", args.threads)?;
+    check_sizes(&args)?;
     let options = SsmOptions {
         strict: args.strict,
         max_record_bytes: args.max_line_bytes,
@@ -147,6 +147,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ""
         }
     );
+    Ok(())
+}
+
+/// The longest line `--max-line-bytes` accepts: 1 GiB, a thousand times the default. A line is
+/// held whole until it ends, so the limit is also what one line may cost in memory.
+const MAX_LINE_BYTES_CAP: usize = 1 << 30;
+
+/// Thread count and line length checked before any thread starts or any byte is read.
+fn check_sizes(args: &Args) -> anyhow::Result<()> {
+    use riskscore_data::limits::{check_cap, check_memory, check_threads};
+    check_threads("--threads", args.threads)?;
+    let line = args.max_line_bytes as u128;
+    check_cap(
+        "--max-line-bytes",
+        line,
+        MAX_LINE_BYTES_CAP as u128,
+        "1 GiB: a line is held in memory whole",
+    )?;
+    // The line being read, and its copy in the chunk handed to a worker.
+    check_memory(
+        "--max-line-bytes",
+        line,
+        (args.max_line_bytes as u64).saturating_mul(2),
+    )?;
     Ok(())
 }
 
