@@ -367,11 +367,17 @@ fn the_imported_folder_loads_with_zero_issues_and_splits_by_scenario() {
     scenarios.dedup();
     assert_eq!(scenarios, ["ZAM_Legacy-1_1_T-1", "ZAM_Merge-1_1_T-1"]);
 
-    // The same scenario twice would clash: the second copy is skipped with an issue.
+    // The same file twice is read once, the second naming skipped with an issue.
     let again = import_to_dir(&[data(MERGE), data(MERGE)], out.path(), &rules).unwrap();
     assert_eq!(again.files, 1);
+    assert!(matches!(again.issues[0].problem, Problem::SameFile { .. }));
+    // Two files with one stem would clash: the second is skipped with an issue.
+    let copy = tempfile::tempdir().unwrap();
+    std::fs::copy(data(MERGE), copy.path().join(MERGE)).unwrap();
+    let clash = import_to_dir(&[data(MERGE), copy.path().join(MERGE)], out.path(), &rules).unwrap();
+    assert_eq!(clash.files, 1);
     assert!(matches!(
-        again.issues[0].problem,
+        clash.issues[0].problem,
         Problem::DuplicateScenario { .. }
     ));
 }

@@ -56,6 +56,8 @@ pub enum SsmError {
     },
     #[error("the input is empty (no header line)")]
     EmptyInput,
+    #[error("header, column {column}: name \"{name}\" is not UTF-8, and a Parquet column name must be: rename it, or write CSV output, which keeps the bytes")]
+    NonUtf8Name { column: usize, name: String },
     #[error("header (line {line}): {problem}")]
     BadHeader {
         line: u64,
@@ -92,6 +94,8 @@ pub enum RowProblem {
     TooLong { limit: usize },
     #[error("quoted field not closed (by the end of the input or within {limit} bytes); reading resumes on the next line")]
     UnterminatedQuote { limit: usize },
+    #[error("text \"{0}\" is not UTF-8, and a Parquet text column holds UTF-8 only (CSV output keeps the bytes; or convert the input, e.g. iconv -f latin1 -t utf-8)")]
+    NotUtf8(String),
 }
 
 impl RowProblem {
@@ -108,6 +112,7 @@ impl RowProblem {
             RowProblem::Csv(_) => "malformed CSV",
             RowProblem::TooLong { .. } => "line too long",
             RowProblem::UnterminatedQuote { .. } => "unterminated quote",
+            RowProblem::NotUtf8(_) => "not UTF-8",
         }
     }
 }
@@ -163,8 +168,12 @@ pub struct PairColumns {
     pub ego: [usize; 9],
     /// Column index of `<field>_j` for each of [`STATE_FIELDS`].
     pub partner: [usize; 9],
-    /// The header as read (trimmed, byte-order mark removed), for messages and the output.
+    /// The header as read (trimmed, byte-order mark removed), for messages, matching and
+    /// Parquet output; bytes that are not UTF-8 show as U+FFFD here.
     pub names: Vec<String>,
+    /// The same names as bytes, exactly as in the input (trimmed): what a CSV output's header
+    /// repeats, whatever their encoding.
+    pub name_bytes: Vec<Vec<u8>>,
 }
 
 impl PairColumns {
@@ -208,11 +217,58 @@ impl PairColumns {
                 missing: missing.join(", "),
             });
         }
+        let name_bytes = names.iter().map(|n| n.as_bytes().to_vec()).collect();
         Ok(Self {
             ego,
             partner,
             names,
+            name_bytes,
         })
+    }
+
+    /// [`Self::from_header`] for a header read as bytes: the names are matched as text, and the
+    /// bytes are kept for the output.
+    pub fn from_header_bytes(fields: Vec<Vec<u8>>) -> Result<Self, SsmError> {
+        let header: csv::StringRecord = fields
+            .iter()
+            .map(|f| String::from_utf8_lossy(f).into_owned())
+            .collect();
+        let mut columns = Self::from_header(&header)?;
+        // UTF-8 names as matched (trimmed as text); others trimmed of ASCII blanks.
+        for (kept, field) in columns.name_bytes.iter_mut().zip(&fields) {
+            if std::str::from_utf8(field).is_err() {
+                *kept = field.trim_ascii().to_vec();
+            }
+        }
+        Ok(columns)
+    }
+
+    /// The first header name that is not UTF-8: its 1-based column and its text with the
+    /// offending bytes written `\xNN`.
+    pub fn non_utf8_name(&self) -> Option<(usize, String)> {
+        self.name_bytes
+            .iter()
+            .position(|n| std::str::from_utf8(n).is_err())
+            .map(|k| (k + 1, escape_non_utf8(&self.name_bytes[k])))
+    }
+
+    /// The CSV output header line: the input names as bytes, then the computed columns.
+    pub fn output_header_line(&self) -> Vec<u8> {
+        let mut line = Vec::new();
+        let computed = self.output_header().split_off(self.names.len());
+        let names = self
+            .name_bytes
+            .iter()
+            .map(Vec::as_slice)
+            .chain(computed.iter().map(|c| c.as_bytes()));
+        for (k, name) in names.enumerate() {
+            if k > 0 {
+                line.push(b',');
+            }
+            pipeline::push_field(&mut line, name);
+        }
+        line.push(b'\n');
+        line
     }
 
     /// The output header: the input header followed by the surrogate and feature columns.
@@ -424,6 +480,18 @@ pub fn check_value(wide: f64, field: &str) -> Result<(), RowProblem> {
     Ok(())
 }
 
+/// `bytes` as text, each byte that is not part of valid UTF-8 written `\xNN` (for messages).
+pub fn escape_non_utf8(bytes: &[u8]) -> String {
+    let mut text = String::new();
+    for chunk in bytes.utf8_chunks() {
+        text.push_str(chunk.valid());
+        for b in chunk.invalid() {
+            text.push_str(&format!("\\x{b:02X}"));
+        }
+    }
+    text
+}
+
 /// `problem` with the offending value spelled as in the input.
 fn with_text(problem: RowProblem, raw: &str) -> RowProblem {
     match problem {
@@ -558,6 +626,18 @@ mod tests {
             }
             other => panic!("expected missing columns, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn header_bytes_that_are_not_utf8_reach_the_output_unchanged() {
+        let mut input = format!("{HEADER},t").into_bytes();
+        input.extend_from_slice(b"\xf6\n7,0,0,10,0,1,0,0,4,2,30,0,5,0,1,0,0,4,2,a,b\n");
+        let mut out = Vec::new();
+        let r = score_csv(input.as_slice(), &mut out, SsmOptions::default(), |_| {}).unwrap();
+        assert_eq!(r.rows_ok, 1);
+        let header = out.split(|&b| b == b'\n').next().unwrap();
+        assert!(header.starts_with(format!("{HEADER},t").as_bytes()));
+        assert!(header.windows(4).any(|w| w == b",t\xf6,"));
     }
 
     #[test]

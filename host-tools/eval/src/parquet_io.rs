@@ -3,10 +3,17 @@
 //!
 //! Columns are the same as in CSV: the input columns, then the 17 computed ones (Float32).
 //! Parquet input -> pass-through columns keep their Arrow types; CSV input -> the 18 pair columns
-//! become Float64 (the parsed values) and every other column Utf8 (its text; bytes that are not
-//! UTF-8 are replaced by U+FFFD, as Parquet strings must be UTF-8). Parquet output is written with
+//! become Float64 (the parsed values) and every other column Utf8 (its text). Parquet strings
+//! must be UTF-8 and nothing is replaced by U+FFFD: a row whose pass-through text is not UTF-8 is a
+//! bad row (reported with its line and column, skipped; `--strict` stops), and a header name that
+//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is written with
 //! Snappy compression in row groups of up to 131,072 rows (the writer buffers one group); bad rows are skipped and reported with
 //! their 1-based row number (Parquet input) or line number (CSV input).
+//!
+//! Page checksums: a page that carries a CRC-32 (written by pyarrow with `write_page_checksum`,
+//! by Spark and others) is verified when read; a mismatch stops the run with the row group and
+//! column named (a flipped bit would otherwise become a plausible wrong value). Pages without a
+//! checksum cannot be verified.
 //!
 //! Limitations: CSV output of a Parquet input supports pass-through columns of the string,
 //! integer, float and boolean types (others are an error naming the column). The columnar path
@@ -55,6 +62,8 @@ pub enum ColumnarError {
     Arrow(#[from] arrow_schema::ArrowError),
     #[error("column {name}: type {found} cannot be written to CSV")]
     CsvType { name: String, found: DataType },
+    #[error("row group {row_group} (counting from 0), column {column}: a page's CRC-32 checksum does not match its bytes: the file is damaged, no output written")]
+    PageChecksum { row_group: usize, column: String },
     #[error("I/O")]
     Io(#[from] std::io::Error),
 }
@@ -262,6 +271,9 @@ impl<R: Read> CsvBatches<R> {
     pub fn new(input: R, options: &SsmOptions) -> Result<Self, SsmError> {
         let mut splitter = Splitter::new(input, 1 << 20, options.max_record_bytes);
         let (columns, pending) = riskscore_data::ssm_csv::read_header(&mut splitter)?;
+        if let Some((column, name)) = columns.non_utf8_name() {
+            return Err(SsmError::NonUtf8Name { column, name });
+        }
         let pair: Vec<usize> = columns
             .ego
             .iter()
@@ -356,7 +368,10 @@ impl<R: Read> CsvBatches<R> {
                         if f.is_blank() {
                             return true;
                         }
-                        match columns.parse_values(f, line) {
+                        let values = columns
+                            .parse_values(f, line)
+                            .and_then(|v| texts_are_utf8(columns, &pair, f, line).map(|()| v));
+                        match values {
                             Ok((ego, partner)) => {
                                 for (b, v) in numbers.iter_mut().zip(ego.iter().chain(&partner)) {
                                     b.append_value(*v);
@@ -365,11 +380,9 @@ impl<R: Read> CsvBatches<R> {
                                     if pair[k].is_some() {
                                         continue;
                                     }
-                                    match f.field(k) {
-                                        Some(bytes) => {
-                                            b.append_value(String::from_utf8_lossy(bytes))
-                                        }
-                                        None => b.append_null(),
+                                    match f.field(k).map(std::str::from_utf8) {
+                                        Some(Ok(text)) => b.append_value(text),
+                                        _ => b.append_null(),
                                     }
                                 }
                                 rows += 1;
@@ -416,6 +429,29 @@ impl<R: Read> CsvBatches<R> {
     }
 }
 
+/// A row's pass-through fields are UTF-8 (Arrow strings must be): else the row is bad, with the
+/// first offending column and its text (bytes shown `\xNN`).
+fn texts_are_utf8(
+    columns: &PairColumns,
+    pair: &[Option<usize>],
+    fields: &FieldBuf,
+    line: u64,
+) -> Result<(), RowError> {
+    for (k, is_pair) in pair.iter().enumerate() {
+        let Some(bytes) = fields.field(k).filter(|_| is_pair.is_none()) else {
+            continue;
+        };
+        if std::str::from_utf8(bytes).is_err() {
+            return Err(RowError {
+                line,
+                column: columns.names.get(k).cloned(),
+                problem: RowProblem::NotUtf8(riskscore_data::ssm_csv::escape_non_utf8(bytes)),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// `riskctl ssm` where the input or the output (or both) is Parquet.
 pub fn ssm_columnar<R: Read, W: Write + Send>(
     input: ColumnarInput<R>,
@@ -449,6 +485,7 @@ pub fn ssm_columnar<R: Read, W: Write + Send>(
     };
     let schema = match input {
         ColumnarInput::Parquet(file) => {
+            let again = file.try_clone()?;
             let builder = ParquetRecordBatchReaderBuilder::try_new(file)?;
             let columns = pair_columns(builder.schema())?;
             summary.duplicated_columns = columns.clashing_output_columns();
@@ -457,7 +494,7 @@ pub fn ssm_columnar<R: Read, W: Write + Send>(
             let mut first_row = 0u64;
             let mut schema = None;
             for batch in reader {
-                let batch = batch?;
+                let batch = batch.map_err(|e| locate_checksum_error(e, &again))?;
                 let (s, bad) = write_scored(&batch, &columns, first_row, &mut summary, &mut sink)?;
                 for e in &bad {
                     report(e, &mut summary)?;
@@ -495,6 +532,38 @@ pub fn ssm_columnar<R: Read, W: Write + Send>(
     };
     sink.finish(schema)?;
     Ok(summary)
+}
+
+/// A read error as it is, unless it is a page checksum mismatch: that one is located (row group
+/// and column) by reading the file's pages again, as the Arrow reader does not say where it was.
+fn locate_checksum_error(e: arrow_schema::ArrowError, file: &File) -> ColumnarError {
+    // The parquet crate reports a mismatch only as this text (`crc` feature, `decode_page`).
+    if !e.to_string().contains("CRC checksum mismatch") {
+        return e.into();
+    }
+    match file.try_clone().ok().and_then(first_corrupt_page) {
+        Some((row_group, column)) => ColumnarError::PageChecksum { row_group, column },
+        None => e.into(),
+    }
+}
+
+/// The row group (0-based) and column path of the first page that does not read back.
+fn first_corrupt_page(file: File) -> Option<(usize, String)> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(file).ok()?;
+    for row_group in 0..reader.num_row_groups() {
+        let group = reader.get_row_group(row_group).ok()?;
+        for column in 0..group.num_columns() {
+            let name = || group.metadata().column(column).column_path().string();
+            let Ok(mut pages) = group.get_column_page_reader(column) else {
+                return Some((row_group, name()));
+            };
+            if pages.any(|page| page.is_err()) {
+                return Some((row_group, name()));
+            }
+        }
+    }
+    None
 }
 
 /// The input of a columnar run.

@@ -148,7 +148,10 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         println!("ignored road users: {}", ignored.join(", "));
     }
     if !s.issues.is_empty() {
-        println!("skipped (malformed, listed on stderr): {}", s.issues.len());
+        println!(
+            "skipped (listed on stderr with the reason): {}",
+            s.issues.len()
+        );
     }
     println!(
         "pairs recorded together: {}, interacting: {}; interactions: {} ({} frames, ego: {})",

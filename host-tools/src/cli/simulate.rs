@@ -23,12 +23,14 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Number of events (default 310: 70 crash, 110 near-crash, 130 safe, like the 100-Car set).
+    /// At most 10,000,000; a count whose folder (about 15 KB an event) would not fit in the free
+    /// space of the output's file system is refused before anything is written.
     #[arg(long, default_value_t = 310)]
     pub events: usize,
     /// Relative weights crash,near_crash,safe of the mix.
     #[arg(long, value_name = "C,N,S", default_value = "70,110,130")]
     pub mix: Mix,
-    /// Worker threads (0 = all cores).
+    /// Worker threads (0 = all cores; at most 4 per core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
 }
@@ -42,6 +44,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         progress: std::io::stderr().is_terminal(),
         ..SimConfig::default()
     };
+    cfg.check_size(Some(&args.out))?;
     let s = simulate_to_dir(&args.out, &cfg)
         .with_context(|| format!("simulating into {}", args.out.display()))?;
     println!(

@@ -41,8 +41,8 @@ BAD ROWS:
   line number and column, and skipped. So is a line longer than --max-line-bytes (default
   1 MiB; skipped without being held in memory) and a quoted field that is never closed (only
   the line where it starts is lost; reading resumes on the next line). Line numbers count
-  every line of the file, blank ones included. Pass-through columns are copied byte for byte,
-  in any encoding.
+  every line of the file, blank ones included. Pass-through columns and the header are copied
+  byte for byte to CSV output, in any encoding; nothing is ever replaced by U+FFFD.
 
   The first --show-bad messages of each kind of problem are printed (default 10), then a
   count per kind. With --strict the first bad row stops the run with exit status 1 and no
@@ -56,9 +56,14 @@ BAD ROWS:
 PARQUET:
   An input or output path ending in .parquet is Apache Parquet, anything else CSV (any mix).
   Same columns: the input columns, then the 17 computed ones (Float32). From CSV, the 18 pair
-  columns become Float64 and every other column a string; from Parquet the pair columns may be
-  Float64, Float32, Int64 or Int32 and other columns keep their type. Bad rows are reported
-  with their row number (Parquet input). The Parquet path runs on one thread.
+  columns become Float64 and every other column a UTF-8 string (Parquet strings must be UTF-8:
+  a row whose pass-through text is not is reported with its line and column and skipped, and a
+  header name that is not stops the run; write CSV output to keep such bytes, or convert the
+  input with iconv); from Parquet the pair columns may be Float64, Float32, Int64 or Int32 and
+  other columns keep their type. Bad rows are reported
+  with their row number (Parquet input). Page checksums (CRC-32, when the writer stored them) are
+  verified: a damaged page stops the run, naming the row group and column, with no output
+  written. The Parquet path runs on one thread.
 
 EXAMPLES:
   riskctl ssm --input pairs.csv --output pairs_ssm.csv
@@ -79,13 +84,13 @@ pub struct Args {
     /// Stop with an error (exit status 1) at the first bad row instead of skipping it.
     #[arg(long)]
     pub strict: bool,
-    /// Longest accepted line (bytes); longer lines are reported and skipped.
+    /// Longest accepted line (bytes, at most 1 GiB); longer lines are reported and skipped.
     #[arg(long, value_name = "BYTES", default_value_t = DEFAULT_MAX_RECORD_BYTES)]
     pub max_line_bytes: usize,
     /// Messages printed per kind of bad row; the rest are counted in the summary.
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub show_bad: u64,
-    /// Worker threads (0 = one per core).
+    /// Worker threads (0 = one per core; at most 4 per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub threads: usize,
 }
@@ -96,6 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.input.display().to_string()
     };
+    check_sizes(&args)?;
     let options = SsmOptions {
         strict: args.strict,
         max_record_bytes: args.max_line_bytes,
@@ -141,6 +147,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ""
         }
     );
+    Ok(())
+}
+
+/// The longest line `--max-line-bytes` accepts: 1 GiB, a thousand times the default. A line is
+/// held whole until it ends, so the limit is also what one line may cost in memory.
+const MAX_LINE_BYTES_CAP: usize = 1 << 30;
+
+/// Thread count and line length checked before any thread starts or any byte is read.
+fn check_sizes(args: &Args) -> anyhow::Result<()> {
+    use riskscore_data::limits::{check_cap, check_memory, check_threads};
+    check_threads("--threads", args.threads)?;
+    let line = args.max_line_bytes as u128;
+    check_cap(
+        "--max-line-bytes",
+        line,
+        MAX_LINE_BYTES_CAP as u128,
+        "1 GiB: a line is held in memory whole",
+    )?;
+    // The line being read, and its copy in the chunk handed to a worker.
+    check_memory(
+        "--max-line-bytes",
+        line,
+        (args.max_line_bytes as u64).saturating_mul(2),
+    )?;
     Ok(())
 }
 

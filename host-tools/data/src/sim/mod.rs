@@ -184,6 +184,45 @@ pub enum SimError {
     },
     #[error("cannot start the simulation threads: {0}")]
     ThreadPool(#[source] rayon::ThreadPoolBuildError),
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
+}
+
+/// The most events one run simulates (about 150 GB of event folder). A larger count is a typo or
+/// a unit slip, and would hold one byte per event in memory before the first is written.
+pub const MAX_EVENTS: usize = 10_000_000;
+
+/// Bytes an event takes in the folder, at least (events.csv, frames.csv, scenarios.csv; about
+/// 15.6 KB measured over 300 default-mix events, whose frame counts vary with the scenario).
+pub const MIN_EVENT_BYTES: u64 = 10_000;
+
+impl SimConfig {
+    /// Refuse an event count above [`MAX_EVENTS`] or a thread count above
+    /// [`crate::limits::max_threads`], and (when `out` is given) an event folder that would not
+    /// fit in the free space where it is written. Checked before anything is allocated or written.
+    pub fn check_size(&self, out: Option<&Path>) -> Result<(), crate::limits::LimitError> {
+        use crate::limits::{check_cap, check_disk, check_memory, check_threads};
+        let events = self.events as u128;
+        check_cap(
+            "--events",
+            events,
+            MAX_EVENTS as u128,
+            "about 150 GB of event folder; split larger sets over seeds",
+        )?;
+        check_threads("--threads", self.threads)?;
+        // The shuffled kind list is held whole; a wave of events is bounded and small.
+        let in_memory = self.events as u64 * std::mem::size_of::<EventKind>() as u64;
+        check_memory("--events", events, in_memory)?;
+        if let Some(out) = out {
+            check_disk(
+                "--events",
+                events,
+                self.events as u64 * MIN_EVENT_BYTES,
+                out,
+            )?;
+        }
+        Ok(())
+    }
 }
 
 /// One accepted simulated event with its provenance.
@@ -435,6 +474,7 @@ fn generate(
     mut sink: impl FnMut(SimulatedEvent) -> Result<(), SimError>,
 ) -> Result<SimSummary, SimError> {
     const CHUNK: usize = 16;
+    cfg.check_size(None)?;
     let start = Instant::now();
     let kinds = targets(cfg);
     let pool = rayon::ThreadPoolBuilder::new()

@@ -320,18 +320,17 @@ pub fn read_header<R: Read>(
             // A fresh reader strips a byte-order mark, like the csv crate at the start of a file.
             let mut reader = csv_core::Reader::new();
             let mut fields = FieldBuf::default();
-            let mut names: Option<Vec<String>> = None;
+            let mut names: Option<Vec<Vec<u8>>> = None;
             for_each_record(&mut reader, &mut fields, &chunk.data[start..end], |f| {
                 names = Some(
                     (0..f.count)
-                        .map(|i| String::from_utf8_lossy(f.field(i).unwrap_or_default()).into())
+                        .map(|i| f.field(i).unwrap_or_default().to_vec())
                         .collect(),
                 );
                 false
             });
             if let Some(names) = names {
-                let header = csv::StringRecord::from(names);
-                let columns = PairColumns::from_header(&header)?;
+                let columns = PairColumns::from_header_bytes(names)?;
                 chunk.pieces.drain(..=k);
                 let rest = (!chunk.pieces.is_empty()).then_some(chunk);
                 return Ok((columns, rest));
@@ -352,15 +351,7 @@ pub fn score_csv<R: Read, W: Write>(
 ) -> Result<SsmSummary, SsmError> {
     let mut splitter = Splitter::new(input, CHUNK_BYTES, options.max_record_bytes);
     let (columns, first_rows) = read_header(&mut splitter)?;
-    let mut header_line = Vec::new();
-    for (k, name) in columns.output_header().iter().enumerate() {
-        if k > 0 {
-            header_line.push(b',');
-        }
-        push_field(&mut header_line, name.as_bytes());
-    }
-    header_line.push(b'\n');
-    output.write_all(&header_line)?;
+    output.write_all(&columns.output_header_line())?;
 
     let mut summary = SsmSummary {
         duplicated_columns: columns.clashing_output_columns(),

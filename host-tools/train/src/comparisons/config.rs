@@ -8,6 +8,10 @@ use super::types::Source;
 #[error("{0}")]
 pub struct ComparisonConfigError(pub String);
 
+/// The most pairs one source draws, and the most anchors of each kind: 2,500 times the default,
+/// about 600 MB of comparisons in all.
+pub const MAX_PAIRS: usize = 10_000_000;
+
 /// Temporal-source settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -183,9 +187,45 @@ impl ComparisonConfig {
         c
     }
 
+    /// Bytes the configured comparisons take at least while they are built and trained on: per
+    /// pair the pair and its weight, and for a physics pair its counterfactual observation row;
+    /// per anchor its row index. Sequences and the frames' own rows come on top.
+    pub fn memory_estimate(&self) -> u64 {
+        use std::mem::size_of;
+        let row = (size_of::<scorer_core::Features>()
+            + size_of::<scorer_core::Surrogates>()
+            + size_of::<scorer_core::DrlInputs>()
+            + size_of::<super::RowOrigin>()) as u64;
+        let pair = (size_of::<super::Pair>() + size_of::<f32>()) as u64;
+        let pairs = self.temporal.pairs as u64
+            + self.cross_sequence.pairs as u64
+            + self.physics.pairs as u64
+            + self.simulation.pairs as u64;
+        let anchors = self.anchors.max_impact as u64 + self.anchors.max_upper as u64;
+        pairs
+            .saturating_mul(pair)
+            .saturating_add((self.physics.pairs as u64).saturating_mul(row))
+            .saturating_add(anchors.saturating_mul(size_of::<u32>() as u64))
+    }
+
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn validate(&self) -> Result<(), ComparisonConfigError> {
+        for (key, n) in [
+            ("temporal.pairs", self.temporal.pairs),
+            ("cross_sequence.pairs", self.cross_sequence.pairs),
+            ("physics.pairs", self.physics.pairs),
+            ("simulation.pairs", self.simulation.pairs),
+            ("anchors.max_impact", self.anchors.max_impact),
+            ("anchors.max_upper", self.anchors.max_upper),
+        ] {
+            if n > MAX_PAIRS {
+                return Err(ComparisonConfigError(format!(
+                    "comparisons.{key} = {n}: at most {MAX_PAIRS} (the observation table is \
+                     indexed by u32, and training passes over every pair each epoch)"
+                )));
+            }
+        }
         let t = &self.temporal;
         if !(t.dmin > 0.0 && t.dmax >= t.dmin && t.dmax.is_finite()) {
             return Err(ComparisonConfigError(format!(
@@ -230,9 +270,9 @@ impl ComparisonConfig {
                 )));
             }
         }
-        if !(p.closing_horizon > 0.0) {
+        if !(p.closing_horizon > 0.0 && p.closing_horizon.is_finite()) {
             return Err(ComparisonConfigError(
-                "comparisons.physics.closing_horizon must be > 0".into(),
+                "comparisons.physics.closing_horizon must be finite and > 0".into(),
             ));
         }
         for (name, b) in [
@@ -247,9 +287,9 @@ impl ComparisonConfig {
                 )));
             }
         }
-        if !(self.anchors.impact_tolerance >= 0.0) {
+        if !(self.anchors.impact_tolerance >= 0.0 && self.anchors.impact_tolerance.is_finite()) {
             return Err(ComparisonConfigError(
-                "comparisons.anchors.impact_tolerance must be >= 0".into(),
+                "comparisons.anchors.impact_tolerance must be finite and >= 0".into(),
             ));
         }
         Ok(())

@@ -29,7 +29,7 @@ use riskscore_data::events::{Sequence, TIME_TOLERANCE_S};
 
 pub use config::{
     AnchorConfig, ComparisonConfig, ComparisonConfigError, CrossSequenceConfig, PhysicsConfig,
-    SimulationConfig, TemporalConfig,
+    SimulationConfig, TemporalConfig, MAX_PAIRS,
 };
 use draw::{Draw, Origin, TableBuilder};
 pub use table::{ObservationTable, RowOrigin};

@@ -7,7 +7,8 @@ use scorer_core::SurrogateKind;
 use serde::{Deserialize, Serialize};
 
 use crate::train::config::{
-    check_hidden, parse_toml, read_toml, ConfigFileError, HiddenLayersError,
+    check_at_most, check_hidden, check_non_negative, parse_toml, read_toml, ConfigFileError,
+    HiddenLayersError, InvalidConfig, MAX_EPOCHS,
 };
 
 /// Lognormal NLL training of the GSSM on safe-driving observations.
@@ -172,7 +173,12 @@ pub enum InvalidGssmConfig {
     MsraRate,
     #[error(transparent)]
     Configuration(#[from] ConfigurationError),
+    #[error(transparent)]
+    Value(#[from] InvalidConfig),
 }
+
+/// The largest `fit.batch`: a mini-batch's activations are held whole.
+pub const MAX_FIT_BATCH: usize = 1_000_000;
 
 /// An MSRA-over-GSSM configuration name that does not parse.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -208,6 +214,22 @@ impl GssmConfig {
         if !positive(f.learning_rate) || f.batch == 0 || f.max_epochs == 0 {
             return Err(InvalidGssmConfig::FitRates);
         }
+        check_non_negative("fit.weight_decay", f.weight_decay)?;
+        check_non_negative("fit.min_delta", f.min_delta)?;
+        let epochs_why = "early stopping ends real runs long before";
+        check_at_most("fit.max_epochs", f.max_epochs, MAX_EPOCHS, epochs_why)?;
+        check_at_most(
+            "ssra.max_epochs",
+            self.ssra.max_epochs,
+            MAX_EPOCHS,
+            epochs_why,
+        )?;
+        check_at_most(
+            "fit.batch",
+            f.batch,
+            MAX_FIT_BATCH,
+            "a mini-batch is held in memory whole",
+        )?;
         if !(f.smoothness >= 0.0
             && f.smoothness.is_finite()
             && f.smoothness_noise > 0.0
@@ -221,7 +243,10 @@ impl GssmConfig {
         }
         if !(r.lambda_impact >= 0.0
             && r.lambda_upper >= 0.0
+            && r.lambda_impact.is_finite()
+            && r.lambda_upper.is_finite()
             && r.u < r.r_star
+            && r.u.is_finite()
             && r.r_star.is_finite())
         {
             return Err(InvalidGssmConfig::SsraAnchors);
@@ -259,4 +284,31 @@ pub fn parse_configuration(text: &str) -> Result<Vec<SurrogateKind>, Configurati
         });
     }
     Ok(kinds)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn invalid(toml: &str) -> String {
+        match GssmConfig::from_toml(toml, "g.toml") {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{toml} was accepted"),
+        }
+    }
+
+    #[test]
+    fn signs_finiteness_and_counts_are_checked() {
+        assert_eq!(
+            invalid("[fit]\nweight_decay = -1.0"),
+            "g.toml: fit.weight_decay = -1: must be finite and >= 0"
+        );
+        assert!(invalid("[fit]\nmin_delta = nan").contains("fit.min_delta"));
+        assert!(invalid("[fit]\nmax_epochs = 100001").contains("fit.max_epochs"));
+        assert!(invalid("[ssra]\nmax_epochs = 100001").contains("ssra.max_epochs"));
+        assert!(invalid("[fit]\nbatch = 1000001").contains("fit.batch = 1000001"));
+        assert!(invalid("[ssra]\nlambda_upper = inf").contains("ssra:"));
+        assert!(invalid("[ssra]\nu = -inf").contains("ssra:"));
+        assert!(GssmConfig::from_toml("", "g.toml").is_ok());
+    }
 }

@@ -37,7 +37,11 @@ impl ObjectiveConfig {
     // `!(x > y)` on purpose: NaN must fail every check.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn validate(&self, table: &'static str) -> Result<(), InvalidConfig> {
-        if !(self.lambda_impact >= 0.0 && self.lambda_upper >= 0.0) {
+        if !(self.lambda_impact >= 0.0
+            && self.lambda_upper >= 0.0
+            && self.lambda_impact.is_finite()
+            && self.lambda_upper.is_finite())
+        {
             return Err(InvalidConfig::NegativeLambda { table });
         }
         if !(self.u < self.r_star && self.u.is_finite() && self.r_star.is_finite()) {
@@ -190,7 +194,7 @@ pub struct TrainConfig {
 pub enum InvalidConfig {
     #[error(transparent)]
     Comparisons(#[from] crate::comparisons::ComparisonConfigError),
-    #[error("{table}: lambda_impact and lambda_upper must be >= 0")]
+    #[error("{table}: lambda_impact and lambda_upper must be finite and >= 0")]
     NegativeLambda { table: &'static str },
     #[error("{table}: need u < r_star, got u = {u}, r_star = {r_star}")]
     AnchorOrder {
@@ -198,8 +202,21 @@ pub enum InvalidConfig {
         u: f32,
         r_star: f32,
     },
-    #[error("optimiser: learning_rate, batch_pairs and max_epochs must be > 0")]
+    #[error("optimiser: learning_rate (finite), batch_pairs and max_epochs must be > 0")]
     Optimiser,
+    #[error("{key} = {value}: must be finite and >= 0")]
+    Negative { key: &'static str, value: f64 },
+    #[error("{key} = {value}: must be finite and > 0")]
+    NotPositive { key: &'static str, value: f64 },
+    #[error("{key} = {value}: at most {max} ({why})")]
+    AboveCap {
+        key: &'static str,
+        value: usize,
+        max: usize,
+        why: &'static str,
+    },
+    #[error(transparent)]
+    Limit(Box<riskscore_data::limits::LimitError>),
     #[error("optimiser.validation_fraction must be in [0, 0.9)")]
     ValidationFraction,
     #[error(transparent)]
@@ -214,6 +231,47 @@ pub enum InvalidConfig {
     SurrogateCount,
     #[error("msra.surrogates: unknown surrogate {0:?} (expected ttc2d, tadv or ei)")]
     UnknownSurrogate(String),
+}
+
+/// The most epochs a configuration may ask for: far beyond where early stopping ends any run, but
+/// a count that still finishes.
+pub const MAX_EPOCHS: usize = 100_000;
+
+/// The largest `quantisation.max_observations`: calibration holds each in memory.
+pub const MAX_CALIBRATION_OBSERVATIONS: usize = 10_000_000;
+
+/// `key = value` is a finite rate > 0.
+pub(crate) fn check_positive(key: &'static str, value: f64) -> Result<(), InvalidConfig> {
+    if value > 0.0 && value.is_finite() {
+        return Ok(());
+    }
+    Err(InvalidConfig::NotPositive { key, value })
+}
+
+/// `key = value` is finite and >= 0 (weight decay, tolerances, weights).
+pub(crate) fn check_non_negative(key: &'static str, value: f64) -> Result<(), InvalidConfig> {
+    if value >= 0.0 && value.is_finite() {
+        return Ok(());
+    }
+    Err(InvalidConfig::Negative { key, value })
+}
+
+/// `key = value` is at most `max`.
+pub(crate) fn check_at_most(
+    key: &'static str,
+    value: usize,
+    max: usize,
+    why: &'static str,
+) -> Result<(), InvalidConfig> {
+    if value <= max {
+        return Ok(());
+    }
+    Err(InvalidConfig::AboveCap {
+        key,
+        value,
+        max,
+        why,
+    })
 }
 
 /// Hidden layer widths the core cannot run (it runs at most 4 layers of width <= 64).
@@ -308,7 +366,29 @@ impl TrainConfig {
         if let Some(seed) = seed {
             config.seed = seed;
         }
+        config
+            .check_memory()
+            .map_err(|source| ConfigFileError::Invalid {
+                path: path.map_or_else(|| "built-in defaults".into(), |p| p.display().to_string()),
+                source,
+            })?;
         Ok(config)
+    }
+
+    /// Refuse comparison counts whose pairs alone would not fit in the memory available now.
+    pub fn check_memory(&self) -> Result<(), InvalidConfig> {
+        let c = &self.comparisons;
+        let pairs = [
+            c.temporal.pairs,
+            c.cross_sequence.pairs,
+            c.physics.pairs,
+            c.simulation.pairs,
+        ]
+        .iter()
+        .map(|&n| n as u128)
+        .sum();
+        riskscore_data::limits::check_memory("comparisons.*.pairs", pairs, c.memory_estimate())
+            .map_err(|e| InvalidConfig::Limit(Box::new(e)))
     }
 
     // `!(x > y)` on purpose: NaN must fail every check.
@@ -320,8 +400,31 @@ impl TrainConfig {
             o.validate("msra.objective")?;
         }
         let p = &self.optimiser;
-        if !(p.learning_rate > 0.0) || p.batch_pairs == 0 || p.max_epochs == 0 {
+        if !(p.learning_rate > 0.0 && p.learning_rate.is_finite())
+            || p.batch_pairs == 0
+            || p.max_epochs == 0
+        {
             return Err(InvalidConfig::Optimiser);
+        }
+        check_non_negative("optimiser.weight_decay", p.weight_decay)?;
+        check_non_negative("optimiser.min_delta", p.min_delta)?;
+        check_at_most(
+            "optimiser.max_epochs",
+            p.max_epochs,
+            MAX_EPOCHS,
+            "early stopping ends real runs long before",
+        )?;
+        check_at_most(
+            "optimiser.batch_pairs",
+            p.batch_pairs,
+            crate::comparisons::MAX_PAIRS,
+            "no source draws more pairs",
+        )?;
+        if let Some(rate) = self.drl.learning_rate {
+            check_positive("drl.learning_rate", rate)?;
+        }
+        if let Some(rate) = self.msra.learning_rate {
+            check_positive("msra.learning_rate", rate)?;
         }
         if !(0.0..0.9).contains(&p.validation_fraction) {
             return Err(InvalidConfig::ValidationFraction);
@@ -331,6 +434,12 @@ impl TrainConfig {
         if !(0.0..0.1).contains(&q.clip_fraction) || q.max_observations == 0 {
             return Err(InvalidConfig::Quantisation);
         }
+        check_at_most(
+            "quantisation.max_observations",
+            q.max_observations,
+            MAX_CALIBRATION_OBSERVATIONS,
+            "calibration holds each one in memory",
+        )?;
         if !(self.msra.time_clip > 0.0 && self.msra.time_clip <= 1e3) {
             return Err(InvalidConfig::TimeClip(self.msra.time_clip));
         }
@@ -348,5 +457,59 @@ impl TrainConfig {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn invalid(toml: &str) -> String {
+        match TrainConfig::from_toml(toml, "t.toml") {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{toml} was accepted"),
+        }
+    }
+
+    #[test]
+    fn every_float_is_checked_for_sign_and_finiteness() {
+        assert_eq!(
+            invalid("[optimiser]\nweight_decay = -1.0"),
+            "t.toml: optimiser.weight_decay = -1: must be finite and >= 0"
+        );
+        assert!(invalid("[optimiser]\nweight_decay = nan").contains("weight_decay = NaN"));
+        assert!(invalid("[optimiser]\nmin_delta = -0.5").contains("optimiser.min_delta"));
+        assert!(invalid("[optimiser]\nlearning_rate = inf").contains("learning_rate (finite)"));
+        assert!(invalid("[drl]\nlearning_rate = -1.0").contains("drl.learning_rate = -1"));
+        assert!(invalid("[msra]\nlearning_rate = 0.0").contains("msra.learning_rate = 0"));
+        assert!(invalid("[objective]\nlambda_upper = inf").contains("finite and >= 0"));
+        assert!(invalid("[comparisons.physics]\nclosing_horizon = inf").contains("closing_horizon"));
+        assert!(
+            invalid("[comparisons.anchors]\nimpact_tolerance = inf").contains("impact_tolerance")
+        );
+    }
+
+    #[test]
+    fn counts_are_capped_before_anything_is_allocated() {
+        assert!(invalid("[comparisons.physics]\npairs = 10000001")
+            .contains("comparisons.physics.pairs = 10000001: at most 10000000"));
+        assert!(invalid("[comparisons.anchors]\nmax_upper = 99999999999")
+            .contains("comparisons.anchors.max_upper"));
+        assert!(invalid("[optimiser]\nmax_epochs = 100001").contains("at most 100000"));
+        assert!(invalid("[optimiser]\nbatch_pairs = 20000000").contains("optimiser.batch_pairs"));
+        assert!(invalid("[quantisation]\nmax_observations = 20000000")
+            .contains("quantisation.max_observations"));
+        let at_caps = "[comparisons.temporal]\npairs = 10000000\n[optimiser]\nmax_epochs = 100000";
+        assert!(TrainConfig::from_toml(at_caps, "t.toml").is_ok());
+    }
+
+    #[test]
+    fn the_memory_estimate_grows_with_the_pairs() {
+        let mut config = TrainConfig::default();
+        let base = config.comparisons.memory_estimate();
+        config.comparisons.physics.pairs += 1_000_000;
+        // A physics pair holds at least its pair, weight and one observation row.
+        assert!(config.comparisons.memory_estimate() >= base + 1_000_000 * 100);
+        assert!(TrainConfig::default().check_memory().is_ok());
     }
 }

@@ -45,37 +45,82 @@ pub struct ImportSummary {
 }
 
 /// The scenario files named by `inputs`: files as given, folders searched recursively for
-/// `*.xml`, each folder's entries in name order.
-pub fn scenario_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, EventsError> {
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), EventsError> {
+/// `*.xml`, each folder's entries in name order, symbolic links followed.
+///
+/// Each real file is listed once and each real folder searched once (compared by device and
+/// inode), so a link back up the tree cannot make the search endless, and a file reached by a
+/// second path is not read twice: those are returned as issues naming the first path.
+pub fn scenario_files(inputs: &[PathBuf]) -> Result<(Vec<PathBuf>, Vec<Issue>), EventsError> {
+    let mut search = Search::default();
+    for p in inputs {
+        search.visit(p, true)?;
+    }
+    Ok((search.files, search.issues))
+}
+
+/// The state of one [`scenario_files`] search.
+#[derive(Default)]
+struct Search {
+    files: Vec<PathBuf>,
+    issues: Vec<Issue>,
+    /// (device, inode) of every file listed and folder searched, with the path it was first seen at.
+    seen: HashMap<(u64, u64), PathBuf>,
+}
+
+impl Search {
+    /// `given`: named on the command line (a file is then taken whatever its extension).
+    fn visit(&mut self, path: &Path, given: bool) -> Result<(), EventsError> {
+        use std::os::unix::fs::MetadataExt;
+        let Ok(meta) = std::fs::metadata(path) else {
+            // A missing input or a dangling link: reading it reports why.
+            if given || is_xml(path) {
+                self.files.push(path.to_path_buf());
+            }
+            return Ok(());
+        };
+        if !meta.is_dir() && !given && !is_xml(path) {
+            return Ok(());
+        }
+        if let Some(first) = self.seen.get(&(meta.dev(), meta.ino())) {
+            let first = first.display().to_string();
+            self.issues.push(Issue {
+                file: path.display().to_string(),
+                line: 1,
+                context: String::new(),
+                problem: if meta.is_dir() {
+                    Problem::SameFolder { first }
+                } else {
+                    Problem::SameFile { first }
+                },
+            });
+            return Ok(());
+        }
+        self.seen
+            .insert((meta.dev(), meta.ino()), path.to_path_buf());
+        if !meta.is_dir() {
+            self.files.push(path.to_path_buf());
+            return Ok(());
+        }
         let io = |e| EventsError::Io {
-            path: dir.to_path_buf(),
+            path: path.to_path_buf(),
             source: e,
         };
-        let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        let mut entries: Vec<PathBuf> = std::fs::read_dir(path)
             .map_err(io)?
             .map(|e| e.map(|e| e.path()))
             .collect::<Result<_, _>>()
             .map_err(io)?;
         entries.sort();
-        for p in entries {
-            if p.is_dir() {
-                walk(&p, out)?;
-            } else if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
-                out.push(p);
-            }
+        for entry in entries {
+            self.visit(&entry, false)?;
         }
         Ok(())
     }
-    let mut out = Vec::new();
-    for p in inputs {
-        if p.is_dir() {
-            walk(p, &mut out)?;
-        } else {
-            out.push(p.clone());
-        }
-    }
-    Ok(out)
+}
+
+fn is_xml(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
 }
 
 /// Imports every scenario of `inputs` (files or folders) into the event folder `out`.
@@ -91,9 +136,12 @@ pub fn import_to_dir(
     rules: &InteractionRules,
 ) -> Result<ImportSummary, EventsError> {
     let started = Instant::now();
-    let files = scenario_files(inputs)?;
+    let (files, issues) = scenario_files(inputs)?;
     let mut writer = EventWriter::create_with_partner_acceleration(out)?;
-    let mut summary = ImportSummary::default();
+    let mut summary = ImportSummary {
+        issues,
+        ..ImportSummary::default()
+    };
     let mut seen: HashMap<String, PathBuf> = HashMap::new();
     for path in &files {
         let scenario = match read_scenario(path) {

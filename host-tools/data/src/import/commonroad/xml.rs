@@ -128,6 +128,18 @@ pub enum Problem {
     DuplicateScenario { id: String, first: String },
     #[error("time step {step} does not follow step {previous} of the previous state")]
     StepOrder { step: i64, previous: i64 },
+    #[error("obstacle id {id} is used again (first at line {first_line}); ids must be unique in a scenario, and events of two road users with one id would clash (file skipped)")]
+    DuplicateObstacle { id: String, first_line: u32 },
+    #[error("the same file as {first}, which is already read (file skipped)")]
+    SameFile { first: String },
+    #[error("the same folder as {first}, which is already searched (a link back up the tree, or a second path to it; skipped)")]
+    SameFolder { first: String },
+    #[error("not UTF-8 (invalid byte 0x{byte:02X}) and no other encoding declared; save the file as UTF-8 or declare encoding=\"ISO-8859-1\" if it is Latin-1")]
+    NotUtf8 { byte: u8 },
+    #[error(
+        "encoding {0:?} is not supported (UTF-8 and ISO-8859-1 are): convert the file to UTF-8"
+    )]
+    Encoding(String),
 }
 
 /// A problem, located: `file:line: <dynamicObstacle id=42> <state> #3 <velocity>: missing <exact>`.
@@ -147,17 +159,68 @@ pub struct Issue {
 /// (unreadable, not XML, not a CommonRoad scenario, no valid `timeStepSize`).
 pub fn read_scenario(path: &Path) -> Result<Scenario, Issue> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| Issue {
+    let file_issue = |line, problem| Issue {
         file: name.clone(),
-        line: 1,
+        line,
         context: String::new(),
-        problem: Problem::Io(e.to_string()),
-    })?;
+        problem,
+    };
+    let bytes = std::fs::read(path).map_err(|e| file_issue(1, Problem::Io(e.to_string())))?;
+    let text = decode(bytes).map_err(|(line, problem)| file_issue(line, problem))?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| name.clone());
     parse_scenario(&text, &name, &stem)
+}
+
+/// The text of an XML file: UTF-8 (a byte-order mark is dropped by the parser), or ISO-8859-1
+/// when its declaration says so (every byte is the code point of the same value). Any other
+/// declared encoding, or bytes that are not UTF-8 without a declaration, is an error with its line.
+fn decode(bytes: Vec<u8>) -> Result<String, (u32, Problem)> {
+    match declared_encoding(&bytes) {
+        Some(e) if is_latin1(&e) => return Ok(bytes.iter().map(|&b| char::from(b)).collect()),
+        Some(e) if !e.eq_ignore_ascii_case("utf-8") && !e.eq_ignore_ascii_case("us-ascii") => {
+            return Err((1, Problem::Encoding(e)))
+        }
+        _ => {}
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        (
+            u32::try_from(line).unwrap_or(u32::MAX),
+            Problem::NotUtf8 { byte: bytes[at] },
+        )
+    })
+}
+
+fn is_latin1(encoding: &str) -> bool {
+    [
+        "iso-8859-1",
+        "iso8859-1",
+        "iso_8859-1",
+        "latin1",
+        "latin-1",
+        "l1",
+    ]
+    .iter()
+    .any(|name| encoding.eq_ignore_ascii_case(name))
+}
+
+/// The `encoding` of an `<?xml ...?>` declaration at the start of the file (after a UTF-8
+/// byte-order mark), if there is one.
+fn declared_encoding(bytes: &[u8]) -> Option<String> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let rest = bytes.strip_prefix(b"<?xml")?;
+    let end = rest.windows(2).position(|w| w == b"?>")?;
+    let declaration = std::str::from_utf8(&rest[..end]).ok()?;
+    let after = declaration.split("encoding").nth(1)?.trim_start();
+    let value = after.strip_prefix('=')?.trim_start();
+    let quote = value.chars().next().filter(|c| *c == '"' || *c == '\'')?;
+    let value = &value[1..];
+    Some(value[..value.find(quote)?].to_string())
 }
 
 /// Parses scenario XML `text`; `file` names it in issues, `id` becomes [`Scenario::id`].
@@ -206,6 +269,7 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
         ignored: Vec::new(),
         issues: Vec::new(),
     };
+    refuse_duplicate_obstacle_ids(&doc, root, file)?;
     for node in root.children().filter(Node::is_element) {
         let obstacle_id = node.attribute("id").unwrap_or("?").to_string();
         match node.tag_name().name() {
@@ -239,6 +303,42 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
         }
     }
     Ok(scenario)
+}
+
+/// Two obstacles of one file with the same id make every event id of their interactions
+/// ambiguous (an event folder refuses such ids later, far from their cause): the file is refused
+/// with the id and both lines.
+fn refuse_duplicate_obstacle_ids(doc: &Document, root: Node, file: &str) -> Result<(), Issue> {
+    const OBSTACLES: [&str; 5] = [
+        "dynamicObstacle",
+        "obstacle",
+        "staticObstacle",
+        "environmentObstacle",
+        "phantomObstacle",
+    ];
+    let mut first_line: std::collections::HashMap<&str, u32> = std::collections::HashMap::new();
+    for node in root.children().filter(Node::is_element) {
+        let (true, Some(id)) = (
+            OBSTACLES.contains(&node.tag_name().name()),
+            node.attribute("id"),
+        ) else {
+            continue;
+        };
+        let line = line_of(doc, node);
+        if let Some(&first) = first_line.get(id) {
+            return Err(Issue {
+                file: file.to_string(),
+                line,
+                context: format!("<{} id={id}>: ", node.tag_name().name()),
+                problem: Problem::DuplicateObstacle {
+                    id: id.to_string(),
+                    first_line: first,
+                },
+            });
+        }
+        first_line.insert(id, line);
+    }
+    Ok(())
 }
 
 /// Builds located issues for one obstacle.
