@@ -335,6 +335,7 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 }
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
+    refuse_inputs(&a.common, &[], &a.out_dir)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -369,6 +370,9 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
+    if let Some(out) = &a.out {
+        refuse_inputs(&a.common, &[], out)?;
+    }
     let names = if a.msra.is_empty() {
         gcfg.msra.configurations.clone()
     } else {
