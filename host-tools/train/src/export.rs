@@ -97,10 +97,7 @@ impl Checkpoint {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
-        std::fs::write(path, text).map_err(|source| ExportError::Io {
-            path: path.display().to_string(),
-            source,
-        })
+        write_blob(path, text.as_bytes())
     }
 
     pub fn load(path: &Path) -> Result<Checkpoint, ExportError> {
