@@ -1,422 +1,546 @@
-//! The fault suite of issue #21: every command that writes, run against its own inputs, a missing
-//! input, a second writer, a target it cannot write, and (simulate) Ctrl-C in the middle. Every
-//! case asserts a non-zero exit, a message naming the file, every pre-existing user file byte for
-//! byte unchanged, and no temporary or lock file left behind (the whole scratch folder is compared
-//! before and after, hidden files included).
+//! The fault suite of issue #21 for `riskctl`: every command that writes (the table [`WRITERS`])
+//! against every fault of the matrix:
 //!
-//! A read-only target folder is made with a regular file as the target's parent: chmod does not
-//! stop root (CI runs as root), a file in the way does.
+//! - its output is one of its inputs (each input as given, as `./x`, through a symlink and a hard
+//!   link; a folder input also through the files in it),
+//! - an input does not exist,
+//! - a second process holds the output (its lock), and, for the commands with a long run, a real
+//!   second run starts while the first writes,
+//! - the disk is full (a small tmpfs, root only),
+//! - the target folder is read-only (a read-only tmpfs: chmod does not stop root),
+//! - Ctrl-C (SIGINT) in the middle of a long run.
+//!
+//! Each case asserts a non-zero exit, a message naming the file, every pre-existing file of the
+//! scratch folder byte for byte unchanged and no temporary or lock file left (the whole folder,
+//! hidden files included, is compared before and after). The matrix is in docs/outputs.md.
 #![cfg(feature = "parquet")]
-use std::collections::BTreeMap;
+mod fault_harness;
+
+use fault_harness::{
+    interrupt, interrupted_cleanly, refused, run, snapshot, wait_for_temporary, Failures, Tmpfs,
+    BUSY,
+};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
 
-fn riskctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run riskctl")
+/// One command that writes. `OUT` in `args` and `long` stands for the output.
+struct Writer {
+    name: &'static str,
+    args: &'static str,
+    /// The output the scratch folder already holds (a folder when it ends in `/`).
+    out: &'static str,
+    /// The arguments that are input paths: each is tried as the output and as a missing input.
+    inputs: &'static [&'static str],
+    /// The file a second writer finds locked first (`OUT` for the output itself).
+    lock: &'static str,
+    /// A run over the same output long enough to be interrupted, if the command has one, and
+    /// whether it writes from the start (so a temporary shows it is in the middle of writing).
+    long: Option<(&'static str, Streams)>,
 }
 
-fn model() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/drl-default.rsk")
+#[derive(Clone, Copy, PartialEq)]
+enum Streams {
+    /// The output is written as the run goes: interrupted once its temporary appears.
+    Yes,
+    /// The run computes first and writes at the end: interrupted while it computes.
+    No,
 }
 
-fn commonroad(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/commonroad")
-        .join(name)
-}
+const EVENTS: &[&str] = &["sim"];
 
-/// Every file under `dir` (hidden ones too) with its bytes.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-            if p.is_dir() {
-                out.insert(rel, b"<dir>".to_vec());
-                stack.push(p);
-            } else {
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
+const WRITERS: &[Writer] = &[
+    Writer {
+        name: "ssm (CSV)",
+        args: "ssm --input p.csv --output OUT",
+        out: "o.csv",
+        inputs: &["p.csv"],
+        lock: "OUT",
+        long: Some(("ssm --input big.csv --output OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "ssm (Parquet)",
+        args: "ssm --input p.parquet --output OUT",
+        out: "o.parquet",
+        inputs: &["p.parquet"],
+        lock: "OUT",
+        long: Some(("ssm --input big.csv --output OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "simulate",
+        args: "simulate --out OUT --events 6 --seed 5 --mix 2,2,2",
+        out: "simo/",
+        inputs: &[],
+        lock: "OUT/events.csv",
+        long: Some(("simulate --out OUT --events 2000000 --seed 11", Streams::Yes)),
+    },
+    Writer {
+        name: "import commonroad",
+        args: "import commonroad --out OUT cr",
+        out: "imp/",
+        inputs: &["cr"],
+        lock: "OUT/events.csv",
+        long: None,
+    },
+    Writer {
+        name: "score (CSV)",
+        args: "score --model m.rsk --events sim --out OUT",
+        out: "s.csv",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("score --model m.rsk --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "score (Parquet)",
+        args: "score --model m.rsk --events sim --out OUT",
+        out: "s.parquet",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("score --model m.rsk --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "evaluate --out",
+        args: "evaluate --model m.rsk --events sim --out OUT",
+        out: "ev/",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("evaluate --model m.rsk --events big --out OUT", Streams::No)),
+    },
+    Writer {
+        name: "calibrate",
+        args: "calibrate --model m.rsk --normal sim --false-alarm-rate 5 --out OUT",
+        out: "cal.rsk",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "plot",
+        args: "plot --events sim --event 000001 --model m.rsk --out OUT",
+        out: "p.svg",
+        inputs: &["sim", "m.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "events-to-candump",
+        args: "events-to-candump --events sim --out OUT",
+        out: "d.log",
+        inputs: EVENTS,
+        lock: "OUT",
+        long: Some(("events-to-candump --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "train",
+        args: "train --events sim --config t.toml --out OUT --quiet",
+        out: "tr/",
+        inputs: &["sim", "t.toml"],
+        lock: "OUT/drl.json",
+        long: Some((
+            "train --events sim --config long.toml --out OUT --quiet",
+            Streams::No,
+        )),
+    },
+    Writer {
+        name: "export-model",
+        args: "export-model ck.json --out OUT",
+        out: "e.rsk",
+        inputs: &["ck.json"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm fit",
+        args: "gssm fit --events sim --gssm-config g.toml --out OUT",
+        out: "gf.rsk",
+        inputs: &["sim", "g.toml"],
+        lock: "OUT",
+        long: Some((
+            "gssm fit --events sim --gssm-config glong.toml --out OUT",
+            Streams::No,
+        )),
+    },
+    Writer {
+        name: "gssm align",
+        args: "gssm align --events sim --config t.toml --gssm-config g.toml --gssm g.rsk --out OUT",
+        out: "ga.rsk",
+        inputs: &["sim", "t.toml", "g.toml", "g.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm msra",
+        args: "gssm msra --events sim --config t.toml --gssm-config g.toml --gssm g.rsk --out OUT",
+        out: "gm.rsk",
+        inputs: &["sim", "t.toml", "g.toml", "g.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm ship",
+        args: "gssm ship --events sim --config t.toml --gssm-config g.toml --out-dir OUT",
+        out: "ship/",
+        inputs: &["sim", "t.toml", "g.toml"],
+        lock: "OUT/gssm-default.rsk",
+        long: None,
+    },
+    Writer {
+        name: "gssm cv --out",
+        args: "gssm cv --events sim --config t.toml --gssm-config g.toml --folds 2 --out OUT",
+        out: "cv.json",
+        inputs: &["sim", "t.toml", "g.toml"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "ablation",
+        args: "ablation --events sim --config t.toml --out OUT --folds 2 --fractions 1 --singles-only --quiet",
+        out: "abl/",
+        inputs: &["sim", "t.toml"],
+        lock: "OUT/ablation.csv",
+        long: None,
+    },
+    Writer {
+        name: "demo",
+        args: "demo --out OUT --config t.toml --events 12 --folds 2 --no-real --no-transfer --quiet",
+        out: "demo/",
+        inputs: &["t.toml"],
+        lock: "OUT/data/events.csv",
+        long: None,
+    },
+    Writer {
+        name: "benchmark transfer",
+        args: "benchmark transfer --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --out OUT --quiet",
+        out: "bt/",
+        inputs: &["sim", "t.toml", "g.toml"],
+        lock: "OUT/report",
+        long: None,
+    },
+    Writer {
+        name: "man --out-dir",
+        args: "man --out-dir OUT",
+        out: "man/",
+        inputs: &[],
+        lock: "OUT",
+        long: None,
+    },
+];
+
+impl Writer {
+    /// The output path without the folder marker.
+    fn out(&self) -> &'static str {
+        self.out.trim_end_matches('/')
+    }
+
+    /// The arguments with `OUT` = `out`.
+    fn args_to(&self, args: &str, out: &str) -> Vec<String> {
+        args.split_whitespace()
+            .map(|a| {
+                if a == "OUT" {
+                    out.to_string()
+                } else {
+                    a.replace("OUT/", &format!("{out}/"))
+                }
+            })
+            .collect()
+    }
+
+    /// Puts an old output at `dir/out` (a folder with the user's notes, or a file).
+    fn place_old_output(&self, dir: &Path) {
+        let path = dir.join(self.out());
+        if self.out.ends_with('/') {
+            std::fs::create_dir_all(&path).unwrap();
+            std::fs::write(path.join("notes.txt"), "my notes\n").unwrap();
+        } else {
+            std::fs::write(&path, format!("old output of {}\n", self.name)).unwrap();
         }
     }
-    out
 }
 
-/// A scratch folder with a small event folder `sim` (and a copy `sim2`), the model `m.rsk`, a
-/// pairs CSV `p.csv` with a bad row and its Parquet form `p.parquet`, and an old `out.csv`.
+fn repo(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+#[track_caller]
+fn ok(dir: &Path, args: &[&str]) {
+    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    let o = run(RISKCTL, dir, &args);
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// A scratch folder with every input of [`WRITERS`] (small: each command runs in well under a
+/// second) and every command's old output.
 fn scratch() -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
-    let o = riskctl(
-        d.path(),
+    let p = d.path();
+    ok(
+        p,
         &[
             "simulate", "--out", "sim", "--events", "6", "--seed", "3", "--mix", "2,2,2",
         ],
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::copy(model(), d.path().join("m.rsk")).unwrap();
+    std::fs::copy(repo("../models/drl-default.rsk"), p.join("m.rsk")).unwrap();
     let h = "x_i,y_i,vx_i,vy_i,hx_i,hy_i,acc_i,length_i,width_i,x_j,y_j,vx_j,vy_j,hx_j,hy_j,acc_j,length_j,width_j";
     let g = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8";
     let bad = "0,0,10,zz,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8";
-    std::fs::write(d.path().join("p.csv"), format!("{h}\n{g}\n{bad}\n{g}\n")).unwrap();
-    let o = riskctl(
-        d.path(),
-        &["ssm", "--input", "p.csv", "--output", "p.parquet"],
+    std::fs::write(p.join("p.csv"), format!("{h}\n{g}\n{bad}\n{g}\n")).unwrap();
+    ok(p, &["ssm", "--input", "p.csv", "--output", "p.parquet"]);
+    let tiny = "[comparisons.temporal]\npairs = 50\n[comparisons.cross_sequence]\npairs = 50\n\
+                [comparisons.physics]\npairs = 20\n[optimiser]\nmax_epochs = 2\nbatch_pairs = 32\n";
+    std::fs::write(p.join("t.toml"), tiny).unwrap();
+    std::fs::write(
+        p.join("g.toml"),
+        "[fit]\nmax_epochs = 2\nhidden = [4]\n[ssra]\nmax_epochs = 2\n",
+    )
+    .unwrap();
+    ok(
+        p,
+        &[
+            "gssm",
+            "fit",
+            "--events",
+            "sim",
+            "--gssm-config",
+            "g.toml",
+            "--out",
+            "g.rsk",
+        ],
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::write(d.path().join("out.csv"), "old output\n").unwrap();
-    std::fs::write(d.path().join("plain"), "a regular file\n").unwrap();
+    ok(
+        p,
+        &[
+            "train", "--events", "sim", "--config", "t.toml", "--out", "ck", "--quiet",
+        ],
+    );
+    std::fs::rename(p.join("ck/drl.json"), p.join("ck.json")).unwrap();
+    std::fs::remove_dir_all(p.join("ck")).unwrap();
+    std::fs::create_dir(p.join("cr")).unwrap();
+    std::fs::copy(
+        repo("tests/data/commonroad/ZAM_Merge-1_1_T-1.xml"),
+        p.join("cr/merge.xml"),
+    )
+    .unwrap();
+    for w in WRITERS {
+        w.place_old_output(p);
+    }
     d
 }
 
-/// Runs `args` in `dir` and asserts a failure whose message names `names`, with the folder
-/// byte for byte as before.
-#[track_caller]
-fn refused(dir: &Path, args: &[&str], names: &[&str]) -> String {
-    let before = snapshot(dir);
-    let o = riskctl(dir, args);
-    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(!o.status.success(), "{args:?} succeeded: {stderr}");
-    assert_ne!(o.status.code(), Some(101), "{args:?} panicked: {stderr}");
-    for n in names {
-        assert!(
-            stderr.contains(n),
-            "{args:?}: message does not name {n}: {stderr}"
-        );
-    }
-    let after = snapshot(dir);
-    let changed: Vec<_> = before
-        .keys()
-        .chain(after.keys())
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "{args:?} changed or left {changed:?}: {stderr}"
-    );
-    stderr
-}
-
-/// Holds the output lock on `target` as another process would, for the duration of `f`.
-fn while_locked(target: &Path, f: impl FnOnce()) {
-    let lock = riskscore_output::OutputLock::acquire(target).unwrap();
-    f();
-    drop(lock);
-}
-
-const BUSY: &str = "another process is writing";
-
-#[test]
-fn import_commonroad_never_replaces_a_folder_it_cannot_fill() {
-    let d = scratch();
-    let p = d.path();
-    std::fs::write(p.join("empty.xml"), "").unwrap();
-    let good = commonroad("ZAM_Merge-1_1_T-1.xml");
-    let good = good.to_str().unwrap();
-    // N9: a typo in the input path; N8: a 0-byte XML. The old folder stays whole.
-    refused(
-        p,
-        &["import", "commonroad", "--out", "sim", "no/such/typo/"],
-        &["typo"],
-    );
-    refused(
-        p,
-        &["import", "commonroad", "--out", "sim", "empty.xml"],
-        &["empty.xml"],
-    );
-    // N21: the output is the input.
-    std::fs::copy(good, p.join("in.xml")).unwrap();
-    refused(
-        p,
-        &["import", "commonroad", "--out", "in.xml", "in.xml"],
-        &["--out", "in.xml"],
-    );
-    // A second writer; a target under a regular file.
-    while_locked(&p.join("sim/events.csv"), || {
-        refused(p, &["import", "commonroad", "--out", "sim", good], &[BUSY]);
-    });
-    refused(
-        p,
-        &["import", "commonroad", "--out", "plain/ev", good],
-        &["plain"],
-    );
-}
-
-#[test]
-fn ssm_refuses_its_input_as_output_and_a_second_writer() {
-    let d = scratch();
-    let p = d.path();
-    // N62 / N61: CSV and Parquet, also through `./`.
-    for (i, o) in [
-        ("p.csv", "p.csv"),
-        ("p.csv", "./p.csv"),
-        ("p.parquet", "p.parquet"),
-    ] {
-        refused(
-            p,
-            &["ssm", "--input", i, "--output", o],
-            &["--output", "--input", "p."],
-        );
-    }
-    refused(
-        p,
-        &["ssm", "--input", "missing.csv", "--output", "out.csv"],
-        &["missing.csv"],
-    );
-    while_locked(&p.join("out.csv"), || {
-        refused(
-            p,
-            &["ssm", "--input", "p.csv", "--output", "out.csv"],
-            &[BUSY, "out.csv"],
-        );
-    });
-    refused(
-        p,
-        &["ssm", "--input", "p.csv", "--output", "plain/o.csv"],
-        &["plain/o.csv"],
-    );
-}
-
-#[test]
-fn score_refuses_the_event_files_and_the_model_as_output() {
-    let d = scratch();
-    let p = d.path();
-    // N28, N30, N29.
-    for out in [
-        "sim/frames.csv",
-        "sim/events.csv",
-        "m.rsk",
-        "./sim/../m.rsk",
-    ] {
-        refused(
-            p,
-            &["score", "--model", "m.rsk", "--events", "sim", "--out", out],
-            &["--out", out],
-        );
-    }
-    refused(
-        p,
-        &[
-            "score", "--model", "m.rsk", "--events", "nosuch", "--out", "out.csv",
-        ],
-        &["nosuch"],
-    );
-    while_locked(&p.join("out.csv"), || {
-        refused(
-            p,
-            &[
-                "score", "--model", "m.rsk", "--events", "sim", "--out", "out.csv",
-            ],
-            &[BUSY, "out.csv"],
-        );
-    });
-    refused(
-        p,
-        &[
-            "score",
-            "--model",
-            "m.rsk",
-            "--events",
-            "sim",
-            "--out",
-            "plain/s.csv",
-        ],
-        &["plain/s.csv"],
-    );
-}
-
-#[test]
-fn gssm_fit_and_export_model_refuse_their_inputs_as_output() {
-    let d = scratch();
-    let p = d.path();
-    // N133.
-    refused(
-        p,
-        &["gssm", "fit", "--events", "sim", "--out", "sim/frames.csv"],
-        &["--out", "sim/frames.csv", "--events"],
-    );
-    refused(
-        p,
-        &["gssm", "fit", "--events", "nosuch", "--out", "g.rsk"],
-        &["nosuch"],
-    );
-    // N134: refused before the checkpoint is even read.
-    std::fs::write(p.join("ck.json"), "{\"not\": \"read\"}").unwrap();
-    refused(
-        p,
-        &["export-model", "ck.json", "--out", "ck.json"],
-        &["--out", "ck.json"],
-    );
-    refused(
-        p,
-        &["export-model", "nosuch.json", "--out", "m2.rsk"],
-        &["nosuch.json"],
-    );
-}
-
-#[test]
-fn evaluate_writes_its_folder_whole_or_not_at_all() {
-    let d = scratch();
-    let p = d.path();
-    let o = riskctl(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::write(p.join("ev/notes.txt"), "mine").unwrap();
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "nosuch", "--out", "ev",
-        ],
-        &["nosuch"],
-    );
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "m.rsk",
-        ],
-        &["m.rsk"],
-    );
-    while_locked(&p.join("ev"), || {
-        refused(
-            p,
-            &[
-                "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-            ],
-            &[BUSY, "ev"],
-        );
-    });
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "plain/ev",
-        ],
-        &["plain"],
-    );
-    // A successful run replaces the report and keeps the user's file.
-    let o = riskctl(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(
-        std::fs::read_to_string(p.join("ev/notes.txt")).unwrap(),
-        "mine"
-    );
-    let hidden: Vec<_> = snapshot(p)
-        .into_keys()
-        .filter(|k| k.to_string_lossy().contains("/.") || k.to_string_lossy().starts_with('.'))
-        .collect();
-    assert!(hidden.is_empty(), "temporaries left: {hidden:?}");
-}
-
-/// Waits until a temporary of the run appears in `dir` (the run is writing).
-fn wait_for_temporary(dir: &Path, child: &mut std::process::Child) {
-    let start = Instant::now();
-    loop {
-        let writing = std::fs::read_dir(dir)
+/// The paths an output must never be, for the input argument `input`: the input itself, and for
+/// a folder the files in it.
+fn forbidden_outputs(dir: &Path, input: &str) -> Vec<String> {
+    let mut out = vec![input.to_string()];
+    if dir.join(input).is_dir() {
+        let mut files: Vec<String> = std::fs::read_dir(dir.join(input))
             .unwrap()
-            .any(|e| e.unwrap().file_name().to_string_lossy().ends_with(".tmp"));
-        if writing {
-            return;
-        }
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the run ended before it wrote"
-        );
-        assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "no temporary appeared"
-        );
-        std::thread::sleep(Duration::from_millis(20));
+            .map(|e| format!("{input}/{}", e.unwrap().file_name().to_string_lossy()))
+            .filter(|f| {
+                f.ends_with("events.csv") || f.ends_with("frames.csv") || f.ends_with(".xml")
+            })
+            .collect();
+        files.sort();
+        out.extend(files);
     }
+    out
+}
+
+/// Each of `path`'s spellings: as given, `./path`, a symlink to it and (files) a hard link to it,
+/// the links made in `dir` under names starting with `tag`.
+fn spellings(dir: &Path, path: &str, tag: &str) -> Vec<String> {
+    let mut v = vec![path.to_string(), format!("./{path}")];
+    let sym = format!("{tag}-sym");
+    let _ = std::fs::remove_file(dir.join(&sym));
+    std::os::unix::fs::symlink(dir.join(path), dir.join(&sym)).unwrap();
+    v.push(sym);
+    if dir.join(path).is_file() {
+        let hard = format!("{tag}-hard");
+        let _ = std::fs::remove_file(dir.join(&hard));
+        std::fs::hard_link(dir.join(path), dir.join(&hard)).unwrap();
+        v.push(hard);
+    }
+    v
 }
 
 #[test]
-fn simulate_interrupted_or_doubled_leaves_the_old_folder_as_it_was() {
+fn an_output_that_is_an_input_is_refused_in_every_spelling() {
     let d = scratch();
     let p = d.path();
-    // N90: Ctrl-C in the middle of a long run over an old folder.
-    let before = snapshot(p);
-    let mut child = Command::new(RISKCTL)
-        .current_dir(p)
-        .args([
-            "simulate", "--out", "sim", "--events", "2000000", "--seed", "11",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_temporary(&p.join("sim"), &mut child);
-    std::thread::sleep(Duration::from_millis(200));
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(130),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert_eq!(
-        snapshot(p),
-        before,
-        "Ctrl-C changed the old folder or left temporaries"
-    );
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for (n, w) in WRITERS.iter().enumerate() {
+        for input in w.inputs {
+            for (k, target) in forbidden_outputs(p, input).iter().enumerate() {
+                for out in spellings(p, target, &format!("w{n}-{k}")) {
+                    cases += 1;
+                    let args = w.args_to(w.args, &out);
+                    failures.check(
+                        format!("{}: output {out}", w.name),
+                        refused(RISKCTL, p, &args, &[&out]),
+                    );
+                }
+            }
+        }
+    }
+    failures.assert_none(cases);
+}
 
-    // N91: a second simulate into the same folder while the first writes is refused; the first
-    // completes alone.
-    let mut first = Command::new(RISKCTL)
-        .current_dir(p)
-        .args([
-            "simulate", "--out", "sim", "--events", "400", "--seed", "21",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_temporary(&p.join("sim"), &mut first);
-    let second = riskctl(
-        p,
-        &["simulate", "--out", "sim", "--events", "30", "--seed", "22"],
-    );
-    let stderr = String::from_utf8_lossy(&second.stderr);
-    assert!(
-        !second.status.success() && stderr.contains(BUSY),
-        "{stderr}"
-    );
-    assert!(stderr.contains("sim"), "{stderr}");
-    let o = first.wait_with_output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let scenarios = std::fs::read_to_string(p.join("sim/scenarios.csv")).unwrap();
-    assert_eq!(scenarios.lines().count(), 401, "scenarios.csv mixed or cut");
-    assert!(scenarios.lines().all(|l| l.split(',').count() == 9));
-    let left: Vec<_> = snapshot(p)
-        .into_keys()
-        .filter(|k| k.to_string_lossy().contains("/."))
-        .collect();
-    assert!(left.is_empty(), "temporaries left: {left:?}");
+#[test]
+fn a_missing_input_leaves_the_old_output_alone() {
+    let d = scratch();
+    let p = d.path();
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for w in WRITERS {
+        for input in w.inputs {
+            cases += 1;
+            let missing = format!("no-such-{}", input.replace('.', "-"));
+            let args: Vec<String> = w
+                .args_to(w.args, w.out())
+                .into_iter()
+                .map(|a| if a == *input { missing.clone() } else { a })
+                .collect();
+            failures.check(
+                format!("{}: missing {missing}", w.name),
+                refused(RISKCTL, p, &args, &[&missing]),
+            );
+        }
+    }
+    failures.assert_none(cases);
+}
 
-    // A target under a regular file.
-    refused(
+#[test]
+fn a_second_writer_is_refused() {
+    let d = scratch();
+    let p = d.path();
+    let mut failures = Failures::default();
+    for w in WRITERS {
+        let target = p.join(w.lock.replace("OUT", w.out()));
+        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
+        let lock = riskscore_output::OutputLock::acquire(&target).unwrap();
+        failures.check(
+            format!("{}: output locked by another process", w.name),
+            refused(RISKCTL, p, &w.args_to(w.args, w.out()), &[BUSY, w.out()]),
+        );
+        drop(lock);
+    }
+    failures.assert_none(WRITERS.len());
+}
+
+/// Runs every writer into `mount/OUT`, which holds its old output, after `fault` (fill the disk,
+/// make it read-only) was done to the mount.
+fn every_writer_into(case: &str, fault: impl Fn(&Tmpfs)) {
+    let d = scratch();
+    let p = d.path();
+    let Some(tmpfs) = Tmpfs::mount(&p.join("mnt"), 512, case) else {
+        return;
+    };
+    for w in WRITERS {
+        w.place_old_output(&p.join("mnt"));
+    }
+    fault(&tmpfs);
+    let mut failures = Failures::default();
+    for w in WRITERS {
+        let out = format!("mnt/{}", w.out());
+        failures.check(
+            format!("{}: {case}", w.name),
+            refused(RISKCTL, p, &w.args_to(w.args, &out), &[&out]),
+        );
+    }
+    failures.assert_none(WRITERS.len());
+}
+
+#[test]
+fn a_full_disk_fails_naming_the_file_and_keeps_the_old_output() {
+    every_writer_into("full disk", Tmpfs::fill);
+}
+
+#[test]
+fn a_read_only_target_folder_fails_naming_the_file() {
+    every_writer_into("read-only folder", Tmpfs::make_read_only);
+}
+
+/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder and slow
+/// configurations.
+fn add_long_inputs(p: &Path) {
+    let g = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8\n";
+    let mut big = std::fs::read_to_string(p.join("p.csv"))
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    big.push('\n');
+    big.push_str(&g.repeat(40_000));
+    std::fs::write(p.join("big.csv"), big).unwrap();
+    ok(
         p,
-        &["simulate", "--out", "plain/sim", "--events", "3"],
-        &["plain/sim"],
+        &["simulate", "--out", "big", "--events", "150", "--seed", "4"],
     );
+    std::fs::write(
+        p.join("long.toml"),
+        "[optimiser]\nmax_epochs = 100000\npatience = 100000\n",
+    )
+    .unwrap();
+    std::fs::write(
+        p.join("glong.toml"),
+        "[fit]\nmax_epochs = 100000\npatience = 100000\n",
+    )
+    .unwrap();
+}
+
+#[test]
+fn ctrl_c_in_the_middle_and_a_second_run_leave_the_old_output() {
+    let d = scratch();
+    let p = d.path();
+    add_long_inputs(p);
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for w in WRITERS {
+        let Some((long, streams)) = w.long else {
+            continue;
+        };
+        cases += 1;
+        let before = snapshot(p);
+        let mut child = Command::new(RISKCTL)
+            .current_dir(p)
+            .args(w.args_to(long, w.out()))
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let target = p.join(w.out());
+        let watch = vec![target.clone(), target.parent().unwrap().to_path_buf()];
+        let writing = streams == Streams::Yes;
+        if writing {
+            if let Err(e) = wait_for_temporary(&watch, &mut child) {
+                failures.check(format!("{}: Ctrl-C", w.name), Err(e));
+                let _ = child.kill();
+                continue;
+            }
+            // A real second run while the first writes: refused, and changes nothing.
+            let second = w.args_to(w.args, w.out());
+            let o = run(RISKCTL, p, &second);
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            if o.status.success() || !stderr.contains(BUSY) || !stderr.contains(w.out()) {
+                failures.check(
+                    format!("{}: second run while the first writes", w.name),
+                    Err(format!("{:?}: {stderr}", o.status)),
+                );
+            }
+        } else {
+            std::thread::sleep(Duration::from_millis(300));
+        }
+        let o = interrupt(child);
+        failures.check(
+            format!("{}: Ctrl-C", w.name),
+            interrupted_cleanly(&o, w.out(), writing, &before, p),
+        );
+    }
+    failures.assert_none(cases);
 }
