@@ -17,37 +17,12 @@
 mod fault_harness;
 
 use fault_harness::{
-    interrupt, interrupted_cleanly, refused, run, snapshot, wait_for_temporary, Failures, Tmpfs,
-    BUSY,
+    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input, run, second_writer,
+    Streams, Tmpfs, Writer,
 };
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::Duration;
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-/// One command that writes. `OUT` in `args` and `long` stands for the output.
-struct Writer {
-    name: &'static str,
-    args: &'static str,
-    /// The output the scratch folder already holds (a folder when it ends in `/`).
-    out: &'static str,
-    /// The arguments that are input paths: each is tried as the output and as a missing input.
-    inputs: &'static [&'static str],
-    /// The file a second writer finds locked first (`OUT` for the output itself).
-    lock: &'static str,
-    /// A run over the same output long enough to be interrupted, if the command has one, and
-    /// whether it writes from the start (so a temporary shows it is in the middle of writing).
-    long: Option<(&'static str, Streams)>,
-}
-
-#[derive(Clone, Copy, PartialEq)]
-enum Streams {
-    /// The output is written as the run goes: interrupted once its temporary appears.
-    Yes,
-    /// The run computes first and writes at the end: interrupted while it computes.
-    No,
-}
 
 const EVENTS: &[&str] = &["sim"];
 
@@ -228,37 +203,6 @@ const WRITERS: &[Writer] = &[
     },
 ];
 
-impl Writer {
-    /// The output path without the folder marker.
-    fn out(&self) -> &'static str {
-        self.out.trim_end_matches('/')
-    }
-
-    /// The arguments with `OUT` = `out`.
-    fn args_to(&self, args: &str, out: &str) -> Vec<String> {
-        args.split_whitespace()
-            .map(|a| {
-                if a == "OUT" {
-                    out.to_string()
-                } else {
-                    a.replace("OUT/", &format!("{out}/"))
-                }
-            })
-            .collect()
-    }
-
-    /// Puts an old output at `dir/out` (a folder with the user's notes, or a file).
-    fn place_old_output(&self, dir: &Path) {
-        let path = dir.join(self.out());
-        if self.out.ends_with('/') {
-            std::fs::create_dir_all(&path).unwrap();
-            std::fs::write(path.join("notes.txt"), "my notes\n").unwrap();
-        } else {
-            std::fs::write(&path, format!("old output of {}\n", self.name)).unwrap();
-        }
-    }
-}
-
 fn repo(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
@@ -332,137 +276,40 @@ fn scratch() -> tempfile::TempDir {
     d
 }
 
-/// The paths an output must never be, for the input argument `input`: the input itself, and for
-/// a folder the files in it.
-fn forbidden_outputs(dir: &Path, input: &str) -> Vec<String> {
-    let mut out = vec![input.to_string()];
-    if dir.join(input).is_dir() {
-        let mut files: Vec<String> = std::fs::read_dir(dir.join(input))
-            .unwrap()
-            .map(|e| format!("{input}/{}", e.unwrap().file_name().to_string_lossy()))
-            .filter(|f| {
-                f.ends_with("events.csv") || f.ends_with("frames.csv") || f.ends_with(".xml")
-            })
-            .collect();
-        files.sort();
-        out.extend(files);
-    }
-    out
-}
-
-/// Each of `path`'s spellings: as given, `./path`, a symlink to it and (files) a hard link to it,
-/// the links made in `dir` under names starting with `tag`.
-fn spellings(dir: &Path, path: &str, tag: &str) -> Vec<String> {
-    let mut v = vec![path.to_string(), format!("./{path}")];
-    let sym = format!("{tag}-sym");
-    let _ = std::fs::remove_file(dir.join(&sym));
-    std::os::unix::fs::symlink(dir.join(path), dir.join(&sym)).unwrap();
-    v.push(sym);
-    if dir.join(path).is_file() {
-        let hard = format!("{tag}-hard");
-        let _ = std::fs::remove_file(dir.join(&hard));
-        std::fs::hard_link(dir.join(path), dir.join(&hard)).unwrap();
-        v.push(hard);
-    }
-    v
-}
-
 #[test]
 fn an_output_that_is_an_input_is_refused_in_every_spelling() {
     let d = scratch();
-    let p = d.path();
-    let mut failures = Failures::default();
-    let mut cases = 0;
-    for (n, w) in WRITERS.iter().enumerate() {
-        for input in w.inputs {
-            for (k, target) in forbidden_outputs(p, input).iter().enumerate() {
-                for out in spellings(p, target, &format!("w{n}-{k}")) {
-                    cases += 1;
-                    let args = w.args_to(w.args, &out);
-                    failures.check(
-                        format!("{}: output {out}", w.name),
-                        refused(RISKCTL, p, &args, &[&out]),
-                    );
-                }
-            }
-        }
-    }
-    failures.assert_none(cases);
+    output_is_input(RISKCTL, d.path(), WRITERS);
 }
 
 #[test]
 fn a_missing_input_leaves_the_old_output_alone() {
     let d = scratch();
-    let p = d.path();
-    let mut failures = Failures::default();
-    let mut cases = 0;
-    for w in WRITERS {
-        for input in w.inputs {
-            cases += 1;
-            let missing = format!("no-such-{}", input.replace('.', "-"));
-            let args: Vec<String> = w
-                .args_to(w.args, w.out())
-                .into_iter()
-                .map(|a| if a == *input { missing.clone() } else { a })
-                .collect();
-            failures.check(
-                format!("{}: missing {missing}", w.name),
-                refused(RISKCTL, p, &args, &[&missing]),
-            );
-        }
-    }
-    failures.assert_none(cases);
+    missing_input(RISKCTL, d.path(), WRITERS);
 }
 
 #[test]
 fn a_second_writer_is_refused() {
     let d = scratch();
-    let p = d.path();
-    let mut failures = Failures::default();
-    for w in WRITERS {
-        let target = p.join(w.lock.replace("OUT", w.out()));
-        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
-        let lock = riskscore_output::OutputLock::acquire(&target).unwrap();
-        failures.check(
-            format!("{}: output locked by another process", w.name),
-            refused(RISKCTL, p, &w.args_to(w.args, w.out()), &[BUSY, w.out()]),
-        );
-        drop(lock);
-    }
-    failures.assert_none(WRITERS.len());
-}
-
-/// Runs every writer into `mount/OUT`, which holds its old output, after `fault` (fill the disk,
-/// make it read-only) was done to the mount.
-fn every_writer_into(case: &str, fault: impl Fn(&Tmpfs)) {
-    let d = scratch();
-    let p = d.path();
-    let Some(tmpfs) = Tmpfs::mount(&p.join("mnt"), 512, case) else {
-        return;
-    };
-    for w in WRITERS {
-        w.place_old_output(&p.join("mnt"));
-    }
-    fault(&tmpfs);
-    let mut failures = Failures::default();
-    for w in WRITERS {
-        let out = format!("mnt/{}", w.out());
-        failures.check(
-            format!("{}: {case}", w.name),
-            refused(RISKCTL, p, &w.args_to(w.args, &out), &[&out]),
-        );
-    }
-    failures.assert_none(WRITERS.len());
+    second_writer(RISKCTL, d.path(), WRITERS);
 }
 
 #[test]
 fn a_full_disk_fails_naming_the_file_and_keeps_the_old_output() {
-    every_writer_into("full disk", Tmpfs::fill);
+    let d = scratch();
+    every_writer_into(RISKCTL, d.path(), WRITERS, "full disk", Tmpfs::fill);
 }
 
 #[test]
 fn a_read_only_target_folder_fails_naming_the_file() {
-    every_writer_into("read-only folder", Tmpfs::make_read_only);
+    let d = scratch();
+    every_writer_into(
+        RISKCTL,
+        d.path(),
+        WRITERS,
+        "read-only folder",
+        Tmpfs::make_read_only,
+    );
 }
 
 /// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder and slow
@@ -497,50 +344,6 @@ fn add_long_inputs(p: &Path) {
 #[test]
 fn ctrl_c_in_the_middle_and_a_second_run_leave_the_old_output() {
     let d = scratch();
-    let p = d.path();
-    add_long_inputs(p);
-    let mut failures = Failures::default();
-    let mut cases = 0;
-    for w in WRITERS {
-        let Some((long, streams)) = w.long else {
-            continue;
-        };
-        cases += 1;
-        let before = snapshot(p);
-        let mut child = Command::new(RISKCTL)
-            .current_dir(p)
-            .args(w.args_to(long, w.out()))
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let target = p.join(w.out());
-        let watch = vec![target.clone(), target.parent().unwrap().to_path_buf()];
-        let writing = streams == Streams::Yes;
-        if writing {
-            if let Err(e) = wait_for_temporary(&watch, &mut child) {
-                failures.check(format!("{}: Ctrl-C", w.name), Err(e));
-                let _ = child.kill();
-                continue;
-            }
-            // A real second run while the first writes: refused, and changes nothing.
-            let second = w.args_to(w.args, w.out());
-            let o = run(RISKCTL, p, &second);
-            let stderr = String::from_utf8_lossy(&o.stderr);
-            if o.status.success() || !stderr.contains(BUSY) || !stderr.contains(w.out()) {
-                failures.check(
-                    format!("{}: second run while the first writes", w.name),
-                    Err(format!("{:?}: {stderr}", o.status)),
-                );
-            }
-        } else {
-            std::thread::sleep(Duration::from_millis(300));
-        }
-        let o = interrupt(child);
-        failures.check(
-            format!("{}: Ctrl-C", w.name),
-            interrupted_cleanly(&o, w.out(), writing, &before, p),
-        );
-    }
-    failures.assert_none(cases);
+    add_long_inputs(d.path());
+    ctrl_c_and_second_run(RISKCTL, d.path(), WRITERS);
 }

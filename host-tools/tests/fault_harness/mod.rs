@@ -6,8 +6,233 @@
 #![allow(dead_code)]
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
+
+/// One command that writes. `OUT` in `args` and `long` stands for the output.
+pub struct Writer {
+    pub name: &'static str,
+    pub args: &'static str,
+    /// The output the scratch folder already holds (a folder when it ends in `/`).
+    pub out: &'static str,
+    /// The arguments that are input paths: each is tried as the output and as a missing input.
+    pub inputs: &'static [&'static str],
+    /// The file a second writer finds locked first (`OUT` for the output itself).
+    pub lock: &'static str,
+    /// A run over the same output long enough to be interrupted, if the command has one, and
+    /// whether it writes from the start (so a temporary shows it is in the middle of writing).
+    pub long: Option<(&'static str, Streams)>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+pub enum Streams {
+    /// The output is written as the run goes: interrupted once its temporary appears.
+    Yes,
+    /// The run computes first and writes at the end: interrupted while it computes.
+    No,
+}
+
+impl Writer {
+    /// The output path without the folder marker.
+    pub fn out(&self) -> &'static str {
+        self.out.trim_end_matches('/')
+    }
+
+    /// The arguments with `OUT` = `out`.
+    pub fn args_to(&self, args: &str, out: &str) -> Vec<String> {
+        args.split_whitespace()
+            .map(|a| {
+                if a == "OUT" {
+                    out.to_string()
+                } else {
+                    a.replace("OUT/", &format!("{out}/"))
+                }
+            })
+            .collect()
+    }
+
+    /// Puts an old output at `dir/out` (a folder with the user's notes, or a file).
+    pub fn place_old_output(&self, dir: &Path) {
+        let path = dir.join(self.out());
+        if self.out.ends_with('/') {
+            std::fs::create_dir_all(&path).unwrap();
+            std::fs::write(path.join("notes.txt"), "my notes\n").unwrap();
+        } else {
+            std::fs::write(&path, format!("old output of {}\n", self.name)).unwrap();
+        }
+    }
+}
+
+/// The paths an output must never be, for the input argument `input`: the input itself, and for
+/// a folder the files in it.
+fn forbidden_outputs(dir: &Path, input: &str) -> Vec<String> {
+    let mut out = vec![input.to_string()];
+    if dir.join(input).is_dir() {
+        let mut files: Vec<String> = std::fs::read_dir(dir.join(input))
+            .unwrap()
+            .map(|e| format!("{input}/{}", e.unwrap().file_name().to_string_lossy()))
+            .filter(|f| {
+                f.ends_with("events.csv") || f.ends_with("frames.csv") || f.ends_with(".xml")
+            })
+            .collect();
+        files.sort();
+        out.extend(files);
+    }
+    out
+}
+
+/// Each of `path`'s spellings: as given, `./path`, a symlink to it and (files) a hard link to it,
+/// the links made in `dir` under names starting with `tag`.
+fn spellings(dir: &Path, path: &str, tag: &str) -> Vec<String> {
+    let mut v = vec![path.to_string(), format!("./{path}")];
+    let sym = format!("{tag}-sym");
+    let _ = std::fs::remove_file(dir.join(&sym));
+    std::os::unix::fs::symlink(dir.join(path), dir.join(&sym)).unwrap();
+    v.push(sym);
+    if dir.join(path).is_file() {
+        let hard = format!("{tag}-hard");
+        let _ = std::fs::remove_file(dir.join(&hard));
+        std::fs::hard_link(dir.join(path), dir.join(&hard)).unwrap();
+        v.push(hard);
+    }
+    v
+}
+
+/// Output = input: every writer, every input (and a folder input's files), every spelling.
+pub fn output_is_input(program: &str, dir: &Path, writers: &[Writer]) {
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for (n, w) in writers.iter().enumerate() {
+        for input in w.inputs {
+            for (k, target) in forbidden_outputs(dir, input).iter().enumerate() {
+                for out in spellings(dir, target, &format!("w{n}-{k}")) {
+                    cases += 1;
+                    let args = w.args_to(w.args, &out);
+                    failures.check(
+                        format!("{}: output {out}", w.name),
+                        refused(program, dir, &args, &[&out]),
+                    );
+                }
+            }
+        }
+    }
+    failures.assert_none(cases);
+}
+
+/// Each input of each writer missing in turn: refused naming it, the old output untouched.
+pub fn missing_input(program: &str, dir: &Path, writers: &[Writer]) {
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for w in writers {
+        for input in w.inputs {
+            cases += 1;
+            let missing = format!("no-such-{}", input.replace('.', "-"));
+            let args: Vec<String> = w
+                .args_to(w.args, w.out())
+                .into_iter()
+                .map(|a| if a == *input { missing.clone() } else { a })
+                .collect();
+            failures.check(
+                format!("{}: missing {missing}", w.name),
+                refused(program, dir, &args, &[&missing]),
+            );
+        }
+    }
+    failures.assert_none(cases);
+}
+
+/// Another process holds each writer's output lock: refused with [`BUSY`], naming the output.
+pub fn second_writer(program: &str, dir: &Path, writers: &[Writer]) {
+    let mut failures = Failures::default();
+    for w in writers {
+        let target = dir.join(w.lock.replace("OUT", w.out()));
+        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
+        let lock = riskscore_output::OutputLock::acquire(&target).unwrap();
+        failures.check(
+            format!("{}: output locked by another process", w.name),
+            refused(program, dir, &w.args_to(w.args, w.out()), &[BUSY, w.out()]),
+        );
+        drop(lock);
+    }
+    failures.assert_none(writers.len());
+}
+
+/// Every writer into `dir/mnt/OUT`, a small tmpfs holding its old output, after `fault` (fill
+/// the disk, make it read-only) was done to the mount. Skipped (said) when not root.
+pub fn every_writer_into(
+    program: &str,
+    dir: &Path,
+    writers: &[Writer],
+    case: &str,
+    fault: impl Fn(&Tmpfs),
+) {
+    let Some(tmpfs) = Tmpfs::mount(&dir.join("mnt"), 512, case) else {
+        return;
+    };
+    for w in writers {
+        w.place_old_output(&dir.join("mnt"));
+    }
+    fault(&tmpfs);
+    let mut failures = Failures::default();
+    for w in writers {
+        let out = format!("mnt/{}", w.out());
+        failures.check(
+            format!("{}: {case}", w.name),
+            refused(program, dir, &w.args_to(w.args, &out), &[&out]),
+        );
+    }
+    failures.assert_none(writers.len());
+}
+
+/// Ctrl-C in the middle of each writer's long run over its old output; while a streaming run
+/// writes, a real second run of the same command is refused.
+pub fn ctrl_c_and_second_run(program: &str, dir: &Path, writers: &[Writer]) {
+    let mut failures = Failures::default();
+    let mut cases = 0;
+    for w in writers {
+        let Some((long, streams)) = w.long else {
+            continue;
+        };
+        cases += 1;
+        let before = snapshot(dir);
+        let mut child = Command::new(program)
+            .current_dir(dir)
+            .args(w.args_to(long, w.out()))
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let target = dir.join(w.out());
+        let watch = vec![target.clone(), target.parent().unwrap().to_path_buf()];
+        let writing = streams == Streams::Yes;
+        if writing {
+            if let Err(e) = wait_for_temporary(&watch, &mut child) {
+                failures.check(format!("{}: Ctrl-C", w.name), Err(e));
+                let _ = child.kill();
+                let _ = child.wait();
+                restore(dir, &before);
+                continue;
+            }
+            let o = run(program, dir, &w.args_to(w.args, w.out()));
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            if o.status.success() || !stderr.contains(BUSY) || !stderr.contains(w.out()) {
+                failures.check(
+                    format!("{}: second run while the first writes", w.name),
+                    Err(format!("{:?}: {stderr}", o.status)),
+                );
+            }
+        } else {
+            std::thread::sleep(Duration::from_millis(300));
+        }
+        let o = interrupt(child);
+        failures.check(
+            format!("{}: Ctrl-C", w.name),
+            interrupted_cleanly(&o, w.out(), writing, &before, dir),
+        );
+        restore(dir, &before);
+    }
+    failures.assert_none(cases);
+}
 
 /// What the output layer says when a second process writes the same target.
 pub const BUSY: &str = "another process is writing";
