@@ -187,9 +187,9 @@ const WRITERS: &[Writer] = &[
     },
     Writer {
         name: "benchmark transfer",
-        args: "benchmark transfer --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --out OUT --quiet",
+        args: "benchmark transfer --real real --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --seeds 1 --out OUT --quiet",
         out: "bt/",
-        inputs: &["sim", "t.toml", "g.toml"],
+        inputs: &["real", "sim", "t.toml", "g.toml"],
         lock: "OUT/report",
         long: None,
     },
@@ -265,11 +265,12 @@ fn scratch() -> tempfile::TempDir {
     std::fs::rename(p.join("ck/drl.json"), p.join("ck.json")).unwrap();
     std::fs::remove_dir_all(p.join("ck")).unwrap();
     std::fs::create_dir(p.join("cr")).unwrap();
-    std::fs::copy(
-        repo("tests/data/commonroad/ZAM_Merge-1_1_T-1.xml"),
-        p.join("cr/merge.xml"),
-    )
-    .unwrap();
+    // Two scenario files: the transfer benchmark holds real recordings out by file.
+    for (from, to) in [("ZAM_Merge-1_1_T-1", "merge"), ("ZAM_Legacy-1_1_T-1", "legacy")] {
+        let from = repo(&format!("tests/data/commonroad/{from}.xml"));
+        std::fs::copy(from, p.join(format!("cr/{to}.xml"))).unwrap();
+    }
+    ok(p, &["import", "commonroad", "--out", "real", "cr"]);
     for w in WRITERS {
         w.place_old_output(p);
     }
