@@ -11,8 +11,8 @@ mod common;
 mod fault_harness;
 
 use fault_harness::{
-    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input, second_writer,
-    Streams, Tmpfs, Writer,
+    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input,
+    output_of_the_wrong_kind, second_writer, Streams, Tmpfs, Writer,
 };
 use riskscore_data::candump_export::{write_candump, ExportOptions};
 use riskscore_data::events::{load_events, write_events};
@@ -111,6 +111,12 @@ fn an_output_that_is_an_input_is_refused_in_every_spelling() {
 fn a_missing_input_leaves_the_old_output_alone() {
     let d = scratch();
     missing_input(BRIDGE, d.path(), WRITERS);
+}
+
+#[test]
+fn an_output_of_the_wrong_kind_is_refused() {
+    let d = scratch();
+    output_of_the_wrong_kind(BRIDGE, d.path(), WRITERS);
 }
 
 #[test]

@@ -17,8 +17,8 @@
 mod fault_harness;
 
 use fault_harness::{
-    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input, run, second_writer,
-    Streams, Tmpfs, Writer,
+    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input,
+    output_of_the_wrong_kind, run, second_writer, Streams, Tmpfs, Writer,
 };
 use std::path::{Path, PathBuf};
 
@@ -266,7 +266,10 @@ fn scratch() -> tempfile::TempDir {
     std::fs::remove_dir_all(p.join("ck")).unwrap();
     std::fs::create_dir(p.join("cr")).unwrap();
     // Two scenario files: the transfer benchmark holds real recordings out by file.
-    for (from, to) in [("ZAM_Merge-1_1_T-1", "merge"), ("ZAM_Legacy-1_1_T-1", "legacy")] {
+    for (from, to) in [
+        ("ZAM_Merge-1_1_T-1", "merge"),
+        ("ZAM_Legacy-1_1_T-1", "legacy"),
+    ] {
         let from = repo(&format!("tests/data/commonroad/{from}.xml"));
         std::fs::copy(from, p.join(format!("cr/{to}.xml"))).unwrap();
     }
@@ -287,6 +290,12 @@ fn an_output_that_is_an_input_is_refused_in_every_spelling() {
 fn a_missing_input_leaves_the_old_output_alone() {
     let d = scratch();
     missing_input(RISKCTL, d.path(), WRITERS);
+}
+
+#[test]
+fn an_output_of_the_wrong_kind_is_refused() {
+    let d = scratch();
+    output_of_the_wrong_kind(RISKCTL, d.path(), WRITERS);
 }
 
 #[test]

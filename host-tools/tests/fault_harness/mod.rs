@@ -141,6 +141,28 @@ pub fn missing_input(program: &str, dir: &Path, writers: &[Writer]) {
     failures.assert_none(cases);
 }
 
+/// The output exists as the other kind: a folder where a file is written (N73), a file where a
+/// folder is written. Refused naming it, and nothing in the folder or the file changes.
+pub fn output_of_the_wrong_kind(program: &str, dir: &Path, writers: &[Writer]) {
+    let mut failures = Failures::default();
+    let folder = dir.join("a-folder");
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::write(folder.join("kept.txt"), "mine\n").unwrap();
+    std::fs::write(dir.join("a-file"), "mine\n").unwrap();
+    for w in writers {
+        let out = if w.out.ends_with('/') {
+            "a-file"
+        } else {
+            "a-folder"
+        };
+        failures.check(
+            format!("{}: output {out}", w.name),
+            refused(program, dir, &w.args_to(w.args, out), &[out]),
+        );
+    }
+    failures.assert_none(writers.len());
+}
+
 /// Another process holds each writer's output lock: refused with [`BUSY`], naming the output.
 pub fn second_writer(program: &str, dir: &Path, writers: &[Writer]) {
     let mut failures = Failures::default();
