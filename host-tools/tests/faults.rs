@@ -57,7 +57,7 @@ const WRITERS: &[Writer] = &[
         out: "imp/",
         inputs: &["cr"],
         lock: "OUT/events.csv",
-        long: None,
+        long: Some(("import commonroad --out OUT crbig", Streams::Yes)),
     },
     Writer {
         name: "score (CSV)",
@@ -322,9 +322,41 @@ fn a_read_only_target_folder_fails_naming_the_file() {
     );
 }
 
-/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder and slow
-/// configurations.
+#[test]
+fn a_disk_that_fills_between_two_files_of_a_set_changes_none() {
+    // Room for train's first file (drl.json, about 30 KB: 8 pages) and no more: written one by one,
+    // drl.json was replaced and the other four kept their old contents.
+    let d = scratch();
+    let p = d.path();
+    let Some(tmpfs) = Tmpfs::mount(&p.join("mnt"), 512, "disk full half-way") else {
+        return;
+    };
+    let out = p.join("mnt/tr");
+    std::fs::create_dir(&out).unwrap();
+    for f in [
+        "drl.json",
+        "msra.json",
+        "drl.rsk",
+        "drl-f32.rsk",
+        "msra.rsk",
+    ] {
+        std::fs::write(out.join(f), format!("old {f}\n")).unwrap();
+    }
+    tmpfs.fill_leaving(8 * 4096);
+    let args: Vec<String> = "train --events sim --config t.toml --out mnt/tr --quiet"
+        .split_whitespace()
+        .map(String::from)
+        .collect();
+    fault_harness::refused(RISKCTL, p, &args, &["mnt/tr/"]).unwrap();
+}
+
+/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder, 150 scenario
+/// files and slow configurations.
 fn add_long_inputs(p: &Path) {
+    std::fs::create_dir(p.join("crbig")).unwrap();
+    for k in 0..150 {
+        std::fs::copy(p.join("cr/merge.xml"), p.join(format!("crbig/s{k}.xml"))).unwrap();
+    }
     let g = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8\n";
     let mut big = std::fs::read_to_string(p.join("p.csv"))
         .unwrap()

@@ -424,10 +424,18 @@ impl Tmpfs {
 
     /// Fills the rest of the disk with `filler`, so the next byte written fails with ENOSPC.
     pub fn fill(&self) {
+        self.fill_leaving(0);
+    }
+
+    /// Fills the disk but for `free` bytes (whole pages).
+    pub fn fill_leaving(&self, free: u64) {
         use std::io::Write;
-        let mut f = std::fs::File::create(self.path.join("filler")).unwrap();
+        let path = self.path.join("filler");
+        let mut f = std::fs::File::create(&path).unwrap();
         let block = vec![0x5a_u8; 4096];
         while f.write_all(&block).and_then(|()| f.sync_all()).is_ok() {}
+        let len = f.metadata().unwrap().len();
+        f.set_len(len.saturating_sub(free)).unwrap();
     }
 
     /// Remounts the tmpfs read-only.
