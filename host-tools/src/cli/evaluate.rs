@@ -292,8 +292,9 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
         .map(|n| out.join(n))
         .collect();
     let mut outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
-    // The folder itself too: it is swapped whole, so it must not hold an input either.
-    outputs.insert(0, ("--out", out));
+    // The folder itself last (its files first: "same file as" says more than "contains"): it is
+    // swapped whole, so it must not hold an input either.
+    outputs.push(("--out", out));
     super::output::refuse_overwriting_inputs(models, events, &outputs)
 }
 
