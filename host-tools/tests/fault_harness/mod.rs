@@ -206,14 +206,19 @@ pub fn every_writer_into(
     failures.assert_none(writers.len());
 }
 
-/// Ctrl-C in the middle of each writer's long run over its old output; while a streaming run
-/// writes, a real second run of the same command is refused.
+/// Ctrl-C in the middle of each writer's long run over its old output (SIGTERM for every other
+/// one); while a streaming run writes, a real second run of the same command is refused.
 pub fn ctrl_c_and_second_run(program: &str, dir: &Path, writers: &[Writer]) {
     let mut failures = Failures::default();
     let mut cases = 0;
     for w in writers {
         let Some((long, streams)) = w.long else {
             continue;
+        };
+        let stop = if cases % 2 == 0 {
+            Stop::Int
+        } else {
+            Stop::Term
         };
         cases += 1;
         let before = snapshot(dir);
@@ -246,10 +251,10 @@ pub fn ctrl_c_and_second_run(program: &str, dir: &Path, writers: &[Writer]) {
         } else {
             std::thread::sleep(Duration::from_millis(300));
         }
-        let o = interrupt(child);
+        let o = interrupt(child, stop);
         failures.check(
             format!("{}: Ctrl-C", w.name),
-            interrupted_cleanly(&o, w.out(), writing, &before, dir),
+            interrupted_cleanly(&o, stop, w.out(), writing, &before, dir),
         );
         restore(dir, &before);
     }
@@ -483,28 +488,59 @@ pub fn wait_for_temporary(dirs: &[PathBuf], child: &mut Child) -> Result<(), Str
     }
 }
 
-/// Sends SIGINT to `child` and collects its output.
-pub fn interrupt(child: Child) -> Output {
+/// A signal that stops a run, and the exit status the output layer's handler gives it.
+#[derive(Clone, Copy)]
+pub enum Stop {
+    /// Ctrl-C: exit 130.
+    Int,
+    /// `kill`, a service manager: exit 143.
+    Term,
+}
+
+impl Stop {
+    fn name(self) -> &'static str {
+        match self {
+            Stop::Int => "INT",
+            Stop::Term => "TERM",
+        }
+    }
+
+    fn exit_code(self) -> i32 {
+        match self {
+            Stop::Int => 130,
+            Stop::Term => 143,
+        }
+    }
+}
+
+/// Sends `stop` to `child` and collects its output.
+pub fn interrupt(child: Child, stop: Stop) -> Output {
     let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([&format!("-{}", stop.name()), &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
     child.wait_with_output().unwrap()
 }
 
-/// Checks an interrupted run: exit 130 (the layer's handler, not the default signal death), the
-/// target named when the run was writing, and `dir` as `before`.
+/// Checks an interrupted run: exit 130 or 143 (the layer's handler, not the default signal
+/// death), the target named when the run was writing, and `dir` as `before`.
 pub fn interrupted_cleanly(
     o: &Output,
+    stop: Stop,
     target: &str,
     writing: bool,
     before: &BTreeMap<PathBuf, Vec<u8>>,
     dir: &Path,
 ) -> Result<(), String> {
     let stderr = String::from_utf8_lossy(&o.stderr);
-    if o.status.code() != Some(130) {
-        return Err(format!("exit {:?}, not 130; stderr: {stderr}", o.status));
+    if o.status.code() != Some(stop.exit_code()) {
+        return Err(format!(
+            "SIG{}: exit {:?}, not {}; stderr: {stderr}",
+            stop.name(),
+            o.status,
+            stop.exit_code()
+        ));
     }
     if writing && !stderr.contains(target) {
         return Err(format!("the message does not name {target}: {stderr}"));
