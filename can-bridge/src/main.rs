@@ -67,6 +67,13 @@ fn main() -> ExitCode {
             };
         }
     };
+    // The commands that write files: Ctrl-C / SIGTERM remove the output layer's temporaries
+    // and leave old outputs as they were (N166). Live and monitor keep the default signals.
+    if matches!(cli.command, Command::ScoreLog(_)) || writes_check_outputs(&cli.command) {
+        if let Err(e) = riskscore_output::remove_temporaries_on_signals() {
+            eprintln!("can-bridge: warning: cannot install the Ctrl-C handler: {e}");
+        }
+    }
     let result = match cli.command {
         Command::Live(a) => commands::run_live(a).map_err(failure),
         Command::Replay(a) => commands::run_replay(a).map_err(failure),
@@ -82,6 +89,16 @@ fn main() -> ExitCode {
             ExitCode::from(code)
         }
     }
+}
+
+#[cfg(feature = "check")]
+fn writes_check_outputs(c: &Command) -> bool {
+    matches!(c, Command::Check(_))
+}
+
+#[cfg(not(feature = "check"))]
+fn writes_check_outputs(_: &Command) -> bool {
+    false
 }
 
 /// The exit code of a failed command, and what to print.

@@ -1,422 +1,391 @@
-//! The fault suite of issue #21: every command that writes, run against its own inputs, a missing
-//! input, a second writer, a target it cannot write, and (simulate) Ctrl-C in the middle. Every
-//! case asserts a non-zero exit, a message naming the file, every pre-existing user file byte for
-//! byte unchanged, and no temporary or lock file left behind (the whole scratch folder is compared
-//! before and after, hidden files included).
+//! The fault suite of issue #21 for `riskctl`: every command that writes (the table [`WRITERS`])
+//! against every fault of the matrix:
 //!
-//! A read-only target folder is made with a regular file as the target's parent: chmod does not
-//! stop root (CI runs as root), a file in the way does.
+//! - its output is one of its inputs (each input as given, as `./x`, through a symlink and a hard
+//!   link; a folder input also through the files in it),
+//! - an input does not exist,
+//! - a second process holds the output (its lock), and, for the commands with a long run, a real
+//!   second run starts while the first writes,
+//! - the disk is full (a small tmpfs, root only),
+//! - the target folder is read-only (a read-only tmpfs: chmod does not stop root),
+//! - Ctrl-C (SIGINT) in the middle of a long run.
+//!
+//! Each case asserts a non-zero exit, a message naming the file, every pre-existing file of the
+//! scratch folder byte for byte unchanged and no temporary or lock file left (the whole folder,
+//! hidden files included, is compared before and after). The matrix is in docs/outputs.md.
 #![cfg(feature = "parquet")]
-use std::collections::BTreeMap;
+mod fault_harness;
+
+use fault_harness::{
+    ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input,
+    output_of_the_wrong_kind, run, second_writer, Streams, Tmpfs, Writer,
+};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
 
-fn riskctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run riskctl")
+const EVENTS: &[&str] = &["sim"];
+
+const WRITERS: &[Writer] = &[
+    Writer {
+        name: "ssm (CSV)",
+        args: "ssm --input p.csv --output OUT",
+        out: "o.csv",
+        inputs: &["p.csv"],
+        lock: "OUT",
+        long: Some(("ssm --input big.csv --output OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "ssm (Parquet)",
+        args: "ssm --input p.parquet --output OUT",
+        out: "o.parquet",
+        inputs: &["p.parquet"],
+        lock: "OUT",
+        long: Some(("ssm --input big.csv --output OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "simulate",
+        args: "simulate --out OUT --events 6 --seed 5 --mix 2,2,2",
+        out: "simo/",
+        inputs: &[],
+        lock: "OUT/events.csv",
+        long: Some(("simulate --out OUT --events 2000000 --seed 11", Streams::Yes)),
+    },
+    Writer {
+        name: "import commonroad",
+        args: "import commonroad --out OUT cr",
+        out: "imp/",
+        inputs: &["cr"],
+        lock: "OUT/events.csv",
+        long: Some(("import commonroad --out OUT crbig", Streams::Yes)),
+    },
+    Writer {
+        name: "score (CSV)",
+        args: "score --model m.rsk --events sim --out OUT",
+        out: "s.csv",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("score --model m.rsk --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "score (Parquet)",
+        args: "score --model m.rsk --events sim --out OUT",
+        out: "s.parquet",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("score --model m.rsk --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "evaluate --out",
+        args: "evaluate --model m.rsk --events sim --out OUT",
+        out: "ev/",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: Some(("evaluate --model m.rsk --events big --out OUT", Streams::No)),
+    },
+    Writer {
+        name: "calibrate",
+        args: "calibrate --model m.rsk --normal sim --false-alarm-rate 5 --out OUT",
+        out: "cal.rsk",
+        inputs: &["m.rsk", "sim"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "plot",
+        args: "plot --events sim --event 000001 --model m.rsk --out OUT",
+        out: "p.svg",
+        inputs: &["sim", "m.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "events-to-candump",
+        args: "events-to-candump --events sim --out OUT",
+        out: "d.log",
+        inputs: EVENTS,
+        lock: "OUT",
+        long: Some(("events-to-candump --events big --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "train",
+        args: "train --events sim --config t.toml --out OUT --quiet",
+        out: "tr/",
+        inputs: &["sim", "t.toml"],
+        lock: "OUT/drl.json",
+        long: Some((
+            "train --events sim --config long.toml --out OUT --quiet",
+            Streams::No,
+        )),
+    },
+    Writer {
+        name: "export-model",
+        args: "export-model ck.json --out OUT",
+        out: "e.rsk",
+        inputs: &["ck.json"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm fit",
+        args: "gssm fit --events sim --gssm-config g.toml --out OUT",
+        out: "gf.rsk",
+        inputs: &["sim", "g.toml"],
+        lock: "OUT",
+        long: Some((
+            "gssm fit --events sim --gssm-config glong.toml --out OUT",
+            Streams::No,
+        )),
+    },
+    Writer {
+        name: "gssm align",
+        args: "gssm align --events sim --config t.toml --gssm-config g.toml --gssm g.rsk --out OUT",
+        out: "ga.rsk",
+        inputs: &["sim", "t.toml", "g.toml", "g.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm msra",
+        args: "gssm msra --events sim --config t.toml --gssm-config g.toml --gssm g.rsk --out OUT",
+        out: "gm.rsk",
+        inputs: &["sim", "t.toml", "g.toml", "g.rsk"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "gssm ship",
+        args: "gssm ship --events sim --config t.toml --gssm-config g.toml --out-dir OUT",
+        out: "ship/",
+        inputs: &["sim", "t.toml", "g.toml"],
+        lock: "OUT/gssm-default.rsk",
+        long: None,
+    },
+    Writer {
+        name: "gssm cv --out",
+        args: "gssm cv --events sim --config t.toml --gssm-config g.toml --folds 2 --out OUT",
+        out: "cv.json",
+        inputs: &["sim", "t.toml", "g.toml"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
+        name: "ablation",
+        args: "ablation --events sim --config t.toml --out OUT --folds 2 --fractions 1 --singles-only --quiet",
+        out: "abl/",
+        inputs: &["sim", "t.toml"],
+        lock: "OUT/ablation.csv",
+        long: None,
+    },
+    Writer {
+        name: "demo",
+        args: "demo --out OUT --config t.toml --events 12 --folds 2 --no-real --no-transfer --quiet",
+        out: "demo/",
+        inputs: &["t.toml"],
+        lock: "OUT/data/events.csv",
+        long: None,
+    },
+    Writer {
+        name: "benchmark transfer",
+        args: "benchmark transfer --real real --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --seeds 1 --out OUT --quiet",
+        out: "bt/",
+        inputs: &["real", "sim", "t.toml", "g.toml"],
+        lock: "OUT/report",
+        long: None,
+    },
+    Writer {
+        name: "man --out-dir",
+        args: "man --out-dir OUT",
+        out: "man/",
+        inputs: &[],
+        lock: "OUT",
+        long: None,
+    },
+];
+
+fn repo(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
-fn model() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/drl-default.rsk")
+#[track_caller]
+fn ok(dir: &Path, args: &[&str]) {
+    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    let o = run(RISKCTL, dir, &args);
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
-fn commonroad(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/commonroad")
-        .join(name)
-}
-
-/// Every file under `dir` (hidden ones too) with its bytes.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-            if p.is_dir() {
-                out.insert(rel, b"<dir>".to_vec());
-                stack.push(p);
-            } else {
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
-}
-
-/// A scratch folder with a small event folder `sim` (and a copy `sim2`), the model `m.rsk`, a
-/// pairs CSV `p.csv` with a bad row and its Parquet form `p.parquet`, and an old `out.csv`.
+/// A scratch folder with every input of [`WRITERS`] (small: each command runs in well under a
+/// second) and every command's old output.
 fn scratch() -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
-    let o = riskctl(
-        d.path(),
+    let p = d.path();
+    ok(
+        p,
         &[
             "simulate", "--out", "sim", "--events", "6", "--seed", "3", "--mix", "2,2,2",
         ],
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::copy(model(), d.path().join("m.rsk")).unwrap();
+    std::fs::copy(repo("../models/drl-default.rsk"), p.join("m.rsk")).unwrap();
     let h = "x_i,y_i,vx_i,vy_i,hx_i,hy_i,acc_i,length_i,width_i,x_j,y_j,vx_j,vy_j,hx_j,hy_j,acc_j,length_j,width_j";
     let g = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8";
     let bad = "0,0,10,zz,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8";
-    std::fs::write(d.path().join("p.csv"), format!("{h}\n{g}\n{bad}\n{g}\n")).unwrap();
-    let o = riskctl(
-        d.path(),
-        &["ssm", "--input", "p.csv", "--output", "p.parquet"],
+    std::fs::write(p.join("p.csv"), format!("{h}\n{g}\n{bad}\n{g}\n")).unwrap();
+    ok(p, &["ssm", "--input", "p.csv", "--output", "p.parquet"]);
+    let tiny = "[comparisons.temporal]\npairs = 50\n[comparisons.cross_sequence]\npairs = 50\n\
+                [comparisons.physics]\npairs = 20\n[optimiser]\nmax_epochs = 2\nbatch_pairs = 32\n";
+    std::fs::write(p.join("t.toml"), tiny).unwrap();
+    std::fs::write(
+        p.join("g.toml"),
+        "[fit]\nmax_epochs = 2\nhidden = [4]\n[ssra]\nmax_epochs = 2\n",
+    )
+    .unwrap();
+    ok(
+        p,
+        &[
+            "gssm",
+            "fit",
+            "--events",
+            "sim",
+            "--gssm-config",
+            "g.toml",
+            "--out",
+            "g.rsk",
+        ],
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::write(d.path().join("out.csv"), "old output\n").unwrap();
-    std::fs::write(d.path().join("plain"), "a regular file\n").unwrap();
+    ok(
+        p,
+        &[
+            "train", "--events", "sim", "--config", "t.toml", "--out", "ck", "--quiet",
+        ],
+    );
+    std::fs::rename(p.join("ck/drl.json"), p.join("ck.json")).unwrap();
+    std::fs::remove_dir_all(p.join("ck")).unwrap();
+    std::fs::create_dir(p.join("cr")).unwrap();
+    // Two scenario files: the transfer benchmark holds real recordings out by file.
+    for (from, to) in [
+        ("ZAM_Merge-1_1_T-1", "merge"),
+        ("ZAM_Legacy-1_1_T-1", "legacy"),
+    ] {
+        let from = repo(&format!("tests/data/commonroad/{from}.xml"));
+        std::fs::copy(from, p.join(format!("cr/{to}.xml"))).unwrap();
+    }
+    ok(p, &["import", "commonroad", "--out", "real", "cr"]);
+    for w in WRITERS {
+        w.place_old_output(p);
+    }
     d
 }
 
-/// Runs `args` in `dir` and asserts a failure whose message names `names`, with the folder
-/// byte for byte as before.
-#[track_caller]
-fn refused(dir: &Path, args: &[&str], names: &[&str]) -> String {
-    let before = snapshot(dir);
-    let o = riskctl(dir, args);
-    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(!o.status.success(), "{args:?} succeeded: {stderr}");
-    assert_ne!(o.status.code(), Some(101), "{args:?} panicked: {stderr}");
-    for n in names {
-        assert!(
-            stderr.contains(n),
-            "{args:?}: message does not name {n}: {stderr}"
-        );
-    }
-    let after = snapshot(dir);
-    let changed: Vec<_> = before
-        .keys()
-        .chain(after.keys())
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "{args:?} changed or left {changed:?}: {stderr}"
-    );
-    stderr
+#[test]
+fn an_output_that_is_an_input_is_refused_in_every_spelling() {
+    let d = scratch();
+    output_is_input(RISKCTL, d.path(), WRITERS);
 }
-
-/// Holds the output lock on `target` as another process would, for the duration of `f`.
-fn while_locked(target: &Path, f: impl FnOnce()) {
-    let lock = riskscore_output::OutputLock::acquire(target).unwrap();
-    f();
-    drop(lock);
-}
-
-const BUSY: &str = "another process is writing";
 
 #[test]
-fn import_commonroad_never_replaces_a_folder_it_cannot_fill() {
+fn a_missing_input_leaves_the_old_output_alone() {
     let d = scratch();
-    let p = d.path();
-    std::fs::write(p.join("empty.xml"), "").unwrap();
-    let good = commonroad("ZAM_Merge-1_1_T-1.xml");
-    let good = good.to_str().unwrap();
-    // N9: a typo in the input path; N8: a 0-byte XML. The old folder stays whole.
-    refused(
-        p,
-        &["import", "commonroad", "--out", "sim", "no/such/typo/"],
-        &["typo"],
-    );
-    refused(
-        p,
-        &["import", "commonroad", "--out", "sim", "empty.xml"],
-        &["empty.xml"],
-    );
-    // N21: the output is the input.
-    std::fs::copy(good, p.join("in.xml")).unwrap();
-    refused(
-        p,
-        &["import", "commonroad", "--out", "in.xml", "in.xml"],
-        &["--out", "in.xml"],
-    );
-    // A second writer; a target under a regular file.
-    while_locked(&p.join("sim/events.csv"), || {
-        refused(p, &["import", "commonroad", "--out", "sim", good], &[BUSY]);
-    });
-    refused(
-        p,
-        &["import", "commonroad", "--out", "plain/ev", good],
-        &["plain"],
+    missing_input(RISKCTL, d.path(), WRITERS);
+}
+
+#[test]
+fn an_output_of_the_wrong_kind_is_refused() {
+    let d = scratch();
+    output_of_the_wrong_kind(RISKCTL, d.path(), WRITERS);
+}
+
+#[test]
+fn a_second_writer_is_refused() {
+    let d = scratch();
+    second_writer(RISKCTL, d.path(), WRITERS);
+}
+
+#[test]
+fn a_full_disk_fails_naming_the_file_and_keeps_the_old_output() {
+    let d = scratch();
+    every_writer_into(RISKCTL, d.path(), WRITERS, "full disk", Tmpfs::fill);
+}
+
+#[test]
+fn a_read_only_target_folder_fails_naming_the_file() {
+    let d = scratch();
+    every_writer_into(
+        RISKCTL,
+        d.path(),
+        WRITERS,
+        "read-only folder",
+        Tmpfs::make_read_only,
     );
 }
 
 #[test]
-fn ssm_refuses_its_input_as_output_and_a_second_writer() {
+fn a_disk_that_fills_between_two_files_of_a_set_changes_none() {
+    // Room for train's first file (drl.json, about 30 KB: 8 pages) and no more: written one by one,
+    // drl.json was replaced and the other four kept their old contents.
     let d = scratch();
     let p = d.path();
-    // N62 / N61: CSV and Parquet, also through `./`.
-    for (i, o) in [
-        ("p.csv", "p.csv"),
-        ("p.csv", "./p.csv"),
-        ("p.parquet", "p.parquet"),
+    let Some(tmpfs) = Tmpfs::mount(&p.join("mnt"), 512, "disk full half-way") else {
+        return;
+    };
+    let out = p.join("mnt/tr");
+    std::fs::create_dir(&out).unwrap();
+    for f in [
+        "drl.json",
+        "msra.json",
+        "drl.rsk",
+        "drl-f32.rsk",
+        "msra.rsk",
     ] {
-        refused(
-            p,
-            &["ssm", "--input", i, "--output", o],
-            &["--output", "--input", "p."],
-        );
+        std::fs::write(out.join(f), format!("old {f}\n")).unwrap();
     }
-    refused(
-        p,
-        &["ssm", "--input", "missing.csv", "--output", "out.csv"],
-        &["missing.csv"],
-    );
-    while_locked(&p.join("out.csv"), || {
-        refused(
-            p,
-            &["ssm", "--input", "p.csv", "--output", "out.csv"],
-            &[BUSY, "out.csv"],
-        );
-    });
-    refused(
-        p,
-        &["ssm", "--input", "p.csv", "--output", "plain/o.csv"],
-        &["plain/o.csv"],
-    );
-}
-
-#[test]
-fn score_refuses_the_event_files_and_the_model_as_output() {
-    let d = scratch();
-    let p = d.path();
-    // N28, N30, N29.
-    for out in [
-        "sim/frames.csv",
-        "sim/events.csv",
-        "m.rsk",
-        "./sim/../m.rsk",
-    ] {
-        refused(
-            p,
-            &["score", "--model", "m.rsk", "--events", "sim", "--out", out],
-            &["--out", out],
-        );
-    }
-    refused(
-        p,
-        &[
-            "score", "--model", "m.rsk", "--events", "nosuch", "--out", "out.csv",
-        ],
-        &["nosuch"],
-    );
-    while_locked(&p.join("out.csv"), || {
-        refused(
-            p,
-            &[
-                "score", "--model", "m.rsk", "--events", "sim", "--out", "out.csv",
-            ],
-            &[BUSY, "out.csv"],
-        );
-    });
-    refused(
-        p,
-        &[
-            "score",
-            "--model",
-            "m.rsk",
-            "--events",
-            "sim",
-            "--out",
-            "plain/s.csv",
-        ],
-        &["plain/s.csv"],
-    );
-}
-
-#[test]
-fn gssm_fit_and_export_model_refuse_their_inputs_as_output() {
-    let d = scratch();
-    let p = d.path();
-    // N133.
-    refused(
-        p,
-        &["gssm", "fit", "--events", "sim", "--out", "sim/frames.csv"],
-        &["--out", "sim/frames.csv", "--events"],
-    );
-    refused(
-        p,
-        &["gssm", "fit", "--events", "nosuch", "--out", "g.rsk"],
-        &["nosuch"],
-    );
-    // N134: refused before the checkpoint is even read.
-    std::fs::write(p.join("ck.json"), "{\"not\": \"read\"}").unwrap();
-    refused(
-        p,
-        &["export-model", "ck.json", "--out", "ck.json"],
-        &["--out", "ck.json"],
-    );
-    refused(
-        p,
-        &["export-model", "nosuch.json", "--out", "m2.rsk"],
-        &["nosuch.json"],
-    );
-}
-
-#[test]
-fn evaluate_writes_its_folder_whole_or_not_at_all() {
-    let d = scratch();
-    let p = d.path();
-    let o = riskctl(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::write(p.join("ev/notes.txt"), "mine").unwrap();
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "nosuch", "--out", "ev",
-        ],
-        &["nosuch"],
-    );
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "m.rsk",
-        ],
-        &["m.rsk"],
-    );
-    while_locked(&p.join("ev"), || {
-        refused(
-            p,
-            &[
-                "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-            ],
-            &[BUSY, "ev"],
-        );
-    });
-    refused(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "plain/ev",
-        ],
-        &["plain"],
-    );
-    // A successful run replaces the report and keeps the user's file.
-    let o = riskctl(
-        p,
-        &[
-            "evaluate", "--model", "m.rsk", "--events", "sim", "--out", "ev",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(
-        std::fs::read_to_string(p.join("ev/notes.txt")).unwrap(),
-        "mine"
-    );
-    let hidden: Vec<_> = snapshot(p)
-        .into_keys()
-        .filter(|k| k.to_string_lossy().contains("/.") || k.to_string_lossy().starts_with('.'))
+    tmpfs.fill_leaving(8 * 4096);
+    let args: Vec<String> = "train --events sim --config t.toml --out mnt/tr --quiet"
+        .split_whitespace()
+        .map(String::from)
         .collect();
-    assert!(hidden.is_empty(), "temporaries left: {hidden:?}");
+    fault_harness::refused(RISKCTL, p, &args, &["mnt/tr/"]).unwrap();
 }
 
-/// Waits until a temporary of the run appears in `dir` (the run is writing).
-fn wait_for_temporary(dir: &Path, child: &mut std::process::Child) {
-    let start = Instant::now();
-    loop {
-        let writing = std::fs::read_dir(dir)
-            .unwrap()
-            .any(|e| e.unwrap().file_name().to_string_lossy().ends_with(".tmp"));
-        if writing {
-            return;
-        }
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the run ended before it wrote"
-        );
-        assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "no temporary appeared"
-        );
-        std::thread::sleep(Duration::from_millis(20));
+/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder, 150 scenario
+/// files and slow configurations.
+fn add_long_inputs(p: &Path) {
+    std::fs::create_dir(p.join("crbig")).unwrap();
+    for k in 0..150 {
+        std::fs::copy(p.join("cr/merge.xml"), p.join(format!("crbig/s{k}.xml"))).unwrap();
     }
+    let g = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8\n";
+    let mut big = std::fs::read_to_string(p.join("p.csv"))
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    big.push('\n');
+    big.push_str(&g.repeat(40_000));
+    std::fs::write(p.join("big.csv"), big).unwrap();
+    ok(
+        p,
+        &["simulate", "--out", "big", "--events", "150", "--seed", "4"],
+    );
+    std::fs::write(
+        p.join("long.toml"),
+        "[optimiser]\nmax_epochs = 100000\npatience = 100000\n",
+    )
+    .unwrap();
+    std::fs::write(
+        p.join("glong.toml"),
+        "[fit]\nmax_epochs = 100000\npatience = 100000\n",
+    )
+    .unwrap();
 }
 
 #[test]
-fn simulate_interrupted_or_doubled_leaves_the_old_folder_as_it_was() {
+fn ctrl_c_in_the_middle_and_a_second_run_leave_the_old_output() {
     let d = scratch();
-    let p = d.path();
-    // N90: Ctrl-C in the middle of a long run over an old folder.
-    let before = snapshot(p);
-    let mut child = Command::new(RISKCTL)
-        .current_dir(p)
-        .args([
-            "simulate", "--out", "sim", "--events", "2000000", "--seed", "11",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_temporary(&p.join("sim"), &mut child);
-    std::thread::sleep(Duration::from_millis(200));
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(130),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert_eq!(
-        snapshot(p),
-        before,
-        "Ctrl-C changed the old folder or left temporaries"
-    );
-
-    // N91: a second simulate into the same folder while the first writes is refused; the first
-    // completes alone.
-    let mut first = Command::new(RISKCTL)
-        .current_dir(p)
-        .args([
-            "simulate", "--out", "sim", "--events", "400", "--seed", "21",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_temporary(&p.join("sim"), &mut first);
-    let second = riskctl(
-        p,
-        &["simulate", "--out", "sim", "--events", "30", "--seed", "22"],
-    );
-    let stderr = String::from_utf8_lossy(&second.stderr);
-    assert!(
-        !second.status.success() && stderr.contains(BUSY),
-        "{stderr}"
-    );
-    assert!(stderr.contains("sim"), "{stderr}");
-    let o = first.wait_with_output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let scenarios = std::fs::read_to_string(p.join("sim/scenarios.csv")).unwrap();
-    assert_eq!(scenarios.lines().count(), 401, "scenarios.csv mixed or cut");
-    assert!(scenarios.lines().all(|l| l.split(',').count() == 9));
-    let left: Vec<_> = snapshot(p)
-        .into_keys()
-        .filter(|k| k.to_string_lossy().contains("/."))
-        .collect();
-    assert!(left.is_empty(), "temporaries left: {left:?}");
-
-    // A target under a regular file.
-    refused(
-        p,
-        &["simulate", "--out", "plain/sim", "--events", "3"],
-        &["plain/sim"],
-    );
+    add_long_inputs(d.path());
+    ctrl_c_and_second_run(RISKCTL, d.path(), WRITERS);
 }

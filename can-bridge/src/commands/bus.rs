@@ -92,7 +92,7 @@ pub fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
         idle_exit: secs(args.idle_exit),
     };
     let report = monitor::run(&map, &opts, &mut out).map_err(Failure::Interface)?;
-    out.flush().map_err(writing("--out"))?;
+    out.flush().map_err(writing("--out", args.out.as_deref()))?;
     eprintln!("{}", report.summary());
     if args.strict && !report.all_protected_ok() {
         return Err(Failure::Protection);

@@ -74,7 +74,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
             .map_err(|source| Failure::Input(InputError::DecodedEvents { source }))?;
     }
     if let Some(p) = &args.per_event_out {
-        write_verdicts(p, &report).map_err(writing("--per-event-out"))?;
+        write_verdicts(p, &report).map_err(writing("--per-event-out", Some(p)))?;
     }
     print_report(&report, args.json);
     Ok(())

@@ -73,9 +73,10 @@ pub enum InputError {
         #[source]
         cause: std::io::Error,
     },
-    #[error("writing {what}")]
+    #[error("writing {what} {path}")]
     Write {
         what: &'static str,
+        path: String,
         #[source]
         cause: std::io::Error,
     },
@@ -140,7 +141,11 @@ impl From<TooMuchLost> for Failure {
     }
 }
 
-/// A write to `what` failed.
-fn writing(what: &'static str) -> impl FnOnce(std::io::Error) -> Failure {
-    move |cause| Failure::Input(InputError::Write { what, cause })
+/// A write to the output of option `what` (`path`; `None`: standard output) failed.
+fn writing(
+    what: &'static str,
+    path: Option<&std::path::Path>,
+) -> impl FnOnce(std::io::Error) -> Failure {
+    let path = path.map_or("(standard output)".to_string(), |p| p.display().to_string());
+    move |cause| Failure::Input(InputError::Write { what, path, cause })
 }

@@ -38,7 +38,9 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
         Some(p) => Some(AtomicFile::create(p).map_err(creating(p))?),
         None => None,
     };
-    let mut io_error: Option<std::io::Error> = None;
+    // The first write error of each output (each names its own file).
+    let mut warnings_error: Option<std::io::Error> = None;
+    let mut events_error: Option<std::io::Error> = None;
     let mut line = String::new();
     let started = Instant::now();
     // --bench: time from handing a frame to the engine to its warning frame (compute latency).
@@ -53,11 +55,11 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
             can_codec::format_line(&mut line, *t_us, &args.warnings_iface, frame);
             line.push('\n');
             if let Err(e) = w.write_all(line.as_bytes()) {
-                io_error.get_or_insert(e);
+                warnings_error.get_or_insert(e);
             }
         }
         if let Err(e) = events.handle(&o) {
-            io_error.get_or_insert(e);
+            events_error.get_or_insert(e);
         }
         problems.handle(&o);
         losses.handle(&o);
@@ -77,8 +79,13 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     })?;
     engine.finish(&mut |o: Output| handle(o, None));
     let elapsed = started.elapsed().as_secs_f64();
-    if let Some(e) = io_error {
-        return Err(writing("outputs")(e));
+    let warnings_out = args.warnings_out.as_deref();
+    let events_out = args.events_out.as_deref();
+    if let Some(e) = warnings_error {
+        return Err(writing("--warnings-out", warnings_out)(e));
+    }
+    if let Some(e) = events_error {
+        return Err(writing("--events-out", events_out)(e));
     }
     let stats = engine.stats();
     eprintln!("score-log: {} lines; {}", report.lines, summary(stats));
@@ -111,8 +118,11 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     }
     losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(w) = warnings {
-        w.commit().map_err(writing("--warnings-out"))?;
+        w.commit()
+            .map_err(writing("--warnings-out", warnings_out))?;
     }
-    events.finish().map_err(writing("--events-out"))?;
+    events
+        .finish()
+        .map_err(writing("--events-out", events_out))?;
     Ok(())
 }

@@ -34,6 +34,9 @@ pub enum BundleError {
         #[source]
         source: std::io::Error,
     },
+    /// The output layer's own errors already name the folder.
+    #[error(transparent)]
+    Folder(std::io::Error),
 }
 
 /// The files of one report folder, in the order they were added.
@@ -88,11 +91,11 @@ impl ReportBundle {
             let path = path.to_path_buf();
             move |source| BundleError::Io { path, source }
         };
-        let out = OutputDir::create(dir).map_err(io(dir))?;
+        let out = OutputDir::create(dir).map_err(BundleError::Folder)?;
         for f in &self.files {
             std::fs::write(out.path().join(&f.name), &f.bytes).map_err(io(&dir.join(&f.name)))?;
         }
-        out.commit().map_err(io(dir))?;
+        out.commit().map_err(BundleError::Folder)?;
         Ok(self.files.iter().map(|f| dir.join(&f.name)).collect())
     }
 }

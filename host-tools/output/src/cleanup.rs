@@ -1,7 +1,7 @@
 //! What a Ctrl-C or SIGTERM leaves behind: nothing. Every temporary file, temporary folder and
 //! lock file of the layer is registered here while it exists; [`remove_temporaries_on_signals`]
 //! installs (once) a signal-hook handler thread that removes them, puts a folder moved aside
-//! back, and exits with 130 (SIGINT) or 143 (SIGTERM).
+//! back, says which outputs were left as they were, and exits with 130 (SIGINT) or 143 (SIGTERM).
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
@@ -9,14 +9,51 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 enum Undo {
     /// Remove this file or folder.
     Remove(PathBuf),
+    /// A folder made for the run: remove it if it is (still) empty.
+    RemoveEmptyFolder(PathBuf),
     /// A folder output moved aside during its swap: put it back at `target` if that is empty.
     Restore { aside: PathBuf, target: PathBuf },
 }
 
 static PENDING: Mutex<Vec<Undo>> = Mutex::new(Vec::new());
 
+/// The outputs being written now (one per lock held), named when a signal stops the run.
+static TARGETS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
 fn pending() -> MutexGuard<'static, Vec<Undo>> {
     PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn targets() -> MutexGuard<'static, Vec<PathBuf>> {
+    TARGETS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+pub(crate) fn register_target(target: &Path) {
+    targets().push(target.to_path_buf());
+}
+
+pub(crate) fn unregister_target(target: &Path) {
+    let mut list = targets();
+    if let Some(i) = list.iter().rposition(|t| t == target) {
+        list.remove(i);
+    }
+}
+
+/// What the handler says on stderr: the program, the signal, and the outputs it left alone.
+fn interrupted_message(signal: &str, targets: &[PathBuf]) -> String {
+    let program = std::env::args_os()
+        .next()
+        .map(PathBuf::from)
+        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_default();
+    if targets.is_empty() {
+        return format!("{program}: interrupted ({signal}): nothing was written");
+    }
+    let names: Vec<String> = targets.iter().map(|t| t.display().to_string()).collect();
+    format!(
+        "{program}: interrupted ({signal}): the unfinished output was removed; {} left as it was",
+        names.join(", ")
+    )
 }
 
 pub(crate) fn register(path: &Path) {
@@ -25,6 +62,14 @@ pub(crate) fn register(path: &Path) {
 
 pub(crate) fn unregister(path: &Path) {
     pending().retain(|u| !matches!(u, Undo::Remove(p) if p == path));
+}
+
+pub(crate) fn register_empty_folder(path: &Path) {
+    pending().push(Undo::RemoveEmptyFolder(path.to_path_buf()));
+}
+
+pub(crate) fn unregister_empty_folder(path: &Path) {
+    pending().retain(|u| !matches!(u, Undo::RemoveEmptyFolder(p) if p == path));
 }
 
 pub(crate) fn register_restore(aside: &Path, target: &Path) {
@@ -46,6 +91,9 @@ fn undo(u: Undo) {
             } else {
                 let _ = std::fs::remove_file(&p);
             }
+        }
+        Undo::RemoveEmptyFolder(p) => {
+            let _ = std::fs::remove_dir(&p);
         }
         Undo::Restore { aside, target } => {
             if !target.exists() {
@@ -80,6 +128,8 @@ pub fn remove_temporaries_on_signals() -> std::io::Result<()> {
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
                 let _held = undo_all();
+                let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+                eprintln!("{}", interrupted_message(name, &targets()));
                 std::process::exit(128 + sig);
             }
         })?;
@@ -106,7 +156,7 @@ mod tests {
             let mut list = pending();
             let (mine, rest) = list
                 .drain(..)
-                .partition(|u| matches!(u, Undo::Remove(p) | Undo::Restore { aside: p, .. } if p.starts_with(d.path())));
+                .partition(|u| matches!(u, Undo::Remove(p) | Undo::RemoveEmptyFolder(p) | Undo::Restore { aside: p, .. } if p.starts_with(d.path())));
             *list = rest;
             mine
         };
@@ -114,5 +164,17 @@ mod tests {
         mine.into_iter().rev().for_each(undo);
         assert!(!tmp.exists());
         assert_eq!(std::fs::read_to_string(target.join("kept")).unwrap(), "old");
+    }
+
+    #[test]
+    fn the_interrupted_message_names_every_output_left_alone() {
+        let m = interrupted_message("SIGINT", &[PathBuf::from("out.csv"), PathBuf::from("ev")]);
+        assert!(m.contains("interrupted (SIGINT)"), "{m}");
+        assert!(m.contains("out.csv, ev left as it was"), "{m}");
+        let m = interrupted_message("SIGTERM", &[]);
+        assert!(
+            m.ends_with("interrupted (SIGTERM): nothing was written"),
+            "{m}"
+        );
     }
 }

@@ -5,14 +5,16 @@ use std::io::{self, BufWriter, Write};
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 
-use tempfile::NamedTempFile;
+use tempfile::{NamedTempFile, TempPath};
 
 use crate::lock::{hidden_name, parent_of, OutputLock};
 use crate::overlap::is_special_file;
 
 enum Sink {
-    /// A unique temporary file beside the target (`.NAME.XXXXXX.tmp`).
-    Temp(BufWriter<NamedTempFile>),
+    /// A unique temporary file beside the target (`.NAME.XXXXXX.tmp`), written through its
+    /// plain `File` so that an error reads as the system's (`No space left on device`), not as
+    /// tempfile's, which names the temporary instead of the target.
+    Temp(BufWriter<File>, TempPath),
     /// A device or pipe, written directly.
     Direct(BufWriter<File>),
     /// Committed (or being committed).
@@ -71,10 +73,10 @@ impl AtomicFile {
             ));
         }
         let lock = OutputLock::acquire(dest)?;
-        let tmp = temp_beside(dest)?;
+        let (file, tmp) = temp_beside(dest)?.into_parts();
         Ok(Self {
-            tmp: Some(tmp.path().to_path_buf()),
-            sink: Sink::Temp(BufWriter::with_capacity(1 << 16, tmp)),
+            tmp: Some(tmp.to_path_buf()),
+            sink: Sink::Temp(BufWriter::with_capacity(1 << 16, file), tmp),
             dest: dest.to_path_buf(),
             _lock: Some(lock),
         })
@@ -85,12 +87,12 @@ impl AtomicFile {
         &self.dest
     }
 
-    /// Flushes and syncs; returns the temporary file, still unnamed (`None` for a device).
-    fn sync(&mut self) -> io::Result<Option<NamedTempFile>> {
+    /// Flushes and syncs; returns the temporary file's path, still unnamed (`None` for a device).
+    fn sync(&mut self) -> io::Result<Option<TempPath>> {
         match std::mem::replace(&mut self.sink, Sink::Closed) {
-            Sink::Temp(w) => {
-                let tmp = w.into_inner().map_err(|e| e.into_error())?;
-                tmp.as_file().sync_all()?;
+            Sink::Temp(w, tmp) => {
+                let file = w.into_inner().map_err(|e| e.into_error())?;
+                file.sync_all()?;
                 Ok(Some(tmp))
             }
             Sink::Direct(mut w) => {
@@ -101,9 +103,9 @@ impl AtomicFile {
         }
     }
 
-    fn persist(&mut self, tmp: Option<NamedTempFile>) -> io::Result<()> {
+    fn persist(&mut self, tmp: Option<TempPath>) -> io::Result<()> {
         if let Some(tmp) = tmp {
-            // On failure the PersistError's file is dropped: the temporary is removed.
+            // On failure the PathPersistError's path is dropped: the temporary is removed.
             tmp.persist(&self.dest).map_err(|e| e.error)?;
             if let Some(p) = self.tmp.take() {
                 crate::cleanup::unregister(&p);
@@ -129,21 +131,21 @@ fn closed() -> io::Error {
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         match &mut self.sink {
-            Sink::Temp(w) => w.write(buf),
+            Sink::Temp(w, _) => w.write(buf),
             Sink::Direct(w) => w.write(buf),
             Sink::Closed => Err(closed()),
         }
     }
     fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
         match &mut self.sink {
-            Sink::Temp(w) => w.write_all(buf),
+            Sink::Temp(w, _) => w.write_all(buf),
             Sink::Direct(w) => w.write_all(buf),
             Sink::Closed => Err(closed()),
         }
     }
     fn flush(&mut self) -> io::Result<()> {
         match &mut self.sink {
-            Sink::Temp(w) => w.flush(),
+            Sink::Temp(w, _) => w.flush(),
             Sink::Direct(w) => w.flush(),
             Sink::Closed => Ok(()),
         }
@@ -152,7 +154,7 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        // The NamedTempFile (if still open) removes itself; forget its registration.
+        // The TempPath (if still open) removes itself; forget its registration.
         self.sink = Sink::Closed;
         if let Some(p) = self.tmp.take() {
             let _ = std::fs::remove_file(&p);

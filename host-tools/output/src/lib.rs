@@ -6,6 +6,7 @@
 //!   target, synced, and renamed into place only on commit; removed when dropped.
 //! - [`OutputDir`]: a folder built complete beside the target, then swapped in as a whole.
 //! - [`OutputLock`]: a second process writing the same target is refused.
+//! - [`NewFolders`]: folders made for an output are removed again if the run fails.
 //! - [`remove_temporaries_on_signals`]: Ctrl-C and SIGTERM remove the temporaries (exit 130/143).
 //! - Devices and pipes (`/dev/null`) are written directly.
 //!
@@ -13,11 +14,13 @@
 mod cleanup;
 mod dir;
 mod file;
+mod folders;
 mod lock;
 mod overlap;
 
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::OutputDir;
 pub use file::{AtomicFile, AtomicSet};
+pub use folders::NewFolders;
 pub use lock::OutputLock;
 pub use overlap::{is_special_file, refuse_overlaps, NamedPath, Overlap, SamePathError};

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug)]
 pub struct OutputLock {
     path: PathBuf,
+    target: PathBuf,
     file: Option<File>,
 }
 
@@ -62,8 +63,10 @@ impl OutputLock {
             match std::fs::metadata(&path) {
                 Ok(now) if now.dev() == ours.dev() && now.ino() == ours.ino() => {
                     crate::cleanup::register(&path);
+                    crate::cleanup::register_target(target);
                     return Ok(Self {
                         path,
+                        target: target.to_path_buf(),
                         file: Some(file),
                     });
                 }
@@ -82,6 +85,7 @@ impl Drop for OutputLock {
         // Removed while still locked, so a waiting process re-opens a fresh file (see acquire).
         let _ = std::fs::remove_file(&self.path);
         crate::cleanup::unregister(&self.path);
+        crate::cleanup::unregister_target(&self.target);
         drop(self.file.take());
     }
 }

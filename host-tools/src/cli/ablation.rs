@@ -14,7 +14,7 @@ use riskscore_train::train::{Progress, TrainConfig};
 ///
 /// Without --events the default simulated data set is generated into <out>/data first. This is
 /// slow in full (sources x fractions x folds trainings): limit it with --sources, --fractions,
-/// --folds and --models. Writes <out>/ablation.csv and <out>/ablation.md incrementally.
+/// --folds and --models. Writes <out>/ablation.csv and <out>/ablation.md when complete.
 ///
 /// `riskctl ablation sim-augmentation --real DIR --sim DIR` runs the simulation-augmentation study
 /// instead (simulated comparisons alone, real alone, real + increasing simulated amounts, at a small
@@ -69,6 +69,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(Study::SimAugmentation(study)) = args.study {
         return super::gssm::run_augmentation(study);
     }
+    super::output::refuse_inputs_of(
+        &[
+            ("--events", args.events.as_deref()),
+            ("--augment", args.augment.as_deref()),
+        ],
+        &[("--config", args.config.as_deref())],
+        &[("--out", &args.out)],
+    )?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), None)?;
     for f in &args.fractions {
         if !(*f > 0.0 && *f <= 1.0) {

@@ -112,6 +112,18 @@ fn folder_or_simulate(
 }
 
 fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
+    super::output::refuse_inputs_of(
+        &[
+            ("--real", a.real.as_deref()),
+            ("--train-events", a.train_events.as_deref()),
+            ("--test-events", a.test_events.as_deref()),
+        ],
+        &[
+            ("--config", a.config.as_deref()),
+            ("--gssm-config", a.gssm_config.as_deref()),
+        ],
+        &[("--out", &a.out)],
+    )?;
     let config = TrainConfig::load_or_default(a.config.as_deref(), None)?;
     let gssm_config = GssmConfig::load_or_default(a.gssm_config.as_deref())?;
     let real_dir = match a.real.clone().or_else(default_real_data) {

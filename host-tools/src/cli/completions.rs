@@ -38,10 +38,11 @@ pub fn run(args: Args, mut command: clap::Command) -> anyhow::Result<()> {
 }
 
 pub fn man(args: ManArgs, command: clap::Command) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&args.out_dir)
-        .with_context(|| format!("{}: cannot create", args.out_dir.display()))?;
-    clap_mangen::generate_to(command, &args.out_dir)
+    // Built complete beside the folder, then swapped in whole (riskscore-output).
+    let dir = riskscore_output::OutputDir::create(&args.out_dir)?;
+    clap_mangen::generate_to(command, dir.path())
         .with_context(|| format!("{}: cannot write the man pages", args.out_dir.display()))?;
+    dir.commit()?;
     println!("man pages written to {}", args.out_dir.display());
     Ok(())
 }

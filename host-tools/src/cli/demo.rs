@@ -64,6 +64,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    super::output::refuse_inputs_of(
+        &[
+            ("--data", args.data.as_deref()),
+            ("--real", args.real.as_deref()),
+        ],
+        &[("--config", args.config.as_deref())],
+        &[("--out", &args.out)],
+    )?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
     let opts = DemoOptions {
         out: args.out,

@@ -283,14 +283,18 @@ fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
     }
 }
 
-/// Refuses an `--out` folder whose result files would overwrite a model or event file.
+/// Refuses an `--out` folder that holds a model or event file, or whose result files would
+/// overwrite one.
 fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> anyhow::Result<()> {
     let outputs: Vec<PathBuf> = RESULT_FILES
         .iter()
         .chain(&FIGURE_FILES)
         .map(|n| out.join(n))
         .collect();
-    let outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
+    let mut outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
+    // The folder itself last (its files first: "same file as" says more than "contains"): it is
+    // swapped whole, so it must not hold an input either.
+    outputs.push(("--out", out));
     super::output::refuse_overwriting_inputs(models, events, &outputs)
 }
 

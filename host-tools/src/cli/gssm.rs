@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use riskscore_data::events::Sequence;
 use riskscore_train::export::write_blob;
 use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
-use riskscore_train::gssm::ship::{ship, SUMMARY_FILE};
+use riskscore_train::gssm::ship::{ship, SHIPPED_FILES, SUMMARY_FILE};
 use riskscore_train::gssm::study::{
     augmentation_study, cross_validate, mean_weights, AugmentationOptions, CvOptions, StudyModel,
 };
@@ -335,6 +335,7 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 }
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
+    refuse_inputs(&a.common, &[], &a.out_dir)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -348,18 +349,30 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         &gcfg,
         progress(),
     )?;
-    for (path, blob) in shipped.write_models(&a.out_dir)?.iter().zip(&shipped.blobs) {
-        eprintln!("riskctl: wrote {} ({} bytes)", path.display(), blob.len());
-    }
     print_weights(
         &msra_row_name(&shipped.kinds),
         &shipped.msra.params.weights(),
     );
     let summary = shipped.summary(&cfg, &gcfg, &a.common.events, a.common.normal.as_deref());
-    let path = a.out_dir.join(SUMMARY_FILE);
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
-        .with_context(|| format!("writing {}", path.display()))?;
-    eprintln!("riskctl: wrote {}", path.display());
+    let summary = serde_json::to_string_pretty(&summary)?;
+    // The three models and their summary belong together: renamed into place as one set.
+    let folders = riskscore_output::NewFolders::create(&a.out_dir)
+        .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
+    let mut set = riskscore_output::AtomicSet::default();
+    let files = SHIPPED_FILES
+        .iter()
+        .zip(shipped.blobs.iter().map(Vec::as_slice))
+        .chain([(&SUMMARY_FILE, summary.as_bytes())]);
+    for (name, bytes) in files {
+        let path = a.out_dir.join(name);
+        set.create(&path)
+            .and_then(|f| std::io::Write::write_all(f, bytes))
+            .with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    for path in set.commit()? {
+        eprintln!("riskctl: wrote {}", path.display());
+    }
+    folders.keep();
     Ok(())
 }
 
@@ -369,6 +382,9 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
+    if let Some(out) = &a.out {
+        refuse_inputs(&a.common, &[], out)?;
+    }
     let names = if a.msra.is_empty() {
         gcfg.msra.configurations.clone()
     } else {

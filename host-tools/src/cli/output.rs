@@ -52,21 +52,30 @@ pub fn write_output<T>(
 }
 
 /// The output file, shared between the writer handed to the command and [`write_output`], which
-/// commits it when the command is done.
+/// commits it when the command is done. Its errors name the file (`out.csv: No space left on
+/// device`): the commands report them as plain I/O errors.
 struct Shared(Arc<Mutex<riskscore_output::AtomicFile>>);
+
+impl Shared {
+    fn with<T>(
+        &self,
+        f: impl FnOnce(&mut riskscore_output::AtomicFile) -> std::io::Result<T>,
+    ) -> std::io::Result<T> {
+        let mut file = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        f(&mut file)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", file.path().display())))
+    }
+}
 
 impl Write for Shared {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0.lock().unwrap_or_else(|e| e.into_inner()).write(buf)
+        self.with(|f| f.write(buf))
     }
     fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
-        self.0
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .write_all(buf)
+        self.with(|f| f.write_all(buf))
     }
     fn flush(&mut self) -> std::io::Result<()> {
-        self.0.lock().unwrap_or_else(|e| e.into_inner()).flush()
+        self.with(|f| f.flush())
     }
 }
 
@@ -116,4 +125,28 @@ pub fn refuse_overwriting_inputs(
 pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
     riskscore_output::refuse_overlaps(inputs, outputs)?;
     Ok(())
+}
+
+/// Refuses `outputs` that are, contain or lie inside one of the inputs: the event folders'
+/// `events.csv`/`frames.csv` (a new file beside them is allowed) and the other input `files`.
+/// Absent optional inputs are skipped.
+pub fn refuse_inputs_of(
+    event_folders: &[(&str, Option<&Path>)],
+    files: &[(&str, Option<&Path>)],
+    outputs: &[(&str, &Path)],
+) -> anyhow::Result<()> {
+    let mut owned: Vec<(&str, std::path::PathBuf)> = Vec::new();
+    for (flag, dir) in event_folders {
+        if let Some(dir) = dir {
+            owned.push((flag, dir.join(riskscore_data::events::EVENTS_FILE)));
+            owned.push((flag, dir.join(riskscore_data::events::FRAMES_FILE)));
+        }
+    }
+    for (flag, file) in files {
+        if let Some(file) = file {
+            owned.push((flag, file.to_path_buf()));
+        }
+    }
+    let inputs: Vec<(&str, &Path)> = owned.iter().map(|(f, p)| (*f, p.as_path())).collect();
+    refuse(&inputs, outputs)
 }

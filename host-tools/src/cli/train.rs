@@ -35,6 +35,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    super::output::refuse_inputs_of(
+        &[
+            ("--events", Some(&args.events)),
+            ("--augment", args.augment.as_deref()),
+        ],
+        &[("--config", args.config.as_deref())],
+        &[("--out", &args.out)],
+    )?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
     let folder = super::load_prepared(&args.events)?;
     let (seqs, counts) = (folder.sequences, folder.counts.to_string());

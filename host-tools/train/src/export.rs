@@ -17,7 +17,7 @@
 //! training time), so exporting needs no data. Blobs are written by `scorer_core::model::encode` and
 //! checked by decoding them again ([`inspect`]).
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use scorer_core::model::{self, BoundedVec, Model, ModelError, HEADER_LEN};
 use scorer_core::msra::{MsraModel, MsraTerm};
@@ -93,13 +93,14 @@ impl Checkpoint {
     }
 
     pub fn save(&self, path: &Path) -> Result<(), ExportError> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| ExportError::BadCheckpoint {
+        write_blob(path, &self.to_json(path)?)
+    }
+
+    /// The checkpoint file's bytes (pretty JSON); `path` names it in an error.
+    pub fn to_json(&self, path: &Path) -> Result<Vec<u8>, ExportError> {
+        serde_json::to_vec_pretty(self).map_err(|e| ExportError::BadCheckpoint {
             path: path.display().to_string(),
             message: e.to_string(),
-        })?;
-        std::fs::write(path, text).map_err(|source| ExportError::Io {
-            path: path.display().to_string(),
-            source,
         })
     }
 
@@ -213,6 +214,27 @@ pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ExportError> {
     let mut f = riskscore_output::AtomicFile::create(path).map_err(io)?;
     std::io::Write::write_all(&mut f, blob).map_err(io)?;
     f.commit().map_err(io)
+}
+
+/// Write the files `(path, bytes)` of one folder as a set: nothing is renamed into place until
+/// every file is written and synced (riskscore-output's `AtomicSet`), so a failure (a full disk at
+/// the third file) leaves all the old files.
+pub fn write_set(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<(), ExportError> {
+    let mut set = riskscore_output::AtomicSet::default();
+    for (path, bytes) in files {
+        let io = |source| ExportError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        set.create(path)
+            .and_then(|f| std::io::Write::write_all(f, bytes))
+            .map_err(io)?;
+    }
+    // The set's errors name the file too: `dir: dir/msra.json: No space left on device`.
+    set.commit().map(drop).map_err(|source| ExportError::Io {
+        path: dir.display().to_string(),
+        source,
+    })
 }
 
 /// Decode a blob (header, CRC, payload, validation) and describe it for humans.

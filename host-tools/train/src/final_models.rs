@@ -1,7 +1,6 @@
 //! The final models of a training run: DRL and MSRA trained on every sequence, the DRL quantised
 //! (and checked against its float network), both written as checkpoints and model blobs. What
 //! `riskctl train` and the demo's last training step produce.
-use std::fs;
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
@@ -39,10 +38,12 @@ pub fn train_and_export(
     meta: serde_json::Value,
     progress: Progress,
 ) -> Result<(FinalModels, Vec<PathBuf>), FinalModelsError> {
-    fs::create_dir_all(dir).map_err(|source| ExportError::Io {
-        path: dir.display().to_string(),
-        source,
-    })?;
+    // Made now (a bad --out fails before training), removed again if the run fails.
+    let new_folders =
+        riskscore_output::NewFolders::create(dir).map_err(|source| ExportError::Io {
+            path: dir.display().to_string(),
+            source,
+        })?;
     let prepared = train::prepare_comparisons(train, augmentation, config);
     let drl = train::train_drl(train, &prepared, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
@@ -63,20 +64,22 @@ pub fn train_and_export(
         },
         json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
     );
+    let mut contents = Vec::new();
     for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
         let p = dir.join(name);
-        ck.save(&p)?;
-        files.push(p);
+        contents.push((p.clone(), ck.to_json(&p)?));
     }
     for (name, blob) in [
         ("drl.rsk", export::export(&drl_ck, DrlFormat::Int8)?),
         ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
         ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
     ] {
-        let p = dir.join(name);
-        export::write_blob(&p, &blob)?;
-        files.push(p);
+        contents.push((dir.join(name), blob));
     }
+    // The five files are one output: all new or all old.
+    export::write_set(dir, &contents)?;
+    new_folders.keep();
+    files.extend(contents.into_iter().map(|(p, _)| p));
     Ok((
         FinalModels {
             drl,

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use riskscore_output::{AtomicFile, AtomicSet};
+use riskscore_output::{AtomicFile, AtomicSet, NewFolders};
 
 use super::load::EventsError;
 use super::{Event, EventSet, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE, FRAME_COLUMNS};
@@ -17,6 +17,8 @@ pub struct EventWriter {
     events: csv::Writer<AtomicFile>,
     frames: csv::Writer<AtomicFile>,
     buf: String,
+    /// The folders made for this writer, removed again if it does not finish.
+    new_folders: NewFolders,
     /// Also write the optional `acc_sur` column (partner acceleration known from the source).
     partner_acc: bool,
 }
@@ -28,12 +30,13 @@ fn io_err(path: &Path, e: std::io::Error) -> EventsError {
     }
 }
 
+/// A write error is the file's, not a line's (no `line 0`): `frames.csv: No space left on device`.
 fn csv_err(path: &Path, e: csv::Error) -> EventsError {
-    EventsError::Csv {
-        path: path.to_path_buf(),
-        line: 0,
-        source: e,
-    }
+    let source = match e.into_kind() {
+        csv::ErrorKind::Io(io) => io,
+        other => std::io::Error::other(format!("{other:?}")),
+    };
+    io_err(path, source)
 }
 
 impl EventWriter {
@@ -50,7 +53,7 @@ impl EventWriter {
     }
 
     fn open(dir: &Path, partner_acc: bool) -> Result<Self, EventsError> {
-        std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+        let new_folders = NewFolders::create(dir).map_err(|e| io_err(dir, e))?;
         let open = |name: &str| -> Result<csv::Writer<AtomicFile>, EventsError> {
             let path = dir.join(name);
             let f = AtomicFile::create(&path).map_err(|e| io_err(&path, e))?;
@@ -70,6 +73,7 @@ impl EventWriter {
             events,
             frames,
             buf: String::new(),
+            new_folders,
             partner_acc,
         })
     }
@@ -142,7 +146,9 @@ impl EventWriter {
         set.push(frames);
         extra.into_iter().for_each(|f| set.push(f));
         // The set's errors name the file.
-        set.commit().map(drop).map_err(|e| io_err(&self.dir, e))
+        set.commit().map_err(|e| io_err(&self.dir, e))?;
+        self.new_folders.keep();
+        Ok(())
     }
 
     /// The folder being written.

@@ -122,11 +122,13 @@ pub fn baselines(seqs: &[Sequence], folds: usize, seed: u64) -> Result<CvReport,
     Ok(eval::aggregate(events, &results))
 }
 
-/// The ablation's tables, written as the cells come in (a long run leaves usable partial tables):
-/// `ablation.csv` (one row per cell, method and metric: `sources,fraction,method,metric,mean,std,n`)
-/// and `ablation.md` (the baselines, then one row per cell and method), rewritten after each cell.
+/// The ablation's tables: `ablation.csv` (one row per cell, method and metric:
+/// `sources,fraction,method,metric,mean,std,n`) and `ablation.md` (the baselines, then one row per
+/// cell and method). Written through the output layer: the old tables stay as they were until
+/// [`AblationTables::finish`] renames both new ones into place (a second run writing the same
+/// folder is refused; the cells' console lines are the live record of a long run).
 pub struct AblationTables {
-    csv: std::fs::File,
+    csv: riskscore_output::AtomicFile,
     csv_path: PathBuf,
     md: String,
     md_path: PathBuf,
@@ -144,7 +146,7 @@ impl AblationTables {
         baselines: &CvReport,
     ) -> std::io::Result<Self> {
         let csv_path = dir.join("ablation.csv");
-        let mut csv = std::fs::File::create(&csv_path)?;
+        let mut csv = riskscore_output::AtomicFile::create(&csv_path)?;
         writeln!(csv, "sources,fraction,method,metric,mean,std,n")?;
         let mut md = String::from("# Comparison-source ablation\n\n");
         md.push_str(&format!(
@@ -208,17 +210,24 @@ impl AblationTables {
                 }
             }
         }
-        if let Err(e) = std::fs::write(&self.md_path, &self.md) {
-            self.error.get_or_insert(e);
-        }
         lines
     }
 
-    /// The paths written (`ablation.csv`, `ablation.md`), or the first write error.
-    pub fn finish(self) -> std::io::Result<(PathBuf, PathBuf)> {
-        match self.error {
-            Some(e) => Err(e),
-            None => Ok((self.csv_path, self.md_path)),
+    /// Renames both tables into place; returns their paths, or the first write error (naming
+    /// the file; the old tables are then unchanged).
+    pub fn finish(mut self) -> std::io::Result<(PathBuf, PathBuf)> {
+        let named = |path: &Path, e: std::io::Error| {
+            std::io::Error::new(e.kind(), format!("{}: {e}", path.display()))
+        };
+        if let Some(e) = self.error.take() {
+            return Err(named(&self.csv_path, e));
         }
+        let mut set = riskscore_output::AtomicSet::default();
+        set.push(self.csv);
+        set.create(&self.md_path)
+            .and_then(|md| md.write_all(self.md.as_bytes()))
+            .map_err(|e| named(&self.md_path, e))?;
+        set.commit()?;
+        Ok((self.csv_path, self.md_path))
     }
 }
