@@ -311,7 +311,10 @@ impl Database {
                 if spec.bytes_needed() > size {
                     return Err(bad("extends past the end of the message"));
                 }
-                if signals.iter().any(|earlier: &SignalSpec| earlier.name == s.name) {
+                if signals
+                    .iter()
+                    .any(|earlier: &SignalSpec| earlier.name == s.name)
+                {
                     return Err(DbcError::DuplicateSignal {
                         message: m.name.clone(),
                         signal: s.name.clone(),
