@@ -57,6 +57,8 @@ pub struct CheckReport {
     /// Frames read but lost (late, off the timeline, not decodable), by line.
     pub losses: FrameLosses,
     pub stats: crate::engine::Stats,
+    /// The run-end sanity report over the scored states.
+    pub sanity: crate::sanity::Sanity,
 }
 
 /// Errors of `check`.
@@ -143,8 +145,12 @@ pub fn check(
     let mut scored_updates: Vec<crate::engine::ScoredUpdate> = Vec::new();
     let mut onsets: Vec<(u32, u64)> = Vec::new();
     let mut losses = FrameLosses::default();
+    let mut sanity = crate::sanity::Sanity::default();
     let mut collect = |o: Output| match o {
-        Output::Scored(obs) => scored_updates.push(obs),
+        Output::Scored(obs) => {
+            sanity.observe(&obs);
+            scored_updates.push(obs)
+        }
         Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
         other => losses.handle(&other),
     };
@@ -291,6 +297,7 @@ pub fn check(
         log: log_report,
         losses,
         stats: *engine.stats(),
+        sanity,
     })
 }
 

@@ -55,6 +55,7 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
             if let Some(note) = unsent_note(&stats, engine.map()) {
                 eprintln!("can-bridge: {note}");
             }
+            problems.sanity.print("can-bridge");
             Ok(())
         }
         Err(e) => {

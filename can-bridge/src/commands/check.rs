@@ -77,6 +77,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         write_verdicts(p, &report).map_err(writing("--per-event-out"))?;
     }
     print_report(&report, args.json);
+    report.sanity.print("check");
     Ok(())
 }
 

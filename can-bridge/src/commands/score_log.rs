@@ -92,6 +92,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
             problems.suppressed
         );
     }
+    problems.sanity.print("score-log");
     if args.bench {
         eprintln!(
             "score-log: {:.0} frames/s ({} frames in {:.3} s, one thread, parse + decode + score)",

@@ -1,5 +1,5 @@
 //! What the engine produces: scored tracks, warning frames and transitions, problems, counters.
-use super::Problem;
+use super::{InputFlags, Problem};
 use can_codec::Frame;
 use scorer_core::VehicleState;
 
@@ -51,6 +51,8 @@ pub struct ScoredUpdate {
     pub track: u32,
     pub ego: VehicleState,
     pub partner: VehicleState,
+    /// Which of these inputs were derived or defaulted instead of sent.
+    pub flags: InputFlags,
     pub score: f32,
     pub warning: bool,
     pub level: u8,

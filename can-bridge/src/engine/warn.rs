@@ -16,7 +16,11 @@ impl Engine<'_> {
         states: States,
         out: &mut impl FnMut(Output),
     ) {
-        let States { ego, partner } = states;
+        let States {
+            ego,
+            partner,
+            flags,
+        } = states;
         let score = self.model.score(&ego, &partner);
         // Release warnings of tracks that went stale before this update.
         self.expire(t_us, out);
@@ -80,6 +84,7 @@ impl Engine<'_> {
             track,
             ego,
             partner,
+            flags,
             score,
             warning: status.warning,
             level,
