@@ -175,6 +175,10 @@ pub struct CheckArgs {
     /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
     #[arg(long)]
     pub per_event_out: Option<PathBuf>,
+    /// How far (m) a decoded partner position may lie from its event frame's (default: one
+    /// resolution step of the mapped position signals, at least 0.01 m).
+    #[arg(long, value_parser = cli_values::tolerance_m)]
+    pub tolerance: Option<f64>,
     #[command(flatten)]
     pub loss: LossArgs,
 }

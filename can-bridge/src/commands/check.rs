@@ -60,6 +60,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         &mut engine,
         riskscore_eval::scoring::model_row_name(&model),
         (args.gap * 1e6).round() as u64,
+        args.tolerance,
     )
     .map_err(|source| {
         Failure::Input(InputError::Check {
