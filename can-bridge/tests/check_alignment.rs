@@ -66,7 +66,10 @@ fn a_folder_from_another_drive_is_refused() {
     let err = run_check(&log, &other).unwrap_err();
     // Same timeline layout, other content: refused on the content.
     assert!(
-        matches!(err, CheckError::Mismatch(_) | CheckError::ContentMismatch(_)),
+        matches!(
+            err,
+            CheckError::Mismatch(_) | CheckError::ContentMismatch(_)
+        ),
         "{err}"
     );
     assert!(err.to_string().contains("do not belong together"), "{err}");

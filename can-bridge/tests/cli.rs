@@ -224,44 +224,6 @@ fn several_dbc_files_make_one_bus_and_a_doubly_defined_id_names_both_files() {
     );
 }
 
-/// A message with two definitions of one signal name is ambiguous: refused before any frame is
-/// read, naming the file, the second definition's line, the message and the signal.
-#[test]
-fn a_signal_defined_twice_in_one_message_is_refused_at_its_line() {
-    let tmp = tempfile::tempdir().unwrap();
-    let model = write_model(tmp.path());
-    let original = " SG_ ObjPosX : 15|20@0- (0.001,0) [-524.288|524.287] \"m\" RISK\n";
-    assert!(project::PROJECT_DBC.contains(original));
-    let doubled = project::PROJECT_DBC.replacen(
-        original,
-        &format!(" SG_ ObjPosX : 15|20@0- (0.002,0) [-1048.576|1048.574] \"m\" RISK\n{original}"),
-        1,
-    );
-    let line = 1 + doubled[..doubled.rfind(original).unwrap()].lines().count();
-    let dbc = tmp.path().join("dup.dbc");
-    std::fs::write(&dbc, doubled).unwrap();
-    let log = tmp.path().join("x.log");
-    std::fs::write(&log, "").unwrap();
-    let out = bridge()
-        .arg("score-log")
-        .arg("--log")
-        .arg(&log)
-        .arg("--model")
-        .arg(&model)
-        .arg("--dbc")
-        .arg(&dbc)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains(&format!(
-            "dup.dbc:{line}: message OBJECT_POSITION: signal ObjPosX: defined twice"
-        )),
-        "{stderr}"
-    );
-}
-
 /// A warning track whose id the warning message cannot carry (24-bit sensor ids, 8-bit
 /// `WarnTrackId`) is never sent as a clamped id: its frames are counted as unsent, the track is
 /// named once, the summary says so, and tracks that fit warn on the bus as before.
