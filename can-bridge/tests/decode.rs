@@ -262,3 +262,36 @@ fn decode_output_is_refused_over_its_input_and_goes_to_stdout_or_parquet() {
     let bytes = std::fs::read(&parquet).unwrap();
     assert!(bytes.starts_with(b"PAR1") && bytes.ends_with(b"PAR1"));
 }
+
+/// `score-log` runs the same report at its end.
+#[test]
+fn score_log_prints_the_same_sanity_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let log = dir.join("queue.log");
+    std::fs::write(&log, scene(false)).unwrap();
+    let model = dir.join("m.rsk");
+    std::fs::write(&model, msra_blob()).unwrap();
+    let run = |map: &Path| {
+        let out = Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+            .args(["score-log", "--threshold", "1.5", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg("--map")
+            .arg(map)
+            .arg("--events-out")
+            .arg(dir.join("ev.jsonl"))
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let stderr = run(&map(dir, "offset.toml", false, &[]));
+    assert!(
+        stderr.contains("score-log: sanity: ") && stderr.contains("inside the ego's box"),
+        "{stderr}"
+    );
+    let stderr = run(&map(dir, "right.toml", true, &[]));
+    assert!(!stderr.contains("sanity:"), "{stderr}");
+}
