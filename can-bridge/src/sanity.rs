@@ -9,10 +9,13 @@ use std::collections::HashMap;
 pub const EGO_SPEED_MAX: f32 = 70.0;
 /// Above this a partner's speed over ground is implausible (m/s; 324 km/h).
 pub const PARTNER_SPEED_MAX: f32 = 90.0;
-/// Beyond this distance ahead/behind (m) no automotive radar reports objects.
-pub const FAR_X: f32 = 300.0;
+/// Beyond this distance ahead/behind (m) no sensor reports objects (radars: 250-300 m; simulated
+/// event logs reach 500 m); a distance in cm ends up here from 10 m on.
+pub const FAR_X: f32 = 1000.0;
 /// Beyond this distance to the side (m).
-pub const FAR_Y: f32 = 100.0;
+pub const FAR_Y: f32 = 200.0;
+/// A track inside the ego's box for this long is no crash (a crash ends the drive or the event).
+const INSIDE_PERSISTENT_US: u64 = 1_000_000;
 /// Tracks whose own motion is followed for the speed-versus-motion check (bounded memory).
 const FOLLOWED_TRACKS: usize = 4096;
 /// Shortest interval (s) over which a position change is compared with the reported speed.
@@ -28,6 +31,8 @@ struct Followed {
     y: f64,
     /// The side it was first seen on with |y| > 1 m (1 left, -1 right, 0 not yet).
     side: i8,
+    /// Since when it has been inside the ego's box without a break.
+    inside_since_us: Option<u64>,
 }
 
 /// What the report has seen so far.
@@ -41,6 +46,8 @@ pub struct Sanity {
     overlaps: u64,
     /// The deepest overlap: (x, y, bumpers-touch distance along x).
     deepest_overlap: Option<(f32, f32, f32)>,
+    /// Tracks inside the ego's box for at least [`INSIDE_PERSISTENT_US`].
+    inside_tracks: u64,
     far: u64,
     farthest: (f32, f32),
     size_default: u64,
@@ -71,7 +78,8 @@ impl Sanity {
         }
         let touch_x = (ego.length + p.length) / 2.0;
         let touch_y = (ego.width + p.width) / 2.0;
-        if p.x.abs() < touch_x && p.y.abs() < touch_y {
+        let inside = p.x.abs() < touch_x && p.y.abs() < touch_y;
+        if inside {
             self.overlaps += 1;
             let depth = touch_x - p.x.abs();
             if self
@@ -91,12 +99,12 @@ impl Sanity {
             self.size_default += 1;
             self.default_size = Some((p.length, p.width));
         }
-        self.follow(u);
+        self.follow(u, inside);
     }
 
     /// The side a track is first seen on, and its reported relative speed against its own
     /// position change (where the speed is sent, not derived from that same change).
-    fn follow(&mut self, u: &ScoredUpdate) {
+    fn follow(&mut self, u: &ScoredUpdate, inside: bool) {
         let (x, y) = (f64::from(u.partner.x), f64::from(u.partner.y));
         let side = if y > 1.0 {
             1
@@ -117,6 +125,7 @@ impl Sanity {
                         x,
                         y,
                         side: 0,
+                        inside_since_us: None,
                     },
                 );
                 self.followed.get_mut(&u.track)
@@ -124,6 +133,17 @@ impl Sanity {
         }) else {
             return;
         };
+        match (inside, f.inside_since_us) {
+            (false, _) => f.inside_since_us = None,
+            (true, None) => f.inside_since_us = Some(u.t_us),
+            (true, Some(since)) => {
+                if u.t_us.saturating_sub(since) >= INSIDE_PERSISTENT_US {
+                    self.inside_tracks += 1;
+                    // Counted once per run inside.
+                    f.inside_since_us = Some(u64::MAX);
+                }
+            }
+        }
         if f.side == 0 && side != 0 {
             f.side = side;
             if side > 0 {
@@ -180,9 +200,11 @@ impl Sanity {
                 share(self.partner_fast)
             ));
         }
-        if let Some((x, y, touch)) = self.deepest_overlap {
+        if let (Some((x, y, touch)), true) = (self.deepest_overlap, self.inside_tracks > 0) {
             w.push(format!(
-                "{} updates ({:.1} %) put a partner inside the ego's box, deepest at x {x:.2} m, y {y:.2} m ({:.2} m past touching at |x| = {touch:.2} m); a missing sensor offset (`[sensor] x`, e.g. the radar's distance from the ego centre) or a near-face distance mapped without its `offset` usually causes this",
+                "{} tracks stayed inside the ego's box for {} s or longer ({} updates, {:.1} %, inside), deepest at x {x:.2} m, y {y:.2} m ({:.2} m past touching at |x| = {touch:.2} m); a missing sensor offset (`[sensor] x`, e.g. the radar's distance from the ego centre) or a near-face distance mapped without its `offset` usually causes this",
+                self.inside_tracks,
+                INSIDE_PERSISTENT_US / 1_000_000,
                 self.overlaps,
                 share(self.overlaps),
                 touch - x.abs()
@@ -322,7 +344,7 @@ mod tests {
         let w = warnings_of(&updates);
         assert!(
             w.iter()
-                .any(|l| l.contains("beyond 300 m") && l.contains("x 3000.0 m")),
+                .any(|l| l.contains("beyond 1000 m") && l.contains("x 3000.0 m")),
             "{w:?}"
         );
         assert!(
