@@ -195,4 +195,54 @@ fn a_coarser_radar_passes_check_with_the_tolerance_of_its_resolution() {
         "{text}"
     );
     assert!(text.contains("--tolerance"), "{text}");
+
+    // The same through the command line: the per-event trace report as JSON Lines.
+    let events_dir = tmp.path().join("events");
+    write_events(&events_dir, &set).unwrap();
+    let dbc_path = tmp.path().join("coarse_radar.dbc");
+    std::fs::write(&dbc_path, &dbc).unwrap();
+    let model = tmp.path().join("m.rsk");
+    std::fs::write(&model, common::msra_blob()).unwrap();
+    let per_event = tmp.path().join("per_event.jsonl");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+            .args(["check", "--threshold", "1.5", "--log"])
+            .arg(&log)
+            .arg("--events")
+            .arg(&events_dir)
+            .arg("--model")
+            .arg(&model)
+            .arg("--dbc")
+            .arg(&dbc_path)
+            .arg("--per-event-out")
+            .arg(&per_event)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&per_event)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), set.events.len());
+    for (line, verdict) in lines.iter().zip(&report.verdicts) {
+        assert_eq!(line["event_id"], verdict.event_id.as_str());
+        assert_eq!(line["not_reported"], 0);
+        assert_eq!(line["warned_at"].as_f64(), verdict.warned_at);
+        assert_eq!(line["lead_time"].as_f64(), verdict.lead_time);
+    }
+    let before = std::fs::read(&per_event).unwrap();
+    let out = run(&["--tolerance", "0.01"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("object x up to 0.02"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&per_event).unwrap(),
+        before,
+        "a refused run writes nothing"
+    );
 }
