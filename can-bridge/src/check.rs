@@ -14,6 +14,8 @@
 use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
 use crate::losses::FrameLosses;
+use crate::map::{CompiledMap, PartnerField, PositionKind};
+use can_codec::ValueKind;
 use riskscore_data::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
 use riskscore_data::events::{
     prepare_sequences, Event, EventKind, EventSet, EventWriter, EventsError, Frame as EventFrame,
@@ -33,6 +35,9 @@ pub struct EventVerdict {
     /// Frames in the event table / frames the bridge scored.
     pub frames: usize,
     pub scored: usize,
+    /// Event frames the bridge has no scored update for (the sensor did not report the partner,
+    /// the frame was lost, or its track was not yet scorable).
+    pub not_reported: usize,
     pub max_score: Option<f32>,
     pub endpoint: Option<f64>,
     /// Event time of the bridge's first warning onset for this event.
@@ -57,6 +62,8 @@ pub struct CheckReport {
     /// Frames read but lost (late, off the timeline, not decodable), by line.
     pub losses: FrameLosses,
     pub stats: crate::engine::Stats,
+    /// The run-end sanity report over the scored states.
+    pub sanity: crate::sanity::Sanity,
 }
 
 /// Errors of `check`.
@@ -70,6 +77,8 @@ pub enum CheckError {
     NothingScored,
     #[error("the log and the event folder do not belong together: {0}")]
     Mismatch(String),
+    #[error("the log and the event folder do not belong together, or the map decodes the positions differently: {0}")]
+    ContentMismatch(String),
     #[error("evaluation: {0}")]
     Protocol(#[from] riskscore_eval::ProtocolError),
 }
@@ -78,9 +87,83 @@ pub enum CheckError {
 const ALIGNMENT_SAMPLE: usize = 512;
 /// Scored updates whose timestamps propose candidate alignments.
 const ALIGNMENT_SEEDS: usize = 16;
-/// A traced update whose decoded partner position differs from the event's by more than this
-/// (m; the DBC resolution is 1 mm) does not show the event's content.
+/// The smallest position tolerance (m): float rounding of the exporter and the engine stays well
+/// inside it; coarser sensors get their own resolution ([`PositionTolerance`]).
 const CONTENT_TOLERANCE_M: f64 = 0.01;
+
+/// How far a traced update's decoded partner position may lie from its event frame's and still
+/// show that frame: one resolution step of the mapped position signals (DBC factor times map
+/// factor; polar maps add the azimuth step times the distance), or `--tolerance`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PositionTolerance {
+    base_m: f64,
+    per_metre: f64,
+    /// Where the figure comes from, for messages.
+    pub source: String,
+}
+
+impl PositionTolerance {
+    /// From the resolution of `map`'s position signals.
+    pub fn from_map(map: &CompiledMap) -> Self {
+        let step = |field: PartnerField| {
+            map.inputs
+                .iter()
+                .flat_map(|m| {
+                    m.partner
+                        .iter()
+                        .filter(move |f| f.field == field)
+                        .map(move |f| (&m.spec.signals[f.signal], f.factor))
+                })
+                .map(|(signal, factor)| match signal.kind {
+                    ValueKind::Float32 | ValueKind::Float64 => 0.0,
+                    ValueKind::Signed | ValueKind::Unsigned => (signal.factor * factor).abs(),
+                })
+                .fold(0.0, f64::max)
+        };
+        let (base_m, per_metre, source) = match map.position {
+            PositionKind::Cartesian => {
+                let (x, y) = (step(PartnerField::PosX), step(PartnerField::PosY));
+                (
+                    x.hypot(y),
+                    0.0,
+                    format!("resolution of object.pos_x {x} m and object.pos_y {y} m"),
+                )
+            }
+            PositionKind::Polar => {
+                let (r, az) = (step(PartnerField::Range), step(PartnerField::Azimuth));
+                (
+                    r,
+                    az,
+                    format!("resolution of object.range {r} m and object.azimuth {az} rad"),
+                )
+            }
+        };
+        Self {
+            base_m,
+            per_metre,
+            source,
+        }
+    }
+
+    /// A fixed tolerance (`--tolerance`).
+    pub fn fixed(metres: f64) -> Self {
+        Self {
+            base_m: metres,
+            per_metre: 0.0,
+            source: "--tolerance".into(),
+        }
+    }
+
+    /// The tolerance at `distance` m from the ego.
+    pub fn at(&self, distance: f64) -> f64 {
+        let derived = self.base_m + self.per_metre * distance;
+        if self.source == "--tolerance" {
+            derived
+        } else {
+            derived.max(CONTENT_TOLERANCE_M)
+        }
+    }
+}
 
 /// The log's time offset: `log time = offset + exporter time from 0`. Found from the content (the
 /// track ids and trigger timestamps of the scored updates), not from the first line, so missing,
@@ -130,7 +213,12 @@ pub fn check(
     engine: &mut Engine<'_>,
     row_name: &str,
     gap_us: u64,
+    tolerance: Option<f64>,
 ) -> Result<CheckReport, CheckError> {
+    let tolerance = tolerance.map_or_else(
+        || PositionTolerance::from_map(engine.map()),
+        PositionTolerance::fixed,
+    );
     let layout = Layout::new(
         set,
         &ExportOptions {
@@ -143,8 +231,12 @@ pub fn check(
     let mut scored_updates: Vec<crate::engine::ScoredUpdate> = Vec::new();
     let mut onsets: Vec<(u32, u64)> = Vec::new();
     let mut losses = FrameLosses::default();
+    let mut sanity = crate::sanity::Sanity::default();
     let mut collect = |o: Output| match o {
-        Output::Scored(obs) => scored_updates.push(obs),
+        Output::Scored(obs) => {
+            sanity.observe(&obs);
+            scored_updates.push(obs)
+        }
         Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
         other => losses.handle(&other),
     };
@@ -175,7 +267,7 @@ pub fn check(
     let mut decoded: Vec<Vec<(EventFrame, f32)>> = vec![Vec::new(); set.events.len()];
     let mut onset: Vec<Option<f64>> = vec![None; set.events.len()];
     let mut untraced = 0usize;
-    let mut content_mismatch = 0usize;
+    let mut off = ContentOff::default();
     for obs in &scored_updates {
         let Some((k, i)) = trace(obs.track, obs.t_us) else {
             untraced += 1;
@@ -183,10 +275,11 @@ pub fn check(
         };
         let frame = &set.events[k].frames[i];
         let expected = to_ego_frame(frame);
-        if (f64::from(obs.partner.x) - expected.pos_x).abs() > CONTENT_TOLERANCE_M
-            || (f64::from(obs.partner.y) - expected.pos_y).abs() > CONTENT_TOLERANCE_M
-        {
-            content_mismatch += 1;
+        let dx = (f64::from(obs.partner.x) - expected.pos_x).abs();
+        let dy = (f64::from(obs.partner.y) - expected.pos_y).abs();
+        let allowed = tolerance.at(expected.pos_x.hypot(expected.pos_y));
+        if dx > allowed || dy > allowed {
+            off.add(dx, dy, &set.events[k].id, frame.time, obs.track);
         }
         decoded[k].push((
             EventFrame {
@@ -197,10 +290,10 @@ pub fn check(
             obs.score,
         ));
     }
-    if content_mismatch * 100 > traced {
-        return Err(CheckError::Mismatch(format!(
-            "{content_mismatch} of {traced} scored track updates carry another partner position than their event frame (more than {CONTENT_TOLERANCE_M} m off)"
-        )));
+    if off.count * 100 > traced {
+        return Err(CheckError::ContentMismatch(
+            off.describe(traced, &tolerance),
+        ));
     }
     for (track, t_us) in onsets {
         if let Some((k, i)) = trace(track, t_us) {
@@ -229,6 +322,7 @@ pub fn check(
             track: layout.placements[k].track_id,
             frames: ev.frames.len(),
             scored: frames.len(),
+            not_reported: ev.frames.len().saturating_sub(frames.len()),
             max_score,
             endpoint,
             warned_at,
@@ -291,7 +385,48 @@ pub fn check(
         log: log_report,
         losses,
         stats: *engine.stats(),
+        sanity,
     })
+}
+
+/// The traced updates whose position is off by more than the tolerance: how many, and by how much
+/// in x and in y at worst.
+#[derive(Default)]
+struct ContentOff {
+    count: usize,
+    max_dx: f64,
+    max_dy: f64,
+    /// (event, time, track) of the update furthest off.
+    worst: Option<(String, f64, u32)>,
+    worst_off: f64,
+}
+
+impl ContentOff {
+    fn add(&mut self, dx: f64, dy: f64, event: &str, time: f64, track: u32) {
+        self.count += 1;
+        self.max_dx = self.max_dx.max(dx);
+        self.max_dy = self.max_dy.max(dy);
+        if dx.max(dy) > self.worst_off {
+            self.worst_off = dx.max(dy);
+            self.worst = Some((event.to_string(), time, track));
+        }
+    }
+
+    fn describe(&self, traced: usize, tolerance: &PositionTolerance) -> String {
+        let worst = self
+            .worst
+            .as_ref()
+            .map(|(e, t, k)| format!(" (furthest: event {e} at {t:.2} s, track {k})"))
+            .unwrap_or_default();
+        format!(
+            "{} of {traced} traced track updates are off by more than the tolerance ({:.4} m at the origin, from the {}): object x up to {:.3} m off, object y up to {:.3} m off{worst}; a wrong map offset, factor or sign usually causes this, a sensor coarser than its DBC says can be checked with --tolerance METRES",
+            self.count,
+            tolerance.at(0.0),
+            tolerance.source,
+            self.max_dx,
+            self.max_dy
+        )
+    }
 }
 
 /// Writes an event set as an event folder, with the partner acceleration in an `acc_sur` column so
@@ -308,17 +443,18 @@ impl CheckReport {
     /// The per-event table (Markdown).
     pub fn verdict_table(&self) -> String {
         let mut s = String::from(
-            "| Event | Kind | Track | Scored/frames | Max score | Warned at (s) | Endpoint (s) | Lead time (s) |\n|---|---|---:|---:|---:|---:|---:|---:|\n",
+            "| Event | Kind | Track | Scored/frames | Not reported | Max score | Warned at (s) | Endpoint (s) | Lead time (s) |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for v in &self.verdicts {
             let opt = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
             s.push_str(&format!(
-                "| {} | {} | {} | {}/{} | {} | {} | {} | {} |\n",
+                "| {} | {} | {} | {}/{} | {} | {} | {} | {} | {} |\n",
                 v.event_id,
                 v.kind,
                 v.track,
                 v.scored,
                 v.frames,
+                v.not_reported,
                 v.max_score.map_or("-".to_string(), |x| format!("{x:.4}")),
                 opt(v.warned_at, 2),
                 opt(v.endpoint, 2),

@@ -75,6 +75,16 @@ pub fn seconds(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A distance in metres, finite, in `[0, 1000]` (a position tolerance).
+pub fn tolerance_m(s: &str) -> Result<f64, String> {
+    let v: f64 = number(s)?;
+    if (0.0..=1000.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("`{s}` is not a distance in [0, 1000] m"))
+    }
+}
+
 /// A fraction in `[0, 1]`.
 pub fn fraction(s: &str) -> Result<f64, String> {
     let v: f64 = number(s)?;

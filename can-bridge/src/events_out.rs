@@ -1,5 +1,6 @@
 //! The bridge's human- and machine-readable outputs: JSON Lines warning events and the status line.
 use crate::engine::{Output, Stats};
+use crate::sanity::Sanity;
 use riskscore_output::AtomicFile;
 use std::io::Write;
 
@@ -105,13 +106,15 @@ impl EventWriter {
     }
 }
 
-/// Rate-limited printing of per-frame problems on stderr.
+/// Rate-limited printing of per-frame problems on stderr, and the run-end sanity report over
+/// the scored states ([`Sanity`]), so every command that prints problems also checks the map.
 pub struct ProblemPrinter {
     pub limit: u64,
     pub printed: u64,
     pub suppressed: u64,
     /// Lost frames are listed by log line elsewhere ([`crate::losses`]): do not print them here.
     pub skip_lost: bool,
+    pub sanity: Sanity,
 }
 
 impl ProblemPrinter {
@@ -121,10 +124,14 @@ impl ProblemPrinter {
             printed: 0,
             suppressed: 0,
             skip_lost: false,
+            sanity: Sanity::default(),
         }
     }
 
     pub fn handle(&mut self, output: &Output) {
+        if let Output::Scored(update) = output {
+            self.sanity.observe(update);
+        }
         if let Output::Problem { t_us, reason, lost } = output {
             if self.skip_lost && lost.is_some() {
                 return;

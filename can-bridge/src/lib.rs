@@ -9,6 +9,8 @@
 //! - [`logfile`]: reading candump -L logs with line-numbered problems.
 //! - [`losses`]: what a run lost, by log line, and the `--max-lost` verdict.
 //! - [`events_out`]: JSON Lines warning events and the status line.
+//! - [`sanity`]: the run-end report on decoded states that look like a map mistake.
+//! - [`states_out`]: `decode`'s table of scored states (CSV/Parquet).
 //! - [`check`]: bridge vs offline evaluation on an exported event folder.
 //! - [`commands`]: the subcommands' options and bodies (the binary parses and dispatches).
 //! - [`socket`], [`live`], [`replay`], [`monitor`]: SocketCAN (Linux).
@@ -27,7 +29,10 @@ pub mod map;
 pub mod model_file;
 pub mod monitor;
 pub mod replay;
+pub mod sanity;
 pub mod socket;
+#[cfg(feature = "check")]
+pub mod states_out;
 pub mod timeline;
 
 pub use engine::{Engine, EngineConfig, Output, Stats};

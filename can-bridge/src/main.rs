@@ -1,8 +1,8 @@
 //! `can-bridge`: the command line over the bridge library: parses, dispatches to
 //! [`can_bridge::commands`] and turns a failure into its exit code.
-#[cfg(feature = "check")]
-use can_bridge::commands::CheckArgs;
 use can_bridge::commands::{self, LiveArgs, MonitorArgs, ReplayArgs, ScoreLogArgs};
+#[cfg(feature = "check")]
+use can_bridge::commands::{CheckArgs, DecodeArgs};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -39,6 +39,11 @@ enum Command {
     /// `riskctl events-to-candump`.
     #[cfg(feature = "check")]
     Check(CheckArgs),
+    /// Write every scored track update of a candump log as the scorer saw it (ego and partner
+    /// state in the ego frame, derived/defaulted flags) to CSV or Parquet, and check it for
+    /// signs of a map mistake (units, signs, sensor offsets).
+    #[cfg(feature = "check")]
+    Decode(DecodeArgs),
 }
 
 /// `can-bridge --iface ...` means `can-bridge live --iface ...`.
@@ -81,6 +86,8 @@ fn main() -> ExitCode {
         Command::ScoreLog(a) => commands::run_score_log(a).map_err(failure),
         #[cfg(feature = "check")]
         Command::Check(a) => commands::run_check(a).map_err(failure),
+        #[cfg(feature = "check")]
+        Command::Decode(a) => commands::run_decode(a).map_err(failure),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -31,7 +31,7 @@ fn check_metrics_equal_evaluate_on_the_decoded_events_exactly() {
     let model_file = ModelFile::from_bytes(Path::new("msra.rsk"), common::msra_blob()).unwrap();
     let (_db, map) = CompiledMap::project_default().unwrap();
     let mut engine = Engine::new(model_file.model().unwrap(), map, EngineConfig::new(1.5)).unwrap();
-    let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US).unwrap();
+    let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None).unwrap();
     assert_eq!(report.untraced, 0);
     assert!(report.log.bad.is_empty());
     for v in &report.verdicts {
@@ -83,5 +83,166 @@ fn check_metrics_equal_evaluate_on_the_decoded_events_exactly() {
     assert!(
         median < 1e-3 && p99 < 2e-2,
         "score change from DBC resolution: median {median}, p99 {p99}"
+    );
+}
+
+/// A radar coarser than the project DBC (positions in 0.04 m steps, as the TSS-P radar sends
+/// them): `check` derives its tolerance from the mapped signals' resolution, passes, and its
+/// metrics equal `riskctl evaluate`'s on the events as that radar reports them. A tolerance finer
+/// than the radar says which field is how far off.
+#[test]
+fn a_coarser_radar_passes_check_with_the_tolerance_of_its_resolution() {
+    use can_bridge::check::CheckError;
+    use can_bridge::map::{MapFile, DEFAULT_MAP};
+    use can_codec::{project, Database};
+
+    let tmp = tempfile::tempdir().unwrap();
+    let set = common::simulated_events(30, 7);
+    let mut fine = Vec::new();
+    write_candump(&set, &ExportOptions::default(), &mut fine).unwrap();
+
+    let mut dbc = project::PROJECT_DBC.to_string();
+    for signal in ["ObjPosX", "ObjPosY"] {
+        let start = if signal == "ObjPosX" { 15 } else { 27 };
+        let from = format!(" SG_ {signal} : {start}|20@0- (0.001,0) [-524.288|524.287] \"m\" RISK");
+        let to = format!(" SG_ {signal} : {start}|20@0- (0.04,0) [-20971.52|20971.48] \"m\" RISK");
+        assert!(dbc.contains(&from), "{from}");
+        dbc = dbc.replace(&from, &to);
+    }
+    let project_db = Database::parse(project::PROJECT_DBC).unwrap();
+    let coarse_db = Database::parse(&dbc).unwrap();
+    let position = project_db
+        .message_by_name(project::OBJECT_POSITION)
+        .unwrap();
+    let coarse_position = coarse_db.message_by_name(project::OBJECT_POSITION).unwrap();
+    // The same frames, object positions re-encoded in the radar's 0.04 m steps.
+    let mut coarse = String::new();
+    for line in String::from_utf8(fine).unwrap().lines() {
+        let rec = can_codec::parse_line(line).unwrap();
+        let frame = if rec.frame.id == position.id {
+            let values: Vec<(&str, f64)> = position
+                .signals
+                .iter()
+                .map(|s| (s.name.as_str(), s.decode(rec.frame.data()).unwrap()))
+                .collect();
+            can_codec::Frame::data_frame(position.id, &coarse_position.encode(&values).unwrap())
+                .unwrap()
+        } else {
+            rec.frame
+        };
+        can_codec::format_line(&mut coarse, rec.timestamp_us, rec.iface, &frame);
+        coarse.push('\n');
+    }
+    let log = tmp.path().join("coarse.log");
+    std::fs::write(&log, coarse).unwrap();
+
+    let model_file = ModelFile::from_bytes(Path::new("msra.rsk"), common::msra_blob()).unwrap();
+    let map = CompiledMap::compile(&MapFile::parse(DEFAULT_MAP).unwrap(), &coarse_db).unwrap();
+    let engine = || {
+        Engine::new(
+            model_file.model().unwrap(),
+            map.clone(),
+            EngineConfig::new(1.5),
+        )
+        .unwrap()
+    };
+    let report = check(&log, &set, &mut engine(), "MSRA", DEFAULT_GAP_US, None).unwrap();
+    assert_eq!(report.untraced, 0);
+    assert!(report.verdicts.iter().all(|v| v.not_reported == 0));
+    // The bridge saw the radar's grid, more than 1 cm away from the tables on many frames.
+    let on_grid = |v: f32| {
+        let steps = f64::from(v) / 0.04;
+        (steps - steps.round()).abs() < 1e-3
+    };
+    let mut coarser_than_1cm = 0;
+    for (orig, dec) in set.events.iter().zip(&report.decoded.events) {
+        for (a, b) in orig.frames.iter().zip(&dec.frames) {
+            assert!(on_grid(b.partner.x) && on_grid(b.partner.y), "{b:?}");
+            let expected = riskscore_data::candump_export::to_ego_frame(a);
+            if (f64::from(b.partner.x) - expected.pos_x).abs() > 0.01 {
+                coarser_than_1cm += 1;
+            }
+        }
+    }
+    assert!(coarser_than_1cm > 100, "{coarser_than_1cm}");
+
+    // `riskctl evaluate` on the events as this radar reports them gives the same metrics.
+    let decoded_dir = tmp.path().join("decoded");
+    write_decoded_events(&decoded_dir, &report.decoded).unwrap();
+    let (decoded, _) = load_events(&decoded_dir).unwrap();
+    let (sequences, _) = prepare_sequences(&decoded, &PrepareConfig::default());
+    let methods = [Method {
+        name: "MSRA".into(),
+        scorer: Scorer::Model(model_file.model().unwrap()),
+    }];
+    let (evaluate_report, _) = evaluate_methods(&observe(&sequences), &methods).unwrap();
+    assert_eq!(report.report.to_json(), evaluate_report.to_json());
+
+    // The old fixed 1 cm is finer than the radar: refused, naming the fields and how far off.
+    let err = check(
+        &log,
+        &set,
+        &mut engine(),
+        "MSRA",
+        DEFAULT_GAP_US,
+        Some(0.01),
+    )
+    .unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, CheckError::ContentMismatch(_)), "{text}");
+    assert!(
+        text.contains("object x up to 0.02") && text.contains("object y up to 0.02"),
+        "{text}"
+    );
+    assert!(text.contains("--tolerance"), "{text}");
+
+    // The same through the command line: the per-event trace report as JSON Lines.
+    let events_dir = tmp.path().join("events");
+    write_events(&events_dir, &set).unwrap();
+    let dbc_path = tmp.path().join("coarse_radar.dbc");
+    std::fs::write(&dbc_path, &dbc).unwrap();
+    let model = tmp.path().join("m.rsk");
+    std::fs::write(&model, common::msra_blob()).unwrap();
+    let per_event = tmp.path().join("per_event.jsonl");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+            .args(["check", "--threshold", "1.5", "--log"])
+            .arg(&log)
+            .arg("--events")
+            .arg(&events_dir)
+            .arg("--model")
+            .arg(&model)
+            .arg("--dbc")
+            .arg(&dbc_path)
+            .arg("--per-event-out")
+            .arg(&per_event)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&per_event)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), set.events.len());
+    for (line, verdict) in lines.iter().zip(&report.verdicts) {
+        assert_eq!(line["event_id"], verdict.event_id.as_str());
+        assert_eq!(line["not_reported"], 0);
+        assert_eq!(line["warned_at"].as_f64(), verdict.warned_at);
+        assert_eq!(line["lead_time"].as_f64(), verdict.lead_time);
+    }
+    let before = std::fs::read(&per_event).unwrap();
+    let out = run(&["--tolerance", "0.01"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("object x up to 0.02"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&per_event).unwrap(),
+        before,
+        "a refused run writes nothing"
     );
 }

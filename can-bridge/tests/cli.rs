@@ -1,6 +1,6 @@
 //! The `can-bridge` command line: exit codes, line-numbered log problems, outputs.
 mod common;
-use can_codec::{project, E2eChecker, E2eConfig};
+use can_codec::{project, Database, E2eChecker, E2eConfig};
 use common::*;
 use std::process::Command;
 
@@ -222,4 +222,160 @@ fn several_dbc_files_make_one_bus_and_a_doubly_defined_id_names_both_files() {
             && stderr.contains("chassis.dbc"),
         "{stderr}"
     );
+}
+
+/// A warning track whose id the warning message cannot carry (24-bit sensor ids, 8-bit
+/// `WarnTrackId`) is never sent as a clamped id: its frames are counted as unsent, the track is
+/// named once, the summary says so, and tracks that fit warn on the bus as before.
+#[test]
+fn warning_frames_of_track_ids_the_warning_message_cannot_carry_are_reported_not_clamped() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let radar = "VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: EGO RADAR RISK\n\n\
+BO_ 256 EGO_MOTION: 8 EGO\n SG_ EgoVelLong : 0|16@1- (0.002,0) [-65.536|65.534] \"m/s\" RISK\n\n\
+BO_ 768 OBJ_POS: 8 RADAR\n SG_ ObjId : 0|24@1+ (1,0) [0|16777215] \"\" RISK\n SG_ ObjPosX : 24|20@1- (0.001,0) [-524.288|524.287] \"m\" RISK\n SG_ ObjPosY : 44|20@1- (0.001,0) [-524.288|524.287] \"m\" RISK\n\n\
+BO_ 769 OBJ_MOT: 8 RADAR\n SG_ ObjId : 0|24@1+ (1,0) [0|16777215] \"\" RISK\n SG_ ObjVelX : 24|20@1- (0.001,0) [-524.288|524.287] \"m/s\" RISK\n SG_ ObjVelY : 44|20@1- (0.001,0) [-524.288|524.287] \"m/s\" RISK\n\n\
+BO_ 128 RISK_WARNING: 8 RISK\n SG_ WarnCrc : 0|8@1+ (1,0) [0|255] \"\" EGO\n SG_ WarnCounter : 8|4@1+ (1,0) [0|15] \"\" EGO\n SG_ WarnLevel : 12|4@1+ (1,0) [0|2] \"\" EGO\n SG_ WarnTrackId : 16|8@1+ (1,0) [0|255] \"\" EGO\n SG_ WarnScore : 24|32@1- (1,0) [0|0] \"\" EGO\n\n\
+SIG_VALTYPE_ 128 WarnScore : 1;\n";
+    let dbc = tmp.path().join("wide.dbc");
+    std::fs::write(&dbc, radar).unwrap();
+    let map = tmp.path().join("wide.toml");
+    std::fs::write(
+        &map,
+        r#"[ego]
+vel_long = { message = "EGO_MOTION", signal = "EgoVelLong" }
+default_length = 4.5
+default_width = 1.8
+[object]
+trigger = "OBJ_MOT"
+velocity = "relative"
+track_id = { OBJ_POS = "ObjId", OBJ_MOT = "ObjId" }
+pos_x = { message = "OBJ_POS", signal = "ObjPosX" }
+pos_y = { message = "OBJ_POS", signal = "ObjPosY" }
+vel_x = { message = "OBJ_MOT", signal = "ObjVelX" }
+vel_y = { message = "OBJ_MOT", signal = "ObjVelY" }
+default_length = 4.5
+default_width = 1.8
+[warning]
+message = "RISK_WARNING"
+track_id = "WarnTrackId"
+score = "WarnScore"
+level = "WarnLevel"
+counter = "WarnCounter"
+crc = "WarnCrc"
+data_id = 0x0A51
+"#,
+    )
+    .unwrap();
+    let db = Database::parse(radar).unwrap();
+    // Tracks 250..=262 but 255 (a clamped id would show up as 255), each closing in from 20 m
+    // ahead at 8 m/s, updated every 50 ms for 1 s.
+    let tracks: Vec<u32> = (250..=262).filter(|&t| t != 255).collect();
+    let mut lines = String::new();
+    let mut t_us = 1_700_000_000_000_000u64;
+    for step in 0..20 {
+        lines += &line(t_us, &frame(&db, "EGO_MOTION", &[("EgoVelLong", 15.0)]));
+        for &k in &tracks {
+            let id = f64::from(k);
+            let x = 20.0 - 8.0 * 0.05 * f64::from(step);
+            t_us += 100;
+            lines += &line(
+                t_us,
+                &frame(
+                    &db,
+                    "OBJ_POS",
+                    &[("ObjId", id), ("ObjPosX", x), ("ObjPosY", 0.0)],
+                ),
+            );
+            t_us += 100;
+            lines += &line(
+                t_us,
+                &frame(
+                    &db,
+                    "OBJ_MOT",
+                    &[("ObjId", id), ("ObjVelX", -8.0), ("ObjVelY", 0.0)],
+                ),
+            );
+        }
+        t_us += 50_000;
+    }
+    let log = tmp.path().join("tracks.log");
+    std::fs::write(&log, lines).unwrap();
+    let (events, warnings) = (tmp.path().join("ev.jsonl"), tmp.path().join("w.log"));
+    let out = bridge()
+        .args(["score-log", "--threshold", "0.5", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .arg("--map")
+        .arg(&map)
+        .arg("--dbc")
+        .arg(&dbc)
+        .arg("--events-out")
+        .arg(&events)
+        .arg("--warnings-out")
+        .arg(&warnings)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let events = std::fs::read_to_string(&events).unwrap();
+    let warned: std::collections::BTreeSet<u32> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v["warning"] == true)
+        .map(|v| v["track"].as_u64().unwrap() as u32)
+        .collect();
+    assert!(
+        warned.iter().any(|&t| t <= 255) && warned.iter().any(|&t| t > 255),
+        "the scene must warn on tracks on both sides of 255: {warned:?}\n{events}"
+    );
+    let warning = db.message_by_name("RISK_WARNING").unwrap();
+    let id_signal = &warning.signals[warning.signal_index("WarnTrackId").unwrap()];
+    let sent: Vec<u32> = std::fs::read_to_string(&warnings)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let record = can_codec::parse_line(l).unwrap();
+            id_signal.decode(record.frame.data()).unwrap() as u32
+        })
+        .collect();
+    assert!(!sent.is_empty());
+    let sent_tracks: std::collections::BTreeSet<u32> = sent.iter().copied().collect();
+    let fitting: std::collections::BTreeSet<u32> =
+        warned.iter().copied().filter(|&t| t <= 255).collect();
+    assert_eq!(
+        sent_tracks, fitting,
+        "only fitting tracks go on the bus, as themselves"
+    );
+    let too_large: Vec<u32> = warned.iter().copied().filter(|&t| t > 255).collect();
+    for t in &too_large {
+        let named = format!(
+            "track {t}: warning frames not sent: the id does not fit the warning message's WarnTrackId ([0, 255])"
+        );
+        assert_eq!(stderr.matches(&named).count(), 1, "{t}: {stderr}");
+    }
+    let summary = stderr.lines().find(|l| l.contains(" unsent, ")).unwrap();
+    let unsent: u64 = summary
+        .split(" unsent, ")
+        .next()
+        .and_then(|s| s.rsplit(", ").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{summary}"));
+    assert!(unsent >= too_large.len() as u64, "{summary}");
+    assert!(
+        stderr.contains(&format!(
+            "{unsent} warning frames NOT SENT ({} tracks with ids the warning message's WarnTrackId cannot carry",
+            too_large.len()
+        )),
+        "{stderr}"
+    );
+}
+
+/// One candump -L line (newline-terminated).
+fn line(t_us: u64, frame: &can_codec::Frame) -> String {
+    let mut s = String::new();
+    can_codec::format_line(&mut s, t_us, "can0", frame);
+    s.push('\n');
+    s
 }

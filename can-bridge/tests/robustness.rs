@@ -327,6 +327,16 @@ fn impossible_dbc_content_is_refused_with_file_and_line() {
             line_of("BO_ 257 EGO_SIZE"),
             "size 9 bytes",
         ),
+        // A second ObjPosX (0.002 m) before the original: refused at the original's line, the
+        // second definition, instead of the first one decoding.
+        (
+            project.replace(
+                " SG_ ObjPosX :",
+                " SG_ ObjPosX : 15|20@0- (0.002,0) [-1048.576|1048.574] \"m\" RISK\n SG_ ObjPosX :",
+            ),
+            line_of("SG_ ObjPosX") + 1,
+            "message OBJECT_POSITION: signal ObjPosX: defined twice",
+        ),
     ];
     for (text, line, why) in cases {
         let dbc = tmp.path().join("bad.dbc");

@@ -39,6 +39,9 @@ pub enum DbcError {
     },
     #[error("message {message}: {reason}")]
     BadMessage { message: String, reason: String },
+    /// Two definitions of one signal name in one message: which one decodes would be a guess.
+    #[error("message {message}: signal {signal}: defined twice in the message; remove or rename one definition")]
+    DuplicateSignal { message: String, signal: String },
 }
 
 /// One message of the database.
@@ -173,6 +176,13 @@ impl SourceLines {
                 .iter()
                 .find(|(_, m, s)| m == message && s == signal)
                 .map(|x| x.0),
+            // The second definition is the one to look at.
+            DbcError::DuplicateSignal { message, signal } => self
+                .signals
+                .iter()
+                .filter(|(_, m, s)| m == message && s == signal)
+                .nth(1)
+                .map(|x| x.0),
             DbcError::BadMessage { message, .. } => self
                 .messages
                 .iter()
@@ -300,6 +310,15 @@ impl Database {
                 }
                 if spec.bytes_needed() > size {
                     return Err(bad("extends past the end of the message"));
+                }
+                if signals
+                    .iter()
+                    .any(|earlier: &SignalSpec| earlier.name == s.name)
+                {
+                    return Err(DbcError::DuplicateSignal {
+                        message: m.name.clone(),
+                        signal: s.name.clone(),
+                    });
                 }
                 spec.unit = s.unit.clone();
                 match s.multiplexer_indicator {
@@ -468,6 +487,14 @@ SIG_VALTYPE_ 2147484160 Speed : 1;
             ),
             (base.replace(": 8 X", ": 9 X"), 5, "size 9"),
             (base.replace("SG_ S :", "SG_ S ::"), 6, "DBC syntax"),
+            (
+                base.replace(
+                    " X\n SG_ S",
+                    " X\n SG_ T : 8|8@1+ (1,0) [0|10] \"\" X\n SG_ S : 16|8@1+ (2,0) [0|20] \"\" X\n SG_ S",
+                ),
+                8,
+                "message M: signal S: defined twice",
+            ),
         ];
         for (text, line, why) in cases {
             let err = Database::parse(&text).unwrap_err();

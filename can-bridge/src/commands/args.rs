@@ -175,6 +175,69 @@ pub struct CheckArgs {
     /// Write the per-event verdicts as JSON Lines here (with --json they are not printed).
     #[arg(long)]
     pub per_event_out: Option<PathBuf>,
+    /// How far (m) a decoded partner position may lie from its event frame's (default: one
+    /// resolution step of the mapped position signals, at least 0.01 m).
+    #[arg(long, value_parser = cli_values::tolerance_m)]
+    pub tolerance: Option<f64>,
     #[command(flatten)]
     pub loss: LossArgs,
+}
+
+/// Options of `decode`: the decoding options of the scoring commands, the model optional.
+#[cfg(feature = "check")]
+#[derive(Args, Debug)]
+pub struct DecodeArgs {
+    /// candump -L log to decode.
+    #[arg(long)]
+    pub log: PathBuf,
+    /// The state table: `.parquet` for Parquet, `-` for CSV on stdout, any other name CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub scoring: DecodeScoringArgs,
+    #[command(flatten)]
+    pub loss: LossArgs,
+}
+
+/// The [`ScoringArgs`] that decide which updates are scored; the model only adds a score column.
+#[cfg(feature = "check")]
+#[derive(Args, Debug, Clone)]
+pub struct DecodeScoringArgs {
+    /// Model blob: adds the `score` and `warning` columns (without it the states are the same).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// DBC file of the bus, as for `score-log` (repeatable; default `builtin:riskscore`).
+    #[arg(long)]
+    pub dbc: Vec<PathBuf>,
+    /// Map file, as for `score-log` (default: the project's map).
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Warning threshold for the `warning` column (default: the model's).
+    #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
+    pub threshold: Option<f32>,
+    /// Inputs older than this are stale (ms), as for `score-log`.
+    #[arg(long, default_value_t = 500, value_parser = cli_values::positive_ms)]
+    pub stale_ms: u64,
+    /// Print at most this many per-frame problems on stderr.
+    #[arg(long, default_value_t = 20)]
+    pub max_problems: u64,
+}
+
+#[cfg(feature = "check")]
+impl DecodeScoringArgs {
+    /// The same options as a scoring command's (warning options at their defaults).
+    pub fn as_scoring(&self) -> ScoringArgs {
+        ScoringArgs {
+            model: self.model.clone().unwrap_or_default(),
+            dbc: self.dbc.clone(),
+            map: self.map.clone(),
+            threshold: self.threshold,
+            urgent: None,
+            hysteresis: 0.0,
+            min_on_ms: 500,
+            stale_ms: self.stale_ms,
+            latch: false,
+            max_problems: self.max_problems,
+        }
+    }
 }

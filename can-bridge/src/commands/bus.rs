@@ -2,6 +2,7 @@
 //! one) and `replay` (play a log onto one).
 use super::setup::{
     creating, engine_config, load_map, open_events, print_inputs, scoring_inputs, summary,
+    unsent_note,
 };
 use super::{writing, Failure, InputError, LiveArgs, MonitorArgs, ReplayArgs, ScoringArgs};
 use crate::engine::Engine;
@@ -51,6 +52,10 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
     match live::run(&mut engine, &opts, &mut events, &mut problems) {
         Ok((reason, stats)) => {
             eprintln!("can-bridge: stopped ({reason:?}); {}", summary(&stats));
+            if let Some(note) = unsent_note(&stats, engine.map()) {
+                eprintln!("can-bridge: {note}");
+            }
+            problems.sanity.print("can-bridge");
             Ok(())
         }
         Err(e) => {

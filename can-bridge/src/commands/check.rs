@@ -60,6 +60,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         &mut engine,
         riskscore_eval::scoring::model_row_name(&model),
         (args.gap * 1e6).round() as u64,
+        args.tolerance,
     )
     .map_err(|source| {
         Failure::Input(InputError::Check {
@@ -77,6 +78,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         write_verdicts(p, &report).map_err(writing("--per-event-out", Some(p)))?;
     }
     print_report(&report, args.json);
+    report.sanity.print("check");
     Ok(())
 }
 

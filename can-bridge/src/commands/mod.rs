@@ -8,15 +8,19 @@ mod args;
 mod bus;
 #[cfg(feature = "check")]
 mod check;
+#[cfg(feature = "check")]
+mod decode;
 mod score_log;
 mod setup;
 
 #[cfg(feature = "check")]
-pub use args::CheckArgs;
+pub use args::{CheckArgs, DecodeArgs, DecodeScoringArgs};
 pub use args::{LiveArgs, LossArgs, MonitorArgs, ReplayArgs, ScoreLogArgs, ScoringArgs};
 pub use bus::{run_live, run_monitor, run_replay};
 #[cfg(feature = "check")]
 pub use check::run_check;
+#[cfg(feature = "check")]
+pub use decode::run_decode;
 pub use score_log::run_score_log;
 pub use setup::{
     engine_config, load_dbcs, load_map, open_events, print_inputs, scoring_inputs, summary,

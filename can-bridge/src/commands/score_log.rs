@@ -2,6 +2,7 @@
 //! warning events, warning frames, losses and (with `--bench`) throughput and latency.
 use super::setup::{
     creating, engine_config, load_map, open_events, print_inputs, scoring_inputs, summary,
+    unsent_note,
 };
 use super::{writing, Failure, InputError, ScoreLogArgs};
 use crate::engine::{Engine, Output};
@@ -89,12 +90,16 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     }
     let stats = engine.stats();
     eprintln!("score-log: {} lines; {}", report.lines, summary(stats));
+    if let Some(note) = unsent_note(stats, engine.map()) {
+        eprintln!("score-log: {note}");
+    }
     if problems.suppressed > 0 {
         eprintln!(
             "score-log: {} more per-frame problems not printed",
             problems.suppressed
         );
     }
+    problems.sanity.print("score-log");
     if args.bench {
         eprintln!(
             "score-log: {:.0} frames/s ({} frames in {:.3} s, one thread, parse + decode + score)",

@@ -207,9 +207,20 @@ pub fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
 /// The closing counters of a run, as one line.
 pub fn summary(s: &Stats) -> String {
     format!(
-        "{} frames, {} scored, {} warning frames, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
-        s.frames, s.scored, s.warning_frames, s.decode_errors, s.stale_drops, s.invalid_objects,
+        "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
+        s.frames, s.scored, s.warning_frames, s.warning_frames_unsent, s.decode_errors, s.stale_drops, s.invalid_objects,
         s.reordered, s.out_of_window, s.segments + 1, s.duplicates, s.unknown_ids, s.remote_frames,
         s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending
     )
+}
+
+/// The run-end line about warnings that never reached the bus, if any did not.
+pub fn unsent_note(s: &Stats, map: &CompiledMap) -> Option<String> {
+    (s.warning_frames_unsent > 0).then(|| {
+        let signal = &map.warning.spec.signals[map.warning.track_id].name;
+        format!(
+            "{} warning frames NOT SENT ({} tracks with ids the warning message's {signal} cannot carry, each named above); their warnings are in the events, not on the bus",
+            s.warning_frames_unsent, s.tracks_unsent
+        )
+    })
 }

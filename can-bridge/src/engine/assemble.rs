@@ -5,6 +5,7 @@
 //! sensor frame, rotated and shifted by the sensor mounting into the ego frame; velocity components
 //! the sensor does not send are taken from the track's own motion (position change over the map's
 //! window) or are zero; relative velocities get the ego velocity added.
+use super::flags::InputFlags;
 use super::track::{update_motion, PartnerSlots, Stamped};
 use crate::map::{
     CompiledMap, EgoField, MissingVelocity, PartnerField, PositionKind, VelocityFrame, EGO_FIELDS,
@@ -47,6 +48,7 @@ impl Unscored {
 pub(super) struct States {
     pub ego: VehicleState,
     pub partner: VehicleState,
+    pub flags: InputFlags,
 }
 
 /// The states of `track` at its trigger at `t_us`, from inputs at most `stale_us` old.
@@ -114,8 +116,34 @@ pub(super) fn assemble(
         return Err(Unscored::MotionPending);
     }
     let (vx, vy) = velocity(map, complete, line_of_sight, derived, value);
-    let ego_vy = ego_value(EgoField::VelLat).unwrap_or(0.0);
-    let ego_acc = ego_value(EgoField::Accel).unwrap_or(0.0);
+    let mut flags = InputFlags::default();
+    let sent = |f: PartnerField| complete || has[f as usize];
+    let polar_radial = line_of_sight.is_some() && has[PartnerField::RangeRate as usize];
+    for (is_sent, derived_flag, default_flag) in [
+        (
+            sent(PartnerField::VelX) || polar_radial,
+            InputFlags::VEL_LONG_DERIVED,
+            InputFlags::VEL_LONG_DEFAULT,
+        ),
+        (
+            sent(PartnerField::VelY),
+            InputFlags::VEL_LAT_DERIVED,
+            InputFlags::VEL_LAT_DEFAULT,
+        ),
+    ] {
+        flags.set(derived_flag, !is_sent && derived.is_some());
+        flags.set(default_flag, !is_sent && derived.is_none());
+    }
+    let ego_vy = ego_value(EgoField::VelLat);
+    let ego_acc = ego_value(EgoField::Accel);
+    flags.set(InputFlags::EGO_VEL_LAT_DEFAULT, ego_vy.is_none());
+    flags.set(InputFlags::EGO_ACCEL_DEFAULT, ego_acc.is_none());
+    flags.set(
+        InputFlags::EGO_SIZE_DEFAULT,
+        ego_inputs[EgoField::Length as usize].is_none()
+            || ego_inputs[EgoField::Width as usize].is_none(),
+    );
+    let (ego_vy, ego_acc) = (ego_vy.unwrap_or(0.0), ego_acc.unwrap_or(0.0));
     let ego_len =
         ego_inputs[EgoField::Length as usize].map_or(map.ego_defaults.0, |s| s.value as f32);
     let ego_wid =
@@ -141,10 +169,26 @@ pub(super) fn assemble(
         Some(h) if heading_valid => Some((libm::cos(h) as f32, libm::sin(h) as f32)),
         _ => {
             let speed = libm::hypotf(abs_vx, abs_vy);
-            (speed >= HEADING_FROM_VELOCITY_MIN_SPEED).then(|| (abs_vx / speed, abs_vy / speed))
+            let from_velocity = speed >= HEADING_FROM_VELOCITY_MIN_SPEED;
+            flags.set(InputFlags::HEADING_FROM_VELOCITY, from_velocity);
+            from_velocity.then(|| (abs_vx / speed, abs_vy / speed))
         }
     };
+    flags.set(
+        InputFlags::HEADING_HELD,
+        heading.is_none() && track.last_heading.is_some(),
+    );
+    flags.set(
+        InputFlags::HEADING_DEFAULT,
+        heading.is_none() && track.last_heading.is_none(),
+    );
     let (hx, hy) = heading.or(track.last_heading).unwrap_or((1.0, 0.0));
+    let accel = value(PartnerField::Accel);
+    flags.set(InputFlags::ACCEL_DEFAULT, accel.is_none());
+    flags.set(
+        InputFlags::SIZE_DEFAULT,
+        partner(PartnerField::Length).is_none() || partner(PartnerField::Width).is_none(),
+    );
     let partner = VehicleState {
         x: position.0 as f32,
         y: position.1 as f32,
@@ -152,7 +196,7 @@ pub(super) fn assemble(
         vy: abs_vy,
         hx,
         hy,
-        acc: value(PartnerField::Accel).unwrap_or(0.0) as f32,
+        acc: accel.unwrap_or(0.0) as f32,
         length: partner(PartnerField::Length).map_or(map.partner_defaults.0, |s| s.value as f32),
         width: partner(PartnerField::Width).map_or(map.partner_defaults.1, |s| s.value as f32),
     };
@@ -163,7 +207,11 @@ pub(super) fn assemble(
     if !(ego.is_finite() && partner.is_finite() && sizes_positive) {
         return Err(Unscored::BadState);
     }
-    Ok(States { ego, partner })
+    Ok(States {
+        ego,
+        partner,
+        flags,
+    })
 }
 
 /// The object's position in the ego frame, and its line of sight from the sensor (polar maps:

@@ -36,6 +36,7 @@
 mod assemble;
 mod config;
 mod decode;
+mod flags;
 mod output;
 mod problem;
 mod track;
@@ -43,6 +44,7 @@ mod warn;
 
 pub use assemble::HEADING_FROM_VELOCITY_MIN_SPEED;
 pub use config::{ConfigError, EngineConfig, MAX_TRACKS};
+pub use flags::InputFlags;
 pub use output::{LossKind, Lost, Output, ReleaseReason, ScoredUpdate, Stats};
 pub use problem::{DecodeError, EncodeError, Problem};
 

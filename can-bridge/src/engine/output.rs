@@ -1,5 +1,5 @@
 //! What the engine produces: scored tracks, warning frames and transitions, problems, counters.
-use super::Problem;
+use super::{InputFlags, Problem};
 use can_codec::Frame;
 use scorer_core::VehicleState;
 
@@ -24,6 +24,11 @@ pub struct Stats {
     pub error_frames: u64,
     pub bus_off: u64,
     pub warning_frames: u64,
+    /// Warning frames due but not sent (the track id does not fit the warning message, or the
+    /// frame could not be encoded).
+    pub warning_frames_unsent: u64,
+    /// Tracks whose id does not fit the warning message's track-id signal.
+    pub tracks_unsent: u64,
     pub tracks_dropped: u64,
     pub table_full: u64,
     /// Updates not scored because a velocity derived from the track's motion is not yet known.
@@ -46,6 +51,8 @@ pub struct ScoredUpdate {
     pub track: u32,
     pub ego: VehicleState,
     pub partner: VehicleState,
+    /// Which of these inputs were derived or defaulted instead of sent.
+    pub flags: InputFlags,
     pub score: f32,
     pub warning: bool,
     pub level: u8,

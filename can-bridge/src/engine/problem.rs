@@ -67,6 +67,17 @@ pub enum Problem {
     /// The core's warning table refused the update.
     #[error("{0}")]
     Rejected(WarningError),
+    /// The track warns but its id does not fit the warning message's track-id signal: its warning
+    /// frames are not sent (sending a clamped id would warn about another track).
+    #[error(
+        "track {track}: warning frames not sent: the id does not fit the warning message's {signal} ([{}, {}]); reported once per track",
+        .range.0, .range.1
+    )]
+    TrackIdDoesNotFit {
+        track: u32,
+        signal: String,
+        range: (f64, f64),
+    },
     /// The warning frame could not be built from the map's warning message.
     #[error("track {track}: warning frame not encodable: {cause}")]
     WarningFrame { track: u32, cause: EncodeError },
@@ -240,6 +251,14 @@ mod tests {
                     },
                 },
                 "track 2: warning frame not encodable: Score: value 1000000000000000000000000000000 does not fit the signal's raw range",
+            ),
+            (
+                Problem::TrackIdDoesNotFit {
+                    track: 501,
+                    signal: "WarnTrackId".into(),
+                    range: (0.0, 255.0),
+                },
+                "track 501: warning frames not sent: the id does not fit the warning message's WarnTrackId ([0, 255]); reported once per track",
             ),
             (
                 Problem::WarningFrame {

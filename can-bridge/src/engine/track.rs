@@ -59,6 +59,8 @@ pub(super) struct PartnerSlots {
     pub motion: Option<Motion>,
     /// A missing input of this track has been reported (once, until it arrives).
     pub waiting_reported: bool,
+    /// The track's id does not fit the warning message and this has been reported.
+    pub unsent_reported: bool,
 }
 
 /// Advances a track's motion window with the position `p` at `t_us`; returns the velocity over

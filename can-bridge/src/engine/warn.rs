@@ -4,7 +4,7 @@ use super::assemble::States;
 use super::{
     EncodeError, Engine, LossKind, Output, Problem, ReleaseReason, ScoredUpdate, MAX_TRACKS,
 };
-use can_codec::Frame;
+use can_codec::{Frame, SignalSpec, ValueKind};
 use scorer_core::warning::{WarningError, WarningEvent};
 
 impl Engine<'_> {
@@ -16,7 +16,11 @@ impl Engine<'_> {
         states: States,
         out: &mut impl FnMut(Output),
     ) {
-        let States { ego, partner } = states;
+        let States {
+            ego,
+            partner,
+            flags,
+        } = states;
         let score = self.model.score(&ego, &partner);
         // Release warnings of tracks that went stale before this update.
         self.expire(t_us, out);
@@ -80,21 +84,58 @@ impl Engine<'_> {
             track,
             ego,
             partner,
+            flags,
             score,
             warning: status.warning,
             level,
         }));
         if status.warning {
-            match self.warning_frame(track, score, level) {
-                Ok(frame) => {
-                    self.stats.warning_frames += 1;
-                    out(Output::WarningFrame { t_us, track, frame });
-                }
-                Err(cause) => out(Output::Problem {
+            self.send_warning_frame(track, t_us, score, level, out);
+        }
+    }
+
+    /// Builds and hands out the warning frame of `track`. A track id the warning message cannot
+    /// carry is never sent as another id: the frame is counted as unsent and the track named once.
+    fn send_warning_frame(
+        &mut self,
+        track: u32,
+        t_us: u64,
+        score: f32,
+        level: u8,
+        out: &mut impl FnMut(Output),
+    ) {
+        let w = &self.map.warning;
+        let id_signal = &w.spec.signals[w.track_id];
+        if !fits_exactly(id_signal, f64::from(track)) {
+            self.stats.warning_frames_unsent += 1;
+            let slots = self.partners.entry(track).or_default();
+            if !slots.unsent_reported {
+                slots.unsent_reported = true;
+                self.stats.tracks_unsent += 1;
+                out(Output::Problem {
+                    lost: None,
+                    t_us,
+                    reason: Problem::TrackIdDoesNotFit {
+                        track,
+                        signal: id_signal.name.clone(),
+                        range: carried_range(id_signal),
+                    },
+                });
+            }
+            return;
+        }
+        match self.warning_frame(track, score, level) {
+            Ok(frame) => {
+                self.stats.warning_frames += 1;
+                out(Output::WarningFrame { t_us, track, frame });
+            }
+            Err(cause) => {
+                self.stats.warning_frames_unsent += 1;
+                out(Output::Problem {
                     lost: None,
                     t_us,
                     reason: Problem::WarningFrame { track, cause },
-                }),
+                })
             }
         }
     }
@@ -104,9 +145,11 @@ impl Engine<'_> {
         let w = &self.map.warning;
         let mut data = [0u8; can_codec::frame::MAX_DATA_LEN];
         let payload = &mut data[..w.spec.size];
+        // Level and score saturate at the DBC range (a score beyond it still means "warn"); the
+        // track id is checked to fit before (`send_warning_frame`) and is never clamped.
         let put = |index: usize, value: f64, payload: &mut [u8]| -> Result<(), EncodeError> {
             let s = &w.spec.signals[index];
-            let value = if s.has_range() {
+            let value = if s.has_range() && index != w.track_id {
                 value.clamp(s.min, s.max)
             } else {
                 value
@@ -130,4 +173,32 @@ impl Engine<'_> {
         };
         frame.ok_or(EncodeError::FrameLength)
     }
+}
+
+/// True when `value` is inside the signal's DBC range (if it has one) and encodes to a raw value
+/// that decodes back to exactly `value`.
+fn fits_exactly(signal: &SignalSpec, value: f64) -> bool {
+    signal.check_range(value).is_ok()
+        && signal
+            .to_raw(value)
+            .is_ok_and(|raw| signal.raw_value(raw) == value)
+}
+
+/// The values a signal can carry, for messages: its DBC range, else what its raw bits span.
+fn carried_range(signal: &SignalSpec) -> (f64, f64) {
+    if signal.has_range() {
+        return (signal.min, signal.max);
+    }
+    let bits = i32::from(signal.size);
+    let (lo, hi) = match signal.kind {
+        ValueKind::Unsigned => (0.0, 2f64.powi(bits) - 1.0),
+        ValueKind::Signed => (-(2f64.powi(bits - 1)), 2f64.powi(bits - 1) - 1.0),
+        ValueKind::Float32 => (f64::from(f32::MIN), f64::from(f32::MAX)),
+        ValueKind::Float64 => (f64::MIN, f64::MAX),
+    };
+    let (a, b) = (
+        lo * signal.factor + signal.offset,
+        hi * signal.factor + signal.offset,
+    );
+    (a.min(b), a.max(b))
 }
