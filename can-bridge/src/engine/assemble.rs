@@ -27,6 +27,8 @@ pub(super) enum Unscored {
     EgoSpeedMissing,
     /// A required object input is missing or stale.
     InputMissing(PartnerField),
+    /// The object is outside the map's field of view.
+    OutsideView,
     /// The velocity derived from the track's motion is not known yet.
     MotionPending,
     /// The state is not finite or has a non-positive size.
@@ -96,7 +98,11 @@ pub(super) fn assemble(
         }
     }
     track.waiting_reported = false;
-    let (position, line_of_sight) = position(map, value);
+    let (p_sensor, line_of_sight) = sensor_position(map, value);
+    if !map.fov.contains(p_sensor) {
+        return Err(Unscored::OutsideView);
+    }
+    let position = map.mount.place(p_sensor);
     let derive = map.missing_velocity == Some(MissingVelocity::TrackMotion);
     let derived = if derive {
         update_motion(
@@ -106,6 +112,7 @@ pub(super) fn assemble(
             map.motion_window_us,
             stale_us,
         )
+        .map(|v| yaw_compensated(v, position, ego_value(EgoField::YawRate)))
     } else {
         None
     };
@@ -166,9 +173,20 @@ pub(super) fn assemble(
     Ok(States { ego, partner })
 }
 
-/// The object's position in the ego frame, and its line of sight from the sensor (polar maps:
-/// `(cos, sin)` of the azimuth) in the sensor frame.
-fn position(
+/// A velocity measured as the change of the position `p` in the ego frame, which turns with the
+/// ego at `yaw_rate` (rad/s, counter-clockwise): a point fixed on the ground seems to sweep
+/// round the ego at `-yaw_rate x p`. Adding `yaw_rate x p` back gives the velocity relative to the
+/// ego in the ego's current axes, as the scorer expects; without a yaw rate it is as measured.
+fn yaw_compensated(v: (f64, f64), p: (f64, f64), yaw_rate: Option<f64>) -> (f64, f64) {
+    match yaw_rate {
+        Some(w) => (v.0 - w * p.1, v.1 + w * p.0),
+        None => v,
+    }
+}
+
+/// The object's position in the sensor frame, and its line of sight from the sensor (polar maps:
+/// `(cos, sin)` of the azimuth).
+fn sensor_position(
     map: &CompiledMap,
     value: impl Fn(PartnerField) -> Option<f64>,
 ) -> ((f64, f64), Option<(f64, f64)>) {
@@ -187,7 +205,7 @@ fn position(
             ((r * c, r * s), Some((c, s)))
         }
     };
-    (map.mount.place(p_sensor), line_of_sight)
+    (p_sensor, line_of_sight)
 }
 
 /// The object's velocity in the ego frame, as the map's velocity frame has it: as sent when the

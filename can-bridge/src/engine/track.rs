@@ -91,3 +91,49 @@ pub(super) fn update_motion(
     }
     m.velocity
 }
+
+/// The ego's heading at the start of the current window and the rate measured over the last
+/// complete one.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct HeadingRate {
+    anchor_us: u64,
+    anchor: f64,
+    rate: Option<f64>,
+}
+
+/// Advances the heading window with `heading` (rad) at `t_us`; returns the yaw rate (rad/s) over
+/// the last complete window (the change wrapped to (-pi, pi], so a heading signal that wraps at
+/// 2 pi or at +-pi gives no jump). A gap longer than the window plus the staleness limit restarts it.
+pub(super) fn update_heading_rate(
+    state: &mut Option<HeadingRate>,
+    t_us: u64,
+    heading: f64,
+    window_us: u64,
+    stale_us: u64,
+) -> Option<f64> {
+    let s = match state {
+        Some(s) if t_us >= s.anchor_us && t_us - s.anchor_us <= window_us + stale_us => s,
+        _ => {
+            *state = Some(HeadingRate {
+                anchor_us: t_us,
+                anchor: heading,
+                rate: None,
+            });
+            return None;
+        }
+    };
+    let dt_us = t_us - s.anchor_us;
+    if dt_us >= window_us {
+        let tau = core::f64::consts::TAU;
+        let mut change = (heading - s.anchor) % tau;
+        if change > core::f64::consts::PI {
+            change -= tau;
+        } else if change <= -core::f64::consts::PI {
+            change += tau;
+        }
+        s.rate = Some(change / (dt_us as f64 / 1e6));
+        s.anchor_us = t_us;
+        s.anchor = heading;
+    }
+    s.rate
+}
