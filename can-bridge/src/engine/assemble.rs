@@ -159,7 +159,11 @@ pub(super) fn assemble(
         vy: abs_vy,
         hx,
         hy,
-        acc: value(PartnerField::Accel).unwrap_or(0.0) as f32,
+        acc: match value(PartnerField::Accel) {
+            Some(a) if map.accel_relative => (a + ego_acc) as f32,
+            Some(a) => a as f32,
+            None => 0.0,
+        },
         length: partner(PartnerField::Length).map_or(map.partner_defaults.0, |s| s.value as f32),
         width: partner(PartnerField::Width).map_or(map.partner_defaults.1, |s| s.value as f32),
     };

@@ -323,6 +323,12 @@ impl CompiledMap {
                 "must be between 1 and 10000 ms",
             ));
         }
+        if o.accel_relative && o.accel.is_none() {
+            return Err(field_error(
+                "object.accel_relative",
+                "needs `object.accel` (the relative acceleration)",
+            ));
+        }
         check_signal_use(&inputs)?;
         let buses = db.bus_names();
         let (warning_bus, warning) = compile_warning(&map.warning, db)?;
@@ -359,6 +365,7 @@ impl CompiledMap {
             slot_ids: o.slots.is_some() && o.track_id.is_some(),
             warning_bus: bus_index(&buses, warning_bus),
             buses,
+            accel_relative: o.accel_relative,
             fov: FieldOfView {
                 half_angle: s.fov_deg.map(|f| f.to_radians() / 2.0),
                 max_range: s.max_range,

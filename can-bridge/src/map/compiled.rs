@@ -203,6 +203,8 @@ pub struct CompiledMap {
     /// The warning message's bus (`None`: unbound).
     pub warning_bus: Option<u8>,
     pub fov: FieldOfView,
+    /// The object's acceleration is relative to the ego's.
+    pub accel_relative: bool,
 }
 
 /// Where the sensor sees: half the opening angle (rad) and the farthest range (m), in the

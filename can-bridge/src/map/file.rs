@@ -159,6 +159,9 @@ pub struct PartnerMap {
     #[serde(default = "default_window")]
     pub motion_window_ms: u64,
     pub accel: Option<SignalRef>,
+    /// `accel` is relative to the ego's acceleration (the ego's `accel` is added).
+    #[serde(default)]
+    pub accel_relative: bool,
     pub heading: Option<SignalRef>,
     pub heading_valid: Option<FlagRef>,
     pub valid: Option<FlagRef>,

@@ -133,7 +133,15 @@ impl CompiledMap {
             )
         });
         lines.push(if has(PartnerField::Accel) {
-            format!("object.accel <- {}", src(PartnerField::Accel))
+            format!(
+                "object.accel <- {}{}",
+                src(PartnerField::Accel),
+                if self.accel_relative {
+                    " (relative: the ego's accel is added)"
+                } else {
+                    ""
+                }
+            )
         } else {
             "object.accel: DEFAULT 0 m/s^2".to_string()
         });
