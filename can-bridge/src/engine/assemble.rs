@@ -111,8 +111,8 @@ pub(super) fn assemble(
             position,
             map.motion_window_us,
             stale_us,
+            ego_value(EgoField::YawRate),
         )
-        .map(|v| yaw_compensated(v, position, ego_value(EgoField::YawRate)))
     } else {
         None
     };
@@ -175,17 +175,6 @@ pub(super) fn assemble(
         return Err(Unscored::BadState);
     }
     Ok(States { ego, partner })
-}
-
-/// A velocity measured as the change of the position `p` in the ego frame, which turns with the
-/// ego at `yaw_rate` (rad/s, counter-clockwise): a point fixed on the ground seems to sweep
-/// round the ego at `-yaw_rate x p`. Adding `yaw_rate x p` back gives the velocity relative to the
-/// ego in the ego's current axes, as the scorer expects; without a yaw rate it is as measured.
-fn yaw_compensated(v: (f64, f64), p: (f64, f64), yaw_rate: Option<f64>) -> (f64, f64) {
-    match yaw_rate {
-        Some(w) => (v.0 - w * p.1, v.1 + w * p.0),
-        None => v,
-    }
 }
 
 /// The object's position in the sensor frame, and its line of sight from the sensor (polar maps:

@@ -55,6 +55,9 @@ use scorer_core::model::Model;
 use scorer_core::warning::TrackTable;
 use track::{HeadingRate, PartnerSlots, Stamped, TrackMap};
 
+/// A frame the timeline may hold: the frame, its source (log line) and its bus.
+type HeldFrame = (Frame, u64, Option<u8>);
+
 /// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
 pub struct Engine<'m> {
     model: Model<'m>,
@@ -65,7 +68,7 @@ pub struct Engine<'m> {
     partners: TrackMap<PartnerSlots>,
     protector: E2eProtector,
     /// Each held frame comes with its source (log line) and bus, handed back when it is dropped.
-    timeline: Timeline<(Frame, u64, Option<u8>)>,
+    timeline: Timeline<HeldFrame>,
     /// Slot maps: the track each slot last carried (companion messages join it).
     slot_tracks: Vec<Option<u32>>,
     /// The ego's heading over the motion window, when the yaw rate is derived from it.
@@ -210,11 +213,7 @@ impl<'m> Engine<'m> {
     }
 
     #[cold]
-    fn drop_out_of_window(
-        &mut self,
-        dropped: &[(u64, (Frame, u64, Option<u8>))],
-        out: &mut impl FnMut(Output),
-    ) {
+    fn drop_out_of_window(&mut self, dropped: &[(u64, HeldFrame)], out: &mut impl FnMut(Output)) {
         let newest = self.timeline.newest_us().unwrap_or(0);
         for (t, (f, source, _)) in dropped {
             self.stats.out_of_window += 1;
