@@ -52,8 +52,15 @@ fn compile(map_text: &str, dbc: &[String], tmp: &Path, name: &str) -> CompiledMa
 }
 
 /// First warning onset (us) per event: the onset falls in the event's span on the timeline.
-fn onsets(model: &ModelFile, threshold: f32, map: CompiledMap, log: &str, layout: &Layout) -> Vec<Option<u64>> {
-    let mut engine = Engine::new(model.model().unwrap(), map, EngineConfig::new(threshold)).unwrap();
+fn onsets(
+    model: &ModelFile,
+    threshold: f32,
+    map: CompiledMap,
+    log: &str,
+    layout: &Layout,
+) -> Vec<Option<u64>> {
+    let mut engine =
+        Engine::new(model.model().unwrap(), map, EngineConfig::new(threshold)).unwrap();
     let mut first = vec![None; layout.placements.len()];
     for line in log.lines() {
         let rec = can_codec::parse_line(line).unwrap();
@@ -149,7 +156,10 @@ fn main() {
 
     let dbc = maps().join("dbc");
     let bound = vec![
-        format!("can0={}", dbc.join("toyota_new_mc_pt_generated.dbc").display()),
+        format!(
+            "can0={}",
+            dbc.join("toyota_new_mc_pt_generated.dbc").display()
+        ),
         "can0=builtin:riskscore".to_string(),
         format!("can1={}", dbc.join("toyota_adas.dbc").display()),
     ];
@@ -157,8 +167,14 @@ fn main() {
     let yaw_line = "yaw_rate = { message = \"KINEMATICS\", signal = \"YAW_RATE\", factor = 0.017453292519943295, dbc_range = false }";
     assert!(shipped.contains(yaw_line));
     let toyota_variants = [
-        ("Toyota map as shipped (yaw rate, 200 ms window)", shipped.clone()),
-        ("no yaw rate (derived lateral speed not compensated)", shipped.replace(yaw_line, "")),
+        (
+            "Toyota map as shipped (yaw rate, 200 ms window)",
+            shipped.clone(),
+        ),
+        (
+            "no yaw rate (derived lateral speed not compensated)",
+            shipped.replace(yaw_line, ""),
+        ),
         (
             "motion window 100 ms (new tracks scored after 100 ms)",
             shipped.replace("motion_window_ms = 200", "motion_window_ms = 100"),
@@ -183,10 +199,20 @@ fn main() {
     // The project DBC's log scored without the partner size (default 4.5 m x 1.8 m box): what a
     // radar that sends no size costs on its own, for the trucks.
     let no_size = can_bridge::map::DEFAULT_MAP
-        .replace("length = { message = \"OBJECT_SIZE\", signal = \"ObjLength\" }", "")
-        .replace("width = { message = \"OBJECT_SIZE\", signal = \"ObjWidth\" }", "")
+        .replace(
+            "length = { message = \"OBJECT_SIZE\", signal = \"ObjLength\" }",
+            "",
+        )
+        .replace(
+            "width = { message = \"OBJECT_SIZE\", signal = \"ObjWidth\" }",
+            "",
+        )
         .replace(", OBJECT_SIZE = \"ObjId\"", "");
-    assert_ne!(no_size, can_bridge::map::DEFAULT_MAP, "the project map's size lines moved");
+    assert_ne!(
+        no_size,
+        can_bridge::map::DEFAULT_MAP,
+        "the project map's size lines moved"
+    );
     let map = compile(&no_size, &["builtin:riskscore".into()], &tmp, "nosize");
     let got = onsets(&model, threshold, map, &project_log, &layout);
     truck_rows.push(compare(
@@ -209,22 +235,38 @@ fn main() {
         println!("| variant | warned in both | onset later than reference: median / worst (s) | missed warnings | extra warnings on safe events | extra on crash/near-crash |");
         println!("|---|---|---|---|---|---|");
         for r in rows.iter_mut() {
-            let worst = r.later.iter().copied().fold(f64::NAN, |a, b| if b.abs() > a.abs() || a.is_nan() { b } else { a });
+            let worst = r.later.iter().copied().fold(f64::NAN, |a, b| {
+                if b.abs() > a.abs() || a.is_nan() {
+                    b
+                } else {
+                    a
+                }
+            });
             let n = r.later.len();
             println!(
                 "| {} | {n} | {} / {} | {} | {} | {} |",
                 r.name,
                 median(&mut r.later).map_or("-".into(), |m| format!("{m:+.2}")),
-                if worst.is_nan() { "-".into() } else { format!("{worst:+.2}") },
+                if worst.is_nan() {
+                    "-".into()
+                } else {
+                    format!("{worst:+.2}")
+                },
                 r.missed,
                 r.extra_on_safe,
                 r.extra_on_conflicts
             );
         }
     };
-    print("All compared events (reference: the project DBC's log, every input as simulated)", &mut rows);
     print(
-        &format!("Trucks only ({} compared events with a partner longer than 6 m)", trucks.len()),
+        "All compared events (reference: the project DBC's log, every input as simulated)",
+        &mut rows,
+    );
+    print(
+        &format!(
+            "Trucks only ({} compared events with a partner longer than 6 m)",
+            trucks.len()
+        ),
         &mut truck_rows,
     );
     let _ = std::fs::remove_dir_all(&tmp);

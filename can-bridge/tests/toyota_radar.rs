@@ -206,6 +206,38 @@ fn the_real_radar_and_powertrain_dbcs_load_together_only_bound_to_their_buses() 
 }
 
 #[test]
+fn the_same_id_on_two_buses_is_two_messages_routed_by_interface() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = tmp.path().join("msra.rsk");
+    std::fs::write(&model, common::msra_blob()).unwrap();
+    let map = maps().join("toyota_tss_p_radar.toml");
+    // 0x224 is TRACK_B_4 (8 bytes) on the radar bus and BRAKE_MODULE (not read) on the
+    // powertrain bus. A 2-byte 0x224 on can0 is a frame the map does not read; on can1 it is a
+    // TRACK_B_4 of the wrong length; on an interface no file is bound to, it is unknown too.
+    let log = tmp.path().join("two.log");
+    std::fs::write(
+        &log,
+        "(1700000000.000000) can0 224#0102\n(1700000000.001000) can1 224#0102\n(1700000000.002000) can9 224#0102\n",
+    )
+    .unwrap();
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--map",
+        map.to_str().unwrap(),
+        "--max-lost",
+        "1",
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stderr.contains(" 1 decode errors"), "{stderr}");
+    assert!(stderr.contains(" 2 unknown ids"), "{stderr}");
+    assert!(stderr.contains("two.log:2: TRACK_B_4"), "{stderr}");
+}
+
+#[test]
 fn a_two_bus_toyota_log_warns_like_the_single_bus_log_where_the_radar_sees_the_partner() {
     let runs = run_both(80, 11);
     let stderr = &runs.toyota_stderr;
