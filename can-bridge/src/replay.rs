@@ -359,6 +359,37 @@ mod tests {
     }
 
     #[test]
+    fn each_frame_keeps_its_interface_also_when_held_for_a_jump() {
+        let mut p = Pacer::new(Rate::Max);
+        let mut out = Vec::new();
+        // A jump of 200 s ahead, confirmed by the frames after it: held, then sent.
+        let stamps = [
+            1_000_000u64,
+            1_001_000,
+            201_000_000,
+            201_001_000,
+            201_002_000,
+            201_003_000,
+        ];
+        for (i, t) in stamps.iter().enumerate() {
+            p.admit_on(*t, &frame(), i as u64 + 1, i % 2, &mut |x| out.push(x));
+        }
+        p.finish(&mut |x| out.push(x));
+        let ports: Vec<(u64, usize)> = out
+            .iter()
+            .filter_map(|x| match x {
+                Paced::Send { line, port, .. } => Some((*line, *port)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(ports.len(), 6);
+        assert!(out.iter().any(|x| matches!(x, Paced::NewSegment { .. })));
+        for (line, port) in ports {
+            assert_eq!(port, (line as usize - 1) % 2, "line {line}");
+        }
+    }
+
+    #[test]
     fn a_frame_a_million_seconds_ahead_is_dropped_alone_and_nobody_waits_for_it() {
         let mut stamps = cycle(T0);
         stamps.insert(5, T0 + 1_000_000_000_000);
