@@ -4,7 +4,8 @@
 //! (every input as simulated: size, lateral speed, heading, acceleration).
 //!
 //! `cargo run -p can-bridge --example toyota_missing_inputs -- [--events N] [--seed S]
-//!  [--model FILE]` prints a Markdown table (docs/can-bridge.md, "What missing inputs cost").
+//!  [--model FILE] [--log-out FILE]` prints a Markdown table (docs/can-bridge.md, "What missing
+//! inputs cost"); `--log-out` also writes the two-bus candump log (for `score-log --bench`).
 //! Only events whose partner the simulated radar sees on every frame up to the reference's first
 //! warning (to the end when it does not warn) are compared: what the radar cannot see is a matter
 //! of its field of view, not of the map.
@@ -139,6 +140,9 @@ fn main() {
 
     let car = toyota::ToyotaCar::new(toyota::RadarModel::default());
     let encoded = car.encode(&set);
+    if let Some(path) = arg("--log-out") {
+        std::fs::write(&path, &encoded.log).unwrap();
+    }
     let compared: Vec<usize> = (0..set.events.len())
         .filter(|&k| {
             let until = reference[k].unwrap_or(u64::MAX);

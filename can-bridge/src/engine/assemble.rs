@@ -40,7 +40,7 @@ impl Unscored {
     pub fn after_ego_speed(self) -> bool {
         matches!(
             self,
-            Self::InputMissing(_) | Self::MotionPending | Self::BadState
+            Self::InputMissing(_) | Self::OutsideView | Self::MotionPending | Self::BadState
         )
     }
 }
