@@ -313,3 +313,45 @@ fn a_track_outside_the_field_of_view_is_not_scored_and_its_warning_is_released()
     assert_eq!(wide.stats.outside_view, 0);
     assert!(wide.scored.iter().any(|s| s.partner.y > 5.0));
 }
+
+#[test]
+fn a_name_two_buses_define_is_refused_where_the_map_uses_it() {
+    let (_, mut all) = db();
+    let other_bus = Database::parse(
+        "VERSION \"\"\n\nBU_: X\n\nBO_ 600 TRACK_A_0: 8 X\n SG_ LONG_DIST : 0|16@1+ (0.01,0) [0|500] \"m\" X\n\nBO_ 601 EGO: 8 X\n SG_ Speed : 0|16@1+ (0.01,0) [0|300] \"m/s\" X\n",
+    )
+    .unwrap();
+    all.add(BusPart {
+        bus: Some("can7".into()),
+        origin: "other.dbc".into(),
+        db: other_bus,
+    })
+    .unwrap();
+    let err = CompiledMap::compile_on(&MapFile::parse(MAP).unwrap(), &all)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("ego.vel_long")
+            && err.contains("`EGO` is defined twice")
+            && err.contains("bus can7"),
+        "{err}"
+    );
+    // The slot glob matching one name on two buses is refused too.
+    let mut all = db().1;
+    all.add(BusPart {
+        bus: Some("can7".into()),
+        origin: "other.dbc".into(),
+        db: Database::parse(
+            "VERSION \"\"\n\nBU_: X\n\nBO_ 600 TRACK_A_0: 8 X\n SG_ LONG_DIST : 0|16@1+ (0.01,0) [0|500] \"m\" X\n",
+        )
+        .unwrap(),
+    })
+    .unwrap();
+    let err = CompiledMap::compile_on(&MapFile::parse(MAP).unwrap(), &all)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("object.slots") && err.contains("matches message `TRACK_A_0` twice"),
+        "{err}"
+    );
+}

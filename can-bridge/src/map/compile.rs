@@ -408,6 +408,25 @@ fn slot_messages<'a>(
                     format!("no message of the DBC matches `{p}`"),
                 ));
             }
+            if let Some((i, (bus, m))) = found
+                .iter()
+                .enumerate()
+                .find(|(i, (_, m))| found[..*i].iter().any(|(_, o)| o.name == m.name))
+            {
+                let first = found[..i]
+                    .iter()
+                    .find(|(_, o)| o.name == m.name)
+                    .map(|x| x.0);
+                return Err(field_error(
+                    key,
+                    format!(
+                        "`{p}` matches message `{}` twice (on {} and on {}): the files of two buses define it",
+                        m.name,
+                        super::bus::bus_label(first.flatten()),
+                        super::bus::bus_label(*bus)
+                    ),
+                ));
+            }
             found
         }
         SlotList::List(names) => {
