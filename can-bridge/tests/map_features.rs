@@ -336,6 +336,38 @@ fn a_name_two_buses_define_is_refused_where_the_map_uses_it() {
             && err.contains("bus can7"),
         "{err}"
     );
+    // `NAME@BUS` says which: with the radar's file bound to can1, `EGO@can1` is its EGO.
+    let mut bound = BusDatabase::default();
+    for (bus, origin, text) in [
+        (Some("can1"), "radar.dbc", RADAR_DBC),
+        (None, "builtin:riskscore", project::PROJECT_DBC),
+    ] {
+        bound
+            .add(BusPart {
+                bus: bus.map(Into::into),
+                origin: origin.into(),
+                db: Database::parse(text).unwrap(),
+            })
+            .unwrap();
+    }
+    bound
+        .add(BusPart {
+            bus: Some("can7".into()),
+            origin: "other.dbc".into(),
+            db: Database::parse(
+                "VERSION \"\"\n\nBU_: X\n\nBO_ 601 EGO: 8 X\n SG_ Speed : 0|16@1+ (0.01,0) [0|300] \"m/s\" X\n",
+            )
+            .unwrap(),
+        })
+        .unwrap();
+    let qualified = MAP.replace("message = \"EGO\"", "message = \"EGO@can1\"");
+    let map = CompiledMap::compile_on(&MapFile::parse(&qualified).unwrap(), &bound).unwrap();
+    let ego = map.inputs.iter().find(|m| m.spec.name == "EGO").unwrap();
+    assert_eq!((ego.spec.id.raw(), ego.bus), (768, map.bus_of("can1")));
+    assert_eq!(
+        map.inputs.iter().filter(|m| m.spec.name == "EGO").count(),
+        1
+    );
     // The slot glob matching one name on two buses is refused too.
     let mut all = db().1;
     all.add(BusPart {

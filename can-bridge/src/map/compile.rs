@@ -16,7 +16,25 @@ use std::collections::BTreeMap;
 /// A message of the vehicle and the bus it is on (`None`: every bus).
 pub(super) type BusMessage<'a> = (Option<&'a str>, &'a MessageSpec);
 
-/// Messages whose name matches a glob pattern (`*` = any run of characters), sorted by id.
+/// `NAME@BUS` -> (`NAME`, `Some(BUS)`): a message of one bus, where the files of two buses
+/// define the name (DBC names cannot contain `@`).
+fn split_bus(name: &str) -> (&str, Option<&str>) {
+    match name.split_once('@') {
+        Some((n, b)) => (n, Some(b)),
+        None => (name, None),
+    }
+}
+
+/// Whether a message on `bus` (`None`: every bus) is on the bus `want` (`None`: any).
+fn on_bus(bus: Option<&str>, want: Option<&str>) -> bool {
+    match (bus, want) {
+        (Some(b), Some(w)) => b == w,
+        _ => true,
+    }
+}
+
+/// Messages whose name matches a glob pattern (`*` = any run of characters, `@BUS` for one
+/// bus), sorted by id.
 pub(super) fn glob_messages<'a>(db: &'a BusDatabase, pattern: &str) -> Vec<BusMessage<'a>> {
     fn matches(p: &[u8], s: &[u8]) -> bool {
         match p.split_first() {
@@ -25,9 +43,10 @@ pub(super) fn glob_messages<'a>(db: &'a BusDatabase, pattern: &str) -> Vec<BusMe
             Some((c, rest)) => s.first() == Some(c) && matches(rest, &s[1..]),
         }
     }
+    let (pattern, want) = split_bus(pattern);
     let mut found: Vec<BusMessage<'a>> = db
         .messages()
-        .filter(|(_, m)| matches(pattern.as_bytes(), m.name.as_bytes()))
+        .filter(|(bus, m)| on_bus(*bus, want) && matches(pattern.as_bytes(), m.name.as_bytes()))
         .collect();
     found.sort_by_key(|(_, m)| m.id);
     found
@@ -38,7 +57,10 @@ fn unique_message<'a>(
     field: &str,
     name: &str,
 ) -> Result<BusMessage<'a>, MapError> {
-    let mut all = db.messages().filter(|(_, m)| m.name == name);
+    let (bare, want) = split_bus(name);
+    let mut all = db
+        .messages()
+        .filter(|(bus, m)| m.name == bare && on_bus(*bus, want));
     let first = all
         .next()
         .ok_or_else(|| field_error(field, format!("message `{name}` is not in the DBC")))?;
@@ -46,7 +68,7 @@ fn unique_message<'a>(
         return Err(field_error(
             field,
             format!(
-                "message `{name}` is defined twice in the DBC files (0x{} on {} and 0x{} on {}): rename one",
+                "message `{name}` is defined twice in the DBC files (0x{} on {} and 0x{} on {}): name its bus, `{bare}@BUS`",
                 first.1.id,
                 super::bus::bus_label(first.0),
                 second.1.id,
@@ -200,11 +222,15 @@ fn message_slot<'a>(
     field: &str,
     name: &str,
 ) -> Result<&'a mut InputMessage, MapError> {
-    if let Some(i) = inputs.iter().position(|m| m.spec.name == name) {
+    let (bus, spec) = unique_message(db, field, name)?;
+    let bus = bus_index(&db.bus_names(), bus);
+    if let Some(i) = inputs
+        .iter()
+        .position(|m| m.spec.name == spec.name && m.bus == bus)
+    {
         return Ok(&mut inputs[i]);
     }
-    let (bus, spec) = unique_message(db, field, name)?;
-    inputs.push(new_input(spec, bus_index(&db.bus_names(), bus)));
+    inputs.push(new_input(spec, bus));
     let last = inputs.len() - 1;
     Ok(&mut inputs[last])
 }
@@ -491,8 +517,9 @@ fn compile_slots(
     let buses = db.bus_names();
     for (slot, (bus, spec)) in specs.iter().enumerate() {
         let companion = companions.as_ref().map(|(c, _)| c[slot]);
-        for (_, s) in std::iter::once((*bus, *spec)).chain(companion) {
-            if inputs.iter().any(|m| m.spec.name == s.name) {
+        for (b, s) in std::iter::once((*bus, *spec)).chain(companion) {
+            let b = bus_index(&buses, b);
+            if inputs.iter().any(|m| m.spec.name == s.name && m.bus == b) {
                 return Err(field_error(
                     "object.slots",
                     format!("message `{}` already carries ego fields", s.name),
