@@ -4,8 +4,9 @@
 //! (every input as simulated: size, lateral speed, heading, acceleration).
 //!
 //! `cargo run -p can-bridge --example toyota_missing_inputs -- [--events N] [--seed S]
-//!  [--model FILE] [--log-out FILE]` prints a Markdown table (docs/can-bridge.md, "What missing
-//! inputs cost"); `--log-out` also writes the two-bus candump log (for `score-log --bench`).
+//!  [--model FILE] [--log-out FILE] [--project-log-out FILE]` prints a Markdown table
+//! (docs/can-bridge.md, "What missing inputs cost"); `--log-out` also writes the two-bus candump
+//! log (for `score-log --bench`), `--project-log-out` the reference's single-bus log.
 //! Only events whose partner the simulated radar sees on every frame up to the reference's first
 //! warning (to the end when it does not warn) are compared: what the radar cannot see is a matter
 //! of its field of view, not of the map.
@@ -135,6 +136,9 @@ fn main() {
     let mut project_log = Vec::new();
     write_candump(&set, &ExportOptions::default(), &mut project_log).unwrap();
     let project_log = String::from_utf8(project_log).unwrap();
+    if let Some(path) = arg("--project-log-out") {
+        std::fs::write(&path, &project_log).unwrap();
+    }
     let project_map = CompiledMap::project_default().unwrap().1;
     let reference = onsets(&model, threshold, project_map, &project_log, &layout);
 
