@@ -14,7 +14,7 @@ fi
 
 need_targets=()
 if [ "$want_test" = test ]; then
-  for t in thumbv7em-none-eabihf x86_64-unknown-linux-musl; do
+  for t in thumbv7em-none-eabihf; do
     rustup target list --installed 2>/dev/null | grep -qx "$t" || need_targets+=("$t")
   done
   for c in rustfmt clippy; do

@@ -4,7 +4,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh test
 
-step() { printf '\n==> %s\n' "$*"; }
+# Each step line also says how long the previous one took, so a CI log shows where the time went.
+suite_start=$SECONDS step_start=$SECONDS
+step() {
+  printf '\n[%s; previous step %ds, total %ds]\n==> %s\n' "$(date +%H:%M:%S)" $((SECONDS - step_start)) \
+    $((SECONDS - suite_start)) "$*"
+  step_start=$SECONDS
+}
 
 # Expected times are for a cold clean clone on a 2-core machine (docs/benchmarks.md); a warm run
 # takes a fraction. Cargo prints one line per crate it compiles, so a cold run is never silent.
@@ -26,10 +32,11 @@ cargo test --workspace --no-run
 step "cargo test: running the workspace tests (about 3-5 min)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
 
-step "vcan VM tests: SocketCAN in QEMU (cold about 7 min, Debian kernel cached in .cache/vm)"
+step "vcan VM tests: SocketCAN in QEMU (about 1-2 min; the first run downloads the Debian kernel into .cache/vm)"
 tests/vm/run.sh
 
 # One closing line over every cargo test binary (the VM and firmware checks above fail the run on
 # their own).
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i) ~ /^passed;?$/) p += $(i-1); if ($(i) ~ /^failed;?$/) f += $(i-1) } }
      END { printf "\ncargo tests: %d passed, %d failed\n", p, f }' target/test-output.txt
+printf 'vcan VM step %ds; whole suite %ds\n' $((SECONDS - step_start)) $((SECONDS - suite_start))

@@ -36,7 +36,8 @@ fi
 
 if [ "$what" = vcan ] || [ "$what" = all ]; then
   vm_check_tools
-  cp "$(vm_build_bridge release)" "$SHARE/bin/can-bridge"
+  cargo build --quiet --release -p can-bridge --no-default-features --bin can-bridge
+  vm_stage_binary target/release/can-bridge "$SHARE"
   vm_kernel
   vm_initramfs
   cp tests/vm/bench-guest.sh "$SHARE/guest.sh"

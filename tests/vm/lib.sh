@@ -1,8 +1,11 @@
-# Shared by tests/vm/run.sh and tests/vm/bench.sh: tools, static build, kernel cache, initramfs,
-# and booting the VM on a share directory. Source it from the repository root.
+# Shared by tests/vm/run.sh and tests/vm/bench.sh: tools, the bridge binary, kernel cache,
+# initramfs, and booting the VM on a share directory. Source it from the repository root.
 # Caches: .cache/vm/ (kernel .deb contents, initramfs; gitignored). Per-run files: target/vm/.
+#
+# The guest runs the host's own (glibc, dynamically linked) can-bridge build: the initramfs carries
+# the shared libraries it links, copied from the host at their absolute paths. A static musl build
+# would compile the bridge's whole dependency tree a second time (about 4 min of a cold CI run).
 
-VM_TARGET=x86_64-unknown-linux-musl
 VM_CACHE=${VM_CACHE:-$PWD/.cache/vm}
 VM_TIMEOUT=${VM_TIMEOUT:-240}
 
@@ -11,24 +14,26 @@ vm_fail() { printf 'vm: FAIL: %s\n' "$*" >&2; exit 1; }
 
 vm_check_tools() {
   local missing=()
-  for t in qemu-system-x86_64 cpio gzip dpkg-deb apt-get timeout; do
+  for t in qemu-system-x86_64 cpio gzip dpkg-deb apt-get timeout ldd strip; do
     command -v "$t" >/dev/null 2>&1 || missing+=("$t")
   done
   [ -x /bin/busybox ] || missing+=("busybox-static")
   [ ${#missing[@]} -eq 0 ] || vm_fail "missing tools: ${missing[*]} (run scripts/setup.sh test)"
-  if ! rustup target list --installed 2>/dev/null | grep -qx "$VM_TARGET"; then
-    vm_say "adding rust target $VM_TARGET"
-    rustup target add "$VM_TARGET" >/dev/null 2>&1 || vm_fail "rustup target add $VM_TARGET failed"
-  fi
 }
 
-# Builds the static bridge binary (release when $1 = release) and echoes its path.
-vm_build_bridge() {
-  local profile=${1:-debug} flags=()
-  [ "$profile" = release ] && flags=(--release)
-  cargo build --quiet -p can-bridge --no-default-features --bin can-bridge \
-    --target "$VM_TARGET" "${flags[@]}" >&2 || vm_fail "static build of can-bridge failed"
-  echo "target/$VM_TARGET/$profile/can-bridge"
+# Copies host binary $1 into share directory $2 as bin/NAME, without debug info (the guest reads it
+# over 9p under TCG), and records the shared libraries it needs for vm_initramfs in VM_LIBS.
+vm_stage_binary() {
+  local bin=$1 share=$2 name
+  name=$(basename "$bin")
+  mkdir -p "$share/bin"
+  strip --strip-debug -o "$share/bin/$name" "$bin" || vm_fail "cannot copy $bin into the VM share"
+  # ldd prints "libX => /path (addr)" and "/lib64/ld-linux... (addr)"; take every absolute path.
+  local libs
+  libs=$(ldd "$bin" 2>/dev/null | grep -o '/[^ ]*' | sort -u) || true
+  VM_LIBS=()
+  local lib
+  for lib in $libs; do VM_LIBS+=("$lib"); done
 }
 
 # Downloads (once) the Debian kernel and the modules the VM needs; sets VM_KERNEL and VM_MODULES.
@@ -68,10 +73,11 @@ vm_kernel() {
   VM_MODULES="$dir/modules"
 }
 
-# Builds (once per init script + module set) the initramfs; sets VM_INITRD.
+# Builds (once per init script + module set + runtime libraries) the initramfs; sets VM_INITRD.
+# Call vm_stage_binary first: the libraries in VM_LIBS go into the image at their host paths.
 vm_initramfs() {
   local key
-  key=$( (cat tests/vm/init; ls "$VM_MODULES"; md5sum /bin/busybox) | md5sum | cut -c1-12)
+  key=$( (cat tests/vm/init; ls "$VM_MODULES"; md5sum /bin/busybox "${VM_LIBS[@]}") | md5sum | cut -c1-12)
   VM_INITRD="$VM_CACHE/initramfs-$key.cpio.gz"
   [ -f "$VM_INITRD" ] && return 0
   local root="$VM_CACHE/initramfs.$$"
@@ -79,6 +85,11 @@ vm_initramfs() {
   cp /bin/busybox "$root/bin/busybox"
   cp "$VM_MODULES"/*.ko "$root/lib/modules/"
   cp tests/vm/init "$root/init" && chmod 755 "$root/init"
+  local lib
+  for lib in "${VM_LIBS[@]}"; do
+    mkdir -p "$root$(dirname "$lib")"
+    cp -L "$lib" "$root$lib" || vm_fail "cannot copy the runtime library $lib into the initramfs"
+  done
   (cd "$root" && find . | cpio -o -H newc --quiet | gzip -1) > "$VM_INITRD.tmp"
   mv "$VM_INITRD.tmp" "$VM_INITRD" && rm -rf "$root"
 }

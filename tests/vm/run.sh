@@ -20,12 +20,12 @@ vm_check_tools
 SHARE=$PWD/target/vm/run
 rm -rf "$SHARE" && mkdir -p "$SHARE/bin" "$SHARE/fixtures" "$SHARE/out"
 
-vm_say "building (host tools + static can-bridge for $VM_TARGET)"
+vm_say "building (riskctl, can-bridge and the fixture writer; the guest runs this can-bridge)"
 cargo build --quiet -p host-tools --bin riskctl || vm_fail "building riskctl failed"
 cargo build --quiet -p can-bridge --bin can-bridge --example vm_fixtures || vm_fail "building can-bridge failed"
 RISKCTL=target/debug/riskctl
 BRIDGE=target/debug/can-bridge
-cp "$(vm_build_bridge debug)" "$SHARE/bin/can-bridge"
+vm_stage_binary "$BRIDGE" "$SHARE"
 
 vm_say "simulating a drive and encoding it as CAN traffic"
 FIX=$SHARE/fixtures
