@@ -241,7 +241,14 @@ pub fn check(
         other => losses.handle(&other),
     };
     let log_report = for_each_frame(log, |line_no, rec| {
-        engine.process_from(rec.timestamp_us, &rec.frame, line_no as u64, &mut collect);
+        let bus = engine.map().bus_of(rec.iface);
+        engine.process_on_bus(
+            rec.timestamp_us,
+            &rec.frame,
+            bus,
+            line_no as u64,
+            &mut collect,
+        );
     })?;
     engine.finish(&mut collect);
     if log_report.frames == 0 {

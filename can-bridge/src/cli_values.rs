@@ -55,6 +55,16 @@ pub fn ms(s: &str) -> Result<u64, String> {
     }
 }
 
+/// Milliseconds in `0..=1000` (how long `live` lets a frame wait for the other interfaces).
+pub fn merge_wait_ms(s: &str) -> Result<u64, String> {
+    let v: u64 = number(s)?;
+    if v <= 1000 {
+        Ok(v)
+    } else {
+        Err(format!("{v} ms is above 1000 ms"))
+    }
+}
+
 /// Seconds, finite, in `(0, MAX_SECONDS]`.
 pub fn positive_seconds(s: &str) -> Result<f64, String> {
     let v: f64 = number(s)?;

@@ -100,7 +100,7 @@ fn main() -> ExitCode {
 
 #[cfg(feature = "check")]
 fn writes_check_outputs(c: &Command) -> bool {
-    matches!(c, Command::Check(_))
+    matches!(c, Command::Check(_) | Command::Decode(_))
 }
 
 #[cfg(not(feature = "check"))]

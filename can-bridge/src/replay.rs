@@ -68,6 +68,8 @@ pub enum Paced {
         at: Duration,
         line: u64,
         frame: Frame,
+        /// Index of the interface to send on.
+        port: usize,
     },
     /// The frame of `line` is not sent.
     Drop {
@@ -83,7 +85,7 @@ pub enum Paced {
 #[derive(Debug)]
 pub struct Pacer {
     rate: Rate,
-    timeline: Timeline<(Frame, u64)>,
+    timeline: Timeline<(Frame, u64, usize)>,
     /// Log time and replay offset of the current segment's first frame.
     anchor: Option<(u64, Duration)>,
     /// Latest send time scheduled so far.
@@ -103,7 +105,19 @@ impl Pacer {
     /// Decides on the frame of `line` stamped `t_us`; `out` gets what to send or drop now (a held
     /// frame is decided later, together with the frames that confirm or refute its jump).
     pub fn admit(&mut self, t_us: u64, frame: &Frame, line: u64, out: &mut impl FnMut(Paced)) {
-        let step = self.timeline.admit(t_us, &(*frame, line));
+        self.admit_on(t_us, frame, line, 0, out);
+    }
+
+    /// [`Pacer::admit`] for a frame to be sent on interface `port`.
+    pub fn admit_on(
+        &mut self,
+        t_us: u64,
+        frame: &Frame,
+        line: u64,
+        port: usize,
+        out: &mut impl FnMut(Paced),
+    ) {
+        let step = self.timeline.admit(t_us, &(*frame, line, port));
         self.drop_off_timeline(&step.dropped, out);
         match step.action {
             Action::Process => {
@@ -112,6 +126,7 @@ impl Pacer {
                     at,
                     line,
                     frame: *frame,
+                    port,
                 });
             }
             Action::Late { newest_us } => out(Paced::Drop {
@@ -127,12 +142,13 @@ impl Pacer {
                 // The new segment plays on from the last frame sent, with its own timing.
                 self.anchor = Some((held[0].0, self.last_at));
                 out(Paced::NewSegment { t_us: held[0].0 });
-                for (t, (f, l)) in held {
+                for (t, (f, l, port)) in held {
                     let at = self.schedule(t);
                     out(Paced::Send {
                         at,
                         line: l,
                         frame: f,
+                        port,
                     });
                 }
             }
@@ -145,9 +161,13 @@ impl Pacer {
         self.drop_off_timeline(&held, out);
     }
 
-    fn drop_off_timeline(&self, dropped: &[(u64, (Frame, u64))], out: &mut impl FnMut(Paced)) {
+    fn drop_off_timeline(
+        &self,
+        dropped: &[(u64, (Frame, u64, usize))],
+        out: &mut impl FnMut(Paced),
+    ) {
         let newest = self.timeline.newest_us().unwrap_or(0);
-        for (t, (f, line)) in dropped {
+        for (t, (f, line, _)) in dropped {
             out(Paced::Drop {
                 line: *line,
                 kind: LossKind::OffTimeline,
@@ -194,16 +214,9 @@ fn wait_until(deadline: Instant) {
     }
 }
 
-/// Replays `log` onto `iface`.
-pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, ReplayError> {
-    let read_err = |cause| ReplayError::Read {
-        path: log.display().to_string(),
-        cause,
-    };
-    let file = std::fs::File::open(log).map_err(read_err)?;
-    let reader = std::io::BufReader::with_capacity(1 << 20, file);
+/// Opens a send-only socket on `iface`.
+fn open_sender(iface: &str) -> Result<socketcan::CanFdSocket, SocketError> {
     let sock = socket::open(iface)?;
-    // This socket only sends: receive nothing.
     let no_filters: [socketcan::CanFilter; 0] = [];
     socketcan::SocketOptions::set_filters(&sock, &no_filters).map_err(|cause| {
         SocketError::Setup {
@@ -212,12 +225,33 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
             cause,
         }
     })?;
+    Ok(sock)
+}
+
+/// Replays `log` onto `ifaces`: with one, every frame goes to it; with several, each frame goes
+/// to the interface its line names (a line naming another is not sent, and counted).
+pub fn replay(log: &Path, ifaces: &[String], rate: Rate) -> Result<ReplaySummary, ReplayError> {
+    let read_err = |cause| ReplayError::Read {
+        path: log.display().to_string(),
+        cause,
+    };
+    let file = std::fs::File::open(log).map_err(read_err)?;
+    let reader = std::io::BufReader::with_capacity(1 << 20, file);
+    let socks = ifaces
+        .iter()
+        .map(|i| open_sender(i))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut summary = ReplaySummary::default();
     let mut pacer = Pacer::new(rate);
     let start = Instant::now();
     let mut fatal: Option<SocketError> = None;
     let mut act = |p: Paced, summary: &mut ReplaySummary| match p {
-        Paced::Send { at, line, frame } => {
+        Paced::Send {
+            at,
+            line,
+            frame,
+            port,
+        } => {
             if fatal.is_some() {
                 return;
             }
@@ -233,7 +267,7 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
                 });
                 return;
             };
-            match socket::send(&sock, iface, &frame) {
+            match socket::send(&socks[port], &ifaces[port], &frame) {
                 Ok(()) => summary.sent += 1,
                 Err(SocketError::Io { cause, .. }) => summary
                     .losses
@@ -247,9 +281,23 @@ pub fn replay(log: &Path, iface: &str, rate: Rate) -> Result<ReplaySummary, Repl
         Paced::NewSegment { .. } => summary.segments += 1,
     };
     let log_report = for_each_frame_in(reader, |line_no, rec| {
-        pacer.admit(rec.timestamp_us, &rec.frame, line_no as u64, &mut |p| {
-            act(p, &mut summary)
-        });
+        let port = if ifaces.len() == 1 {
+            Some(0)
+        } else {
+            ifaces.iter().position(|i| i == rec.iface)
+        };
+        match port {
+            Some(port) => pacer.admit_on(
+                rec.timestamp_us,
+                &rec.frame,
+                line_no as u64,
+                port,
+                &mut |p| act(p, &mut summary),
+            ),
+            None => summary.losses.record(line_no as u64, NOT_SENT, || {
+                format!("interface {} is not one of --iface: not sent", rec.iface)
+            }),
+        }
     })
     .map_err(read_err)?;
     pacer.finish(&mut |p| act(p, &mut summary));
@@ -308,6 +356,37 @@ mod tests {
     /// Ten frames 100 ms apart from `t`.
     fn cycle(t: u64) -> Vec<u64> {
         (0..10).map(|k| t + k * 100_000).collect()
+    }
+
+    #[test]
+    fn each_frame_keeps_its_interface_also_when_held_for_a_jump() {
+        let mut p = Pacer::new(Rate::Max);
+        let mut out = Vec::new();
+        // A jump of 200 s ahead, confirmed by the frames after it: held, then sent.
+        let stamps = [
+            1_000_000u64,
+            1_001_000,
+            201_000_000,
+            201_001_000,
+            201_002_000,
+            201_003_000,
+        ];
+        for (i, t) in stamps.iter().enumerate() {
+            p.admit_on(*t, &frame(), i as u64 + 1, i % 2, &mut |x| out.push(x));
+        }
+        p.finish(&mut |x| out.push(x));
+        let ports: Vec<(u64, usize)> = out
+            .iter()
+            .filter_map(|x| match x {
+                Paced::Send { line, port, .. } => Some((*line, *port)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(ports.len(), 6);
+        assert!(out.iter().any(|x| matches!(x, Paced::NewSegment { .. })));
+        for (line, port) in ports {
+            assert_eq!(port, (line as usize - 1) % 2, "line {line}");
+        }
     }
 
     #[test]

@@ -138,6 +138,40 @@ fn live_on_a_missing_interface_exits_2_with_a_clear_message() {
 }
 
 #[test]
+fn live_on_several_interfaces_names_the_missing_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let out = bridge()
+        .args(["live", "--iface", "rskcan-none1", "--iface", "rskcan-none2"])
+        .args(["--merge-wait-ms", "5", "--duration", "1", "--model"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("interface rskcan-none1"), "{stderr}");
+    // The wait is checked when parsed.
+    let out = bridge()
+        .args([
+            "live",
+            "--iface",
+            "vcan0",
+            "--merge-wait-ms",
+            "5000",
+            "--model",
+        ])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn bad_map_is_refused_naming_the_field() {
     let tmp = tempfile::tempdir().unwrap();
     let model = write_model(tmp.path());

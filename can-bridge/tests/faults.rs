@@ -1,5 +1,5 @@
 //! The fault suite of issue #21 for `can-bridge`: every option that writes a file (`score-log
-//! --warnings-out/--events-out`, `check --decoded-events-out/--per-event-out`; `monitor --out` is
+//! --warnings-out/--events-out`, `check --decoded-events-out/--per-event-out`, `decode --out`; `monitor --out` is
 //! a live capture and not here) against the matrix of riskctl's suite (the harness is shared:
 //! `host-tools/tests/fault_harness`): output = each input in four spellings, a missing input, a
 //! second writer, a full disk and a read-only folder (tmpfs, root only), Ctrl-C in the middle.
@@ -67,6 +67,22 @@ const WRITERS: &[Writer] = &[
             "check --log long.log --events long --model m.rsk --per-event-out OUT",
             Streams::No,
         )),
+    },
+    Writer {
+        name: "decode --out (CSV)",
+        args: "decode --log drive.log --model m.rsk --dbc bus.dbc --map bus.toml --out OUT",
+        out: "states.csv",
+        inputs: &["drive.log", "m.rsk", "bus.dbc", "bus.toml"],
+        lock: "OUT",
+        long: Some(("decode --log long.log --model m.rsk --out OUT", Streams::Yes)),
+    },
+    Writer {
+        name: "decode --out (Parquet)",
+        args: "decode --log drive.log --dbc bus.dbc --map bus.toml --out OUT",
+        out: "states.parquet",
+        inputs: &["drive.log", "bus.dbc", "bus.toml"],
+        lock: "OUT",
+        long: None,
     },
 ];
 

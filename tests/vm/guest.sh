@@ -67,6 +67,23 @@ echo $? > "$O/radar-replay.rc"
 wait $BR; echo $? > "$O/radar-bridge.rc"
 wait $MON; echo $? > "$O/radar-monitor.rc"
 
+echo "guest: 3c. two buses: ego messages on vcan0, objects on vcan1 (DBCs bound), live on both"
+ip link add dev vcan1 type vcan && ip link set up vcan1 || echo "guest: cannot create vcan1"
+TB="--dbc vcan0=$F/ego.dbc --dbc vcan1=$F/objects.dbc"
+# shellcheck disable=SC2086
+$B monitor --iface vcan1 $TB --out "$O/twobus-warnings.log" --idle-exit 3 --strict 2> "$O/twobus-monitor.err" &
+MON=$!
+# shellcheck disable=SC2086
+$B live --iface vcan0 --iface vcan1 $TB --model "$F/model.rsk" --threshold "$T" --min-on-ms 0 \
+   --events-out "$O/twobus-events.jsonl" --idle-exit 3 --no-status 2> "$O/twobus-bridge.err" &
+BR=$!
+wait_for "$O/twobus-monitor.err" "listening" && wait_for "$O/twobus-bridge.err" "listening on vcan1"
+$B replay --log "$F/two-bus.log" --iface vcan0 --iface vcan1 --rate "$RATE" 2> "$O/twobus-replay.err"
+echo $? > "$O/twobus-replay.rc"
+wait $BR; echo $? > "$O/twobus-bridge.rc"
+wait $MON; echo $? > "$O/twobus-monitor.rc"
+ip link del dev vcan1
+
 echo "guest: 4. the interface disappears under the live bridge"
 $B live --iface vcan0 --model "$F/model.rsk" --no-status > /dev/null 2> "$O/gone.err" &
 BR=$!

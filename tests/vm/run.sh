@@ -52,6 +52,18 @@ RT=$("$BRIDGE" score-log --log "$FIX/honda_nidec.log" --model "$FIX/model.rsk" "
     END { first = 1; for (k in m) if (first || m[k] < lo) { lo = m[k]; first = 0 }; print 0.9 * lo }')
 echo "$RT" > "$FIX/radar-threshold.txt"
 
+# Two buses: the drive's ego messages on vcan0 and its object messages on vcan1, the project DBC
+# split into one file per bus (bound with --dbc BUS=FILE); noise on each bus with the other bus's
+# ids and garbage payloads must not reach the engine (unbound, it would corrupt the ego speed).
+awk 'BEGIN { RS = ""; ORS = "\n\n" } /^BO_ 25[67] / || !/^(BO_|CM_|VAL_|SIG_VALTYPE_|BA_)/' \
+  can-bridge/dbc/riskscore.dbc > "$FIX/ego.dbc"
+awk 'BEGIN { RS = ""; ORS = "\n\n" } !/^BO_ 25[67] /' can-bridge/dbc/riskscore.dbc \
+  | grep -v '^CM_ BO_ 25[67] ' > "$FIX/objects.dbc"
+awk '{ split($3, a, "#"); $2 = (a[1] == "100" || a[1] == "101") ? "vcan0" : "vcan1"; print
+  if (a[1] == "100") { print $1 " vcan1 100#FFFFFFFFFFFFFFFF"; print $1 " vcan0 201#FFFFFFFFFFFFFFFF" } }' \
+  "$FIX/drive.log" > "$FIX/two-bus.log"
+TWOBUS=(--dbc "vcan0=$FIX/ego.dbc" --dbc "vcan1=$FIX/objects.dbc")
+
 vm_kernel
 vm_initramfs
 cp tests/vm/guest.sh "$SHARE/guest.sh"
@@ -136,6 +148,22 @@ check "real radar map: each track's live warning events == offline (on/off, leve
   bash -c "grep -q new_object '$O/radar-offline-events.jsonl' && cmp -s <(events_by_track '$O/radar-offline-events.jsonl') <(events_by_track '$O/radar-events.jsonl')"
 check "real radar map: start-up report names the derived lateral speed" \
   grep -q "object.vel_y: DERIVED" "$O/radar-bridge.err"
+
+# 3c. two buses, live on both interfaces == offline on the same log
+"$BRIDGE" score-log --log "$FIX/two-bus.log" --model "$FIX/model.rsk" "${TWOBUS[@]}" --threshold "$T" \
+  --min-on-ms 0 --warnings-out "$O/twobus-offline-warnings.log" --warnings-iface vcan1 \
+  --events-out "$O/twobus-offline-events.jsonl" 2> "$O/twobus-offline.err" \
+  || vm_fail "offline score-log of the two-bus log failed: $(tail -n 3 "$O/twobus-offline.err")"
+check "two buses offline: the noise is unknown ids, the warnings are the single-bus log's" \
+  bash -c "grep -q ' 0 decode errors, 0 stale drops' '$O/twobus-offline.err' && grep -Eq ' [1-9][0-9]* unknown ids' '$O/twobus-offline.err' && cmp -s <(awk '{print \$3}' '$O/offline-warnings.log') <(awk '{print \$3}' '$O/twobus-offline-warnings.log')"
+check "two buses: replay on vcan0 + vcan1, live bridge on both and monitor exited cleanly (E2E verified)" \
+  bash -c "[ \"$(rc twobus-replay)\" = 0 ] && [ \"$(rc twobus-bridge)\" = 0 ] && [ \"$(rc twobus-monitor)\" = 0 ]"
+check "two buses: one timeline live (0 reordered, 0 decode errors; kernel filters kept the noise away)" \
+  bash -c "grep -q ' 0 decode errors' '$O/twobus-bridge.err' && grep -q ' 0 reordered' '$O/twobus-bridge.err' && grep -q ' 0 unknown ids' '$O/twobus-bridge.err'"
+check "two buses: live warning frames over vcan1 == offline (payload, counter and CRC)" \
+  cmp -s <(frames_of "$O/twobus-offline-warnings.log") <(frames_of "$O/twobus-warnings.log")
+check "two buses: live warning events == offline (track, score, on/off, reason)" \
+  cmp -s <(events_without_time "$O/twobus-offline-events.jsonl" | sort) <(events_without_time "$O/twobus-events.jsonl" | sort)
 
 # 4./5. interface gone / missing
 check "interface deleted under the bridge: exit 2, clear message" \

@@ -48,9 +48,13 @@ pub struct ScoringArgs {
 
 #[derive(Args, Debug)]
 pub struct LiveArgs {
-    /// SocketCAN interface, e.g. can0 or vcan0.
-    #[arg(long)]
-    pub iface: String,
+    /// SocketCAN interface, e.g. can0 or vcan0; repeat for several buses (one timeline).
+    #[arg(long, required = true)]
+    pub iface: Vec<String>,
+    /// Several interfaces: how long (ms) a frame waits for the other interfaces to pass its
+    /// timestamp before it is processed anyway (0..=1000).
+    #[arg(long, default_value_t = 20, value_parser = cli_values::merge_wait_ms)]
+    pub merge_wait_ms: u64,
     #[command(flatten)]
     pub scoring: ScoringArgs,
     /// Write JSON Lines warning events here instead of stdout.
@@ -78,9 +82,9 @@ pub struct ReplayArgs {
     /// candump -L log to send.
     #[arg(long)]
     pub log: PathBuf,
-    /// Interface to send on.
-    #[arg(long)]
-    pub iface: String,
+    /// Interface to send on; repeat for several: each line goes to the interface it names.
+    #[arg(long, required = true)]
+    pub iface: Vec<String>,
     /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
     #[arg(long, default_value = "1.0")]
     pub rate: replay::Rate,

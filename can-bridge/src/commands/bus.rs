@@ -36,7 +36,8 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
     let mut events = open_events(&args.events_out, args.all_scores, false)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     let opts = live::LiveOptions {
-        iface: args.iface.clone(),
+        ifaces: args.iface.clone(),
+        merge_wait: Duration::from_millis(args.merge_wait_ms),
         status_every: Duration::from_secs_f64(args.status_every.max(0.05)),
         duration: secs(args.duration),
         idle_exit: secs(args.idle_exit),
@@ -44,7 +45,7 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
     };
     eprintln!(
         "can-bridge: live on {} with {} ({}), threshold {}",
-        args.iface,
+        args.iface.join(" + "),
         args.scoring.model.display(),
         model_file.kind().name(),
         config.threshold

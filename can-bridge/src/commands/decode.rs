@@ -75,8 +75,9 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         cause,
     })?;
     engine.finish(&mut handle);
+    let out_path = (!to_stdout).then_some(args.out.as_path());
     let columnar = |e: riskscore_eval::parquet_io::ColumnarError| {
-        writing("--out")(std::io::Error::other(e.to_string()))
+        writing("--out", out_path)(std::io::Error::other(e.to_string()))
     };
     if let Some(e) = table_error {
         return Err(columnar(e));
@@ -98,7 +99,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     problems.sanity.print("decode");
     losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(f) = file {
-        f.commit().map_err(writing("--out"))?;
+        f.commit().map_err(writing("--out", out_path))?;
     }
     Ok(())
 }

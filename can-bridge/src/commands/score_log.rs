@@ -67,9 +67,12 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     };
     let report = logfile::for_each_frame(&args.log, |line_no, rec| {
         let frame_start = bench.then(Instant::now);
-        engine.process_from(
+        // Frames are routed to their bus by the log's interface name.
+        let bus = engine.map().bus_of(rec.iface);
+        engine.process_on_bus(
             rec.timestamp_us,
             &rec.frame,
+            bus,
             line_no as u64,
             &mut |o: Output| handle(o, frame_start),
         );

@@ -3,11 +3,10 @@
 use super::ScoringArgs;
 use crate::engine::{EngineConfig, Stats};
 use crate::events_out::{EventWriter, Sink};
-use crate::map::{CompiledMap, MapError, MapFile, DEFAULT_MAP};
+use crate::map::{BusDatabase, BusPart, Clash, CompiledMap, MapError, MapFile, DEFAULT_MAP};
 use crate::model_file::{ModelFile, ModelFileError};
-use can_codec::{CanId, Database, DbcError, DbcFileError};
+use can_codec::{Database, DbcError, DbcFileError};
 use riskscore_output::{AtomicFile, NamedPath};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// The project DBC, compiled in, as a `--dbc` argument.
@@ -20,18 +19,8 @@ pub enum SetupError {
     ProjectDbc(#[source] DbcError),
     #[error(transparent)]
     DbcFile(#[from] DbcFileError),
-    #[error(
-        "message id 0x{id} is defined twice: `{first}` in {first_file} and `{second}` in {second_file}"
-    )]
-    DuplicateId {
-        id: CanId,
-        first: String,
-        first_file: String,
-        second: String,
-        second_file: String,
-    },
-    #[error("message id 0x{0} is defined twice")]
-    Merge(CanId),
+    #[error("{}", clash_text(.0))]
+    Clashes(Vec<Clash>),
     #[error("reading map {path}")]
     ReadMap {
         path: String,
@@ -65,6 +54,16 @@ pub enum SetupError {
     },
 }
 
+fn clash_text(clashes: &[Clash]) -> String {
+    let list: Vec<String> = clashes.iter().map(Clash::to_string).collect();
+    format!(
+        "{} message {} defined twice on one bus: {}; files of different buses: bind each to its bus (`--dbc can0=radar.dbc --dbc can1=powertrain.dbc`, or the map's [bus] table)",
+        clashes.len(),
+        if clashes.len() == 1 { "id is" } else { "ids are" },
+        list.join("; ")
+    )
+}
+
 /// A file could not be created.
 pub fn creating(path: &Path) -> impl FnOnce(std::io::Error) -> SetupError + '_ {
     move |cause| SetupError::Create {
@@ -73,44 +72,93 @@ pub fn creating(path: &Path) -> impl FnOnce(std::io::Error) -> SetupError + '_ {
     }
 }
 
-/// Every `--dbc` file as one database; an id defined in two files names both.
-pub fn load_dbcs(paths: &[PathBuf]) -> Result<Database, SetupError> {
-    let builtin = [PathBuf::from(BUILTIN_DBC)];
-    let paths = if paths.is_empty() {
-        &builtin[..]
-    } else {
-        paths
-    };
-    let mut db = Database::default();
-    let mut origin: HashMap<CanId, (String, &PathBuf)> = HashMap::new();
-    for p in paths {
-        let one = if p.as_os_str() == BUILTIN_DBC {
-            Database::parse(can_codec::project::PROJECT_DBC).map_err(SetupError::ProjectDbc)?
-        } else {
-            Database::load(p)?
-        };
-        for m in &one.messages {
-            if let Some((name, first)) = origin.get(&m.id) {
-                return Err(SetupError::DuplicateId {
-                    id: m.id,
-                    first: name.clone(),
-                    first_file: first.display().to_string(),
-                    second: m.name.clone(),
-                    second_file: p.display().to_string(),
-                });
-            }
+/// A `--dbc` argument: `FILE` (every bus) or `BUS=FILE` (the interface the file's messages are
+/// on). A path with `=` in its first component that is not meant as a bus: write it `./a=b.dbc`.
+pub fn dbc_binding(arg: &Path) -> (Option<&str>, &Path) {
+    if let Some((bus, file)) = arg.to_str().and_then(|t| t.split_once('=')) {
+        let is_iface = !bus.is_empty()
+            && bus.len() <= 15
+            && bus
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+        if is_iface && !file.is_empty() {
+            return (Some(bus), Path::new(file));
         }
-        for m in &one.messages {
-            origin.insert(m.id, (m.name.clone(), p));
-        }
-        db.merge(one).map_err(SetupError::Merge)?;
     }
-    Ok(db)
+    (None, arg)
 }
 
-/// The map of `--map` (or the project's) compiled against the `--dbc` files.
+fn load_one(path: &Path) -> Result<Database, SetupError> {
+    if path.as_os_str() == BUILTIN_DBC {
+        Database::parse(can_codec::project::PROJECT_DBC).map_err(SetupError::ProjectDbc)
+    } else {
+        Ok(Database::load(path)?)
+    }
+}
+
+/// The DBC files of the vehicle, each bound to its bus or to every bus; every id defined twice
+/// on one bus is named, all at once.
+pub fn load_dbcs(files: &[(Option<String>, PathBuf)]) -> Result<BusDatabase, SetupError> {
+    let builtin = [(None, PathBuf::from(BUILTIN_DBC))];
+    let files = if files.is_empty() {
+        &builtin[..]
+    } else {
+        files
+    };
+    let mut all = BusDatabase::default();
+    let mut clashes = Vec::new();
+    for (bus, path) in files {
+        let part = BusPart {
+            bus: bus.clone(),
+            origin: path.display().to_string(),
+            db: load_one(path)?,
+        };
+        if let Err(mut c) = all.add(part) {
+            clashes.append(&mut c);
+        }
+    }
+    if clashes.is_empty() {
+        Ok(all)
+    } else {
+        Err(SetupError::Clashes(clashes))
+    }
+}
+
+/// The DBC files of a run: `--dbc` (each `FILE` or `BUS=FILE`), else the map's `[bus]` table
+/// (paths relative to the map file), else the project DBC.
+pub fn dbc_files(args: &ScoringArgs, map: Option<&MapFile>) -> Vec<(Option<String>, PathBuf)> {
+    if !args.dbc.is_empty() {
+        return args
+            .dbc
+            .iter()
+            .map(|p| {
+                let (bus, file) = dbc_binding(p);
+                (bus.map(str::to_string), file.to_path_buf())
+            })
+            .collect();
+    }
+    let dir = args
+        .map
+        .as_ref()
+        .and_then(|p| p.parent())
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    let mut files = Vec::new();
+    for (bus, list) in map.map(|m| &m.bus).into_iter().flatten() {
+        for f in list {
+            let path = if f == BUILTIN_DBC {
+                PathBuf::from(f)
+            } else {
+                dir.join(f)
+            };
+            files.push((Some(bus.clone()), path));
+        }
+    }
+    files
+}
+
+/// The map of `--map` (or the project's) compiled against the DBC files of [`dbc_files`].
 pub fn load_map(args: &ScoringArgs) -> Result<CompiledMap, SetupError> {
-    let db = load_dbcs(&args.dbc)?;
     let map = match &args.map {
         Some(p) => {
             let path = || p.display().to_string();
@@ -125,19 +173,19 @@ pub fn load_map(args: &ScoringArgs) -> Result<CompiledMap, SetupError> {
         }
         None => MapFile::parse(DEFAULT_MAP).map_err(SetupError::DefaultMap)?,
     };
-    CompiledMap::compile(&map, &db).map_err(|cause| SetupError::Compile {
+    if !args.dbc.is_empty() && !map.bus.is_empty() {
+        eprintln!("can-bridge: --dbc given: the map's [bus] table is not used");
+    }
+    let db = load_dbcs(&dbc_files(args, Some(&map)))?;
+    CompiledMap::compile_on(&map, &db).map_err(|cause| SetupError::Compile {
         map: args
             .map
             .as_ref()
             .map_or("(default)".into(), |p| p.display().to_string()),
-        dbc: if args.dbc.is_empty() {
+        dbc: if db.parts.len() == 1 && db.parts[0].origin == BUILTIN_DBC {
             "(project)".to_string()
         } else {
-            args.dbc
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(" + ")
+            db.describe()
         },
         cause,
     })
@@ -195,8 +243,11 @@ pub fn open_events(
 /// The files a scoring command reads, named by their option.
 pub fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
     let mut v: Vec<NamedPath<'_>> = vec![("--model", args.model.as_path())];
-    for p in args.dbc.iter().filter(|p| p.as_os_str() != BUILTIN_DBC) {
-        v.push(("--dbc", p.as_path()));
+    for p in &args.dbc {
+        let (_, file) = dbc_binding(p);
+        if file.as_os_str() != BUILTIN_DBC {
+            v.push(("--dbc", file));
+        }
     }
     if let Some(p) = &args.map {
         v.push(("--map", p.as_path()));
@@ -207,10 +258,10 @@ pub fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
 /// The closing counters of a run, as one line.
 pub fn summary(s: &Stats) -> String {
     format!(
-        "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion",
+        "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion, {} outside the view",
         s.frames, s.scored, s.warning_frames, s.warning_frames_unsent, s.decode_errors, s.stale_drops, s.invalid_objects,
         s.reordered, s.out_of_window, s.segments + 1, s.duplicates, s.unknown_ids, s.remote_frames,
-        s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending
+        s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending, s.outside_view
     )
 }
 

@@ -28,6 +28,8 @@ pub(super) enum Unscored {
     EgoSpeedMissing,
     /// A required object input is missing or stale.
     InputMissing(PartnerField),
+    /// The object is outside the map's field of view.
+    OutsideView,
     /// The velocity derived from the track's motion is not known yet.
     MotionPending,
     /// The state is not finite or has a non-positive size.
@@ -39,7 +41,7 @@ impl Unscored {
     pub fn after_ego_speed(self) -> bool {
         matches!(
             self,
-            Self::InputMissing(_) | Self::MotionPending | Self::BadState
+            Self::InputMissing(_) | Self::OutsideView | Self::MotionPending | Self::BadState
         )
     }
 }
@@ -98,7 +100,11 @@ pub(super) fn assemble(
         }
     }
     track.waiting_reported = false;
-    let (position, line_of_sight) = position(map, value);
+    let (p_sensor, line_of_sight) = sensor_position(map, value);
+    if !map.fov.contains(p_sensor) {
+        return Err(Unscored::OutsideView);
+    }
+    let position = map.mount.place(p_sensor);
     let derive = map.missing_velocity == Some(MissingVelocity::TrackMotion);
     let derived = if derive {
         update_motion(
@@ -107,6 +113,7 @@ pub(super) fn assemble(
             position,
             map.motion_window_us,
             stale_us,
+            ego_value(EgoField::YawRate),
         )
     } else {
         None
@@ -196,7 +203,11 @@ pub(super) fn assemble(
         vy: abs_vy,
         hx,
         hy,
-        acc: accel.unwrap_or(0.0) as f32,
+        acc: match accel {
+            Some(a) if map.accel_relative => (a + ego_acc) as f32,
+            Some(a) => a as f32,
+            None => 0.0,
+        },
         length: partner(PartnerField::Length).map_or(map.partner_defaults.0, |s| s.value as f32),
         width: partner(PartnerField::Width).map_or(map.partner_defaults.1, |s| s.value as f32),
     };
@@ -214,9 +225,9 @@ pub(super) fn assemble(
     })
 }
 
-/// The object's position in the ego frame, and its line of sight from the sensor (polar maps:
-/// `(cos, sin)` of the azimuth) in the sensor frame.
-fn position(
+/// The object's position in the sensor frame, and its line of sight from the sensor (polar maps:
+/// `(cos, sin)` of the azimuth).
+fn sensor_position(
     map: &CompiledMap,
     value: impl Fn(PartnerField) -> Option<f64>,
 ) -> ((f64, f64), Option<(f64, f64)>) {
@@ -235,7 +246,7 @@ fn position(
             ((r * c, r * s), Some((c, s)))
         }
     };
-    (map.mount.place(p_sensor), line_of_sight)
+    (p_sensor, line_of_sight)
 }
 
 /// The object's velocity in the ego frame, as the map's velocity frame has it: as sent when the

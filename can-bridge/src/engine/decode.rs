@@ -1,6 +1,6 @@
 //! Decoding one frame of a mapped message into the ego and object field values it carries.
 use super::DecodeError;
-use crate::map::{EgoField, InputMessage, PartnerField, EGO_FIELDS, PARTNER_FIELDS};
+use crate::map::{Condition, EgoField, InputMessage, PartnerField, EGO_FIELDS, PARTNER_FIELDS};
 use can_codec::SignalError;
 
 /// The field values of one frame, in the order of the message's field slots.
@@ -70,7 +70,18 @@ pub(super) fn decode_message(msg: &InputMessage, data: &[u8]) -> Result<Decoded,
     };
     d.track = Some(track);
     for slot in &msg.partner {
-        if let Some(v) = read(slot.signal, slot.check_range)? {
+        let value = match &slot.condition {
+            Condition::All(terms) => {
+                // A flag expression: true when every term holds (a multiplexed-out signal: false).
+                let mut all = true;
+                for (signal, cmp) in terms {
+                    all &= read(*signal, false)?.is_some_and(|v| cmp.holds(v));
+                }
+                Some(if all { 1.0 } else { 0.0 })
+            }
+            _ => read(slot.signal, slot.check_range)?,
+        };
+        if let Some(v) = value {
             let v = slot.apply(v);
             d.partner[d.n_partner] = (slot.field, v);
             d.n_partner += 1;

@@ -55,7 +55,10 @@ use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind};
 use decode::decode_message;
 use scorer_core::model::Model;
 use scorer_core::warning::TrackTable;
-use track::{PartnerSlots, Stamped, TrackMap};
+use track::{HeadingRate, PartnerSlots, Stamped, TrackMap};
+
+/// A frame the timeline may hold: the frame, its source (log line) and its bus.
+type HeldFrame = (Frame, u64, Option<u8>);
 
 /// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
 pub struct Engine<'m> {
@@ -66,8 +69,12 @@ pub struct Engine<'m> {
     ego: [Option<Stamped>; EGO_FIELDS],
     partners: TrackMap<PartnerSlots>,
     protector: E2eProtector,
-    /// Each held frame comes with its source (log line), handed back when it is dropped.
-    timeline: Timeline<(Frame, u64)>,
+    /// Each held frame comes with its source (log line) and bus, handed back when it is dropped.
+    timeline: Timeline<HeldFrame>,
+    /// Slot maps: the track each slot last carried (companion messages join it).
+    slot_tracks: Vec<Option<u32>>,
+    /// The ego's heading over the motion window, when the yaw rate is derived from it.
+    heading_rate: Option<HeadingRate>,
     /// Source of the frame being processed.
     source: u64,
     last_cleanup_us: u64,
@@ -91,7 +98,10 @@ impl<'m> Engine<'m> {
             counter_byte: map.warning.counter_byte,
             max_delta: 3,
         });
+        let slot_tracks = vec![None; map.slots];
         Ok(Self {
+            slot_tracks,
+            heading_rate: None,
             model,
             map,
             config,
@@ -141,15 +151,28 @@ impl<'m> Engine<'m> {
         source: u64,
         out: &mut impl FnMut(Output),
     ) {
+        self.process_on_bus(t_us, frame, None, source, out);
+    }
+
+    /// [`Engine::process_from`] for a frame received on `bus` ([`CompiledMap::bus_of`] of its
+    /// interface; `None`: not a bound bus, so only messages of unbound DBC files match).
+    pub fn process_on_bus(
+        &mut self,
+        t_us: u64,
+        frame: &Frame,
+        bus: Option<u8>,
+        source: u64,
+        out: &mut impl FnMut(Output),
+    ) {
         self.stats.frames += 1;
-        let step = self.timeline.admit(t_us, &(*frame, source));
+        let step = self.timeline.admit(t_us, &(*frame, source, bus));
         if !step.dropped.is_empty() {
             self.drop_out_of_window(&step.dropped, out);
         }
         match step.action {
             Action::Process => {
                 self.source = source;
-                self.process_in_order(t_us, frame, out);
+                self.process_in_order(t_us, frame, bus, out);
             }
             Action::Late { newest_us } => {
                 self.stats.reordered += 1;
@@ -169,9 +192,9 @@ impl<'m> Engine<'m> {
             Action::Held => {}
             Action::NewSegment(held) => {
                 self.start_segment(held[0].0, out);
-                for (t, (f, source)) in &held {
+                for (t, (f, source, bus)) in &held {
                     self.source = *source;
-                    self.process_in_order(*t, f, out);
+                    self.process_in_order(*t, f, *bus, out);
                 }
             }
         }
@@ -192,13 +215,9 @@ impl<'m> Engine<'m> {
     }
 
     #[cold]
-    fn drop_out_of_window(
-        &mut self,
-        dropped: &[(u64, (Frame, u64))],
-        out: &mut impl FnMut(Output),
-    ) {
+    fn drop_out_of_window(&mut self, dropped: &[(u64, HeldFrame)], out: &mut impl FnMut(Output)) {
         let newest = self.timeline.newest_us().unwrap_or(0);
-        for (t, (f, source)) in dropped {
+        for (t, (f, source, _)) in dropped {
             self.stats.out_of_window += 1;
             out(Output::Problem {
                 lost: Some(Lost {
@@ -234,6 +253,8 @@ impl<'m> Engine<'m> {
         self.table.expire(u64::MAX);
         self.ego = [None; EGO_FIELDS];
         self.partners.clear();
+        self.slot_tracks.iter_mut().for_each(|s| *s = None);
+        self.heading_rate = None;
         self.last_cleanup_us = t_us;
         self.next_expiry_us = 0;
         out(Output::Problem {
@@ -243,7 +264,13 @@ impl<'m> Engine<'m> {
         });
     }
 
-    fn process_in_order(&mut self, t_us: u64, frame: &Frame, out: &mut impl FnMut(Output)) {
+    fn process_in_order(
+        &mut self,
+        t_us: u64,
+        frame: &Frame,
+        bus: Option<u8>,
+        out: &mut impl FnMut(Output),
+    ) {
         match frame.kind {
             FrameKind::Error { class } => {
                 self.stats.error_frames += 1;
@@ -266,7 +293,7 @@ impl<'m> Engine<'m> {
             }
             FrameKind::Data { .. } | FrameKind::Fd { .. } => {}
         }
-        let Some(index) = self.map.inputs.iter().position(|m| m.spec.id == frame.id) else {
+        let Some(index) = self.map.input_index(frame.id, bus) else {
             self.stats.unknown_ids += 1;
             return;
         };
@@ -297,8 +324,21 @@ impl<'m> Engine<'m> {
                         value: *value,
                         t_us,
                     });
+                    if *field == EgoField::Heading {
+                        self.derive_yaw_rate(t_us, *value);
+                    }
                 }
-                if let Some(track) = decoded.track {
+                let msg = &self.map.inputs[index];
+                let track = match (msg.slot, msg.companion) {
+                    // A companion joins the track its slot carries now.
+                    (Some(slot), true) => self.slot_tracks[slot as usize],
+                    (Some(slot), false) => {
+                        self.slot_tracks[slot as usize] = decoded.track;
+                        decoded.track
+                    }
+                    (None, _) => decoded.track,
+                };
+                if let Some(track) = track {
                     let new_object = decoded.partner[..decoded.n_partner]
                         .iter()
                         .any(|(f, v)| *f == PartnerField::NewTrack && *v != 0.0);
@@ -321,6 +361,25 @@ impl<'m> Engine<'m> {
         }
         if t_us.saturating_sub(self.last_cleanup_us) >= 1_000_000 {
             self.tick(t_us, out);
+        }
+    }
+
+    /// The ego's yaw rate from its heading's change over the motion window, when the map has a
+    /// heading but no yaw rate: stored as the yaw-rate input.
+    fn derive_yaw_rate(&mut self, t_us: u64, heading: f64) {
+        if self.map.has_ego_field[EgoField::YawRate as usize] {
+            return;
+        }
+        let window = self.map.motion_window_us;
+        let rate = track::update_heading_rate(
+            &mut self.heading_rate,
+            t_us,
+            heading,
+            window,
+            self.config.stale_us,
+        );
+        if let Some(value) = rate {
+            self.ego[EgoField::YawRate as usize] = Some(Stamped { value, t_us });
         }
     }
 
@@ -436,6 +495,11 @@ impl<'m> Engine<'m> {
             Unscored::Invalid => {
                 self.stats.invalid_objects += 1;
                 self.end_track(track, t_us, ReleaseReason::Invalid, out);
+                return;
+            }
+            Unscored::OutsideView => {
+                self.stats.outside_view += 1;
+                self.end_track(track, t_us, ReleaseReason::OutsideView, out);
                 return;
             }
             Unscored::EgoSpeedMissing => {

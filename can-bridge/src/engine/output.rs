@@ -35,6 +35,8 @@ pub struct Stats {
     pub motion_pending: u64,
     /// Slots whose `new_track` flag started a fresh track.
     pub new_objects: u64,
+    /// Updates not scored because the object is outside the map's field of view.
+    pub outside_view: u64,
 }
 
 impl Stats {
@@ -69,6 +71,8 @@ pub enum ReleaseReason {
     Invalid,
     /// The sensor reported a new object in the track's slot.
     NewObject,
+    /// The object left the map's field of view (`[sensor] fov_deg`, `max_range`).
+    OutsideView,
 }
 
 impl ReleaseReason {
@@ -78,6 +82,7 @@ impl ReleaseReason {
             Self::Stale => "stale",
             Self::Invalid => "invalid",
             Self::NewObject => "new_object",
+            Self::OutsideView => "outside_view",
         }
     }
 }

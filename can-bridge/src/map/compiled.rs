@@ -1,6 +1,7 @@
 //! The map resolved against a DBC: scorer fields, field slots per input message, the warning
 //! message's signals and the sensor mounting, as the engine reads them on every frame.
 use super::file::{MissingVelocity, PositionKind, VelocityFrame};
+use super::flag_expr::Cmp;
 use can_codec::{CanId, MessageSpec};
 
 /// Ego inputs, in [`CompiledMap::ego_fields`] order.
@@ -12,8 +13,9 @@ pub enum EgoField {
     YawRate,
     Length,
     Width,
+    Heading,
 }
-pub const EGO_FIELDS: usize = 6;
+pub const EGO_FIELDS: usize = 7;
 pub(super) const EGO_NAMES: [&str; EGO_FIELDS] = [
     "ego.vel_long",
     "ego.vel_lat",
@@ -21,6 +23,7 @@ pub(super) const EGO_NAMES: [&str; EGO_FIELDS] = [
     "ego.yaw_rate",
     "ego.length",
     "ego.width",
+    "ego.heading",
 ];
 
 /// Object inputs.
@@ -80,6 +83,9 @@ pub enum Condition {
     OneOf(Vec<f64>),
     Below(f64),
     Above(f64),
+    /// A flag expression: every `(signal, comparison)` holds (read by the decoder, which has
+    /// the other signals of the frame).
+    All(Vec<(usize, Cmp)>),
 }
 
 /// A resolved field: signal `signal` of the message it belongs to, then `* factor + offset`
@@ -105,6 +111,8 @@ impl<F> FieldSlot<F> {
             Condition::OneOf(v) => flag(v.contains(&value)),
             Condition::Below(b) => flag(value < *b),
             Condition::Above(a) => flag(value > *a),
+            // Evaluated over the whole frame in the decoder; `value` is the result there.
+            Condition::All(_) => value,
         }
     }
 }
@@ -121,6 +129,10 @@ pub struct InputMessage {
     /// Slot maps: the slot number (the track id when there is no id signal).
     pub slot: Option<u32>,
     pub is_trigger: bool,
+    /// A companion slot message (`[object] companions`): its fields join the track of `slot`.
+    pub companion: bool,
+    /// The bus (index into [`CompiledMap::buses`]) the message is bound to; `None`: every bus.
+    pub bus: Option<u8>,
     /// Only frames whose multiplexor has this raw value trigger (multiplexed trigger messages).
     pub trigger_mux: Option<u64>,
 }
@@ -183,11 +195,50 @@ pub struct CompiledMap {
     pub partner_source: [String; PARTNER_FIELDS],
     /// Slot maps: how many slot messages.
     pub slots: usize,
+    /// Slot maps with an id signal read by companions: companions follow the slot's last id.
+    pub slot_ids: bool,
+    /// Buses named by bound DBC files (interface names); frames on others match unbound
+    /// messages only.
+    pub buses: Vec<String>,
+    /// The warning message's bus (`None`: unbound).
+    pub warning_bus: Option<u8>,
+    pub fov: FieldOfView,
+    /// The object's acceleration is relative to the ego's.
+    pub accel_relative: bool,
+}
+
+/// Where the sensor sees: half the opening angle (rad) and the farthest range (m), in the
+/// sensor frame; `None`: unlimited.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FieldOfView {
+    pub half_angle: Option<f64>,
+    pub max_range: Option<f64>,
+}
+
+impl FieldOfView {
+    /// Whether a sensor-frame position is inside the view.
+    pub fn contains(&self, (x, y): (f64, f64)) -> bool {
+        let angle_ok = self.half_angle.is_none_or(|h| libm::atan2(y, x).abs() <= h);
+        let range_ok = self.max_range.is_none_or(|r| libm::hypot(x, y) <= r);
+        angle_ok && range_ok
+    }
 }
 
 impl CompiledMap {
     /// Ids the bridge listens to (for kernel filters).
     pub fn input_ids(&self) -> Vec<CanId> {
         self.inputs.iter().map(|m| m.spec.id).collect()
+    }
+
+    /// The bus index of an interface name (`None`: not a bound bus).
+    pub fn bus_of(&self, iface: &str) -> Option<u8> {
+        self.buses.iter().position(|b| b == iface).map(|i| i as u8)
+    }
+
+    /// The input message a frame with `id` on `bus` is, if any.
+    pub fn input_index(&self, id: CanId, bus: Option<u8>) -> Option<usize> {
+        self.inputs
+            .iter()
+            .position(|m| m.spec.id == id && (m.bus.is_none() || m.bus == bus))
     }
 }

@@ -27,6 +27,38 @@ pub struct SignalRef {
     pub below: Option<f64>,
     /// Flags only: true when the value is above this.
     pub above: Option<f64>,
+    /// Slot maps: read from the companion slot message (`[object] companions`) of the slot.
+    #[serde(default)]
+    pub companion: bool,
+}
+
+/// A flag field: one signal (with an optional condition) or an expression over several signals
+/// of one message (`"VALID and LONG_DIST < 255"`, see [`super::flag_expr`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FlagRef {
+    Expression(String),
+    Signal(SignalRef),
+}
+
+// By hand rather than `untagged`, so a typo in a flag's table is named as in every other field.
+impl<'de> Deserialize<'de> for FlagRef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = FlagRef;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a signal table `{ signal = \"S\", ... }` or an expression string")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<FlagRef, E> {
+                Ok(FlagRef::Expression(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<FlagRef, A::Error> {
+                SignalRef::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(FlagRef::Signal)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 fn one() -> f64 {
@@ -44,6 +76,9 @@ pub struct EgoMap {
     pub vel_lat: Option<SignalRef>,
     pub accel: Option<SignalRef>,
     pub yaw_rate: Option<SignalRef>,
+    /// The ego's heading (rad, counter-clockwise, any zero): its change over the motion window
+    /// is the yaw rate when `yaw_rate` is not on the bus.
+    pub heading: Option<SignalRef>,
     pub length: Option<SignalRef>,
     pub width: Option<SignalRef>,
     pub default_length: f32,
@@ -102,6 +137,9 @@ pub enum TrackIdSpec {
 pub struct PartnerMap {
     /// Slot map: each of these messages is one track slot.
     pub slots: Option<SlotList>,
+    /// Slot map: companion messages, one per slot in the same order (`TRACK_B_n` of
+    /// `TRACK_A_n`); fields with `companion = true` are read from them.
+    pub companions: Option<SlotList>,
     /// The message that completes a track update (message-per-field maps only).
     pub trigger: Option<String>,
     /// For a multiplexed trigger message: only frames with this multiplexor value trigger.
@@ -121,10 +159,13 @@ pub struct PartnerMap {
     #[serde(default = "default_window")]
     pub motion_window_ms: u64,
     pub accel: Option<SignalRef>,
+    /// `accel` is relative to the ego's acceleration (the ego's `accel` is added).
+    #[serde(default)]
+    pub accel_relative: bool,
     pub heading: Option<SignalRef>,
-    pub heading_valid: Option<SignalRef>,
-    pub valid: Option<SignalRef>,
-    pub new_track: Option<SignalRef>,
+    pub heading_valid: Option<FlagRef>,
+    pub valid: Option<FlagRef>,
+    pub new_track: Option<FlagRef>,
     pub length: Option<SignalRef>,
     pub width: Option<SignalRef>,
     pub default_length: f32,
@@ -147,6 +188,11 @@ pub struct SensorMap {
     pub y: f64,
     #[serde(default)]
     pub yaw_deg: f64,
+    /// Field of view: full opening angle (deg) centred on the sensor's x axis; a track outside
+    /// it is not scored and its track is dropped.
+    pub fov_deg: Option<f64>,
+    /// Farthest range (m from the sensor) the sensor reports; beyond it as outside the view.
+    pub max_range: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -172,6 +218,10 @@ pub struct MapFile {
     #[serde(rename = "object")]
     pub partner: PartnerMap,
     pub warning: WarningMap,
+    /// DBC files per bus (interface name -> files, paths relative to the map file), used when
+    /// no `--dbc` is given.
+    #[serde(default)]
+    pub bus: BTreeMap<String, Vec<String>>,
 }
 
 impl MapFile {

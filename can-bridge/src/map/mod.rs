@@ -13,24 +13,31 @@
 //!   taken as zero (`missing_velocity`);
 //! - `valid` / `new_track` flags with conditions (`one_of`, `below`, `above`);
 //! - `[sensor]`: where the sensor sits on the ego (`x`, `y`, `yaw_deg`);
-//! - `[warning]`: the output message and its signals, E2E data id.
+//! - `[warning]`: the output message and its signals, E2E data id;
+//! - companion slot messages (`companions = "TRACK_B_*"`, fields with `companion = true`), flag
+//!   expressions (`valid = "VALID and LONG_DIST < 255"`), a field of view (`[sensor] fov_deg`,
+//!   `max_range`), and `[bus]`: DBC files per bus.
 //!
 //! Files: `file` (the TOML as written), `compiled` (the resolved map the engine reads),
 //! `compile` (names resolved against the DBC), `validate` (rules across fields and signals),
-//! `report` (the start-up list of where each input comes from).
+//! `report` (the start-up list of where each input comes from), `bus` (DBC files bound to
+//! buses), `flag_expr` (flag expressions).
+mod bus;
 mod compile;
 mod compiled;
 mod file;
+pub mod flag_expr;
 mod report;
 mod validate;
 
+pub use bus::{bus_label, BusDatabase, BusPart, Clash};
 pub use compiled::{
-    CompiledMap, Condition, EgoField, FieldSlot, InputMessage, Mount, PartnerField, WarningSlots,
-    EGO_FIELDS, PARTNER_FIELDS,
+    CompiledMap, Condition, EgoField, FieldOfView, FieldSlot, InputMessage, Mount, PartnerField,
+    WarningSlots, EGO_FIELDS, PARTNER_FIELDS,
 };
 pub use file::{
-    EgoMap, MapFile, MissingVelocity, PartnerMap, PositionKind, SensorMap, SignalRef, SlotList,
-    TrackIdSpec, VelocityFrame, WarningMap, DEFAULT_MOTION_WINDOW_MS,
+    EgoMap, FlagRef, MapFile, MissingVelocity, PartnerMap, PositionKind, SensorMap, SignalRef,
+    SlotList, TrackIdSpec, VelocityFrame, WarningMap, DEFAULT_MOTION_WINDOW_MS,
 };
 pub use validate::MAX_FLAG_BITS;
 
@@ -124,10 +131,10 @@ mod tests {
     #[test]
     fn glob_matches_whole_names_sorted_by_id() {
         let dbc = "VERSION \"\"\n\nBU_: X\n\nBO_ 258 TRACK_A_1: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 257 TRACK_A_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 259 TRACK_B_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n";
-        let db = Database::parse(dbc).unwrap();
+        let db = BusDatabase::unbound(Database::parse(dbc).unwrap(), "t.dbc");
         let names: Vec<_> = glob_messages(&db, "TRACK_A_*")
             .iter()
-            .map(|m| m.name.clone())
+            .map(|(_, m)| m.name.clone())
             .collect();
         assert_eq!(names, ["TRACK_A_0", "TRACK_A_1"]);
         assert_eq!(glob_messages(&db, "TRACK_*_0").len(), 2);

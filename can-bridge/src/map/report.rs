@@ -1,6 +1,6 @@
 //! The start-up report of a compiled map: where every scorer input comes from, or that it is
 //! derived or defaulted, one line each.
-use super::compiled::{CompiledMap, Mount, PartnerField, EGO_NAMES};
+use super::compiled::{CompiledMap, EgoField, Mount, PartnerField, EGO_NAMES};
 use super::file::{MissingVelocity, PositionKind, VelocityFrame};
 
 impl CompiledMap {
@@ -17,9 +17,16 @@ impl CompiledMap {
                 match i {
                     1 => format!("{name}: DEFAULT 0 m/s (not mapped)"),
                     2 => format!("{name}: DEFAULT 0 m/s^2 (not mapped)"),
-                    3 => format!("{name}: not mapped (not used by the scorer)"),
+                    3 if self.has_ego_field[EgoField::Heading as usize] => format!(
+                        "{name}: DERIVED from the change of ego.heading over {} ms",
+                        self.motion_window_us / 1000
+                    ),
+                    3 => format!(
+                        "{name}: not mapped (a derived object velocity is not yaw-compensated)"
+                    ),
                     4 => format!("{name}: DEFAULT {} m (not mapped)", self.ego_defaults.0),
-                    _ => format!("{name}: DEFAULT {} m (not mapped)", self.ego_defaults.1),
+                    5 => format!("{name}: DEFAULT {} m (not mapped)", self.ego_defaults.1),
+                    _ => format!("{name}: not mapped"),
                 }
             };
             lines.push(line);
@@ -39,10 +46,36 @@ impl CompiledMap {
             ));
         }
         if self.slots > 0 {
+            let companions = self.inputs.iter().filter(|m| m.companion).count();
             lines.push(format!(
-                "objects: {} slot messages, one track per slot",
-                self.slots
+                "objects: {} slot messages, one track per slot{}",
+                self.slots,
+                if companions > 0 {
+                    format!(", {companions} companion messages joined by slot")
+                } else {
+                    String::new()
+                }
             ));
+        }
+        let fov = self.fov;
+        if fov.half_angle.is_some() || fov.max_range.is_some() {
+            lines.push(format!(
+                "field of view: {} wide, {}; a track outside is not scored and is dropped",
+                fov.half_angle.map_or("any angle".into(), |h| format!(
+                    "{:.1} deg",
+                    (2.0 * h).to_degrees()
+                )),
+                fov.max_range
+                    .map_or("any range".into(), |r| format!("up to {r} m"))
+            ));
+        }
+        for (i, bus) in self.buses.iter().enumerate() {
+            let n = self
+                .inputs
+                .iter()
+                .filter(|m| m.bus == Some(i as u8))
+                .count();
+            lines.push(format!("bus {bus}: {n} input messages bound to it"));
         }
         match self.position {
             PositionKind::Cartesian => {
@@ -60,6 +93,13 @@ impl CompiledMap {
                 self.motion_window_us / 1000
             ),
             _ => "DEFAULT 0 m/s".to_string(),
+        };
+        let yaw_known = self.has_ego_field[EgoField::YawRate as usize]
+            || self.has_ego_field[EgoField::Heading as usize];
+        let derived = if self.missing_velocity == Some(MissingVelocity::TrackMotion) && yaw_known {
+            format!("{derived}, compensated for the ego's yaw rate")
+        } else {
+            derived
         };
         if has(PartnerField::RangeRate) {
             lines.push(format!(
@@ -93,7 +133,15 @@ impl CompiledMap {
             )
         });
         lines.push(if has(PartnerField::Accel) {
-            format!("object.accel <- {}", src(PartnerField::Accel))
+            format!(
+                "object.accel <- {}{}",
+                src(PartnerField::Accel),
+                if self.accel_relative {
+                    " (relative: the ego's accel is added)"
+                } else {
+                    ""
+                }
+            )
         } else {
             "object.accel: DEFAULT 0 m/s^2".to_string()
         });
