@@ -27,13 +27,15 @@
 use scorer_core::geometry::unit_heading;
 use scorer_core::{features, surrogates, VehicleState, FEATURE_NAMES};
 
+mod field;
 mod number;
 mod pipeline;
 pub mod split;
 
 pub use number::{parse_plain_decimal, push_f32};
 // The record layer, shared with the Parquet path (`riskscore_eval::parquet_io`).
-pub use pipeline::{for_each_record, push_field, read_header, record_reader, FieldBuf};
+pub use field::push_field;
+pub use pipeline::{for_each_record, read_header, record_reader, FieldBuf};
 pub use pipeline::{score_csv, SsmOptions, SsmSummary};
 pub use split::DEFAULT_MAX_RECORD_BYTES;
 
@@ -265,7 +267,7 @@ impl PairColumns {
             if k > 0 {
                 line.push(b',');
             }
-            pipeline::push_field(&mut line, name);
+            field::push_field(&mut line, name);
         }
         line.push(b'\n');
         line

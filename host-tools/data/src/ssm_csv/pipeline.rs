@@ -5,6 +5,7 @@
 //! `2 x threads + 2` chunks are in flight (read but not yet written), and their buffers are reused,
 //! so memory is bounded by about that many chunks whatever the file size. Results are written in
 //! chunk order, so the output is the same as a one-row-at-a-time run.
+use super::field::push_field;
 use super::split::{Chunk, Piece, Splitter, DEFAULT_MAX_RECORD_BYTES};
 use super::{computed_values, push_f32, PairColumns, RowError, RowFields, RowProblem, SsmError};
 use std::collections::BTreeMap;
@@ -166,26 +167,6 @@ pub fn for_each_record(
             }
         }
     }
-}
-
-/// Append one CSV field, quoted when it holds a delimiter, quote or line break (the `csv` crate's
-/// rule for its default writer).
-pub fn push_field(out: &mut Vec<u8>, field: &[u8]) {
-    let needs_quotes = field
-        .iter()
-        .any(|&b| matches!(b, b',' | b'"' | b'\n' | b'\r'));
-    if !needs_quotes {
-        out.extend_from_slice(field);
-        return;
-    }
-    out.push(b'"');
-    for &b in field {
-        if b == b'"' {
-            out.push(b'"');
-        }
-        out.push(b);
-    }
-    out.push(b'"');
 }
 
 /// What a worker made of one chunk.
