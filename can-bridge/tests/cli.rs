@@ -99,6 +99,49 @@ fn score_log_reads_real_candump_lines_and_reports_the_rest_by_line_number() {
 }
 
 #[test]
+fn a_log_the_map_reads_nothing_of_is_an_error_and_leaves_old_outputs_alone() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    // Another car's bus: ids the project DBC does not define.
+    let log = tmp.path().join("other-car.log");
+    std::fs::write(
+        &log,
+        "(0.000000) can0 1A0#0102030405060708\n(0.010000) can0 1A1#0102030405060708\n",
+    )
+    .unwrap();
+    let warnings = tmp.path().join("w.log");
+    std::fs::write(&warnings, "old warnings\n").unwrap();
+    let states = tmp.path().join("states.csv");
+    std::fs::write(&states, "old states\n").unwrap();
+    for (command, out_flag, out_path) in [
+        ("score-log", "--warnings-out", &warnings),
+        ("decode", "--out", &states),
+    ] {
+        let out = bridge()
+            .arg(command)
+            .arg("--log")
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .arg(out_flag)
+            .arg(out_path)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{command}: {stderr}");
+        assert!(
+            stderr.contains("nothing was scored: none of the 2 data frames is a message the map reads (2 have ids no --dbc file defines)"),
+            "{command}: {stderr}"
+        );
+    }
+    assert_eq!(
+        std::fs::read_to_string(&warnings).unwrap(),
+        "old warnings\n"
+    );
+    assert_eq!(std::fs::read_to_string(&states).unwrap(), "old states\n");
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

@@ -357,7 +357,9 @@ fn impossible_dbc_content_is_refused_with_file_and_line() {
             "{why}: {stderr}"
         );
     }
-    // Harmless: a byte-order mark and a Latin-1 comment (vendor files carry both).
+    // Harmless: a byte-order mark and a Latin-1 comment (vendor files carry both). One ego frame
+    // to decode: a log without a frame the map reads is an error of its own.
+    std::fs::write(&log, "(0.000000) can0 100#0000000000000000\n").unwrap();
     let mut bytes = b"\xEF\xBB\xBF".to_vec();
     bytes.extend_from_slice(project.as_bytes());
     bytes.extend_from_slice(b"\nCM_ BO_ 256 \"Vitesse du v\xe9hicule\";\n");

@@ -139,8 +139,9 @@ fn run_both(events: usize, seed: u64) -> Runs {
 #[test]
 fn the_real_radar_and_powertrain_dbcs_load_together_only_bound_to_their_buses() {
     let tmp = tempfile::tempdir().unwrap();
-    let log = tmp.path().join("empty.log");
-    std::fs::write(&log, "").unwrap();
+    // One ego speed frame on the powertrain bus (a log the map reads nothing of is an error).
+    let log = tmp.path().join("speed.log");
+    std::fs::write(&log, "(0.000000) can0 0B4#0000000000000000\n").unwrap();
     let model = tmp.path().join("msra.rsk");
     std::fs::write(&model, common::msra_blob()).unwrap();
     let dbc = maps().join("dbc");

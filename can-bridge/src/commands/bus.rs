@@ -1,8 +1,8 @@
 //! The SocketCAN subcommands: `live` (score an interface), `monitor` (check the warning frames on
 //! one) and `replay` (play a log onto one).
 use super::setup::{
-    creating, engine_config, load_map, open_events, print_inputs, scoring_inputs, summary,
-    unsent_note,
+    creating, engine_config, load_map, nothing_scored, open_events, print_inputs, scoring_inputs,
+    summary, unsent_note, NothingScored,
 };
 use super::{writing, Failure, InputError, LiveArgs, MonitorArgs, ReplayArgs, ScoringArgs};
 use crate::engine::Engine;
@@ -57,6 +57,11 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
                 eprintln!("can-bridge: {note}");
             }
             problems.sanity.print("can-bridge");
+            if let Some(NothingScored::NothingMapped(m) | NothingScored::NoUpdate(m)) =
+                nothing_scored(&stats)
+            {
+                eprintln!("can-bridge: {m}");
+            }
             Ok(())
         }
         Err(e) => {

@@ -2,7 +2,9 @@
 //! CSV or Parquet table (or stdout), through the same engine as `score-log`; then the sanity
 //! report. This is how a user checks a map's signs, offsets and units (docs/can-bridge.md).
 use super::args::DecodeArgs;
-use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
+use super::setup::{
+    engine_config, load_map, print_inputs, refuse_nothing_scored, scoring_inputs, summary,
+};
 use super::{writing, Failure, InputError};
 use crate::engine::{Engine, EngineConfig, Output};
 use crate::events_out::ProblemPrinter;
@@ -97,6 +99,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         );
     }
     problems.sanity.print("decode");
+    refuse_nothing_scored(engine.stats(), "decode")?;
     losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(f) = file {
         f.commit().map_err(writing("--out", out_path))?;

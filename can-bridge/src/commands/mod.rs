@@ -86,6 +86,9 @@ pub enum InputError {
     },
     #[error(transparent)]
     Lost(#[from] TooMuchLost),
+    /// Frames came in but none was a message the map reads: the wrong DBC, map or bus names.
+    #[error("{0}")]
+    NothingMapped(String),
     #[error(transparent)]
     Replay(ReplayError),
     /// `check`: the event folder could not be loaded.

@@ -1,8 +1,8 @@
 //! `can-bridge score-log`: a candump log scored offline by the same engine as live, with its
 //! warning events, warning frames, losses and (with `--bench`) throughput and latency.
 use super::setup::{
-    creating, engine_config, load_map, open_events, print_inputs, scoring_inputs, summary,
-    unsent_note,
+    creating, engine_config, load_map, open_events, print_inputs, refuse_nothing_scored,
+    scoring_inputs, summary, unsent_note,
 };
 use super::{writing, Failure, InputError, ScoreLogArgs};
 use crate::engine::{Engine, Output};
@@ -103,6 +103,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
         );
     }
     problems.sanity.print("score-log");
+    refuse_nothing_scored(stats, "score-log")?;
     if args.bench {
         eprintln!(
             "score-log: {:.0} frames/s ({} frames in {:.3} s, one thread, parse + decode + score)",

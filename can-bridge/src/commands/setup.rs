@@ -265,13 +265,100 @@ pub fn summary(s: &Stats) -> String {
     )
 }
 
+/// Why a run that received frames scored nothing, if it did.
+#[derive(Debug, PartialEq)]
+pub enum NothingScored {
+    /// Not one frame was a message the map reads (a wrong `--dbc`, `--map` or bus name) or the
+    /// log held no data frame at all: an error for offline commands.
+    NothingMapped(String),
+    /// Mapped messages were decoded, but no partner update could be scored.
+    NoUpdate(String),
+}
+
+/// The run-end verdict when frames came in and nothing was scored (`None` otherwise).
+pub fn nothing_scored(s: &Stats) -> Option<NothingScored> {
+    let data_frames = s.frames.saturating_sub(s.error_frames + s.remote_frames);
+    if s.scored > 0 {
+        return None;
+    }
+    if data_frames == 0 {
+        return Some(NothingScored::NothingMapped(format!(
+            "nothing was scored: no CAN data frame ({} frames in all, error and remote frames only)",
+            s.frames
+        )));
+    }
+    if s.decoded == 0 && s.decode_errors == 0 {
+        return Some(NothingScored::NothingMapped(format!(
+            "nothing was scored: none of the {data_frames} data frames is a message the map reads ({} have ids no --dbc file defines); check --dbc, --map and the bus names (docs/can-bridge.md, \"Bring your own vehicle\")",
+            s.unknown_ids
+        )));
+    }
+    Some(NothingScored::NoUpdate(format!(
+        "nothing was scored: {} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view); is every ego field the map needs on the log?",
+        s.decoded, s.decode_errors, s.invalid_objects, s.stale_drops, s.motion_pending, s.outside_view
+    )))
+}
+
+/// Offline commands: a log with no mapped message is an error (its outputs are not written); one
+/// whose mapped messages gave no update gets a note.
+pub fn refuse_nothing_scored(s: &Stats, who: &str) -> Result<(), super::Failure> {
+    match nothing_scored(s) {
+        Some(NothingScored::NothingMapped(m)) => {
+            Err(super::Failure::Input(super::InputError::NothingMapped(m)))
+        }
+        Some(NothingScored::NoUpdate(m)) => {
+            eprintln!("{who}: {m}");
+            Ok(())
+        }
+        None => Ok(()),
+    }
+}
+
 /// The run-end line about warnings that never reached the bus, if any did not.
 pub fn unsent_note(s: &Stats, map: &CompiledMap) -> Option<String> {
     (s.warning_frames_unsent > 0).then(|| {
         let signal = &map.warning.spec.signals[map.warning.track_id].name;
         format!(
-            "{} warning frames NOT SENT ({} tracks with ids the warning message's {signal} cannot carry, each named above); their warnings are in the events, not on the bus",
+            "{} warning frames NOT SENT ({} tracks with ids the warning message's {signal} cannot carry, named above as far as --max-problems allows); their warnings are in the events, not on the bus",
             s.warning_frames_unsent, s.tracks_unsent
         )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_that_scored_nothing_says_why() {
+        let foreign = Stats {
+            frames: 5,
+            unknown_ids: 5,
+            ..Stats::default()
+        };
+        assert!(matches!(
+            nothing_scored(&foreign),
+            Some(NothingScored::NothingMapped(m)) if m.contains("5 have ids no --dbc")
+        ));
+        let ego_only = Stats {
+            frames: 5,
+            decoded: 5,
+            ..Stats::default()
+        };
+        assert!(matches!(
+            nothing_scored(&ego_only),
+            Some(NothingScored::NoUpdate(m)) if m.contains("5 mapped messages decoded")
+        ));
+        let scored = Stats {
+            frames: 5,
+            decoded: 5,
+            scored: 1,
+            ..Stats::default()
+        };
+        assert_eq!(nothing_scored(&scored), None);
+        assert!(matches!(
+            nothing_scored(&Stats::default()),
+            Some(NothingScored::NothingMapped(m)) if m.contains("no CAN data frame")
+        ));
+    }
 }
