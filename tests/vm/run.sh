@@ -21,8 +21,10 @@ SHARE=$PWD/target/vm/run
 rm -rf "$SHARE" && mkdir -p "$SHARE/bin" "$SHARE/fixtures" "$SHARE/out"
 
 vm_say "building (riskctl, can-bridge and the fixture writer; the guest runs this can-bridge)"
-cargo build --quiet -p host-tools --bin riskctl || vm_fail "building riskctl failed"
-cargo build --quiet -p can-bridge --bin can-bridge --example vm_fixtures || vm_fail "building can-bridge failed"
+# The whole workspace's binaries and examples: the same feature set as `cargo test --workspace`,
+# so after scripts/test.sh's test build this is a no-op. (`-p can-bridge` alone resolves other
+# features for shared dependencies and rebuilt half the dependency tree: 13+ min cold in CI.)
+cargo build --quiet --workspace --bins --examples || vm_fail "building riskctl, can-bridge and vm_fixtures failed"
 RISKCTL=target/debug/riskctl
 BRIDGE=target/debug/can-bridge
 vm_stage_binary "$BRIDGE" "$SHARE"
