@@ -475,3 +475,107 @@ fn ssm_line_limit_above_its_cap_is_refused_before_reading() {
     assert_refused(&o, "--max-line-bytes 100000000000: at most 1073741824");
     assert!(!out.exists());
 }
+
+// ---- Nothing to write, outputs inside input folders (verification of 2026-11-26) -----------
+
+fn read_all(paths: &[PathBuf]) -> Vec<Vec<u8>> {
+    paths.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+#[test]
+fn a_run_with_nothing_to_write_leaves_every_old_output_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = d.join("good.xml");
+    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
+    let ev = d.join("ev");
+    assert!(import(&ev, &[&good]).status.success());
+    let ev_files = vec![ev.join("events.csv"), ev.join("frames.csv")];
+    let before = read_all(&ev_files);
+
+    // A readable scenario without a single road-user pair: the folder was emptied, exit 0.
+    let empty = d.join("noroad.xml");
+    std::fs::write(&empty, scenario_xml(&[], "", "")).unwrap();
+    let o = import(&ev, &[&empty]);
+    assert_refused(
+        &o,
+        "no safe sequence found in 1 scenario files: nothing written, ",
+    );
+    assert!(stderr(&o).contains("ev left as it was"), "{}", stderr(&o));
+    assert_eq!(read_all(&ev_files), before);
+    // Into a folder that does not exist yet: none is made.
+    let fresh = d.join("new/deeper");
+    assert_refused(&import(&fresh, &[&empty]), "deeper not created");
+    assert!(!d.join("new").exists());
+
+    // An event folder with no event: the old log stays.
+    let hollow = d.join("hollow");
+    std::fs::create_dir(&hollow).unwrap();
+    for (file, content) in ev_files.iter().zip(&before) {
+        let header = content.split(|&b| b == b'\n').next().unwrap();
+        let mut line = header.to_vec();
+        line.push(b'\n');
+        std::fs::write(hollow.join(file.file_name().unwrap()), line).unwrap();
+    }
+    let log = d.join("old.log");
+    std::fs::write(&log, "old log\n").unwrap();
+    let o = riskctl(&[
+        "events-to-candump",
+        "--events",
+        s(&hollow),
+        "--out",
+        s(&log),
+    ]);
+    assert_refused(&o, "no event in ");
+    assert_eq!(std::fs::read_to_string(&log).unwrap(), "old log\n");
+
+    // Pairs whose every row is bad: the old table stays (the rows are reported).
+    let bad = d.join("bad.csv");
+    std::fs::write(
+        &bad,
+        format!("{PAIR_HEADER}\n{}\n", PAIR.replace("10", "x")),
+    )
+    .unwrap();
+    let table = d.join("old.csv");
+    std::fs::write(&table, "old table\n").unwrap();
+    let o = riskctl(&["ssm", "-i", s(&bad), "-o", s(&table)]);
+    assert_refused(&o, "(1 bad rows): nothing written, ");
+    assert_eq!(std::fs::read_to_string(&table).unwrap(), "old table\n");
+    let o = riskctl(&["ssm", "-i", s(&bad), "-o", s(&d.join("t.parquet"))]);
+    assert_refused(&o, "t.parquet not created");
+    assert!(!d.join("t.parquet").exists());
+}
+
+#[test]
+fn an_output_inside_an_input_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = d.join("good.xml");
+    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
+    let ev = d.join("ev");
+    assert!(import(&ev, &[&good]).status.success());
+    // A file of the folder that the command does not read belongs to the user as well.
+    let mine = ev.join("scenarios.csv");
+    std::fs::write(&mine, "mine\n").unwrap();
+    let model = repo().join("models/msra-default.rsk");
+    let o = riskctl(&[
+        "score",
+        "--model",
+        s(&model),
+        "--events",
+        s(&ev),
+        "--out",
+        s(&mine),
+    ]);
+    assert_refused(&o, "lies inside --events");
+    let o = riskctl(&[
+        "events-to-candump",
+        "--events",
+        s(&ev),
+        "--out",
+        s(&ev.join("drive.log")),
+    ]);
+    assert_refused(&o, "lies inside --events");
+    assert_eq!(std::fs::read_to_string(&mine).unwrap(), "mine\n");
+    assert!(!ev.join("drive.log").exists());
+}

@@ -150,8 +150,19 @@ fn events_to_candump_refuses_to_overwrite_its_input_and_checks_numbers() {
         assert!(!dir.path().join("x.log").exists());
     }
 
-    // A good run writes the log and leaves no temporary file.
+    // A good run writes the log and leaves no temporary file; not into the event folder, an
+    // input, where it is refused.
     let log = dir.path().join("drive.log");
+    let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
+        .args(["events-to-candump", "--events"])
+        .arg(dir.path())
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("lies inside --events"));
+    let out_dir = tempfile::tempdir().unwrap();
+    let log = out_dir.path().join("drive.log");
     let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
         .args(["events-to-candump", "--events"])
         .arg(dir.path())
@@ -165,7 +176,8 @@ fn events_to_candump_refuses_to_overwrite_its_input_and_checks_numbers() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(std::fs::read_to_string(&log).unwrap().lines().count(), 105);
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    assert_eq!(std::fs::read_dir(out_dir.path()).unwrap().count(), 1);
 }
 
 #[test]
@@ -185,7 +197,9 @@ fn events_to_candump_fails_on_skipped_cycles_unless_allowed() {
         .collect();
     let fr = format!("{FR_HEADER}{}{far}", rows("ok", 21, 8.0));
     let dir = folder(&ev, &fr);
-    let log = dir.path().join("drive.log");
+    // Beside the event folder: nothing is written into an input folder.
+    let out_dir = tempfile::tempdir().unwrap();
+    let log = out_dir.path().join("drive.log");
     let run = |extra: &[&str]| {
         Command::new(env!("CARGO_BIN_EXE_riskctl"))
             .args(["events-to-candump", "--events"])
@@ -213,6 +227,7 @@ fn events_to_candump_fails_on_skipped_cycles_unless_allowed() {
     );
     assert!(!log.exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    assert_eq!(std::fs::read_dir(out_dir.path()).unwrap().count(), 0);
 
     // A share below the allowance: written, the loss still reported.
     let out = run(&["--max-skipped", "0.05"]);

@@ -129,20 +129,16 @@ fn describe(folders: &[PathBuf]) -> String {
     }
 }
 
-/// The output must not be the model or a file of a --normal folder.
+/// The output must not be the model, a --normal folder or lie inside one.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    let event_files: Vec<PathBuf> = args
+    let folders: Vec<(&str, Option<&Path>)> = args
         .normal
         .iter()
-        .flat_map(|d| {
-            [
-                d.join(riskscore_data::events::EVENTS_FILE),
-                d.join(riskscore_data::events::FRAMES_FILE),
-            ]
-        })
+        .map(|d| ("--normal", Some(d.as_path())))
         .collect();
-    let mut inputs: Vec<(&str, &Path)> = vec![("--model", args.model.as_path())];
-    inputs.extend(event_files.iter().map(|p| ("--normal", p.as_path())));
-    riskscore_output::refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
-    Ok(())
+    super::output::refuse_inputs_of(
+        &folders,
+        &[("--model", Some(args.model.as_path()))],
+        &[("--out", args.out.as_path())],
+    )
 }

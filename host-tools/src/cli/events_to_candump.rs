@@ -3,7 +3,7 @@ use anyhow::{bail, Context};
 use riskscore_data::candump_export::{
     write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US,
 };
-use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::AtomicFile;
 use std::path::PathBuf;
 
 /// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format.
@@ -70,17 +70,23 @@ fn gap_seconds(s: &str) -> Result<f64, String> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let inputs = [
-        args.events.join(riskscore_data::events::EVENTS_FILE),
-        args.events.join(riskscore_data::events::FRAMES_FILE),
-    ];
-    let inputs: Vec<NamedPath<'_>> = inputs.iter().map(|p| ("--events", p.as_path())).collect();
-    refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
+    super::output::refuse_inputs_of(
+        &[("--events", Some(args.events.as_path()))],
+        &[],
+        &[("--out", args.out.as_path())],
+    )?;
     let (set, issues) = riskscore_data::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     // The loader keeps the first problems of each kind and counts the rest.
     for issue in &issues {
         eprintln!("warning: {issue}");
+    }
+    if set.is_empty() {
+        bail!(
+            "no event in {}: nothing written, {}",
+            args.events.display(),
+            super::output::left_alone(&args.out)
+        );
     }
     let opts = ExportOptions {
         iface: args.iface,

@@ -232,25 +232,26 @@ fn print_weights(name: &str, weights: &[TermWeight]) {
     print!("{}", weights_table(name, weights));
 }
 
-/// Refuses an output file that is, or lies inside, one of the inputs of `common` (event files,
+/// Refuses an output file that is, or lies inside, one of the inputs of `common` (event folders,
 /// configurations) or `more`.
 fn refuse_inputs(common: &Common, more: &[(&str, &Path)], out: &Path) -> anyhow::Result<()> {
-    let mut files = Vec::new();
-    for dir in common.events.iter().chain(&common.normal) {
-        files.push(("--events", dir.join(riskscore_data::events::EVENTS_FILE)));
-        files.push(("--events", dir.join(riskscore_data::events::FRAMES_FILE)));
-    }
-    for (flag, f) in [
-        ("--config", &common.config),
-        ("--gssm-config", &common.gssm_config),
-    ] {
-        if let Some(f) = f {
-            files.push((flag, f.clone()));
-        }
-    }
-    let mut inputs: Vec<(&str, &Path)> = files.iter().map(|(f, p)| (*f, p.as_path())).collect();
-    inputs.extend_from_slice(more);
-    super::output::refuse(&inputs, &[("--out", out)])
+    let folders: Vec<(&str, Option<&Path>)> = common
+        .events
+        .iter()
+        .map(|d| ("--events", Some(d.as_path())))
+        .chain(
+            common
+                .normal
+                .iter()
+                .map(|d| ("--normal", Some(d.as_path()))),
+        )
+        .collect();
+    let mut files: Vec<(&str, Option<&Path>)> = vec![
+        ("--config", common.config.as_deref()),
+        ("--gssm-config", common.gssm_config.as_deref()),
+    ];
+    files.extend(more.iter().map(|(f, p)| (*f, Some(*p))));
+    super::output::refuse_inputs_of(&folders, &files, &[("--out", out)])
 }
 
 fn run_fit(a: FitArgs) -> anyhow::Result<()> {

@@ -125,10 +125,15 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
     for issue in &s.issues {
         eprintln!("riskctl: skipped: {issue}");
     }
+    let untouched = super::output::left_alone(&a.out);
     if s.files == 0 {
+        bail!("no scenario file could be read: nothing written, {untouched}");
+    }
+    if s.closeness.is_empty() {
+        print_summary(&s, &a);
         bail!(
-            "no scenario file could be read: nothing written, {} left as it was",
-            a.out.display()
+            "no safe sequence found in {} scenario files: nothing written, {untouched}",
+            s.files
         );
     }
     print_summary(&s, &a);
@@ -165,11 +170,16 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         "overlapping boxes (recording artefacts) dropped: {} pair-frames",
         c.overlap_frames
     );
+    let destination = if c.sequences == 0 {
+        String::new()
+    } else {
+        format!(" to {}", a.out.display())
+    };
+    let verb = if c.sequences == 0 { "found" } else { "wrote" };
     println!(
-        "wrote {} safe sequences with {} frames to {} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length)",
+        "{verb} {} safe sequences with {} frames{destination} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length)",
         c.sequences,
         c.frames,
-        a.out.display(),
         a.max_acc,
         a.min_duration,
         a.max_duration

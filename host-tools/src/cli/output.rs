@@ -116,9 +116,22 @@ pub fn refuse_overwriting_inputs(
         .iter()
         .map(|m| ("--model", m.path.as_path()))
         .collect();
+    // The files first (the more precise refusal, and one may be a link), then the folder itself:
+    // nothing is written into an input folder (its other files belong to the user too).
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    inputs.push(("--events", events));
     riskscore_output::refuse_overlaps(&inputs, outputs)?;
     Ok(())
+}
+
+/// How a refused run's message names an output it did not write: "OUT left as it was" when it
+/// exists, "OUT not created" when it does not.
+pub fn left_alone(out: &Path) -> String {
+    if std::fs::symlink_metadata(out).is_ok() {
+        format!("{} left as it was", out.display())
+    } else {
+        format!("{} not created", out.display())
+    }
 }
 
 /// Refuses `outputs` that are, contain or lie inside one of `inputs` (`-` is skipped).
@@ -127,9 +140,9 @@ pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Re
     Ok(())
 }
 
-/// Refuses `outputs` that are, contain or lie inside one of the inputs: the event folders'
-/// `events.csv`/`frames.csv` (a new file beside them is allowed) and the other input `files`.
-/// Absent optional inputs are skipped.
+/// Refuses `outputs` that are, contain or lie inside one of the inputs: the event folders (nothing
+/// is written into one; their `events.csv`/`frames.csv` are checked too, in case one is a link)
+/// and the other input `files`. Absent optional inputs are skipped.
 pub fn refuse_inputs_of(
     event_folders: &[(&str, Option<&Path>)],
     files: &[(&str, Option<&Path>)],
@@ -140,6 +153,12 @@ pub fn refuse_inputs_of(
         if let Some(dir) = dir {
             owned.push((flag, dir.join(riskscore_data::events::EVENTS_FILE)));
             owned.push((flag, dir.join(riskscore_data::events::FRAMES_FILE)));
+        }
+    }
+    // After the files, whose refusal is the more precise one.
+    for (flag, dir) in event_folders {
+        if let Some(dir) = dir {
+            owned.push((flag, dir.to_path_buf()));
         }
     }
     for (flag, file) in files {

@@ -1,5 +1,5 @@
 //! `riskctl ssm`: surrogate safety measures and features for a CSV of ego/partner pairs.
-use anyhow::Context;
+use anyhow::{bail, Context};
 use riskscore_data::ssm_csv::{
     score_csv, RowError, SsmError, SsmOptions, SsmSummary, DEFAULT_MAX_RECORD_BYTES,
 };
@@ -111,18 +111,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     super::output::refuse(&[("--input", &args.input)], &[("--output", &args.output)])?;
     let columnar = is_parquet(&args.input) || is_parquet(&args.output);
     let summary = write_output(&args.output, |out| {
-        if columnar {
-            return run_columnar(&args, out, options, &input_name, &mut report);
-        }
-        let input: Box<dyn Read> = if is_dash(&args.input) {
-            Box::new(std::io::stdin().lock())
+        let summary = if columnar {
+            run_columnar(&args, out, options, &input_name, &mut report)?
         } else {
-            Box::new(
-                File::open(&args.input)
-                    .with_context(|| format!("cannot open input {}", args.input.display()))?,
-            )
+            let input: Box<dyn Read> = if is_dash(&args.input) {
+                Box::new(std::io::stdin().lock())
+            } else {
+                Box::new(
+                    File::open(&args.input)
+                        .with_context(|| format!("cannot open input {}", args.input.display()))?,
+                )
+            };
+            stream(input, out, options, &input_name, &mut report)?
         };
-        stream(input, out, options, &input_name, &mut report)
+        refuse_empty_output(&summary, &input_name, &args.output)?;
+        Ok(summary)
     })?;
     // None: our stdout reader went away (`| head`); stop quietly, like other filters.
     let Some(summary) = summary else {
@@ -148,6 +151,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     );
     Ok(())
+}
+
+/// A run without one good row has nothing to write: an existing output is left as it was (the
+/// error drops the temporary) rather than replaced by a bare header.
+fn refuse_empty_output(
+    summary: &SsmSummary,
+    input_name: &str,
+    output: &Path,
+) -> anyhow::Result<()> {
+    if summary.rows_ok > 0 {
+        return Ok(());
+    }
+    let untouched = if is_dash(output) {
+        String::from("only the header was written")
+    } else {
+        super::output::left_alone(output)
+    };
+    if summary.rows_bad > 0 {
+        bail!(
+            "no valid row in {input_name} ({} bad rows): nothing written, {untouched}",
+            summary.rows_bad
+        );
+    }
+    bail!("{input_name} has no data row: nothing written, {untouched}");
 }
 
 /// The longest line `--max-line-bytes` accepts: 1 GiB, a thousand times the default. A line is

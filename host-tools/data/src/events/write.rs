@@ -53,6 +53,14 @@ impl EventWriter {
     }
 
     fn open(dir: &Path, partner_acc: bool) -> Result<Self, EventsError> {
+        if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+            return Err(io_err(
+                dir,
+                std::io::Error::other(
+                    "it is a file, not a folder: an event folder is written here",
+                ),
+            ));
+        }
         let new_folders = NewFolders::create(dir).map_err(|e| io_err(dir, e))?;
         let open = |name: &str| -> Result<csv::Writer<AtomicFile>, EventsError> {
             let path = dir.join(name);

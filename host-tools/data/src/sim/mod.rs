@@ -188,7 +188,7 @@ pub enum SimError {
     Limit(#[from] crate::limits::LimitError),
 }
 
-/// The most events one run simulates (about 150 GB of event folder). A larger count is a typo or
+/// The most events one run simulates (at least 100 GB of event folder, about 156 GB at the default mix). A larger count is a typo or
 /// a unit slip, and would hold one byte per event in memory before the first is written.
 pub const MAX_EVENTS: usize = 10_000_000;
 
@@ -207,7 +207,7 @@ impl SimConfig {
             "--events",
             events,
             MAX_EVENTS as u128,
-            "about 150 GB of event folder; split larger sets over seeds",
+            "at least 100 GB of event folder (10 KB an event; about 156 GB at the default mix); split larger sets over seeds",
         )?;
         check_threads("--threads", self.threads)?;
         // The shuffled kind list is held whole; a wave of events is bounded and small.

@@ -177,9 +177,9 @@ pub fn import_to_dir(
             summary.closeness.push((s.min_gap, s.min_centre_distance));
         }
     }
-    // No scenario could be read: nothing to write, so an existing folder is left as it was
-    // (dropping the writer removes its temporaries).
-    if summary.files > 0 {
+    // No safe sequence found (no scenario could be read, or none held one): nothing to write, so
+    // an existing folder is left as it was (dropping the writer removes its temporaries).
+    if !summary.closeness.is_empty() {
         writer.finish()?;
     }
     summary.elapsed = started.elapsed();
