@@ -31,6 +31,9 @@ if [ "$want_test" = test ] || [ "$want_test" = python ]; then
   # The Python package (python/, docs/python.md): an interpreter with venv and pip.
   command -v python3 >/dev/null 2>&1 || need_pkgs+=(python3)
   if ! python3 -c 'import venv, ensurepip' >/dev/null 2>&1; then need_pkgs+=(python3-venv python3-pip); fi
+  # pyspark (riskscore.spark's tests) needs Java 17 or later.
+  java_major=$(java -version 2>&1 | sed -n 's/.*version "\([0-9]*\).*/\1/p' | head -1)
+  [ "${java_major:-0}" -ge 17 ] 2>/dev/null || need_pkgs+=(openjdk-17-jre-headless)
 fi
 if [ "$want_test" = test ]; then
   # qemu-system-arm: Cortex-M4F firmware parity; qemu-system-x86 + busybox-static + cpio: vcan VM.
