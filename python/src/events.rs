@@ -205,41 +205,54 @@ impl Columns<'_> {
     }
 }
 
-fn events_of(batches: &[RecordBatch]) -> Result<Vec<Event>, Failure> {
-    let mut events = Vec::new();
+/// Calls `each` with every row of `batches` (numbered across them), `what` naming the table.
+fn for_each_row(
+    what: &str,
+    batches: &[RecordBatch],
+    mut each: impl FnMut(&Columns<'_>, usize) -> Result<(), Failure>,
+) -> Result<(), Failure> {
     let mut first_row = 0;
     for batch in batches {
         let c = Columns {
-            what: "events",
+            what,
             batch,
             first_row,
         };
         for row in 0..batch.num_rows() {
-            let kind_text = c.text(1, row)?;
-            let kind = EventKind::parse(kind_text).ok_or_else(|| {
-                c.problem(
-                    1,
-                    row,
-                    &format!("unknown kind {kind_text:?} (crash, near_crash or safe)"),
-                )
-            })?;
-            events.push(Event {
-                id: c.text(0, row)?.to_owned(),
-                kind,
-                t_start: c.required_f64(2, row)?,
-                t_end: c.required_f64(3, row)?,
-                t_impact: c.f64(4, row)?,
-                dims: Dims {
-                    length_ego: c.f32(5, row)?,
-                    width_ego: c.f32(6, row)?,
-                    length_partner: c.f32(7, row)?,
-                    width_partner: c.f32(8, row)?,
-                },
-                frames: Vec::new(),
-            });
+            each(&c, row)?;
         }
         first_row += batch.num_rows();
     }
+    Ok(())
+}
+
+fn events_of(batches: &[RecordBatch]) -> Result<Vec<Event>, Failure> {
+    let mut events = Vec::new();
+    for_each_row("events", batches, |c, row| {
+        let kind_text = c.text(1, row)?;
+        let kind = EventKind::parse(kind_text).ok_or_else(|| {
+            c.problem(
+                1,
+                row,
+                &format!("unknown kind {kind_text:?} (crash, near_crash or safe)"),
+            )
+        })?;
+        events.push(Event {
+            id: c.text(0, row)?.to_owned(),
+            kind,
+            t_start: c.required_f64(2, row)?,
+            t_end: c.required_f64(3, row)?,
+            t_impact: c.f64(4, row)?,
+            dims: Dims {
+                length_ego: c.f32(5, row)?,
+                width_ego: c.f32(6, row)?,
+                length_partner: c.f32(7, row)?,
+                width_partner: c.f32(8, row)?,
+            },
+            frames: Vec::new(),
+        });
+        Ok(())
+    })?;
     Ok(events)
 }
 
@@ -251,43 +264,34 @@ fn attach_frames(events: &mut [Event], batches: &[RecordBatch]) -> Result<(), Fa
         .enumerate()
         .map(|(k, e)| (e.id.clone(), k))
         .collect();
-    let mut first_row = 0;
-    for batch in batches {
-        let c = Columns {
-            what: "frames",
-            batch,
-            first_row,
+    for_each_row("frames", batches, |c, row| {
+        let id = c.text(0, row)?;
+        let &k = index.get(id).ok_or_else(|| {
+            c.problem(0, row, &format!("event {id:?} is not in the events table"))
+        })?;
+        let state = |base: usize, length: f32, width: f32| -> Result<VehicleState, Failure> {
+            let v = |j: usize| c.f32(base + j, row);
+            Ok(VehicleState {
+                x: v(0)?,
+                y: v(1)?,
+                vx: v(2)?,
+                vy: v(3)?,
+                hx: v(4)?,
+                hy: v(5)?,
+                acc: v(6)?,
+                length,
+                width,
+            })
         };
-        for row in 0..batch.num_rows() {
-            let id = c.text(0, row)?;
-            let &k = index.get(id).ok_or_else(|| {
-                c.problem(0, row, &format!("event {id:?} is not in the events table"))
-            })?;
-            let state = |base: usize, length: f32, width: f32| -> Result<VehicleState, Failure> {
-                let v = |j: usize| c.f32(base + j, row);
-                Ok(VehicleState {
-                    x: v(0)?,
-                    y: v(1)?,
-                    vx: v(2)?,
-                    vy: v(3)?,
-                    hx: v(4)?,
-                    hy: v(5)?,
-                    acc: v(6)?,
-                    length,
-                    width,
-                })
-            };
-            let d = events[k].dims;
-            let frame = Frame {
-                time: c.required_f64(1, row)?,
-                ego: state(2, d.length_ego, d.width_ego)?,
-                partner: state(9, d.length_partner, d.width_partner)?,
-            };
-            events[k].frames.push(frame);
-        }
-        first_row += batch.num_rows();
-    }
-    Ok(())
+        let d = events[k].dims;
+        let frame = Frame {
+            time: c.required_f64(1, row)?,
+            ego: state(2, d.length_ego, d.width_ego)?,
+            partner: state(9, d.length_partner, d.width_partner)?,
+        };
+        events[k].frames.push(frame);
+        Ok(())
+    })
 }
 
 /// Writes an event folder from the (events, frames) tables (see `riskscore.write_events`).
