@@ -1,4 +1,5 @@
 """riskscore.ssm: parity with `riskctl ssm`, input kinds, bad rows, errors, zero copy."""
+import time
 import warnings
 
 import numpy as np
@@ -173,3 +174,28 @@ def test_help_teaches():
     for needle in ("QUICK START", "x_i, y_i", "ttc2d", "BadRowWarning", "strict=True"):
         assert needle in text
     assert "ColumnError" in riskscore.ssm.__doc__
+
+
+def test_the_gil_is_released_while_the_kernel_runs(ngsim_frames):
+    """A Python thread keeps running during a long ssm call (it could not if the GIL were held)."""
+    import threading
+
+    big = pa.concat_tables([ngsim_frames.select(PAIR_COLUMNS)] * 20).combine_chunks()
+    ticks, done = [0], threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks[0] += 1
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    try:
+        before = ticks[0]
+        started = time.perf_counter()
+        riskscore.ssm(big)
+        during, seconds = ticks[0] - before, time.perf_counter() - started
+    finally:
+        done.set()
+        counter.join()
+    # A held GIL would let the counter run only at the interpreter's switch interval (5 ms).
+    assert during > 1000 * max(seconds, 0.01), (during, seconds)
