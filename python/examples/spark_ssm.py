@@ -7,7 +7,8 @@
 Every input column is kept; the 17 columns of `riskctl ssm` are appended (box_distance, ttc2d,
 tadv, ei, f_l_ego ... f_s; null where a row cannot be scored), and with --model a `risk` column
 scored exactly as on the ECU. Runs on any Spark >= 3.5 whose executors have `riskscore` installed
-(pip install riskscore-*.whl); --master local[N] runs on this machine. See docs/scale.md.
+(pip install riskscore-*.whl); --master local[N] runs on this machine (set PYSPARK_PYTHON to
+the interpreter that has riskscore when it is a venv's). See docs/scale.md.
 """
 import argparse
 import sys
