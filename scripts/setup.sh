@@ -27,6 +27,14 @@ if [ ${#need_targets[@]} -gt 0 ]; then
 fi
 
 need_pkgs=()
+if [ "$want_test" = test ] || [ "$want_test" = python ]; then
+  # The Python package (python/, docs/python.md): an interpreter with venv and pip.
+  command -v python3 >/dev/null 2>&1 || need_pkgs+=(python3)
+  if ! python3 -c 'import venv, ensurepip' >/dev/null 2>&1; then need_pkgs+=(python3-venv python3-pip); fi
+  # pyspark (riskscore.spark's tests) needs Java 17 or later.
+  java_major=$(java -version 2>&1 | sed -n 's/.*version "\([0-9]*\).*/\1/p' | head -1)
+  [ "${java_major:-0}" -ge 17 ] 2>/dev/null || need_pkgs+=(openjdk-17-jre-headless)
+fi
 if [ "$want_test" = test ]; then
   # qemu-system-arm: Cortex-M4F firmware parity; qemu-system-x86 + busybox-static + cpio: vcan VM.
   for p in qemu-system-arm qemu-system-x86 busybox-static cpio gcc binutils; do
@@ -39,4 +47,19 @@ if [ ${#need_pkgs[@]} -gt 0 ]; then
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq >/dev/null
   $SUDO apt-get install -y -qq --no-install-recommends "${need_pkgs[@]}" >/dev/null
+fi
+
+# The Python build and test environment: maturin, pytest, pyarrow, numpy, pandas, polars at the
+# pinned versions, in .cache/pyenv. Reinstalled only when python/requirements.txt changes.
+if [ "$want_test" = test ] || [ "$want_test" = python ]; then
+  root=$(cd "$(dirname "$0")/.." && pwd)
+  venv=$root/.cache/pyenv
+  stamp=$venv/.requirements.sha256
+  want=$(sha256sum "$root/python/requirements.txt" | cut -d' ' -f1)
+  if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+    echo "setup: installing the Python test environment into .cache/pyenv (python/requirements.txt)"
+    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/python/requirements.txt"
+    echo "$want" > "$stamp"
+  fi
 fi

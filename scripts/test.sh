@@ -32,6 +32,9 @@ cargo test --workspace --no-run
 step "cargo test: running the workspace tests (about 3-5 min)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
 
+step "Python package: maturin wheel (dev profile), fresh venv, pytest (cold about 7 min with downloads, warm about 3 min)"
+scripts/test-python.sh
+
 step "vcan VM tests: SocketCAN in QEMU (about 1-2 min; the first run downloads the Debian kernel into .cache/vm)"
 tests/vm/run.sh
 

@@ -1,0 +1,303 @@
+"""riskscore: collision-risk scoring of ego/partner pairs, computed by riskscore's Rust core
+(scorer-core) exactly as on the vehicle's ECU, over Arrow tables.
+
+QUICK START
+    import riskscore
+    out = riskscore.ssm(pairs)                      # 17 Float32 columns, one row per input row
+    model = riskscore.Model.load("models/drl-default.rsk")
+    risk = model.score(pairs)                        # float32 numpy array (int8 DRL as on the ECU)
+    events, frames = riskscore.read_events("data/ngsim-us101-safe")
+    riskscore.ssm(frames)                            # frames carry the pair columns
+    report = riskscore.evaluate("data/ngsim-us101-safe", models=["models/drl-default.rsk"])
+
+INPUT (``pairs``): a pyarrow Table or RecordBatch, a pandas or polars DataFrame, a dict of numpy
+arrays, anything with ``__arrow_c_stream__``, or a path to a ``.parquet``/``.csv`` file. It needs
+the 18 pair columns of ``riskctl ssm`` (names matched case-insensitively, any order, other
+columns ignored); each Float64, Float32, Int64 or Int32:
+    x_i, y_i            ego box centre (m, world frame)
+    vx_i, vy_i          ego velocity (m/s)
+    hx_i, hy_i          ego heading vector (any non-zero length; normalised)
+    acc_i               ego longitudinal acceleration (m/s^2)
+    length_i, width_i   ego box size (m, >= 0)
+    ... and the same nine with suffix _j for the partner.
+
+OUTPUT of ssm (Float32, in this order; ``computed_columns()`` lists them):
+    box_distance  exact gap between the two boxes (m), 0 when they touch or overlap
+    ttc2d         two-dimensional time-to-collision (s); inf = no conflict; smaller is riskier
+    tadv          time advantage (s); inf = no conflict; smaller is riskier
+    ei            emergency index (m/s); -inf = no conflict; larger is riskier
+    f_l_ego ... f_s   the 13 model features in model-input order
+Positions are made relative to the ego in f64 first, so UTM-sized coordinates keep centimetres.
+
+BAD ROWS: a row with a null or non-finite value, a zero heading vector or a negative size cannot
+be scored. Its outputs are null (NaN in ``Model.score``), rows stay aligned with the input, and a
+``BadRowWarning`` names the first ones by 0-based row and column. With ``strict=True`` the first
+bad row raises ``BadRowError`` instead. A missing or non-numeric column raises ``ColumnError``.
+All exceptions are in ``riskscore.errors`` and derive from ``RiskscoreError`` and ``ValueError``.
+
+PERFORMANCE: inputs are read through the Arrow C data interface without copying, the work runs
+with the GIL released, and large tables are split over all cores (``RAYON_NUM_THREADS`` caps
+them). ``riskscore.spark`` runs the same kernels on a Spark cluster (``mapInArrow``).
+
+More: docs/python.md in the riskscore repository.
+"""
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import pyarrow as pa
+
+from . import _riskscore
+from ._inputs import as_table, report_bad
+from .errors import (
+    BadRowError,
+    BadRowWarning,
+    ColumnError,
+    EventsError,
+    InputFileError,
+    ModelError,
+    RiskscoreError,
+)
+
+__version__: str = _riskscore.__version__
+
+__all__ = [
+    "ssm",
+    "computed_columns",
+    "Model",
+    "read_events",
+    "write_events",
+    "evaluate",
+    "RiskscoreError",
+    "ColumnError",
+    "BadRowError",
+    "BadRowWarning",
+    "ModelError",
+    "EventsError",
+    "InputFileError",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def computed_columns() -> List[str]:
+    """Names of the 17 columns :func:`ssm` computes, in output order."""
+    return list(_riskscore.computed_columns())
+
+
+def ssm(data: Any, *, keep_input: bool = False, strict: bool = False) -> pa.Table:
+    """Box distance, TTC2D, TAdv, EI and the 13 features of every ego/partner row of ``data``.
+
+    Returns a ``pyarrow.Table`` of 17 nullable Float32 columns (see ``computed_columns()``), row
+    for row with the input; a row that cannot be scored is null in every column. With
+    ``keep_input=True`` the input's columns come first (the same buffers, not copies), like the
+    output of ``riskctl ssm``. ``data`` is anything listed under INPUT in ``help(riskscore)``.
+
+    Raises ``ColumnError`` for a missing or non-numeric pair column, ``BadRowError`` for the first
+    bad row when ``strict`` (otherwise a ``BadRowWarning``), ``InputFileError`` for an unreadable
+    file.
+    """
+    table, listed, count = _riskscore.ssm(as_table(data), keep_input)
+    report_bad(listed, count, strict)
+    return table
+
+
+class Model:
+    """A riskscore model blob (``*.rsk``: DRL int8, DRL f32, MSRA or GSSM), validated on load.
+
+    ``Model.load(path)`` or ``Model.from_bytes(blob)``; ``model.score(pairs)`` scores every row
+    through scorer-core exactly as the ECU does (int8 arithmetic for DRL), and ``model.info``
+    describes the blob like ``riskctl inspect-model``.
+    """
+
+    __slots__ = ("_native",)
+
+    def __init__(self, native: Any) -> None:
+        self._native = native
+
+    @classmethod
+    def load(cls, path: PathLike) -> "Model":
+        """Read and validate a model file. Raises ``OSError`` if it cannot be read and
+        ``ModelError`` (naming the file and the failed check) if it is not a valid blob."""
+        return cls(_riskscore.Model.load(os.fspath(path)))
+
+    @classmethod
+    def from_bytes(cls, blob: bytes) -> "Model":
+        """Validate a model blob held in memory (e.g. broadcast to Spark executors)."""
+        return cls(_riskscore.Model.from_bytes(bytes(blob)))
+
+    def to_bytes(self) -> bytes:
+        """The blob's bytes, as ``from_bytes`` takes them."""
+        return self._native.to_bytes()
+
+    @property
+    def path(self) -> Optional[str]:
+        """The file the model was loaded from (None for ``from_bytes``)."""
+        return self._native.path
+
+    @property
+    def info(self) -> Dict[str, Any]:
+        """What ``riskctl inspect-model`` reports: ``kind`` (e.g. "DRL (int8)"), ``int8``,
+        ``format_version``, ``input_schema``, ``encoding``, ``inputs`` (names of the network's
+        inputs), ``payload_bytes``, ``payload_crc32``, ``total_bytes``, ``default_threshold`` and
+        ``threshold_rule`` (how the default threshold was chosen)."""
+        return dict(self._native.info)
+
+    def score(self, data: Any, *, strict: bool = False) -> np.ndarray:
+        """The model's risk score of every row of ``data`` as a float32 numpy array, row for
+        row; NaN where a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when
+        ``strict``). Input as for :func:`ssm`. Higher is riskier."""
+        scores, listed, count = self._native._score(as_table(data))
+        report_bad(listed, count, strict)
+        return scores.to_numpy(zero_copy_only=True)
+
+    def __repr__(self) -> str:
+        return repr(self._native)
+
+
+def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Table, pa.Table]:
+    """Read an event folder (``events.csv`` + ``frames.csv``, docs/event-format.md) as two tables.
+
+    ``events``: event_id, kind (crash, near_crash, safe), t_start, t_end, t_impact (null for
+    safe events), length_ego, width_ego, length_sur, width_sur. ``frames``: event_id, time and the
+    18 pair columns x_i ... width_j (ego = _i, partner = _j; box sizes from the event; acc_j as
+    recorded, or derived from the partner's velocity as riskctl does), so
+    ``riskscore.ssm(frames)`` and ``model.score(frames)`` work on it directly.
+
+    Every row is validated as ``riskctl`` does. A folder with problems raises ``EventsError``
+    listing them (file:line: column: event: problem); with ``skip_bad=True`` the events with
+    problems are left out and a ``BadRowWarning`` lists them instead.
+    """
+    events, frames, issues, count = _riskscore.read_events(os.fspath(directory))
+    if count:
+        listing = "\n  ".join(issues)
+        message = f"{count} problem(s) in event folder {os.fspath(directory)}:\n  {listing}"
+        if not skip_bad:
+            raise EventsError(message + "\n(skip_bad=True reads the valid events)")
+        import warnings
+
+        warnings.warn(message + "\n(those events are left out)", BadRowWarning, stacklevel=2)
+    return events, frames
+
+
+_EVENT_TYPES = [
+    ("event_id", pa.string()),
+    ("kind", pa.string()),
+    ("t_start", pa.float64()),
+    ("t_end", pa.float64()),
+    ("t_impact", pa.float64()),
+    ("length_ego", pa.float32()),
+    ("width_ego", pa.float32()),
+    ("length_sur", pa.float32()),
+    ("width_sur", pa.float32()),
+]
+_STATE = ["x", "y", "vx", "vy", "hx", "hy", "acc"]
+_FRAME_TYPES = (
+    [("event_id", pa.string()), ("time", pa.float64())]
+    + [(f"{f}_i", pa.float32()) for f in _STATE]
+    + [(f"{f}_j", pa.float32()) for f in _STATE]
+)
+
+
+def _select(table: pa.Table, what: str, wanted: Sequence[Tuple[str, pa.DataType]]) -> pa.Table:
+    """The ``wanted`` columns of ``table`` (names case-insensitive), cast to their types."""
+    by_name: Dict[str, int] = {}
+    for k, name in enumerate(table.column_names):
+        if name.lower() in by_name:
+            raise ColumnError(f"{what}: column {name!r} appears twice (names are case-insensitive)")
+        by_name[name.lower()] = k
+    columns = []
+    for name, kind in wanted:
+        if name not in by_name:
+            raise ColumnError(f"{what}: missing column {name!r}")
+        column = table.column(by_name[name])
+        try:
+            columns.append(column.cast(kind))
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as e:
+            raise ColumnError(f"{what}: column {name!r} ({column.type}) is not {kind}: {e}") from e
+    return pa.Table.from_arrays(columns, names=[n for n, _ in wanted])
+
+
+def write_events(
+    directory: PathLike, events: Any, frames: Any, *, overwrite: bool = False
+) -> None:
+    """Write an event folder from an events table and a frames table (as :func:`read_events`
+    returns them; names case-insensitive, numeric types cast). The box sizes come from the events
+    table; frames need event_id, time, x_i ... acc_i and x_j ... acc_j, in time order per event.
+
+    Both files are written under temporary names and renamed into place, so a failure leaves the
+    folder as it was. Existing ``events.csv``/``frames.csv`` raise ``FileExistsError`` unless
+    ``overwrite=True``. A missing or non-finite value raises ``EventsError`` naming the table, row
+    and column; an unknown kind or an event_id missing from the events table too.
+    """
+    ev = _select(as_table(events), "events", _EVENT_TYPES)
+    fr = _select(as_table(frames), "frames", _FRAME_TYPES)
+    _riskscore.write_events(os.fspath(directory), ev, fr, overwrite)
+
+
+ModelSpec = Union[PathLike, Model]
+Threshold = Union[float, str, None]
+
+
+def _model_specs(models: Union[ModelSpec, Sequence[ModelSpec], Mapping[str, ModelSpec]]) -> List[str]:
+    def path_of(m: ModelSpec) -> str:
+        if isinstance(m, Model):
+            if m.path is None:
+                raise ModelError("evaluate needs model files: this Model was made from bytes")
+            return m.path
+        return os.fspath(m)
+
+    if isinstance(models, Mapping):
+        return [f"{name}={path_of(m)}" for name, m in models.items()]
+    if isinstance(models, (str, os.PathLike, Model)):
+        return [path_of(models)]
+    return [path_of(m) for m in models]
+
+
+def _choice(value: Threshold) -> Union[float, str]:
+    if value is None:
+        return "none"
+    if isinstance(value, str):
+        return value
+    return float(value)
+
+
+def evaluate(
+    events: PathLike,
+    models: Union[ModelSpec, Sequence[ModelSpec], Mapping[str, ModelSpec]] = (),
+    *,
+    thresholds: Union[Threshold, Mapping[str, Threshold]] = "default",
+    skip_bad_events: bool = False,
+) -> Dict[str, Any]:
+    """Evaluate an event folder exactly as ``riskctl evaluate --json`` does, returning its object:
+    ``{"events": {...}, "methods": [{"name", "A_ROC_90", ...}], "operating_points": [...]}``.
+
+    ``models``: model files (paths or loaded ``Model``s; a ``{name: path}`` dict names the rows
+    like ``--model NAME=FILE``). The TTC2D, TAdv and EI baselines follow. ``thresholds`` sets the
+    operating points like ``--threshold``: ``"default"`` (each model at its own default
+    threshold), a number (every model at it), ``"none"``/None (no operating points), or a dict
+    ``{row name: number | "default" | "none"/None}`` (baselines too; other rows keep defaults).
+    A folder with bad rows raises ``EventsError`` listing them unless ``skip_bad_events=True``.
+    """
+    specs = _model_specs(models)
+    if isinstance(thresholds, Mapping):
+        every, by_name = None, {name: _choice(t) for name, t in thresholds.items()}
+    else:
+        every, by_name = _choice(thresholds), {}
+    text, issues, count = _riskscore.evaluate(
+        os.fspath(events), specs, every, by_name, skip_bad_events
+    )
+    if count:
+        import warnings
+
+        listing = "\n  ".join(issues)
+        warnings.warn(
+            f"{count} problem(s) in event folder {os.fspath(events)} (those events are left "
+            f"out of the metrics):\n  {listing}",
+            BadRowWarning,
+            stacklevel=2,
+        )
+    return json.loads(text)

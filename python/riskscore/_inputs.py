@@ -1,0 +1,69 @@
+"""Everything riskscore accepts as a table of pairs, turned into a ``pyarrow.Table``.
+
+Conversions only, and zero-copy wherever pyarrow allows it (numpy-backed float columns without
+nulls, Arrow-backed frames, anything exporting ``__arrow_c_stream__``).
+"""
+from __future__ import annotations
+
+import os
+import warnings
+from typing import Any, List, Optional, Tuple
+
+import pyarrow as pa
+
+from .errors import BadRowError, BadRowWarning, InputFileError
+
+
+def as_table(data: Any) -> pa.Table:
+    """``data`` as a pyarrow Table; see :func:`riskscore.ssm` for what is accepted."""
+    if isinstance(data, pa.Table):
+        return data
+    if isinstance(data, pa.RecordBatch):
+        return pa.Table.from_batches([data])
+    if isinstance(data, (str, os.PathLike)):
+        return read_file(os.fspath(data))
+    module = type(data).__module__.split(".")[0]
+    if module == "pandas":
+        return pa.Table.from_pandas(data, preserve_index=False)
+    if module == "polars":
+        return data.to_arrow()
+    if isinstance(data, dict):
+        return pa.table(data)
+    if hasattr(data, "__arrow_c_stream__"):
+        return pa.table(data)
+    raise TypeError(
+        f"expected a pyarrow Table or RecordBatch, a pandas or polars DataFrame, a dict of arrays "
+        f"or a path to a .parquet/.csv file, not {type(data).__name__}"
+    )
+
+
+def read_file(path: str) -> pa.Table:
+    """A Parquet (``.parquet``) or CSV file of pairs, with the file named in any error."""
+    try:
+        if path.lower().endswith(".parquet"):
+            import pyarrow.parquet as pq
+
+            return pq.read_table(path)
+        import pyarrow.csv as pcsv
+
+        return pcsv.read_csv(path)
+    except (OSError, pa.ArrowException) as e:
+        raise InputFileError(f"{path}: cannot read: {e}") from e
+
+
+def report_bad(listed: List[Tuple[int, Optional[str], str]], count: int, strict: bool) -> None:
+    """Raise (``strict``) or warn about the bad rows one call found."""
+    if count == 0:
+        return
+    row, column, problem = listed[0]
+    if strict:
+        raise BadRowError(row, column, problem, count)
+    shown = "; ".join(
+        f"row {r}" + (f" column {c}" if c else "") + f": {p}" for r, c, p in listed[:5]
+    )
+    more = f"; ... and {count - 5} more" if count > 5 else ""
+    warnings.warn(
+        f"{count} row(s) could not be scored and are null in the output: {shown}{more}",
+        BadRowWarning,
+        stacklevel=3,
+    )

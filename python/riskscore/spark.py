@@ -1,0 +1,101 @@
+"""riskscore on Spark: the same Arrow kernels over a DataFrame with ``mapInArrow``.
+
+Each executor gets Arrow record batches of its partition and hands them to the Rust kernels
+without a per-row Python step; the model blob is broadcast once. Needs pyspark >= 3.5 (and a Java
+17 runtime); the executors need this package installed.
+
+    from pyspark.sql import SparkSession
+    import riskscore.spark as rs
+
+    spark = SparkSession.builder.master("local[2]").getOrCreate()
+    pairs = spark.read.parquet("pairs/")                  # the 18 pair columns, any others kept
+    rs.ssm(pairs).write.parquet("pairs_ssm/")             # + box_distance ... f_s (float, null = bad row)
+    rs.score(pairs, "models/drl-default.rsk").write.parquet("pairs_risk/")   # + risk
+
+Bad rows are null in the computed columns (as :func:`riskscore.ssm`; executors' warnings are not
+shown on the driver, so count the nulls). A missing or non-numeric column raises on the driver
+before any job runs.
+"""
+from __future__ import annotations
+
+from typing import Any, Iterator, Optional
+
+import pyarrow as pa
+
+import riskscore
+
+from ._inputs import as_table
+
+_PAIR_COLUMNS = [
+    f"{f}_{side}"
+    for side in ("i", "j")
+    for f in ("x", "y", "vx", "vy", "hx", "hy", "acc", "length", "width")
+]
+
+
+def _check_columns(df: Any) -> None:
+    """Fail on the driver, naming the column, before a job starts."""
+    from pyspark.sql import types as T
+
+    numeric = (T.DoubleType, T.FloatType, T.LongType, T.IntegerType)
+    by_name = {f.name.lower(): f for f in df.schema.fields}
+    missing = [c for c in _PAIR_COLUMNS if c not in by_name]
+    if missing:
+        raise riskscore.ColumnError(f"missing pair column(s): {', '.join(missing)}")
+    for c in _PAIR_COLUMNS:
+        if not isinstance(by_name[c].dataType, numeric):
+            raise riskscore.ColumnError(
+                f"column {by_name[c].name}: type {by_name[c].dataType.simpleString()} is not numeric "
+                "(expected double, float, bigint or int)"
+            )
+
+
+def _with_float_columns(df: Any, names: list) -> Any:
+    from pyspark.sql import types as T
+
+    fields = list(df.schema.fields) + [T.StructField(n, T.FloatType(), True) for n in names]
+    return T.StructType(fields)
+
+
+def ssm(df: Any) -> Any:
+    """``df`` with the 17 computed columns of :func:`riskscore.ssm` appended (FloatType,
+    nullable), row for row, computed by the Rust kernels on the executors."""
+    _check_columns(df)
+    names = riskscore.computed_columns()
+
+    def compute(batches: Iterator[pa.RecordBatch]) -> Iterator[pa.RecordBatch]:
+        import warnings
+
+        from riskscore import _riskscore
+
+        for batch in batches:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                table, _bad, _count = _riskscore.ssm(as_table(batch), True)
+            yield from table.to_batches()
+
+    return df.mapInArrow(compute, _with_float_columns(df, names))
+
+
+def score(df: Any, model_path: str, column: str = "risk", spark: Optional[Any] = None) -> Any:
+    """``df`` with one FloatType column (``column``) of the model's risk score per row, null where
+    the row cannot be scored. The blob is read on the driver, validated, and broadcast once."""
+    _check_columns(df)
+    model = riskscore.Model.load(model_path)
+    session = spark or df.sparkSession
+    blob = session.sparkContext.broadcast(model.to_bytes())
+
+    def compute(batches: Iterator[pa.RecordBatch]) -> Iterator[pa.RecordBatch]:
+        import numpy as np
+
+        from riskscore import _riskscore
+
+        scorer = _riskscore.Model.from_bytes(blob.value)  # once per partition, not per row
+        for batch in batches:
+            scores, _bad, _count = scorer._score(as_table(batch))
+            values = scores.to_numpy(zero_copy_only=True)
+            risk = pa.array(values, mask=np.isnan(values))
+            columns = batch.columns + [risk]
+            yield pa.RecordBatch.from_arrays(columns, names=batch.schema.names + [column])
+
+    return df.mapInArrow(compute, _with_float_columns(df, [column]))

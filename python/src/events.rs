@@ -1,0 +1,333 @@
+//! Event folders (`events.csv` + `frames.csv`, docs/event-format.md) as two Arrow tables, read
+//! and written by riskscore-data. Frames carry the pair column names (`x_i ... width_j`), so a
+//! frames table goes straight into `ssm` and `Model.score`.
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use arrow_array::cast::AsArray;
+use arrow_array::types::{Float32Type, Float64Type};
+use arrow_array::{Array, ArrayRef, Float32Array, Float64Array, RecordBatch, StringArray};
+use arrow_pyarrow::{PyArrowType, Table};
+use arrow_schema::{DataType, Field, Schema};
+use pyo3::prelude::*;
+use riskscore_data::events::{
+    load_events, Dims, Event, EventKind, EventSet, EventWriter, Frame, EVENTS_FILE, FRAMES_FILE,
+};
+use riskscore_data::ssm_csv::STATE_FIELDS;
+use scorer_core::VehicleState;
+
+use crate::errors::Failure;
+
+/// Columns of the events table, in order (the `events.csv` header).
+const EVENT_FIELDS: [(&str, DataType, bool); 9] = [
+    ("event_id", DataType::Utf8, false),
+    ("kind", DataType::Utf8, false),
+    ("t_start", DataType::Float64, false),
+    ("t_end", DataType::Float64, false),
+    ("t_impact", DataType::Float64, true),
+    ("length_ego", DataType::Float32, false),
+    ("width_ego", DataType::Float32, false),
+    ("length_sur", DataType::Float32, false),
+    ("width_sur", DataType::Float32, false),
+];
+
+/// Names of the frames table: `event_id`, `time`, then the 18 pair columns.
+pub fn frame_names() -> Vec<String> {
+    let pair = |suffix: &str| STATE_FIELDS.map(|f| format!("{f}_{suffix}"));
+    ["event_id".to_owned(), "time".to_owned()]
+        .into_iter()
+        .chain(pair("i"))
+        .chain(pair("j"))
+        .collect()
+}
+
+fn state_values(s: &VehicleState) -> [f32; 9] {
+    [s.x, s.y, s.vx, s.vy, s.hx, s.hy, s.acc, s.length, s.width]
+}
+
+fn events_batch(set: &EventSet) -> Result<RecordBatch, Failure> {
+    let events = &set.events;
+    let f64s = |get: &dyn Fn(&Event) -> Option<f64>| -> ArrayRef {
+        Arc::new(events.iter().map(get).collect::<Float64Array>())
+    };
+    let f32s = |get: &dyn Fn(&Dims) -> f32| -> ArrayRef {
+        Arc::new(
+            events
+                .iter()
+                .map(|e| get(&e.dims))
+                .collect::<Float32Array>(),
+        )
+    };
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from_iter_values(events.iter().map(|e| &e.id))),
+        Arc::new(StringArray::from_iter_values(
+            events.iter().map(|e| e.kind.as_str()),
+        )),
+        f64s(&|e| Some(e.t_start)),
+        f64s(&|e| Some(e.t_end)),
+        f64s(&|e| e.t_impact),
+        f32s(&|d| d.length_ego),
+        f32s(&|d| d.width_ego),
+        f32s(&|d| d.length_partner),
+        f32s(&|d| d.width_partner),
+    ];
+    let schema = Schema::new(
+        EVENT_FIELDS
+            .iter()
+            .map(|(n, t, nullable)| Field::new(*n, t.clone(), *nullable))
+            .collect::<Vec<_>>(),
+    );
+    RecordBatch::try_new(Arc::new(schema), columns).map_err(|e| Failure::Events(e.to_string()))
+}
+
+fn frames_batch(set: &EventSet) -> Result<RecordBatch, Failure> {
+    let n: usize = set.iter().map(|e| e.frames.len()).sum();
+    let mut ids = Vec::with_capacity(n);
+    let mut times = Vec::with_capacity(n);
+    let mut pair: Vec<Vec<f32>> = (0..18).map(|_| Vec::with_capacity(n)).collect();
+    for event in set {
+        for frame in &event.frames {
+            ids.push(event.id.as_str());
+            times.push(frame.time);
+            let values = state_values(&frame.ego)
+                .into_iter()
+                .chain(state_values(&frame.partner));
+            for (column, v) in pair.iter_mut().zip(values) {
+                column.push(v);
+            }
+        }
+    }
+    let mut columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from(ids)),
+        Arc::new(Float64Array::from(times)),
+    ];
+    columns.extend(
+        pair.into_iter()
+            .map(|v| Arc::new(Float32Array::from(v)) as ArrayRef),
+    );
+    let fields: Vec<Field> = frame_names()
+        .into_iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let kind = match k {
+                0 => DataType::Utf8,
+                1 => DataType::Float64,
+                _ => DataType::Float32,
+            };
+            Field::new(name, kind, false)
+        })
+        .collect();
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
+        .map_err(|e| Failure::Events(e.to_string()))
+}
+
+fn table(batch: RecordBatch) -> Result<PyArrowType<Table>, Failure> {
+    let schema = batch.schema();
+    Table::try_new(vec![batch], schema)
+        .map(PyArrowType)
+        .map_err(|e| Failure::Events(e.to_string()))
+}
+
+/// (events, frames, the first problems one line each, the number of problems).
+type ReadFolder = (PyArrowType<Table>, PyArrowType<Table>, Vec<String>, u64);
+
+/// The valid events of folder `dir` as (events, frames) tables, the folder's problems (one line
+/// each, `file:line: column: event: problem`) and how many problems there are in all.
+#[pyfunction]
+pub fn read_events(py: Python<'_>, dir: PathBuf) -> PyResult<ReadFolder> {
+    let read = py.detach(|| -> Result<_, Failure> {
+        let (set, issues) = load_events(&dir).map_err(|e| Failure::Events(e.to_string()))?;
+        let listed = issues.iter().map(|i| i.to_string()).collect();
+        let count = issues.iter().map(|i| i.count()).sum();
+        Ok((
+            table(events_batch(&set)?)?,
+            table(frames_batch(&set)?)?,
+            listed,
+            count,
+        ))
+    });
+    read.map_err(|f| f.into_py(py))
+}
+
+/// A typed view of one column of a table the Python side has already cast (names and types as
+/// [`EVENT_FIELDS`] / [`frame_names`]), with the table's name for messages.
+struct Columns<'a> {
+    what: &'a str,
+    batch: &'a RecordBatch,
+    first_row: usize,
+}
+
+impl Columns<'_> {
+    fn name(&self, k: usize) -> String {
+        self.batch.schema().field(k).name().clone()
+    }
+    fn problem(&self, k: usize, row: usize, text: &str) -> Failure {
+        Failure::Events(format!(
+            "{} row {} column {}: {text}",
+            self.what,
+            self.first_row + row,
+            self.name(k)
+        ))
+    }
+    fn text(&self, k: usize, row: usize) -> Result<&str, Failure> {
+        let column = self.batch.column(k).as_string::<i32>();
+        if column.is_null(row) {
+            return Err(self.problem(k, row, "missing value"));
+        }
+        Ok(column.value(row))
+    }
+    fn f64(&self, k: usize, row: usize) -> Result<Option<f64>, Failure> {
+        let column = self.batch.column(k).as_primitive::<Float64Type>();
+        if column.is_null(row) {
+            return Ok(None);
+        }
+        let v = column.value(row);
+        if !v.is_finite() {
+            return Err(self.problem(k, row, &format!("value {v} is not finite")));
+        }
+        Ok(Some(v))
+    }
+    fn required_f64(&self, k: usize, row: usize) -> Result<f64, Failure> {
+        self.f64(k, row)?
+            .ok_or_else(|| self.problem(k, row, "missing value"))
+    }
+    fn f32(&self, k: usize, row: usize) -> Result<f32, Failure> {
+        let column = self.batch.column(k).as_primitive::<Float32Type>();
+        if column.is_null(row) {
+            return Err(self.problem(k, row, "missing value"));
+        }
+        let v = column.value(row);
+        if !v.is_finite() {
+            return Err(self.problem(k, row, &format!("value {v} is not finite")));
+        }
+        Ok(v)
+    }
+}
+
+/// Calls `each` with every row of `batches` (numbered across them), `what` naming the table.
+fn for_each_row(
+    what: &str,
+    batches: &[RecordBatch],
+    mut each: impl FnMut(&Columns<'_>, usize) -> Result<(), Failure>,
+) -> Result<(), Failure> {
+    let mut first_row = 0;
+    for batch in batches {
+        let c = Columns {
+            what,
+            batch,
+            first_row,
+        };
+        for row in 0..batch.num_rows() {
+            each(&c, row)?;
+        }
+        first_row += batch.num_rows();
+    }
+    Ok(())
+}
+
+fn events_of(batches: &[RecordBatch]) -> Result<Vec<Event>, Failure> {
+    let mut events = Vec::new();
+    for_each_row("events", batches, |c, row| {
+        let kind_text = c.text(1, row)?;
+        let kind = EventKind::parse(kind_text).ok_or_else(|| {
+            c.problem(
+                1,
+                row,
+                &format!("unknown kind {kind_text:?} (crash, near_crash or safe)"),
+            )
+        })?;
+        events.push(Event {
+            id: c.text(0, row)?.to_owned(),
+            kind,
+            t_start: c.required_f64(2, row)?,
+            t_end: c.required_f64(3, row)?,
+            t_impact: c.f64(4, row)?,
+            dims: Dims {
+                length_ego: c.f32(5, row)?,
+                width_ego: c.f32(6, row)?,
+                length_partner: c.f32(7, row)?,
+                width_partner: c.f32(8, row)?,
+            },
+            frames: Vec::new(),
+        });
+        Ok(())
+    })?;
+    Ok(events)
+}
+
+/// Adds the frames (columns `event_id`, `time`, `x_i ... acc_i`, `x_j ... acc_j`) to their
+/// events, in table order; the box sizes are the event's.
+fn attach_frames(events: &mut [Event], batches: &[RecordBatch]) -> Result<(), Failure> {
+    let index: HashMap<String, usize> = events
+        .iter()
+        .enumerate()
+        .map(|(k, e)| (e.id.clone(), k))
+        .collect();
+    for_each_row("frames", batches, |c, row| {
+        let id = c.text(0, row)?;
+        let &k = index.get(id).ok_or_else(|| {
+            c.problem(0, row, &format!("event {id:?} is not in the events table"))
+        })?;
+        let state = |base: usize, length: f32, width: f32| -> Result<VehicleState, Failure> {
+            let v = |j: usize| c.f32(base + j, row);
+            Ok(VehicleState {
+                x: v(0)?,
+                y: v(1)?,
+                vx: v(2)?,
+                vy: v(3)?,
+                hx: v(4)?,
+                hy: v(5)?,
+                acc: v(6)?,
+                length,
+                width,
+            })
+        };
+        let d = events[k].dims;
+        let frame = Frame {
+            time: c.required_f64(1, row)?,
+            ego: state(2, d.length_ego, d.width_ego)?,
+            partner: state(9, d.length_partner, d.width_partner)?,
+        };
+        events[k].frames.push(frame);
+        Ok(())
+    })
+}
+
+/// Writes an event folder from the (events, frames) tables (see `riskscore.write_events`).
+#[pyfunction]
+#[pyo3(signature = (dir, events, frames, overwrite = false))]
+pub fn write_events(
+    py: Python<'_>,
+    dir: PathBuf,
+    events: PyArrowType<Table>,
+    frames: PyArrowType<Table>,
+    overwrite: bool,
+) -> PyResult<()> {
+    let written = py.detach(|| -> Result<(), Failure> {
+        if !overwrite {
+            for name in [EVENTS_FILE, FRAMES_FILE] {
+                let path = dir.join(name);
+                if path.exists() {
+                    return Err(Failure::Exists(format!(
+                        "{} exists; pass overwrite=True to replace the folder's files",
+                        path.display()
+                    )));
+                }
+            }
+        }
+        let mut list = events_of(events.0.record_batches())?;
+        attach_frames(&mut list, frames.0.record_batches())?;
+        // The partner acceleration is always known here (recorded or derived when read), so it
+        // is written: the folder reads back with exactly these values.
+        let mut writer = EventWriter::create_with_partner_acceleration(&dir)
+            .map_err(|e| Failure::Events(e.to_string()))?;
+        for event in &list {
+            writer
+                .write_event(event)
+                .map_err(|e| Failure::Events(e.to_string()))?;
+        }
+        writer.finish().map_err(|e| Failure::Events(e.to_string()))
+    });
+    written.map_err(|f| f.into_py(py))
+}

@@ -1,0 +1,155 @@
+//! `riskscore.Model`: a model blob, scored over tables of pairs exactly as on the ECU.
+use arrow_array::{Array, Float32Array};
+use arrow_data::ArrayData;
+use arrow_pyarrow::{PyArrowType, Table};
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rayon::prelude::*;
+use riskscore_eval::arrow_kernel::score_kernel;
+use scorer_core::model::{self, ThresholdRule, DRL_INPUT_SCHEMA};
+
+use crate::errors::{BadRow, Failure};
+use crate::tables::{flatten_scores, gather_bad, kernel_failure, locate, rows_per_task, slices};
+
+/// A decoded, validated model blob (`*.rsk`).
+#[pyclass(frozen, module = "riskscore._riskscore")]
+pub struct Model {
+    bytes: Vec<u8>,
+    /// Where the blob was read from (`None` for `from_bytes`), for messages.
+    path: Option<String>,
+}
+
+impl Model {
+    fn checked(bytes: Vec<u8>, path: Option<String>) -> Result<Self, Failure> {
+        let source = path.as_deref().unwrap_or("model bytes").to_owned();
+        model::decode_blob(&bytes)
+            .map_err(|e| Failure::Model(format!("{source}: not a valid model blob: {e}")))?;
+        Ok(Model { bytes, path })
+    }
+
+    fn blob(&self) -> model::ModelBlob<'_> {
+        // Validated in `checked`, and the bytes never change.
+        model::decode_blob(&self.bytes).expect("validated at construction")
+    }
+}
+
+#[pymethods]
+impl Model {
+    #[staticmethod]
+    fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Self> {
+        let shown = path.display().to_string();
+        let bytes = std::fs::read(&path).map_err(|e| {
+            pyo3::exceptions::PyOSError::new_err(format!("model file {shown}: cannot read: {e}"))
+        })?;
+        Model::checked(bytes, Some(shown)).map_err(|f| f.into_py(py))
+    }
+
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, blob: &[u8]) -> PyResult<Self> {
+        Model::checked(blob.to_vec(), None).map_err(|f| f.into_py(py))
+    }
+
+    /// The blob's bytes (what `from_bytes` takes; what a Spark job broadcasts).
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &self.bytes)
+    }
+
+    #[getter]
+    fn path(&self) -> Option<String> {
+        self.path.clone()
+    }
+
+    /// What `riskctl inspect-model` reports, as a dict.
+    #[getter]
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let header = model::decode_header(&self.bytes).expect("validated at construction");
+        let blob = self.blob();
+        let info = PyDict::new(py);
+        info.set_item("kind", header.kind.name())?;
+        info.set_item("kind_byte", header.kind as u8)?;
+        info.set_item("format_version", header.version)?;
+        info.set_item("input_schema", header.feature_schema)?;
+        let drl = header.feature_schema == DRL_INPUT_SCHEMA;
+        info.set_item(
+            "encoding",
+            if drl {
+                "DRL input encoding 3 (scorer_core::encoding)"
+            } else {
+                "the 13 features"
+            },
+        )?;
+        let inputs: Vec<&str> = if drl {
+            scorer_core::DRL_INPUT_NAMES.to_vec()
+        } else {
+            scorer_core::FEATURE_NAMES.to_vec()
+        };
+        info.set_item("inputs", inputs)?;
+        info.set_item("int8", matches!(blob.model, model::Model::DrlInt8(_)))?;
+        info.set_item("payload_bytes", header.payload_len)?;
+        info.set_item("payload_crc32", header.payload_crc)?;
+        info.set_item("total_bytes", self.bytes.len())?;
+        info.set_item("default_threshold", blob.default_threshold())?;
+        let rule = PyDict::new(py);
+        match blob.meta.default_threshold {
+            None => rule.set_item("rule", "kind_default")?,
+            Some(op) => {
+                match op.rule {
+                    ThresholdRule::KindDefault => rule.set_item("rule", "kind_default")?,
+                    ThresholdRule::SafeShare {
+                        target,
+                        measured,
+                        sequences,
+                    } => {
+                        rule.set_item("rule", "safe_share")?;
+                        rule.set_item("target", target)?;
+                        rule.set_item("measured", measured)?;
+                        rule.set_item("sequences", sequences)?;
+                    }
+                }
+                rule.set_item("data", op.data)?;
+            }
+        }
+        rule.set_item("stored", blob.meta.default_threshold.is_some())?;
+        info.set_item("threshold_rule", rule)?;
+        Ok(info)
+    }
+
+    /// Scores of every row of `table` as one contiguous f32 column (NaN where a row is bad), the
+    /// first bad rows and their count.
+    fn _score(
+        &self,
+        py: Python<'_>,
+        table: PyArrowType<Table>,
+    ) -> PyResult<(PyArrowType<ArrayData>, Vec<BadRow>, u64)> {
+        let (batches, schema) = table.0.into_inner();
+        let scored = py.detach(|| -> Result<_, Failure> {
+            let columns = locate(&schema)?;
+            let decoded = self.blob().model;
+            let total = batches.iter().map(|b| b.num_rows()).sum();
+            let results: Vec<_> = slices(&batches, rows_per_task(total))
+                .par_iter()
+                .map(|(first, batch)| {
+                    score_kernel(&decoded, &columns, batch, *first).map_err(kernel_failure)
+                })
+                .collect::<Result<_, Failure>>()?;
+            let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
+            let (listed, count) = gather_bad(bad);
+            let scores = Float32Array::from(flatten_scores(&parts, total));
+            Ok((PyArrowType(scores.into_data()), listed, count))
+        });
+        scored.map_err(|f| f.into_py(py))
+    }
+
+    fn __repr__(&self) -> String {
+        let header = model::decode_header(&self.bytes).expect("validated at construction");
+        match &self.path {
+            Some(p) => format!("<riskscore.Model {} from {p}>", header.kind.name()),
+            None => format!(
+                "<riskscore.Model {} ({} bytes)>",
+                header.kind.name(),
+                self.bytes.len()
+            ),
+        }
+    }
+}

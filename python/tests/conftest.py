@@ -1,0 +1,66 @@
+"""Shared fixtures: the repository, the `riskctl` binary the parity tests compare against, and
+small real tables of pairs.
+
+`riskctl` is taken from $RISKCTL, else target/debug/riskctl (scripts/test.sh builds it before this
+suite runs). Parity tests need it; a missing binary fails them rather than skipping them.
+"""
+import os
+import pathlib
+import subprocess
+
+import pyarrow as pa
+import pytest
+
+import riskscore
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+GOLDEN = REPO / "tests" / "data" / "golden_surrogates.csv"
+NGSIM_SAFE = REPO / "data" / "ngsim-us101-safe"
+MODELS = REPO / "models"
+STATE = ["x", "y", "vx", "vy", "hx", "hy", "acc", "length", "width"]
+PAIR_COLUMNS = [f"{f}_i" for f in STATE] + [f"{f}_j" for f in STATE]
+
+
+@pytest.fixture(scope="session")
+def riskctl():
+    path = pathlib.Path(os.environ.get("RISKCTL", REPO / "target" / "debug" / "riskctl"))
+    if not path.is_file():
+        pytest.fail(f"riskctl not found at {path}: build it (cargo build -p host-tools) or set RISKCTL")
+
+    def run(*args, **kwargs):
+        return subprocess.run(
+            [str(path), *map(str, args)], check=True, capture_output=True, text=True, **kwargs
+        )
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def golden_pairs():
+    """The golden cases' 18 pair columns (Float64, as a CSV reader parses them)."""
+    import pyarrow.csv as pcsv
+
+    return pcsv.read_csv(GOLDEN).select(PAIR_COLUMNS)
+
+
+@pytest.fixture(scope="session")
+def ngsim_frames():
+    """Every frame of the shipped real NGSIM US-101 safe interactions, with the pair columns."""
+    _events, frames = riskscore.read_events(NGSIM_SAFE)
+    return frames
+
+
+def rows_equal_bitwise(a: pa.Table, b: pa.Table) -> None:
+    """Same column names and the same f32 bits (or nulls) in every row."""
+    import numpy as np
+
+    assert a.column_names == b.column_names
+    assert a.num_rows == b.num_rows
+    for name in a.column_names:
+        x = a.column(name).combine_chunks()
+        y = b.column(name).combine_chunks()
+        assert x.null_count == y.null_count, name
+        xv = x.fill_null(0).to_numpy().astype(np.float32).view(np.uint32)
+        yv = y.fill_null(0).to_numpy().astype(np.float32).view(np.uint32)
+        diff = np.nonzero(xv != yv)[0]
+        assert diff.size == 0, f"{name}: first difference at row {diff[:1]}"

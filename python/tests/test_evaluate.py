@@ -1,0 +1,51 @@
+"""riskscore.evaluate returns what `riskctl evaluate --json` prints."""
+import json
+
+import pytest
+
+import riskscore
+from conftest import MODELS, NGSIM_SAFE
+
+DRL, MSRA = MODELS / "drl-default.rsk", MODELS / "msra-default.rsk"
+
+
+@pytest.fixture(scope="module")
+def simulated(riskctl, tmp_path_factory):
+    """A small simulated folder with crash, near-crash and safe events (metrics defined)."""
+    folder = tmp_path_factory.mktemp("sim") / "events"
+    riskctl("simulate", "--out", folder, "--events", 60, "--seed", 7)
+    return folder
+
+
+def cli(riskctl, folder, *args):
+    return json.loads(riskctl("evaluate", "--events", folder, "--json", *args).stdout)
+
+
+def test_simulated_folder_matches_the_cli(riskctl, simulated):
+    expected = cli(riskctl, simulated, "--model", DRL, "--model", MSRA)
+    ours = riskscore.evaluate(simulated, [DRL, riskscore.Model.load(MSRA)])
+    assert ours == expected
+    assert expected["events"]["crash"] > 0
+    assert [m["name"] for m in ours["methods"]][:2] == ["DRL", "MSRA"]
+
+
+def test_thresholds_match_the_cli(riskctl, simulated):
+    expected = cli(riskctl, simulated, "--model", f"MINE={DRL}", "--threshold", "2.5",
+                   "--threshold", "TTC2D=-3")
+    ours = riskscore.evaluate(simulated, {"MINE": DRL}, thresholds={"MINE": 2.5, "TTC2D": -3})
+    assert ours == expected
+    assert riskscore.evaluate(simulated, [DRL], thresholds=None)["operating_points"] == []
+
+
+def test_real_safe_driving_matches_the_cli(riskctl):
+    expected = cli(riskctl, NGSIM_SAFE, "--model", DRL, "--threshold", "2.0")
+    assert riskscore.evaluate(NGSIM_SAFE, DRL, thresholds=2.0) == expected
+
+
+def test_errors_name_the_problem(simulated, tmp_path):
+    with pytest.raises(riskscore.ModelError, match='no row named "NOPE"'):
+        riskscore.evaluate(simulated, [DRL], thresholds={"NOPE": 1.0})
+    with pytest.raises(riskscore.ModelError, match="missing.rsk"):
+        riskscore.evaluate(simulated, [tmp_path / "missing.rsk"])
+    with pytest.raises(riskscore.EventsError, match="event folder"):
+        riskscore.evaluate(tmp_path, [DRL])

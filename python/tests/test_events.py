@@ -1,0 +1,75 @@
+"""riskscore.read_events / write_events: the folder format round trip and its errors."""
+import shutil
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pytest
+
+import riskscore
+from conftest import NGSIM_SAFE, PAIR_COLUMNS
+
+
+def test_real_folder_reads_with_every_frame():
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    assert events.num_rows == 606
+    frame_lines = sum(1 for _ in open(NGSIM_SAFE / "frames.csv")) - 1
+    assert frames.num_rows == frame_lines
+    assert frames.column_names[:2] == ["event_id", "time"]
+    assert frames.column_names[2:] == PAIR_COLUMNS
+    assert set(events.column("kind").to_pylist()) == {"safe"}
+
+
+def test_written_folder_reads_back_identically(tmp_path):
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    riskscore.write_events(tmp_path / "copy", events, frames)
+    again_events, again_frames = riskscore.read_events(tmp_path / "copy")
+    assert again_events.equals(events)
+    assert again_frames.equals(frames)
+
+
+def test_existing_files_are_not_overwritten_by_accident(tmp_path):
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    target = tmp_path / "folder"
+    first = events.slice(0, 2)
+    mask = pc.is_in(frames.column("event_id"), value_set=first.column("event_id"))
+    riskscore.write_events(target, first, frames.filter(mask))
+    before = (target / "events.csv").read_bytes()
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        riskscore.write_events(target, events, frames)
+    assert (target / "events.csv").read_bytes() == before
+    riskscore.write_events(target, events, frames, overwrite=True)
+    assert riskscore.read_events(target)[0].num_rows == 606
+
+
+def test_bad_frames_are_refused_naming_row_and_column(tmp_path):
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    x = frames.column("x_j").to_pylist()
+    x[11] = float("nan")
+    broken = frames.set_column(frames.column_names.index("x_j"), "x_j", pa.array(x, pa.float32()))
+    with pytest.raises(riskscore.EventsError, match="frames row 11 column x_j: value NaN is not finite"):
+        riskscore.write_events(tmp_path / "out", events, broken)
+    assert not (tmp_path / "out" / "frames.csv").exists()
+    with pytest.raises(riskscore.ColumnError, match="missing column 'acc_i'"):
+        riskscore.write_events(tmp_path / "out", events, frames.drop_columns(["acc_i"]))
+    kinds = events.column("kind").to_pylist()
+    kinds[0] = "fender_bender"
+    odd = events.set_column(1, "kind", pa.array(kinds))
+    with pytest.raises(riskscore.EventsError, match="events row 0 column kind: unknown kind"):
+        riskscore.write_events(tmp_path / "out", odd, frames)
+
+
+def test_a_folder_with_bad_rows_is_refused_unless_skipped(tmp_path):
+    folder = tmp_path / "bad"
+    shutil.copytree(NGSIM_SAFE, folder)
+    lines = (folder / "frames.csv").read_text().splitlines(keepends=True)
+    fields = lines[5].split(",")
+    fields[2] = "oops"
+    lines[5] = ",".join(fields)
+    (folder / "frames.csv").write_text("".join(lines))
+    with pytest.raises(riskscore.EventsError, match=r"frames.csv:6:"):
+        riskscore.read_events(folder)
+    with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):
+        events, _frames = riskscore.read_events(folder, skip_bad=True)
+    assert events.num_rows == 605
+    with pytest.raises(riskscore.EventsError, match="events.csv"):
+        riskscore.read_events(tmp_path / "nowhere")

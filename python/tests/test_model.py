@@ -1,0 +1,70 @@
+"""riskscore.Model: scores equal to `riskctl score` (int8 DRL as on the ECU), info, errors."""
+import re
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+import riskscore
+from conftest import MODELS, NGSIM_SAFE, PAIR_COLUMNS
+
+
+@pytest.mark.parametrize("file,column", [("drl-default.rsk", "DRL"), ("msra-default.rsk", "MSRA")])
+def test_scores_match_riskctl_score_bit_for_bit(riskctl, tmp_path, ngsim_frames, file, column):
+    out = tmp_path / "scores.parquet"
+    riskctl("score", "--model", MODELS / file, "--events", NGSIM_SAFE, "--out", out)
+    expected = pq.read_table(out).column(column).to_numpy().astype(np.float32)
+    model = riskscore.Model.load(MODELS / file)
+    scores = model.score(ngsim_frames)
+    assert scores.dtype == np.float32 and scores.shape == (ngsim_frames.num_rows,)
+    assert np.array_equal(scores.view(np.uint32), expected.view(np.uint32))
+
+
+def test_info_matches_inspect_model(riskctl):
+    for file, kind in (("drl-default.rsk", "DRL"), ("msra-default.rsk", "MSRA")):
+        model = riskscore.Model.load(MODELS / file)
+        text = riskctl("inspect-model", MODELS / file).stdout
+        info = model.info
+        assert info["kind"] in text and info["kind"].upper().startswith(kind)
+        threshold = float(re.search(r"default threshold (\S+)", text).group(1))
+        assert info["default_threshold"] == pytest.approx(threshold, rel=0, abs=1e-6)
+        assert f"{info['payload_bytes']} bytes" in text
+        assert f"{info['payload_crc32']:#010x}" in text
+        assert info["int8"] == (kind == "DRL")
+        assert len(info["inputs"]) > 0
+    assert "model" in repr(model).lower()
+
+
+def test_from_bytes_scores_like_load(ngsim_frames):
+    loaded = riskscore.Model.load(MODELS / "drl-default.rsk")
+    copy = riskscore.Model.from_bytes(loaded.to_bytes())
+    assert copy.path is None and loaded.path.endswith("drl-default.rsk")
+    pairs = ngsim_frames.slice(0, 1000)
+    assert np.array_equal(copy.score(pairs), loaded.score(pairs))
+
+
+def test_bad_blobs_are_refused_naming_the_file(tmp_path):
+    blob = (MODELS / "drl-default.rsk").read_bytes()
+    truncated = tmp_path / "cut.rsk"
+    truncated.write_bytes(blob[: len(blob) // 2])
+    with pytest.raises(riskscore.ModelError, match="cut.rsk"):
+        riskscore.Model.load(truncated)
+    flipped = bytearray(blob)
+    flipped[-1] ^= 0xFF
+    with pytest.raises(riskscore.ModelError, match="model bytes"):
+        riskscore.Model.from_bytes(bytes(flipped))
+    with pytest.raises(OSError, match="missing.rsk"):
+        riskscore.Model.load(tmp_path / "missing.rsk")
+
+
+def test_bad_rows_score_nan_and_strict_raises(ngsim_frames):
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    pairs = ngsim_frames.select(PAIR_COLUMNS).slice(0, 50).to_pandas()
+    pairs.loc[7, "length_j"] = -1.0
+    with pytest.warns(riskscore.BadRowWarning, match="row 7 column length_j"):
+        scores = model.score(pairs)
+    assert np.isnan(scores[7]) and np.isfinite(np.delete(scores, 7)).all()
+    with pytest.raises(riskscore.BadRowError, match="row 7 column length_j"):
+        model.score(pairs, strict=True)
+    with pytest.raises(riskscore.ColumnError, match="hy_i"):
+        model.score(pairs.drop(columns=["hy_i"]))

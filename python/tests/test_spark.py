@@ -1,0 +1,98 @@
+"""riskscore.spark in local[2] on over a million real rows: identical to `riskctl ssm`.
+
+The rows are the shipped NGSIM US-101 frames repeated to $RISKSCORE_SPARK_ROWS (default
+1,000,000; every row a real pair),
+written as a Parquet folder; Spark reads it, runs riskscore.spark.ssm / score and writes Parquet,
+and every value is compared with riskctl's output for the same rows.
+"""
+import os
+import os
+import sys
+import time
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+import riskscore
+from conftest import MODELS, PAIR_COLUMNS, rows_equal_bitwise
+
+# scripts/test.sh runs the dev-profile wheel (unoptimised core) and a debug riskctl, so it asks
+# for fewer rows; scripts/bench-python.sh runs the full million on the release build.
+ROWS = int(os.environ.get("RISKSCORE_SPARK_ROWS", 1_000_000))
+
+
+@pytest.fixture(scope="module")
+def spark():
+    from pyspark.sql import SparkSession
+
+    # The Python workers must import the riskscore under test: run them on this interpreter.
+    os.environ["PYSPARK_PYTHON"] = os.environ["PYSPARK_DRIVER_PYTHON"] = sys.executable
+    session = (
+        SparkSession.builder.master("local[2]")
+        .appName("riskscore-tests")
+        .config("spark.ui.enabled", "false")
+        .config("spark.sql.shuffle.partitions", "2")
+        .config("spark.driver.memory", "1g")
+        .getOrCreate()
+    )
+    yield session
+    session.stop()
+
+
+@pytest.fixture(scope="module")
+def million_pairs(ngsim_frames, tmp_path_factory):
+    """A Parquet folder of >= 1 M real pairs with a row id, in four files."""
+    base = ngsim_frames.select(PAIR_COLUMNS).combine_chunks()
+    repeats = -(-ROWS // base.num_rows)
+    table = pa.concat_tables([base] * repeats).combine_chunks()
+    table = table.append_column("row_id", pa.array(np.arange(table.num_rows, dtype=np.int64)))
+    folder = tmp_path_factory.mktemp("pairs") / "in"
+    folder.mkdir()
+    step = -(-table.num_rows // 4)
+    for k in range(4):
+        pq.write_table(table.slice(k * step, step), folder / f"part-{k}.parquet", row_group_size=65536)
+    return folder, table
+
+
+def test_spark_ssm_is_identical_to_riskctl(spark, million_pairs, riskctl, tmp_path):
+    import riskscore.spark as rs
+
+    folder, table = million_pairs
+    assert table.num_rows >= ROWS
+    started = time.perf_counter()
+    rs.ssm(spark.read.parquet(str(folder))).write.parquet(str(tmp_path / "out"))
+    seconds = time.perf_counter() - started
+    print(f"\nspark local[2] ssm: {table.num_rows} rows in {seconds:.1f} s, "
+          f"{table.num_rows / seconds / 1e6:.2f} M rows/s (read, score, write Parquet)")
+    ours = pq.read_table(tmp_path / "out").sort_by("row_id")
+    assert ours.num_rows == table.num_rows
+    assert np.array_equal(ours.column("row_id").to_numpy(), table.column("row_id").to_numpy())
+
+    pq.write_table(table, tmp_path / "all.parquet")
+    riskctl("ssm", "--input", tmp_path / "all.parquet", "--output", tmp_path / "cli.parquet")
+    expected = pq.read_table(tmp_path / "cli.parquet")
+    names = riskscore.computed_columns()
+    rows_equal_bitwise(ours.select(names), expected.select(names))
+
+
+def test_spark_score_matches_the_model(spark, million_pairs, tmp_path):
+    import riskscore.spark as rs
+
+    folder, table = million_pairs
+    part = spark.read.parquet(str(folder)).limit(200_000)
+    rs.score(part, str(MODELS / "drl-default.rsk")).write.parquet(str(tmp_path / "risk"))
+    scored = pq.read_table(tmp_path / "risk").sort_by("row_id")
+    ids = scored.column("row_id").to_numpy()
+    expected = riskscore.Model.load(MODELS / "drl-default.rsk").score(table.take(ids))
+    got = scored.column("risk").to_numpy().astype(np.float32)
+    assert np.array_equal(got.view(np.uint32), expected.view(np.uint32))
+
+
+def test_spark_refuses_a_missing_column_on_the_driver(spark, million_pairs):
+    import riskscore.spark as rs
+
+    folder, _table = million_pairs
+    with pytest.raises(riskscore.ColumnError, match="hx_j"):
+        rs.ssm(spark.read.parquet(str(folder)).drop("hx_j"))

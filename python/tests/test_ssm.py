@@ -1,0 +1,201 @@
+"""riskscore.ssm: parity with `riskctl ssm`, input kinds, bad rows, errors, zero copy."""
+import time
+import warnings
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+import riskscore
+from conftest import PAIR_COLUMNS, rows_equal_bitwise
+
+
+def riskctl_ssm(riskctl, tmp_path, table):
+    """`riskctl ssm` on `table` written as Parquet: its 17 computed columns."""
+    source, result = tmp_path / "pairs.parquet", tmp_path / "pairs_ssm.parquet"
+    pq.write_table(table, source)
+    riskctl("ssm", "--input", source, "--output", result)
+    return pq.read_table(result).select(riskscore.computed_columns())
+
+
+def test_golden_cases_match_riskctl_bit_for_bit(riskctl, tmp_path, golden_pairs):
+    ours = riskscore.ssm(golden_pairs)
+    assert ours.column_names == riskscore.computed_columns()
+    assert len(ours.column_names) == 17
+    rows_equal_bitwise(ours, riskctl_ssm(riskctl, tmp_path, golden_pairs))
+
+
+def test_real_ngsim_frames_match_riskctl_bit_for_bit(riskctl, tmp_path, ngsim_frames):
+    pairs = ngsim_frames.select(PAIR_COLUMNS)
+    assert pairs.num_rows > 10_000
+    ours = riskscore.ssm(pairs)
+    assert ours.column("ttc2d").null_count == 0
+    rows_equal_bitwise(ours, riskctl_ssm(riskctl, tmp_path, pairs))
+
+
+def test_every_input_kind_gives_the_same_table(golden_pairs):
+    import pandas as pd
+    import polars as pl
+
+    expected = riskscore.ssm(golden_pairs)
+    frame = golden_pairs.to_pandas()
+    upper = frame.rename(columns=str.upper)[list(reversed(frame.columns.str.upper()))]
+    kinds = {
+        "record batch": golden_pairs.combine_chunks().to_batches()[0],
+        "pandas": frame,
+        "pandas, upper case, reversed": upper,
+        "polars": pl.from_arrow(golden_pairs),
+        "dict of numpy": {c: golden_pairs.column(c).to_numpy() for c in PAIR_COLUMNS},
+    }
+    assert isinstance(frame, pd.DataFrame)
+    for kind, data in kinds.items():
+        rows_equal_bitwise(riskscore.ssm(data), expected)
+
+
+def test_integer_and_float32_columns_are_the_same_numbers(golden_pairs):
+    at = PAIR_COLUMNS.index("x_j")
+    whole = np.round(golden_pairs.column("x_j").to_numpy())
+    as_f64 = golden_pairs.set_column(at, "x_j", pa.array(whole))
+    expected = riskscore.ssm(as_f64)
+    for kind in (pa.int64(), pa.int32(), pa.float32()):
+        rows_equal_bitwise(riskscore.ssm(as_f64.set_column(at, "x_j", pa.array(whole).cast(kind))), expected)
+
+
+def test_parquet_and_csv_paths_are_read(tmp_path, golden_pairs):
+    import pyarrow.csv as pcsv
+
+    pq.write_table(golden_pairs, tmp_path / "p.parquet")
+    pcsv.write_csv(golden_pairs, tmp_path / "p.csv")
+    expected = riskscore.ssm(golden_pairs)
+    rows_equal_bitwise(riskscore.ssm(tmp_path / "p.parquet"), expected)
+    rows_equal_bitwise(riskscore.ssm(str(tmp_path / "p.csv")), expected)
+
+
+def with_bad_rows(table):
+    """`table` with a NaN vy_j in row 3 and a zero heading (hx_i = hy_i = 0) in row 5."""
+    vy = table.column("vy_j").to_numpy().copy()
+    vy[3] = np.nan
+    hx = table.column("hx_i").to_numpy().copy()
+    hy = table.column("hy_i").to_numpy().copy()
+    hx[5] = hy[5] = 0.0
+    out = table.set_column(table.column_names.index("vy_j"), "vy_j", pa.array(vy))
+    out = out.set_column(out.column_names.index("hx_i"), "hx_i", pa.array(hx))
+    return out.set_column(out.column_names.index("hy_i"), "hy_i", pa.array(hy))
+
+
+def test_bad_rows_are_null_named_and_the_rest_is_kept(golden_pairs):
+    bad = with_bad_rows(golden_pairs)
+    with pytest.warns(riskscore.BadRowWarning, match=r"2 row\(s\).*row 3 column vy_j.*row 5 column hx_i"):
+        out = riskscore.ssm(bad)
+    assert out.num_rows == golden_pairs.num_rows
+    good = riskscore.ssm(golden_pairs)
+    for name in out.column_names:
+        column = out.column(name)
+        assert column.is_null().to_pylist() == [k in (3, 5) for k in range(out.num_rows)]
+    keep = pa.array([k not in (3, 5) for k in range(out.num_rows)])
+    rows_equal_bitwise(out.filter(keep), good.filter(keep))
+
+
+def test_strict_raises_on_the_first_bad_row(golden_pairs):
+    with pytest.raises(riskscore.BadRowError) as caught:
+        riskscore.ssm(with_bad_rows(golden_pairs), strict=True)
+    e = caught.value
+    assert (e.row, e.column, e.count) == (3, "vy_j", 2)
+    assert "not finite" in e.problem and isinstance(e, ValueError)
+
+
+def test_null_and_infinite_values_name_their_row():
+    table = pa.table({c: pa.array([1.0, 1.0, 1.0]) for c in PAIR_COLUMNS})
+    table = table.set_column(PAIR_COLUMNS.index("acc_i"), "acc_i", pa.array([1.0, None, np.inf]))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        out = riskscore.ssm(table)
+    assert out.column("ei").is_null().to_pylist() == [False, True, True]
+    message = str(seen[0].message)
+    assert "row 1 column acc_i: missing field" in message and "row 2 column acc_i" in message
+
+
+def test_missing_and_non_numeric_columns_are_named(golden_pairs):
+    with pytest.raises(riskscore.ColumnError, match="width_j"):
+        riskscore.ssm(golden_pairs.drop_columns(["width_j"]))
+    text = golden_pairs.set_column(
+        PAIR_COLUMNS.index("x_j"), "x_j", golden_pairs.column("x_j").cast(pa.string())
+    )
+    with pytest.raises(riskscore.ColumnError, match="x_j.*not numeric"):
+        riskscore.ssm(text)
+    with pytest.raises(TypeError, match="pyarrow Table"):
+        riskscore.ssm([1, 2, 3])
+
+
+def test_truncated_parquet_names_the_file(tmp_path, golden_pairs):
+    path = tmp_path / "pairs.parquet"
+    pq.write_table(golden_pairs, path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(riskscore.InputFileError, match="pairs.parquet"):
+        riskscore.ssm(path)
+
+
+def test_zero_copy_round_trip(golden_pairs):
+    table = golden_pairs.combine_chunks()
+    out = riskscore.ssm(table, keep_input=True)
+    assert out.column_names == table.column_names + riskscore.computed_columns()
+    for name in table.column_names:
+        given = table.column(name).chunks[0].buffers()[1].address
+        returned = out.column(name).chunks[0].buffers()[1].address
+        assert given == returned, f"{name} was copied"
+
+
+def test_large_tables_are_split_in_order_and_rows_numbered_across_pieces(ngsim_frames):
+    pairs = ngsim_frames.select(PAIR_COLUMNS).combine_chunks()
+    repeats = -(-600_000 // pairs.num_rows)
+    big = pa.concat_tables([pairs] * repeats)
+    whole = riskscore.ssm(big)
+    assert whole.num_rows == big.num_rows
+    one = riskscore.ssm(pairs)
+    for k in (0, repeats - 1):
+        rows_equal_bitwise(whole.slice(k * pairs.num_rows, pairs.num_rows), one)
+    far = big.num_rows - 7
+    acc = big.column("acc_j").to_numpy().copy()
+    acc[far] = np.nan
+    broken = big.set_column(big.column_names.index("acc_j"), "acc_j", pa.array(acc))
+    with pytest.raises(riskscore.BadRowError, match=f"row {far} column acc_j"):
+        riskscore.ssm(broken, strict=True)
+
+
+def test_empty_table():
+    out = riskscore.ssm(pa.table({c: pa.array([], pa.float64()) for c in PAIR_COLUMNS}))
+    assert out.num_rows == 0 and out.column_names == riskscore.computed_columns()
+
+
+def test_help_teaches():
+    text = riskscore.__doc__
+    for needle in ("QUICK START", "x_i, y_i", "ttc2d", "BadRowWarning", "strict=True"):
+        assert needle in text
+    assert "ColumnError" in riskscore.ssm.__doc__
+
+
+def test_the_gil_is_released_while_the_kernel_runs(ngsim_frames):
+    """A Python thread keeps running during a long ssm call (it could not if the GIL were held)."""
+    import threading
+
+    big = pa.concat_tables([ngsim_frames.select(PAIR_COLUMNS)] * 20).combine_chunks()
+    ticks, done = [0], threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks[0] += 1
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    try:
+        before = ticks[0]
+        started = time.perf_counter()
+        riskscore.ssm(big)
+        during, seconds = ticks[0] - before, time.perf_counter() - started
+    finally:
+        done.set()
+        counter.join()
+    # A held GIL would let the counter run only at the interpreter's switch interval (5 ms).
+    assert during > 1000 * max(seconds, 0.01), (during, seconds)
