@@ -478,6 +478,15 @@ fn ssm_line_limit_above_its_cap_is_refused_before_reading() {
 
 // ---- Nothing to write, outputs inside input folders (verification of 2026-11-26) -----------
 
+/// `dir/ev`: an event folder imported from a good two-car scenario.
+fn imported_folder(dir: &Path) -> PathBuf {
+    let good = dir.join("good.xml");
+    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
+    let ev = dir.join("ev");
+    assert!(import(&ev, &[&good]).status.success());
+    ev
+}
+
 fn read_all(paths: &[PathBuf]) -> Vec<Vec<u8>> {
     paths.iter().map(|p| std::fs::read(p).unwrap()).collect()
 }
@@ -486,10 +495,7 @@ fn read_all(paths: &[PathBuf]) -> Vec<Vec<u8>> {
 fn a_run_with_nothing_to_write_leaves_every_old_output_alone() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let good = d.join("good.xml");
-    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
-    let ev = d.join("ev");
-    assert!(import(&ev, &[&good]).status.success());
+    let ev = imported_folder(d);
     let ev_files = vec![ev.join("events.csv"), ev.join("frames.csv")];
     let before = read_all(&ev_files);
 
@@ -550,10 +556,7 @@ fn a_run_with_nothing_to_write_leaves_every_old_output_alone() {
 fn an_output_inside_an_input_folder_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let good = d.join("good.xml");
-    std::fs::write(&good, scenario_xml(&["1", "2"], "", "")).unwrap();
-    let ev = d.join("ev");
-    assert!(import(&ev, &[&good]).status.success());
+    let ev = imported_folder(d);
     // A file of the folder that the command does not read belongs to the user as well.
     let mine = ev.join("scenarios.csv");
     std::fs::write(&mine, "mine\n").unwrap();

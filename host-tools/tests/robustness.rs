@@ -7,6 +7,7 @@
     clippy::indexing_slicing
 )]
 use riskscore_data::events::{load_events, IssueProblem, KEPT_PER_KIND};
+use std::path::Path;
 use std::process::Command;
 
 const EV_HEADER: &str =
@@ -124,52 +125,37 @@ fn events_to_candump_refuses_to_overwrite_its_input_and_checks_numbers() {
     let ev = format!("{EV_HEADER}ok,safe,0,2,,4.5,1.8,5,2\n");
     let fr = format!("{FR_HEADER}{}", rows("ok", 21, 8.0));
     let dir = folder(&ev, &fr);
+    let to_candump = |out: &Path, extra: &[String]| {
+        Command::new(env!("CARGO_BIN_EXE_riskctl"))
+            .args(["events-to-candump", "--events"])
+            .arg(dir.path())
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
     let frames = dir.path().join("frames.csv");
-    let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
-        .args(["events-to-candump", "--events"])
-        .arg(dir.path())
-        .arg("--out")
-        .arg(&frames)
-        .output()
-        .unwrap();
+    let out = to_candump(&frames, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(stderr.contains("same file as --events"), "{stderr}");
     assert_eq!(std::fs::read_to_string(&frames).unwrap(), fr);
 
+    let out_dir = tempfile::tempdir().unwrap();
     for (flag, value) in [("--gap", "nan"), ("--start", "-1"), ("--gap", "1e300")] {
-        let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
-            .args(["events-to-candump", "--events"])
-            .arg(dir.path())
-            .arg("--out")
-            .arg(dir.path().join("x.log"))
-            .arg(format!("{flag}={value}"))
-            .output()
-            .unwrap();
+        let x = out_dir.path().join("x.log");
+        let out = to_candump(&x, &[format!("{flag}={value}")]);
         assert!(!out.status.success(), "{flag} {value}");
-        assert!(!dir.path().join("x.log").exists());
+        assert!(!x.exists());
     }
 
-    // A good run writes the log and leaves no temporary file; not into the event folder, an
-    // input, where it is refused.
-    let log = dir.path().join("drive.log");
-    let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
-        .args(["events-to-candump", "--events"])
-        .arg(dir.path())
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
+    // Not into the event folder, an input.
+    let out = to_candump(&dir.path().join("drive.log"), &[]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("lies inside --events"));
-    let out_dir = tempfile::tempdir().unwrap();
+    // A good run writes the log and leaves no temporary file.
     let log = out_dir.path().join("drive.log");
-    let out = Command::new(env!("CARGO_BIN_EXE_riskctl"))
-        .args(["events-to-candump", "--events"])
-        .arg(dir.path())
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
+    let out = to_candump(&log, &[]);
     assert!(
         out.status.success(),
         "{}",
