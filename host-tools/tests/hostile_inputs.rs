@@ -582,3 +582,18 @@ fn an_output_inside_an_input_folder_is_refused() {
     assert_eq!(std::fs::read_to_string(&mine).unwrap(), "mine\n");
     assert!(!ev.join("drive.log").exists());
 }
+
+#[test]
+fn an_endless_header_line_ends_the_run_at_once() {
+    // D7-a: `ssm --input /dev/zero` kept reading (bounded memory) until killed.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.csv");
+    let started = Instant::now();
+    let o = riskctl(&["ssm", "--input", "/dev/zero", "--output", s(&out)]);
+    assert_refused(
+        &o,
+        "header (line 1): line longer than 1048576 bytes; no row can be read",
+    );
+    assert!(started.elapsed() < Duration::from_secs(30));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

@@ -60,7 +60,7 @@ pub enum SsmError {
     EmptyInput,
     #[error("header, column {column}: name \"{name}\" is not UTF-8, and a Parquet column name must be: rename it, or write CSV output, which keeps the bytes")]
     NonUtf8Name { column: usize, name: String },
-    #[error("header (line {line}): {problem}")]
+    #[error("header (line {line}): {}; no row can be read without the header (--max-line-bytes sets the limit)", .problem.what())]
     BadHeader {
         line: u64,
         problem: split::SplitProblem,

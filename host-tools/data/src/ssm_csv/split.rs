@@ -31,6 +31,18 @@ pub enum SplitProblem {
     UnterminatedQuote { limit: usize },
 }
 
+impl SplitProblem {
+    /// What is wrong, without what the reader does about it (for a header, which ends the run).
+    pub fn what(&self) -> String {
+        match self {
+            SplitProblem::TooLong { limit } => format!("line longer than {limit} bytes"),
+            SplitProblem::UnterminatedQuote { limit } => {
+                format!("quoted field not closed (by the end of the input or within {limit} bytes)")
+            }
+        }
+    }
+}
+
 impl std::fmt::Display for SplitProblem {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -126,6 +138,8 @@ pub struct Splitter<R> {
     eof: bool,
     max_record: usize,
     chunk_bytes: usize,
+    /// `pending` starts inside an over-long line already reported: drop it up to its line feed.
+    skip_pending_line: bool,
 }
 
 impl<R: Read> Splitter<R> {
@@ -137,6 +151,7 @@ impl<R: Read> Splitter<R> {
             eof: false,
             max_record: max_record.max(1),
             chunk_bytes: chunk_bytes.max(1),
+            skip_pending_line: false,
         }
     }
 
@@ -184,6 +199,10 @@ impl<R: Read> Splitter<R> {
     /// The next chunk, `None` at the end of the input. `recycled` is an emptied chunk whose
     /// buffers are reused.
     pub fn next_chunk(&mut self, mut recycled: Chunk) -> io::Result<Option<Chunk>> {
+        if std::mem::take(&mut self.skip_pending_line) {
+            let rest = std::mem::take(&mut self.pending);
+            self.skip_line(rest)?;
+        }
         let mut data = std::mem::take(&mut recycled.data);
         let mut pieces = std::mem::take(&mut recycled.pieces);
         data.clear();
@@ -262,18 +281,20 @@ impl<R: Read> Splitter<R> {
                             }
                             continue;
                         }
-                        // Over-long unquoted line: drop it without holding it.
+                        // Over-long unquoted line: reported now, with the records before it (a
+                        // header that long ends the run at once, even on an input that never
+                        // has a line feed, like /dev/zero), and dropped without being held at
+                        // the next call.
                         pieces.push(Piece::Problem {
                             line: self.line,
                             problem: SplitProblem::TooLong {
                                 limit: self.max_record,
                             },
                         });
-                        let rest = data.split_off(pos);
-                        self.skip_line(rest)?;
+                        self.pending = data.split_off(pos);
+                        self.skip_pending_line = true;
                         self.line += 1;
-                        data.append(&mut self.pending);
-                        continue;
+                        return Ok(Some(Chunk { data, pieces }));
                     }
                 }
             }
@@ -410,5 +431,28 @@ mod tests {
         );
         assert!(chunk.data.capacity() < 1 << 20);
         assert!(s.next_chunk(Chunk::default()).unwrap().is_none());
+    }
+
+    #[test]
+    fn an_endless_line_is_reported_before_its_end_is_read() {
+        // Counts the bytes handed out: the report must not wait for a line feed that never comes.
+        struct Counted(u64);
+        impl Read for Counted {
+            fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+                buf.fill(b'x');
+                self.0 += buf.len() as u64;
+                Ok(buf.len())
+            }
+        }
+        let mut s = Splitter::new(Counted(0), 1 << 16, 1 << 16);
+        let chunk = s.next_chunk(Chunk::default()).unwrap().unwrap();
+        assert_eq!(
+            chunk.pieces,
+            vec![Piece::Problem {
+                line: 1,
+                problem: SplitProblem::TooLong { limit: 1 << 16 }
+            }]
+        );
+        assert!(s.input.0 < 1 << 20, "read {} bytes", s.input.0);
     }
 }
