@@ -27,22 +27,22 @@ use std::io::{Read, Write};
 use std::path::Path;
 use std::sync::Arc;
 
-use arrow_array::cast::AsArray;
-use arrow_array::types::*;
-use arrow_array::{Array, RecordBatch};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::ArrowWriter;
 
 use crate::arrow_kernel::KernelError;
-use riskscore_data::ssm_csv::{push_f32, SsmError};
+use riskscore_data::ssm_csv::SsmError;
 
 mod csv_batches;
+mod csv_cells;
 mod ordered;
 mod row_groups;
 mod ssm_parallel;
 
 pub use csv_batches::{CsvBatches, CsvLayout, CsvRows};
+pub(crate) use csv_cells::write_csv_rows;
 pub use row_groups::{writer_properties, MAX_ROW_GROUP_ROWS};
 pub use ssm_parallel::ssm_columnar;
 
@@ -198,75 +198,6 @@ impl<W: Write + Send> BatchSink<W> {
         }
         Ok(())
     }
-}
-
-/// One cell as CSV text (before quoting); nulls are empty.
-fn push_cell(out: &mut Vec<u8>, column: &dyn Array, row: usize) -> bool {
-    use std::io::Write as _;
-    if column.is_null(row) {
-        return true;
-    }
-    macro_rules! int {
-        ($t:ty) => {{
-            let _ = write!(out, "{}", column.as_primitive::<$t>().value(row));
-        }};
-    }
-    match column.data_type() {
-        DataType::Utf8 => out.extend_from_slice(column.as_string::<i32>().value(row).as_bytes()),
-        DataType::LargeUtf8 => {
-            out.extend_from_slice(column.as_string::<i64>().value(row).as_bytes())
-        }
-        DataType::Utf8View => out.extend_from_slice(column.as_string_view().value(row).as_bytes()),
-        DataType::Float32 => push_f32(out, column.as_primitive::<Float32Type>().value(row)),
-        DataType::Float64 => {
-            let v = column.as_primitive::<Float64Type>().value(row);
-            if v.is_infinite() {
-                out.extend_from_slice(if v > 0.0 { b"inf" } else { b"-inf" });
-            } else {
-                let _ = write!(out, "{v}");
-            }
-        }
-        DataType::Int8 => int!(Int8Type),
-        DataType::Int16 => int!(Int16Type),
-        DataType::Int32 => int!(Int32Type),
-        DataType::Int64 => int!(Int64Type),
-        DataType::UInt8 => int!(UInt8Type),
-        DataType::UInt16 => int!(UInt16Type),
-        DataType::UInt32 => int!(UInt32Type),
-        DataType::UInt64 => int!(UInt64Type),
-        DataType::Boolean => {
-            let _ = write!(out, "{}", column.as_boolean().value(row));
-        }
-        _ => return false,
-    }
-    true
-}
-
-pub(crate) fn write_csv_rows<W: Write>(
-    batch: &RecordBatch,
-    out: &mut W,
-    line: &mut Vec<u8>,
-) -> Result<(), ColumnarError> {
-    let mut cell = Vec::new();
-    for row in 0..batch.num_rows() {
-        line.clear();
-        for (k, column) in batch.columns().iter().enumerate() {
-            if k > 0 {
-                line.push(b',');
-            }
-            cell.clear();
-            if !push_cell(&mut cell, column.as_ref(), row) {
-                return Err(ColumnarError::CsvType {
-                    name: batch.schema().field(k).name().clone(),
-                    found: column.data_type().clone(),
-                });
-            }
-            riskscore_data::ssm_csv::push_field(line, &cell);
-        }
-        line.push(b'\n');
-        out.write_all(line)?;
-    }
-    Ok(())
 }
 
 /// Batches from a Parquet file.

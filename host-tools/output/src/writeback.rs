@@ -113,10 +113,7 @@ mod tests {
         assert!(out.syncer.is_some(), "no background sync was started");
         out.finish().unwrap();
         let mut back = Vec::new();
-        File::open(&path)
-            .unwrap()
-            .read_to_end(&mut back)
-            .unwrap();
+        File::open(&path).unwrap().read_to_end(&mut back).unwrap();
         let mut expected = Vec::new();
         for k in 0..blocks {
             expected.extend_from_slice(&block[k % 7..]);

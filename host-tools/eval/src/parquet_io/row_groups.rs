@@ -31,7 +31,8 @@ pub fn writer_properties(schema: &Schema) -> WriterProperties {
             field.data_type(),
             DataType::Float16 | DataType::Float32 | DataType::Float64
         ) {
-            props = props.set_column_dictionary_enabled(ColumnPath::from(field.name().as_str()), false);
+            props =
+                props.set_column_dictionary_enabled(ColumnPath::from(field.name().as_str()), false);
         }
     }
     props.build()

@@ -91,9 +91,9 @@ impl Scoring<'_> {
         let (batch, first_row) = match job {
             Job::Batch { batch, first_row } => (batch, first_row),
             Job::Chunk(chunk) => {
-                let layout = self.csv.ok_or_else(|| {
-                    std::io::Error::other("a CSV chunk without the CSV's layout")
-                })?;
+                let layout = self
+                    .csv
+                    .ok_or_else(|| std::io::Error::other("a CSV chunk without the CSV's layout"))?;
                 let pushed = rows.push_chunk(layout, &chunk, self.strict, |e| bad.push(e.clone()));
                 let batch = rows.finish(layout)?;
                 if let Err(e) = pushed {
@@ -190,7 +190,8 @@ pub(crate) fn ssm_columnar_cut<R: Read, W: Write + Send>(
             (columns, schema)
         }
         ColumnarInput::Csv(reader) => {
-            let mut splitter = Splitter::new(reader, cutting.csv_chunk_bytes, options.max_record_bytes);
+            let mut splitter =
+                Splitter::new(reader, cutting.csv_chunk_bytes, options.max_record_bytes);
             let (columns, first) = riskscore_data::ssm_csv::read_header(&mut splitter)?;
             let layout = CsvLayout::new(columns.clone())?;
             let schema = layout.schema.clone();
@@ -456,20 +457,27 @@ mod tests {
         let bad = [5, 701, 702, 1999];
         let csv_in = csv(3000, &bad);
         let (pq_from_csv, _, _) = run(&csv_in, false, true, 1, false).unwrap();
-        assert!(row_groups(pq_from_csv.clone()) > 5, "CSV chunks: one row group each");
+        assert!(
+            row_groups(pq_from_csv.clone()) > 5,
+            "CSV chunks: one row group each"
+        );
         let pq_in = parquet(3000, &bad, 700);
-        for (input, parquet_in, parquet_out) in [
-            (&csv_in, false, true),
-            (&pq_in, true, true),
-            (&pq_in, true, false),
-            (&pq_from_csv, true, false),
+        // The scored Parquet holds the good rows only.
+        for (input, parquet_in, parquet_out, bad) in [
+            (&csv_in, false, true, 4),
+            (&pq_in, true, true, 4),
+            (&pq_in, true, false, 4),
+            (&pq_from_csv, true, false, 0),
         ] {
             let (one, bad1, sum1) = run(input, parquet_in, parquet_out, 1, false).unwrap();
             let (four, bad4, sum4) = run(input, parquet_in, parquet_out, 4, false).unwrap();
-            assert!(one == four, "1 and 4 threads differ ({parquet_in} -> {parquet_out})");
+            assert!(
+                one == four,
+                "1 and 4 threads differ ({parquet_in} -> {parquet_out})"
+            );
             assert_eq!(bad1, bad4);
             assert_eq!(sum1, sum4);
-            assert_eq!((sum1.rows_ok, sum1.rows_bad), (2996, 4));
+            assert_eq!((sum1.rows_ok, sum1.rows_bad), (2996, bad));
             if parquet_out {
                 assert!(row_groups(four) > 5);
             } else {
