@@ -117,45 +117,54 @@ impl CsvRows {
                 Piece::Record { start, end, line } => (start, end, line),
             };
             let columns = &layout.columns;
-            riskscore_data::ssm_csv::for_each_record(
-                &mut self.reader,
-                &mut self.fields,
-                &chunk.data[start..end],
-                |f| {
-                    if f.is_blank() {
-                        return true;
-                    }
-                    let values = columns
-                        .parse_values(f, line)
-                        .and_then(|v| texts_are_utf8(layout, f, line).map(|()| v));
-                    match values {
-                        Ok((ego, partner)) => {
-                            for (b, v) in numbers.iter_mut().zip(ego.iter().chain(&partner)) {
-                                b.append_value(*v);
+            let mut add = |f: &FieldBuf| {
+                if f.is_blank() {
+                    return true;
+                }
+                let values = columns
+                    .parse_values(f, line)
+                    .and_then(|v| texts_are_utf8(layout, f, line).map(|()| v));
+                match values {
+                    Ok((ego, partner)) => {
+                        for (b, v) in numbers.iter_mut().zip(ego.iter().chain(&partner)) {
+                            b.append_value(*v);
+                        }
+                        for (k, b) in texts.iter_mut().enumerate() {
+                            if layout.pair[k].is_some() {
+                                continue;
                             }
-                            for (k, b) in texts.iter_mut().enumerate() {
-                                if layout.pair[k].is_some() {
-                                    continue;
-                                }
-                                match f.field(k).map(std::str::from_utf8) {
-                                    Some(Ok(text)) => b.append_value(text),
-                                    _ => b.append_null(),
-                                }
+                            match f.field(k).map(std::str::from_utf8) {
+                                Some(Ok(text)) => b.append_value(text),
+                                _ => b.append_null(),
                             }
-                            *rows += 1;
-                            true
                         }
-                        Err(e) if strict => {
-                            failure = Some(e);
-                            false
-                        }
-                        Err(e) => {
-                            on_bad_row(&e);
-                            true
-                        }
+                        *rows += 1;
+                        true
                     }
-                },
-            );
+                    Err(e) if strict => {
+                        failure = Some(e);
+                        false
+                    }
+                    Err(e) => {
+                        on_bad_row(&e);
+                        true
+                    }
+                }
+            };
+            let record = &chunk.data[start..end];
+            let body = &record[..record.len() - 1];
+            // A line without quotes or CR is its fields split at commas, as in the CSV pipeline.
+            if memchr::memchr2(b'"', b'\r', body).is_none() {
+                self.fields.set_plain(body);
+                add(&self.fields);
+            } else {
+                riskscore_data::ssm_csv::for_each_record(
+                    &mut self.reader,
+                    &mut self.fields,
+                    record,
+                    add,
+                );
+            }
             if let Some(e) = failure {
                 return Err(e);
             }
