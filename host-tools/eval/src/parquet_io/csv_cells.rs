@@ -6,6 +6,7 @@ use std::io::Write;
 use arrow_array::cast::AsArray;
 use arrow_array::types::*;
 use arrow_array::{Array, BooleanArray, PrimitiveArray, RecordBatch};
+use arrow_buffer::NullBuffer;
 use arrow_schema::DataType;
 
 use super::ColumnarError;
@@ -78,13 +79,14 @@ pub(crate) fn write_csv_rows<W: Write>(
     out: &mut W,
     line: &mut Vec<u8>,
 ) -> Result<(), ColumnarError> {
-    let cells: Vec<(Cells, &dyn Array)> = batch
+    // Each column with its null mask (`None`: no nulls), as `Array::is_null` reads it.
+    let cells: Vec<(Cells, Option<&NullBuffer>)> = batch
         .columns()
         .iter()
         .enumerate()
         .map(|(k, column)| {
             Cells::of(column.as_ref())
-                .map(|c| (c, column.as_ref()))
+                .map(|c| (c, column.nulls()))
                 .ok_or_else(|| ColumnarError::CsvType {
                     name: batch.schema().field(k).name().clone(),
                     found: column.data_type().clone(),
@@ -93,11 +95,11 @@ pub(crate) fn write_csv_rows<W: Write>(
         .collect::<Result<_, _>>()?;
     line.clear();
     for row in 0..batch.num_rows() {
-        for (k, (cell, column)) in cells.iter().enumerate() {
+        for (k, (cell, nulls)) in cells.iter().enumerate() {
             if k > 0 {
                 line.push(b',');
             }
-            if !column.is_null(row) {
+            if !nulls.is_some_and(|n| n.is_null(row)) {
                 cell.push(line, row);
             }
         }
@@ -145,6 +147,7 @@ pub(crate) fn push_f64(out: &mut Vec<u8>, v: f64) {
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
     ];
     const LIMIT: f64 = (1u64 << 50) as f64;
+    const NEAR: f64 = 1.0 / (1u64 << 48) as f64;
     if v.is_infinite() {
         out.extend_from_slice(if v > 0.0 { b"inf" } else { b"-inf" });
         return;
@@ -156,12 +159,15 @@ pub(crate) fn push_f64(out: &mut Vec<u8>, v: f64) {
             if scaled >= LIMIT {
                 break;
             }
-            let n = scaled.round();
-            if n / scale == a {
+            // Below 2^50 the decimal is within scaled x 2^-52 of `scaled`: a cheap test first
+            // (no libm `round`, no division), then the exact one.
+            let n = (scaled + 0.5) as u64;
+            let near = (scaled - n as f64).abs() <= scaled * NEAR;
+            if near && n as f64 / scale == a {
                 if v < 0.0 {
                     out.push(b'-');
                 }
-                push_fixed(out, n as u64, d);
+                push_fixed(out, n, d);
                 return;
             }
         }

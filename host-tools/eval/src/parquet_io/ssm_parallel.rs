@@ -403,14 +403,17 @@ mod tests {
         }
     }
 
-    /// Runs one path; returns the output bytes and the bad rows reported (line and column).
+    /// The output bytes, the bad rows reported (line and column) and the summary of a run.
+    type Run = (Vec<u8>, Vec<(u64, Option<String>)>, SsmSummary);
+
+    /// Runs one path.
     fn run(
         input: &[u8],
         parquet_in: bool,
         parquet_out: bool,
         threads: usize,
         strict: bool,
-    ) -> Result<(Vec<u8>, Vec<(u64, Option<String>)>, SsmSummary), ColumnarError> {
+    ) -> Result<Run, ColumnarError> {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("in");
         std::fs::write(&path, input).unwrap();
