@@ -299,6 +299,17 @@ impl PairColumns {
         record: &F,
         line: u64,
     ) -> Result<(VehicleState, VehicleState), RowError> {
+        let (ego, partner) = self.parsed_values(record, line)?;
+        self.build_pair(ego, partner, line)
+    }
+
+    /// The 2 x 9 pair values of one record, parsed once, each checked on its own (field count,
+    /// missing, number, finite, size sign); [`Self::build_pair`] checks the pair as a whole.
+    fn parsed_values<F: RowFields + ?Sized>(
+        &self,
+        record: &F,
+        line: u64,
+    ) -> Result<([f64; 9], [f64; 9]), RowError> {
         if record.field_count() > self.names.len() {
             return Err(RowError {
                 line,
@@ -327,7 +338,7 @@ impl PairColumns {
         }
         let ego = self.parse_state(record, &self.ego, line)?;
         let partner = self.parse_state(record, &self.partner, line)?;
-        self.build_pair(ego, partner, line)
+        Ok((ego, partner))
     }
 
     /// Validate the 2 x 9 values of a pair (already parsed, in [`STATE_FIELDS`] order) and build
@@ -372,11 +383,9 @@ impl PairColumns {
         record: &F,
         line: u64,
     ) -> Result<([f64; 9], [f64; 9]), RowError> {
-        self.parse_pair(record, line)?;
-        Ok((
-            self.parse_state(record, &self.ego, line)?,
-            self.parse_state(record, &self.partner, line)?,
-        ))
+        let (ego, partner) = self.parsed_values(record, line)?;
+        self.build_pair(ego, partner, line)?;
+        Ok((ego, partner))
     }
 
     /// Parse the nine values of one vehicle (f64; validated by [`Self::pair_from_values`]).

@@ -6,39 +6,45 @@
 //! become Float64 (the parsed values) and every other column Utf8 (its text). Parquet strings
 //! must be UTF-8 and nothing is replaced by U+FFFD: a row whose pass-through text is not UTF-8 is a
 //! bad row (reported with its line and column, skipped; `--strict` stops), and a header name that
-//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is written with
-//! Snappy compression in row groups of up to 131,072 rows (the writer buffers one group); bad rows are skipped and reported with
-//! their 1-based row number (Parquet input) or line number (CSV input).
+//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is Snappy-compressed;
+//! `riskctl ssm` writes a row group per 65,536 input rows (Parquet input) or per 8 MiB of CSV,
+//! [`BatchSink`] (`riskctl score`) row groups of up to 131,072 rows (it buffers one group). Bad
+//! rows are skipped and reported with their 1-based row number (Parquet input) or line number
+//! (CSV input).
 //!
 //! Page checksums: a page that carries a CRC-32 (written by pyarrow with `write_page_checksum`,
 //! by Spark and others) is verified when read; a mismatch stops the run with the row group and
 //! column named (a flipped bit would otherwise become a plausible wrong value). Pages without a
 //! checksum cannot be verified.
 //!
+//! `riskctl ssm` runs on every core ([`ssm_parallel`]): batches are scored and encoded in
+//! parallel and written in input order, the output byte-identical whatever the thread count.
+//!
 //! Limitations: CSV output of a Parquet input supports pass-through columns of the string,
-//! integer, float and boolean types (others are an error naming the column). The columnar path
-//! runs on one thread: see docs/benchmarks.md for its rate.
+//! integer, float and boolean types (others are an error naming the column).
 use std::fs::File;
 use std::io::{Read, Write};
 use std::path::Path;
 use std::sync::Arc;
 
-use arrow_array::builder::{Float64Builder, StringBuilder};
-use arrow_array::cast::AsArray;
-use arrow_array::types::*;
-use arrow_array::{Array, ArrayRef, RecordBatch};
-use arrow_schema::{DataType, Field, Schema};
+use arrow_array::RecordBatch;
+use arrow_schema::{DataType, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::ArrowWriter;
-use parquet::basic::Compression;
-use parquet::file::properties::WriterProperties;
 
-use crate::arrow_kernel::{append_columns, pair_columns, ssm_kernel, KernelError};
-use riskscore_data::ssm_csv::split::{Chunk, Piece, Splitter};
-use riskscore_data::ssm_csv::{
-    push_f32, FieldBuf, PairColumns, RowError, RowFields, RowProblem, SsmError, SsmOptions,
-    SsmSummary,
-};
+use crate::arrow_kernel::KernelError;
+use riskscore_data::ssm_csv::SsmError;
+
+mod csv_batches;
+mod csv_cells;
+mod ordered;
+mod row_groups;
+mod ssm_parallel;
+
+pub use csv_batches::{CsvBatches, CsvLayout, CsvRows};
+pub(crate) use csv_cells::write_csv_rows;
+pub use row_groups::{writer_properties, MAX_ROW_GROUP_ROWS};
+pub use ssm_parallel::ssm_columnar;
 
 /// Rows per Arrow batch read or built.
 pub const BATCH_ROWS: usize = 64 * 1024;
@@ -97,15 +103,29 @@ impl<W: Write + Send> BatchSink<W> {
         }
     }
 
+    /// The output itself, for a writer that encodes on its own (`true`: Parquet), before any
+    /// batch was written through this sink.
+    pub fn into_output(self) -> Result<(W, bool), ColumnarError> {
+        match self {
+            BatchSink::Parquet {
+                out: Some(out),
+                writer: None,
+            } => Ok((out, true)),
+            BatchSink::Csv {
+                out,
+                header_written: false,
+                ..
+            } => Ok((out, false)),
+            _ => Err(std::io::Error::other("the output was already written to").into()),
+        }
+    }
+
     /// Write one batch (the first fixes the schema).
     pub fn write(&mut self, batch: &RecordBatch) -> Result<(), ColumnarError> {
         match self {
             BatchSink::Parquet { out, writer } => {
                 if writer.is_none() {
-                    let props = WriterProperties::builder()
-                        .set_compression(Compression::SNAPPY)
-                        .set_max_row_group_row_count(Some(1 << 17))
-                        .build();
+                    let props = writer_properties(&batch.schema());
                     let sink = out.take().ok_or_else(|| {
                         std::io::Error::other("Parquet sink used after it was closed")
                     })?;
@@ -148,7 +168,10 @@ impl<W: Write + Send> BatchSink<W> {
             BatchSink::Parquet { out, writer } => {
                 let writer = match (writer, out) {
                     (Some(w), _) => *w,
-                    (None, Some(out)) => ArrowWriter::try_new(out, schema, None)?,
+                    (None, Some(out)) => {
+                        let props = writer_properties(&schema);
+                        ArrowWriter::try_new(out, schema, Some(props))?
+                    }
                     (None, None) => return Ok(()),
                 };
                 let mut inner = writer.into_inner()?;
@@ -177,75 +200,6 @@ impl<W: Write + Send> BatchSink<W> {
     }
 }
 
-/// One cell as CSV text (before quoting); nulls are empty.
-fn push_cell(out: &mut Vec<u8>, column: &dyn Array, row: usize) -> bool {
-    use std::io::Write as _;
-    if column.is_null(row) {
-        return true;
-    }
-    macro_rules! int {
-        ($t:ty) => {{
-            let _ = write!(out, "{}", column.as_primitive::<$t>().value(row));
-        }};
-    }
-    match column.data_type() {
-        DataType::Utf8 => out.extend_from_slice(column.as_string::<i32>().value(row).as_bytes()),
-        DataType::LargeUtf8 => {
-            out.extend_from_slice(column.as_string::<i64>().value(row).as_bytes())
-        }
-        DataType::Utf8View => out.extend_from_slice(column.as_string_view().value(row).as_bytes()),
-        DataType::Float32 => push_f32(out, column.as_primitive::<Float32Type>().value(row)),
-        DataType::Float64 => {
-            let v = column.as_primitive::<Float64Type>().value(row);
-            if v.is_infinite() {
-                out.extend_from_slice(if v > 0.0 { b"inf" } else { b"-inf" });
-            } else {
-                let _ = write!(out, "{v}");
-            }
-        }
-        DataType::Int8 => int!(Int8Type),
-        DataType::Int16 => int!(Int16Type),
-        DataType::Int32 => int!(Int32Type),
-        DataType::Int64 => int!(Int64Type),
-        DataType::UInt8 => int!(UInt8Type),
-        DataType::UInt16 => int!(UInt16Type),
-        DataType::UInt32 => int!(UInt32Type),
-        DataType::UInt64 => int!(UInt64Type),
-        DataType::Boolean => {
-            let _ = write!(out, "{}", column.as_boolean().value(row));
-        }
-        _ => return false,
-    }
-    true
-}
-
-fn write_csv_rows<W: Write>(
-    batch: &RecordBatch,
-    out: &mut W,
-    line: &mut Vec<u8>,
-) -> Result<(), ColumnarError> {
-    let mut cell = Vec::new();
-    for row in 0..batch.num_rows() {
-        line.clear();
-        for (k, column) in batch.columns().iter().enumerate() {
-            if k > 0 {
-                line.push(b',');
-            }
-            cell.clear();
-            if !push_cell(&mut cell, column.as_ref(), row) {
-                return Err(ColumnarError::CsvType {
-                    name: batch.schema().field(k).name().clone(),
-                    found: column.data_type().clone(),
-                });
-            }
-            riskscore_data::ssm_csv::push_field(line, &cell);
-        }
-        line.push(b'\n');
-        out.write_all(line)?;
-    }
-    Ok(())
-}
-
 /// Batches from a Parquet file.
 pub fn parquet_batches(
     file: File,
@@ -255,288 +209,9 @@ pub fn parquet_batches(
         .build()?)
 }
 
-/// Reads a pair CSV into Arrow batches: pair columns Float64, other columns Utf8. Rows that fail
-/// the CSV reader's checks are reported through `on_bad_row` and left out.
-pub struct CsvBatches<R: Read> {
-    splitter: Splitter<R>,
-    columns: PairColumns,
-    schema: Arc<Schema>,
-    reader: csv_core::Reader,
-    fields: FieldBuf,
-    pending: Option<Chunk>,
-    strict: bool,
-}
-
-impl<R: Read> CsvBatches<R> {
-    pub fn new(input: R, options: &SsmOptions) -> Result<Self, SsmError> {
-        let mut splitter = Splitter::new(input, 1 << 20, options.max_record_bytes);
-        let (columns, pending) = riskscore_data::ssm_csv::read_header(&mut splitter)?;
-        if let Some((column, name)) = columns.non_utf8_name() {
-            return Err(SsmError::NonUtf8Name { column, name });
-        }
-        let pair: Vec<usize> = columns
-            .ego
-            .iter()
-            .chain(&columns.partner)
-            .copied()
-            .collect();
-        let schema = Arc::new(Schema::new(
-            columns
-                .names
-                .iter()
-                .enumerate()
-                .map(|(k, n)| {
-                    let t = if pair.contains(&k) {
-                        DataType::Float64
-                    } else {
-                        DataType::Utf8
-                    };
-                    Field::new(n, t, true)
-                })
-                .collect::<Vec<_>>(),
-        ));
-        Ok(Self {
-            splitter,
-            columns,
-            schema,
-            reader: riskscore_data::ssm_csv::record_reader(),
-            fields: FieldBuf::default(),
-            pending,
-            strict: options.strict,
-        })
-    }
-
-    pub fn columns(&self) -> &PairColumns {
-        &self.columns
-    }
-
-    pub fn schema(&self) -> Arc<Schema> {
-        self.schema.clone()
-    }
-
-    /// The next batch of up to [`BATCH_ROWS`] good rows; `None` at the end.
-    pub fn next_batch(
-        &mut self,
-        mut on_bad_row: impl FnMut(&RowError),
-    ) -> Result<Option<RecordBatch>, SsmError> {
-        let n = self.columns.names.len();
-        let pair: Vec<Option<usize>> = (0..n)
-            .map(|k| {
-                self.columns
-                    .ego
-                    .iter()
-                    .chain(&self.columns.partner)
-                    .position(|&c| c == k)
-            })
-            .collect();
-        let mut numbers: Vec<Float64Builder> = (0..18).map(|_| Float64Builder::new()).collect();
-        let mut texts: Vec<StringBuilder> = (0..n).map(|_| StringBuilder::new()).collect();
-        let mut rows = 0usize;
-        let mut failure: Option<RowError> = None;
-        while rows < BATCH_ROWS && failure.is_none() {
-            let chunk = match self.pending.take() {
-                Some(c) => c,
-                None => match self.splitter.next_chunk(Chunk::default()) {
-                    Ok(Some(c)) => c,
-                    Ok(None) => break,
-                    Err(e) => return Err(SsmError::Read(e)),
-                },
-            };
-            for piece in &chunk.pieces {
-                let (start, end, line) = match *piece {
-                    Piece::Problem { line, problem } => {
-                        let e = RowError {
-                            line,
-                            column: None,
-                            problem: RowProblem::from(problem),
-                        };
-                        if self.strict {
-                            failure = Some(e);
-                            break;
-                        }
-                        on_bad_row(&e);
-                        continue;
-                    }
-                    Piece::Record { start, end, line } => (start, end, line),
-                };
-                let columns = &self.columns;
-                riskscore_data::ssm_csv::for_each_record(
-                    &mut self.reader,
-                    &mut self.fields,
-                    &chunk.data[start..end],
-                    |f| {
-                        if f.is_blank() {
-                            return true;
-                        }
-                        let values = columns
-                            .parse_values(f, line)
-                            .and_then(|v| texts_are_utf8(columns, &pair, f, line).map(|()| v));
-                        match values {
-                            Ok((ego, partner)) => {
-                                for (b, v) in numbers.iter_mut().zip(ego.iter().chain(&partner)) {
-                                    b.append_value(*v);
-                                }
-                                for (k, b) in texts.iter_mut().enumerate() {
-                                    if pair[k].is_some() {
-                                        continue;
-                                    }
-                                    match f.field(k).map(std::str::from_utf8) {
-                                        Some(Ok(text)) => b.append_value(text),
-                                        _ => b.append_null(),
-                                    }
-                                }
-                                rows += 1;
-                                true
-                            }
-                            Err(e) if self.strict => {
-                                failure = Some(e);
-                                false
-                            }
-                            Err(e) => {
-                                on_bad_row(&e);
-                                true
-                            }
-                        }
-                    },
-                );
-                if failure.is_some() {
-                    break;
-                }
-            }
-        }
-        if let Some(e) = failure {
-            return Err(SsmError::BadRow(e));
-        }
-        if rows == 0 {
-            return Ok(None);
-        }
-        let mut numbers: Vec<ArrayRef> = numbers
-            .iter_mut()
-            .map(|b| Arc::new(b.finish()) as ArrayRef)
-            .collect();
-        let arrays: Vec<ArrayRef> = (0..n)
-            .map(|k| match pair[k] {
-                Some(p) => {
-                    std::mem::replace(&mut numbers[p], Arc::new(Float64Builder::new().finish()))
-                }
-                None => Arc::new(texts[k].finish()) as ArrayRef,
-            })
-            .collect();
-        Ok(Some(
-            RecordBatch::try_new(self.schema.clone(), arrays)
-                .map_err(|e| SsmError::Io(std::io::Error::other(e)))?,
-        ))
-    }
-}
-
-/// A row's pass-through fields are UTF-8 (Arrow strings must be): else the row is bad, with the
-/// first offending column and its text (bytes shown `\xNN`).
-fn texts_are_utf8(
-    columns: &PairColumns,
-    pair: &[Option<usize>],
-    fields: &FieldBuf,
-    line: u64,
-) -> Result<(), RowError> {
-    for (k, is_pair) in pair.iter().enumerate() {
-        let Some(bytes) = fields.field(k).filter(|_| is_pair.is_none()) else {
-            continue;
-        };
-        if std::str::from_utf8(bytes).is_err() {
-            return Err(RowError {
-                line,
-                column: columns.names.get(k).cloned(),
-                problem: RowProblem::NotUtf8(riskscore_data::ssm_csv::escape_non_utf8(bytes)),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// `riskctl ssm` where the input or the output (or both) is Parquet.
-pub fn ssm_columnar<R: Read, W: Write + Send>(
-    input: ColumnarInput<R>,
-    mut sink: BatchSink<W>,
-    options: SsmOptions,
-    mut on_bad_row: impl FnMut(&RowError),
-) -> Result<SsmSummary, ColumnarError> {
-    let mut summary = SsmSummary::default();
-    let mut report = |e: &RowError, summary: &mut SsmSummary| -> Result<(), ColumnarError> {
-        summary.rows_bad += 1;
-        if options.strict {
-            return Err(SsmError::BadRow(e.clone()).into());
-        }
-        on_bad_row(e);
-        Ok(())
-    };
-    // Score one batch, write its good rows; returns the output schema and the bad rows.
-    let write_scored = |batch: &RecordBatch,
-                        columns: &PairColumns,
-                        first_row: u64,
-                        summary: &mut SsmSummary,
-                        sink: &mut BatchSink<W>|
-     -> Result<(Arc<Schema>, Vec<RowError>), ColumnarError> {
-        let scored = ssm_kernel(columns, batch, first_row)?;
-        let joined = append_columns(batch, &scored.computed, Some(&scored.valid))?;
-        summary.rows_ok += joined.num_rows() as u64;
-        if scored.bad.is_empty() || !options.strict {
-            sink.write(&joined)?;
-        }
-        Ok((joined.schema(), scored.bad))
-    };
-    let schema = match input {
-        ColumnarInput::Parquet(file) => {
-            let again = file.try_clone()?;
-            let builder = ParquetRecordBatchReaderBuilder::try_new(file)?;
-            let columns = pair_columns(builder.schema())?;
-            summary.duplicated_columns = columns.clashing_output_columns();
-            let empty = RecordBatch::new_empty(builder.schema().clone());
-            let reader = builder.with_batch_size(BATCH_ROWS).build()?;
-            let mut first_row = 0u64;
-            let mut schema = None;
-            for batch in reader {
-                let batch = batch.map_err(|e| locate_checksum_error(e, &again))?;
-                let (s, bad) = write_scored(&batch, &columns, first_row, &mut summary, &mut sink)?;
-                for e in &bad {
-                    report(e, &mut summary)?;
-                }
-                schema = Some(s);
-                first_row += batch.num_rows() as u64;
-            }
-            match schema {
-                Some(s) => s,
-                None => write_scored(&empty, &columns, 0, &mut summary, &mut sink)?.0,
-            }
-        }
-        ColumnarInput::Csv(reader) => {
-            let mut batches = CsvBatches::new(reader, &options)?;
-            summary.duplicated_columns = batches.columns().clashing_output_columns();
-            let columns = batches.columns().clone();
-            let mut bad = Vec::new();
-            let mut schema = None;
-            loop {
-                let next = batches.next_batch(|e| bad.push(e.clone()));
-                for e in bad.drain(..) {
-                    report(&e, &mut summary)?;
-                }
-                let Some(batch) = next? else { break };
-                schema = Some(write_scored(&batch, &columns, 0, &mut summary, &mut sink)?.0);
-            }
-            match schema {
-                Some(s) => s,
-                None => {
-                    let empty = RecordBatch::new_empty(batches.schema());
-                    write_scored(&empty, &columns, 0, &mut summary, &mut sink)?.0
-                }
-            }
-        }
-    };
-    sink.finish(schema)?;
-    Ok(summary)
-}
-
 /// A read error as it is, unless it is a page checksum mismatch: that one is located (row group
 /// and column) by reading the file's pages again, as the Arrow reader does not say where it was.
-fn locate_checksum_error(e: arrow_schema::ArrowError, file: &File) -> ColumnarError {
+pub(crate) fn locate_checksum_error(e: arrow_schema::ArrowError, file: &File) -> ColumnarError {
     // The parquet crate reports a mismatch only as this text (`crc` feature, `decode_page`).
     if !e.to_string().contains("CRC checksum mismatch") {
         return e.into();

@@ -9,12 +9,14 @@ use tempfile::{NamedTempFile, TempPath};
 
 use crate::lock::{hidden_name, parent_of, OutputLock};
 use crate::overlap::is_special_file;
+use crate::writeback::WritebackFile;
 
 enum Sink {
     /// A unique temporary file beside the target (`.NAME.XXXXXX.tmp`), written through its
     /// plain `File` so that an error reads as the system's (`No space left on device`), not as
-    /// tempfile's, which names the temporary instead of the target.
-    Temp(BufWriter<File>, TempPath),
+    /// tempfile's, which names the temporary instead of the target. Written back to disk while
+    /// it grows (see [`WritebackFile`]), so that the sync in `commit` is short.
+    Temp(BufWriter<WritebackFile>, TempPath),
     /// A device or pipe, written directly.
     Direct(BufWriter<File>),
     /// Committed (or being committed).
@@ -76,7 +78,10 @@ impl AtomicFile {
         let (file, tmp) = temp_beside(dest)?.into_parts();
         Ok(Self {
             tmp: Some(tmp.to_path_buf()),
-            sink: Sink::Temp(BufWriter::with_capacity(1 << 16, file), tmp),
+            sink: Sink::Temp(
+                BufWriter::with_capacity(1 << 16, WritebackFile::new(file)),
+                tmp,
+            ),
             dest: dest.to_path_buf(),
             _lock: Some(lock),
         })
@@ -91,8 +96,7 @@ impl AtomicFile {
     fn sync(&mut self) -> io::Result<Option<TempPath>> {
         match std::mem::replace(&mut self.sink, Sink::Closed) {
             Sink::Temp(w, tmp) => {
-                let file = w.into_inner().map_err(|e| e.into_error())?;
-                file.sync_all()?;
+                w.into_inner().map_err(|e| e.into_error())?.finish()?;
                 Ok(Some(tmp))
             }
             Sink::Direct(mut w) => {

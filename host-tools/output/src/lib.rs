@@ -17,6 +17,7 @@ mod file;
 mod folders;
 mod lock;
 mod overlap;
+mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::OutputDir;

@@ -63,7 +63,14 @@ PARQUET:
   other columns keep their type. Bad rows are reported
   with their row number (Parquet input). Page checksums (CRC-32, when the writer stored them) are
   verified: a damaged page stops the run, naming the row group and column, with no output
-  written. The Parquet path runs on one thread.
+  written. A missing pair column, a pair column that is not numeric and a damaged or truncated
+  file stop the run before anything is written, naming the column or the file.
+
+  The Parquet paths use every core too (--threads): the file is read in batches of 65,536 rows
+  (16,384 for CSV output), or chunks of 8 MiB for CSV input, which are scored and encoded in
+  parallel and written in input order; the output is the same byte for byte whatever
+  --threads is, and memory stays bounded (a few batches) whatever the file size. Parquet
+  output gets one row group per batch or chunk.
 
 EXAMPLES:
   riskctl ssm --input pairs.csv --output pairs_ssm.csv

@@ -78,7 +78,7 @@ impl RowFields for FieldBuf {
 impl FieldBuf {
     /// Fill from a line without quotes or carriage returns: its fields are exactly the pieces
     /// between commas (what `csv-core` makes of it, without its state machine).
-    fn set_plain(&mut self, line: &[u8]) {
+    pub fn set_plain(&mut self, line: &[u8]) {
         self.bytes.clear();
         self.bytes.extend_from_slice(line);
         self.used = line.len();

@@ -1,0 +1,104 @@
+//! Parquet output a row group at a time, with the row groups encoded on worker threads: a worker
+//! turns a batch into finished column chunks ([`RowGroupEncoder::encode`]), the writing thread
+//! appends them to the file in order ([`RowGroupFile::append`]). A row group's bytes depend only
+//! on its rows, so the file is the same whichever thread encoded what.
+use std::io::Write;
+
+use arrow_array::RecordBatch;
+use arrow_schema::{DataType, Schema, SchemaRef};
+use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk, ArrowRowGroupWriterFactory};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::Compression;
+use parquet::errors::ParquetError;
+use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::ColumnPath;
+
+/// Most rows in one row group.
+pub const MAX_ROW_GROUP_ROWS: usize = 1 << 17;
+
+/// How every Parquet output of riskscore is written: Snappy, row groups of at most
+/// [`MAX_ROW_GROUP_ROWS`], floating-point columns without dictionary encoding. Measured values
+/// rarely repeat, and the dictionary of a row group of 65,536 floats stays under the size that
+/// would make the writer give it up, so it would be kept for every float column: slower to write
+/// and larger than plain values. Other columns (ids, labels) keep it.
+pub fn writer_properties(schema: &Schema) -> WriterProperties {
+    let mut props = WriterProperties::builder()
+        .set_compression(Compression::SNAPPY)
+        .set_max_row_group_row_count(Some(MAX_ROW_GROUP_ROWS));
+    for field in schema.fields() {
+        if matches!(
+            field.data_type(),
+            DataType::Float16 | DataType::Float32 | DataType::Float64
+        ) {
+            props =
+                props.set_column_dictionary_enabled(ColumnPath::from(field.name().as_str()), false);
+        }
+    }
+    props.build()
+}
+
+/// The writing side: the file, its row groups appended in order.
+pub struct RowGroupFile<W: Write + Send> {
+    writer: SerializedFileWriter<W>,
+}
+
+/// The encoding side, shared by the workers.
+pub struct RowGroupEncoder {
+    factory: ArrowRowGroupWriterFactory,
+    schema: SchemaRef,
+}
+
+/// A Parquet file of `schema` on `out` (the Arrow schema is stored in its metadata, as
+/// [`ArrowWriter`] does), and the encoder for its row groups.
+pub fn row_group_file<W: Write + Send>(
+    out: W,
+    schema: SchemaRef,
+) -> Result<(RowGroupFile<W>, RowGroupEncoder), ParquetError> {
+    let writer = ArrowWriter::try_new(out, schema.clone(), Some(writer_properties(&schema)))?;
+    let (writer, factory) = writer.into_serialized_writer()?;
+    Ok((RowGroupFile { writer }, RowGroupEncoder { factory, schema }))
+}
+
+impl RowGroupEncoder {
+    /// `batch` (of the file's schema) as the column chunks of row group number `index`.
+    pub fn encode(
+        &self,
+        batch: &RecordBatch,
+        index: usize,
+    ) -> Result<Vec<ArrowColumnChunk>, ParquetError> {
+        let mut writers = self.factory.create_column_writers(index)?;
+        let mut leaves = writers.iter_mut();
+        for (field, column) in self.schema.fields().iter().zip(batch.columns()) {
+            for leaf in compute_leaves(field, column)? {
+                let writer = leaves.next().ok_or_else(|| {
+                    ParquetError::General(format!(
+                        "column {}: more leaves than the schema has",
+                        field.name()
+                    ))
+                })?;
+                writer.write(&leaf)?;
+            }
+        }
+        writers.into_iter().map(|w| w.close()).collect()
+    }
+}
+
+impl<W: Write + Send> RowGroupFile<W> {
+    /// Writes one encoded row group after the ones before it.
+    pub fn append(&mut self, chunks: Vec<ArrowColumnChunk>) -> Result<(), ParquetError> {
+        let mut row_group = self.writer.next_row_group()?;
+        for chunk in chunks {
+            chunk.append_to_row_group(&mut row_group)?;
+        }
+        row_group.close()?;
+        Ok(())
+    }
+
+    /// Writes the footer; returns the output, flushed.
+    pub fn finish(self) -> Result<W, ParquetError> {
+        let mut out = self.writer.into_inner()?;
+        out.flush()?;
+        Ok(out)
+    }
+}
