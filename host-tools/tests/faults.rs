@@ -81,7 +81,7 @@ const WRITERS: &[Writer] = &[
         out: "ev/",
         inputs: &["m.rsk", "sim"],
         lock: "OUT",
-        long: Some(("evaluate --model m.rsk --events big --out OUT", Streams::No)),
+        long: Some(("evaluate --model m.rsk --events bigger --out OUT", Streams::No)),
     },
     Writer {
         name: "calibrate",
@@ -350,8 +350,9 @@ fn a_disk_that_fills_between_two_files_of_a_set_changes_none() {
     fault_harness::refused(RISKCTL, p, &args, &["mnt/tr/"]).unwrap();
 }
 
-/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder, 150 scenario
-/// files and slow configurations.
+/// Extra inputs the long runs need: a 40,000-row pairs file, a 150-event folder and the same
+/// events 16 times over (`evaluate` computes for a while before it writes: 150 events take a
+/// quarter of a second), 150 scenario files and slow configurations.
 fn add_long_inputs(p: &Path) {
     std::fs::create_dir(p.join("crbig")).unwrap();
     for k in 0..150 {
@@ -371,6 +372,19 @@ fn add_long_inputs(p: &Path) {
         p,
         &["simulate", "--out", "big", "--events", "150", "--seed", "4"],
     );
+    std::fs::create_dir(p.join("bigger")).unwrap();
+    for file in ["events.csv", "frames.csv"] {
+        let text = std::fs::read_to_string(p.join("big").join(file)).unwrap();
+        let (header, rows) = text.split_once('\n').unwrap();
+        let copies: String = (0..16)
+            .map(|k| {
+                rows.lines()
+                    .map(|row| format!("c{k}_{row}\n"))
+                    .collect::<String>()
+            })
+            .collect();
+        std::fs::write(p.join("bigger").join(file), format!("{header}\n{copies}")).unwrap();
+    }
     std::fs::write(
         p.join("long.toml"),
         "[optimiser]\nmax_epochs = 100000\npatience = 100000\n",
