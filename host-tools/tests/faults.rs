@@ -81,7 +81,7 @@ const WRITERS: &[Writer] = &[
         out: "ev/",
         inputs: &["m.rsk", "sim"],
         lock: "OUT",
-        long: Some(("evaluate --model m.rsk --events bigger --out OUT", Streams::No)),
+        long: Some(("evaluate --model m.rsk --events bigger --out OUT", Streams::Yes)),
     },
     Writer {
         name: "calibrate",

@@ -11,6 +11,20 @@ pub struct OutputLock {
     path: PathBuf,
     target: PathBuf,
     file: Option<File>,
+    /// This process already held the lock for the run when this one was asked for (a command
+    /// that locks its output before it computes, then writes it through an `OutputDir`):
+    /// dropping it changes nothing.
+    nested: bool,
+    /// Taken with [`OutputLock::acquire_for_run`].
+    for_run: bool,
+}
+
+/// The lock files this process holds for a whole run ([`OutputLock::acquire_for_run`]): asking
+/// again for one of them is the run's own writer, not a second one.
+static HELD: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn held() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    HELD.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 pub(crate) fn parent_of(target: &Path) -> &Path {
@@ -38,6 +52,15 @@ impl OutputLock {
     pub fn acquire(target: &Path) -> io::Result<Self> {
         use std::os::unix::fs::MetadataExt;
         let path = hidden_name(target, ".lock")?;
+        if held().contains(&path) {
+            return Ok(Self {
+                path,
+                target: target.to_path_buf(),
+                file: None,
+                nested: true,
+                for_run: false,
+            });
+        }
         for _ in 0..8 {
             let file = OpenOptions::new()
                 .create(true)
@@ -68,6 +91,8 @@ impl OutputLock {
                         path,
                         target: target.to_path_buf(),
                         file: Some(file),
+                        nested: false,
+                        for_run: false,
                     });
                 }
                 _ => continue,
@@ -78,10 +103,28 @@ impl OutputLock {
             format!("cannot take the lock {}: it keeps changing", path.display()),
         ))
     }
+
+    /// Locks `target` for a whole run that computes before it writes: a second process is
+    /// refused now rather than after both have computed. The run's own writer
+    /// ([`crate::OutputDir`], [`crate::AtomicFile`]) may then take the lock again in this process.
+    pub fn acquire_for_run(target: &Path) -> io::Result<Self> {
+        let mut lock = Self::acquire(target)?;
+        if !lock.nested {
+            lock.for_run = true;
+            held().push(lock.path.clone());
+        }
+        Ok(lock)
+    }
 }
 
 impl Drop for OutputLock {
     fn drop(&mut self) {
+        if self.nested {
+            return;
+        }
+        if self.for_run {
+            held().retain(|p| p != &self.path);
+        }
         // Removed while still locked, so a waiting process re-opens a fresh file (see acquire).
         let _ = std::fs::remove_file(&self.path);
         crate::cleanup::unregister(&self.path);
@@ -98,14 +141,43 @@ mod tests {
     fn a_second_writer_is_refused_and_the_lock_file_goes_away() {
         let d = tempfile::tempdir().unwrap();
         let target = d.path().join("out.csv");
-        let first = OutputLock::acquire(&target).unwrap();
+        // Another process's lock: the same file locked through another open file description.
+        let other = OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(d.path().join(".out.csv.lock"))
+            .unwrap();
+        other.try_lock().unwrap();
         let e = OutputLock::acquire(&target).unwrap_err();
         assert_eq!(e.kind(), io::ErrorKind::WouldBlock);
         assert!(e.to_string().contains("another process"), "{e}");
+        drop(other);
+        std::fs::remove_file(d.path().join(".out.csv.lock")).unwrap();
+        // In this process, too, unless the lock was taken for the run.
+        let first = OutputLock::acquire(&target).unwrap();
+        assert!(OutputLock::acquire(&target).is_err());
         drop(first);
-        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
         let again = OutputLock::acquire(&target).unwrap();
         drop(again);
+        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn the_holder_may_ask_again_and_keeps_the_lock_until_its_first_is_dropped() {
+        let d = tempfile::tempdir().unwrap();
+        let target = d.path().join("report");
+        assert!(OutputLock::acquire(&target).is_ok());
+        let first = OutputLock::acquire_for_run(&target).unwrap();
+        let inner = OutputLock::acquire(&target).unwrap();
+        drop(inner);
+        // Still locked: another writer (here, another open file description) is refused.
+        let other = OpenOptions::new()
+            .write(true)
+            .open(d.path().join(".report.lock"))
+            .unwrap();
+        assert!(other.try_lock().is_err());
+        drop(first);
         assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
     }
 }

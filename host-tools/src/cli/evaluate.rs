@@ -119,9 +119,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let thresholds = operating_thresholds(&args.thresholds, &files, &methods)?;
 
     let dir = &args.events;
-    if let Some(out) = &args.out {
-        refuse_output_overlaps(&files, dir, out)?;
-    }
+    // Locked before the folder is read: a second run into the same --out is refused now, not
+    // after both have computed (the final swap takes the same lock again, as its holder).
+    let _out_lock = match &args.out {
+        Some(out) => {
+            refuse_output_overlaps(&files, dir, out)?;
+            Some(
+                riskscore_output::OutputLock::acquire_for_run(out)
+                    .with_context(|| format!("--out {}", out.display()))?,
+            )
+        }
+        None => None,
+    };
     // With --out, the same pass also gathers the trajectory plot's events and percentile scales.
     let trajectories = args.out.as_ref().map(|_| TrajectoryRequest {
         events: if args.trajectory_events.is_empty() {

@@ -465,7 +465,8 @@ fn holds_temporary(dir: &Path) -> bool {
     std::fs::read_dir(dir).is_ok_and(|entries| {
         entries.flatten().any(|e| {
             let n = e.file_name().to_string_lossy().into_owned();
-            n.starts_with('.') && n.ends_with(".tmp")
+            // A temporary, or the lock a run that computes first takes on its output at start.
+            n.starts_with('.') && (n.ends_with(".tmp") || n.ends_with(".lock"))
         })
     })
 }
