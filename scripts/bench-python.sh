@@ -10,13 +10,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh python
-dir=${BENCH_DIR:-/tmp/riskscore-bench}
-mkdir -p "$dir"
-input=${1:-$dir/pairs1m.csv}
-if [ ! -f "$input" ]; then
-    python3 scripts/ngsim_pairs.py --data "${NGSIM_DIR:-../shared/data/ngsim-us101}" \
-        --rows 1000000 --out "$input"
-fi
+# shellcheck source=scripts/bench-pairs.sh
+. scripts/bench-pairs.sh
 py=.cache/pyenv/bin/python
 rm -f target/wheels-release/riskscore-*.whl
 .cache/pyenv/bin/maturin build --quiet --release --manifest-path python/Cargo.toml \

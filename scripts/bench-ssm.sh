@@ -14,13 +14,8 @@
 # parquet output (40 columns), so parquet -> parquet on it writes 57 columns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-dir=${BENCH_DIR:-/tmp/riskscore-bench}
-mkdir -p "$dir"
-input=${1:-$dir/pairs1m.csv}
-if [ ! -f "$input" ]; then
-    python3 scripts/ngsim_pairs.py --data "${NGSIM_DIR:-../shared/data/ngsim-us101}" \
-        --rows 1000000 --out "$input"
-fi
+# shellcheck source=scripts/bench-pairs.sh
+. scripts/bench-pairs.sh
 cargo build --quiet --release -p host-tools --bin riskctl
 riskctl=target/release/riskctl
 rows=$(($(wc -l < "$input") - 1))

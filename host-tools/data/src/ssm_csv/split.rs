@@ -416,11 +416,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn endless_line_reports_once_and_keeps_memory_bounded() {
-        // An endless input without line feeds (like /dev/zero), cut off after 64 MiB.
-        let endless = std::io::repeat(0).take(64 << 20);
-        let mut s = Splitter::new(endless, 1 << 16, 1 << 16);
+    /// The first chunk of `s`: only the report of an over-long line 1 (limit 64 KiB).
+    fn first_chunk_is_one_too_long_line<R: Read>(s: &mut Splitter<R>) -> Chunk {
         let chunk = s.next_chunk(Chunk::default()).unwrap().unwrap();
         assert_eq!(
             chunk.pieces,
@@ -429,6 +426,15 @@ mod tests {
                 problem: SplitProblem::TooLong { limit: 1 << 16 }
             }]
         );
+        chunk
+    }
+
+    #[test]
+    fn endless_line_reports_once_and_keeps_memory_bounded() {
+        // An endless input without line feeds (like /dev/zero), cut off after 64 MiB.
+        let endless = std::io::repeat(0).take(64 << 20);
+        let mut s = Splitter::new(endless, 1 << 16, 1 << 16);
+        let chunk = first_chunk_is_one_too_long_line(&mut s);
         assert!(chunk.data.capacity() < 1 << 20);
         assert!(s.next_chunk(Chunk::default()).unwrap().is_none());
     }
@@ -445,14 +451,7 @@ mod tests {
             }
         }
         let mut s = Splitter::new(Counted(0), 1 << 16, 1 << 16);
-        let chunk = s.next_chunk(Chunk::default()).unwrap().unwrap();
-        assert_eq!(
-            chunk.pieces,
-            vec![Piece::Problem {
-                line: 1,
-                problem: SplitProblem::TooLong { limit: 1 << 16 }
-            }]
-        );
+        first_chunk_is_one_too_long_line(&mut s);
         assert!(s.input.0 < 1 << 20, "read {} bytes", s.input.0);
     }
 }
