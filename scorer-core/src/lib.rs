@@ -6,6 +6,7 @@
 //! Layers, each in its own module:
 //! - [`state`]: the kinematic state of one road user ([`VehicleState`]).
 //! - [`geometry`]: oriented boxes and the exact box-to-box distance.
+//! - [`interaction`]: the geometry of a pair (following, adjacent, crossing, oncoming).
 //! - [`features`]: the 13 observation features of an ego/partner pair.
 //! - [`encoding`]: the DRL input encoding (versioned, trig-free transform of the two states).
 //! - [`observation`]: features + surrogates + DRL inputs of a pair, computed once ([`Observation`]).
@@ -35,6 +36,7 @@ pub mod encoding;
 pub mod features;
 pub mod geometry;
 pub mod gssm;
+pub mod interaction;
 pub mod mlp;
 pub mod model;
 pub mod model_error;
