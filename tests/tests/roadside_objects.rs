@@ -1,0 +1,125 @@
+//! Driving past a stationary object beside the lane never warns (issue #18, "Done when").
+//!
+//! Every shipped model in `models/` scores, at its own default threshold (the blob's calibrated
+//! operating point), an ego driving a straight lane past a parked car, a post and a parked truck
+//! with at least 3 m of lateral clearance between the boxes, on either side, at 1-50 m/s. The ego
+//! drives from 150 m before the object (or 40 s before, whichever is nearer) to 30 m past it at
+//! 10 Hz. Not one frame may reach the threshold.
+use std::path::{Path, PathBuf};
+
+use scorer_core::model::decode_blob;
+use scorer_core::VehicleState;
+
+const SHIPPED: [&str; 5] = [
+    "drl-default",
+    "msra-default",
+    "gssm-default",
+    "ssra-default",
+    "msra-gssm",
+];
+const SPEEDS: [f32; 13] = [
+    1.0, 3.0, 5.0, 8.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0,
+];
+/// Lateral gap between the two boxes (m).
+const CLEARANCES: [f32; 4] = [3.0, 3.5, 4.5, 6.0];
+/// Name, length, width of the stationary object.
+const OBJECTS: [(&str, f32, f32); 3] = [
+    ("parked car", 4.5, 1.8),
+    ("post", 0.5, 0.5),
+    ("parked truck", 12.0, 2.5),
+];
+const EGO_LENGTH: f32 = 4.5;
+const EGO_WIDTH: f32 = 1.8;
+const DT: f32 = 0.1;
+
+fn models_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .join("models")
+}
+
+fn state(x: f32, y: f32, v: f32, length: f32, width: f32) -> VehicleState {
+    VehicleState {
+        x,
+        y,
+        vx: v,
+        vy: 0.0,
+        hx: 1.0,
+        hy: 0.0,
+        acc: 0.0,
+        length,
+        width,
+    }
+}
+
+/// One pass: the highest score and the ego's position relative to the object where it occurred.
+fn worst_frame(
+    score: impl Fn(&VehicleState, &VehicleState) -> f32,
+    v: f32,
+    object: &VehicleState,
+) -> (f32, f32) {
+    let start = (-150.0f32).max(-40.0 * v);
+    let frames = ((30.0 - start) / (v * DT)).ceil() as usize;
+    (0..=frames)
+        .map(|k| {
+            let ego = state(start + v * DT * k as f32, 0.0, v, EGO_LENGTH, EGO_WIDTH);
+            (score(&ego, object), ego.x)
+        })
+        .fold(
+            (f32::NEG_INFINITY, 0.0),
+            |a, b| if b.0 > a.0 { b } else { a },
+        )
+}
+
+#[test]
+#[ignore = "fails on the shipped models until they are retrained with roadside objects (issue #18); docs/domain.md has the measured counts"]
+fn passing_a_stationary_object_beside_the_lane_never_warns() {
+    let mut warned = Vec::new();
+    let mut passes = 0;
+    for name in SHIPPED {
+        let path = models_dir().join(format!("{name}.rsk"));
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let blob = decode_blob(&bytes).unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+        let threshold = blob.default_threshold();
+        for (object_name, length, width) in OBJECTS {
+            for clearance in CLEARANCES {
+                for side in [-1.0f32, 1.0] {
+                    let y = side * (clearance + (width + EGO_WIDTH) / 2.0);
+                    let object = state(0.0, y, 0.0, length, width);
+                    for v in SPEEDS {
+                        passes += 1;
+                        let (worst, at) = worst_frame(|e, p| blob.model.score(e, p), v, &object);
+                        if worst >= threshold {
+                            warned.push(format!(
+                                "{name}: {object_name}, {clearance} m clearance on the {}, {v} m/s: \
+                                 R = {worst:.3} >= {threshold:.3} at {at:.1} m",
+                                if side < 0.0 { "right" } else { "left" }
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        warned.is_empty(),
+        "{} of {passes} passes warned:\n{}",
+        warned.len(),
+        warned.join("\n")
+    );
+}
+
+#[test]
+fn the_probe_reaches_the_object_at_every_speed() {
+    // The sweep must really drive past the object: the closest frame is within half a frame's
+    // travel of it, whatever the speed.
+    let object = state(0.0, 4.8, 0.0, 4.5, 1.8);
+    for v in SPEEDS {
+        let (_, at) = worst_frame(|e, p| -(e.x - p.x).abs(), v, &object);
+        assert!(
+            at.abs() <= v * DT / 2.0 + 1e-3,
+            "{v} m/s: closest frame at {at} m"
+        );
+    }
+}
