@@ -11,14 +11,19 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::events::{EventWriter, EventsError};
+use provenance::ProvenanceWriter;
 
 pub mod pairs;
+pub mod provenance;
+pub mod smoothing;
 pub mod xml;
 
 pub use pairs::{
-    interaction_id, safe_interactions, step_time, vehicle_state, EgoChoice, InteractionRules,
-    PairCounts, SafeInteraction,
+    closest_approach, geometry_index, interaction_id, predicted_closest_distance,
+    safe_interactions, step_time, vehicle_state, ClosestApproach, EgoChoice, GeometrySet,
+    InteractionRules, PairCounts, SafeInteraction,
 };
+pub use provenance::{read_event_geometries, PROVENANCE_FILE};
 pub use xml::{
     parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track, TrackState,
 };
@@ -126,7 +131,8 @@ fn is_xml(path: &Path) -> bool {
 /// Imports every scenario of `inputs` (files or folders) into the event folder `out`.
 ///
 /// Every interaction's safe sequences become `safe` events (with the partner's recorded
-/// acceleration in `acc_sur`). Problems in a file skip that file or road user and are listed in
+/// acceleration in `acc_sur`), and each gets a row of [`PROVENANCE_FILE`] (scenario, geometry
+/// at closest approach). Problems in a file skip that file or road user and are listed in
 /// [`ImportSummary::issues`]; everything valid is still written. Two inputs with the same file
 /// stem would give clashing event ids: the second is skipped with an issue. Errors only when the
 /// output cannot be written or a folder cannot be listed.
@@ -138,6 +144,7 @@ pub fn import_to_dir(
     let started = Instant::now();
     let (files, issues) = scenario_files(inputs)?;
     let mut writer = EventWriter::create_with_partner_acceleration(out)?;
+    let mut provenance = ProvenanceWriter::create(out)?;
     let mut summary = ImportSummary {
         issues,
         ..ImportSummary::default()
@@ -174,13 +181,14 @@ pub fn import_to_dir(
         summary.counts.add(&counts);
         for s in found {
             writer.write_event(&s.event)?;
+            provenance.write(&scenario.id, &s)?;
             summary.closeness.push((s.min_gap, s.min_centre_distance));
         }
     }
     // No safe sequence found (no scenario could be read, or none held one): nothing to write, so
-    // an existing folder is left as it was (dropping the writer removes its temporaries).
+    // an existing folder is left as it was (dropping the writers removes their temporaries).
     if !summary.closeness.is_empty() {
-        writer.finish()?;
+        writer.finish_with(vec![provenance.into_file()?])?;
     }
     summary.elapsed = started.elapsed();
     Ok(summary)

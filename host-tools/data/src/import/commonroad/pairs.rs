@@ -1,18 +1,26 @@
 //! Which recorded road users interact, and the safe sequences their interactions yield.
 //!
-//! Rules (docs/real-data.md):
+//! Rules (docs/real-data.md, "Interaction rules"):
 //! 1. Two road users are *near* at a time step when both are recorded at it, their boxes do not
 //!    overlap (an overlap is a recording artefact, not a crash: that frame is dropped and the
-//!    interaction is split there), the gap between the boxes is at most `max_gap`, and the
-//!    lateral centre offset measured across either one's heading is at most `max_lateral`.
+//!    interaction is split there), the gap between the boxes is at most `max_gap`, and, by their
+//!    geometry (`scorer_core::interaction::geometry`, the one shared definition):
+//!    - travelling the same way (following, adjacent): the lateral centre offset measured across
+//!      either one's heading is at most `max_lateral`;
+//!    - crossing or oncoming: their predicted closest approach (constant velocities, within
+//!      `horizon` s from now, now included) brings the centres within `max_approach`.
 //! 2. An *interaction* is a maximal run of consecutive time steps (no missing step) on which the
 //!    pair is near.
 //! 3. The ego of an interaction is chosen by [`EgoChoice`]; the other road user is the partner.
 //! 4. Each interaction is cut with [`cut_safe_sequences`] (the library's safe-sequence rules:
 //!    both |acc| <= `safe_max_abs_acc`, pieces of `safe_min_duration` to `safe_max_duration`).
-use scorer_core::geometry::{box_distance, boxes_overlap};
+//! 5. Each sequence's geometry is the one at its closest approach ([`ClosestApproach`]); only
+//!    sequences of a geometry in `geometries` are kept.
+use scorer_core::geometry::{box_distance, boxes_overlap, position, velocity};
+use scorer_core::interaction::{geometry, Geometry};
 use scorer_core::VehicleState;
 
+use super::smoothing::smooth_acceleration;
 use super::xml::{Scenario, Track, TrackState};
 use crate::events::{cut_safe_sequences, Dims, Event, EventKind, Frame, PrepareConfig};
 
@@ -37,14 +45,89 @@ impl EgoChoice {
     }
 }
 
+/// A set of [`Geometry`] values (which interactions an import keeps).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GeometrySet {
+    /// Indexed like [`Geometry::ALL`].
+    members: [bool; 4],
+}
+
+impl GeometrySet {
+    /// Every geometry.
+    pub const ALL: GeometrySet = GeometrySet { members: [true; 4] };
+
+    /// Exactly the geometries in `list`.
+    pub fn of(list: &[Geometry]) -> GeometrySet {
+        let mut members = [false; 4];
+        for g in list {
+            members[geometry_index(*g)] = true;
+        }
+        GeometrySet { members }
+    }
+
+    pub fn contains(&self, g: Geometry) -> bool {
+        self.members[geometry_index(g)]
+    }
+
+    /// The members in [`Geometry::ALL`] order.
+    pub fn iter(&self) -> impl Iterator<Item = Geometry> + '_ {
+        Geometry::ALL.into_iter().filter(|g| self.contains(*g))
+    }
+
+    /// Parses a comma-separated list of geometry names (`following,crossing`); `all` is every one.
+    pub fn parse(text: &str) -> Result<GeometrySet, String> {
+        if text.trim() == "all" {
+            return Ok(GeometrySet::ALL);
+        }
+        let mut list = Vec::new();
+        for name in text.split(',').map(str::trim) {
+            let g = Geometry::from_name(name).ok_or_else(|| {
+                format!(
+                    "`{name}` is not a geometry (one or more of following, adjacent, crossing, oncoming, comma-separated, or all)"
+                )
+            })?;
+            list.push(g);
+        }
+        Ok(GeometrySet::of(&list))
+    }
+}
+
+impl std::fmt::Display for GeometrySet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = self.iter().map(Geometry::as_str).collect();
+        f.write_str(&names.join(","))
+    }
+}
+
+/// Position of `g` in [`Geometry::ALL`] (and in the per-geometry counts).
+pub fn geometry_index(g: Geometry) -> usize {
+    match g {
+        Geometry::Following => 0,
+        Geometry::Adjacent => 1,
+        Geometry::Crossing => 2,
+        Geometry::Oncoming => 3,
+    }
+}
+
 /// The interaction rules; [`Default`] gives the documented defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InteractionRules {
     /// Largest gap between the two boxes (m); default 30.
     pub max_gap: f32,
-    /// Largest lateral offset of the centres across either heading (m); default 5 (same or
-    /// adjacent lane on a freeway with 3.7 m lanes).
+    /// Road users travelling the same way (following, adjacent): largest lateral offset of the
+    /// centres across either heading (m); default 5 (same or adjacent lane on 3.7 m lanes).
     pub max_lateral: f32,
+    /// Crossing and oncoming road users: largest centre distance of their predicted closest
+    /// approach (m); default 10.
+    pub max_approach: f32,
+    /// Crossing and oncoming road users: how far ahead the closest approach is predicted, at
+    /// constant velocities (s); default 3.
+    pub horizon: f32,
+    /// The geometries (at each sequence's closest approach) kept; default all.
+    pub geometries: GeometrySet,
+    /// Seconds of the centred moving average of the speed that the acceleration is derived
+    /// from ([`super::smoothing::smooth_acceleration`]); default 0: the recorded acceleration.
+    pub speed_smoothing: f64,
     /// Default [`EgoChoice::Both`]: the scorer rates every surrounding road user, so the
     /// partner-behind view is as real an observation as the follower's.
     pub ego: EgoChoice,
@@ -57,6 +140,10 @@ impl Default for InteractionRules {
         Self {
             max_gap: 30.0,
             max_lateral: 5.0,
+            max_approach: 10.0,
+            horizon: 3.0,
+            geometries: GeometrySet::ALL,
+            speed_smoothing: 0.0,
             ego: EgoChoice::Both,
             safe: PrepareConfig::default(),
         }
@@ -74,11 +161,20 @@ pub struct PairCounts {
     pub interactions: usize,
     /// Time steps (per pair) on which the two boxes overlap: dropped, interaction split there.
     pub overlap_frames: usize,
+    /// Time steps (per pair) with the boxes apart and at most `max_gap` between them, by the
+    /// geometry of the second road user seen from the first (indexed like [`Geometry::ALL`]).
+    pub within_gap_frames: [usize; 4],
+    /// Of those, the near ones (the lateral or the closest-approach rule holds).
+    pub near_frames: [usize; 4],
     /// Frames of all interactions, per ego order.
     pub interaction_frames: usize,
     /// Safe sequences written, and their frames.
     pub sequences: usize,
     pub frames: usize,
+    /// Safe sequences by their geometry at closest approach, before the `geometries` filter
+    /// (indexed like [`Geometry::ALL`]); the ones outside it are not in `sequences`.
+    pub sequences_by_geometry: [usize; 4],
+    pub frames_by_geometry: [usize; 4],
 }
 
 impl PairCounts {
@@ -87,6 +183,12 @@ impl PairCounts {
         self.pairs_interacting += o.pairs_interacting;
         self.interactions += o.interactions;
         self.overlap_frames += o.overlap_frames;
+        for g in 0..4 {
+            self.within_gap_frames[g] += o.within_gap_frames[g];
+            self.near_frames[g] += o.near_frames[g];
+            self.sequences_by_geometry[g] += o.sequences_by_geometry[g];
+            self.frames_by_geometry[g] += o.frames_by_geometry[g];
+        }
         self.interaction_frames += o.interaction_frames;
         self.sequences += o.sequences;
         self.frames += o.frames;
@@ -101,6 +203,56 @@ pub struct SafeInteraction {
     pub min_gap: f32,
     /// Smallest centre distance over the event's frames (m).
     pub min_centre_distance: f32,
+    /// The frame of the smallest box gap and the geometry there.
+    pub closest: ClosestApproach,
+}
+
+/// Where an event's two road users come closest: the frame of the smallest box gap (the first
+/// one on a tie) and the pair's geometry there, seen from the ego.
+///
+/// This is the geometry an event is filed under: an interaction can change geometry as it goes
+/// (a left turn is oncoming, then crossing, then following), and the moment of closest approach
+/// is the one a risk score is judged at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosestApproach {
+    /// Index into the event's frames.
+    pub frame: usize,
+    pub time: f64,
+    /// Box gap there (m).
+    pub gap: f32,
+    /// `None` when the ego has no heading or a position is not finite there.
+    pub geometry: Option<Geometry>,
+}
+
+/// The closest approach of `frames`, `None` when there are none.
+pub fn closest_approach(frames: &[Frame]) -> Option<ClosestApproach> {
+    let mut best: Option<ClosestApproach> = None;
+    for (i, f) in frames.iter().enumerate() {
+        let gap = box_distance(&f.ego, &f.partner);
+        if best.is_none_or(|b| gap < b.gap) {
+            best = Some(ClosestApproach {
+                frame: i,
+                time: f.time,
+                gap,
+                geometry: geometry(&f.ego, &f.partner),
+            });
+        }
+    }
+    best
+}
+
+/// Smallest centre distance of `a` and `b` over the next `horizon` seconds (now included), both
+/// moving on at their present velocities (m).
+pub fn predicted_closest_distance(a: &VehicleState, b: &VehicleState, horizon: f32) -> f32 {
+    let offset = position(b) - position(a);
+    let closing = velocity(b) - velocity(a);
+    let speed2 = closing.norm2();
+    let t = if speed2 > 0.0 {
+        (-offset.dot(closing) / speed2).clamp(0.0, horizon)
+    } else {
+        0.0
+    };
+    (offset + closing.scale(t)).norm()
 }
 
 /// The event id of a sequence: `{scenario}/{ego}-{partner}@{first step}#{piece}`.
@@ -151,7 +303,17 @@ pub fn safe_interactions(
 ) -> (Vec<SafeInteraction>, PairCounts) {
     let mut out = Vec::new();
     let mut counts = PairCounts::default();
-    let tracks = &scenario.tracks;
+    let smoothed;
+    let tracks = if rules.speed_smoothing > 0.0 {
+        let mut copy = scenario.tracks.clone();
+        for t in &mut copy {
+            smooth_acceleration(t, rules.speed_smoothing, scenario.dt);
+        }
+        smoothed = copy;
+        &smoothed
+    } else {
+        &scenario.tracks
+    };
     for (i, a) in tracks.iter().enumerate() {
         for b in &tracks[i + 1..] {
             pair_interactions(scenario, a, b, rules, &mut out, &mut counts);
@@ -205,11 +367,7 @@ fn pair_interactions(
             vehicle_state(sa, a.length, a.width),
             vehicle_state(sb, b.length, b.width),
         );
-        let overlap = boxes_overlap(&va, &vb);
-        counts.overlap_frames += usize::from(overlap);
-        let near = !overlap
-            && box_distance(&va, &vb) <= rules.max_gap
-            && lateral_offset(&va, &vb).max(lateral_offset(&vb, &va)) <= rules.max_lateral;
+        let near = near(&va, &vb, rules, counts);
         let contiguous = run.last().is_none_or(|p| p.step + 1 == sa.step);
         if !near || !contiguous {
             interacting |= emit(scenario, a, b, &run, rules, out, counts);
@@ -227,6 +385,36 @@ fn pair_interactions(
     }
     interacting |= emit(scenario, a, b, &run, rules, out, counts);
     counts.pairs_interacting += usize::from(interacting);
+}
+
+/// Whether a pair is near at one step (rule 1 of the module), counted in `counts`.
+fn near(
+    a: &VehicleState,
+    b: &VehicleState,
+    rules: &InteractionRules,
+    counts: &mut PairCounts,
+) -> bool {
+    if boxes_overlap(a, b) {
+        counts.overlap_frames += 1;
+        return false;
+    }
+    if box_distance(a, b) > rules.max_gap {
+        return false;
+    }
+    let Some(g) = geometry(a, b) else {
+        return false;
+    };
+    counts.within_gap_frames[geometry_index(g)] += 1;
+    let near = match g {
+        Geometry::Following | Geometry::Adjacent => {
+            lateral_offset(a, b).max(lateral_offset(b, a)) <= rules.max_lateral
+        }
+        Geometry::Crossing | Geometry::Oncoming => {
+            predicted_closest_distance(a, b, rules.horizon) <= rules.max_approach
+        }
+    };
+    counts.near_frames[geometry_index(g)] += usize::from(near);
+    near
 }
 
 /// Cuts one interaction (a run of near steps) into safe sequences for the chosen ego order(s).
@@ -276,11 +464,24 @@ fn emit(
                 continue;
             };
             let (t_start, t_end) = (f0.time, f1.time);
-            let (mut min_gap, mut min_centre) = (f32::INFINITY, f32::INFINITY);
-            for f in &seq.frames {
-                min_gap = min_gap.min(box_distance(&f.ego, &f.partner));
-                min_centre = min_centre.min((f.partner.x - f.ego.x).hypot(f.partner.y - f.ego.y));
+            let Some(closest) = closest_approach(&seq.frames) else {
+                continue;
+            };
+            // Recorded road users always have a heading (from `orientation`); a geometry-less
+            // sequence could not be filed under any slice.
+            let Some(g) = closest.geometry else {
+                continue;
+            };
+            counts.sequences_by_geometry[geometry_index(g)] += 1;
+            counts.frames_by_geometry[geometry_index(g)] += seq.frames.len();
+            if !rules.geometries.contains(g) {
+                continue;
             }
+            let min_centre = seq
+                .frames
+                .iter()
+                .map(|f| (f.partner.x - f.ego.x).hypot(f.partner.y - f.ego.y))
+                .fold(f32::INFINITY, f32::min);
             counts.sequences += 1;
             counts.frames += seq.frames.len();
             out.push(SafeInteraction {
@@ -298,8 +499,9 @@ fn emit(
                     },
                     frames: seq.frames,
                 },
-                min_gap,
+                min_gap: closest.gap,
                 min_centre_distance: min_centre,
+                closest,
             });
         }
     }
