@@ -507,3 +507,202 @@ fn emit(
     }
     true
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A car moving in a straight line at constant speed: `steps` states from step 0.
+    fn car(id: &str, x0: f64, y0: f64, heading_deg: f64, speed: f64, steps: i64) -> Track {
+        let (sin, cos) = heading_deg.to_radians().sin_cos();
+        Track {
+            id: id.into(),
+            kind: "car".into(),
+            length: 4.5,
+            width: 1.8,
+            states: (0..steps)
+                .map(|step| {
+                    let t = step as f64 * 0.1;
+                    TrackState {
+                        step,
+                        x: x0 + speed * cos * t,
+                        y: y0 + speed * sin * t,
+                        orientation: heading_deg.to_radians(),
+                        speed,
+                        acc: 0.0,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    fn scenario(tracks: Vec<Track>) -> Scenario {
+        Scenario {
+            id: "ZAM_Rules-1_1_T-1".into(),
+            version: "2020a".into(),
+            dt: 0.1,
+            tracks,
+            ignored: Vec::new(),
+            issues: Vec::new(),
+        }
+    }
+
+    fn geometries(found: &[SafeInteraction]) -> Vec<(String, Option<Geometry>)> {
+        found
+            .iter()
+            .map(|s| (s.event.id.clone(), s.closest.geometry))
+            .collect()
+    }
+
+    /// The ego drives east at 5 m/s from x = -10 for 4 s; a car waits at the stop line of the
+    /// crossing street, facing north, `offset` m south of the ego's path at x = 10.
+    fn crossing(offset: f64) -> Scenario {
+        scenario(vec![
+            car("1", -10.0, 0.0, 0.0, 5.0, 41),
+            car("2", 10.0, -offset, 90.0, 0.0, 41),
+        ])
+    }
+
+    #[test]
+    fn a_crossing_pair_whose_paths_come_close_is_kept() {
+        // Closest predicted approach 8 m (the stop line) from the first step: near throughout.
+        let (found, c) = safe_interactions(&crossing(8.0), &InteractionRules::default());
+        assert_eq!(c.within_gap_frames[2], 41, "{c:?}");
+        assert_eq!(c.near_frames[2], 41);
+        assert_eq!(
+            geometries(&found),
+            [
+                (
+                    "ZAM_Rules-1_1_T-1/1-2@0#0".to_string(),
+                    Some(Geometry::Crossing)
+                ),
+                (
+                    "ZAM_Rules-1_1_T-1/2-1@0#0".to_string(),
+                    Some(Geometry::Crossing)
+                ),
+            ]
+        );
+        let ego_view = &found[0];
+        // The box gap reaches its smallest value, 8 m minus the partner's half length and the
+        // ego's half width, once the ego's front passes the partner's near side (x = 6.85 m,
+        // t = 3.37 s): the first frame of the tie is 3.4 s.
+        assert_eq!(ego_view.closest.time, 3.4);
+        assert!((ego_view.min_gap - (8.0 - 2.25 - 0.9)).abs() < 1e-4);
+        assert_eq!(c.sequences_by_geometry[2], 2);
+    }
+
+    #[test]
+    fn a_far_crossing_pair_within_the_gap_is_dropped() {
+        // 25 m south of the path: within the 30 m gap, but the paths never come within 10 m.
+        let (found, c) = safe_interactions(&crossing(25.0), &InteractionRules::default());
+        assert!(c.within_gap_frames[2] > 0, "{c:?}");
+        assert_eq!((c.near_frames[2], c.interactions), (0, 0));
+        assert!(found.is_empty());
+        // A wider approach distance takes it.
+        let wide = InteractionRules {
+            max_approach: 26.0,
+            ..InteractionRules::default()
+        };
+        assert_eq!(safe_interactions(&crossing(25.0), &wide).0.len(), 2);
+    }
+
+    #[test]
+    fn an_oncoming_pair_two_lanes_over_is_kept_where_the_lateral_rule_dropped_it() {
+        // Opposite directions 7 m apart (beyond --max-lateral 5), passing after 3 s.
+        let s = scenario(vec![
+            car("1", -15.0, 0.0, 0.0, 5.0, 31),
+            car("2", 15.0, 7.0, 180.0, 5.0, 31),
+        ]);
+        let (found, c) = safe_interactions(&s, &InteractionRules::default());
+        assert_eq!(c.near_frames[3], 31, "{c:?}");
+        assert_eq!(found.len(), 2);
+        assert!(found
+            .iter()
+            .all(|f| f.closest.geometry == Some(Geometry::Oncoming)));
+        // Predicted closest approach 7 m: a 6 m limit drops it.
+        let tight = InteractionRules {
+            max_approach: 6.0,
+            ..InteractionRules::default()
+        };
+        assert!(safe_interactions(&s, &tight).0.is_empty());
+    }
+
+    #[test]
+    fn same_way_pairs_keep_the_lateral_rule() {
+        // Following 10 m ahead in the lane; adjacent at 4 m (kept) and at 6 m (dropped); a
+        // partner 20 degrees off the ego's heading still travels the same way.
+        let s = scenario(vec![
+            car("1", 0.0, 0.0, 0.0, 10.0, 31),
+            car("2", 15.0, 0.0, 0.0, 10.0, 31),
+        ]);
+        let (found, c) = safe_interactions(&s, &InteractionRules::default());
+        assert_eq!(c.near_frames[0], 31);
+        assert_eq!(found[0].closest.geometry, Some(Geometry::Following));
+        let side = |lateral: f64| {
+            let s = scenario(vec![
+                car("1", 0.0, 0.0, 0.0, 10.0, 31),
+                car("2", 5.0, lateral, 0.0, 10.0, 31),
+            ]);
+            safe_interactions(&s, &InteractionRules::default())
+        };
+        let (found, _) = side(4.0);
+        assert_eq!(found[0].closest.geometry, Some(Geometry::Adjacent));
+        let (found, c) = side(6.0);
+        assert!(found.is_empty());
+        assert_eq!((c.within_gap_frames[1], c.near_frames[1]), (31, 0));
+        // Heading 20 degrees left, starting 3 m to the side and 8 m ahead: lateral offset across
+        // its own heading grows past 5 m after about 1.5 s, so only the first piece is near.
+        let s = scenario(vec![
+            car("1", 0.0, 0.0, 0.0, 10.0, 31),
+            car("2", 8.0, 3.0, 20.0, 10.0, 31),
+        ]);
+        let (_, c) = safe_interactions(&s, &InteractionRules::default());
+        assert_eq!(c.within_gap_frames[2] + c.within_gap_frames[3], 0);
+        assert!(c.near_frames[1] > 0 && c.near_frames[1] < 31, "{c:?}");
+    }
+
+    #[test]
+    fn the_geometry_filter_drops_sequences_but_counts_them() {
+        let only_same_way = InteractionRules {
+            geometries: GeometrySet::of(&[Geometry::Following, Geometry::Adjacent]),
+            ..InteractionRules::default()
+        };
+        let (found, c) = safe_interactions(&crossing(8.0), &only_same_way);
+        assert!(found.is_empty());
+        assert_eq!((c.sequences, c.sequences_by_geometry[2]), (0, 2));
+    }
+
+    #[test]
+    fn geometry_lists_parse_and_print() {
+        let set = GeometrySet::parse("oncoming, crossing").unwrap();
+        assert_eq!(set.to_string(), "crossing,oncoming");
+        assert_eq!(GeometrySet::parse("all").unwrap(), GeometrySet::ALL);
+        let err = GeometrySet::parse("following,merging").unwrap_err();
+        assert!(err.contains("`merging` is not a geometry"), "{err}");
+    }
+
+    #[test]
+    fn predicted_closest_distance_looks_ahead_only_within_the_horizon() {
+        let s = |x: f64, y: f64, vx: f64| {
+            vehicle_state(
+                &TrackState {
+                    step: 0,
+                    x,
+                    y,
+                    orientation: 0.0,
+                    speed: vx,
+                    acc: 0.0,
+                },
+                4.5,
+                1.8,
+            )
+        };
+        // Closing at 10 m/s from 40 m with a 3 m offset: closest (3 m) after 4 s.
+        let (a, b) = (s(0.0, 0.0, 10.0), s(40.0, 3.0, 0.0));
+        assert!((predicted_closest_distance(&a, &b, 5.0) - 3.0).abs() < 1e-4);
+        assert!((predicted_closest_distance(&a, &b, 3.0) - 10.0f32.hypot(3.0)).abs() < 1e-4);
+        // Moving apart: now is the closest.
+        let (a, b) = (s(0.0, 0.0, 0.0), s(20.0, 0.0, 5.0));
+        assert_eq!(predicted_closest_distance(&a, &b, 3.0), 20.0);
+    }
+}
