@@ -446,6 +446,7 @@ fn cli_imports_prints_a_summary_and_teaches_its_rules() {
         "[default: 3]",
         "closest approach",
         "--smooth-speed",
+        "--skip-repeats",
         "scenarios.csv",
     ] {
         assert!(help.contains(needle), "help lacks {needle}:\n{help}");
@@ -503,10 +504,10 @@ fn the_shipped_urban_extract_loads_clean_with_both_cities_and_every_geometry() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/ngsim-urban-safe");
     let (set, issues) = load_events(&dir).unwrap();
     assert!(issues.is_empty(), "{:?}", &issues[..issues.len().min(5)]);
-    assert_eq!((set.len(), set.counts().safe), (812, 812));
+    assert_eq!((set.len(), set.counts().safe), (664, 664));
     let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
     assert!(prep.is_empty(), "{:?}", &prep[..prep.len().min(5)]);
-    assert_eq!(seqs.len(), 812);
+    assert_eq!(seqs.len(), 664);
     let geometries = read_event_geometries(&dir).unwrap().unwrap();
     let mut by_city_and_geometry = std::collections::BTreeMap::new();
     for e in set.iter() {
@@ -523,14 +524,14 @@ fn the_shipped_urban_extract_loads_clean_with_both_cities_and_every_geometry() {
             .or_insert(0) += 1;
     }
     let want = [
-        (("Lankershim", "adjacent"), 389),
+        (("Lankershim", "adjacent"), 323),
         (("Lankershim", "crossing"), 12),
-        (("Lankershim", "following"), 237),
+        (("Lankershim", "following"), 191),
         (("Lankershim", "oncoming"), 10),
-        (("Peachtree", "adjacent"), 85),
+        (("Peachtree", "adjacent"), 69),
         (("Peachtree", "crossing"), 2),
-        (("Peachtree", "following"), 37),
-        (("Peachtree", "oncoming"), 40),
+        (("Peachtree", "following"), 31),
+        (("Peachtree", "oncoming"), 26),
     ];
     assert_eq!(by_city_and_geometry.into_iter().collect::<Vec<_>>(), want);
 }

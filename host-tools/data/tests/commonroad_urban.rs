@@ -150,31 +150,44 @@ fn rows_of(dir: &Path, file: &str, prefix: &str) -> Vec<String> {
 
 #[test]
 fn the_committed_urban_extract_regenerates_from_its_source() {
-    const FILE: &str = "USA_Peach-4_2_T-1";
-    let source = repo().join(format!("../shared/data/ngsim-urban/{FILE}.xml"));
-    if !source.exists() {
+    // Peachtree 4_2 is 4_1 twenty steps later in a shifted frame: importing both exercises the
+    // repeat detection as the extract's command does (4_1 keeps the shared moments).
+    const FILES: [&str; 2] = ["USA_Peach-4_1_T-1", "USA_Peach-4_2_T-1"];
+    let shared = repo().join("../shared/data/ngsim-urban");
+    let sources: Vec<PathBuf> = FILES
+        .iter()
+        .map(|f| shared.join(format!("{f}.xml")))
+        .collect();
+    if let Some(absent) = sources.iter().find(|p| !p.exists()) {
         println!(
             "skipped: {} is absent (the shared data folder is not next to this clone)",
-            source.display()
+            absent.display()
         );
         return;
     }
     // The options of data/ngsim-urban-safe/PROVENANCE.md.
     let rules = InteractionRules {
         speed_smoothing: 1.0,
+        skip_repeats: true,
         ..InteractionRules::default()
     };
     let tmp = tempfile::tempdir().unwrap();
-    import_to_dir(&[source], tmp.path(), &rules).unwrap();
+    let summary = import_to_dir(&sources, tmp.path(), &rules).unwrap();
+    assert!(summary.counts.repeated_frames > 0, "{:?}", summary.counts);
     let committed = repo().join("data/ngsim-urban-safe");
-    let prefix = format!("{FILE}/");
     for file in ["events.csv", "frames.csv", PROVENANCE_FILE] {
-        let want = rows_of(&committed, file, &prefix);
-        let got = rows_of(tmp.path(), file, &prefix);
-        assert!(want.len() > 1, "{file}: the extract has no rows of {FILE}");
-        assert_eq!(got.len(), want.len(), "{file}");
-        let first_difference = got.iter().zip(&want).position(|(g, w)| g != w);
-        assert_eq!(first_difference, None, "{file}: row differs");
+        for scenario in FILES {
+            let prefix = format!("{scenario}/");
+            let want = rows_of(&committed, file, &prefix);
+            let got = rows_of(tmp.path(), file, &prefix);
+            assert!(
+                want.len() > 1,
+                "{file}: the extract has no rows of {scenario}"
+            );
+            assert_eq!(got.len(), want.len(), "{file}, {scenario}");
+            let first_difference = got.iter().zip(&want).position(|(g, w)| g != w);
+            assert_eq!(first_difference, None, "{file}, {scenario}: row differs");
+        }
     }
     // And the extract is what the library loads: every event whole, none dropped.
     let (set, issues) = load_events(&committed).unwrap();

@@ -45,6 +45,9 @@ Rules (docs/real-data.md):
   data can be split by scenario file. Each event is filed under its geometry at closest approach
   (smallest box gap, seen from its ego); --geometry keeps only the listed ones. The folder's
   scenarios.csv lists every event's scenario, geometry, closest-approach time, gap and speeds.
+  Overlapping files: --skip-repeats drops the pair-steps an earlier file already holds (the same
+  two obstacle ids at the same positions), so one recorded interaction is not imported twice
+  under two scenario ids (NGSIM US-101 10_1/10_4, Peachtree 4_1/4_2 overlap in time).
   Noisy recordings: --smooth-speed S derives the acceleration (for the |acc| rule and the
   acc columns) from the speed averaged over a centred S-second window instead of the recorded
   value (video-tracked data such as NGSIM Lankershim/Peachtree; docs/real-data.md has the yield).
@@ -57,7 +60,8 @@ PROVENANCE.md lists the files and their checksum):
   riskctl import commonroad --out my-safe-events SCENARIOS/
 City traffic with crossing and oncoming partners only, acceleration from a 1 s smoothed speed
 (data/ngsim-urban-safe/PROVENANCE.md has the command of the shipped urban extract):
-  riskctl import commonroad --out city --geometry crossing,oncoming --smooth-speed 1 ngsim-urban/";
+  riskctl import commonroad --out city --geometry crossing,oncoming --smooth-speed 1 \\
+      --skip-repeats ngsim-urban/";
 
 /// Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
 #[derive(clap::Args, Debug)]
@@ -91,6 +95,12 @@ pub struct CommonRoadArgs {
     /// seconds instead of the recorded value (0: recorded). For noisy video-tracked data.
     #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
     pub smooth_speed: f64,
+    /// Drop the pair-steps an earlier input file already holds: the same two vehicles (obstacle
+    /// ids) at the same moment (positions within 5 cm on one step offset), as in benchmark files
+    /// cut from one recording with overlapping time windows. Files are taken in name order; the
+    /// first one keeps the moment.
+    #[arg(long)]
+    pub skip_repeats: bool,
     /// Ego of an interaction: `both` (both orders, two mirror-image events: the scorer rates
     /// every surrounding road user, ahead or behind) or `follower` (only the road user with the
     /// partner ahead on average; half the data).
@@ -150,6 +160,7 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
         horizon: a.horizon,
         geometries: a.geometry,
         speed_smoothing: a.smooth_speed,
+        skip_repeats: a.skip_repeats,
         ego: if a.ego == "both" {
             EgoChoice::Both
         } else {
@@ -215,6 +226,12 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         "overlapping boxes (recording artefacts) dropped: {} pair-frames",
         c.overlap_frames
     );
+    if a.skip_repeats {
+        println!(
+            "repeats of an earlier file (--skip-repeats) dropped: {} pair-frames",
+            c.repeated_frames
+        );
+    }
     println!("by geometry (at each step: seen from the first road user of the pair; per sequence: at closest approach, from its ego):");
     for g in Geometry::ALL {
         let i = geometry_index(g);

@@ -12,16 +12,18 @@ use std::time::{Duration, Instant};
 
 use crate::events::{EventWriter, EventsError};
 use provenance::ProvenanceWriter;
+use repeats::EarlierTracks;
 
 pub mod pairs;
 pub mod provenance;
+pub mod repeats;
 pub mod smoothing;
 pub mod xml;
 
 pub use pairs::{
     closest_approach, geometry_index, interaction_id, predicted_closest_distance,
-    safe_interactions, step_time, vehicle_state, ClosestApproach, EgoChoice, GeometrySet,
-    InteractionRules, PairCounts, SafeInteraction,
+    safe_interactions, safe_interactions_except, step_time, vehicle_state, ClosestApproach,
+    EgoChoice, GeometrySet, InteractionRules, PairCounts, SafeInteraction,
 };
 pub use provenance::{read_event_geometries, PROVENANCE_FILE};
 pub use xml::{
@@ -150,6 +152,7 @@ pub fn import_to_dir(
         ..ImportSummary::default()
     };
     let mut seen: HashMap<String, PathBuf> = HashMap::new();
+    let mut earlier = EarlierTracks::default();
     for path in &files {
         let scenario = match read_scenario(path) {
             Ok(s) => s,
@@ -177,7 +180,13 @@ pub fn import_to_dir(
             *summary.ignored.entry(why.clone()).or_default() += 1;
         }
         summary.issues.extend(scenario.issues.iter().cloned());
-        let (found, counts) = safe_interactions(&scenario, rules);
+        let (found, counts) = if rules.skip_repeats {
+            let repeats = earlier.repeats(&scenario);
+            earlier.add(summary.files, &scenario);
+            safe_interactions_except(&scenario, rules, &repeats)
+        } else {
+            safe_interactions(&scenario, rules)
+        };
         summary.counts.add(&counts);
         for s in found {
             writer.write_event(&s.event)?;

@@ -20,6 +20,7 @@ use scorer_core::geometry::{box_distance, boxes_overlap, position, velocity};
 use scorer_core::interaction::{geometry, Geometry};
 use scorer_core::VehicleState;
 
+use super::repeats::Earlier;
 use super::smoothing::smooth_acceleration;
 use super::xml::{Scenario, Track, TrackState};
 use crate::events::{cut_safe_sequences, Dims, Event, EventKind, Frame, PrepareConfig};
@@ -128,6 +129,10 @@ pub struct InteractionRules {
     /// Seconds of the centred moving average of the speed that the acceleration is derived
     /// from ([`super::smoothing::smooth_acceleration`]); default 0: the recorded acceleration.
     pub speed_smoothing: f64,
+    /// Across the files of one import ([`super::import_to_dir`]): drop the pair-steps an earlier
+    /// file already holds (the same two vehicles at the same moment, [`super::repeats`]), so
+    /// overlapping scenario files do not yield one interaction twice; default false.
+    pub skip_repeats: bool,
     /// Default [`EgoChoice::Both`]: the scorer rates every surrounding road user, so the
     /// partner-behind view is as real an observation as the follower's.
     pub ego: EgoChoice,
@@ -144,6 +149,7 @@ impl Default for InteractionRules {
             horizon: 3.0,
             geometries: GeometrySet::ALL,
             speed_smoothing: 0.0,
+            skip_repeats: false,
             ego: EgoChoice::Both,
             safe: PrepareConfig::default(),
         }
@@ -161,6 +167,9 @@ pub struct PairCounts {
     pub interactions: usize,
     /// Time steps (per pair) on which the two boxes overlap: dropped, interaction split there.
     pub overlap_frames: usize,
+    /// Time steps (per pair) an earlier file already holds (`skip_repeats`): dropped,
+    /// interaction split there.
+    pub repeated_frames: usize,
     /// Time steps (per pair) with the boxes apart and at most `max_gap` between them, by the
     /// geometry of the second road user seen from the first (indexed like [`Geometry::ALL`]).
     pub within_gap_frames: [usize; 4],
@@ -183,6 +192,7 @@ impl PairCounts {
         self.pairs_interacting += o.pairs_interacting;
         self.interactions += o.interactions;
         self.overlap_frames += o.overlap_frames;
+        self.repeated_frames += o.repeated_frames;
         for g in 0..4 {
             self.within_gap_frames[g] += o.within_gap_frames[g];
             self.near_frames[g] += o.near_frames[g];
@@ -301,6 +311,16 @@ pub fn safe_interactions(
     scenario: &Scenario,
     rules: &InteractionRules,
 ) -> (Vec<SafeInteraction>, PairCounts) {
+    safe_interactions_except(scenario, rules, &[])
+}
+
+/// Like [`safe_interactions`], without the pair-steps whose two states repeat one earlier
+/// recording (`repeats`, indexed like the scenario's tracks; empty: none repeat).
+pub fn safe_interactions_except(
+    scenario: &Scenario,
+    rules: &InteractionRules,
+    repeats: &[Vec<Option<Earlier>>],
+) -> (Vec<SafeInteraction>, PairCounts) {
     let mut out = Vec::new();
     let mut counts = PairCounts::default();
     let smoothed;
@@ -314,9 +334,16 @@ pub fn safe_interactions(
     } else {
         &scenario.tracks
     };
+    let repeated = |i: usize| repeats.get(i).map_or(&[][..], Vec::as_slice);
     for (i, a) in tracks.iter().enumerate() {
-        for b in &tracks[i + 1..] {
-            pair_interactions(scenario, a, b, rules, &mut out, &mut counts);
+        for (j, b) in tracks.iter().enumerate().skip(i + 1) {
+            let pair = Pair {
+                a,
+                b,
+                a_repeats: repeated(i),
+                b_repeats: repeated(j),
+            };
+            pair_interactions(scenario, &pair, rules, &mut out, &mut counts);
         }
     }
     (out, counts)
@@ -329,14 +356,32 @@ struct PairStep {
     b: VehicleState,
 }
 
+/// Two tracks and where their states were recorded before (empty: nowhere).
+struct Pair<'a> {
+    a: &'a Track,
+    b: &'a Track,
+    a_repeats: &'a [Option<Earlier>],
+    b_repeats: &'a [Option<Earlier>],
+}
+
+impl Pair<'_> {
+    /// Whether state `i` of `a` and state `j` of `b` are the same moment of one earlier file.
+    fn repeated(&self, i: usize, j: usize) -> bool {
+        match (self.a_repeats.get(i), self.b_repeats.get(j)) {
+            (Some(Some(ea)), Some(Some(eb))) => ea == eb,
+            _ => false,
+        }
+    }
+}
+
 fn pair_interactions(
     scenario: &Scenario,
-    a: &Track,
-    b: &Track,
+    pair: &Pair,
     rules: &InteractionRules,
     out: &mut Vec<SafeInteraction>,
     counts: &mut PairCounts,
 ) {
+    let (a, b) = (pair.a, pair.b);
     let (first, last) = match (
         a.states.first(),
         a.states.last(),
@@ -367,7 +412,9 @@ fn pair_interactions(
             vehicle_state(sa, a.length, a.width),
             vehicle_state(sb, b.length, b.width),
         );
-        let near = near(&va, &vb, rules, counts);
+        let repeated = pair.repeated(i, j);
+        counts.repeated_frames += usize::from(repeated);
+        let near = !repeated && near(&va, &vb, rules, counts);
         let contiguous = run.last().is_none_or(|p| p.step + 1 == sa.step);
         if !near || !contiguous {
             interacting |= emit(scenario, a, b, &run, rules, out, counts);
