@@ -3,9 +3,9 @@
 //! Benchmark collections cut one long recording into scenario files whose time windows can
 //! overlap: the same vehicles, with the same obstacle ids, on a shifted step clock, and possibly
 //! in a shifted coordinate origin (NGSIM US-101 `10_1`/`10_4` share coordinates; Peachtree
-//! `4_2` starts 20 steps into `4_1`, its positions those of `4_1` plus (0.25, 4.88) m). Imported twice, one
-//! real interaction becomes two events under two scenario ids, which a split by scenario file
-//! puts on both sides.
+//! `4_2` starts 20 steps into `4_1`, its positions those of `4_1` plus (0.25, 4.88) m).
+//! Imported twice, one real interaction becomes two events under two scenario ids, which a split
+//! by scenario file puts on both sides.
 //!
 //! A track *repeats* an earlier file's track with the same obstacle id when they line up: on one
 //! step offset and one translation, at least [`MIN_MATCHING_STATES`] states have the same speed
