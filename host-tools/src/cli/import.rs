@@ -46,8 +46,9 @@ Rules (docs/real-data.md):
   (smallest box gap, seen from its ego); --geometry keeps only the listed ones. The folder's
   scenarios.csv lists every event's scenario, geometry, closest-approach time, gap and speeds.
   Overlapping files: --skip-repeats drops the pair-steps an earlier file already holds (the same
-  two obstacle ids at the same positions), so one recorded interaction is not imported twice
-  under two scenario ids (NGSIM US-101 10_1/10_4, Peachtree 4_1/4_2 overlap in time).
+  two obstacle ids at the same moment, even when the files' clocks and origins differ), so one
+  recorded interaction is not imported twice under two scenario ids (NGSIM US-101 10_1/10_4,
+  23_1/24_1, Peachtree 4_1/4_2 overlap in time).
   Noisy recordings: --smooth-speed S derives the acceleration (for the |acc| rule and the
   acc columns) from the speed averaged over a centred S-second window instead of the recorded
   value (video-tracked data such as NGSIM Lankershim/Peachtree; docs/real-data.md has the yield).
@@ -96,9 +97,9 @@ pub struct CommonRoadArgs {
     #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
     pub smooth_speed: f64,
     /// Drop the pair-steps an earlier input file already holds: the same two vehicles (obstacle
-    /// ids) at the same moment (positions within 5 cm on one step offset), as in benchmark files
-    /// cut from one recording with overlapping time windows. Files are taken in name order; the
-    /// first one keeps the moment.
+    /// ids) at the same moment, as in benchmark files cut from one recording with overlapping
+    /// time windows (tracks lined up by speed and position, within 5 cm, on one step offset and
+    /// translation per earlier file). Files are taken in name order; the first keeps the moment.
     #[arg(long)]
     pub skip_repeats: bool,
     /// Ego of an interaction: `both` (both orders, two mirror-image events: the scorer rates

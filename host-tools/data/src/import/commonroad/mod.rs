@@ -1,8 +1,11 @@
 //! Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
 //!
 //! - [`xml`]: reading a scenario file into the tracks of its road users ([`read_scenario`]).
-//! - [`pairs`]: which pairs interact and the safe sequences their interactions yield
-//!   ([`safe_interactions`], [`InteractionRules`]).
+//! - [`pairs`]: which pairs interact, by geometry, and the safe sequences their interactions
+//!   yield ([`safe_interactions`], [`InteractionRules`], [`closest_approach`]).
+//! - [`smoothing`]: acceleration from a smoothed speed, for video-tracked recordings.
+//! - [`repeats`]: moments an earlier file of the same import already holds (overlapping files).
+//! - [`provenance`]: the per-event `scenarios.csv` (scenario, geometry at closest approach).
 //! - here: importing files and folders into one event folder ([`import_to_dir`]).
 //!
 //! Rules, conversions and limitations: docs/real-data.md.
