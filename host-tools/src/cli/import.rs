@@ -141,9 +141,6 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
             a.smooth_speed
         );
     }
-    if a.geometry.iter().next().is_none() {
-        bail!("--geometry lists no geometry");
-    }
     positive("min-duration", a.min_duration)?;
     positive("max-duration", a.max_duration)?;
     positive("max-acc", f64::from(a.max_acc))?;
