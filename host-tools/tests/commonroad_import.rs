@@ -9,8 +9,8 @@ use std::process::Command;
 
 use riskscore_data::events::{load_events, prepare_sequences, PrepareConfig};
 use riskscore_data::import::commonroad::{
-    import_to_dir, parse_scenario, read_scenario, safe_interactions, scenario_of_event_id,
-    vehicle_state, EgoChoice, Ignored, InteractionRules, Problem,
+    import_to_dir, parse_scenario, read_event_geometries, read_scenario, safe_interactions,
+    scenario_of_event_id, vehicle_state, EgoChoice, Ignored, InteractionRules, Problem,
 };
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
@@ -438,9 +438,102 @@ fn cli_imports_prints_a_summary_and_teaches_its_rules() {
         "[default: both]",
         "overlap",
         "{scenario}/",
+        "--geometry",
+        "following,adjacent,crossing,oncoming",
+        "--max-approach",
+        "[default: 10]",
+        "--horizon",
+        "[default: 3]",
+        "closest approach",
+        "--smooth-speed",
+        "--skip-repeats",
+        "scenarios.csv",
     ] {
         assert!(help.contains(needle), "help lacks {needle}:\n{help}");
     }
+}
+
+#[test]
+fn cli_filters_by_geometry_counts_each_and_refuses_an_unknown_one() {
+    let out = tempfile::tempdir().unwrap();
+    let dir = out.path().join("ev");
+    let run = |extra: &[&str]| {
+        Command::new(RISKCTL)
+            .args(["import", "commonroad", "--out"])
+            .arg(&dir)
+            .args(extra)
+            .arg(data(MERGE))
+            .output()
+            .unwrap()
+    };
+    // The merge fixture is all same-way traffic: 10 behind the truck 20 (following), 70 behind
+    // 30 in its lane (following).
+    let o = run(&["--geometry", "following"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("following pair-steps within --max-gap"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("wrote 4 safe sequences"), "{stdout}");
+    // Only crossing partners: none here, so nothing is written and the folder is left alone.
+    let o = run(&["--geometry", "crossing,oncoming"]);
+    assert!(!o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("(not kept: --geometry)"), "{stdout}");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("no safe sequence found"), "{stderr}");
+    assert_eq!(load_events(&dir).unwrap().0.len(), 4);
+    // A misspelt geometry is refused before anything is read, naming it and the choices.
+    let o = run(&["--geometry", "following,sideways"]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("`sideways` is not a geometry") && stderr.contains("--geometry"),
+        "{stderr}"
+    );
+    let o = run(&["--smooth-speed=-1"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--smooth-speed"));
+}
+
+/// The committed urban extract (data/ngsim-urban-safe, PROVENANCE.md): loads clean, prepares
+/// whole, both cities, every event's geometry in scenarios.csv as PROVENANCE.md counts them.
+#[test]
+fn the_shipped_urban_extract_loads_clean_with_both_cities_and_every_geometry() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/ngsim-urban-safe");
+    let (set, issues) = load_events(&dir).unwrap();
+    assert!(issues.is_empty(), "{:?}", &issues[..issues.len().min(5)]);
+    assert_eq!((set.len(), set.counts().safe), (664, 664));
+    let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
+    assert!(prep.is_empty(), "{:?}", &prep[..prep.len().min(5)]);
+    assert_eq!(seqs.len(), 664);
+    let geometries = read_event_geometries(&dir).unwrap().unwrap();
+    let mut by_city_and_geometry = std::collections::BTreeMap::new();
+    for e in set.iter() {
+        let scenario = scenario_of_event_id(&e.id).unwrap();
+        let city = if scenario.starts_with("USA_Lanker-") {
+            "Lankershim"
+        } else if scenario.starts_with("USA_Peach-") {
+            "Peachtree"
+        } else {
+            panic!("{} is from neither city", e.id)
+        };
+        *by_city_and_geometry
+            .entry((city, geometries[&e.id].as_str()))
+            .or_insert(0) += 1;
+    }
+    let want = [
+        (("Lankershim", "adjacent"), 323),
+        (("Lankershim", "crossing"), 12),
+        (("Lankershim", "following"), 191),
+        (("Lankershim", "oncoming"), 10),
+        (("Peachtree", "adjacent"), 69),
+        (("Peachtree", "crossing"), 2),
+        (("Peachtree", "following"), 31),
+        (("Peachtree", "oncoming"), 26),
+    ];
+    assert_eq!(by_city_and_geometry.into_iter().collect::<Vec<_>>(), want);
 }
 
 /// The committed NGSIM extract (data/ngsim-us101-safe, PROVENANCE.md): loads with zero issues and

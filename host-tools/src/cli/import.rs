@@ -4,8 +4,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use riskscore_data::events::PrepareConfig;
 use riskscore_data::import::commonroad::{
-    import_to_dir, EgoChoice, ImportSummary, InteractionRules,
+    geometry_index, import_to_dir, EgoChoice, GeometrySet, ImportSummary, InteractionRules,
 };
+use scorer_core::interaction::Geometry;
 
 /// Import recorded data as an event folder.
 #[derive(clap::Args, Debug)]
@@ -29,20 +30,39 @@ Rules (docs/real-data.md):
   Conversion: time = step x timeStepSize; box centre = position; heading = (cos, sin) of
   orientation; (vx, vy) = velocity x heading; acc_ego / acc_sur = recorded acceleration (derived
   from the velocity when absent); box size from the rectangle.
+  Geometry (scorer_core::interaction, shared with every tool): headings within 30 deg travel the
+  same way (following: centre within 1.8 m of the ego's centre line; else adjacent), beyond
+  150 deg oncoming, in between crossing.
   Near: both recorded at a step, boxes not overlapping (an overlap is a recording artefact: that
-  step is dropped and the interaction split there), box gap <= --max-gap and lateral centre
-  offset across either heading <= --max-lateral. An interaction is a run of consecutive near
-  steps; its ego is chosen by --ego. Each interaction is cut by the safe-sequence rules (both
-  |acc| <= --max-acc, pieces of --min-duration to --max-duration s) into `safe` events with id
+  step is dropped and the interaction split there), box gap <= --max-gap, and
+    same way (following, adjacent): lateral centre offset across either heading <= --max-lateral;
+    crossing, oncoming: moving on at constant velocities, the centres come within
+    --max-approach m of each other in the next --horizon s (now included).
+  An interaction is a run of consecutive near steps; its ego is chosen by --ego. Each
+  interaction is cut by the safe-sequence rules (both |acc| <= --max-acc, pieces of
+  --min-duration to --max-duration s) into `safe` events with id
   {scenario}/{ego}-{partner}@{first step}#{piece}; the scenario id (file stem) comes first, so
-  data can be split by scenario file.
+  data can be split by scenario file. Each event is filed under its geometry at closest approach
+  (smallest box gap, seen from its ego); --geometry keeps only the listed ones. The folder's
+  scenarios.csv lists every event's scenario, geometry, closest-approach time, gap and speeds.
+  Overlapping files: --skip-repeats drops the pair-steps an earlier file already holds (the same
+  two obstacle ids at the same moment, even when the files' clocks and origins differ), so one
+  recorded interaction is not imported twice under two scenario ids (NGSIM US-101 10_1/10_4,
+  23_1/24_1, Peachtree 4_1/4_2 overlap in time).
+  Noisy recordings: --smooth-speed S derives the acceleration (for the |acc| rule and the
+  acc columns) from the speed averaged over a centred S-second window instead of the recorded
+  value (video-tracked data such as NGSIM Lankershim/Peachtree; docs/real-data.md has the yield).
 Errors name the file, line, obstacle and element (e.g. `x.xml:812: <dynamicObstacle id=42>
 <state> #3: missing <velocity>`); the malformed road user or file is skipped, the rest written.
 
 Example (SCENARIOS is a folder of CommonRoad XML files, e.g. the NGSIM US-101 benchmark
 scenarios USA_US101-*.xml from the CommonRoad scenario collection; data/ngsim-us101-safe/
 PROVENANCE.md lists the files and their checksum):
-  riskctl import commonroad --out my-safe-events SCENARIOS/";
+  riskctl import commonroad --out my-safe-events SCENARIOS/
+City traffic with crossing and oncoming partners only, acceleration from a 1 s smoothed speed
+(data/ngsim-urban-safe/PROVENANCE.md has the command of the shipped urban extract):
+  riskctl import commonroad --out city --geometry crossing,oncoming --smooth-speed 1 \\
+      --skip-repeats ngsim-urban/";
 
 /// Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
 #[derive(clap::Args, Debug)]
@@ -57,10 +77,31 @@ pub struct CommonRoadArgs {
     /// Largest gap between the two boxes for a step to count as near (m).
     #[arg(long, default_value_t = 30.0)]
     pub max_gap: f32,
-    /// Largest lateral centre offset across either road user's heading (m); 5 = same or
-    /// adjacent lane on 3.7 m lanes.
-    #[arg(long, default_value_t = 5.0)]
+    /// Road users travelling the same way: largest lateral centre offset across either one's
+    /// heading (m); 5 = same or adjacent lane on 3.7 m lanes.
+    #[arg(long, default_value_t = InteractionRules::default().max_lateral)]
     pub max_lateral: f32,
+    /// Crossing and oncoming road users: largest centre distance of their predicted closest
+    /// approach within --horizon (m).
+    #[arg(long, default_value_t = InteractionRules::default().max_approach)]
+    pub max_approach: f32,
+    /// Crossing and oncoming road users: how far ahead the closest approach is predicted (s).
+    #[arg(long, default_value_t = InteractionRules::default().horizon)]
+    pub horizon: f32,
+    /// Geometries to keep, by each event's geometry at closest approach: comma-separated
+    /// `following,adjacent,crossing,oncoming`, or `all`.
+    #[arg(long, default_value = "all", value_parser = GeometrySet::parse)]
+    pub geometry: GeometrySet,
+    /// Derive the acceleration from the speed averaged over a centred window of this many
+    /// seconds instead of the recorded value (0: recorded). For noisy video-tracked data.
+    #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
+    pub smooth_speed: f64,
+    /// Drop the pair-steps an earlier input file already holds: the same two vehicles (obstacle
+    /// ids) at the same moment, as in benchmark files cut from one recording with overlapping
+    /// time windows (tracks lined up by speed and position, within 5 cm, on one step offset and
+    /// translation per earlier file). Files are taken in name order; the first keeps the moment.
+    #[arg(long)]
+    pub skip_repeats: bool,
     /// Ego of an interaction: `both` (both orders, two mirror-image events: the scorer rates
     /// every surrounding road user, ahead or behind) or `follower` (only the road user with the
     /// partner ahead on average; half the data).
@@ -92,6 +133,14 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
     };
     positive("max-gap", f64::from(a.max_gap))?;
     positive("max-lateral", f64::from(a.max_lateral))?;
+    positive("max-approach", f64::from(a.max_approach))?;
+    positive("horizon", f64::from(a.horizon))?;
+    if !(a.smooth_speed.is_finite() && a.smooth_speed >= 0.0) {
+        bail!(
+            "--smooth-speed must be 0 (off) or a positive number of seconds, got {}",
+            a.smooth_speed
+        );
+    }
     positive("min-duration", a.min_duration)?;
     positive("max-duration", a.max_duration)?;
     positive("max-acc", f64::from(a.max_acc))?;
@@ -105,6 +154,11 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
     let rules = InteractionRules {
         max_gap: a.max_gap,
         max_lateral: a.max_lateral,
+        max_approach: a.max_approach,
+        horizon: a.horizon,
+        geometries: a.geometry,
+        speed_smoothing: a.smooth_speed,
+        skip_repeats: a.skip_repeats,
         ego: if a.ego == "both" {
             EgoChoice::Both
         } else {
@@ -170,6 +224,29 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         "overlapping boxes (recording artefacts) dropped: {} pair-frames",
         c.overlap_frames
     );
+    if a.skip_repeats {
+        println!(
+            "repeats of an earlier file (--skip-repeats) dropped: {} pair-frames",
+            c.repeated_frames
+        );
+    }
+    println!("by geometry (at each step: seen from the first road user of the pair; per sequence: at closest approach, from its ego):");
+    for g in Geometry::ALL {
+        let i = geometry_index(g);
+        let kept = if a.geometry.contains(g) {
+            ""
+        } else {
+            " (not kept: --geometry)"
+        };
+        println!(
+            "  {:<9} pair-steps within --max-gap {:>7}, near {:>7}; safe sequences {:>5} ({} frames){kept}",
+            g.as_str(),
+            c.within_gap_frames[i],
+            c.near_frames[i],
+            c.sequences_by_geometry[i],
+            c.frames_by_geometry[i]
+        );
+    }
     let destination = if c.sequences == 0 {
         String::new()
     } else {

@@ -1,8 +1,11 @@
 //! Recorded CommonRoad scenarios (XML) to an event folder of real safe interactions.
 //!
 //! - [`xml`]: reading a scenario file into the tracks of its road users ([`read_scenario`]).
-//! - [`pairs`]: which pairs interact and the safe sequences their interactions yield
-//!   ([`safe_interactions`], [`InteractionRules`]).
+//! - [`pairs`]: which pairs interact, by geometry, and the safe sequences their interactions
+//!   yield ([`safe_interactions`], [`InteractionRules`], [`closest_approach`]).
+//! - [`smoothing`]: acceleration from a smoothed speed, for video-tracked recordings.
+//! - [`repeats`]: moments an earlier file of the same import already holds (overlapping files).
+//! - [`provenance`]: the per-event `scenarios.csv` (scenario, geometry at closest approach).
 //! - here: importing files and folders into one event folder ([`import_to_dir`]).
 //!
 //! Rules, conversions and limitations: docs/real-data.md.
@@ -11,14 +14,21 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::events::{EventWriter, EventsError};
+use provenance::ProvenanceWriter;
+use repeats::EarlierTracks;
 
 pub mod pairs;
+pub mod provenance;
+pub mod repeats;
+pub mod smoothing;
 pub mod xml;
 
 pub use pairs::{
-    interaction_id, safe_interactions, step_time, vehicle_state, EgoChoice, InteractionRules,
-    PairCounts, SafeInteraction,
+    closest_approach, geometry_index, interaction_id, predicted_closest_distance,
+    safe_interactions, safe_interactions_except, step_time, vehicle_state, ClosestApproach,
+    EgoChoice, GeometrySet, InteractionRules, PairCounts, SafeInteraction,
 };
+pub use provenance::{read_event_geometries, PROVENANCE_FILE};
 pub use xml::{
     parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track, TrackState,
 };
@@ -126,7 +136,8 @@ fn is_xml(path: &Path) -> bool {
 /// Imports every scenario of `inputs` (files or folders) into the event folder `out`.
 ///
 /// Every interaction's safe sequences become `safe` events (with the partner's recorded
-/// acceleration in `acc_sur`). Problems in a file skip that file or road user and are listed in
+/// acceleration in `acc_sur`), and each gets a row of [`PROVENANCE_FILE`] (scenario, geometry
+/// at closest approach). Problems in a file skip that file or road user and are listed in
 /// [`ImportSummary::issues`]; everything valid is still written. Two inputs with the same file
 /// stem would give clashing event ids: the second is skipped with an issue. Errors only when the
 /// output cannot be written or a folder cannot be listed.
@@ -138,11 +149,13 @@ pub fn import_to_dir(
     let started = Instant::now();
     let (files, issues) = scenario_files(inputs)?;
     let mut writer = EventWriter::create_with_partner_acceleration(out)?;
+    let mut provenance = ProvenanceWriter::create(out)?;
     let mut summary = ImportSummary {
         issues,
         ..ImportSummary::default()
     };
     let mut seen: HashMap<String, PathBuf> = HashMap::new();
+    let mut earlier = EarlierTracks::default();
     for path in &files {
         let scenario = match read_scenario(path) {
             Ok(s) => s,
@@ -170,17 +183,24 @@ pub fn import_to_dir(
             *summary.ignored.entry(why.clone()).or_default() += 1;
         }
         summary.issues.extend(scenario.issues.iter().cloned());
-        let (found, counts) = safe_interactions(&scenario, rules);
+        let (found, counts) = if rules.skip_repeats {
+            let repeats = earlier.repeats(&scenario);
+            earlier.add(summary.files, &scenario);
+            safe_interactions_except(&scenario, rules, &repeats)
+        } else {
+            safe_interactions(&scenario, rules)
+        };
         summary.counts.add(&counts);
         for s in found {
             writer.write_event(&s.event)?;
+            provenance.write(&scenario.id, &s)?;
             summary.closeness.push((s.min_gap, s.min_centre_distance));
         }
     }
     // No safe sequence found (no scenario could be read, or none held one): nothing to write, so
-    // an existing folder is left as it was (dropping the writer removes its temporaries).
+    // an existing folder is left as it was (dropping the writers removes their temporaries).
     if !summary.closeness.is_empty() {
-        writer.finish()?;
+        writer.finish_with(vec![provenance.into_file()?])?;
     }
     summary.elapsed = started.elapsed();
     Ok(summary)

@@ -16,6 +16,8 @@ use std::path::Path;
 
 use roxmltree::{Document, Node};
 
+use super::smoothing::speed_derivative;
+
 /// Vehicle types whose tracks are imported (CommonRoad `obstacleTypeDynamic` spelling).
 pub const VEHICLE_TYPES: [&str; 7] = [
     "car",
@@ -549,12 +551,6 @@ fn derive_missing_acceleration(states: &mut [(TrackState, bool)], dt: f64) {
         if states[i].1 || n < 2 {
             continue;
         }
-        let (a, b) = match i {
-            0 => (0, 1),
-            i if i + 1 == n => (i - 1, i),
-            i => (i - 1, i + 1),
-        };
-        let seconds = (states[b].0.step - states[a].0.step) as f64 * dt;
-        states[i].0.acc = (states[b].0.speed - states[a].0.speed) / seconds;
+        states[i].0.acc = speed_derivative(n, i, dt, |k| (states[k].0.step, states[k].0.speed));
     }
 }
