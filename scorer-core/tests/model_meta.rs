@@ -101,6 +101,7 @@ fn the_default_threshold_round_trips_in_a_version_2_blob() {
         model: example_model(),
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
+            training_domain: None,
         },
     };
     let blob = encode(&original);
@@ -118,6 +119,7 @@ fn the_record_bytes_are_the_documented_ones() {
         model: example_model(),
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
+            training_domain: None,
         },
     });
     let model_len = model::encoded_len(&example_model()).unwrap();
@@ -216,6 +218,7 @@ fn bad_records_are_refused() {
         model: example_model(),
         meta: ModelMeta {
             default_threshold: Some(calibrated(f32::INFINITY)),
+            training_domain: None,
         },
     };
     let mut out = vec![0u8; 256];
@@ -227,6 +230,7 @@ fn bad_records_are_refused() {
         model: example_model(),
         meta: ModelMeta {
             default_threshold: Some(long_data),
+            training_domain: None,
         },
     };
     assert!(matches!(
@@ -251,6 +255,7 @@ fn every_truncation_and_byte_flip_of_a_version_2_blob_is_handled() {
         model: example_model(),
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
+            training_domain: None,
         },
     });
     for n in 0..blob.len() {

@@ -78,6 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         model: blob.model,
         meta: model::ModelMeta {
             default_threshold: Some(DefaultThreshold {
+                training_domain: None,
                 threshold: calibration.threshold,
                 rule: ThresholdRule::SafeShare {
                     target: target as f32,

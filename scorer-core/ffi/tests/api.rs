@@ -156,6 +156,7 @@ fn default_threshold_is_the_blobs_own_or_the_kinds_rule() {
         model: model::decode(&plain).unwrap(),
         meta: ModelMeta {
             default_threshold: Some(DefaultThreshold {
+                training_domain: None,
                 threshold: 2.75,
                 rule: ThresholdRule::KindDefault,
                 data: "",

@@ -22,10 +22,12 @@
 //! cannot produce a blob the MCU would reject.
 
 pub mod meta;
+pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
 pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};
+pub use training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 
 use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
 use crate::features::features;
