@@ -77,8 +77,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let calibrated = ModelBlob {
         model: blob.model,
         meta: model::ModelMeta {
+            // A stored training domain is kept: the threshold does not change what the model read.
+            training_domain: blob.meta.training_domain,
             default_threshold: Some(DefaultThreshold {
-                training_domain: None,
                 threshold: calibration.threshold,
                 rule: ThresholdRule::SafeShare {
                     target: target as f32,
