@@ -292,6 +292,16 @@ pub struct ModelBlob<'a> {
     pub meta: ModelMeta<'a>,
 }
 
+impl<'a> From<Model<'a>> for ModelBlob<'a> {
+    /// A model without metadata, as a version-1 blob decodes.
+    fn from(model: Model<'a>) -> Self {
+        Self {
+            model,
+            meta: ModelMeta::default(),
+        }
+    }
+}
+
 impl ModelBlob<'_> {
     /// The warning threshold to use when the user gives none: the blob's calibrated operating
     /// point, else the kind's rule ([`Model::kind_default_threshold`]).
