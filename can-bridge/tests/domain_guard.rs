@@ -9,23 +9,21 @@ use can_bridge::map::CompiledMap;
 use can_bridge::ModelFile;
 use riskscore_data::candump_export::{write_candump, ExportOptions, DEFAULT_GAP_US};
 use riskscore_data::events::{load_events, write_events};
-use scorer_core::model::{self, BoundedVec, InputRange, ModelBlob, OutsidePolicy, TrainingDomain};
+use scorer_core::model::{self, InputRange, ModelBlob, OutsidePolicy, TrainingDomain};
 use std::path::Path;
 
 /// The test MSRA blob with ego speed (feature 3) bounded to [0, 12] m/s: the simulator's faster
 /// frames fall outside.
 fn guarded_msra() -> Vec<u8> {
+    let range = InputRange {
+        input: 3,
+        lo: 0.0,
+        hi: 12.0,
+    }
+    .to_bytes();
     let plain = common::msra_blob();
     let mut blob = model::decode_blob(&plain).unwrap();
-    blob.meta.training_domain = Some(TrainingDomain {
-        policy: OutsidePolicy::FlagOnly,
-        ranges: BoundedVec::from_slice(&[InputRange {
-            input: 3,
-            lo: 0.0,
-            hi: 12.0,
-        }])
-        .unwrap(),
-    });
+    blob.meta.training_domain = Some(TrainingDomain::new(OutsidePolicy::FlagOnly, &range));
     let mut out = vec![0u8; model::encoded_blob_len(&blob).unwrap()];
     model::encode_blob(&blob, &mut out).unwrap();
     out

@@ -135,7 +135,7 @@ fn calibrate_domain_attaches_the_record_and_keeps_model_and_threshold() {
     assert_eq!(new.meta.default_threshold, old.meta.default_threshold);
     let domain = new.meta.training_domain.expect("a record");
     assert_eq!(domain.policy, OutsidePolicy::Clamp);
-    assert_eq!(domain.ranges.len(), 13);
+    assert_eq!(domain.len(), 13);
     // Refreshing the record replaces it (one record, the new policy).
     let again = dir.path().join("drl-again.rsk");
     calibrate(&out, &events, "1", "flag-only", &again);

@@ -59,18 +59,17 @@ impl InputRange {
     }
 }
 
-impl TrainingDomain {
+impl TrainingDomain<'_> {
     /// The input index of the first range `inputs` leaves, `None` when inside.
     pub fn first_outside(&self, inputs: &DomainInputs) -> Option<u8> {
-        self.ranges
-            .iter()
+        self.ranges()
             .find(|r| !r.contains(r.value(inputs)))
             .map(|r| r.input)
     }
 
     /// Moves every bounded input into its range (see [`InputRange::clamp`]).
     pub fn clamp(&self, inputs: &mut DomainInputs) {
-        for r in self.ranges.iter() {
+        for r in self.ranges() {
             if let Some(x) = inputs.get_mut(usize::from(r.input)) {
                 *x = r.clamp(*x);
             }

@@ -37,11 +37,17 @@ fn example_model() -> Model<'static> {
     })
 }
 
+/// A domain over `ranges` (their wire bytes leaked: test data lives as long as the test).
+fn domain_of(policy: OutsidePolicy, ranges: &[InputRange]) -> TrainingDomain<'static> {
+    let bytes: Vec<u8> = ranges.iter().flat_map(|r| r.to_bytes()).collect();
+    TrainingDomain::new(policy, Vec::leak(bytes))
+}
+
 /// The documented example domain: ego speed (DRL input 3) in [0, 40] m/s, log gap in [-0.75, 5].
-fn example_domain(policy: OutsidePolicy) -> TrainingDomain {
-    TrainingDomain {
+fn example_domain(policy: OutsidePolicy) -> TrainingDomain<'static> {
+    domain_of(
         policy,
-        ranges: BoundedVec::from_slice(&[
+        &[
             InputRange {
                 input: 3,
                 lo: 0.0,
@@ -52,9 +58,8 @@ fn example_domain(policy: OutsidePolicy) -> TrainingDomain {
                 lo: -0.75,
                 hi: 5.0,
             },
-        ])
-        .unwrap(),
-    }
+        ],
+    )
 }
 
 fn guarded_blob(policy: OutsidePolicy) -> ModelBlob<'static> {
@@ -132,7 +137,7 @@ fn the_worked_example_is_byte_for_byte_the_documented_one() {
             "0300",
             "0000",
             "2f000000",
-            "7099196d",
+            "7aa25b7e",
             // The model, as in the version-1 example.
             "0108",
             "01cdcccc3d",
@@ -142,11 +147,11 @@ fn the_worked_example_is_byte_for_byte_the_documented_one() {
             "00",
             "04000080bf",
             "040000003f",
-            // The record: tag 2, 20 body bytes, Clamp, two ranges.
+            // The record: tag 2, 20 body bytes, Clamp, 18 range bytes (two ranges).
             "02",
             "14",
             "01",
-            "02",
+            "12",
             "03",
             "00000000",
             "00002042",
@@ -198,11 +203,9 @@ fn bad_records_are_refused() {
         }
     };
     let with = |index: usize, range: InputRange| {
-        let mut d = example_domain(OutsidePolicy::Clamp);
-        let mut ranges: Vec<InputRange> = d.ranges.to_vec();
+        let mut ranges: Vec<InputRange> = example_domain(OutsidePolicy::Clamp).ranges().collect();
         ranges[index] = range;
-        d.ranges = BoundedVec::from_slice(&ranges).unwrap();
-        d
+        domain_of(OutsidePolicy::Clamp, &ranges)
     };
     let range = |input, lo, hi| InputRange { input, lo, hi };
     assert_eq!(entry_error(&with(1, range(13, 0.0, 1.0))), (1, 13));
@@ -232,7 +235,7 @@ fn bad_records_are_refused() {
         model::decode_blob(&blob_with_records(&padded)),
         Err(ModelError::TrailingBytes { extra: 1 })
     );
-    let mut body = vec![0u8, 14];
+    let mut body = vec![0u8, 14 * 9];
     for i in 0..14u8 {
         body.push(i % 13);
         body.extend(0f32.to_le_bytes());
@@ -244,6 +247,13 @@ fn bad_records_are_refused() {
     assert!(matches!(
         model::decode_blob(&blob_with_records(&many)),
         Err(ModelError::CapacityExceeded { .. })
+    ));
+    // A range cut short.
+    let mut cut = vec![2u8, 12, 0, 10];
+    cut.extend(&example_domain(OutsidePolicy::Clamp).range_bytes[..10]);
+    assert!(matches!(
+        model::decode_blob(&blob_with_records(&cut)),
+        Err(ModelError::DimensionMismatch { .. })
     ));
     // The encoder refuses what the decoder would.
     let bad = ModelBlob {

@@ -85,19 +85,16 @@ const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
 
 /// `blob` with [`FIRMWARE_DOMAIN`] attached when it has no training-domain record.
 fn with_training_domain(blob: Vec<u8>, source: String) -> (Vec<u8>, String) {
-    use scorer_core::model::{self, BoundedVec, InputRange, OutsidePolicy, TrainingDomain};
+    use scorer_core::model::{self, InputRange, OutsidePolicy, TrainingDomain};
+    let ranges: Vec<u8> = FIRMWARE_DOMAIN
+        .iter()
+        .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
+        .collect();
     let mut decoded = model::decode_blob(&blob).expect("the DRL blob decodes");
     if decoded.meta.training_domain.is_some() {
         return (blob.clone(), source);
     }
-    let ranges: Vec<InputRange> = FIRMWARE_DOMAIN
-        .iter()
-        .map(|&(input, lo, hi)| InputRange { input, lo, hi })
-        .collect();
-    decoded.meta.training_domain = Some(TrainingDomain {
-        policy: OutsidePolicy::Clamp,
-        ranges: BoundedVec::from_slice(&ranges).expect("13 ranges"),
-    });
+    decoded.meta.training_domain = Some(TrainingDomain::new(OutsidePolicy::Clamp, &ranges));
     let mut out = vec![0u8; model::encoded_blob_len(&decoded).expect("size")];
     let n = model::encode_blob(&decoded, &mut out).expect("encode the guarded DRL blob");
     out.truncate(n);

@@ -244,7 +244,10 @@ fn firmware_on_cortex_m4f_matches_host() {
             let embedded = model::decode_blob(blob).expect("embedded blob");
             let original = model::decode_blob(&shipped_bytes).expect("shipped blob");
             if slot == "drl" && original.meta.training_domain.is_none() {
-                assert_eq!(embedded.model, original.model, "firmware embeds another model");
+                assert_eq!(
+                    embedded.model, original.model,
+                    "firmware embeds another model"
+                );
                 assert_eq!(
                     embedded.meta.default_threshold,
                     original.meta.default_threshold

@@ -6,9 +6,7 @@
 //! model's network reads (DRL: its selected DRL inputs; GSSM/SSRA: its context features), and for
 //! MSRA all 13 features (its terms were fitted over that speed and geometry; the features feed
 //! its embedded GSSM, if any). Why quantiles and not min/max: `docs/domain-guard.md`.
-use scorer_core::model::{
-    BoundedVec, InputRange, Model, ModelError, OutsidePolicy, TrainingDomain,
-};
+use scorer_core::model::{InputRange, Model, ModelError, OutsidePolicy, TrainingDomain};
 use scorer_core::{Observation, VehicleState, FEATURE_COUNT};
 
 /// Default share of the training observations left outside at each end of each range (0.1 %).
@@ -23,6 +21,20 @@ pub enum DomainRangesError {
     BadTail(f64),
     #[error("the measured training domain is not a valid record: {0}")]
     Record(ModelError),
+}
+
+/// A measured training domain, owning its ranges' wire bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasuredDomain {
+    pub policy: OutsidePolicy,
+    pub range_bytes: Vec<u8>,
+}
+
+impl MeasuredDomain {
+    /// The record to store in a blob.
+    pub fn domain(&self) -> TrainingDomain<'_> {
+        TrainingDomain::new(self.policy, &self.range_bytes)
+    }
 }
 
 /// The inputs (indices into the kind's input vector) the domain of `model` bounds.
@@ -47,7 +59,7 @@ pub fn measure<'p>(
     pairs: impl IntoIterator<Item = (&'p VehicleState, &'p VehicleState)>,
     tail: f64,
     policy: OutsidePolicy,
-) -> Result<TrainingDomain, DomainRangesError> {
+) -> Result<MeasuredDomain, DomainRangesError> {
     if !(0.0..0.5).contains(&tail) {
         return Err(DomainRangesError::BadTail(tail));
     }
@@ -63,20 +75,20 @@ pub fn measure<'p>(
             }
         }
     }
-    let mut ranges = BoundedVec::new();
+    let mut range_bytes = Vec::with_capacity(inputs.len() * 9);
     for (column, &input) in columns.iter_mut().zip(&inputs) {
         let (lo, hi) = quantile_range(column, tail).ok_or(DomainRangesError::NoObservations)?;
-        ranges.push(InputRange { input, lo, hi }).map_err(|_| {
-            DomainRangesError::Record(ModelError::CapacityExceeded {
-                field: "training_domain.ranges",
-                len: inputs.len(),
-                max: FEATURE_COUNT,
-            })
-        })?;
+        range_bytes.extend(InputRange { input, lo, hi }.to_bytes());
     }
-    let domain = TrainingDomain { policy, ranges };
-    domain.validate().map_err(DomainRangesError::Record)?;
-    Ok(domain)
+    let measured = MeasuredDomain {
+        policy,
+        range_bytes,
+    };
+    measured
+        .domain()
+        .validate()
+        .map_err(DomainRangesError::Record)?;
+    Ok(measured)
 }
 
 /// The `tail` and `1 - tail` nearest-rank quantiles of `values` (sorted in place); `None` when

@@ -74,7 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
     let domain = measure(&model, pairs, args.tail_percent / 100.0, args.policy)?;
-    let bytes = riskscore_train::export::with_training_domain(&file.bytes, domain)?;
+    let bytes = riskscore_train::export::with_training_domain(&file.bytes, domain.domain())?;
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;

@@ -363,9 +363,9 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         s,
         "  policy          {} outside, {} inputs bounded",
         domain.policy.name(),
-        domain.ranges.len()
+        domain.len()
     );
-    for r in domain.ranges.iter() {
+    for r in domain.ranges() {
         let name = names.get(usize::from(r.input)).copied().unwrap_or("?");
         let _ = writeln!(s, "  {:<15} [{}, {}]", name, r.lo, r.hi);
     }
@@ -376,7 +376,7 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 /// unchanged), checked by decoding it again.
 pub fn with_training_domain(
     blob: &[u8],
-    domain: model::TrainingDomain,
+    domain: model::TrainingDomain<'_>,
 ) -> Result<Vec<u8>, ExportError> {
     let mut decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     decoded.meta.training_domain = Some(domain);

@@ -43,7 +43,7 @@ fn with_measured_domain(blob: &[u8], train: &[Sequence]) -> Result<Vec<u8>, Expo
         scorer_core::model::OutsidePolicy::FlagOnly,
     )
     .map_err(|e| ExportError::Domain(e.to_string()))?;
-    export::with_training_domain(blob, domain)
+    export::with_training_domain(blob, domain.domain())
 }
 
 /// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`: `drl.json`,

@@ -88,11 +88,11 @@ impl DefaultThreshold<'_> {
 }
 
 /// Everything a blob says beside its model. The default (no records) is what a version-1 blob has.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelMeta<'a> {
     pub default_threshold: Option<DefaultThreshold<'a>>,
     /// Tag 2: the inputs' trained ranges and the policy outside them; `None` scores unguarded.
-    pub training_domain: Option<TrainingDomain>,
+    pub training_domain: Option<TrainingDomain<'a>>,
 }
 
 impl<'a> ModelMeta<'a> {
@@ -128,7 +128,7 @@ impl<'a> ModelMeta<'a> {
                     meta.default_threshold = Some(op);
                 }
                 TRAINING_DOMAIN_TAG => {
-                    let domain: TrainingDomain = take_record(tag, body, &meta.training_domain)?;
+                    let domain: TrainingDomain<'a> = take_record(tag, body, &meta.training_domain)?;
                     domain.validate()?;
                     meta.training_domain = Some(domain);
                 }
