@@ -122,7 +122,7 @@ impl<'a> TrainingDomain<'a> {
     /// Whole ranges, at most 13, each of a known input given once, with finite `lo <= hi`.
     pub fn validate(&self) -> Result<(), ModelError> {
         let field = "training_domain.ranges";
-        if self.range_bytes.len() % RANGE_BYTES != 0 {
+        if !self.range_bytes.len().is_multiple_of(RANGE_BYTES) {
             return Err(ModelError::DimensionMismatch {
                 field,
                 index: 0,
