@@ -7,33 +7,11 @@
     clippy::panic
 )]
 
-use scorer_core::mlp::{FloatLayer, FloatMlp};
-use scorer_core::model::{
-    self, BoundedVec, DefaultThreshold, Model, ModelBlob, ModelError, ModelMeta, ThresholdRule,
-    HEADER_LEN,
-};
+mod example_blob;
 
-const W: [u8; 4] = (-1.0f32).to_le_bytes();
-const B: [u8; 4] = 0.5f32.to_le_bytes();
+use example_blob::{blob_with_records, encode, example_model};
 
-/// The worked example of docs/model-format.md: `R = 1.5 - 0.1 log_gap`.
-fn example_model() -> Model<'static> {
-    let mut layers = BoundedVec::new();
-    layers
-        .push(FloatLayer {
-            out_dim: 1,
-            relu: false,
-            weights: &W,
-            bias: &B,
-        })
-        .unwrap();
-    Model::DrlF32(FloatMlp {
-        inputs: BoundedVec::from_slice(&[8]).unwrap(),
-        input_scale: BoundedVec::from_slice(&[0.1]).unwrap(),
-        input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
-        layers,
-    })
-}
+use scorer_core::model::{self, DefaultThreshold, ModelBlob, ModelError, ModelMeta, ThresholdRule};
 
 fn calibrated(threshold: f32) -> DefaultThreshold<'static> {
     DefaultThreshold {
@@ -45,30 +23,6 @@ fn calibrated(threshold: f32) -> DefaultThreshold<'static> {
         },
         data: "ngsim-us101-safe (606 sequences)",
     }
-}
-
-fn encode(blob: &ModelBlob<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; model::encoded_blob_len(blob).unwrap()];
-    let n = model::encode_blob(blob, &mut out).unwrap();
-    assert_eq!(n, out.len());
-    out
-}
-
-/// A blob of the example model whose payload is the model followed by `records`, with a correct
-/// length and CRC (so only the records can be at fault).
-fn blob_with_records(records: &[u8]) -> Vec<u8> {
-    let plain = encode(&ModelBlob {
-        model: example_model(),
-        meta: ModelMeta::default(),
-    });
-    let mut payload = plain[HEADER_LEN..].to_vec();
-    payload.extend_from_slice(records);
-    let mut blob = plain[..HEADER_LEN].to_vec();
-    blob[4] = 2;
-    blob[12..16].copy_from_slice(&(payload.len() as u32).to_le_bytes());
-    blob[16..20].copy_from_slice(&scorer_core::crc::crc32(&payload).to_le_bytes());
-    blob.extend_from_slice(&payload);
-    blob
 }
 
 fn threshold_record(op: &DefaultThreshold<'_>) -> Vec<u8> {

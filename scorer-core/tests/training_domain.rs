@@ -8,34 +8,14 @@
     clippy::panic
 )]
 
-use scorer_core::mlp::{FloatLayer, FloatMlp};
+mod example_blob;
+
+use example_blob::{blob_with_records, encode, example_model};
+
 use scorer_core::model::{
-    self, BoundedVec, InputRange, Model, ModelBlob, ModelError, ModelMeta, OutsidePolicy,
-    TrainingDomain, HEADER_LEN,
+    self, InputRange, Model, ModelBlob, ModelError, ModelMeta, OutsidePolicy, TrainingDomain,
 };
 use scorer_core::{Observation, VehicleState};
-
-const W: [u8; 4] = (-1.0f32).to_le_bytes();
-const B: [u8; 4] = 0.5f32.to_le_bytes();
-
-/// The worked example of docs/model-format.md: `R = 1.5 - 0.1 log_gap` (DRL input 8).
-fn example_model() -> Model<'static> {
-    let mut layers = BoundedVec::new();
-    layers
-        .push(FloatLayer {
-            out_dim: 1,
-            relu: false,
-            weights: &W,
-            bias: &B,
-        })
-        .unwrap();
-    Model::DrlF32(FloatMlp {
-        inputs: BoundedVec::from_slice(&[8]).unwrap(),
-        input_scale: BoundedVec::from_slice(&[0.1]).unwrap(),
-        input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
-        layers,
-    })
-}
 
 /// A domain over `ranges` (their wire bytes leaked: test data lives as long as the test).
 fn domain_of(policy: OutsidePolicy, ranges: &[InputRange]) -> TrainingDomain<'static> {
@@ -70,29 +50,6 @@ fn guarded_blob(policy: OutsidePolicy) -> ModelBlob<'static> {
             ..ModelMeta::default()
         },
     }
-}
-
-fn encode(blob: &ModelBlob<'_>) -> Vec<u8> {
-    let mut out = vec![0u8; model::encoded_blob_len(blob).unwrap()];
-    let n = model::encode_blob(blob, &mut out).unwrap();
-    assert_eq!(n, out.len());
-    out
-}
-
-/// A version-2 blob of the example model followed by `records`, with a correct length and CRC.
-fn blob_with_records(records: &[u8]) -> Vec<u8> {
-    let plain = encode(&ModelBlob {
-        model: example_model(),
-        meta: ModelMeta::default(),
-    });
-    let mut payload = plain[HEADER_LEN..].to_vec();
-    payload.extend_from_slice(records);
-    let mut blob = plain[..HEADER_LEN].to_vec();
-    blob[4] = 2;
-    blob[12..16].copy_from_slice(&(payload.len() as u32).to_le_bytes());
-    blob[16..20].copy_from_slice(&scorer_core::crc::crc32(&payload).to_le_bytes());
-    blob.extend_from_slice(&payload);
-    blob
 }
 
 fn domain_record(domain: &TrainingDomain) -> Vec<u8> {

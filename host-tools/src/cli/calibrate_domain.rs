@@ -1,6 +1,6 @@
 //! `riskctl calibrate-domain`: attach (or refresh) a model's training-domain record, measured on
 //! the event folders it was trained on.
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
@@ -92,14 +92,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// The output must not be the model, an --events folder's file or lie inside one.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = args
-        .events
-        .iter()
-        .map(|d| ("--events", Some(d.as_path())))
-        .collect();
-    super::output::refuse_inputs_of(
-        &folders,
-        &[("--model", Some(args.model.as_path()))],
-        &[("--out", args.out.as_path())],
-    )
+    super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)
 }
