@@ -9,7 +9,9 @@
 
 mod example_blob;
 
-use example_blob::{blob_with_records, encode, example_model};
+use example_blob::{
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model,
+};
 
 use scorer_core::model::{self, DefaultThreshold, ModelBlob, ModelError, ModelMeta, ThresholdRule};
 
@@ -212,15 +214,5 @@ fn every_truncation_and_byte_flip_of_a_version_2_blob_is_handled() {
             training_domain: None,
         },
     });
-    for n in 0..blob.len() {
-        assert!(model::decode_blob(&blob[..n]).is_err(), "prefix {n}");
-    }
-    for i in 0..blob.len() {
-        for bit in 0..8 {
-            let mut flipped = blob.clone();
-            flipped[i] ^= 1 << bit;
-            // Never a panic; the CRC catches every flip inside the payload.
-            let _ = model::decode_blob(&flipped);
-        }
-    }
+    assert_truncations_refused_and_flips_handled(&blob);
 }

@@ -57,3 +57,18 @@ pub fn blob_with_records(records: &[u8]) -> Vec<u8> {
     blob.extend_from_slice(&payload);
     blob
 }
+
+/// Every prefix of `blob` is refused, and no single-bit flip makes decoding panic.
+pub fn assert_truncations_refused_and_flips_handled(blob: &[u8]) {
+    for n in 0..blob.len() {
+        assert!(model::decode_blob(&blob[..n]).is_err(), "prefix {n}");
+    }
+    for i in 0..blob.len() {
+        for bit in 0..8 {
+            let mut flipped = blob.to_vec();
+            flipped[i] ^= 1 << bit;
+            // Never a panic; the CRC catches every flip inside the payload.
+            let _ = model::decode_blob(&flipped);
+        }
+    }
+}
