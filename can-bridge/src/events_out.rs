@@ -154,7 +154,7 @@ pub fn status_line(now: &Stats, prev: &Stats, elapsed_s: f64, tracks: usize) -> 
         0.0
     };
     format!(
-        "status: {rate:.0} frames/s, {tracks} tracks, {} scored, {} warning frames, {} decode errors, {} stale drops, {} bus errors ({} bus-off), {} unknown ids, {} reordered, {} off the timeline",
+        "status: {rate:.0} frames/s, {tracks} tracks, {} scored, {} warning frames, {} decode errors, {} stale drops, {} bus errors ({} bus-off), {} unknown ids, {} reordered, {} off the timeline, {} outside the training domain",
         now.scored,
         now.warning_frames,
         now.decode_errors,
@@ -164,5 +164,6 @@ pub fn status_line(now: &Stats, prev: &Stats, elapsed_s: f64, tracks: usize) -> 
         now.unknown_ids,
         now.reordered,
         now.out_of_window,
+        now.out_of_domain,
     )
 }

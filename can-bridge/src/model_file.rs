@@ -59,6 +59,11 @@ impl ModelFile {
         decode(&self.bytes).map_err(|e| self.refused(e))
     }
 
+    /// The decoded blob: the model and its records (its training domain guards the scores).
+    pub fn blob(&self) -> Result<scorer_core::model::ModelBlob<'_>, ModelFileError> {
+        decode_blob(&self.bytes).map_err(|e| self.refused(e))
+    }
+
     /// The warning threshold when the user gives none: the blob's calibrated default, else its
     /// kind's rule ([`scorer_core::model::ModelBlob::default_threshold`]).
     pub fn default_threshold(&self) -> Result<f32, ModelFileError> {

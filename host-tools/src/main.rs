@@ -38,6 +38,9 @@ enum Command {
     /// Store a model's default warning threshold, chosen on normal driving by a target
     /// false-alarm rate, in its blob.
     Calibrate(cli::calibrate::Args),
+    /// Store a model's training domain (the input ranges of its training data) and the policy
+    /// for observations outside it, in its blob.
+    CalibrateDomain(cli::calibrate_domain::Args),
     /// Draw one event: both road users' paths and boxes, and every method's risk over time with
     /// its threshold and first warning (SVG or PNG).
     Plot(cli::plot::Args),
@@ -73,6 +76,7 @@ fn main() -> std::process::ExitCode {
         Command::Score(a) => cli::score::run(a),
         Command::Ablation(a) => cli::ablation::run(a),
         Command::Calibrate(a) => cli::calibrate::run(a),
+        Command::CalibrateDomain(a) => cli::calibrate_domain::run(a),
         Command::ExportModel(a) => cli::export_model::run(a),
         Command::InspectModel(a) => cli::inspect_model::run(a),
         Command::Plot(a) => cli::plot::run(a),

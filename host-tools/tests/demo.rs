@@ -154,7 +154,14 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "{text}"
     );
     let ck = export::Checkpoint::load(&out.join("models/drl.json")).unwrap();
-    assert_eq!(export::export(&ck, export::DrlFormat::Int8).unwrap(), blob);
+    // The same model; training adds the domain record measured on its data.
+    let exported = export::export(&ck, export::DrlFormat::Int8).unwrap();
+    let trained = scorer_core::model::decode_blob(&blob).unwrap();
+    assert_eq!(
+        scorer_core::model::decode(&exported).unwrap(),
+        trained.model
+    );
+    assert!(trained.meta.training_domain.is_some(), "no training domain");
     let msra = std::fs::read(out.join("models/msra.rsk")).unwrap();
     assert!(scorer_core::model::decode(&msra).is_ok());
     let stage_names = stage_names_of(&summary);

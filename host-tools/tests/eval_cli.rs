@@ -232,6 +232,9 @@ fn json_output_follows_the_schema_and_matches_the_library() {
         .unwrap()
         .remove("operating_points")
         .unwrap();
+    // A model without a training-domain record has no domain entry (docs/evaluation.md).
+    let domain = v.as_object_mut().unwrap().remove("domain").unwrap();
+    assert_eq!(domain, serde_json::json!([]));
     assert_eq!(report.to_json(), v);
     // The model row at its own default threshold (this hand-made blob has none stored, so its
     // kind's: MSRA's); the baselines have none.

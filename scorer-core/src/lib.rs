@@ -17,6 +17,7 @@
 //! - [`gssm`]: the lognormal spacing model (GSSM / SSRA): `F_S`, intensity, score modes.
 //! - [`warning`]: the first-threshold warning rule and a fixed-capacity track table.
 //! - [`crc`]: CRC-32 used by the model blob header.
+//! - [`domain`]: the guard: is an observation inside the model's training domain; guarded scores.
 //! - [`model`]: the model blob format (header + postcard payload), decoding without allocation.
 #![no_std]
 #![forbid(unsafe_code)]
@@ -32,6 +33,7 @@
 
 pub mod bounded;
 pub mod crc;
+pub mod domain;
 pub mod encoding;
 pub mod features;
 pub mod geometry;
@@ -54,6 +56,7 @@ pub use geometry::box_distance;
 pub use state::VehicleState;
 pub use surrogates::{ei, surrogates, tadv, ttc2d, SurrogateKind, Surrogates};
 
+pub use domain::Guarded;
 pub use gssm::{GssmModel, GssmScore};
 pub use mlp::{FloatMlp, QuantMlp};
 pub use model::{decode, encode, Model, ModelError, ModelKind};

@@ -77,6 +77,13 @@ pub enum ModelError {
         field: &'static str,
         reason: &'static str,
     },
+    /// Entry `entry` of the training-domain record (for input `input`) is unusable: an unknown
+    /// input index, a non-finite bound, `lo > hi`, or an input given twice.
+    BadDomainEntry {
+        entry: usize,
+        input: u8,
+        reason: &'static str,
+    },
 }
 
 impl fmt::Display for ModelError {
@@ -150,6 +157,11 @@ impl fmt::Display for ModelError {
                 write!(f, "metadata record with tag {tag} appears twice")
             }
             Self::BadRecord { field, reason } => write!(f, "{field}: {reason}"),
+            Self::BadDomainEntry {
+                entry,
+                input,
+                reason,
+            } => write!(f, "training_domain.ranges[{entry}] (input {input}): {reason}"),
         }
     }
 }

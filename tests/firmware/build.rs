@@ -32,6 +32,11 @@ fn main() {
 
     for (name, shipped) in [("drl", "drl-default.rsk"), ("msra", "msra-default.rsk")] {
         let (blob, source) = model_blob(&repo.join("models").join(shipped), name);
+        let (blob, source) = if name == "drl" {
+            with_training_domain(blob, source)
+        } else {
+            (blob, source)
+        };
         fs::write(out.join(format!("{name}.rsk")), &blob).expect("write model blob");
         fs::write(out.join(format!("{name}.source")), source).expect("write model source");
     }
@@ -56,6 +61,45 @@ fn model_blob(shipped: &Path, name: &str) -> (Vec<u8>, String) {
         _ => test_models::msra(),
     };
     (blob, format!("generated test model ({name})"))
+}
+
+/// The training domain the embedded DRL blob gets when it carries none: the 13 DRL-input ranges
+/// that `riskctl calibrate-domain --model models/drl-default.rsk --events data/ngsim-us101-safe`
+/// measures (0.1 % tails), under `Clamp`, the costlier policy. The firmware then measures and
+/// checks the guarded per-partner path with a full record, whatever the shipped blob holds.
+const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
+    (0, -4.615_120_4, 4.615_120_4),
+    (1, 2.7432, 17.6784),
+    (2, 1.4935, 2.57555),
+    (3, 0.0, 19.8272),
+    (4, -1.518_611_4, 1.531_767_8),
+    (5, 0.0, 19.8272),
+    (6, 0.925_482_15, 1.000_000_2),
+    (7, -0.378_791_36, 0.378_791_36),
+    (8, 0.109_856_98, 3.410_424_5),
+    (9, -2.443_866, 2.363_714),
+    // `ln(0.5 + 0)`: the miss gap of boxes that would touch.
+    (10, -std::f32::consts::LN_2, 3.467_095_1),
+    (11, -3.571_726_3, 3.571_108_3),
+    (12, -1.725_845_8, 1.689_262_5),
+];
+
+/// `blob` with [`FIRMWARE_DOMAIN`] attached when it has no training-domain record.
+fn with_training_domain(blob: Vec<u8>, source: String) -> (Vec<u8>, String) {
+    use scorer_core::model::{self, InputRange, OutsidePolicy, TrainingDomain};
+    let ranges: Vec<u8> = FIRMWARE_DOMAIN
+        .iter()
+        .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
+        .collect();
+    let mut decoded = model::decode_blob(&blob).expect("the DRL blob decodes");
+    if decoded.meta.training_domain.is_some() {
+        return (blob.clone(), source);
+    }
+    decoded.meta.training_domain = Some(TrainingDomain::new(OutsidePolicy::Clamp, &ranges));
+    let mut out = vec![0u8; model::encoded_blob_len(&decoded).expect("size")];
+    let n = model::encode_blob(&decoded, &mut out).expect("encode the guarded DRL blob");
+    out.truncate(n);
+    (out, format!("{source} + training domain (build.rs)"))
 }
 
 fn file_name(p: &Path) -> String {

@@ -238,16 +238,42 @@ fn firmware_on_cortex_m4f_matches_host() {
         // When a shipped model exists, the firmware must embed exactly it.
         let shipped = root.join(format!("models/{slot}-default.rsk"));
         if shipped.exists() {
-            assert_eq!(
-                &std::fs::read(&shipped).expect("read shipped model"),
-                blob,
-                "firmware embeds a different blob than {}",
-                shipped.display()
-            );
-            assert_eq!(source, &format!("models/{slot}-default.rsk"));
+            let shipped_bytes = std::fs::read(&shipped).expect("read shipped model");
+            // The DRL blob gets a training-domain record when it has none (build.rs): the same
+            // model and threshold, guarded.
+            let embedded = model::decode_blob(blob).expect("embedded blob");
+            let original = model::decode_blob(&shipped_bytes).expect("shipped blob");
+            if slot == "drl" && original.meta.training_domain.is_none() {
+                assert_eq!(
+                    embedded.model, original.model,
+                    "firmware embeds another model"
+                );
+                assert_eq!(
+                    embedded.meta.default_threshold,
+                    original.meta.default_threshold
+                );
+                assert_eq!(
+                    source,
+                    &format!("models/{slot}-default.rsk + training domain (build.rs)")
+                );
+            } else {
+                assert_eq!(
+                    &shipped_bytes,
+                    blob,
+                    "firmware embeds a different blob than {}",
+                    shipped.display()
+                );
+                assert_eq!(source, &format!("models/{slot}-default.rsk"));
+            }
         }
     }
     let drl = model::decode(&blobs["drl"]).expect("host decodes the DRL blob");
+    let drl_guarded = model::decode_blob(&blobs["drl"]).expect("host decodes the DRL blob");
+    assert!(
+        drl_guarded.meta.training_domain.is_some(),
+        "the firmware's DRL blob must carry a training domain (the guard is part of the budget)"
+    );
+    let (mut inside, mut outside) = (0usize, 0usize);
     let msra = model::decode(&blobs["msra"]).expect("host decodes the MSRA blob");
     assert!(
         matches!(drl, Model::DrlInt8(_)),
@@ -377,6 +403,32 @@ fn firmware_on_cortex_m4f_matches_host() {
             host_d.to_bits(),
             "golden line {csv_line}: int8 DRL score MCU {d:e} vs host {host_d:e} (must be bit-exact)"
         );
+        // The guarded score of the deployed path: bit-exact, same flag, same first input outside.
+        let g = at("G");
+        let fw_g = hex_f32(t[g + 1], "guarded drl", line);
+        let host_g = drl_guarded.score_guarded(&host_o);
+        assert_eq!(
+            fw_g.to_bits(),
+            host_g.score.to_bits(),
+            "golden line {csv_line}: guarded DRL score MCU {fw_g:e} vs host {:e}",
+            host_g.score
+        );
+        assert_eq!(
+            (t[g + 2], t[g + 3]),
+            (
+                if host_g.in_domain { "1" } else { "0" },
+                host_g
+                    .first_outside
+                    .map_or("-".to_string(), |i| i.to_string())
+                    .as_str()
+            ),
+            "golden line {csv_line}: domain flag / first input outside differ"
+        );
+        if host_g.in_domain {
+            inside += 1;
+        } else {
+            outside += 1;
+        }
         let m = hex_f32(t[at("M") + 1], "msra", line);
         let host_m = msra.score_observation(&host_o);
         assert!(
@@ -434,6 +486,11 @@ fn firmware_on_cortex_m4f_matches_host() {
         .expect("DONE count");
     assert_eq!(done, records, "DONE count vs result lines");
     assert!(records >= 100, "only {records} inputs scored");
+    // Both sides of the guard run on the MCU.
+    assert!(
+        inside > 0 && outside > 0,
+        "inputs inside the domain: {inside}, outside: {outside}"
+    );
     // The run must exercise the warning logic, or the bit-exact replay proves little.
     assert!(
         onsets > 0 && releases > 0,

@@ -26,7 +26,7 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
     let map = load_map(&args.scoring)?;
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
-    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let mut engine = Engine::new(model_file.blob()?, map, config)?;
     let outputs: Vec<NamedPath<'_>> = args
         .events_out
         .iter()

@@ -18,7 +18,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
     let map = load_map(&args.scoring)?;
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
-    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let mut engine = Engine::new(model_file.blob()?, map, config)?;
     let event_files = [
         args.events.join(riskscore_data::events::EVENTS_FILE),
         args.events.join(riskscore_data::events::FRAMES_FILE),

@@ -30,8 +30,8 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     let map = load_map(&scoring)?;
     print_inputs(&map);
     let (model, config) = match &model_file {
-        Some(m) => (m.model()?, engine_config(&scoring, m)?),
-        None => (no_model(), states_only_config(&scoring)),
+        Some(m) => (m.blob()?, engine_config(&scoring, m)?),
+        None => (no_model().into(), states_only_config(&scoring)),
     };
     let mut engine = Engine::new(model, map, config)?;
     let mut inputs = scoring_inputs(&scoring);

@@ -20,7 +20,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     let map = load_map(&args.scoring)?;
     print_inputs(&map);
     let config = engine_config(&args.scoring, &model_file)?;
-    let mut engine = Engine::new(model_file.model()?, map, config)?;
+    let mut engine = Engine::new(model_file.blob()?, map, config)?;
     let mut inputs = scoring_inputs(&args.scoring);
     inputs.push(("--log", args.log.as_path()));
     let outputs: Vec<NamedPath<'_>> = [

@@ -258,10 +258,11 @@ pub fn scoring_inputs(args: &ScoringArgs) -> Vec<NamedPath<'_>> {
 /// The closing counters of a run, as one line.
 pub fn summary(s: &Stats) -> String {
     format!(
-        "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion, {} outside the view",
+        "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion, {} outside the view, {} outside the training domain",
         s.frames, s.scored, s.warning_frames, s.warning_frames_unsent, s.decode_errors, s.stale_drops, s.invalid_objects,
         s.reordered, s.out_of_window, s.segments + 1, s.duplicates, s.unknown_ids, s.remote_frames,
-        s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending, s.outside_view
+        s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending, s.outside_view,
+        s.out_of_domain
     )
 }
 

@@ -53,7 +53,7 @@ use crate::timeline::{Action, Timeline};
 use assemble::{assemble, Unscored};
 use can_codec::{E2eConfig, E2eProtector, Frame, FrameKind};
 use decode::decode_message;
-use scorer_core::model::Model;
+use scorer_core::model::ModelBlob;
 use scorer_core::warning::TrackTable;
 use track::{HeadingRate, PartnerSlots, Stamped, TrackMap};
 
@@ -62,7 +62,8 @@ type HeldFrame = (Frame, u64, Option<u8>);
 
 /// The engine. Holds the decoded model (borrowing its blob), the map and all track state.
 pub struct Engine<'m> {
-    model: Model<'m>,
+    /// The model and its training domain (scored through the guard, as on the ECU).
+    model: ModelBlob<'m>,
     map: CompiledMap,
     config: EngineConfig,
     table: TrackTable<MAX_TRACKS>,
@@ -86,11 +87,14 @@ pub struct Engine<'m> {
 }
 
 impl<'m> Engine<'m> {
+    /// An engine scoring with `model`: a decoded blob (with its training domain, if any) or a
+    /// bare model (unguarded).
     pub fn new(
-        model: Model<'m>,
+        model: impl Into<ModelBlob<'m>>,
         map: CompiledMap,
         config: EngineConfig,
     ) -> Result<Self, ConfigError> {
+        let model = model.into();
         let table = TrackTable::new(config.warning_config()).map_err(ConfigError)?;
         let protector = E2eProtector::new(E2eConfig {
             data_id: map.warning.data_id,

@@ -37,6 +37,8 @@ pub struct Stats {
     pub new_objects: u64,
     /// Updates not scored because the object is outside the map's field of view.
     pub outside_view: u64,
+    /// Scored updates outside the model's training domain (0 for a model without the record).
+    pub out_of_domain: u64,
 }
 
 impl Stats {

@@ -21,7 +21,8 @@ impl Engine<'_> {
             partner,
             flags,
         } = states;
-        let score = self.model.score(&ego, &partner);
+        let guarded = self.model.score_pair_guarded(&ego, &partner);
+        let score = guarded.score;
         // Release warnings of tracks that went stale before this update.
         self.expire(t_us, out);
         let status = match self.table.update(track, t_us, score) {
@@ -56,6 +57,9 @@ impl Engine<'_> {
             .next_expiry_us
             .min(t_us.saturating_add(self.config.stale_us));
         self.stats.scored += 1;
+        if !guarded.in_domain {
+            self.stats.out_of_domain += 1;
+        }
         let level = if status.warning {
             match self.config.urgent {
                 Some(u) if score >= u => 2,

@@ -8,6 +8,8 @@
 //! - [`plots`] (feature `plots`): ROC and PR curves, risk trajectories (SVG and PNG).
 //! - [`event_figure`] (feature `plots`): one event's paths, boxes and every method's risk.
 //! - [`palette`]: one colour and line style per method in every figure.
+//! - [`domain_ranges`]: a model's training-domain record, measured on its training observations.
+//! - [`domain_share`]: the share of frames each guarded model saw outside its training domain.
 //! - [`scoring`]: scoring an event folder with model blobs and the baselines through scorer-core.
 //! - [`streaming`]: evaluating an event folder one event at a time, in bounded memory.
 //! - [`staircase`]: one method's alert profiles of a folder, packed for the streamed evaluation.
@@ -26,6 +28,8 @@
 #[cfg(feature = "arrow")]
 pub mod arrow_kernel;
 pub mod bundle;
+pub mod domain_ranges;
+pub mod domain_share;
 #[cfg(feature = "plots")]
 pub mod event_figure;
 pub mod metrics;

@@ -76,25 +76,30 @@ impl ModelFile {
 pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileError> {
     let mut decoded = Vec::with_capacity(files.len());
     for f in files {
-        let model = f.blob()?.model;
+        let blob = f.blob()?;
         let stem = f.path.file_stem().map_or_else(
             || f.path.display().to_string(),
             |s| s.to_string_lossy().into_owned(),
         );
-        decoded.push((f.name.clone(), model, stem));
+        decoded.push((f.name.clone(), blob, stem));
     }
     let names = row_names(
         &decoded
             .iter()
-            .map(|(n, m, stem)| (n.clone(), model_row_name(m), stem.clone()))
+            .map(|(n, b, stem)| (n.clone(), model_row_name(&b.model), stem.clone()))
             .collect::<Vec<_>>(),
     );
     Ok(decoded
         .into_iter()
         .zip(names)
-        .map(|((_, model, _), name)| Method {
+        .map(|((_, blob, _), name)| Method {
             name,
-            scorer: Scorer::Model(model),
+            // A blob with a training domain is scored through its guard, as the ECU scores it.
+            scorer: if blob.meta.training_domain.is_some() {
+                Scorer::Guarded(blob)
+            } else {
+                Scorer::Model(blob.model)
+            },
         })
         .collect())
 }

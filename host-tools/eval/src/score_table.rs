@@ -4,7 +4,7 @@ use scorer_core::SurrogateKind;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use arrow_array::builder::{Float32Builder, Float64Builder, StringBuilder};
+use arrow_array::builder::{Float32Builder, Float64Builder, StringBuilder, UInt8Builder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{ArrowError, DataType, Field, Schema};
 use riskscore_data::events::{
@@ -61,12 +61,15 @@ struct Columns {
     kind: StringBuilder,
     scores: Vec<Float32Builder>,
     surrogates: [Float32Builder; 3],
+    /// One per method with a training domain: 1 inside, 0 outside.
+    in_domain: Vec<UInt8Builder>,
     rows: usize,
 }
 
 impl Columns {
-    fn new(models: usize) -> Self {
+    fn new(models: usize, guarded: usize) -> Self {
         Self {
+            in_domain: (0..guarded).map(|_| UInt8Builder::new()).collect(),
             event_id: StringBuilder::new(),
             time: Float64Builder::new(),
             kind: StringBuilder::new(),
@@ -92,13 +95,23 @@ impl Columns {
                 .iter_mut()
                 .map(|b| Arc::new(b.finish()) as ArrayRef),
         );
+        arrays.extend(
+            self.in_domain
+                .iter_mut()
+                .map(|b| Arc::new(b.finish()) as ArrayRef),
+        );
         self.rows = 0;
         RecordBatch::try_new(schema.clone(), arrays)
     }
 }
 
-/// The table's schema for these model column names.
-fn schema(model_names: &[String]) -> Arc<Schema> {
+/// The column of a guarded model's flag: `<model>_in_domain`.
+pub fn in_domain_column(model_name: &str) -> String {
+    format!("{model_name}_in_domain")
+}
+
+/// The table's schema for these model column names (and those of the guarded models' flags).
+fn schema(model_names: &[String], guarded_names: &[String]) -> Arc<Schema> {
     let mut fields = vec![
         Field::new("event_id", DataType::Utf8, false),
         Field::new("time", DataType::Float64, false),
@@ -112,6 +125,11 @@ fn schema(model_names: &[String]) -> Arc<Schema> {
     fields.extend(
         [SurrogateKind::Ttc2d, SurrogateKind::Tadv, SurrogateKind::Ei]
             .map(|kind| Field::new(kind.key(), DataType::Float32, false)),
+    );
+    fields.extend(
+        guarded_names
+            .iter()
+            .map(|n| Field::new(in_domain_column(n), DataType::UInt8, false)),
     );
     Arc::new(Schema::new(fields))
 }
@@ -129,10 +147,15 @@ impl<'a, 'm, W: std::io::Write + Send> ScoreTable<'a, 'm, W> {
     /// An empty table with one score column per method, written to `sink`.
     pub fn new(methods: &'a [Method<'m>], sink: BatchSink<W>) -> Self {
         let names: Vec<String> = methods.iter().map(|m| m.name.clone()).collect();
+        let guarded: Vec<String> = methods
+            .iter()
+            .filter(|m| m.scorer.has_domain())
+            .map(|m| m.name.clone())
+            .collect();
         Self {
             methods,
-            schema: schema(&names),
-            columns: Columns::new(methods.len()),
+            schema: schema(&names, &guarded),
+            columns: Columns::new(methods.len(), guarded.len()),
             sink,
             rows: 0,
         }
@@ -146,8 +169,17 @@ impl<'a, 'm, W: std::io::Write + Send> ScoreTable<'a, 'm, W> {
             columns.event_id.append_value(&sequence.event_id);
             columns.time.append_value(frame.time);
             columns.kind.append_value(sequence.kind.as_str());
+            let mut flags = columns.in_domain.iter_mut();
             for (builder, method) in columns.scores.iter_mut().zip(self.methods) {
-                builder.append_value(method.scorer.score(&frame.observation));
+                match method.scorer.score_guarded(&frame.observation) {
+                    Some(guarded) => {
+                        builder.append_value(guarded.score);
+                        if let Some(flag) = flags.next() {
+                            flag.append_value(u8::from(guarded.in_domain));
+                        }
+                    }
+                    None => builder.append_value(method.scorer.score(&frame.observation)),
+                }
             }
             let s = &frame.observation.surrogates;
             for (builder, v) in columns.surrogates.iter_mut().zip([s.ttc2d, s.tadv, s.ei]) {

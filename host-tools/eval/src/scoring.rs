@@ -5,7 +5,8 @@
 //! Each frame's [`Observation`] (features, surrogates, DRL inputs) is computed once ([`observe`])
 //! and shared by every method.
 use scorer_core::gssm::GssmScore;
-use scorer_core::model::{Model, ModelKind};
+use scorer_core::model::{Model, ModelBlob, ModelKind};
+use scorer_core::Guarded;
 use scorer_core::Observation;
 
 use super::metrics::{warning_curve, WarningCurve};
@@ -82,6 +83,9 @@ pub fn observe_frames(frames: &[Frame]) -> Vec<ObservedFrame> {
 pub enum Scorer<'a> {
     /// A decoded model blob, scored exactly as on the ECU.
     Model(Model<'a>),
+    /// A model blob with a training-domain record, scored through its guard exactly as on the
+    /// ECU ([`ModelBlob::score_guarded`]: the blob's policy decides the score outside).
+    Guarded(ModelBlob<'a>),
     /// A surrogate baseline in its risk direction.
     Baseline(Baseline),
 }
@@ -90,7 +94,30 @@ impl Scorer<'_> {
     pub fn score(&self, observation: &Observation) -> f32 {
         match self {
             Scorer::Model(m) => m.score_observation(observation),
+            Scorer::Guarded(blob) => blob.score_guarded(observation).score,
             Scorer::Baseline(b) => b.risk(&observation.surrogates),
+        }
+    }
+
+    /// The guarded score, for a scorer with a training domain (`None`: nothing to guard).
+    pub fn score_guarded(&self, observation: &Observation) -> Option<Guarded> {
+        match self {
+            Scorer::Guarded(blob) => Some(blob.score_guarded(observation)),
+            Scorer::Model(_) | Scorer::Baseline(_) => None,
+        }
+    }
+
+    /// True for a model with a training-domain record.
+    pub fn has_domain(&self) -> bool {
+        matches!(self, Scorer::Guarded(_))
+    }
+
+    /// The model kind, for a model scorer.
+    pub fn model_kind(&self) -> Option<ModelKind> {
+        match self {
+            Scorer::Model(m) => Some(m.kind()),
+            Scorer::Guarded(blob) => Some(blob.model.kind()),
+            Scorer::Baseline(_) => None,
         }
     }
 }

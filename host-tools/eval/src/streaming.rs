@@ -22,6 +22,7 @@
 //! exact percentile scale: see [`stream_events`](riskscore_data::events::stream_events).
 use std::path::Path;
 
+use super::domain_share::DomainShare;
 use super::protocol::{
     in_alert_window, AlertProfileBuilder, EventKind, ProtocolError, ScoredFrame, ScoredSequence,
 };
@@ -60,6 +61,8 @@ pub struct ProfileAccumulator<'a, 'm> {
     trajectories: Option<TrajectoryCollector>,
     /// Per method: its outcomes at the threshold asked for, if any.
     thresholds: Vec<Option<ThresholdCollector>>,
+    /// Per method with a training domain: its frames outside (`None`: an unguarded method).
+    domain: Vec<Option<DomainShare>>,
 }
 
 /// The crash events whose risk trajectories are drawn.
@@ -218,6 +221,13 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             prepare_issues: Vec::new(),
             trajectories: None,
             thresholds: methods.iter().map(|_| None).collect(),
+            domain: methods
+                .iter()
+                .map(|m| {
+                    let kind = m.scorer.model_kind().filter(|_| m.scorer.has_domain());
+                    kind.map(|kind| DomainShare::new(&m.name, kind))
+                })
+                .collect(),
         }
     }
 
@@ -266,8 +276,16 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
         for frames in sequence.frames.chunks(OBSERVED_SLICE) {
             let observed = observe_frames(frames);
             for (m, (method, builder)) in self.methods.iter().zip(&mut builders).enumerate() {
+                let mut domain = self.domain.get_mut(m).and_then(Option::as_mut);
                 for frame in &observed {
-                    let score = method.scorer.score(&frame.observation);
+                    let score = match (&mut domain, method.scorer.score_guarded(&frame.observation))
+                    {
+                        (Some(tally), Some(guarded)) => {
+                            tally.add(&guarded);
+                            guarded.score
+                        }
+                        _ => method.scorer.score(&frame.observation),
+                    };
                     builder.push(frame.time, score)?;
                     if let Some(t) = &mut self.trajectories {
                         if in_alert_window(sequence.endpoint, frame.time) {
@@ -326,6 +344,11 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             mine.extend(theirs);
         }
         self.prepare_issues.extend(other.prepare_issues);
+        for (mine, theirs) in self.domain.iter_mut().zip(&other.domain) {
+            if let (Some(mine), Some(theirs)) = (mine, theirs) {
+                mine.merge(theirs);
+            }
+        }
         for (mine, theirs) in self.thresholds.iter_mut().zip(other.thresholds) {
             match (mine, theirs) {
                 (Some(mine), Some(theirs)) => mine.merge(theirs),
@@ -373,6 +396,7 @@ impl<'a, 'm> ProfileAccumulator<'a, 'm> {
             curves,
             trajectories: self.trajectories.map(|t| t.finish(self.methods)),
             thresholds,
+            domain: self.domain.into_iter().flatten().collect(),
         }
     }
 }
@@ -417,6 +441,8 @@ pub struct FolderEvaluation {
     pub trajectories: Option<Trajectories>,
     /// Each method asked for at a threshold, at that threshold ([`Gather::thresholds`]).
     pub thresholds: Vec<ThresholdReport>,
+    /// Each model with a training-domain record, in `methods` order: its frames outside.
+    pub domain: Vec<DomainShare>,
 }
 
 /// Why a folder's metrics would not describe the folder.

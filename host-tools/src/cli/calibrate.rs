@@ -77,6 +77,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let calibrated = ModelBlob {
         model: blob.model,
         meta: model::ModelMeta {
+            // A stored training domain is kept: the threshold does not change what the model read.
+            training_domain: blob.meta.training_domain,
             default_threshold: Some(DefaultThreshold {
                 threshold: calibration.threshold,
                 rule: ThresholdRule::SafeShare {
@@ -131,14 +133,20 @@ fn describe(folders: &[PathBuf]) -> String {
 
 /// The output must not be the model, a --normal folder or lie inside one.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = args
-        .normal
+    refuse_blob_overlaps(&args.model, "--normal", &args.normal, &args.out)
+}
+
+/// A blob rewritten from `--model` and event folders (given with `folder_flag`): `out` must not
+/// be the model, one of the folders' files or lie inside a folder.
+pub(super) fn refuse_blob_overlaps(
+    model: &Path,
+    folder_flag: &str,
+    folders: &[PathBuf],
+    out: &Path,
+) -> anyhow::Result<()> {
+    let folders: Vec<(&str, Option<&Path>)> = folders
         .iter()
-        .map(|d| ("--normal", Some(d.as_path())))
+        .map(|d| (folder_flag, Some(d.as_path())))
         .collect();
-    super::output::refuse_inputs_of(
-        &folders,
-        &[("--model", Some(args.model.as_path()))],
-        &[("--out", args.out.as_path())],
-    )
+    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])
 }

@@ -7,6 +7,7 @@ use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
 pub mod ablation;
 pub mod benchmark;
 pub mod calibrate;
+pub mod calibrate_domain;
 pub mod completions;
 pub mod demo;
 pub mod evaluate;

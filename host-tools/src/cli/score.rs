@@ -21,6 +21,12 @@ OUTPUT COLUMNS (one row per frame, events in folder order, frames in time order)
                 `riskctl evaluate` (DRL, MSRA, GSSM, SSRA, or NAME from NAME=FILE); larger is
                 riskier. Scored exactly as on the ECU (DRL through the int8 network).
   ttc2d tadv ei the surrogates of the frame (s, s, m/s); inf / -inf = no conflict.
+  <model>_in_domain
+                for each model whose blob carries a training domain (`riskctl calibrate-domain`,
+                docs/domain-guard.md): 1 when the frame lies inside the input ranges its
+                training data covered, 0 outside. Its score column is then the guarded score
+                (the blob's policy: flag-only scores as without the record, clamp scores the
+                inputs moved into their ranges).
 
 By default every frame of every event is scored. With --sequences only the frames of the
 evaluation sequences are (the windows `riskctl evaluate` scores: docs/evaluation.md).

@@ -73,6 +73,8 @@ pub enum ExportError {
     Model(ModelError),
     #[error("{what} is only available for DRL checkpoints")]
     NotDrl { what: &'static str },
+    #[error("training domain: {0}")]
+    Domain(String),
 }
 
 impl Checkpoint {
@@ -278,6 +280,7 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         decoded_blob.default_threshold(),
         threshold_rule_text(&decoded_blob)
     );
+    let _ = write!(s, "{}", training_domain_text(&decoded_blob));
     let _ = writeln!(s, "parameters");
     match decoded {
         Model::DrlInt8(m) => {
@@ -343,6 +346,45 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         "integrity         OK (decoded, CRC and validation passed)"
     );
     Ok(s)
+}
+
+/// The training-domain section of [`inspect`]: policy and one line per bounded input.
+pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
+    let mut s = String::from("training domain\n");
+    let Some(domain) = &blob.meta.training_domain else {
+        s.push_str("  none stored: unguarded (every observation counts as inside)\n");
+        return s;
+    };
+    let names = match blob.model.kind() {
+        model::ModelKind::DrlInt8 | model::ModelKind::DrlF32 => &scorer_core::DRL_INPUT_NAMES,
+        model::ModelKind::Msra | model::ModelKind::Gssm => &scorer_core::FEATURE_NAMES,
+    };
+    let _ = writeln!(
+        s,
+        "  policy          {} outside, {} inputs bounded",
+        domain.policy.name(),
+        domain.len()
+    );
+    for r in domain.ranges() {
+        let name = names.get(usize::from(r.input)).copied().unwrap_or("?");
+        let _ = writeln!(s, "  {:<15} [{}, {}]", name, r.lo, r.hi);
+    }
+    s
+}
+
+/// `blob` with its training-domain record set to `domain` (the model and the other records
+/// unchanged), checked by decoding it again.
+pub fn with_training_domain(
+    blob: &[u8],
+    domain: model::TrainingDomain<'_>,
+) -> Result<Vec<u8>, ExportError> {
+    let mut decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
+    decoded.meta.training_domain = Some(domain);
+    let mut out = vec![0u8; model::encoded_blob_len(&decoded).map_err(ExportError::Model)?];
+    let n = model::encode_blob(&decoded, &mut out).map_err(ExportError::Model)?;
+    out.truncate(n);
+    model::decode_blob(&out).map_err(ExportError::Model)?;
+    Ok(out)
 }
 
 /// How the default threshold of a blob was chosen, in words.

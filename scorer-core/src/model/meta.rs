@@ -8,6 +8,7 @@
 //! specification: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
+use super::training_domain::{TrainingDomain, TRAINING_DOMAIN_TAG};
 use super::ModelError;
 
 /// Record tag of the [`DefaultThreshold`].
@@ -90,19 +91,24 @@ impl DefaultThreshold<'_> {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelMeta<'a> {
     pub default_threshold: Option<DefaultThreshold<'a>>,
+    /// Tag 2: the inputs' trained ranges and the policy outside them; `None` scores unguarded.
+    pub training_domain: Option<TrainingDomain<'a>>,
 }
 
 impl<'a> ModelMeta<'a> {
     /// True when there is nothing to write (the blob is then written as version 1).
     pub fn is_empty(&self) -> bool {
-        self.default_threshold.is_none()
+        self.default_threshold.is_none() && self.training_domain.is_none()
     }
 
     pub fn validate(&self) -> Result<(), ModelError> {
-        match &self.default_threshold {
-            Some(op) => op.validate(),
-            None => Ok(()),
+        if let Some(op) = &self.default_threshold {
+            op.validate()?;
         }
+        if let Some(domain) = &self.training_domain {
+            domain.validate()?;
+        }
+        Ok(())
     }
 
     /// Reads the records that fill `bytes` entirely.
@@ -115,56 +121,104 @@ impl<'a> ModelMeta<'a> {
                 needed: len,
                 available: rest.len(),
             })?;
-            if tag == DEFAULT_THRESHOLD_TAG {
-                if meta.default_threshold.is_some() {
-                    return Err(ModelError::DuplicateRecord { tag });
+            match tag {
+                DEFAULT_THRESHOLD_TAG => {
+                    let op: DefaultThreshold<'a> = take_record(tag, body, &meta.default_threshold)?;
+                    op.validate()?;
+                    meta.default_threshold = Some(op);
                 }
-                let (op, extra) = postcard::take_from_bytes::<DefaultThreshold<'a>>(body)?;
-                if !extra.is_empty() {
-                    return Err(ModelError::TrailingBytes { extra: extra.len() });
+                TRAINING_DOMAIN_TAG => {
+                    let domain: TrainingDomain<'a> = take_record(tag, body, &meta.training_domain)?;
+                    domain.validate()?;
+                    meta.training_domain = Some(domain);
                 }
-                op.validate()?;
-                meta.default_threshold = Some(op);
+                _ => {}
             }
             bytes = rest;
         }
         Ok(meta)
     }
 
-    /// Writes the records into `out`; returns the bytes written.
+    /// Writes the records into `out` (tag order); returns the bytes written.
     pub fn encode(&self, out: &mut [u8]) -> Result<usize, ModelError> {
         self.validate()?;
-        let Some(op) = &self.default_threshold else {
-            return Ok(0);
-        };
-        let body_len = postcard::experimental::serialized_size(op)?;
         let needed = self.encoded_len()?;
-        let available = out.len();
-        let too_small = || ModelError::BufferTooSmall { needed, available };
-        let (tag, rest) = out.split_first_mut().ok_or_else(too_small)?;
-        *tag = DEFAULT_THRESHOLD_TAG;
-        let len = u32::try_from(body_len).map_err(|_| ModelError::CapacityExceeded {
-            field: "default_threshold",
-            len: body_len,
-            max: u32::MAX as usize,
-        })?;
-        let len_bytes = postcard::to_slice(&len, rest)
-            .map_err(|_| too_small())?
-            .len();
-        let body = rest.get_mut(len_bytes..).ok_or_else(too_small)?;
-        let written = postcard::to_slice(op, body).map_err(|_| too_small())?.len();
-        Ok(1 + len_bytes + written)
+        let too_small = ModelError::BufferTooSmall {
+            needed,
+            available: out.len(),
+        };
+        let mut written = 0;
+        if let Some(op) = &self.default_threshold {
+            let rest = out.get_mut(written..).ok_or(too_small.clone())?;
+            written += write_record(DEFAULT_THRESHOLD_TAG, op, rest, &too_small)?;
+        }
+        if let Some(domain) = &self.training_domain {
+            let rest = out.get_mut(written..).ok_or(too_small.clone())?;
+            written += write_record(TRAINING_DOMAIN_TAG, domain, rest, &too_small)?;
+        }
+        Ok(written)
     }
 
     /// Exact size of [`ModelMeta::encode`]'s output.
     pub fn encoded_len(&self) -> Result<usize, ModelError> {
-        let Some(op) = &self.default_threshold else {
-            return Ok(0);
+        let threshold = match &self.default_threshold {
+            Some(op) => record_len(op)?,
+            None => 0,
         };
-        let body = postcard::experimental::serialized_size(op)?;
-        let len = u32::try_from(body).unwrap_or(u32::MAX);
-        Ok(1 + postcard::experimental::serialized_size(&len)? + body)
+        let domain = match &self.training_domain {
+            Some(domain) => record_len(domain)?,
+            None => 0,
+        };
+        Ok(threshold + domain)
     }
+}
+
+/// The record body of `tag`, which must be exactly one `T` and the first record of its tag.
+fn take_record<'a, T: Deserialize<'a>>(
+    tag: u8,
+    body: &'a [u8],
+    earlier: &Option<T>,
+) -> Result<T, ModelError> {
+    if earlier.is_some() {
+        return Err(ModelError::DuplicateRecord { tag });
+    }
+    let (value, extra) = postcard::take_from_bytes::<T>(body)?;
+    if !extra.is_empty() {
+        return Err(ModelError::TrailingBytes { extra: extra.len() });
+    }
+    Ok(value)
+}
+
+/// Writes `tag`, the varint body length and the body; returns the bytes written.
+fn write_record<T: Serialize>(
+    tag: u8,
+    body: &T,
+    out: &mut [u8],
+    too_small: &ModelError,
+) -> Result<usize, ModelError> {
+    let body_len = postcard::experimental::serialized_size(body)?;
+    let len = u32::try_from(body_len).map_err(|_| ModelError::CapacityExceeded {
+        field: "record",
+        len: body_len,
+        max: u32::MAX as usize,
+    })?;
+    let (tag_byte, rest) = out.split_first_mut().ok_or(too_small.clone())?;
+    *tag_byte = tag;
+    let len_bytes = postcard::to_slice(&len, rest)
+        .map_err(|_| too_small.clone())?
+        .len();
+    let body_out = rest.get_mut(len_bytes..).ok_or(too_small.clone())?;
+    let written = postcard::to_slice(body, body_out)
+        .map_err(|_| too_small.clone())?
+        .len();
+    Ok(1 + len_bytes + written)
+}
+
+/// Bytes [`write_record`] writes for `body`.
+fn record_len<T: Serialize>(body: &T) -> Result<usize, ModelError> {
+    let body = postcard::experimental::serialized_size(body)?;
+    let len = u32::try_from(body).unwrap_or(u32::MAX);
+    Ok(1 + postcard::experimental::serialized_size(&len)? + body)
 }
 
 /// True when `text` holds a C0 or C1 control character or DEL (what `char::is_control` means),

@@ -22,10 +22,12 @@
 //! cannot produce a blob the MCU would reject.
 
 pub mod meta;
+pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
 pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};
+pub use training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 
 use crate::encoding::{drl_inputs, DRL_INPUT_ENCODING};
 use crate::features::features;
@@ -288,6 +290,16 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
 pub struct ModelBlob<'a> {
     pub model: Model<'a>,
     pub meta: ModelMeta<'a>,
+}
+
+impl<'a> From<Model<'a>> for ModelBlob<'a> {
+    /// A model without metadata, as a version-1 blob decodes.
+    fn from(model: Model<'a>) -> Self {
+        Self {
+            model,
+            meta: ModelMeta::default(),
+        }
+    }
 }
 
 impl ModelBlob<'_> {

@@ -31,10 +31,11 @@ use core::mem::size_of;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
-use scorer_core::model::{self, Model};
+use scorer_core::model::{self, Model, ModelBlob, OutsidePolicy};
 use scorer_core::warning::{Track, TrackTable, WarningConfig, WarningEvent};
 use scorer_core::{
-    box_distance, drl_inputs, ei, features, tadv, ttc2d, Observation, Surrogates, VehicleState,
+    box_distance, drl_inputs, ei, features, tadv, ttc2d, DrlInputs, Observation, Surrogates,
+    VehicleState,
 };
 use scorer_ffi::{
     RiskscoreContext, RiskscorePairResult, RiskscoreStatus, RiskscoreTrackStatus,
@@ -87,6 +88,10 @@ fn main() -> ! {
     out.str("FIRMWARE riskscore 1").end();
     let drl = load(&mut out, "drl", DRL_BLOB, DRL_SOURCE, dump);
     let msra = load(&mut out, "msra", MSRA_BLOB, MSRA_SOURCE, dump);
+    let drl_guarded = match model::decode_blob(DRL_BLOB) {
+        Ok(b) if b.meta.training_domain.is_some() => b,
+        _ => fail(&mut out, "the DRL blob carries no training domain"),
+    };
 
     out.str("SIZES context_used=")
         .u32(scorer_ffi::context_bytes_used() as u32)
@@ -139,6 +144,8 @@ fn main() -> ! {
     let context = c_api_init(&mut out, &config);
 
     let sp_before = cortex_m::register::msp::read() as usize;
+    // True while every update so far was inside the domain (the two tables still agree).
+    let mut pipeline_inside = true;
     for k in 0..count {
         let Some((line, ego, partner)) = record(k) else {
             fail(&mut out, "inputs.bin truncated");
@@ -169,6 +176,8 @@ fn main() -> ! {
             surrogates: s,
             drl_inputs: x,
         };
+        probe::probe_guard();
+        let (first_outside, clamped) = black_box(guard_inputs(&drl_guarded, black_box(&x)));
         probe::probe_int8_mlp();
         let d = black_box(drl.score_observation(black_box(&o)));
         probe::probe_msra();
@@ -176,17 +185,30 @@ fn main() -> ! {
         probe::probe_warning_update();
         let status = black_box(staged.update(id, now, d));
 
-        // The deployed per-partner DRL path: raw states -> score -> warning.
+        // The deployed per-partner DRL path: raw states -> guarded score -> warning.
         probe::probe_drl_pipeline();
-        let r = black_box(drl.score(black_box(&ego), black_box(&partner)));
-        let pipeline_status = black_box(pipeline.update(id, now, r));
+        let g = black_box(drl_guarded.score_pair_guarded(black_box(&ego), black_box(&partner)));
+        let pipeline_status = black_box(pipeline.update(id, now, g.score));
 
         // The same through the C ABI.
         probe::probe_c_api();
         let c = c_api_step(context, &ego, &partner, id, now);
         probe::probe_idle();
 
-        let pipeline_ok = r.to_bits() == d.to_bits() && pipeline_status == status;
+        // The staged guarded score: the int8 network on the guard's inputs.
+        let staged_guarded = drl.score_observation(&Observation {
+            drl_inputs: clamped,
+            ..o
+        });
+        // Inside the domain the deployed path is the unguarded one (same score, same table, as
+        // long as no earlier update was clamped); outside it is the staged guarded score.
+        let inside_so_far = pipeline_inside && first_outside.is_none();
+        pipeline_inside = inside_so_far;
+        let pipeline_ok = g.score.to_bits() == staged_guarded.to_bits()
+            && g.first_outside == first_outside
+            && g.in_domain == first_outside.is_none()
+            && pipeline_status.is_ok()
+            && (!inside_so_far || (g.score.to_bits() == d.to_bits() && pipeline_status == status));
         let c_ok = match (&c, &status) {
             (Some((pr, ts)), Ok(st)) => {
                 same_bits(&pr.features, &f)
@@ -242,6 +264,15 @@ fn main() -> ! {
                 out.str("error - - -");
             }
         }
+        out.str(" G ")
+            .f32(g.score)
+            .str(" ")
+            .u32(u32::from(g.in_domain))
+            .str(" ");
+        match g.first_outside {
+            Some(i) => out.u32(u32::from(i)),
+            None => out.str("-"),
+        };
         out.str(" C ")
             .u32(u32::from(c_ok))
             .str(" P ")
@@ -434,6 +465,20 @@ fn event_code(e: WarningEvent) -> u8 {
         WarningEvent::Onset => 1,
         WarningEvent::Release => 2,
     }
+}
+
+/// The guard's own work on the DRL inputs: the first input outside its trained range and the
+/// inputs the blob's policy scores (clamped under `Clamp`).
+fn guard_inputs(blob: &ModelBlob<'_>, x: &DrlInputs) -> (Option<u8>, DrlInputs) {
+    let mut inputs = *x;
+    let Some(domain) = &blob.meta.training_domain else {
+        return (None, inputs);
+    };
+    let first = domain.first_outside(x);
+    if first.is_some() && domain.policy == OutsidePolicy::Clamp {
+        domain.clamp(&mut inputs);
+    }
+    (first, inputs)
 }
 
 /// Median DRL score of the first `n` inputs: a warning threshold inside the score range, so the

@@ -37,4 +37,5 @@ probes! {
     probe_c_api = 10;
     probe_idle = 11;
     probe_drl_inputs = 12;
+    probe_guard = 13;
 }

@@ -1,6 +1,6 @@
 //! Footprint probe: the smallest Rust integration of the deployed DRL path. Decodes the embedded
-//! int8 DRL blob and runs DRL input encoding -> int8 network -> track table for one partner, without the C
-//! ABI, the surrogates or the other model kinds' inference (model decoding still links the
+//! int8 DRL blob and runs DRL input encoding -> training-domain guard -> int8 network -> track
+//! table for one partner, without the C ABI, the surrogates or the other model kinds' inference (model decoding still links the
 //! deserialisers of every kind). tests/firmware/measure reads its section sizes.
 #![no_std]
 #![no_main]
@@ -13,9 +13,9 @@ use core::ptr::{addr_of, read_volatile};
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use scorer_core::model::{self, Model};
+use scorer_core::model;
 use scorer_core::warning::{TrackTable, WarningConfig};
-use scorer_core::{drl_inputs, VehicleState};
+use scorer_core::VehicleState;
 
 static DRL_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/drl.rsk"));
 static EGO: VehicleState = VehicleState {
@@ -60,8 +60,11 @@ fn main() -> ! {
             read_volatile(addr_of!(PARTNER)),
         )
     };
-    let score = match model::decode(DRL_BLOB) {
-        Ok(Model::DrlInt8(net)) => Some(net.forward(&drl_inputs(&ego, &partner))[0]),
+    // The guarded path: the blob's training domain is checked (and applied) on every partner.
+    let score = match model::decode_blob(DRL_BLOB) {
+        Ok(blob) if blob.meta.training_domain.is_some() => {
+            Some(blob.score_pair_guarded(&ego, &partner).score)
+        }
         _ => None,
     };
     let config = WarningConfig::live(0.5, 0.05, 500_000, 1_000_000);

@@ -1,0 +1,96 @@
+//! `riskctl calibrate-domain`: attach (or refresh) a model's training-domain record, measured on
+//! the event folders it was trained on.
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use riskscore_data::events::{load_prepared, PrepareConfig};
+use riskscore_eval::domain_ranges::{measure, DEFAULT_TAIL};
+use riskscore_eval::model_files::ModelFile;
+use scorer_core::model::OutsidePolicy;
+
+const ABOUT_DOMAIN: &str = "\
+The record: for every input the model reads (DRL: its DRL inputs; GSSM/SSRA: its context features;
+MSRA: all 13 features), the range between the --tail-percent and 100 - --tail-percent quantiles of
+that input over every frame of the prepared sequences of the --events folders, plus the policy for
+an observation outside. Give the folders the model was trained on: the record says where the
+model has seen data. The model bytes and a stored default threshold are kept (format version 2).
+
+Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
+into its range first, so the model never extrapolates. Either way `riskctl score` writes a
+<model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
+bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
+
+Example:
+  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
+                           --events data/ngsim-us101 --policy clamp --out drl-guarded.rsk";
+
+/// Attach a model's training domain (the input ranges of its training data and the policy
+/// outside) to its blob.
+#[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_DOMAIN)]
+pub struct Args {
+    /// Model blob (`*.rsk`).
+    #[arg(long, value_name = "FILE")]
+    model: PathBuf,
+    /// Event folder of the model's training data (repeatable).
+    #[arg(long, value_name = "DIR", required = true)]
+    events: Vec<PathBuf>,
+    /// What scoring does outside the domain: flag-only or clamp.
+    #[arg(long, value_name = "POLICY", default_value = "flag-only", value_parser = parse_policy)]
+    policy: OutsidePolicy,
+    /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
+    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAIL)]
+    tail_percent: f64,
+    /// Output blob; must not be the input (write to a new file, then move it).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+}
+
+fn parse_policy(text: &str) -> Result<OutsidePolicy, String> {
+    OutsidePolicy::from_name(text).ok_or_else(|| format!("{text:?}: expected flag-only or clamp"))
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(0.0..50.0).contains(&args.tail_percent) {
+        bail!(
+            "--tail-percent {}: must be at least 0 and below 50",
+            args.tail_percent
+        );
+    }
+    let file = ModelFile::read(&args.model.display().to_string())?;
+    let model = file.blob()?.model;
+    refuse_overlaps(&args)?;
+    let mut sequences = Vec::new();
+    for dir in &args.events {
+        let folder = load_prepared(dir, &PrepareConfig::default())
+            .with_context(|| format!("event folder {}", dir.display()))?;
+        for note in folder.problem_notes() {
+            eprintln!("riskctl: {}: {note}", dir.display());
+        }
+        sequences.extend(folder.sequences);
+    }
+    let frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
+    let pairs = sequences
+        .iter()
+        .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
+    let domain = measure(&model, pairs, args.tail_percent / 100.0, args.policy)?;
+    let bytes = riskscore_train::export::with_training_domain(&file.bytes, domain.domain())?;
+    let summary = riskscore_train::export::inspect(&bytes)
+        .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
+    super::output::write_file_atomically(&args.out, &bytes)?;
+    println!(
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails), {} outside",
+        args.model.display(),
+        args.out.display(),
+        sequences.len(),
+        args.tail_percent,
+        args.policy.name()
+    );
+    print!("{summary}");
+    Ok(())
+}
+
+/// The output must not be the model, an --events folder's file or lie inside one.
+fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
+    super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)
+}

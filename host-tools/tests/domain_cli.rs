@@ -1,0 +1,274 @@
+//! The training-domain guard from the command line: `riskctl calibrate-domain` attaches the record
+//! (keeping the model and its threshold), `riskctl score` writes each guarded model's
+//! `<model>_in_domain` column, `riskctl evaluate --json` reports the share of frames outside, and
+//! the two count the same frames.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use scorer_core::model::{self, OutsidePolicy};
+
+const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
+
+fn riskctl(args: &[&str]) -> Output {
+    Command::new(RISKCTL)
+        .args(args)
+        .output()
+        .expect("run riskctl")
+}
+
+fn ok(o: Output) -> String {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn shipped(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../models")
+        .join(name)
+}
+
+fn simulate(dir: &Path, seed: &str) -> PathBuf {
+    let events = dir.join(format!("events-{seed}"));
+    ok(riskctl(&[
+        "simulate",
+        "--out",
+        events.to_str().unwrap(),
+        "--seed",
+        seed,
+        "--events",
+        "12",
+        "--mix",
+        "4,4,4",
+    ]));
+    events
+}
+
+fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) -> String {
+    ok(riskctl(&[
+        "calibrate-domain",
+        "--model",
+        model.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--tail-percent",
+        tail,
+        "--policy",
+        policy,
+        "--out",
+        out.to_str().unwrap(),
+    ]))
+}
+
+/// (frames, frames outside) of the column `DRL_in_domain` of `riskctl score --sequences`.
+fn score_flags(model: &Path, events: &Path, out: &Path) -> (u64, u64) {
+    ok(riskctl(&[
+        "score",
+        "--model",
+        model.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--sequences",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let mut reader = csv::Reader::from_path(out).unwrap();
+    let column = reader
+        .headers()
+        .unwrap()
+        .iter()
+        .position(|h| h == "DRL_in_domain")
+        .expect("an in_domain column");
+    let (mut frames, mut outside) = (0, 0);
+    for row in reader.records() {
+        frames += 1;
+        match &row.unwrap()[column] {
+            "1" => {}
+            "0" => outside += 1,
+            other => panic!("in_domain {other:?}"),
+        }
+    }
+    (frames, outside)
+}
+
+/// The `domain` entry of `riskctl evaluate --json` for DRL: (frames, outside, share).
+fn evaluate_domain(model: &Path, events: &Path) -> (u64, u64, f64) {
+    let text = ok(riskctl(&[
+        "evaluate",
+        "--model",
+        model.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--json",
+    ]));
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    // The metrics keep their schema; the domain is a new top-level key.
+    assert!(json["methods"][0]["A_ROC_90"].is_number() || json["methods"][0]["A_ROC_90"].is_null());
+    let domain = json["domain"].as_array().unwrap();
+    assert_eq!(domain.len(), 1, "only the guarded model: {json}");
+    let d = &domain[0];
+    assert_eq!(d["name"], "DRL");
+    (
+        d["frames"].as_u64().unwrap(),
+        d["outside"].as_u64().unwrap(),
+        d["outside_share"].as_f64().unwrap(),
+    )
+}
+
+#[test]
+fn calibrate_domain_attaches_the_record_and_keeps_model_and_threshold() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path(), "3");
+    let original = shipped("drl-default.rsk");
+    let out = dir.path().join("drl-guarded.rsk");
+    let text = calibrate(&original, &events, "0", "clamp", &out);
+    assert!(
+        text.contains("policy          clamp outside, 13 inputs bounded"),
+        "{text}"
+    );
+    let before = std::fs::read(&original).unwrap();
+    let after = std::fs::read(&out).unwrap();
+    let (old, new) = (
+        model::decode_blob(&before).unwrap(),
+        model::decode_blob(&after).unwrap(),
+    );
+    assert_eq!(new.model, old.model);
+    assert_eq!(new.meta.default_threshold, old.meta.default_threshold);
+    let domain = new.meta.training_domain.expect("a record");
+    assert_eq!(domain.policy, OutsidePolicy::Clamp);
+    assert_eq!(domain.len(), 13);
+    // Refreshing the record replaces it (one record, the new policy).
+    let again = dir.path().join("drl-again.rsk");
+    calibrate(&out, &events, "1", "flag-only", &again);
+    let bytes = std::fs::read(&again).unwrap();
+    let refreshed = model::decode_blob(&bytes).unwrap();
+    assert_eq!(
+        refreshed.meta.training_domain.unwrap().policy,
+        OutsidePolicy::FlagOnly
+    );
+    // inspect-model shows it.
+    let shown = ok(riskctl(&["inspect-model", again.to_str().unwrap()]));
+    assert!(
+        shown.contains("training domain") && shown.contains("flag-only"),
+        "{shown}"
+    );
+    // The output may not be the input, and bad arguments are refused before anything is written.
+    let same = riskctl(&[
+        "calibrate-domain",
+        "--model",
+        out.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!same.status.success());
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        after,
+        "the input is untouched"
+    );
+    for (flag, value) in [("--policy", "extrapolate"), ("--tail-percent", "50")] {
+        let bad = riskctl(&[
+            "calibrate-domain",
+            "--model",
+            original.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            flag,
+            value,
+            "--out",
+            dir.path().join("bad.rsk").to_str().unwrap(),
+        ]);
+        assert!(!bad.status.success(), "{flag} {value}");
+        assert!(!dir.path().join("bad.rsk").exists());
+    }
+}
+
+#[test]
+fn score_column_and_evaluate_share_count_the_same_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = simulate(dir.path(), "3");
+    let other = simulate(dir.path(), "4");
+    let drl = shipped("drl-default.rsk");
+    // Min/max of a folder: every one of its own frames is inside.
+    let own = dir.path().join("own.rsk");
+    calibrate(&drl, &train, "0", "flag-only", &own);
+    let (frames, outside) = score_flags(&own, &train, &dir.path().join("own.csv"));
+    assert!(frames > 100);
+    assert_eq!(outside, 0);
+    assert_eq!(evaluate_domain(&own, &train), (frames, 0, 0.0));
+    // 10 % tails: a good share of the same frames is outside, and score and evaluate agree.
+    let narrow = dir.path().join("narrow.rsk");
+    calibrate(&drl, &train, "10", "flag-only", &narrow);
+    let (frames, outside) = score_flags(&narrow, &train, &dir.path().join("narrow.csv"));
+    assert!(
+        outside > frames / 10 && outside < frames,
+        "{outside} of {frames}"
+    );
+    let (e_frames, e_outside, share) = evaluate_domain(&narrow, &train);
+    assert_eq!((e_frames, e_outside), (frames, outside));
+    assert!((share - 100.0 * outside as f64 / frames as f64).abs() < 1e-9);
+    // Another seed's frames lie partly outside the first seed's min/max.
+    let (_, other_outside) = score_flags(&own, &other, &dir.path().join("other.csv"));
+    assert!(other_outside > 0);
+    // The unguarded shipped model gets no column and no domain entry.
+    let plain = dir.path().join("plain.csv");
+    ok(riskctl(&[
+        "score",
+        "--model",
+        drl.to_str().unwrap(),
+        "--events",
+        train.to_str().unwrap(),
+        "--out",
+        plain.to_str().unwrap(),
+    ]));
+    let header = std::fs::read_to_string(&plain).unwrap();
+    assert!(!header.lines().next().unwrap().contains("in_domain"));
+}
+
+#[test]
+fn clamp_changes_only_the_scores_of_frames_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = simulate(dir.path(), "3");
+    let drl = shipped("drl-default.rsk");
+    let table = |model: &Path, name: &str| -> Vec<(String, String)> {
+        let out = dir.path().join(name);
+        ok(riskctl(&[
+            "score",
+            "--model",
+            model.to_str().unwrap(),
+            "--events",
+            train.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        let mut reader = csv::Reader::from_path(&out).unwrap();
+        let h = reader.headers().unwrap().clone();
+        let score = h.iter().position(|c| c == "DRL").unwrap();
+        let flag = h.iter().position(|c| c == "DRL_in_domain");
+        reader
+            .records()
+            .map(|r| {
+                let r = r.unwrap();
+                (
+                    r[score].to_owned(),
+                    flag.map_or("1".into(), |f| r[f].to_owned()),
+                )
+            })
+            .collect()
+    };
+    let clamp = dir.path().join("clamp.rsk");
+    calibrate(&drl, &train, "10", "clamp", &clamp);
+    let plain = table(&drl, "plain.csv");
+    let clamped = table(&clamp, "clamp.csv");
+    assert_eq!(plain.len(), clamped.len());
+    let mut changed = 0;
+    for ((p, _), (c, flag)) in plain.iter().zip(&clamped) {
+        if flag == "1" {
+            assert_eq!(p, c, "inside: the unguarded score");
+        } else if p != c {
+            changed += 1;
+        }
+    }
+    assert!(changed > 0, "clamping moved no score");
+}

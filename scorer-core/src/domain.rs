@@ -1,0 +1,137 @@
+//! The guard at the edge of the operating domain: whether an observation lies inside the range the
+//! model's training data covered, and the guarded score ([`ModelBlob::score_guarded`]).
+//!
+//! The domain ([`TrainingDomain`], record tag 2 of the blob) bounds the vector the model kind reads:
+//! the DRL inputs (schema 3) for DRL, the 13 features for MSRA and GSSM. An observation is inside
+//! when every bounded input `x` satisfies `lo <= x <= hi`; a NaN input is outside (it compares
+//! false). The first range, in record order, that an input leaves is reported for diagnostics. A
+//! blob without the record is inside everywhere and scores exactly as [`Model::score`].
+//!
+//! No allocation, no panic: a fixed 13-element copy of the inputs is clamped when the policy asks.
+use crate::encoding::drl_inputs;
+use crate::features::{features, Features};
+use crate::model::training_domain::{InputRange, OutsidePolicy, TrainingDomain};
+use crate::model::{Model, ModelBlob};
+use crate::observation::Observation;
+use crate::state::VehicleState;
+use crate::surrogates::surrogates;
+
+/// Every model kind reads 13 numbers (DRL inputs or features): the vector a domain bounds.
+pub type DomainInputs = Features;
+
+/// A score with what the guard says about the observation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guarded {
+    /// The score under the blob's policy (unchanged inside the domain).
+    pub score: f32,
+    /// True when every bounded input is inside its trained range (always for an unguarded blob).
+    pub in_domain: bool,
+    /// The input index of the first range (record order) the observation is outside of.
+    pub first_outside: Option<u8>,
+}
+
+impl InputRange {
+    /// `lo <= x <= hi`; false for NaN.
+    pub fn contains(&self, x: f32) -> bool {
+        x >= self.lo && x <= self.hi
+    }
+
+    /// `x` moved into `[lo, hi]`; NaN to the midpoint (it has no nearer end).
+    pub fn clamp(&self, x: f32) -> f32 {
+        if x < self.lo {
+            self.lo
+        } else if x > self.hi {
+            self.hi
+        } else if x.is_nan() {
+            // Halves first: `hi - lo` may overflow for ranges near f32::MAX.
+            self.lo * 0.5 + self.hi * 0.5
+        } else {
+            x
+        }
+    }
+
+    fn value(&self, inputs: &DomainInputs) -> f32 {
+        // An index past the vector cannot pass validation; read it as inside rather than panic.
+        inputs
+            .get(usize::from(self.input))
+            .copied()
+            .unwrap_or(self.lo)
+    }
+}
+
+impl TrainingDomain<'_> {
+    /// The input index of the first range `inputs` leaves, `None` when inside.
+    pub fn first_outside(&self, inputs: &DomainInputs) -> Option<u8> {
+        self.ranges()
+            .find(|r| !r.contains(r.value(inputs)))
+            .map(|r| r.input)
+    }
+
+    /// Moves every bounded input into its range (see [`InputRange::clamp`]).
+    pub fn clamp(&self, inputs: &mut DomainInputs) {
+        for r in self.ranges() {
+            if let Some(x) = inputs.get_mut(usize::from(r.input)) {
+                *x = r.clamp(*x);
+            }
+        }
+    }
+}
+
+impl Model<'_> {
+    /// The vector of `observation` that this kind reads and a training domain bounds.
+    pub fn domain_inputs<'o>(&self, observation: &'o Observation) -> &'o DomainInputs {
+        match self {
+            Self::DrlInt8(_) | Self::DrlF32(_) => &observation.drl_inputs,
+            Self::Msra(_) | Self::Gssm(_) => &observation.features,
+        }
+    }
+}
+
+impl ModelBlob<'_> {
+    /// The guarded score of an observation computed once ([`Observation::of`]). Inside the
+    /// domain (or without a record) the score is [`Model::score_observation`] bit for bit.
+    pub fn score_guarded(&self, observation: &Observation) -> Guarded {
+        let inputs = *self.model.domain_inputs(observation);
+        self.guard(inputs, |x| {
+            let mut o = *observation;
+            match self.model {
+                Model::DrlInt8(_) | Model::DrlF32(_) => o.drl_inputs = *x,
+                Model::Msra(_) | Model::Gssm(_) => o.features = *x,
+            }
+            self.model.score_observation(&o)
+        })
+    }
+
+    /// The guarded score of one pair, computing only what the model reads (the ECU's path); the
+    /// same bits as [`ModelBlob::score_guarded`] of [`Observation::of`] the pair.
+    pub fn score_pair_guarded(&self, ego: &VehicleState, partner: &VehicleState) -> Guarded {
+        match &self.model {
+            Model::DrlInt8(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0]),
+            Model::DrlF32(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0]),
+            Model::Msra(m) => {
+                let s = surrogates(ego, partner);
+                self.guard(features(ego, partner), |f| m.score(f, &s))
+            }
+            Model::Gssm(m) => self.guard(features(ego, partner), |f| m.score(f)),
+        }
+    }
+
+    fn guard(&self, mut inputs: DomainInputs, score: impl Fn(&DomainInputs) -> f32) -> Guarded {
+        let Some(domain) = &self.meta.training_domain else {
+            return Guarded {
+                score: score(&inputs),
+                in_domain: true,
+                first_outside: None,
+            };
+        };
+        let first_outside = domain.first_outside(&inputs);
+        if first_outside.is_some() && domain.policy == OutsidePolicy::Clamp {
+            domain.clamp(&mut inputs);
+        }
+        Guarded {
+            score: score(&inputs),
+            in_domain: first_outside.is_none(),
+            first_outside,
+        }
+    }
+}

@@ -1,0 +1,74 @@
+//! The worked example of docs/model-format.md (`R = 1.5 - 0.1 log_gap`) and version-2 blobs built
+//! around it: shared by the tests of the metadata records.
+#![allow(
+    dead_code,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+use scorer_core::mlp::{FloatLayer, FloatMlp};
+use scorer_core::model::{self, BoundedVec, Model, ModelBlob, ModelMeta, HEADER_LEN};
+
+const W: [u8; 4] = (-1.0f32).to_le_bytes();
+const B: [u8; 4] = 0.5f32.to_le_bytes();
+
+/// The worked example's model: one linear layer on `log_gap` (DRL input 8).
+pub fn example_model() -> Model<'static> {
+    let mut layers = BoundedVec::new();
+    layers
+        .push(FloatLayer {
+            out_dim: 1,
+            relu: false,
+            weights: &W,
+            bias: &B,
+        })
+        .unwrap();
+    Model::DrlF32(FloatMlp {
+        inputs: BoundedVec::from_slice(&[8]).unwrap(),
+        input_scale: BoundedVec::from_slice(&[0.1]).unwrap(),
+        input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
+        layers,
+    })
+}
+
+/// `blob` encoded (exactly [`model::encoded_blob_len`] bytes).
+pub fn encode(blob: &ModelBlob<'_>) -> Vec<u8> {
+    let mut out = vec![0u8; model::encoded_blob_len(blob).unwrap()];
+    let n = model::encode_blob(blob, &mut out).unwrap();
+    assert_eq!(n, out.len());
+    out
+}
+
+/// A version-2 blob of the example model whose payload is the model followed by `records`, with
+/// a correct length and CRC (so only the records can be at fault).
+pub fn blob_with_records(records: &[u8]) -> Vec<u8> {
+    let plain = encode(&ModelBlob {
+        model: example_model(),
+        meta: ModelMeta::default(),
+    });
+    let mut payload = plain[HEADER_LEN..].to_vec();
+    payload.extend_from_slice(records);
+    let mut blob = plain[..HEADER_LEN].to_vec();
+    blob[4] = 2;
+    blob[12..16].copy_from_slice(&(payload.len() as u32).to_le_bytes());
+    blob[16..20].copy_from_slice(&scorer_core::crc::crc32(&payload).to_le_bytes());
+    blob.extend_from_slice(&payload);
+    blob
+}
+
+/// Every prefix of `blob` is refused, and no single-bit flip makes decoding panic.
+pub fn assert_truncations_refused_and_flips_handled(blob: &[u8]) {
+    for n in 0..blob.len() {
+        assert!(model::decode_blob(&blob[..n]).is_err(), "prefix {n}");
+    }
+    for i in 0..blob.len() {
+        for bit in 0..8 {
+            let mut flipped = blob.to_vec();
+            flipped[i] ^= 1 << bit;
+            // Never a panic; the CRC catches every flip inside the payload.
+            let _ = model::decode_blob(&flipped);
+        }
+    }
+}
