@@ -24,5 +24,8 @@ fn default_data_set_is_byte_identical_to_main_before_the_domain_families() {
     eprintln!("default digest {d:#018x}");
     // Measured on main 9147974 (before the domain families) with `SimConfig::default()`:
     // seed 1, 310 events, mix 70,110,130.
-    assert_eq!(d, 0x6f50_8255_8368_ed2a, "the default simulated data set changed");
+    assert_eq!(
+        d, 0x6f50_8255_8368_ed2a,
+        "the default simulated data set changed"
+    );
 }

@@ -8,7 +8,7 @@ use crate::sim::world::{
     conflict_zone, Agent, Conflict, Driver, LatPlan, Path, Role, Seg, Trigger,
 };
 
-fn yield_role(rng: &mut ChaCha8Rng, hz: bool, blind_p: f64) -> Role {
+pub(super) fn yield_role(rng: &mut ChaCha8Rng, hz: bool, blind_p: f64) -> Role {
     if hz {
         Role::Yield {
             margin: u(rng, 0.3, 1.5),
@@ -44,7 +44,7 @@ fn set_conflict(a: &mut Agent, b: &mut Agent, zone: (f64, f64, f64, f64), ra: Ro
 
 /// A (right of way) and B (giving way, blind with probability `blind_p` when hazardous) meet at
 /// the crossing `zone`.
-fn priority_and_yielding(
+pub(super) fn priority_and_yielding(
     rng: &mut ChaCha8Rng,
     hz: bool,
     zone: (f64, f64, f64, f64),
@@ -65,7 +65,7 @@ fn priority_and_yielding(
 }
 
 /// A driver (desired speed `v` times a factor drawn from `factor`) who never swerves.
-fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> Driver {
+pub(super) fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> Driver {
     let mut d = driver(rng, hz, v, factor);
     d.swerve = None;
     d
@@ -73,7 +73,7 @@ fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> 
 
 /// A driver at about speed `v` who swerves towards `swerve_dir` (if it swerves) and, hazardous,
 /// may be distracted for 0.5-2 s starting `before` (a range) ahead of the time `around`.
-fn swerving_driver(
+pub(super) fn swerving_driver(
     rng: &mut ChaCha8Rng,
     hz: bool,
     v: f64,
