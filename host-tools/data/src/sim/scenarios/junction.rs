@@ -171,7 +171,8 @@ pub(super) fn signal_right_turn(
     let ad = swerving_driver(rng, hz, v_a, 1.0, (hold, (0.0, 2.0)));
     let mut bd = steady_driver(rng, hz, 1.0, (8.0, 14.0));
     bd.hold_until = hold;
-    let s_b0 = zone.2 - u(rng, 1.5, 3.0);
+    // The stop line is before the turn, not in it.
+    let s_b0 = zone.2.min(l_b) - u(rng, 1.5, 3.0);
     let (a, b) = (agent(pa, s_a0, v_a, av, ad), agent(pb, s_b0, 0.0, bv, bd));
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.35);
     (a, b, t_a + u(rng, 4.0, 7.0), ego_a)

@@ -8,55 +8,66 @@ use rand_chacha::ChaCha8Rng;
 use super::parts::{
     agent, distracted_until, driver, roles, scripted, sign, u, Built, Vehicle, CRUISE,
 };
-use crate::sim::world::{Driver, Path, Piece};
+use crate::sim::world::{Driver, FollowLaw, Path, Piece};
 
 /// Fastest queue speed (m/s): urban arterial traffic between red lights.
 const V_QUEUE: f64 = 15.0;
 
-/// A queue driver: the follower of the original families with a standstill gap of 1.5-4 m.
+/// A queue driver: the follower of the original families with a standstill gap of 1.5-4 m and
+/// the ACC following law (IDM alone brakes harder than queue drivers do when closing in on a
+/// standing queue end from 5-15 m/s).
 fn queue_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64) -> Driver {
     let mut d = driver(rng, hz, v.max(1.0), (1.0, 1.08));
+    d.law = FollowLaw::Acc;
     d.v0 = d.v0.min(V_QUEUE);
     d.s0 = u(rng, 1.5, 4.0);
     d.swerve = None;
     d
 }
 
-/// A leader moving through the queue until `horizon`: moves off at 0.6-1.5 m/s^2 to 2-12 m/s (or
-/// creeps at 0.5-1.5 m/s), brakes at 0.6-1.5 m/s^2 to a stop (or to a creep), waits, moves again.
-fn stop_and_go(rng: &mut ChaCha8Rng, t0: f64, horizon: f64) -> Vec<(f64, Piece)> {
+/// A vehicle moving through the queue from speed `v` until `horizon`: moves off at 0.6-1.5 m/s^2
+/// to 2-10 m/s (or creeps at 0.5-1.5 m/s) for 2-7 s, brakes at 0.6-1.5 m/s^2 to a stop (or, one
+/// time in five, to a crawl of 0.3-1 m/s), waits 2-6 s after coming to rest, moves off again.
+fn stop_and_go(rng: &mut ChaCha8Rng, v: f64, t0: f64, horizon: f64) -> Vec<(f64, Piece)> {
     let mut pieces = vec![(0.0, CRUISE)];
-    let mut t = t0;
+    let (mut t, mut v) = (t0, v);
     while t < horizon {
-        let creep = rng.random_bool(0.25);
-        let v_go = if creep {
+        let v_go = if rng.random_bool(0.25) {
             u(rng, 0.5, 1.5)
         } else {
-            u(rng, 2.0, 12.0)
+            u(rng, 2.0, 10.0)
         };
+        let (a, t_go) = (u(rng, 0.6, 1.5), u(rng, 2.0, 7.0));
         pieces.push((
             t,
             Piece::Accel {
-                a: u(rng, 0.6, 1.5),
+                a,
                 v_lo: 0.0,
                 v_hi: v_go,
             },
         ));
-        t += u(rng, 2.0, 7.0);
+        t += t_go;
+        v = if v < v_go {
+            (v + a * t_go).min(v_go)
+        } else {
+            v
+        };
         let v_stop = if rng.random_bool(0.2) {
             u(rng, 0.3, 1.0)
         } else {
             0.0
         };
+        let d = u(rng, 0.6, 1.5);
         pieces.push((
             t,
             Piece::Accel {
-                a: -u(rng, 0.6, 1.5),
+                a: -d,
                 v_lo: v_stop,
                 v_hi: f64::MAX,
             },
         ));
-        t += u(rng, 3.0, 8.0);
+        t += (v - v_stop).max(0.0) / d + u(rng, 2.0, 6.0);
+        v = v_stop.min(v);
     }
     pieces
 }
@@ -83,8 +94,8 @@ pub(super) fn signal_queue(
         let horizon = u(rng, 12.0, 22.0);
         let (v_f, v_l) = (u(rng, 0.0, 6.0), u(rng, 0.0, 6.0));
         let (t_f, t_l) = (u(rng, 0.5, 3.0), u(rng, 0.5, 3.0));
-        let f_pieces = stop_and_go(rng, t_f, horizon);
-        let l_pieces = stop_and_go(rng, t_l, horizon);
+        let f_pieces = stop_and_go(rng, v_f, t_f, horizon);
+        let l_pieces = stop_and_go(rng, v_l, t_l, horizon);
         let (fd, fs) = scripted(rng, v_f, f_pieces);
         let (ld, ls) = scripted(rng, v_l, l_pieces);
         let mut f = agent(road, 0.0, v_f, fv, fd);
@@ -133,7 +144,7 @@ pub(super) fn signal_queue(
         let gap0 = fd.s0 + v * fd.headway;
         let horizon = u(rng, 15.0, 25.0);
         let t_first = u(rng, 0.5, 3.0);
-        let pieces = stop_and_go(rng, t_first, horizon);
+        let pieces = stop_and_go(rng, v, t_first, horizon);
         finish(
             rng,
             lanes,
