@@ -1,7 +1,7 @@
 //! The operating-domain families: each produces its outcome classes by physics, stays in the
 //! speeds and geometry it advertises (docs/simulator.md), never shows an overlap before the impact
 //! frame, is deterministic per seed and family mix; and the `domain` mix covers the operating
-//! domain of docs/domain.md (speed bands, relative speeds, geometries).
+//! domain of issue #18 (speed bands, relative speeds, geometries; docs/simulator.md).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
