@@ -4,11 +4,12 @@
 //! the path of crossing traffic.
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use std::f64::consts::{FRAC_PI_2, PI};
 
-use super::crossing::{priority_and_yielding, steady_driver, swerving_driver};
+use super::crossing::{
+    left_turn_paths, priority_and_yielding, right_turn_paths, steady_driver, straight_crossing,
+    swerving_driver, JunctionPaths,
+};
 use super::parts::{agent, distraction, driver, roles, sign, u, Built, Vehicle};
-use crate::sim::world::{conflict_zone, Path, Seg};
 
 /// Speeds through a signalised junction on green (m/s): 30-60 km/h.
 const V_GREEN: (f64, f64) = (8.0, 17.0);
@@ -28,15 +29,9 @@ pub(super) fn signal_crossing(
     let v_a = u(rng, V_GREEN.0, V_GREEN.1);
     let v_b = u(rng, V_GREEN.0, V_GREEN.1);
     let t_a = u(rng, 6.0, 9.0);
-    let pa = Path::line(0.0, 0.0, 0.0);
-    let pb = Path::line(0.0, 0.0, alpha);
-    let zone = conflict_zone(
-        (&pa, av.dims.0, av.dims.1),
-        (&pb, bv.dims.0, bv.dims.1),
-        (-30.0, 30.0),
-        (-30.0, 30.0),
-    )
-    .unwrap_or((-5.0, 5.0, -5.0, 5.0));
+    let JunctionPaths {
+        a: pa, b: pb, zone, ..
+    } = straight_crossing(alpha, av, bv);
     let mut bd = driver(rng, hz, v_b, (1.0, 1.1));
     let waits = !hz && rng.random_bool(0.4);
     let (s_b0, v_b0, horizon) = if waits {
@@ -76,28 +71,9 @@ pub(super) fn signal_left_turn(
     let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.6);
     let radius = u(rng, 8.0, 16.0);
-    let l_b = 200.0;
-    let pb = Path::new(
-        l_b,
-        lane,
-        PI,
-        vec![
-            Seg::Line(l_b),
-            Seg::Arc {
-                len: radius * FRAC_PI_2,
-                kappa: 1.0 / radius,
-            },
-            Seg::Line(300.0),
-        ],
-    );
-    let pa = Path::line(0.0, 0.0, 0.0);
-    let zone = conflict_zone(
-        (&pa, av.dims.0, av.dims.1),
-        (&pb, bv.dims.0, bv.dims.1),
-        (-radius - 30.0, 20.0),
-        (l_b - 10.0, l_b + radius * FRAC_PI_2 + 20.0),
-    )
-    .unwrap_or((-radius, 0.0, l_b, l_b + radius * 1.5));
+    let JunctionPaths {
+        a: pa, b: pb, zone, ..
+    } = left_turn_paths(lane, radius, av, bv);
     let v_a = u(rng, V_GREEN.0, V_GREEN.1);
     let waits = rng.random_bool(if hz { 0.3 } else { 0.4 });
     let (v_b, s_b0, t_turn, hold) = if waits {
@@ -136,29 +112,12 @@ pub(super) fn signal_right_turn(
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.6, ego, partner);
     let radius = u(rng, 6.0, 12.0);
-    let l_b = 60.0;
-    let pb = Path::new(
-        0.0,
-        -radius - l_b,
-        FRAC_PI_2,
-        vec![
-            Seg::Line(l_b),
-            Seg::Arc {
-                len: radius * FRAC_PI_2,
-                kappa: -1.0 / radius,
-            },
-            Seg::Line(2000.0),
-        ],
-    );
-    let pa = Path::line(0.0, 0.0, 0.0);
-    let b_join = l_b + radius * FRAC_PI_2;
-    let zone = conflict_zone(
-        (&pa, av.dims.0, av.dims.1),
-        (&pb, bv.dims.0, bv.dims.1),
-        (-20.0, radius + 2.0),
-        (l_b - 10.0, b_join),
-    )
-    .unwrap_or((0.0, radius + 5.0, l_b, b_join + 5.0));
+    let JunctionPaths {
+        a: pa,
+        b: pb,
+        zone,
+        b_turn,
+    } = right_turn_paths(radius, av, bv);
     let v_a = u(rng, V_GREEN.0, V_GREEN.1);
     let hold = u(rng, 1.0, 3.0);
     let dt = if hz {
@@ -172,7 +131,7 @@ pub(super) fn signal_right_turn(
     let mut bd = steady_driver(rng, hz, 1.0, (8.0, 14.0));
     bd.hold_until = hold;
     // The stop line is before the turn, not in it.
-    let s_b0 = zone.2.min(l_b) - u(rng, 1.5, 3.0);
+    let s_b0 = zone.2.min(b_turn) - u(rng, 1.5, 3.0);
     let (a, b) = (agent(pa, s_a0, v_a, av, ad), agent(pb, s_b0, 0.0, bv, bd));
     let (a, b) = priority_and_yielding(rng, hz, zone, (a, b), 0.35);
     (a, b, t_a + u(rng, 4.0, 7.0), ego_a)
