@@ -230,7 +230,7 @@ fn junction_partners_cross_or_come_from_ahead() {
 
 #[test]
 fn roadside_objects_stand_beside_a_straight_lane_and_benign_passes_keep_3_m() {
-    let sims = run("roadside_object", 10, 60);
+    let sims = run("roadside_object", 10, 150);
     check_outcomes_and_no_early_overlap(&sims);
     let mut ego_speeds = Vec::new();
     for s in &sims {

@@ -35,7 +35,15 @@ pub(super) fn roadside_object(
     };
     let v = u(rng, V_EGO.0, V_EGO.1);
     let side = if rng.random_bool(0.75) { -1.0 } else { 1.0 };
-    let half_widths = 0.5 * (ego.dims.1 + object.dims.1);
+    let heading = if object.class == VehicleClass::Object {
+        u(rng, -0.5, 0.5)
+    } else {
+        sign(rng) * u(rng, 0.0, 0.05)
+    };
+    // Half the ego's width plus the object's lateral half extent as it stands (rotated box).
+    let (length, width) = object.dims;
+    let half_widths =
+        0.5 * ego.dims.1 + 0.5 * (length * heading.sin().abs() + width * heading.cos());
     let lateral = if hz {
         half_widths - u(rng, 0.2, 1.2)
     } else {
@@ -59,11 +67,6 @@ pub(super) fn roadside_object(
     let e = agent(Path::line(0.0, 0.0, 0.0), 0.0, v, ego, ed);
     let (od, script) = scripted(rng, 0.1, vec![(0.0, CRUISE)]);
     let x_o = v * t_pass + 0.5 * (ego.dims.0 + object.dims.0);
-    let heading = if object.class == VehicleClass::Object {
-        u(rng, -0.5, 0.5)
-    } else {
-        sign(rng) * u(rng, 0.0, 0.05)
-    };
     let mut o = agent(
         Path::line(x_o, side * lateral, heading),
         0.0,
