@@ -3,7 +3,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
 
 /// Simulate crash, near-crash and safe two-vehicle events at 10 Hz and write an event folder.
 ///
@@ -12,8 +12,11 @@ use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
 /// opposite-direction scenarios. The label is read off the trajectories (crash = first box
 /// overlap; near-crash = minimum gap < 2 m with an evasive manoeuvre; safe = |acc| <= 1.5 m/s^2
 /// throughout); scenarios are drawn until the requested mix is reached. Output: events.csv,
-/// frames.csv (docs/event-format.md) and scenarios.csv (per-event provenance). Same seed, same
-/// files, whatever the thread count. See docs/simulator.md.
+/// frames.csv (docs/event-format.md) and scenarios.csv (per-event provenance, with the family of
+/// every event). --families chooses the scenario families: `default` (the original nine; the
+/// shipped models were trained on it), `domain` (adds motorway traffic at 25-50 m/s, queues and
+/// turns at signalised junctions, roadside objects) or a list. Same seed and families, same files,
+/// whatever the thread count. See docs/simulator.md.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Output folder (created; existing event files are replaced).
@@ -30,6 +33,16 @@ pub struct Args {
     /// Relative weights crash,near_crash,safe of the mix.
     #[arg(long, value_name = "C,N,S", default_value = "70,110,130")]
     pub mix: Mix,
+    /// Scenario families and their weights: `default` (the original nine families), `domain`
+    /// (the original families at half weight plus motorway_approach, motorway_cut_in,
+    /// signal_queue, signal_crossing, signal_left_turn, signal_right_turn, roadside_object), or a
+    /// list of family names, each optionally weighted (`motorway_approach:2,signal_queue`).
+    #[arg(
+        long,
+        value_name = "default|domain|NAME[:W],...",
+        default_value = "default"
+    )]
+    pub families: FamilyMix,
     /// Worker threads (0 = all cores; at most 4 per core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -40,6 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
         events: args.events,
         mix: args.mix,
+        families: args.families,
         threads: args.threads,
         progress: std::io::stderr().is_terminal(),
         ..SimConfig::default()
@@ -48,11 +62,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let s = simulate_to_dir(&args.out, &cfg)
         .with_context(|| format!("simulating into {}", args.out.display()))?;
     println!(
-        "wrote {} events ({}) with {} frames to {}",
+        "wrote {} events ({}) with {} frames to {} (families: {})",
         s.counts.total(),
         s.counts,
         s.frames,
-        args.out.display()
+        args.out.display(),
+        cfg.families
     );
     println!(
         "{:.1} s, {:.0} events/s; {} scenarios drawn",

@@ -24,10 +24,12 @@ use crate::events::{
     KindCounts,
 };
 
+mod family_mix;
 pub mod label;
 pub mod scenarios;
 mod world;
 
+pub use family_mix::{FamilyMix, FamilyMixError};
 pub use label::{classify, LabelRules, Measures, Rejection, Verdict};
 pub use scenarios::{Family, VehicleClass};
 
@@ -145,6 +147,8 @@ pub struct SimConfig {
     /// Number of events to produce.
     pub events: usize,
     pub mix: Mix,
+    /// Scenario families drawn and their weights (`default` keeps the original data set).
+    pub families: FamilyMix,
     pub rules: LabelRules,
     /// Worker threads; 0 = rayon's default (`RAYON_NUM_THREADS`, else the available parallelism).
     pub threads: usize,
@@ -158,6 +162,7 @@ impl Default for SimConfig {
             seed: 1,
             events: 310,
             mix: Mix::default(),
+            families: FamilyMix::default(),
             rules: LabelRules::default(),
             threads: 0,
             progress: false,
@@ -357,20 +362,21 @@ fn run(scn: Scenario, place: &Placement) -> (Vec<Frame>, bool) {
     (frames, touched)
 }
 
-/// Simulates event number `index` of a run with `seed`, drawing scenarios until one ends as
-/// `kind` (hazardous parameter regime for crash/near-crash, benign for safe).
+/// Simulates event number `index` of a run with `seed`, drawing scenarios of the `families` mix
+/// until one ends as `kind` (hazardous parameter regime for crash/near-crash, benign for safe).
 pub fn simulate_one(
     seed: u64,
     index: usize,
     kind: EventKind,
     rules: &LabelRules,
+    families: &FamilyMix,
 ) -> Result<SimulatedEvent, SimError> {
     const MAX_ATTEMPTS: u64 = 20_000;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(index as u64);
     let mut rejections: BTreeMap<&'static str, u64> = BTreeMap::new();
     for attempt in 1..=MAX_ATTEMPTS {
-        let scn = scenarios::draw(&mut rng, kind.is_conflict());
+        let scn = scenarios::draw(&mut rng, kind.is_conflict(), families);
         let (family, classes) = (scn.family, scn.classes);
         let place = Placement::draw(&mut rng);
         let (mut frames, touched) = run(scn, &place);
@@ -507,7 +513,7 @@ fn generate(
                 .into_par_iter()
                 .with_min_len(CHUNK)
                 .map(|i| {
-                    let r = simulate_one(cfg.seed, i, kinds[i], &cfg.rules);
+                    let r = simulate_one(cfg.seed, i, kinds[i], &cfg.rules, &cfg.families);
                     bar.inc(1);
                     (i, r)
                 })

@@ -8,7 +8,7 @@ use crate::sim::world::{
     conflict_zone, Agent, Conflict, Driver, LatPlan, Path, Role, Seg, Trigger,
 };
 
-fn yield_role(rng: &mut ChaCha8Rng, hz: bool, blind_p: f64) -> Role {
+pub(super) fn yield_role(rng: &mut ChaCha8Rng, hz: bool, blind_p: f64) -> Role {
     if hz {
         Role::Yield {
             margin: u(rng, 0.3, 1.5),
@@ -44,7 +44,7 @@ fn set_conflict(a: &mut Agent, b: &mut Agent, zone: (f64, f64, f64, f64), ra: Ro
 
 /// A (right of way) and B (giving way, blind with probability `blind_p` when hazardous) meet at
 /// the crossing `zone`.
-fn priority_and_yielding(
+pub(super) fn priority_and_yielding(
     rng: &mut ChaCha8Rng,
     hz: bool,
     zone: (f64, f64, f64, f64),
@@ -65,7 +65,7 @@ fn priority_and_yielding(
 }
 
 /// A driver (desired speed `v` times a factor drawn from `factor`) who never swerves.
-fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> Driver {
+pub(super) fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> Driver {
     let mut d = driver(rng, hz, v, factor);
     d.swerve = None;
     d
@@ -73,7 +73,7 @@ fn steady_driver(rng: &mut ChaCha8Rng, hz: bool, v: f64, factor: (f64, f64)) -> 
 
 /// A driver at about speed `v` who swerves towards `swerve_dir` (if it swerves) and, hazardous,
 /// may be distracted for 0.5-2 s starting `before` (a range) ahead of the time `around`.
-fn swerving_driver(
+pub(super) fn swerving_driver(
     rng: &mut ChaCha8Rng,
     hz: bool,
     v: f64,
@@ -90,13 +90,17 @@ fn swerving_driver(
     d
 }
 
-/// Straight crossing paths at an intersection: A has right of way, B gives way (or fails to).
-pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Vehicle) -> Built {
-    let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
-    let alpha = sign(rng) * u(rng, 60.0, 120.0).to_radians();
-    let v_a = u(rng, 8.0, 20.0);
-    let v_b = u(rng, 5.0, 15.0);
-    let t_a = u(rng, 6.0, 9.0);
+/// The two paths of a junction manoeuvre (A straight along the x axis from the origin's west, B
+/// as the manoeuvre has it), their conflict zone, and where B's turn begins on its path.
+pub(super) struct JunctionPaths {
+    pub a: Path,
+    pub b: Path,
+    pub zone: (f64, f64, f64, f64),
+    pub b_turn: f64,
+}
+
+/// Straight paths crossing at the origin at angle `alpha`.
+pub(super) fn straight_crossing(alpha: f64, av: &Vehicle, bv: &Vehicle) -> JunctionPaths {
     let pa = Path::line(0.0, 0.0, 0.0);
     let pb = Path::line(0.0, 0.0, alpha);
     let zone = conflict_zone(
@@ -106,6 +110,92 @@ pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &
         (-30.0, 30.0),
     )
     .unwrap_or((-5.0, 5.0, -5.0, 5.0));
+    JunctionPaths {
+        a: pa,
+        b: pb,
+        zone,
+        b_turn: 0.0,
+    }
+}
+
+/// B oncoming in the lane `lane` to A's left turns left (radius `radius`) across A's lane.
+pub(super) fn left_turn_paths(lane: f64, radius: f64, av: &Vehicle, bv: &Vehicle) -> JunctionPaths {
+    let l_b = 200.0;
+    let x_t = 0.0;
+    let pb = Path::new(
+        x_t + l_b,
+        lane,
+        PI,
+        vec![
+            Seg::Line(l_b),
+            Seg::Arc {
+                len: radius * FRAC_PI_2,
+                kappa: 1.0 / radius,
+            },
+            Seg::Line(300.0),
+        ],
+    );
+    let pa = Path::line(0.0, 0.0, 0.0);
+    let zone = conflict_zone(
+        (&pa, av.dims.0, av.dims.1),
+        (&pb, bv.dims.0, bv.dims.1),
+        (x_t - radius - 30.0, x_t + 20.0),
+        (l_b - 10.0, l_b + radius * FRAC_PI_2 + 20.0),
+    )
+    .unwrap_or((-radius, 0.0, l_b, l_b + radius * 1.5));
+    JunctionPaths {
+        a: pa,
+        b: pb,
+        zone,
+        b_turn: l_b,
+    }
+}
+
+/// B from a side road on A's right turns right (radius `radius`) into A's lane. Only the turn
+/// itself is the conflict zone; once B is in A's lane, A follows it.
+pub(super) fn right_turn_paths(radius: f64, av: &Vehicle, bv: &Vehicle) -> JunctionPaths {
+    let l_b = 60.0;
+    let x_t = 0.0;
+    let pb = Path::new(
+        x_t,
+        -radius - l_b,
+        FRAC_PI_2,
+        vec![
+            Seg::Line(l_b),
+            Seg::Arc {
+                len: radius * FRAC_PI_2,
+                kappa: -1.0 / radius,
+            },
+            Seg::Line(2000.0),
+        ],
+    );
+    let pa = Path::line(0.0, 0.0, 0.0);
+    let b_join = l_b + radius * FRAC_PI_2;
+    let zone = conflict_zone(
+        (&pa, av.dims.0, av.dims.1),
+        (&pb, bv.dims.0, bv.dims.1),
+        (x_t - 20.0, x_t + radius + 2.0),
+        (l_b - 10.0, b_join),
+    )
+    .unwrap_or((x_t, x_t + radius + 5.0, l_b, b_join + 5.0));
+    JunctionPaths {
+        a: pa,
+        b: pb,
+        zone,
+        b_turn: l_b,
+    }
+}
+
+/// Straight crossing paths at an intersection: A has right of way, B gives way (or fails to).
+pub(super) fn crossing(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Vehicle) -> Built {
+    let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
+    let alpha = sign(rng) * u(rng, 60.0, 120.0).to_radians();
+    let v_a = u(rng, 8.0, 20.0);
+    let v_b = u(rng, 5.0, 15.0);
+    let t_a = u(rng, 6.0, 9.0);
+    let JunctionPaths {
+        a: pa, b: pb, zone, ..
+    } = straight_crossing(alpha, av, bv);
     let standing = !hz && rng.random_bool(0.35);
     let (s_b0, v_b0, t_end) = if standing {
         (zone.2 - 1.5, 0.0, t_a + u(rng, 5.0, 8.0))
@@ -141,29 +231,12 @@ pub(super) fn left_turn_across(
     let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.75);
     let radius = u(rng, 6.0, 14.0);
-    let l_b = 200.0;
-    let x_t = 0.0;
-    let pb = Path::new(
-        x_t + l_b,
-        lane,
-        PI,
-        vec![
-            Seg::Line(l_b),
-            Seg::Arc {
-                len: radius * FRAC_PI_2,
-                kappa: 1.0 / radius,
-            },
-            Seg::Line(300.0),
-        ],
-    );
-    let pa = Path::line(0.0, 0.0, 0.0);
-    let zone = conflict_zone(
-        (&pa, av.dims.0, av.dims.1),
-        (&pb, bv.dims.0, bv.dims.1),
-        (x_t - radius - 30.0, x_t + 20.0),
-        (l_b - 10.0, l_b + radius * FRAC_PI_2 + 20.0),
-    )
-    .unwrap_or((-radius, 0.0, l_b, l_b + radius * 1.5));
+    let JunctionPaths {
+        a: pa,
+        b: pb,
+        zone,
+        b_turn: l_b,
+    } = left_turn_paths(lane, radius, av, bv);
     let v_b = u(rng, 7.0, 14.0);
     let t_t = u(rng, 6.0, 8.5);
     let s_b0 = l_b - v_b * t_t;
@@ -227,31 +300,9 @@ pub(super) fn turn_into_path(
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.6, ego, partner);
     let radius = u(rng, 6.0, 12.0);
-    let l_b = 60.0;
-    let x_t = 0.0;
-    let pb = Path::new(
-        x_t,
-        -radius - l_b,
-        FRAC_PI_2,
-        vec![
-            Seg::Line(l_b),
-            Seg::Arc {
-                len: radius * FRAC_PI_2,
-                kappa: -1.0 / radius,
-            },
-            Seg::Line(2000.0),
-        ],
-    );
-    let pa = Path::line(0.0, 0.0, 0.0);
-    // Only the turn itself is the crossing zone; once B is in A's lane, A follows it.
-    let b_join = l_b + radius * FRAC_PI_2;
-    let zone = conflict_zone(
-        (&pa, av.dims.0, av.dims.1),
-        (&pb, bv.dims.0, bv.dims.1),
-        (x_t - 20.0, x_t + radius + 2.0),
-        (l_b - 10.0, b_join),
-    )
-    .unwrap_or((x_t, x_t + radius + 5.0, l_b, b_join + 5.0));
+    let JunctionPaths {
+        a: pa, b: pb, zone, ..
+    } = right_turn_paths(radius, av, bv);
     let v_a = u(rng, 10.0, 20.0);
     let standing = rng.random_bool(0.4);
     let t_b = u(rng, 5.5, 8.0);

@@ -7,15 +7,25 @@
 //! shapes the draw: what actually happened is decided afterwards from the trajectories.
 mod crossing;
 mod following;
+mod junction;
+mod motorway;
 mod parts;
+mod queue;
+mod roadside;
 
 use rand_chacha::ChaCha8Rng;
 
+use super::family_mix::FamilyMix;
 use super::world::Agent;
 use crossing::{crossing, left_turn_across, opposite_drift, turn_into_path};
 use following::{cut_in, lane_change, lead_braking, merge, stopped_ahead};
-use parts::{u, vehicle};
+use junction::{signal_crossing, signal_left_turn, signal_right_turn};
+use motorway::{motorway_approach, motorway_cut_in};
+pub(crate) use parts::u as uniform;
+use parts::vehicle;
 pub use parts::{Vehicle, VehicleClass};
+use queue::signal_queue;
+use roadside::roadside_object;
 
 /// The scenario families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,10 +39,17 @@ pub enum Family {
     LeftTurnAcross,
     TurnIntoPath,
     OppositeDrift,
+    MotorwayApproach,
+    MotorwayCutIn,
+    SignalQueue,
+    SignalCrossing,
+    SignalLeftTurn,
+    SignalRightTurn,
+    RoadsideObject,
 }
 
 impl Family {
-    pub const ALL: [Family; 9] = [
+    pub const ALL: [Family; 16] = [
         Family::LeadBraking,
         Family::StoppedAhead,
         Family::CutIn,
@@ -42,6 +59,13 @@ impl Family {
         Family::LeftTurnAcross,
         Family::TurnIntoPath,
         Family::OppositeDrift,
+        Family::MotorwayApproach,
+        Family::MotorwayCutIn,
+        Family::SignalQueue,
+        Family::SignalCrossing,
+        Family::SignalLeftTurn,
+        Family::SignalRightTurn,
+        Family::RoadsideObject,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -54,21 +78,18 @@ impl Family {
             Family::LeftTurnAcross => "left_turn_across",
             Family::TurnIntoPath => "turn_into_path",
             Family::OppositeDrift => "opposite_drift",
+            Family::MotorwayApproach => "motorway_approach",
+            Family::MotorwayCutIn => "motorway_cut_in",
+            Family::SignalQueue => "signal_queue",
+            Family::SignalCrossing => "signal_crossing",
+            Family::SignalLeftTurn => "signal_left_turn",
+            Family::SignalRightTurn => "signal_right_turn",
+            Family::RoadsideObject => "roadside_object",
         }
     }
-    /// Relative frequency of the family in draws.
-    fn weight(self) -> f64 {
-        match self {
-            Family::LeadBraking => 0.20,
-            Family::StoppedAhead => 0.10,
-            Family::CutIn => 0.13,
-            Family::LaneChange => 0.11,
-            Family::Merge => 0.08,
-            Family::Crossing => 0.13,
-            Family::LeftTurnAcross => 0.09,
-            Family::TurnIntoPath => 0.06,
-            Family::OppositeDrift => 0.10,
-        }
+    /// The family called `name` (as written in `scenarios.csv`).
+    pub fn from_name(name: &str) -> Option<Family> {
+        Family::ALL.into_iter().find(|f| f.name() == name)
     }
 }
 
@@ -81,18 +102,9 @@ pub(crate) struct Scenario {
     pub horizon: f64,
 }
 
-/// Draws one scenario of a random family.
-pub(crate) fn draw(rng: &mut ChaCha8Rng, hazardous: bool) -> Scenario {
-    let total: f64 = Family::ALL.iter().map(|f| f.weight()).sum();
-    let mut r = u(rng, 0.0, total);
-    let mut family = Family::LeadBraking;
-    for f in Family::ALL {
-        if r < f.weight() {
-            family = f;
-            break;
-        }
-        r -= f.weight();
-    }
+/// Draws one scenario of a family drawn from `mix`.
+pub(crate) fn draw(rng: &mut ChaCha8Rng, hazardous: bool, mix: &FamilyMix) -> Scenario {
+    let family = mix.draw(rng);
     build(family, rng, hazardous)
 }
 
@@ -100,6 +112,7 @@ pub(crate) fn draw(rng: &mut ChaCha8Rng, hazardous: bool) -> Scenario {
 pub(crate) fn build(family: Family, rng: &mut ChaCha8Rng, hz: bool) -> Scenario {
     let ego = vehicle(rng, true);
     let partner = vehicle(rng, false);
+    let mut classes = [ego.class, partner.class];
     // `first` is the role the family calls A; the ego takes it with probability `p_ego_first`.
     let (a, b, horizon, p_ego_first) = match family {
         Family::LeadBraking => lead_braking(rng, hz, &ego, &partner),
@@ -111,13 +124,20 @@ pub(crate) fn build(family: Family, rng: &mut ChaCha8Rng, hz: bool) -> Scenario 
         Family::LeftTurnAcross => left_turn_across(rng, hz, &ego, &partner),
         Family::TurnIntoPath => turn_into_path(rng, hz, &ego, &partner),
         Family::OppositeDrift => opposite_drift(rng, hz, &ego, &partner),
+        Family::MotorwayApproach => motorway_approach(rng, hz, &ego, &partner),
+        Family::MotorwayCutIn => motorway_cut_in(rng, hz, &ego, &partner),
+        Family::SignalQueue => signal_queue(rng, hz, &ego, &partner),
+        Family::SignalCrossing => signal_crossing(rng, hz, &ego, &partner),
+        Family::SignalLeftTurn => signal_left_turn(rng, hz, &ego, &partner),
+        Family::SignalRightTurn => signal_right_turn(rng, hz, &ego, &partner),
+        Family::RoadsideObject => {
+            let (built, object) = roadside_object(rng, hz, &ego, &partner);
+            classes[1] = object;
+            built
+        }
     };
     // Role assignment was drawn inside: `a` is the ego when the flag says so.
-    let (agents, classes) = if p_ego_first {
-        ([a, b], [ego.class, partner.class])
-    } else {
-        ([b, a], [ego.class, partner.class])
-    };
+    let agents = if p_ego_first { [a, b] } else { [b, a] };
     Scenario {
         family,
         agents,

@@ -3,7 +3,7 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::sim::world::{Agent, Driver, Path, Piece, Script, Swerve};
+use crate::sim::world::{Agent, Driver, FollowLaw, Path, Piece, Script, Swerve};
 
 /// Vehicle classes and their dimension/performance ranges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -12,6 +12,8 @@ pub enum VehicleClass {
     Van,
     Truck,
     Motorbike,
+    /// A stationary roadside object that is not a vehicle (debris, a barrier element, a bin).
+    Object,
 }
 
 impl VehicleClass {
@@ -21,6 +23,7 @@ impl VehicleClass {
             VehicleClass::Van => "van",
             VehicleClass::Truck => "truck",
             VehicleClass::Motorbike => "motorbike",
+            VehicleClass::Object => "object",
         }
     }
 }
@@ -33,7 +36,7 @@ pub struct Vehicle {
     pub limits: (f64, f64),
 }
 
-pub(super) fn u(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+pub(crate) fn u(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     rng.random_range(lo..hi)
 }
 
@@ -75,7 +78,7 @@ pub(super) fn vehicle(rng: &mut ChaCha8Rng, ego: bool) -> Vehicle {
             (u(rng, 7.5, 16.5), u(rng, 2.40, 2.55)),
             (u(rng, 4.5, 6.5), 1.2),
         ),
-        VehicleClass::Motorbike => (
+        VehicleClass::Motorbike | VehicleClass::Object => (
             (u(rng, 1.9, 2.3), u(rng, 0.70, 0.95)),
             (u(rng, 5.5, 9.0), 4.0),
         ),
@@ -143,6 +146,9 @@ pub(super) fn driver(rng: &mut ChaCha8Rng, hazardous: bool, v: f64, factor: (f64
         swerve,
         hold_until: 0.0,
         reactive: true,
+        sight: 200.0,
+        law: FollowLaw::Idm,
+        pass_intent: None,
     }
 }
 
@@ -192,4 +198,10 @@ pub(super) fn distraction(
         let start = (around - u(rng, before.0, before.1)).max(0.3);
         d.distraction.push((start, start + u(rng, dur.0, dur.1)));
     }
+}
+
+/// The driver has been looking away since before the recording began and looks back at `until`
+/// (s): nothing seen earlier is acted on, so the first reaction comes `tau` after `until`.
+pub(super) fn distracted_until(d: &mut Driver, until: f64) {
+    d.distraction.push((f64::NEG_INFINITY, until));
 }

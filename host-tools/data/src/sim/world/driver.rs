@@ -84,6 +84,25 @@ pub(crate) struct Driver {
     pub hold_until: f64,
     /// False for scripted vehicles that do not react to the partner vehicle.
     pub reactive: bool,
+    /// How far ahead (m) the driver takes the partner into account as a leader.
+    pub sight: f64,
+    /// The car-following law used behind a leader.
+    pub law: FollowLaw,
+    /// Passing intent: while a planned lane change is pending or under way, a leader in the lane
+    /// is not braked for as long as its time to contact stays above this (s); below it the driver
+    /// gives up on passing and follows the law (a late or aborted lane change becomes late braking).
+    pub pass_intent: Option<f64>,
+}
+
+/// Car-following law behind a leader.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FollowLaw {
+    /// The intelligent driver model.
+    Idm,
+    /// Treiber and Kesting's ACC model ("Traffic Flow Dynamics", 2013, sec. 11.3.7): IDM blended
+    /// with the constant-acceleration heuristic (coolness 0.99), which does not over-brake when a
+    /// fast approach to slower traffic begins far ahead (motorway speed differences of 10-25 m/s).
+    Acc,
 }
 
 impl Driver {
@@ -98,6 +117,32 @@ impl Driver {
         self.free(v) - self.a_max * (s_star / gap.max(0.1)).powi(2)
     }
 
+    /// The following law's acceleration behind a leader at `gap` with speed `v_lead` and
+    /// acceleration `a_lead`.
+    pub(super) fn follow(&self, v: f64, v_lead: f64, a_lead: f64, gap: f64) -> f64 {
+        let a_idm = self.idm(v, v_lead, gap);
+        match self.law {
+            FollowLaw::Idm => a_idm,
+            FollowLaw::Acc => {
+                const COOLNESS: f64 = 0.99;
+                let s = gap.max(0.1);
+                let a_l = a_lead.min(self.a_max);
+                let dv = v - v_lead;
+                let a_cah = if v_lead * dv <= -2.0 * s * a_l {
+                    v * v * a_l / (v_lead * v_lead - 2.0 * s * a_l).max(1e-6)
+                } else {
+                    a_l - dv.max(0.0).powi(2) / (2.0 * s)
+                };
+                if a_idm >= a_cah {
+                    a_idm
+                } else {
+                    (1.0 - COOLNESS) * a_idm
+                        + COOLNESS * (a_cah + self.b_comf * ((a_idm - a_cah) / self.b_comf).tanh())
+                }
+            }
+        }
+    }
+
     pub(super) fn free(&self, v: f64) -> f64 {
         self.a_max * (1.0 - (v / self.v0.max(0.1)).powi(4))
     }
@@ -107,6 +152,9 @@ impl Driver {
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Trigger {
     Time(f64),
+    /// When the perceived time to contact with a leader in the lane falls to this (s): a driver
+    /// who starts to pass when the slower vehicle ahead gets that close.
+    Ttc(f64),
 }
 
 /// A planned lane change (or drift): lateral move of `dd` m lasting `duration` s at the current

@@ -12,7 +12,7 @@ mod path;
 
 use conflict::{conflict_stop, CrossingProgress};
 pub(crate) use conflict::{conflict_zone, Conflict, Role};
-pub(crate) use driver::{Driver, LatPlan, Piece, Script, Snap, Swerve, Trigger};
+pub(crate) use driver::{Driver, FollowLaw, LatPlan, Piece, Script, Snap, Swerve, Trigger};
 pub(crate) use path::{lateral_len, Lateral, Path, Seg};
 use scorer_core::VehicleState;
 
@@ -41,6 +41,9 @@ pub(crate) struct Agent {
     held_cmd: f64,
     swerved: bool,
     crossing: CrossingProgress,
+    /// Time to contact (s) with the leader in the lane as last perceived (infinite: none, or not
+    /// closing in); it fires [`Trigger::Ttc`] plans.
+    seen_ttc: f64,
 }
 
 impl Agent {
@@ -69,6 +72,7 @@ impl Agent {
             held_cmd: 0.0,
             swerved: false,
             crossing: CrossingProgress::default(),
+            seen_ttc: f64::INFINITY,
         }
     }
 
@@ -110,13 +114,24 @@ impl Agent {
     fn start_lat(&mut self, dd: f64, len: f64) {
         self.lat.start(self.s, dd, len);
     }
+
+    /// A planned lane change has not started yet, or is still under way (and not abandoned).
+    fn lane_change_pending(&self) -> bool {
+        self.plans.iter().any(|p| {
+            !p.aborted
+                && match p.started {
+                    None => true,
+                    Some((_, _, s_end)) => self.s < s_end,
+                }
+        })
+    }
 }
 
 /// The partner vehicle as a leader in my corridor: (bumper gap, its speed along my heading).
 fn corridor_leader(me: &Agent, ms: &Snap, partner: &Agent, os: &Snap) -> Option<(f64, f64)> {
     let (dx, dy) = (os.x - ms.x, os.y - ms.y);
     let long = dx * ms.hx + dy * ms.hy;
-    if long <= 0.0 || long > 200.0 {
+    if long <= 0.0 || long > me.driver.sight {
         return None;
     }
     let (ovx, ovy) = (os.speed * os.hx, os.speed * os.hy);
@@ -187,10 +202,18 @@ impl World {
             return me.held_cmd;
         }
         let mut threat = 0.0_f64;
+        let mut seen_ttc = f64::INFINITY;
         if let Some((gap, v_lead)) = corridor_leader(me, &ms, partner, &os) {
-            let ai = drv.idm(ms.v, v_lead, gap);
-            threat = threat.max(-ai);
-            a = a.min(ai);
+            if ms.v > v_lead {
+                seen_ttc = gap / (ms.v - v_lead);
+            }
+            let passing =
+                drv.pass_intent.is_some_and(|alarm| seen_ttc > alarm) && me.lane_change_pending();
+            if !passing {
+                let ai = drv.follow(ms.v, v_lead, os.a, gap);
+                threat = threat.max(-ai);
+                a = a.min(ai);
+            }
         }
         let mut stop_at = None;
         if let Some(c) = me.conflict {
@@ -239,6 +262,7 @@ impl World {
             }
         }
         self.agents[i].held_cmd = a;
+        self.agents[i].seen_ttc = seen_ttc;
         a
     }
 
@@ -257,6 +281,7 @@ impl World {
                     None => {
                         let go = match plan.trigger {
                             Trigger::Time(t0) => t >= t0,
+                            Trigger::Ttc(ttc) => agent.seen_ttc <= ttc,
                         };
                         if go {
                             let before = agent.lat.target();
@@ -338,6 +363,9 @@ mod tests {
                 swerve: None,
                 hold_until: 0.0,
                 reactive: true,
+                sight: 200.0,
+                law: FollowLaw::Idm,
+                pass_intent: None,
             };
             let f = Agent::new(
                 Path::line(0.0, 0.0, 0.0),

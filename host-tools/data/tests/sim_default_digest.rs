@@ -1,0 +1,31 @@
+//! The default simulated data set is pinned: the shipped models, model cards, demo and the CI
+//! learning tests were made from it, so adding families or mixes must not change one byte of it.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+use riskscore_data::sim::{simulate_to_dir, SimConfig, SCENARIOS_FILE};
+
+/// FNV-1a over the bytes of each file in turn (a fixed, dependency-free digest).
+fn digest(dir: &std::path::Path) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for f in ["events.csv", "frames.csv", SCENARIOS_FILE] {
+        for b in std::fs::read(dir.join(f)).unwrap() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+#[test]
+fn default_data_set_is_byte_identical_to_main_before_the_domain_families() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = SimConfig::default();
+    simulate_to_dir(dir.path(), &cfg).unwrap();
+    let d = digest(dir.path());
+    eprintln!("default digest {d:#018x}");
+    // Measured on main 9147974 (before the domain families) with `SimConfig::default()`:
+    // seed 1, 310 events, mix 70,110,130.
+    assert_eq!(
+        d, 0x6f50_8255_8368_ed2a,
+        "the default simulated data set changed"
+    );
+}
