@@ -294,21 +294,9 @@ fn band(v: f32) -> &'static str {
     }
 }
 
-/// Geometry at the endpoint from relative heading and position.
+/// Geometry at the endpoint, by the one classifier every tool uses.
 fn geometry(f: &Frame) -> &'static str {
-    let rel = relative_heading(f);
-    let (_, lat) = relative_position(f);
-    if rel > 150.0 {
-        "oncoming"
-    } else if (45.0..=135.0).contains(&rel) {
-        "crossing"
-    } else if rel < 30.0 && lat.abs() < 2.0 {
-        "following"
-    } else if rel < 30.0 {
-        "adjacent"
-    } else {
-        "turning"
-    }
+    scorer_core::interaction::geometry(&f.ego, &f.partner).map_or("none", |g| g.as_str())
 }
 
 #[test]
