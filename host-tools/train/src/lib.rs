@@ -10,6 +10,7 @@
 //! - [`export`]: writing and inspecting model blobs and checkpoints.
 //! - [`final_models`]: DRL and MSRA trained on all data, quantised and written (`riskctl train`).
 //! - [`transfer`]: the transfer benchmark (train on one data set, test on another).
+//! - [`domains`]: the domain benchmark (slices by speed, geometry and source; hold one out).
 pub mod comparisons;
 pub mod export;
 pub mod final_models;
@@ -17,4 +18,5 @@ pub mod gssm;
 pub mod nn;
 pub mod quantize;
 pub mod train;
+pub mod domains;
 pub mod transfer;
