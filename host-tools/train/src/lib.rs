@@ -12,11 +12,11 @@
 //! - [`transfer`]: the transfer benchmark (train on one data set, test on another).
 //! - [`domains`]: the domain benchmark (slices by speed, geometry and source; hold one out).
 pub mod comparisons;
+pub mod domains;
 pub mod export;
 pub mod final_models;
 pub mod gssm;
 pub mod nn;
 pub mod quantize;
 pub mod train;
-pub mod domains;
 pub mod transfer;

@@ -17,7 +17,10 @@ pub const SHARE_KEY: &str = "real_safe_above_recall_90";
 pub enum RoundOutcome {
     Ran(Box<RoundResult>),
     /// The slice (or the training data without it) is empty in the data given: reported, not run.
-    NoData { round: Round, counts: SliceCounts },
+    NoData {
+        round: Round,
+        counts: SliceCounts,
+    },
 }
 
 impl RoundOutcome {
@@ -86,7 +89,7 @@ impl DomainsResult {
                         let mut v = r.report.to_json();
                         if let Some(Value::Array(rows)) = v.get_mut("methods") {
                             for row in rows {
-                                let name = row["method"].as_str().unwrap_or_default().to_owned();
+                                let name = row["name"].as_str().unwrap_or_default().to_owned();
                                 row[SHARE_KEY] = share_json(&summarise(&r.shares, &name));
                             }
                         }
@@ -160,7 +163,15 @@ impl DomainsResult {
             .collect();
         bundle.add_csv("shares.csv", |w| {
             let mut w = csv::Writer::from_writer(w);
-            w.write_record(["round", "seed", "fold", "method", "threshold", "above", "of"])?;
+            w.write_record([
+                "round",
+                "seed",
+                "fold",
+                "method",
+                "threshold",
+                "above",
+                "of",
+            ])?;
             for r in &ran {
                 for s in &r.shares {
                     w.write_record([

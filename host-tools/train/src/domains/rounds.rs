@@ -271,7 +271,12 @@ pub fn slice_counts(round: &Round, data: &DomainData) -> SliceCounts {
         .filter(|l| !round.contains(&l.domain))
         .map(|l| &l.sequence);
     SliceCounts {
-        test: KindCounts::of(sim_in.iter().map(|l| &l.sequence).chain(real_in.iter().copied())),
+        test: KindCounts::of(
+            sim_in
+                .iter()
+                .map(|l| &l.sequence)
+                .chain(real_in.iter().copied()),
+        ),
         real_safe: real_in.iter().filter(|s| !s.kind.is_conflict()).count(),
         train: KindCounts::of(train),
     }
@@ -415,9 +420,21 @@ mod tests {
         assert_eq!(ids(&split.test), ["b1", "b3", "USA_US101-2/1"]);
         assert_eq!(split.real_from, 2);
         let counts = slice_counts(&round, &data);
-        assert_eq!(counts.test, KindCounts { conflicts: 1, safe: 3 });
+        assert_eq!(
+            counts.test,
+            KindCounts {
+                conflicts: 1,
+                safe: 3
+            }
+        );
         assert_eq!(counts.real_safe, 2);
-        assert_eq!(counts.train, KindCounts { conflicts: 2, safe: 5 });
+        assert_eq!(
+            counts.train,
+            KindCounts {
+                conflicts: 2,
+                safe: 5
+            }
+        );
         assert!(counts.is_small() && counts.is_runnable());
     }
 
@@ -473,7 +490,10 @@ mod tests {
         );
         assert_eq!(Round::all().len(), 11);
         let err = Round::parse_list("speed-35-50,speed-90-99").unwrap_err();
-        assert!(err.contains("`speed-90-99`") && err.contains("geometry-oncoming"), "{err}");
+        assert!(
+            err.contains("`speed-90-99`") && err.contains("geometry-oncoming"),
+            "{err}"
+        );
         assert_eq!(Round::parse_list("speed-0-5,speed-0-5").unwrap().len(), 1);
     }
 }

@@ -58,9 +58,7 @@ pub fn share_of(run: &MethodRun, real: Range<usize>, seed: u64, fold: usize) -> 
         .filter(|s| !s.kind.is_conflict())
         .collect();
     let above = threshold.map_or(0, |t| {
-        safe.iter()
-            .filter(|s| first_alert(s, t).is_some())
-            .count()
+        safe.iter().filter(|s| first_alert(s, t).is_some()).count()
     });
     ShareRun {
         seed,
@@ -96,8 +94,8 @@ pub fn summarise(runs: &[ShareRun], method: &str) -> ShareSummary {
 mod tests {
     use super::*;
     use riskscore_data::events::EventKind;
-    use riskscore_eval::protocol::{ScoredFrame, ScoredSequence};
     use riskscore_eval::evaluate_scored;
+    use riskscore_eval::protocol::{ScoredFrame, ScoredSequence};
 
     fn seq(id: &str, kind: EventKind, scores: &[f32]) -> ScoredSequence {
         let endpoint = kind.is_conflict().then_some(scores.len() as f64 - 1.0);

@@ -124,11 +124,7 @@ mod tests {
     }
 
     fn frame(time: f64, ego: VehicleState, partner: VehicleState) -> Frame {
-        Frame {
-            time,
-            ego,
-            partner,
-        }
+        Frame { time, ego, partner }
     }
 
     #[test]
@@ -152,9 +148,21 @@ mod tests {
         // The ego slows from 40 to 20 m/s while closing to 3 m, then falls back: the closest
         // frame (t = 1) has the ego at 20 m/s, so the band is 15-25, not 35-50.
         let mut s = Sequence::new("a/1", EventKind::Safe, None);
-        s.frames.push(frame(0.0, car(0.0, 0.0, 40.0, 0.0), car(30.0, 0.0, 20.0, 0.0)));
-        s.frames.push(frame(1.0, car(0.0, 0.0, 20.0, 0.0), car(7.5, 0.0, 20.0, 0.0)));
-        s.frames.push(frame(2.0, car(0.0, 0.0, 45.0, 0.0), car(20.0, 0.0, 20.0, 0.0)));
+        s.frames.push(frame(
+            0.0,
+            car(0.0, 0.0, 40.0, 0.0),
+            car(30.0, 0.0, 20.0, 0.0),
+        ));
+        s.frames.push(frame(
+            1.0,
+            car(0.0, 0.0, 20.0, 0.0),
+            car(7.5, 0.0, 20.0, 0.0),
+        ));
+        s.frames.push(frame(
+            2.0,
+            car(0.0, 0.0, 45.0, 0.0),
+            car(20.0, 0.0, 20.0, 0.0),
+        ));
         assert_eq!(reference_frame(&s).map(|f| f.time), Some(1.0));
         let d = domain_of(&s, Source::RealFreeway);
         assert_eq!(d.band, Some(SpeedBand::Arterial));
@@ -166,9 +174,21 @@ mod tests {
         // Closest approach comes after the endpoint (t = 2), but the endpoint frame (t = 1) rules:
         // a crossing partner, ego at 40 m/s.
         let mut s = Sequence::new("7", EventKind::Crash, Some(1.0));
-        s.frames.push(frame(0.0, car(0.0, 0.0, 30.0, 0.0), car(40.0, -20.0, 0.0, 10.0)));
-        s.frames.push(frame(1.0, car(0.0, 0.0, 40.0, 0.0), car(20.0, -10.0, 0.0, 10.0)));
-        s.frames.push(frame(2.0, car(0.0, 0.0, 10.0, 0.0), car(6.0, 0.0, 10.0, 0.0)));
+        s.frames.push(frame(
+            0.0,
+            car(0.0, 0.0, 30.0, 0.0),
+            car(40.0, -20.0, 0.0, 10.0),
+        ));
+        s.frames.push(frame(
+            1.0,
+            car(0.0, 0.0, 40.0, 0.0),
+            car(20.0, -10.0, 0.0, 10.0),
+        ));
+        s.frames.push(frame(
+            2.0,
+            car(0.0, 0.0, 10.0, 0.0),
+            car(6.0, 0.0, 10.0, 0.0),
+        ));
         assert_eq!(reference_frame(&s).map(|f| f.time), Some(1.0));
         let d = domain_of(&s, Source::Sim);
         assert_eq!(d.band, Some(SpeedBand::Motorway));
@@ -178,10 +198,20 @@ mod tests {
     #[test]
     fn oncoming_and_adjacent_geometry_and_no_frames() {
         let mut s = Sequence::new("b/2", EventKind::Safe, None);
-        s.frames.push(frame(0.0, car(0.0, 0.0, 10.0, 0.0), car(40.0, 3.5, -10.0, 0.0)));
-        assert_eq!(domain_of(&s, Source::Sim).geometry, Some(Geometry::Oncoming));
+        s.frames.push(frame(
+            0.0,
+            car(0.0, 0.0, 10.0, 0.0),
+            car(40.0, 3.5, -10.0, 0.0),
+        ));
+        assert_eq!(
+            domain_of(&s, Source::Sim).geometry,
+            Some(Geometry::Oncoming)
+        );
         s.frames[0].partner = car(10.0, 3.5, 10.0, 0.0);
-        assert_eq!(domain_of(&s, Source::Sim).geometry, Some(Geometry::Adjacent));
+        assert_eq!(
+            domain_of(&s, Source::Sim).geometry,
+            Some(Geometry::Adjacent)
+        );
         let empty = Sequence::new("c/3", EventKind::Safe, None);
         let d = domain_of(&empty, Source::Sim);
         assert_eq!((d.band, d.geometry), (None, None));
