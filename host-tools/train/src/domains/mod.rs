@@ -71,3 +71,40 @@ pub fn run(
     }
     Ok(DomainsResult { rounds: outcomes })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::train::Progress;
+
+    fn run_city(empty: EmptyRound) -> Result<DomainsResult, DomainsError> {
+        let rounds = Round::parse_list("city-peachtree").unwrap();
+        let options = TransferOptions {
+            folds: 2,
+            seeds: 1,
+            progress: Progress::Hidden,
+        };
+        let data = DomainData::default();
+        run(
+            &rounds,
+            &data,
+            &TrainConfig::default(),
+            &GssmConfig::default(),
+            &options,
+            empty,
+        )
+    }
+
+    #[test]
+    fn an_empty_round_fails_when_named_and_reads_no_data_by_default() {
+        let err = run_city(EmptyRound::Fail).unwrap_err().to_string();
+        assert!(err.contains("round `city-peachtree`"), "{err}");
+        assert!(err.contains("0 conflicts and 0 safe sequences"), "{err}");
+        let result = run_city(EmptyRound::ReportNoData).unwrap();
+        assert!(matches!(&result.rounds[..], [RoundOutcome::NoData { .. }]));
+        let json = result.to_json();
+        assert_eq!(json["rounds"][0]["status"], "no data");
+        assert_eq!(json["rounds"][0]["slice"]["real_safe"], 0);
+        assert!(result.to_markdown().contains("**No data**"));
+    }
+}
