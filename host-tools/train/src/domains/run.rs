@@ -36,7 +36,7 @@ pub enum DomainsError {
     Round {
         round: String,
         #[source]
-        source: TransferError,
+        source: Box<TransferError>,
     },
 }
 
@@ -104,7 +104,7 @@ pub fn run_round(
     }
     let round_err = |source| DomainsError::Round {
         round: round.name.clone(),
-        source,
+        source: Box::new(source),
     };
     let mut folds = Vec::new();
     let mut shares = Vec::new();
