@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use host_tools::demo::{
     acceptance_claims, default_real_data, msra_input_names, print_claims, write_transfer_report,
-    REAL_DATA,
+    Claim, REAL_DATA,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
@@ -81,20 +81,21 @@ impl SimArgs {
 
     /// The training and test sequences: the folders given, or simulated into `out`.
     fn load(&self, out: &Path) -> anyhow::Result<(Vec<Sequence>, Vec<Sequence>)> {
+        let sim = |given: Option<&Path>, folder: &str, seed: u64, mix: Mix| {
+            folder_or_simulate(given, &out.join(folder), seed, mix, self.events)
+        };
         Ok((
-            folder_or_simulate(
+            sim(
                 self.train_events.as_deref(),
-                &out.join("train-data"),
+                "train-data",
                 self.train_seed,
                 self.train_mix,
-                self.events,
             )?,
-            folder_or_simulate(
+            sim(
                 self.test_events.as_deref(),
-                &out.join("test-data"),
+                "test-data",
                 self.test_seed,
                 self.test_mix,
-                self.events,
             )?,
         ))
     }
@@ -334,7 +335,42 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
         print!("{}", result.to_markdown());
+        print_round_claims(&result, &msra_input_names(&config));
     }
     eprintln!("riskctl: report in {}", report_dir.display());
     Ok(())
+}
+
+/// The claims per run round: the acceptance claims of the transfer benchmark, and DRL's
+/// real safe sequences above its 90 %-recall threshold against TAdv's (fewer or as many).
+fn print_round_claims(result: &domains::DomainsResult, msra_inputs: &[String]) {
+    for outcome in &result.rounds {
+        let domains::RoundOutcome::Ran(r) = outcome else {
+            continue;
+        };
+        let share = |method: &str| {
+            domains::share::summarise(&r.shares, method)
+                .percent
+                .map(|p| p.mean)
+        };
+        let (drl, tadv) = (share("DRL"), share("TAdv"));
+        let mut claims = acceptance_claims(&r.report, msra_inputs);
+        claims.push(Claim {
+            method: "DRL".into(),
+            baseline: "TAdv".into(),
+            metric: "real safe above 90 %-recall threshold % (<=)".into(),
+            method_mean: drl,
+            baseline_mean: tadv,
+            holds: matches!((drl, tadv), (Some(d), Some(t)) if d <= t),
+        });
+        let small = if r.counts.is_small() {
+            " [small slice: read with care]"
+        } else {
+            ""
+        };
+        print_claims(
+            &format!("Claims, round `{}` (fold means){small}:", r.round.name),
+            &claims,
+        );
+    }
 }
