@@ -355,14 +355,17 @@ fn print_round_claims(result: &domains::DomainsResult, msra_inputs: &[String]) {
         };
         let (drl, tadv) = (share("DRL"), share("TAdv"));
         let mut claims = acceptance_claims(&r.report, msra_inputs);
-        claims.push(Claim {
-            method: "DRL".into(),
-            baseline: "TAdv".into(),
-            metric: "real safe above 90 %-recall threshold % (<=)".into(),
-            method_mean: drl,
-            baseline_mean: tadv,
-            holds: matches!((drl, tadv), (Some(d), Some(t)) if d <= t),
-        });
+        // Without real safe test sequences there is no share to compare.
+        if drl.is_some() || tadv.is_some() {
+            claims.push(Claim {
+                method: "DRL".into(),
+                baseline: "TAdv".into(),
+                metric: "real safe above 90 %-recall threshold % (<=)".into(),
+                method_mean: drl,
+                baseline_mean: tadv,
+                holds: matches!((drl, tadv), (Some(d), Some(t)) if d <= t),
+            });
+        }
         let small = if r.counts.is_small() {
             " [small slice: read with care]"
         } else {
