@@ -1,13 +1,14 @@
-//! `riskctl benchmark`: benchmarks that train and test on different data (today: `transfer`).
+//! `riskctl benchmark`: benchmarks that train and test on different data (`transfer`, `domains`).
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
     acceptance_claims, default_real_data, msra_input_names, print_claims, write_transfer_report,
-    REAL_DATA,
+    Claim, REAL_DATA,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
 use riskscore_train::transfer::{self, TransferData, TransferOptions};
@@ -30,14 +31,23 @@ pub enum Command {
     /// sequences (normal driving) and aligned to SSRA. Every model is scored through its exported
     /// blob, and the table (and --json) has the schema of `riskctl evaluate`.
     Transfer(TransferArgs),
+    /// Hold one slice of the operating domain out per round: train without it, test on it.
+    ///
+    /// Every sequence is sliced by the ego's speed band (0-5, 5-15, 15-25, 25-35, 35-50 m/s) and
+    /// the interaction geometry (following, adjacent, crossing, oncoming) at its endpoint (a
+    /// conflict) or closest approach (a safe sequence), and by its source (simulation, --real
+    /// freeway, --real-city by the city of its event id). Per round, seed and fold: train = the
+    /// training simulation + real sequences outside the slice; test = the test simulation + real
+    /// sequences inside it (a real-city slice's conflicts: the test simulation's conflicts in the
+    /// geometry and speed cells the city's sequences occupy). Models train as in `benchmark
+    /// transfer`; one `riskctl evaluate` table (and JSON row group) per round, plus per method the
+    /// share of real safe sequences above its 90 %-recall threshold. See docs/evaluation.md.
+    Domains(DomainsArgs),
 }
 
+/// The training and test simulations (given as folders or simulated into --out).
 #[derive(clap::Args, Debug)]
-pub struct TransferArgs {
-    /// Real normal-driving event folder, split by scenario file (default: the committed extract
-    /// data/ngsim-us101-safe).
-    #[arg(long, value_name = "DIR")]
-    pub real: Option<PathBuf>,
+pub struct SimArgs {
     /// Training event folder; default: simulate --train-seed / --train-mix / --events.
     #[arg(long, value_name = "DIR")]
     pub train_events: Option<PathBuf>,
@@ -59,6 +69,41 @@ pub struct TransferArgs {
     /// Events per simulated folder.
     #[arg(long, default_value_t = 310)]
     pub events: usize,
+}
+
+impl SimArgs {
+    fn event_folders(&self) -> [(&'static str, Option<&Path>); 2] {
+        [
+            ("--train-events", self.train_events.as_deref()),
+            ("--test-events", self.test_events.as_deref()),
+        ]
+    }
+
+    /// The training and test sequences: the folders given, or simulated into `out`.
+    fn load(&self, out: &Path) -> anyhow::Result<(Vec<Sequence>, Vec<Sequence>)> {
+        let sim = |given: Option<&Path>, folder: &str, seed: u64, mix: Mix| {
+            folder_or_simulate(given, &out.join(folder), seed, mix, self.events)
+        };
+        Ok((
+            sim(
+                self.train_events.as_deref(),
+                "train-data",
+                self.train_seed,
+                self.train_mix,
+            )?,
+            sim(
+                self.test_events.as_deref(),
+                "test-data",
+                self.test_seed,
+                self.test_mix,
+            )?,
+        ))
+    }
+}
+
+/// Folds, seeds and the training configurations.
+#[derive(clap::Args, Debug)]
+pub struct TrainingArgs {
     /// Groups of real scenario files (one held out per fold).
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
@@ -71,6 +116,46 @@ pub struct TransferArgs {
     /// GSSM configuration TOML (default: built-in, docs/gssm.md).
     #[arg(long = "gssm-config", value_name = "FILE")]
     pub gssm_config: Option<PathBuf>,
+}
+
+impl TrainingArgs {
+    fn files(&self) -> [(&'static str, Option<&Path>); 2] {
+        [
+            ("--config", self.config.as_deref()),
+            ("--gssm-config", self.gssm_config.as_deref()),
+        ]
+    }
+
+    fn configs(&self) -> anyhow::Result<(TrainConfig, GssmConfig)> {
+        Ok((
+            TrainConfig::load_or_default(self.config.as_deref(), None)?,
+            GssmConfig::load_or_default(self.gssm_config.as_deref())?,
+        ))
+    }
+
+    fn options(&self, quiet: bool) -> TransferOptions {
+        TransferOptions {
+            folds: self.folds,
+            seeds: self.seeds,
+            progress: if quiet {
+                Progress::Hidden
+            } else {
+                Progress::Bar
+            },
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct TransferArgs {
+    /// Real normal-driving event folder, split by scenario file (default: the committed extract
+    /// data/ngsim-us101-safe).
+    #[arg(long, value_name = "DIR")]
+    pub real: Option<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
+    #[command(flatten)]
+    pub training: TrainingArgs,
     /// Output folder: simulated data (train-data/, test-data/) and the report (report/).
     #[arg(long, default_value = "out/transfer")]
     pub out: PathBuf,
@@ -82,9 +167,41 @@ pub struct TransferArgs {
     pub quiet: bool,
 }
 
+#[derive(clap::Args, Debug)]
+pub struct DomainsArgs {
+    /// Real freeway normal-driving folder (default: the committed extract data/ngsim-us101-safe).
+    #[arg(long, value_name = "DIR")]
+    pub real: Option<PathBuf>,
+    /// Real city normal-driving folder (repeatable); each sequence's city comes from its event id
+    /// (`USA_Lanker-...`: Lankershim, `USA_Peach-...`: Peachtree).
+    #[arg(long = "real-city", value_name = "DIR")]
+    pub real_city: Vec<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
+    #[command(flatten)]
+    pub training: TrainingArgs,
+    /// Rounds to run, comma-separated (see --list-rounds). A named round whose slice is empty is
+    /// an error; of the default rounds, such a round is reported as "no data".
+    #[arg(long, value_name = "NAME,...")]
+    pub rounds: Option<String>,
+    /// List the rounds (name and held-out slice; `*` marks the defaults) and exit.
+    #[arg(long)]
+    pub list_rounds: bool,
+    /// Output folder: simulated data (train-data/, test-data/) and the report (report/).
+    #[arg(long, default_value = "out/domains")]
+    pub out: PathBuf,
+    /// Print the report as JSON (per round the schema of `riskctl evaluate --json`).
+    #[arg(long)]
+    pub json: bool,
+    /// No progress output.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Transfer(a) => run_transfer(a),
+        Command::Domains(a) => run_domains(a),
     }
 }
 
@@ -111,42 +228,32 @@ fn folder_or_simulate(
     Ok(super::load_prepared(&dir)?.sequences)
 }
 
-fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
-    super::output::refuse_inputs_of(
-        &[
-            ("--real", a.real.as_deref()),
-            ("--train-events", a.train_events.as_deref()),
-            ("--test-events", a.test_events.as_deref()),
-        ],
-        &[
-            ("--config", a.config.as_deref()),
-            ("--gssm-config", a.gssm_config.as_deref()),
-        ],
-        &[("--out", &a.out)],
-    )?;
-    let config = TrainConfig::load_or_default(a.config.as_deref(), None)?;
-    let gssm_config = GssmConfig::load_or_default(a.gssm_config.as_deref())?;
-    let real_dir = match a.real.clone().or_else(default_real_data) {
-        Some(d) => d,
+/// The real freeway folder: the one given, else the committed extract.
+fn real_freeway_dir(given: Option<&Path>) -> anyhow::Result<PathBuf> {
+    match given.map(Path::to_path_buf).or_else(default_real_data) {
+        Some(d) => Ok(d),
         None => anyhow::bail!(
             "no real recordings: pass --real DIR (the default {REAL_DATA} was not found)"
         ),
-    };
+    }
+}
+
+fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
+    super::output::refuse_inputs_of(
+        &[
+            [("--real", a.real.as_deref())].as_slice(),
+            &a.sim.event_folders(),
+        ]
+        .concat(),
+        &a.training.files(),
+        &[("--out", &a.out)],
+    )?;
+    let (config, gssm_config) = a.training.configs()?;
+    let real_dir = real_freeway_dir(a.real.as_deref())?;
+    let (train_sim, test_sim) = a.sim.load(&a.out)?;
     let data = TransferData {
-        train_sim: folder_or_simulate(
-            a.train_events.as_deref(),
-            &a.out.join("train-data"),
-            a.train_seed,
-            a.train_mix,
-            a.events,
-        )?,
-        test_sim: folder_or_simulate(
-            a.test_events.as_deref(),
-            &a.out.join("test-data"),
-            a.test_seed,
-            a.test_mix,
-            a.events,
-        )?,
+        train_sim,
+        test_sim,
         real: super::load_prepared(&real_dir)?.sequences,
     };
     eprintln!(
@@ -154,15 +261,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         real_dir.display(),
         data.real.len()
     );
-    let options = TransferOptions {
-        folds: a.folds,
-        seeds: a.seeds,
-        progress: if a.quiet {
-            Progress::Hidden
-        } else {
-            Progress::Bar
-        },
-    };
+    let options = a.training.options(a.quiet);
     let result = transfer::run(&data, &config, &gssm_config, &options)?;
     write_transfer_report(&a.out.join("report"), &result)?;
     if a.json {
@@ -180,4 +279,101 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     );
     eprintln!("riskctl: report in {}", a.out.join("report").display());
     Ok(())
+}
+
+fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
+    if a.list_rounds {
+        let defaults = Round::defaults();
+        for round in Round::all() {
+            let mark = if defaults.contains(&round) { "*" } else { " " };
+            println!("{mark} {:<20} {round}", round.name);
+        }
+        return Ok(());
+    }
+    let (rounds, empty) = match a.rounds.as_deref() {
+        Some(list) => (
+            Round::parse_list(list).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?,
+            EmptyRound::Fail,
+        ),
+        None => (Round::defaults(), EmptyRound::ReportNoData),
+    };
+    let mut event_folders = vec![("--real", a.real.as_deref())];
+    event_folders.extend(
+        a.real_city
+            .iter()
+            .map(|d| ("--real-city", Some(d.as_path()))),
+    );
+    event_folders.extend(a.sim.event_folders());
+    super::output::refuse_inputs_of(&event_folders, &a.training.files(), &[("--out", &a.out)])?;
+    let (config, gssm_config) = a.training.configs()?;
+    let real_dir = real_freeway_dir(a.real.as_deref())?;
+    let real_freeway = super::load_prepared(&real_dir)?.sequences;
+    let mut real_city = Vec::new();
+    for dir in &a.real_city {
+        real_city.extend(super::load_prepared(dir)?.sequences);
+    }
+    eprintln!(
+        "riskctl: real freeway {} ({} sequences), real city {} sequences from {} folder(s)",
+        real_dir.display(),
+        real_freeway.len(),
+        real_city.len(),
+        a.real_city.len()
+    );
+    let (train_sim, test_sim) = a.sim.load(&a.out)?;
+    let data = DomainData::new(train_sim, test_sim, real_freeway, real_city);
+    let result = domains::run(
+        &rounds,
+        &data,
+        &config,
+        &gssm_config,
+        &a.training.options(a.quiet),
+        empty,
+    )?;
+    let report_dir = a.out.join("report");
+    result.bundle()?.write_to(&report_dir)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&result.to_json())?);
+    } else {
+        print!("{}", result.to_markdown());
+        print_round_claims(&result, &msra_input_names(&config));
+    }
+    eprintln!("riskctl: report in {}", report_dir.display());
+    Ok(())
+}
+
+/// The claims per run round: the acceptance claims of the transfer benchmark, and DRL's
+/// real safe sequences above its 90 %-recall threshold against TAdv's (fewer or as many).
+fn print_round_claims(result: &domains::DomainsResult, msra_inputs: &[String]) {
+    for outcome in &result.rounds {
+        let domains::RoundOutcome::Ran(r) = outcome else {
+            continue;
+        };
+        let share = |method: &str| {
+            domains::share::summarise(&r.shares, method)
+                .percent
+                .map(|p| p.mean)
+        };
+        let (drl, tadv) = (share("DRL"), share("TAdv"));
+        let mut claims = acceptance_claims(&r.report, msra_inputs);
+        // Without real safe test sequences there is no share to compare.
+        if drl.is_some() || tadv.is_some() {
+            claims.push(Claim {
+                method: "DRL".into(),
+                baseline: "TAdv".into(),
+                metric: "real safe above 90 %-recall threshold % (<=)".into(),
+                method_mean: drl,
+                baseline_mean: tadv,
+                holds: matches!((drl, tadv), (Some(d), Some(t)) if d <= t),
+            });
+        }
+        let small = if r.counts.is_small() {
+            " [small slice: read with care]"
+        } else {
+            ""
+        };
+        print_claims(
+            &format!("Claims, round `{}` (fold means){small}:", r.round.name),
+            &claims,
+        );
+    }
 }

@@ -10,7 +10,9 @@
 //! - [`export`]: writing and inspecting model blobs and checkpoints.
 //! - [`final_models`]: DRL and MSRA trained on all data, quantised and written (`riskctl train`).
 //! - [`transfer`]: the transfer benchmark (train on one data set, test on another).
+//! - [`domains`]: the domain benchmark (slices by speed, geometry and source; hold one out).
 pub mod comparisons;
+pub mod domains;
 pub mod export;
 pub mod final_models;
 pub mod gssm;

@@ -20,7 +20,7 @@ use crate::gssm::{self, GssmConfig, GssmError};
 use crate::train::cv::{self, CvError, CvOptions};
 use crate::train::{Progress, TrainConfig};
 use riskscore_data::events::Sequence;
-use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
+use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult, MethodRun};
 
 /// What the benchmark trains and tests on.
 #[derive(Clone, Debug)]
@@ -82,7 +82,7 @@ pub struct TransferResult {
 pub use riskscore_data::events::fold_group as scenario_of;
 
 /// Deal the scenario files of `real` into `folds` groups, shuffled by `seed`.
-fn scenario_groups(real: &[Sequence], folds: usize, seed: u64) -> Vec<Vec<String>> {
+pub fn scenario_groups(real: &[Sequence], folds: usize, seed: u64) -> Vec<Vec<String>> {
     let mut names: Vec<String> = real
         .iter()
         .map(|s| scenario_of(&s.event_id).to_string())
@@ -124,12 +124,6 @@ pub fn run(
     }
     let mut folds = Vec::new();
     let mut splits = Vec::new();
-    let gssm_options = gssm::study::CvOptions {
-        folds: options.folds,
-        seeds: Vec::new(),
-        configurations: Vec::new(),
-        baselines: false,
-    };
     for k in 0..options.seeds.max(1) {
         let seed = config.seed.wrapping_add(k as u64);
         let groups = scenario_groups(&data.real, options.folds, seed);
@@ -144,34 +138,19 @@ pub fn run(
             let mut test = data.test_sim.clone();
             test.extend(real_test.iter().cloned());
 
-            let mut cfg = config.clone();
-            cfg.seed = seed;
-            let cv_opts = CvOptions {
-                folds: options.folds,
-                seed,
-                progress: options.progress,
-                ..CvOptions::default()
-            };
-            let outcome = cv::run_fold(fold, &train, &test, None, &cfg, &cv_opts)?;
-            let mut methods = outcome.result.methods;
-
-            let mut gcfg = cfg.clone();
-            gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
-            let g = gssm::study::train_fold(
-                &train,
-                Some(&real_train),
-                &eval::observe(&test),
-                &gcfg,
+            let outcome = run_split(
+                &Split {
+                    seed,
+                    fold,
+                    train: &train,
+                    normal: &real_train,
+                    test: &test,
+                },
+                config,
                 gssm_config,
-                &gssm_options,
-                options.progress,
+                options,
             )?;
-            methods.extend(g.methods);
-            folds.push(FoldResult {
-                seed,
-                fold,
-                methods,
-            });
+            folds.push(outcome.result);
             splits.push(FoldSplit {
                 seed,
                 fold,
@@ -196,6 +175,84 @@ pub fn run(
         report,
         folds,
         splits,
+    })
+}
+
+/// One training/test split of a benchmark: what one fold runner call trains and scores.
+#[derive(Clone, Copy, Debug)]
+pub struct Split<'a> {
+    /// The run's seed (`config.seed + k`); training randomness derives from it and `fold`.
+    pub seed: u64,
+    pub fold: usize,
+    /// Training sequences (simulated and real) for DRL, MSRA and the SSRA/MSRA comparisons.
+    pub train: &'a [Sequence],
+    /// The training part's real normal driving: what the GSSM is fitted on.
+    pub normal: &'a [Sequence],
+    pub test: &'a [Sequence],
+}
+
+/// What one split produced: the metrics row group and every method's scored test sequences
+/// (DRL, DRL-f32, MSRA, the baselines, GSSM, SSRA), e.g. to read a threshold off a curve.
+#[derive(Clone, Debug)]
+pub struct SplitOutcome {
+    pub result: FoldResult,
+    pub runs: Vec<MethodRun>,
+}
+
+/// The fold runner every benchmark shares: DRL and MSRA trained exactly as in cross-validation
+/// ([`cv::run_fold`]), the GSSM fitted on `split.normal` and aligned to SSRA on the training
+/// comparisons ([`gssm::study::train_fold`]); every model scored through its exported blob.
+pub fn run_split(
+    split: &Split<'_>,
+    config: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &TransferOptions,
+) -> Result<SplitOutcome, TransferError> {
+    let Split {
+        seed,
+        fold,
+        train,
+        normal,
+        test,
+    } = *split;
+    let mut cfg = config.clone();
+    cfg.seed = seed;
+    let cv_opts = CvOptions {
+        folds: options.folds,
+        seed,
+        progress: options.progress,
+        ..CvOptions::default()
+    };
+    let outcome = cv::run_fold(fold, train, test, None, &cfg, &cv_opts)?;
+    let mut methods = outcome.result.methods;
+    let mut runs = outcome.runs;
+
+    let mut gcfg = cfg.clone();
+    gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
+    let gssm_options = gssm::study::CvOptions {
+        folds: options.folds,
+        seeds: Vec::new(),
+        configurations: Vec::new(),
+        baselines: false,
+    };
+    let g = gssm::study::train_fold(
+        train,
+        Some(normal),
+        &eval::observe(test),
+        &gcfg,
+        gssm_config,
+        &gssm_options,
+        options.progress,
+    )?;
+    methods.extend(g.methods);
+    runs.extend(g.runs);
+    Ok(SplitOutcome {
+        result: FoldResult {
+            seed,
+            fold,
+            methods,
+        },
+        runs,
     })
 }
 

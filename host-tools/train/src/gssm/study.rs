@@ -15,7 +15,9 @@ use super::GssmError;
 use crate::train::{self, Progress, TrainConfig};
 use riskscore_data::events::{kfold_by_event, Sequence};
 use riskscore_eval::report::{aggregate, CvReport, EventCounts, FoldResult};
-use riskscore_eval::scoring::{evaluate_methods, observe, Method, ObservedSequence, Scorer};
+use riskscore_eval::scoring::{
+    evaluate_methods, observe, Method, MethodRun, ObservedSequence, Scorer,
+};
 use scorer_core::gssm::GssmScore;
 use scorer_core::SurrogateKind;
 
@@ -67,7 +69,7 @@ fn evaluate_blobs(
     observed: &[ObservedSequence],
     blobs: &[(String, Vec<u8>)],
     baselines: bool,
-) -> Result<Vec<riskscore_eval::report::MethodResult>, GssmError> {
+) -> Result<(Vec<riskscore_eval::report::MethodResult>, Vec<MethodRun>), GssmError> {
     let mut methods: Vec<Method<'_>> = if baselines {
         Method::baselines()
     } else {
@@ -79,13 +81,15 @@ fn evaluate_blobs(
             scorer: Scorer::Model(scorer_core::model::decode(blob)?),
         });
     }
-    let (report, _) = evaluate_methods(observed, &methods)?;
-    Ok(report.methods)
+    let (report, runs) = evaluate_methods(observed, &methods)?;
+    Ok((report.methods, runs))
 }
 
 /// What [`train_fold`] trained and how its models scored the test sequences.
 pub struct GssmFold {
     pub methods: Vec<riskscore_eval::report::MethodResult>,
+    /// Every method's scored test sequences (e.g. to read a threshold off its curve).
+    pub runs: Vec<MethodRun>,
     pub detail: FoldDetail,
 }
 
@@ -133,9 +137,10 @@ pub fn train_fold(
         msra_weights.push((name.clone(), m.params.weights()));
         blobs.push((name, m.params.blob()?));
     }
-    let methods = evaluate_blobs(test, &blobs, options.baselines)?;
+    let (methods, runs) = evaluate_blobs(test, &blobs, options.baselines)?;
     Ok(GssmFold {
         methods,
+        runs,
         detail: FoldDetail {
             seed: cfg.seed,
             fold: 0,
@@ -407,7 +412,7 @@ pub fn augmentation_study(
                     train_blob(options.model, &subset, &prepared, &c, gssm_config, progress)?,
                 ));
             }
-            let methods = evaluate_blobs(&test, &blobs, false)?;
+            let (methods, _) = evaluate_blobs(&test, &blobs, false)?;
             per_budget[bi].push(FoldResult {
                 seed: options.seed,
                 fold,

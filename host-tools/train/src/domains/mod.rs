@@ -1,0 +1,110 @@
+//! The domain benchmark: slice every sequence by where it lies in the operating domain (ego speed
+//! band, interaction geometry, source) and hold one slice out per round: train without it, test
+//! on it, with the transfer benchmark's fold runner (DRL, MSRA, GSSM/SSRA through their blobs).
+//!
+//! - [`slice`]: a sequence's speed band and geometry at its reference frame.
+//! - [`source`]: simulation, real freeway or real city (and which city).
+//! - [`rounds`]: the rounds, what each holds out, and the train/test split of a fold.
+//! - [`share`]: real safe sequences above a method's 90 %-recall threshold.
+//! - [`run`]: one round over folds x seeds.
+//! - [`report`]: the tables, JSON and report folder.
+pub mod report;
+pub mod rounds;
+pub mod run;
+pub mod share;
+pub mod slice;
+pub mod source;
+
+pub use report::{DomainsResult, RoundOutcome};
+pub use rounds::{DomainData, Round};
+pub use run::{run_round, DomainsError, RoundResult};
+
+use crate::gssm::GssmConfig;
+use crate::train::TrainConfig;
+use crate::transfer::TransferOptions;
+use rounds::slice_counts;
+
+/// What to do with a round whose slice is empty in the data given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmptyRound {
+    /// Refuse the run (the round was asked for by name).
+    Fail,
+    /// Report it as "no data" and run the others (the default rounds, some of whose data, e.g. a
+    /// city, may not be there).
+    ReportNoData,
+}
+
+/// Run `rounds` in order. Every round's slice is checked before any training starts, so an empty
+/// round named on the command line fails at once.
+pub fn run(
+    rounds: &[Round],
+    data: &DomainData,
+    config: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &TransferOptions,
+    empty: EmptyRound,
+) -> Result<DomainsResult, DomainsError> {
+    let mut plan = Vec::new();
+    for round in rounds {
+        let counts = slice_counts(round, data);
+        if !counts.is_runnable() && empty == EmptyRound::Fail {
+            return Err(run::empty_slice(round, &counts));
+        }
+        plan.push((round, counts));
+    }
+    let mut outcomes = Vec::new();
+    for (round, counts) in plan {
+        outcomes.push(if counts.is_runnable() {
+            RoundOutcome::Ran(Box::new(run_round(
+                round,
+                data,
+                config,
+                gssm_config,
+                options,
+            )?))
+        } else {
+            RoundOutcome::NoData {
+                round: round.clone(),
+                counts,
+            }
+        });
+    }
+    Ok(DomainsResult { rounds: outcomes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::train::Progress;
+
+    fn run_city(empty: EmptyRound) -> Result<DomainsResult, DomainsError> {
+        let rounds = Round::parse_list("city-peachtree").unwrap();
+        let options = TransferOptions {
+            folds: 2,
+            seeds: 1,
+            progress: Progress::Hidden,
+        };
+        let data = DomainData::default();
+        run(
+            &rounds,
+            &data,
+            &TrainConfig::default(),
+            &GssmConfig::default(),
+            &options,
+            empty,
+        )
+    }
+
+    #[test]
+    fn an_empty_round_fails_when_named_and_reads_no_data_by_default() {
+        let err = run_city(EmptyRound::Fail).unwrap_err().to_string();
+        assert!(err.contains("round `city-peachtree`"), "{err}");
+        assert!(err.contains("0 conflicts and 0 safe sequences"), "{err}");
+        let result = run_city(EmptyRound::ReportNoData).unwrap();
+        assert!(matches!(&result.rounds[..], [RoundOutcome::NoData { .. }]));
+        let json = result.to_json();
+        assert_eq!(json["rounds"][0]["status"], "no data");
+        assert_eq!(json["rounds"][0]["slice"]["real_safe"], 0);
+        assert!(result.to_markdown().contains("**No data**"));
+    }
+}

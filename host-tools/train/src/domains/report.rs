@@ -1,0 +1,203 @@
+//! The domain benchmark's report: per round the table and JSON of `riskctl evaluate` (mean ± std
+//! over folds x seeds), each method row with the share of real safe sequences above its 90 %-recall
+//! threshold, and the slice's counts (flagged below [`SMALL_SLICE`]); rounds without data say so.
+use serde_json::{json, Value};
+
+use super::rounds::{Round, SliceCounts, SMALL_SLICE};
+use super::run::RoundResult;
+use super::share::{summarise, ShareSummary, SHARE_RECALL_PERCENT};
+use riskscore_eval::bundle::{BundleError, ReportBundle};
+use riskscore_eval::report::write_folds_csv;
+
+/// The JSON key of the share in a method row.
+pub const SHARE_KEY: &str = "real_safe_above_recall_90";
+
+/// What became of one round.
+#[derive(Clone, Debug)]
+pub enum RoundOutcome {
+    Ran(Box<RoundResult>),
+    /// The slice (or the training data without it) is empty in the data given: reported, not run.
+    NoData {
+        round: Round,
+        counts: SliceCounts,
+    },
+}
+
+impl RoundOutcome {
+    pub fn round(&self) -> &Round {
+        match self {
+            RoundOutcome::Ran(r) => &r.round,
+            RoundOutcome::NoData { round, .. } => round,
+        }
+    }
+
+    pub fn counts(&self) -> &SliceCounts {
+        match self {
+            RoundOutcome::Ran(r) => &r.counts,
+            RoundOutcome::NoData { counts, .. } => counts,
+        }
+    }
+}
+
+/// Every round of one benchmark run.
+#[derive(Clone, Debug, Default)]
+pub struct DomainsResult {
+    pub rounds: Vec<RoundOutcome>,
+}
+
+fn slice_json(counts: &SliceCounts) -> Value {
+    json!({
+        "test_conflicts": counts.test.conflicts,
+        "test_safe": counts.test.safe,
+        "real_safe": counts.real_safe,
+        "train_conflicts": counts.train.conflicts,
+        "train_safe": counts.train.safe,
+        "small": counts.is_small(),
+    })
+}
+
+fn share_json(s: &ShareSummary) -> Value {
+    json!({
+        "mean": s.percent.map(|p| p.mean),
+        "std": s.percent.map(|p| p.std),
+        "n": s.percent.map_or(0, |p| p.n),
+        "above": s.above,
+        "of": s.of,
+    })
+}
+
+fn share_cell(s: &ShareSummary) -> String {
+    match s.percent {
+        Some(p) => format!("{:.1} ± {:.1} ({} of {})", p.mean, p.std, s.above, s.of),
+        None if s.of == 0 => "no real safe sequences".into(),
+        None => "n/a".into(),
+    }
+}
+
+impl DomainsResult {
+    /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
+    /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice` and, in each method row,
+    /// [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.
+    pub fn to_json(&self) -> Value {
+        let rounds: Vec<Value> = self
+            .rounds
+            .iter()
+            .map(|outcome| {
+                let round = outcome.round();
+                let mut object = match outcome {
+                    RoundOutcome::Ran(r) => {
+                        let mut v = r.report.to_json();
+                        if let Some(Value::Array(rows)) = v.get_mut("methods") {
+                            for row in rows {
+                                let name = row["name"].as_str().unwrap_or_default().to_owned();
+                                row[SHARE_KEY] = share_json(&summarise(&r.shares, &name));
+                            }
+                        }
+                        v["status"] = "ok".into();
+                        v
+                    }
+                    RoundOutcome::NoData { .. } => json!({"status": "no data"}),
+                };
+                object["round"] = round.name.clone().into();
+                object["held_out"] = round.to_string().into();
+                object["slice"] = slice_json(outcome.counts());
+                object
+            })
+            .collect();
+        json!({ "rounds": rounds })
+    }
+
+    /// One section per round: counts, the results table, the real-safe shares.
+    pub fn to_markdown(&self) -> String {
+        let mut out = String::new();
+        for outcome in &self.rounds {
+            let round = outcome.round();
+            let c = outcome.counts();
+            out.push_str(&format!("### Held out: {round} (`{}`)\n\n", round.name));
+            out.push_str(&format!(
+                "Slice: {} conflicts and {} safe sequences to test on ({} real safe); training keeps {} conflicts and {} safe.",
+                c.test.conflicts, c.test.safe, c.real_safe, c.train.conflicts, c.train.safe
+            ));
+            if c.is_small() {
+                out.push_str(&format!(
+                    " **Small slice (< {SMALL_SLICE} conflicts or safe sequences): read with care.**"
+                ));
+            }
+            out.push_str("\n\n");
+            match outcome {
+                RoundOutcome::NoData { .. } => {
+                    out.push_str("**No data**: not run (nothing to test on or to train with).\n\n");
+                }
+                RoundOutcome::Ran(r) => {
+                    out.push_str(&r.report.to_markdown());
+                    out.push_str(&format!(
+                        "\n| Method | real safe sequences above the {SHARE_RECALL_PERCENT} %-recall threshold (%) |\n|---|---|\n"
+                    ));
+                    for m in &r.report.methods {
+                        out.push_str(&format!(
+                            "| {} | {} |\n",
+                            m.name,
+                            share_cell(&summarise(&r.shares, &m.name))
+                        ));
+                    }
+                    out.push('\n');
+                }
+            }
+        }
+        out
+    }
+
+    /// The report folder: `domains.md`, `domains.json`, `shares.csv` (every method, fold and
+    /// seed), `splits.json` (the sets of every fold) and `<round>.folds.csv` per run round.
+    pub fn bundle(&self) -> Result<ReportBundle, BundleError> {
+        let mut bundle = ReportBundle::default();
+        bundle.add("domains.md", self.to_markdown());
+        bundle.add_json("domains.json", &self.to_json())?;
+        let ran: Vec<&RoundResult> = self
+            .rounds
+            .iter()
+            .filter_map(|o| match o {
+                RoundOutcome::Ran(r) => Some(r.as_ref()),
+                RoundOutcome::NoData { .. } => None,
+            })
+            .collect();
+        bundle.add_csv("shares.csv", |w| {
+            let mut w = csv::Writer::from_writer(w);
+            w.write_record([
+                "round",
+                "seed",
+                "fold",
+                "method",
+                "threshold",
+                "above",
+                "of",
+            ])?;
+            for r in &ran {
+                for s in &r.shares {
+                    w.write_record([
+                        r.round.name.clone(),
+                        s.seed.to_string(),
+                        s.fold.to_string(),
+                        s.method.clone(),
+                        s.threshold.map_or_else(String::new, |t| t.to_string()),
+                        s.above.to_string(),
+                        s.of.to_string(),
+                    ])?;
+                }
+            }
+            w.flush()?;
+            Ok(())
+        })?;
+        let splits: Vec<Value> = ran
+            .iter()
+            .map(|r| json!({"round": r.round.name, "folds": r.splits}))
+            .collect();
+        bundle.add_json("splits.json", &splits)?;
+        for r in &ran {
+            bundle.add_csv(&format!("{}.folds.csv", r.round.name), |w| {
+                write_folds_csv(&r.folds, w)
+            })?;
+        }
+        Ok(bundle)
+    }
+}

@@ -1,0 +1,174 @@
+//! Running one round: per seed and fold, split, train and score through the transfer benchmark's
+//! fold runner ([`transfer::run_split`]), and read the real-safe share off every method's curve.
+use serde::Serialize;
+
+use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, SliceCounts};
+use super::share::{share_of, ShareRun};
+use crate::gssm::GssmConfig;
+use crate::train::{Progress, TrainConfig};
+use crate::transfer::{self, scenario_groups, Split, TransferError, TransferOptions};
+use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
+
+/// Domain benchmark failures.
+#[derive(Debug, thiserror::Error)]
+pub enum DomainsError {
+    #[error(
+        "domain benchmark, round `{round}` ({slice}): nothing to {what}: the held-out slice has \
+         {test_conflicts} conflicts and {test_safe} safe sequences to test on ({real_safe} of \
+         them real), training keeps {train_conflicts} conflicts and {train_safe} safe sequences; \
+         a round needs at least one of each on both sides"
+    )]
+    EmptySlice {
+        round: String,
+        slice: String,
+        what: &'static str,
+        test_conflicts: usize,
+        test_safe: usize,
+        real_safe: usize,
+        train_conflicts: usize,
+        train_safe: usize,
+    },
+    #[error(
+        "domain benchmark: need at least 2 folds and as many real scenario files ({scenarios} found for {folds} folds)"
+    )]
+    TooFewScenarios { folds: usize, scenarios: usize },
+    #[error("domain benchmark, round `{round}`: {source}")]
+    Round {
+        round: String,
+        #[source]
+        source: Box<TransferError>,
+    },
+}
+
+/// The error for a round whose slice (or whose training remainder) cannot be run.
+pub fn empty_slice(round: &Round, counts: &SliceCounts) -> DomainsError {
+    let what = if counts.test.conflicts == 0 || counts.test.safe == 0 {
+        "test"
+    } else {
+        "train"
+    };
+    DomainsError::EmptySlice {
+        round: round.name.clone(),
+        slice: round.to_string(),
+        what,
+        test_conflicts: counts.test.conflicts,
+        test_safe: counts.test.safe,
+        real_safe: counts.real_safe,
+        train_conflicts: counts.train.conflicts,
+        train_safe: counts.train.safe,
+    }
+}
+
+/// The sets of one fold of one round.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoundFoldSplit {
+    pub seed: u64,
+    pub fold: usize,
+    /// Real scenario files kept out of training in this fold.
+    pub held_scenarios: Vec<String>,
+    pub train: KindCounts,
+    pub test: KindCounts,
+    pub real_test_safe: usize,
+}
+
+/// One round's result: the metrics row group, the real-safe shares, the sets.
+#[derive(Clone, Debug)]
+pub struct RoundResult {
+    pub round: Round,
+    pub counts: SliceCounts,
+    pub report: CvReport,
+    pub folds: Vec<FoldResult>,
+    pub shares: Vec<ShareRun>,
+    pub splits: Vec<RoundFoldSplit>,
+}
+
+/// Run one round: `options.seeds` x `options.folds` trainings without the slice, each scored on it.
+pub fn run_round(
+    round: &Round,
+    data: &DomainData,
+    config: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &TransferOptions,
+) -> Result<RoundResult, DomainsError> {
+    let counts = slice_counts(round, data);
+    if !counts.is_runnable() {
+        return Err(empty_slice(round, &counts));
+    }
+    let real: Vec<_> = data.real.iter().map(|l| l.sequence.clone()).collect();
+    let scenarios = transfer::sequences_per_scenario(&real).len();
+    if options.folds < 2 || scenarios < options.folds {
+        return Err(DomainsError::TooFewScenarios {
+            folds: options.folds,
+            scenarios,
+        });
+    }
+    let round_err = |source| DomainsError::Round {
+        round: round.name.clone(),
+        source: Box::new(source),
+    };
+    let mut folds = Vec::new();
+    let mut shares = Vec::new();
+    let mut splits = Vec::new();
+    for k in 0..options.seeds.max(1) {
+        let seed = config.seed.wrapping_add(k as u64);
+        for (fold, held) in scenario_groups(&real, options.folds, seed)
+            .into_iter()
+            .enumerate()
+        {
+            let split = split_round(round, data, &held);
+            let outcome = transfer::run_split(
+                &Split {
+                    seed,
+                    fold,
+                    train: &split.train,
+                    normal: &split.normal,
+                    test: &split.test,
+                },
+                config,
+                gssm_config,
+                options,
+            )
+            .map_err(round_err)?;
+            let real_range = split.real_from..split.test.len();
+            shares.extend(
+                outcome
+                    .runs
+                    .iter()
+                    .map(|run| share_of(run, real_range.clone(), seed, fold)),
+            );
+            folds.push(outcome.result);
+            let real_test = KindCounts::of(&split.test[split.real_from..]);
+            splits.push(RoundFoldSplit {
+                seed,
+                fold,
+                held_scenarios: held,
+                train: KindCounts::of(&split.train),
+                test: KindCounts::of(&split.test),
+                real_test_safe: real_test.safe,
+            });
+            if options.progress != Progress::Hidden {
+                eprintln!(
+                    "      round {} seed {seed} fold {fold}: {} train / {} test sequences",
+                    round.name,
+                    split.train.len(),
+                    split.test.len()
+                );
+            }
+        }
+    }
+    Ok(RoundResult {
+        round: round.clone(),
+        counts,
+        report: eval::aggregate(slice_event_counts(round, data), &folds),
+        folds,
+        shares,
+        splits,
+    })
+}
+
+/// The event counts of the slice's test sequences over all folds (the table header).
+fn slice_event_counts(round: &Round, data: &DomainData) -> EventCounts {
+    let sim = data.test_sim_part(round);
+    let real = data.real.iter().filter(|l| round.contains(&l.domain));
+    EventCounts::from_classes(sim.into_iter().chain(real).map(|l| l.sequence.kind))
+}
