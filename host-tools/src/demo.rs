@@ -80,14 +80,22 @@ impl Default for TransferSettings {
     }
 }
 
-/// The committed real-driving extract, if it can be found: `data/ngsim-us101-safe` under the current
-/// folder, else next to this crate's sources (a checkout run from elsewhere).
+/// The committed real freeway extract, if it can be found: `data/ngsim-us101-safe` under the
+/// current folder, else next to this crate's sources (a checkout run from elsewhere).
 pub fn default_real_data() -> Option<PathBuf> {
+    committed_extract(REAL_DATA)
+}
+
+/// The committed real city extract (NGSIM Lankershim and Peachtree), found like
+/// [`default_real_data`].
+pub fn default_real_city_data() -> Option<PathBuf> {
+    committed_extract(REAL_CITY_DATA)
+}
+
+fn committed_extract(relative: &str) -> Option<PathBuf> {
     let candidates = [
-        PathBuf::from(REAL_DATA),
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("..")
-            .join(REAL_DATA),
+        PathBuf::from(relative),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(relative),
     ];
     candidates
         .into_iter()
@@ -96,6 +104,9 @@ pub fn default_real_data() -> Option<PathBuf> {
 
 /// Where the committed NGSIM US-101 extract of real safe interactions lives in the repository.
 pub const REAL_DATA: &str = "data/ngsim-us101-safe";
+
+/// Where the committed NGSIM Lankershim + Peachtree extract of real safe city interactions lives.
+pub const REAL_CITY_DATA: &str = "data/ngsim-urban-safe";
 
 /// What the demo's figures plot (printed on each): one pooled curve per method, where the summary
 /// table averages folds and seeds, so the legends' figures differ from the table's.

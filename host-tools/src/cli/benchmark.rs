@@ -3,11 +3,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    acceptance_claims, default_real_data, msra_input_names, print_claims, write_transfer_report,
+    acceptance_claims, default_real_city_data, default_real_data, msra_input_names, print_claims, write_transfer_report,
     Claim, REAL_DATA,
 };
 use riskscore_data::events::Sequence;
-use riskscore_data::sim::{simulate_to_dir, Mix, SimConfig};
+use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
 use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
@@ -69,6 +69,11 @@ pub struct SimArgs {
     /// Events per simulated folder.
     #[arg(long, default_value_t = 310)]
     pub events: usize,
+    /// Scenario families of both simulated folders: `default`, `domain` or a list such as
+    /// `motorway_approach,signal_queue:2` (see `riskctl simulate --help`). Default: `default` for
+    /// `transfer`, `domain` for `domains` (the default set has nothing at 35-50 m/s).
+    #[arg(long, value_name = "MIX")]
+    pub families: Option<FamilyMix>,
 }
 
 impl SimArgs {
@@ -79,10 +84,23 @@ impl SimArgs {
         ]
     }
 
-    /// The training and test sequences: the folders given, or simulated into `out`.
-    fn load(&self, out: &Path) -> anyhow::Result<(Vec<Sequence>, Vec<Sequence>)> {
+    /// The training and test sequences: the folders given, or simulated into `out` with
+    /// `--families`, else `default_families`.
+    fn load(
+        &self,
+        out: &Path,
+        default_families: FamilyMix,
+    ) -> anyhow::Result<(Vec<Sequence>, Vec<Sequence>)> {
+        let families = self.families.clone().unwrap_or(default_families);
         let sim = |given: Option<&Path>, folder: &str, seed: u64, mix: Mix| {
-            folder_or_simulate(given, &out.join(folder), seed, mix, self.events)
+            let cfg = SimConfig {
+                seed,
+                events: self.events,
+                mix,
+                families: families.clone(),
+                ..SimConfig::default()
+            };
+            folder_or_simulate(given, &out.join(folder), &cfg)
         };
         Ok((
             sim(
@@ -172,8 +190,9 @@ pub struct DomainsArgs {
     /// Real freeway normal-driving folder (default: the committed extract data/ngsim-us101-safe).
     #[arg(long, value_name = "DIR")]
     pub real: Option<PathBuf>,
-    /// Real city normal-driving folder (repeatable); each sequence's city comes from its event id
-    /// (`USA_Lanker-...`: Lankershim, `USA_Peach-...`: Peachtree).
+    /// Real city normal-driving folder (repeatable; default: the committed extract
+    /// data/ngsim-urban-safe); each sequence's city comes from its event id (`USA_Lanker-...`:
+    /// Lankershim, `USA_Peach-...`: Peachtree).
     #[arg(long = "real-city", value_name = "DIR")]
     pub real_city: Vec<PathBuf>,
     #[command(flatten)]
@@ -208,20 +227,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn folder_or_simulate(
     given: Option<&Path>,
     out: &Path,
-    seed: u64,
-    mix: Mix,
-    events: usize,
+    cfg: &SimConfig,
 ) -> anyhow::Result<Vec<Sequence>> {
     let dir = match given {
         Some(d) => d.to_path_buf(),
         None => {
-            let cfg = SimConfig {
-                seed,
-                events,
-                mix,
-                ..SimConfig::default()
-            };
-            simulate_to_dir(out, &cfg).with_context(|| format!("simulating {}", out.display()))?;
+            simulate_to_dir(out, cfg).with_context(|| format!("simulating {}", out.display()))?;
             out.to_path_buf()
         }
     };
@@ -250,7 +261,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     )?;
     let (config, gssm_config) = a.training.configs()?;
     let real_dir = real_freeway_dir(a.real.as_deref())?;
-    let (train_sim, test_sim) = a.sim.load(&a.out)?;
+    let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::default())?;
     let data = TransferData {
         train_sim,
         test_sim,
@@ -308,8 +319,13 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     let (config, gssm_config) = a.training.configs()?;
     let real_dir = real_freeway_dir(a.real.as_deref())?;
     let real_freeway = super::load_prepared(&real_dir)?.sequences;
+    let city_dirs = if a.real_city.is_empty() {
+        default_real_city_data().into_iter().collect()
+    } else {
+        a.real_city.clone()
+    };
     let mut real_city = Vec::new();
-    for dir in &a.real_city {
+    for dir in &city_dirs {
         real_city.extend(super::load_prepared(dir)?.sequences);
     }
     eprintln!(
@@ -317,9 +333,9 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         real_dir.display(),
         real_freeway.len(),
         real_city.len(),
-        a.real_city.len()
+        city_dirs.len()
     );
-    let (train_sim, test_sim) = a.sim.load(&a.out)?;
+    let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::domain())?;
     let data = DomainData::new(train_sim, test_sim, real_freeway, real_city);
     let result = domains::run(
         &rounds,

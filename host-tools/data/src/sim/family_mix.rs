@@ -74,19 +74,24 @@ pub enum FamilyMixError {
 impl FamilyMix {
     /// `default` or `domain`.
     pub fn named(name: &str) -> Option<Self> {
-        let weights = match name {
-            "default" => return Some(Self::default()),
-            "domain" => DEFAULT_WEIGHTS
+        match name {
+            "default" => Some(Self::default()),
+            "domain" => Some(Self::domain()),
+            _ => None,
+        }
+    }
+
+    /// The operating-domain mix: the original families at half weight, the new ones for the
+    /// other half.
+    pub fn domain() -> Self {
+        Self {
+            name: "domain".into(),
+            weights: DEFAULT_WEIGHTS
                 .iter()
                 .map(|&(f, w)| (f, 0.5 * w))
                 .chain(DOMAIN_NEW_WEIGHTS)
                 .collect(),
-            _ => return None,
-        };
-        Some(Self {
-            name: name.into(),
-            weights,
-        })
+        }
     }
 
     /// The mix as given (`default`, `domain`, or the family list).
