@@ -98,23 +98,10 @@ pub fn drl_inputs(ego: &VehicleState, partner: &VehicleState) -> DrlInputs {
     encode(ego, hi, partner, hj, gap)
 }
 
-/// [`drl_inputs`] with the pair's box distance already computed (it must be
-/// [`crate::box_distance`]`(ego, partner)`: [`crate::Observation::of`] shares the surrogates').
-pub(crate) fn drl_inputs_with_gap(
-    ego: &VehicleState,
-    partner: &VehicleState,
-    box_distance: f32,
-) -> DrlInputs {
-    encode(
-        ego,
-        unit_heading(ego),
-        partner,
-        unit_heading(partner),
-        box_distance,
-    )
-}
-
-fn encode(
+/// [`drl_inputs`] with the [`unit_heading`] of each state and the pair's box distance already
+/// computed (it must be [`crate::box_distance`]`(ego, partner)`: [`crate::Observation::of`]
+/// shares the surrogates').
+pub(crate) fn encode(
     ego: &VehicleState,
     heading_ego: Option<Vec2>,
     partner: &VehicleState,

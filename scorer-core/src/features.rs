@@ -67,8 +67,18 @@ fn finite_or_clamped(x: f32) -> f32 {
 
 /// The 13 features of the pair (`ego`, `partner`), see the module table.
 pub fn features(ego: &VehicleState, partner: &VehicleState) -> Features {
-    let heading_ego = unit_heading(ego).unwrap_or(Vec2::new(0.0, 1.0));
-    let heading_partner = unit_heading(partner).unwrap_or(heading_ego);
+    features_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))
+}
+
+/// [`features`] with the [`unit_heading`] of each state already computed.
+pub(crate) fn features_with_headings(
+    ego: &VehicleState,
+    heading_ego: Option<Vec2>,
+    partner: &VehicleState,
+    heading_partner: Option<Vec2>,
+) -> Features {
+    let heading_ego = heading_ego.unwrap_or(Vec2::new(0.0, 1.0));
+    let heading_partner = heading_partner.unwrap_or(heading_ego);
     let v_ego = velocity(ego);
     let v_partner = velocity(partner);
     let dv = v_ego - v_partner;

@@ -55,7 +55,7 @@ impl OrientedBox {
 
     /// The box of a state whose [`unit_heading`] is `axis`; `None` when a field is not finite or
     /// the heading is zero (`axis` is `None`).
-    fn with_axis(s: &VehicleState, axis: Option<Vec2>) -> Option<Self> {
+    pub(crate) fn with_axis(s: &VehicleState, axis: Option<Vec2>) -> Option<Self> {
         if !s.is_finite() {
             return None;
         }
@@ -207,15 +207,18 @@ pub fn box_distance_with_headings(
         OrientedBox::with_axis(a, heading_a),
         OrientedBox::with_axis(b, heading_b),
     ) {
-        (Some(ba), Some(bb)) => {
-            let d = oriented_box_distance(&ba, &bb);
-            if d.is_nan() {
-                f32::INFINITY
-            } else {
-                d
-            }
-        }
+        (Some(ba), Some(bb)) => boxes_distance(&ba, &bb),
         _ => f32::INFINITY,
+    }
+}
+
+/// [`oriented_box_distance`] as [`box_distance`] reports it: `f32::INFINITY` instead of NaN.
+pub(crate) fn boxes_distance(a: &OrientedBox, b: &OrientedBox) -> f32 {
+    let d = oriented_box_distance(a, b);
+    if d.is_nan() {
+        f32::INFINITY
+    } else {
+        d
     }
 }
 

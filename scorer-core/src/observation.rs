@@ -4,10 +4,11 @@
 //! gets its numbers, and [`Model::score_observation`](crate::model::Model::score_observation)
 //! scores it; [`Model::score`](crate::model::Model::score) computes only the part its model reads
 //! and gives the same bits.
-use crate::encoding::{drl_inputs_with_gap, DrlInputs};
-use crate::features::{features, Features};
+use crate::encoding::{encode, DrlInputs};
+use crate::features::{features_with_headings, Features};
+use crate::geometry::unit_heading;
 use crate::state::VehicleState;
-use crate::surrogates::{surrogates, Surrogates};
+use crate::surrogates::{surrogates_with_headings, Surrogates};
 
 /// One ego/partner pair as every model sees it: the 13 reference features (GSSM, MSRA), the
 /// surrogates (MSRA, baselines) and the DRL input encoding (DRL).
@@ -22,11 +23,19 @@ impl Observation {
     /// The observation of the pair (`ego`, `partner`): [`features()`], [`surrogates()`] and
     /// [`crate::drl_inputs()`] (which reuses the surrogates' box distance, the same number).
     pub fn of(ego: &VehicleState, partner: &VehicleState) -> Self {
-        let surrogates = surrogates(ego, partner);
+        // Each heading is normalised once for all three parts.
+        let (heading_ego, heading_partner) = (unit_heading(ego), unit_heading(partner));
+        let surrogates = surrogates_with_headings(ego, heading_ego, partner, heading_partner);
         Self {
-            features: features(ego, partner),
+            features: features_with_headings(ego, heading_ego, partner, heading_partner),
             surrogates,
-            drl_inputs: drl_inputs_with_gap(ego, partner, surrogates.box_distance),
+            drl_inputs: encode(
+                ego,
+                heading_ego,
+                partner,
+                heading_partner,
+                surrogates.box_distance,
+            ),
         }
     }
 }
@@ -34,6 +43,8 @@ impl Observation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::features;
+    use crate::surrogates::surrogates;
 
     #[test]
     fn observation_parts_are_the_standalone_functions_bit_for_bit() {

@@ -10,6 +10,7 @@
 
 use proptest::prelude::*;
 use scorer_core::geometry::boxes_overlap;
+use scorer_core::surrogates::surrogates_and_features;
 use scorer_core::{box_distance, ei, features, surrogates, tadv, ttc2d, VehicleState};
 
 /// Any f32, with the nasty values drawn often.
@@ -88,6 +89,15 @@ fn check_sentinels(a: &VehicleState, b: &VehicleState) -> Result<(), TestCaseErr
     prop_assert_eq!(all.ttc2d.to_bits(), t.to_bits());
     prop_assert_eq!(all.tadv.to_bits(), adv.to_bits());
     prop_assert_eq!(all.ei.to_bits(), e.to_bits());
+    // The fused form (each heading and box computed once) gives the same bits as the parts.
+    let (fused, fused_features) = surrogates_and_features(a, b);
+    let bits =
+        |s: scorer_core::Surrogates| [s.box_distance, s.ttc2d, s.tadv, s.ei].map(f32::to_bits);
+    prop_assert_eq!(bits(fused), bits(all));
+    prop_assert_eq!(
+        fused_features.map(f32::to_bits),
+        features(a, b).map(f32::to_bits)
+    );
     let _ = boxes_overlap(a, b);
     Ok(())
 }

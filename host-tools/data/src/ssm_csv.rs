@@ -25,7 +25,8 @@
 //! there is one) and skipped; in strict mode the first one stops the run. Pass-through columns are
 //! copied byte for byte, whatever their encoding.
 use scorer_core::geometry::unit_heading;
-use scorer_core::{features, surrogates, VehicleState, FEATURE_NAMES};
+use scorer_core::surrogates::surrogates_and_features;
+use scorer_core::{VehicleState, FEATURE_NAMES};
 
 mod field;
 mod number;
@@ -351,7 +352,22 @@ impl PairColumns {
         partner: [f64; 9],
         line: u64,
     ) -> Result<(VehicleState, VehicleState), RowError> {
-        for (values, columns) in [(&ego, &self.ego), (&partner, &self.partner)] {
+        // The usual case in one branch-free pass; the per-value checks below name the culprit.
+        if !(values_pass_checks(&ego) && values_pass_checks(&partner)) {
+            self.first_bad_value(&ego, &partner, line)?;
+        }
+        self.build_pair(ego, partner, line)
+    }
+
+    /// The error of the first value (ego, then partner, in [`STATE_FIELDS`] order) that fails
+    /// [`check_value`].
+    fn first_bad_value(
+        &self,
+        ego: &[f64; 9],
+        partner: &[f64; 9],
+        line: u64,
+    ) -> Result<(), RowError> {
+        for (values, columns) in [(ego, &self.ego), (partner, &self.partner)] {
             for ((&v, &k), field) in values.iter().zip(columns).zip(STATE_FIELDS) {
                 check_value(v, field).map_err(|problem| RowError {
                     line,
@@ -360,7 +376,7 @@ impl PairColumns {
                 })?;
             }
         }
-        self.build_pair(ego, partner, line)
+        Ok(())
     }
 
     /// The two states from checked values, positions relative to the ego.
@@ -491,6 +507,16 @@ pub fn check_value(wide: f64, field: &str) -> Result<(), RowProblem> {
     Ok(())
 }
 
+/// True when every one of a vehicle's nine values (in [`STATE_FIELDS`] order) passes
+/// [`check_value`]: `wide as f32` is finite exactly when `wide` is finite and within the f32
+/// range (NaN included: it is not finite as f32 either).
+fn values_pass_checks(values: &[f64; 9]) -> bool {
+    let in_range = values
+        .iter()
+        .fold(true, |ok, &v| ok & (v as f32).is_finite());
+    in_range & (values[7] >= 0.0) & (values[8] >= 0.0)
+}
+
 /// `bytes` as text, each byte that is not part of valid UTF-8 written `\xNN` (for messages).
 pub fn escape_non_utf8(bytes: &[u8]) -> String {
     let mut text = String::new();
@@ -532,8 +558,7 @@ pub fn write_value(buf: &mut String, v: f32) {
 
 /// The computed columns of one pair, in output order (surrogates, then features).
 pub fn computed_values(ego: &VehicleState, partner: &VehicleState) -> [f32; 17] {
-    let s = surrogates(ego, partner);
-    let f = features(ego, partner);
+    let (s, f) = surrogates_and_features(ego, partner);
     let mut out = [0f32; 17];
     let computed = [s.box_distance, s.ttc2d, s.tadv, s.ei].into_iter().chain(f);
     for (slot, v) in out.iter_mut().zip(computed) {
@@ -545,6 +570,34 @@ pub fn computed_values(ego: &VehicleState, partner: &VehicleState) -> [f32; 17] 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_one_pass_value_check_agrees_with_check_value() {
+        let samples = [
+            0.0,
+            -0.0,
+            -1.0,
+            2.5,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::from(f32::MAX),
+            f64::from(f32::MAX) * (1.0 + 1e-9),
+            -f64::from(f32::MAX) * 2.0,
+            1e-50,
+        ];
+        for &v in &samples {
+            for slot in 0..9 {
+                let mut values = [1.0f64; 9];
+                values[slot] = v;
+                let per_value = values
+                    .iter()
+                    .zip(STATE_FIELDS)
+                    .all(|(&w, field)| check_value(w, field).is_ok());
+                assert_eq!(values_pass_checks(&values), per_value, "{v} in {slot}");
+            }
+        }
+    }
 
     const HEADER: &str = "id,X_i,y_i,vx_i,vy_i,hx_i,hy_i,acc_i,length_i,width_i,x_j,y_j,vx_j,vy_j,hx_j,hy_j,acc_j,length_j,width_j,note";
 

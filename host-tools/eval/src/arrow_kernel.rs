@@ -10,11 +10,13 @@
 //! as Float32, nullable: a row that fails validation (null or non-finite value, negative size,
 //! zero heading; the same rules as the CSV reader) is null in every output column and listed in
 //! [`SsmBatch::bad`]. Every number is computed by `scorer-core`, in f32, exactly as on the ECU.
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Float32Type, Float64Type, Int32Type, Int64Type};
-use arrow_array::{Array, ArrayRef, BooleanArray, Float32Array, RecordBatch};
+use arrow_array::types::{ArrowPrimitiveType, Float32Type, Float64Type, Int32Type, Int64Type};
+use arrow_array::{Array, ArrayRef, BooleanArray, Float32Array, PrimitiveArray, RecordBatch};
+use arrow_buffer::NullBuffer;
 use arrow_schema::{ArrowError, DataType, Field, Schema, SchemaRef};
 use scorer_core::model::Model;
 use scorer_core::VehicleState;
@@ -76,42 +78,51 @@ pub struct SsmBatch {
     pub bad: Vec<RowError>,
 }
 
-/// A numeric column read as f64 (nulls kept).
-enum Numeric<'a> {
-    F64(&'a arrow_array::Float64Array),
-    F32(&'a arrow_array::Float32Array),
-    I64(&'a arrow_array::Int64Array),
-    I32(&'a arrow_array::Int32Array),
+/// One pair column of a batch as f64 values, made once per batch: a Float64 column's own buffer,
+/// other types converted in one pass. The row loop then reads plain slices, without a per-value
+/// type dispatch.
+struct Column<'a> {
+    values: Cow<'a, [f64]>,
+    /// `None` when the column has no null.
+    nulls: Option<&'a NullBuffer>,
 }
 
-impl Numeric<'_> {
-    fn get(&self, row: usize) -> Option<f64> {
-        let (valid, value) = match self {
-            Numeric::F64(a) => (a.is_valid(row), a.value(row)),
-            Numeric::F32(a) => (a.is_valid(row), f64::from(a.value(row))),
-            Numeric::I64(a) => (a.is_valid(row), a.value(row) as f64),
-            Numeric::I32(a) => (a.is_valid(row), f64::from(a.value(row))),
-        };
-        valid.then_some(value)
-    }
-}
-
-fn numeric<'a>(batch: &'a RecordBatch, k: usize) -> Result<Numeric<'a>, KernelError> {
+fn numeric<'a>(batch: &'a RecordBatch, k: usize) -> Result<Column<'a>, KernelError> {
     let column = batch.column(k);
     let bad = || KernelError::ColumnType {
         name: batch.schema().field(k).name().clone(),
         found: column.data_type().clone(),
     };
-    Ok(match column.data_type() {
-        DataType::Float64 => {
-            Numeric::F64(column.as_primitive_opt::<Float64Type>().ok_or_else(bad)?)
-        }
-        DataType::Float32 => {
-            Numeric::F32(column.as_primitive_opt::<Float32Type>().ok_or_else(bad)?)
-        }
-        DataType::Int64 => Numeric::I64(column.as_primitive_opt::<Int64Type>().ok_or_else(bad)?),
-        DataType::Int32 => Numeric::I32(column.as_primitive_opt::<Int32Type>().ok_or_else(bad)?),
+    fn widened<T: ArrowPrimitiveType>(
+        a: &PrimitiveArray<T>,
+        f: impl Fn(T::Native) -> f64,
+    ) -> Cow<'static, [f64]> {
+        Cow::Owned(a.values().iter().map(|&v| f(v)).collect())
+    }
+    let values = match column.data_type() {
+        DataType::Float64 => Cow::Borrowed(
+            &**column
+                .as_primitive_opt::<Float64Type>()
+                .ok_or_else(bad)?
+                .values(),
+        ),
+        DataType::Float32 => widened(
+            column.as_primitive_opt::<Float32Type>().ok_or_else(bad)?,
+            f64::from,
+        ),
+        DataType::Int64 => widened(
+            column.as_primitive_opt::<Int64Type>().ok_or_else(bad)?,
+            |v| v as f64,
+        ),
+        DataType::Int32 => widened(
+            column.as_primitive_opt::<Int32Type>().ok_or_else(bad)?,
+            f64::from,
+        ),
         _ => return Err(bad()),
+    };
+    Ok(Column {
+        values,
+        nulls: column.nulls().filter(|n| n.null_count() > 0),
     })
 }
 
@@ -122,33 +133,47 @@ fn for_each_pair(
     first_row: u64,
     mut each: impl FnMut(usize, Option<(VehicleState, VehicleState)>),
 ) -> Result<Vec<RowError>, KernelError> {
-    let ego: Vec<Numeric> = columns
+    let ego: Vec<Column> = columns
         .ego
         .iter()
         .map(|&k| numeric(batch, k))
         .collect::<Result<_, _>>()?;
-    let partner: Vec<Numeric> = columns
+    let partner: Vec<Column> = columns
         .partner
         .iter()
         .map(|&k| numeric(batch, k))
         .collect::<Result<_, _>>()?;
+    let n = batch.num_rows();
+    let ego_values: Vec<&[f64]> = ego.iter().map(|c| &c.values[..n]).collect();
+    let partner_values: Vec<&[f64]> = partner.iter().map(|c| &c.values[..n]).collect();
+    let any_nulls = ego.iter().chain(&partner).any(|c| c.nulls.is_some());
     let mut bad = Vec::new();
-    for row in 0..batch.num_rows() {
+    for row in 0..n {
         let line = first_row + row as u64 + 1;
-        let gather = |cols: &[Numeric], idx: &[usize; 9]| -> Result<[f64; 9], RowError> {
-            let mut v = [0f64; 9];
-            for ((c, slot), &k) in cols.iter().zip(v.iter_mut()).zip(idx) {
-                *slot = c.get(row).ok_or_else(|| RowError {
-                    line,
-                    column: columns.names.get(k).cloned(),
-                    problem: RowProblem::Missing,
-                })?;
-            }
-            Ok(v)
+        let present = !any_nulls
+            || ego
+                .iter()
+                .chain(&partner)
+                .all(|c| c.nulls.is_none_or(|nulls| nulls.is_valid(row)));
+        let pair = if present {
+            let gather =
+                |values: &[&[f64]]| -> [f64; 9] { std::array::from_fn(|k| values[k][row]) };
+            columns.pair_from_values(gather(&ego_values), gather(&partner_values), line)
+        } else {
+            let first_null = |cols: &[Column], idx: &[usize; 9]| {
+                cols.iter()
+                    .zip(idx)
+                    .find(|(c, _)| c.nulls.is_some_and(|nulls| nulls.is_null(row)))
+                    .map(|(_, &k)| k)
+            };
+            let k =
+                first_null(&ego, &columns.ego).or_else(|| first_null(&partner, &columns.partner));
+            Err(RowError {
+                line,
+                column: k.and_then(|k| columns.names.get(k).cloned()),
+                problem: RowProblem::Missing,
+            })
         };
-        let pair = gather(&ego, &columns.ego)
-            .and_then(|e| Ok((e, gather(&partner, &columns.partner)?)))
-            .and_then(|(e, p)| columns.pair_from_values(e, p, line));
         match pair {
             Ok(pair) => each(row, Some(pair)),
             Err(e) => {

@@ -18,7 +18,7 @@
 //! extents `width / |sin(dh)|`, the zone is ahead of each vehicle's rear. "Near-parallel overlap": the
 //! headings differ by at most `gamma = 0.01396` rad modulo pi, the boxes overlap laterally, and one
 //! is ahead of the other (or they overlap longitudinally by the reference's rotated-axis test).
-use crate::geometry::{position, unit_heading, velocity, Vec2};
+use crate::geometry::{velocity, OrientedBox, Vec2};
 use crate::state::VehicleState;
 use core::f32::consts::PI;
 
@@ -37,18 +37,21 @@ struct Mover {
 }
 
 impl Mover {
+    #[cfg(test)]
     fn of(s: &VehicleState) -> Option<Self> {
-        if !s.is_finite() {
-            return None;
-        }
-        let h = unit_heading(s)?;
-        Some(Self {
-            p: position(s),
-            h,
+        OrientedBox::of(s).map(|b| Self::with_box(s, &b))
+    }
+
+    /// The mover of a state whose box is `b` (a box exists exactly when the state is finite and
+    /// its heading normalises; its centre is the position, its axis the unit heading).
+    fn with_box(s: &VehicleState, b: &OrientedBox) -> Self {
+        Self {
+            p: b.center,
+            h: b.axis,
             speed: velocity(s).norm(),
             length: s.length,
             width: s.width,
-        })
+        }
     }
 
     /// Half extent of the box across the unit direction `theta`.
@@ -108,9 +111,20 @@ fn parallel_overlap(a: &Mover, b: &Mover, d: Vec2) -> bool {
 /// Non-finite inputs or a zero heading give `f32::NEG_INFINITY`; the result is never NaN or `+inf`
 /// (an overflowing value is clamped to `f32::MAX`).
 pub fn ei(ego: &VehicleState, partner: &VehicleState) -> f32 {
-    let (Some(a), Some(b)) = (Mover::of(ego), Mover::of(partner)) else {
+    let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::NEG_INFINITY;
     };
+    ei_of_boxes(&bi, &bj, ego, partner)
+}
+
+/// [`ei`] of two states whose boxes are `bi` (ego) and `bj` (partner).
+pub(super) fn ei_of_boxes(
+    bi: &OrientedBox,
+    bj: &OrientedBox,
+    ego: &VehicleState,
+    partner: &VehicleState,
+) -> f32 {
+    let (a, b) = (Mover::with_box(ego, bi), Mover::with_box(partner, bj));
     let d = b.p - a.p;
     let u = b.h.scale(b.speed) - a.h.scale(a.speed);
     let dist = d.norm();
@@ -118,9 +132,8 @@ pub fn ei(ego: &VehicleState, partner: &VehicleState) -> f32 {
     if !closing_after_rounding(closing) {
         return f32::NEG_INFINITY;
     }
-    let crossing = paths_cross(&a, &b, d);
-    let parallel = near_parallel(&a, &b) && parallel_overlap(&a, &b, d);
-    if !(crossing || parallel) {
+    let conflict = paths_cross(&a, &b, d) || (near_parallel(&a, &b) && parallel_overlap(&a, &b, d));
+    if !conflict {
         return f32::NEG_INFINITY;
     }
     let u_norm = u.norm();

@@ -10,6 +10,8 @@
 //! values give the "no conflict" sentinel (or a finite value), never NaN and never a panic.
 //! TTC2D and TAdv move the vehicles with `(vx, vy)` and use the heading only for the box; EI, like
 //! its reference, moves each vehicle with its speed `|(vx, vy)|` along its heading.
+use crate::features::{features_with_headings, Features};
+use crate::geometry::{boxes_distance, unit_heading, OrientedBox, Vec2};
 use crate::state::VehicleState;
 
 mod ei;
@@ -105,11 +107,50 @@ pub struct Surrogates {
 
 /// Compute every surrogate of the pair (`ego`, `partner`).
 pub fn surrogates(ego: &VehicleState, partner: &VehicleState) -> Surrogates {
+    surrogates_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))
+}
+
+/// Every surrogate and the 13 features of the pair, bit for bit [`surrogates`] and
+/// [`features`](crate::features::features), with what they share done once: each heading is
+/// normalised and each box built once (not once per measure), and TAdv's near-parallel fallback
+/// reuses the box distance.
+pub fn surrogates_and_features(
+    ego: &VehicleState,
+    partner: &VehicleState,
+) -> (Surrogates, Features) {
+    let (heading_ego, heading_partner) = (unit_heading(ego), unit_heading(partner));
+    (
+        surrogates_with_headings(ego, heading_ego, partner, heading_partner),
+        features_with_headings(ego, heading_ego, partner, heading_partner),
+    )
+}
+
+/// [`surrogates`] with the [`unit_heading`] of each state already computed.
+pub(crate) fn surrogates_with_headings(
+    ego: &VehicleState,
+    heading_ego: Option<Vec2>,
+    partner: &VehicleState,
+    heading_partner: Option<Vec2>,
+) -> Surrogates {
+    let boxes = (
+        OrientedBox::with_axis(ego, heading_ego),
+        OrientedBox::with_axis(partner, heading_partner),
+    );
+    let (Some(bi), Some(bj)) = boxes else {
+        // What each measure reports without a box.
+        return Surrogates {
+            box_distance: f32::INFINITY,
+            ttc2d: f32::INFINITY,
+            tadv: f32::INFINITY,
+            ei: f32::NEG_INFINITY,
+        };
+    };
+    let box_distance = boxes_distance(&bi, &bj);
     Surrogates {
-        box_distance: crate::geometry::box_distance(ego, partner),
-        ttc2d: ttc2d(ego, partner),
-        tadv: tadv(ego, partner),
-        ei: ei(ego, partner),
+        box_distance,
+        ttc2d: ttc2d::ttc2d_of_boxes(bi, bj, ego, partner),
+        tadv: tadv::tadv_of_boxes(bi, bj, ego, partner, || box_distance),
+        ei: ei::ei_of_boxes(&bi, &bj, ego, partner),
     }
 }
 

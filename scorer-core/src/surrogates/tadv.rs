@@ -17,7 +17,7 @@
 //! `|v_i| + |v_j|` (opposite directions, judged along the ego heading), kept at `|dv| >= 1e-6`.
 //! A negative result (the gap opens) is `+inf`; two stopped vehicles give `D / 1e-6`, about 1e7 s.
 use super::guard::clamp_away_from_zero;
-use crate::geometry::{oriented_box_distance, velocity, OrientedBox};
+use crate::geometry::{boxes_distance, velocity, OrientedBox};
 use crate::state::VehicleState;
 
 /// 3 degrees: below it (or above 177 degrees) the paths are treated as parallel.
@@ -34,6 +34,19 @@ pub fn tadv(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
     };
+    tadv_of_boxes(bi, bj, ego, partner, || boxes_distance(&bi, &bj))
+}
+
+/// [`tadv`] of two states whose boxes are `bi` (ego) and `bj` (partner); `gap` gives their
+/// [`boxes_distance`] (asked for near-parallel motion only, so a caller that has it already
+/// passes it instead of measuring twice).
+pub(super) fn tadv_of_boxes(
+    bi: OrientedBox,
+    bj: OrientedBox,
+    ego: &VehicleState,
+    partner: &VehicleState,
+    gap: impl FnOnce() -> f32,
+) -> f32 {
     let origin = bi.center;
     let bi = bi.relative_to(origin);
     let bj = bj.relative_to(origin);
@@ -45,7 +58,7 @@ pub fn tadv(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let parallel = cross == 0.0 || !(PARALLEL_ANGLE..=ANTIPARALLEL_ANGLE).contains(&angle);
 
     let result = if parallel {
-        parallel_fallback(&bi, &bj, ego, partner)
+        parallel_fallback(&bi, &bj, ego, partner, gap())
     } else {
         crossing_time_advantage(&bi, &bj, ego, partner, cross)
     };
@@ -56,12 +69,15 @@ pub fn tadv(ego: &VehicleState, partner: &VehicleState) -> f32 {
     }
 }
 
-/// Box distance over the signed speed difference (see the module doc).
+/// The box distance `gap` over the signed speed difference (see the module doc). A NaN gap
+/// (which [`boxes_distance`] reports as `+inf`) ends as `+inf` either way: NaN and `+-inf` over
+/// any speed are NaN, `+inf` or negative, all "no conflict".
 fn parallel_fallback(
     bi: &OrientedBox,
     bj: &OrientedBox,
     ego: &VehicleState,
     partner: &VehicleState,
+    gap: f32,
 ) -> f32 {
     let partner_behind = (bj.center - bi.center).dot(bi.axis) < 0.0;
     let partner_forward = velocity(partner).dot(bi.axis);
@@ -74,7 +90,7 @@ fn parallel_fallback(
     } else {
         speed_i - speed_j
     };
-    let ttc = oriented_box_distance(bi, bj) / clamp_away_from_zero(closing);
+    let ttc = gap / clamp_away_from_zero(closing);
     if ttc < 0.0 {
         f32::INFINITY
     } else {

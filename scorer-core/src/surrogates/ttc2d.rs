@@ -58,6 +58,16 @@ pub fn ttc2d(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
     };
+    ttc2d_of_boxes(bi, bj, ego, partner)
+}
+
+/// [`ttc2d`] of two states whose boxes are `bi` (ego) and `bj` (partner).
+pub(super) fn ttc2d_of_boxes(
+    bi: OrientedBox,
+    bj: OrientedBox,
+    ego: &VehicleState,
+    partner: &VehicleState,
+) -> f32 {
     let origin = bi.center;
     let bi = bi.relative_to(origin);
     let bj = bj.relative_to(origin);
