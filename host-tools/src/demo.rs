@@ -95,7 +95,9 @@ pub fn default_real_city_data() -> Option<PathBuf> {
 fn committed_extract(relative: &str) -> Option<PathBuf> {
     let candidates = [
         PathBuf::from(relative),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(relative),
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(relative),
     ];
     candidates
         .into_iter()

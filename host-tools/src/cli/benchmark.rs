@@ -3,8 +3,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    acceptance_claims, default_real_city_data, default_real_data, msra_input_names, print_claims, write_transfer_report,
-    Claim, REAL_DATA,
+    acceptance_claims, default_real_city_data, default_real_data, msra_input_names, print_claims,
+    write_transfer_report, Claim, REAL_DATA,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
