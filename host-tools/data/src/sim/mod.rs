@@ -376,7 +376,8 @@ pub fn simulate_one(
     rng.set_stream(index as u64);
     let mut rejections: BTreeMap<&'static str, u64> = BTreeMap::new();
     for attempt in 1..=MAX_ATTEMPTS {
-        let scn = scenarios::draw(&mut rng, kind.is_conflict(), families);
+        let family = families.draw(&mut rng);
+        let scn = scenarios::build(family, &mut rng, kind.is_conflict());
         let (family, classes) = (scn.family, scn.classes);
         let place = Placement::draw(&mut rng);
         let (mut frames, touched) = run(scn, &place);

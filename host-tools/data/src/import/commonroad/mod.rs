@@ -17,6 +17,7 @@ use crate::events::{EventWriter, EventsError};
 use provenance::ProvenanceWriter;
 use repeats::EarlierTracks;
 
+mod derivative;
 pub mod pairs;
 pub mod provenance;
 pub mod repeats;

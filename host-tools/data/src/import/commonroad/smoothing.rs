@@ -6,6 +6,7 @@
 //! average of the speed keeps real, sustained accelerations (pulling away from a red light) and
 //! removes the single-frame spikes. Off by default: the recorded value is used as it is.
 
+use super::derivative::speed_derivative;
 use super::xml::Track;
 
 /// Replaces every state's acceleration of `track` by the time derivative of its speed averaged
@@ -39,24 +40,6 @@ pub fn smooth_acceleration(track: &mut Track, window: f64, dt: f64) {
     for i in 0..n {
         states[i].acc = speed_derivative(n, i, dt, |k| (states[k].step, averaged[k]));
     }
-}
-
-/// The time derivative of a speed at state `i` of `n` (`at(k)` gives state `k`'s step and speed,
-/// `dt` s per step): the central difference between its neighbours, one-sided at the ends.
-/// `n` must be at least 2.
-pub(super) fn speed_derivative(
-    n: usize,
-    i: usize,
-    dt: f64,
-    at: impl Fn(usize) -> (i64, f64),
-) -> f64 {
-    let (a, b) = match i {
-        0 => (0, 1),
-        i if i + 1 == n => (i - 1, i),
-        i => (i - 1, i + 1),
-    };
-    let ((step_a, speed_a), (step_b, speed_b)) = (at(a), at(b));
-    (speed_b - speed_a) / ((step_b - step_a) as f64 * dt)
 }
 
 #[cfg(test)]

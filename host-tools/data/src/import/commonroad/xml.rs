@@ -16,7 +16,7 @@ use std::path::Path;
 
 use roxmltree::{Document, Node};
 
-use super::smoothing::speed_derivative;
+use super::derivative::speed_derivative;
 
 /// Vehicle types whose tracks are imported (CommonRoad `obstacleTypeDynamic` spelling).
 pub const VEHICLE_TYPES: [&str; 7] = [

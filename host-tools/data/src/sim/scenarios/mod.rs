@@ -15,7 +15,6 @@ mod roadside;
 
 use rand_chacha::ChaCha8Rng;
 
-use super::family_mix::FamilyMix;
 use super::world::Agent;
 use crossing::{crossing, left_turn_across, opposite_drift, turn_into_path};
 use following::{cut_in, lane_change, lead_braking, merge, stopped_ahead};
@@ -100,12 +99,6 @@ pub(crate) struct Scenario {
     pub classes: [VehicleClass; 2],
     /// Simulated duration (s).
     pub horizon: f64,
-}
-
-/// Draws one scenario of a family drawn from `mix`.
-pub(crate) fn draw(rng: &mut ChaCha8Rng, hazardous: bool, mix: &FamilyMix) -> Scenario {
-    let family = mix.draw(rng);
-    build(family, rng, hazardous)
 }
 
 /// Builds a scenario of `family`.
