@@ -54,10 +54,12 @@ pub struct Common {
     /// conflicts plus real safe driving (`--events out/data --events data/ngsim-us101-safe`).
     #[arg(long, value_name = "DIR", required = true)]
     pub events: Vec<PathBuf>,
-    /// Real normal-driving event folder: the GSSM is fitted on its safe sequences (a model of
-    /// normal interactions, as the original GSSM). Default: the safe sequences of `--events`.
+    /// Real normal-driving event folder: the GSSM is fitted on the safe sequences of every
+    /// `--normal` folder together (a model of normal interactions, as the original GSSM); repeat
+    /// it to cover several places, e.g. `--normal data/ngsim-us101-safe --normal
+    /// data/ngsim-urban-safe` (freeway and city). Default: the safe sequences of `--events`.
     #[arg(long, value_name = "DIR")]
-    pub normal: Option<PathBuf>,
+    pub normal: Vec<PathBuf>,
     /// Training configuration TOML (comparisons, objective, optimiser); defaults when absent.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -202,11 +204,13 @@ fn load_all(dirs: &[PathBuf]) -> anyhow::Result<Vec<Sequence>> {
     Ok(out)
 }
 
-/// The sequences the GSSM is fitted on: `--normal` when given, else the training sequences.
+/// The sequences the GSSM is fitted on: those of every `--normal` folder, else the training
+/// sequences.
 fn normal_sequences(common: &Common, train: &[Sequence]) -> anyhow::Result<Vec<Sequence>> {
-    match &common.normal {
-        Some(dir) => Ok(load_sequences(dir)?),
-        None => Ok(train.to_vec()),
+    if common.normal.is_empty() {
+        Ok(train.to_vec())
+    } else {
+        load_all(&common.normal)
     }
 }
 
@@ -354,7 +358,7 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         &msra_row_name(&shipped.kinds),
         &shipped.msra.params.weights(),
     );
-    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, a.common.normal.as_deref());
+    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, &a.common.normal);
     let summary = serde_json::to_string_pretty(&summary)?;
     // The three models and their summary belong together: renamed into place as one set.
     let folders = riskscore_output::NewFolders::create(&a.out_dir)
@@ -396,9 +400,10 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         .map(|c| parse_configuration(c).map_err(anyhow::Error::msg))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seqs = load_all(&a.common.events)?;
-    let normal = match &a.common.normal {
-        Some(dir) => Some(load_sequences(dir)?),
-        None => None,
+    let normal = if a.common.normal.is_empty() {
+        None
+    } else {
+        Some(load_all(&a.common.normal)?)
     };
     let options = CvOptions {
         folds: a.folds.max(2),
