@@ -118,4 +118,39 @@ fn gssm_fit_pools_the_safe_driving_of_every_normal_folder() {
     let b = fit(&[&folders[1]], "b.rsk");
     assert!(a > 0 && b > 0 && a != b, "{a} {b}");
     assert_eq!(fit(&[&folders[0], &folders[1]], "ab.rsk"), a + b);
+
+    // `gssm nll` scores the same safe observations, each folder in the five speed bands.
+    let model = dir.path().join("ab.rsk");
+    let out = riskctl(&[
+        "gssm",
+        "nll",
+        "--gssm",
+        arg(&model),
+        "--events",
+        arg(&folders[0]),
+        "--events",
+        arg(&folders[1]),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(2)
+        .map(|l| l.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 10, "{text}");
+    let per_folder = |folder: &Path| -> usize {
+        rows.iter()
+            .filter(|r| r[0] == arg(folder))
+            .map(|r| r[2].parse::<usize>().expect("observations"))
+            .sum()
+    };
+    assert_eq!((per_folder(&folders[0]), per_folder(&folders[1])), (a, b));
+    for r in &rows {
+        let observed = r[2] != "0";
+        assert_eq!(
+            r[3].parse::<f64>().is_ok_and(f64::is_finite),
+            observed,
+            "{text}"
+        );
+    }
 }

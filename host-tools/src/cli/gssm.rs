@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_data::events::Sequence;
 use riskscore_train::export::write_blob;
+use riskscore_train::gssm::fit::nll_by_speed_band;
 use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
 use riskscore_train::gssm::ship::{ship, SHIPPED_FILES, SUMMARY_FILE};
 use riskscore_train::gssm::study::{
@@ -19,12 +20,13 @@ use scorer_core::gssm::GssmScore;
 
 /// GSSM (lognormal spacing model), SSRA (GSSM aligned with comparisons) and MSRA over GSSM.
 ///
-/// `fit` learns the GSSM from the safe events of a folder by lognormal likelihood; `align`
+/// `fit` learns the GSSM from the safe events of folders by lognormal likelihood; `align`
 /// fine-tunes it under the comparison objective through its CDF (SSRA); `msra` trains an MSRA
 /// configuration that embeds it (e.g. TAdv+EI+GSSM); `ship` does all three and writes
 /// gssm-default.rsk, ssra-default.rsk and msra-gssm.rsk; `cv` cross-validates GSSM, SSRA and the
 /// MSRA configurations against TTC2D/TAdv/EI; `augmentation` runs the simulation-augmentation
-/// study. Every model file decodes with the core and loads in `riskctl evaluate`. See docs/gssm.md.
+/// study; `nll` says how well a fitted GSSM models the safe driving of other folders. Every model
+/// file decodes with the core and loads in `riskctl evaluate`. See docs/gssm.md.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(subcommand)]
@@ -45,6 +47,19 @@ pub enum Command {
     Cv(CvArgs),
     /// Simulation augmentation: sim only, real only, real + more sim, at small and large budgets.
     Augmentation(AugmentationArgs),
+    /// How well a fitted GSSM models the safe driving of folders it may not have seen: its mean
+    /// lognormal NLL per folder and ego-speed band (lower = closer to that normal driving).
+    Nll(NllArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct NllArgs {
+    /// GSSM model file (from `riskctl gssm fit`; an SSRA or MSRA-over-GSSM blob's network too).
+    #[arg(long, value_name = "FILE")]
+    pub gssm: PathBuf,
+    /// Event folder whose safe sequences are scored (repeatable: one table block per folder).
+    #[arg(long, value_name = "DIR", required = true)]
+    pub events: Vec<PathBuf>,
 }
 
 /// Data and configuration shared by the subcommands.
@@ -173,6 +188,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Command::Ship(a) => run_ship(a),
         Command::Cv(a) => run_cv(a),
         Command::Augmentation(a) => run_augmentation(a),
+        Command::Nll(a) => run_nll(a),
     }
 }
 
@@ -447,6 +463,26 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
             .as_bytes(),
         )?;
         eprintln!("riskctl: wrote {}", out.display());
+    }
+    Ok(())
+}
+
+fn run_nll(a: NllArgs) -> anyhow::Result<()> {
+    let gssm = read_gssm(&a.gssm)?;
+    println!("| Folder | Ego speed (m/s) | Safe observations | NLL of ln s (nats) |");
+    println!("|---|---|---:|---:|");
+    for dir in &a.events {
+        let seqs = load_sequences(dir)?;
+        for b in nll_by_speed_band(&gssm, &seqs)? {
+            println!(
+                "| {} | {}-{} | {} | {} |",
+                dir.display(),
+                b.band.0,
+                b.band.1,
+                b.observations,
+                b.nll.map_or("-".into(), |v| format!("{v:.3}"))
+            );
+        }
     }
     Ok(())
 }
