@@ -60,7 +60,97 @@ fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(models.join("gssm-ship.json")).unwrap()).unwrap();
     assert_eq!(summary["events"][0], arg(&events));
-    assert!(summary["normal"].is_null());
+    assert_eq!(summary["normal"], serde_json::json!([]));
     assert_eq!(summary["seed"], 1);
     assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
+}
+
+/// `N + M` of "GSSM ...: N safe observations (M validation)" in `riskctl gssm fit`'s report: every
+/// safe observation the fit read, whichever events its validation split holds out.
+fn fitted_observations(stdout: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(stdout);
+    let (_, rest) = text.split_once(": ").expect("fit report");
+    let (fit, rest) = rest.split_once(" safe observations (").expect("fit report");
+    let (validation, _) = rest.split_once(" validation)").expect("fit report");
+    let count = |n: &str| n.parse::<usize>().expect("observation count");
+    count(fit) + count(validation)
+}
+
+#[test]
+fn gssm_fit_pools_the_safe_driving_of_every_normal_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("train/tests/data/tiny");
+    let (train_toml, gssm_toml) = (tiny.join("train.toml"), tiny.join("gssm.toml"));
+    let folders: Vec<_> = [("a", "3"), ("b", "4")]
+        .iter()
+        .map(|(name, seed)| {
+            let folder = dir.path().join(name);
+            riskctl(&[
+                "simulate",
+                "--out",
+                arg(&folder),
+                "--events",
+                "30",
+                "--seed",
+                seed,
+            ]);
+            folder
+        })
+        .collect();
+    let fit = |normal: &[&Path], out: &str| {
+        let mut args = vec!["gssm", "fit", "--events", arg(&folders[0])];
+        for n in normal {
+            args.extend(["--normal", arg(n)]);
+        }
+        let out = dir.path().join(out);
+        args.extend([
+            "--config",
+            arg(&train_toml),
+            "--gssm-config",
+            arg(&gssm_toml),
+        ]);
+        args.extend(["--out", arg(&out)]);
+        let observations = fitted_observations(&riskctl(&args).stdout);
+        scorer_core::model::decode(&std::fs::read(&out).unwrap()).unwrap();
+        observations
+    };
+    let a = fit(&[&folders[0]], "a.rsk");
+    let b = fit(&[&folders[1]], "b.rsk");
+    assert!(a > 0 && b > 0 && a != b, "{a} {b}");
+    assert_eq!(fit(&[&folders[0], &folders[1]], "ab.rsk"), a + b);
+
+    // `gssm nll` scores the same safe observations, each folder in the five speed bands.
+    let model = dir.path().join("ab.rsk");
+    let out = riskctl(&[
+        "gssm",
+        "nll",
+        "--gssm",
+        arg(&model),
+        "--events",
+        arg(&folders[0]),
+        "--events",
+        arg(&folders[1]),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(2)
+        .map(|l| l.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 10, "{text}");
+    let per_folder = |folder: &Path| -> usize {
+        rows.iter()
+            .filter(|r| r[0] == arg(folder))
+            .map(|r| r[2].parse::<usize>().expect("observations"))
+            .sum()
+    };
+    assert_eq!((per_folder(&folders[0]), per_folder(&folders[1])), (a, b));
+    for r in &rows {
+        let observed = r[2] != "0";
+        assert_eq!(
+            r[3].parse::<f64>().is_ok_and(f64::is_finite),
+            observed,
+            "{text}"
+        );
+    }
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_data::events::Sequence;
 use riskscore_train::export::write_blob;
+use riskscore_train::gssm::fit::nll_by_speed_band;
 use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
 use riskscore_train::gssm::ship::{ship, SHIPPED_FILES, SUMMARY_FILE};
 use riskscore_train::gssm::study::{
@@ -19,12 +20,13 @@ use scorer_core::gssm::GssmScore;
 
 /// GSSM (lognormal spacing model), SSRA (GSSM aligned with comparisons) and MSRA over GSSM.
 ///
-/// `fit` learns the GSSM from the safe events of a folder by lognormal likelihood; `align`
+/// `fit` learns the GSSM from the safe events of folders by lognormal likelihood; `align`
 /// fine-tunes it under the comparison objective through its CDF (SSRA); `msra` trains an MSRA
 /// configuration that embeds it (e.g. TAdv+EI+GSSM); `ship` does all three and writes
 /// gssm-default.rsk, ssra-default.rsk and msra-gssm.rsk; `cv` cross-validates GSSM, SSRA and the
 /// MSRA configurations against TTC2D/TAdv/EI; `augmentation` runs the simulation-augmentation
-/// study. Every model file decodes with the core and loads in `riskctl evaluate`. See docs/gssm.md.
+/// study; `nll` says how well a fitted GSSM models the safe driving of other folders. Every model
+/// file decodes with the core and loads in `riskctl evaluate`. See docs/gssm.md.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(subcommand)]
@@ -45,6 +47,19 @@ pub enum Command {
     Cv(CvArgs),
     /// Simulation augmentation: sim only, real only, real + more sim, at small and large budgets.
     Augmentation(AugmentationArgs),
+    /// How well a fitted GSSM models the safe driving of folders it may not have seen: its mean
+    /// lognormal NLL per folder and ego-speed band (lower = closer to that normal driving).
+    Nll(NllArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct NllArgs {
+    /// GSSM model file (from `riskctl gssm fit`; an SSRA or MSRA-over-GSSM blob's network too).
+    #[arg(long, value_name = "FILE")]
+    pub gssm: PathBuf,
+    /// Event folder whose safe sequences are scored (repeatable: one table block per folder).
+    #[arg(long, value_name = "DIR", required = true)]
+    pub events: Vec<PathBuf>,
 }
 
 /// Data and configuration shared by the subcommands.
@@ -54,10 +69,12 @@ pub struct Common {
     /// conflicts plus real safe driving (`--events out/data --events data/ngsim-us101-safe`).
     #[arg(long, value_name = "DIR", required = true)]
     pub events: Vec<PathBuf>,
-    /// Real normal-driving event folder: the GSSM is fitted on its safe sequences (a model of
-    /// normal interactions, as the original GSSM). Default: the safe sequences of `--events`.
+    /// Real normal-driving event folder: the GSSM is fitted on the safe sequences of every
+    /// `--normal` folder together (a model of normal interactions, as the original GSSM); repeat
+    /// it to cover several places, e.g. `--normal data/ngsim-us101-safe --normal
+    /// data/ngsim-urban-safe` (freeway and city). Default: the safe sequences of `--events`.
     #[arg(long, value_name = "DIR")]
-    pub normal: Option<PathBuf>,
+    pub normal: Vec<PathBuf>,
     /// Training configuration TOML (comparisons, objective, optimiser); defaults when absent.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -171,6 +188,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Command::Ship(a) => run_ship(a),
         Command::Cv(a) => run_cv(a),
         Command::Augmentation(a) => run_augmentation(a),
+        Command::Nll(a) => run_nll(a),
     }
 }
 
@@ -202,11 +220,13 @@ fn load_all(dirs: &[PathBuf]) -> anyhow::Result<Vec<Sequence>> {
     Ok(out)
 }
 
-/// The sequences the GSSM is fitted on: `--normal` when given, else the training sequences.
+/// The sequences the GSSM is fitted on: those of every `--normal` folder, else the training
+/// sequences.
 fn normal_sequences(common: &Common, train: &[Sequence]) -> anyhow::Result<Vec<Sequence>> {
-    match &common.normal {
-        Some(dir) => Ok(load_sequences(dir)?),
-        None => Ok(train.to_vec()),
+    if common.normal.is_empty() {
+        Ok(train.to_vec())
+    } else {
+        load_all(&common.normal)
     }
 }
 
@@ -354,7 +374,7 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         &msra_row_name(&shipped.kinds),
         &shipped.msra.params.weights(),
     );
-    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, a.common.normal.as_deref());
+    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, &a.common.normal);
     let summary = serde_json::to_string_pretty(&summary)?;
     // The three models and their summary belong together: renamed into place as one set.
     let folders = riskscore_output::NewFolders::create(&a.out_dir)
@@ -396,9 +416,10 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         .map(|c| parse_configuration(c).map_err(anyhow::Error::msg))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seqs = load_all(&a.common.events)?;
-    let normal = match &a.common.normal {
-        Some(dir) => Some(load_sequences(dir)?),
-        None => None,
+    let normal = if a.common.normal.is_empty() {
+        None
+    } else {
+        Some(load_all(&a.common.normal)?)
     };
     let options = CvOptions {
         folds: a.folds.max(2),
@@ -442,6 +463,26 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
             .as_bytes(),
         )?;
         eprintln!("riskctl: wrote {}", out.display());
+    }
+    Ok(())
+}
+
+fn run_nll(a: NllArgs) -> anyhow::Result<()> {
+    let gssm = read_gssm(&a.gssm)?;
+    println!("| Folder | Ego speed (m/s) | Safe observations | NLL of ln s (nats) |");
+    println!("|---|---|---:|---:|");
+    for dir in &a.events {
+        let seqs = load_sequences(dir)?;
+        for b in nll_by_speed_band(&gssm, &seqs)? {
+            println!(
+                "| {} | {}-{} | {} | {} |",
+                dir.display(),
+                b.band.0,
+                b.band.1,
+                b.observations,
+                b.nll.map_or("-".into(), |v| format!("{v:.3}"))
+            );
+        }
     }
     Ok(())
 }

@@ -455,9 +455,9 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
         assert!(v.is_finite());
     }
     assert_eq!(names, ["GSSM", "SSRA", "MSRA"]);
-    let summary = shipped.summary(&config, &gssm_config, std::slice::from_ref(&events), None);
+    let summary = shipped.summary(&config, &gssm_config, std::slice::from_ref(&events), &[]);
     assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
     assert_eq!(summary["seed"], 1);
     assert_eq!(summary["events"][0], events.display().to_string());
-    assert!(summary["normal"].is_null());
+    assert_eq!(summary["normal"], serde_json::json!([]));
 }

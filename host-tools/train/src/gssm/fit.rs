@@ -243,6 +243,63 @@ pub fn fit_gssm_on_observations(
     })
 }
 
+/// Ego-speed bands of the operating domain (m/s, `[lo, hi)`, docs/domain.md); the last one also
+/// holds anything faster.
+pub const SPEED_BANDS: [(f32, f32); 5] = [
+    (0.0, 5.0),
+    (5.0, 15.0),
+    (15.0, 25.0),
+    (25.0, 35.0),
+    (35.0, 50.0),
+];
+
+/// Index of the ego speed among the features (`vy_ego`, the ego's speed along its heading).
+const EGO_SPEED_INDEX: usize = 3;
+
+/// How well a GSSM models one speed band of some normal driving.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BandNll {
+    /// `[lo, hi)` ego speed (m/s).
+    pub band: (f32, f32),
+    pub observations: usize,
+    /// Mean Gaussian NLL of `ln s` (nats); `None` without observations.
+    pub nll: Option<f64>,
+}
+
+/// The GSSM's mean NLL on the safe observations of `seqs`, per ego-speed band ([`SPEED_BANDS`]):
+/// where a model of normal driving fits the driving it has not seen, and where it does not.
+pub fn nll_by_speed_band(
+    params: &GssmParams,
+    seqs: &[Sequence],
+) -> Result<Vec<BandNll>, GssmError> {
+    let obs = safe_observations(seqs);
+    let last = SPEED_BANDS.len() - 1;
+    let mut bands: Vec<Vec<Features>> = vec![Vec::new(); SPEED_BANDS.len()];
+    for f in obs {
+        let speed = f[EGO_SPEED_INDEX];
+        let k = SPEED_BANDS
+            .iter()
+            .position(|&(lo, hi)| speed >= lo && speed < hi)
+            .unwrap_or(last);
+        bands[k].push(f);
+    }
+    SPEED_BANDS
+        .iter()
+        .zip(bands)
+        .map(|(&band, obs)| {
+            Ok(BandNll {
+                band,
+                observations: obs.len(),
+                nll: if obs.is_empty() {
+                    None
+                } else {
+                    Some(nll(params, &obs)?)
+                },
+            })
+        })
+        .collect()
+}
+
 /// Mean Gaussian NLL of `ln s` of the given parameters on observations (finite positive spacing).
 pub fn nll(params: &GssmParams, obs: &[Features]) -> Result<f64, GssmError> {
     let obs: Vec<Features> = obs

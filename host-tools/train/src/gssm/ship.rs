@@ -95,12 +95,12 @@ impl Shipped {
         config: &TrainConfig,
         gssm_config: &GssmConfig,
         events: &[PathBuf],
-        normal: Option<&Path>,
+        normal: &[PathBuf],
     ) -> serde_json::Value {
         let (g, s, m) = (&self.gssm, &self.ssra, &self.msra);
         serde_json::json!({
             "events": events.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-            "normal": normal.map(|p| p.display().to_string()),
+            "normal": normal.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "sequences": self.sequences,
             "seed": config.seed,
             "gssm": {"shape": g.params.shape(), "parameters": g.params.parameter_count(),
