@@ -11,7 +11,9 @@
 //! - `report/`: `results.{md,csv,json}` (mean ± std over folds), `folds.csv`, `curves.csv`
 //!   (pooled out-of-fold operating points), `training.json` (comparisons, training, quantisation and
 //!   stage statistics), `transfer/` (the transfer benchmark's `results.{md,csv,json}`, `folds.csv`,
-//!   `splits.json`);
+//!   `splits.json`), `domains/` (the short domain benchmark's `domains.{md,json}`, per-round
+//!   folds and the real-safe shares);
+//! - `domains-data/`: the domain benchmark's two simulated folders (`train/`, `test/`);
 //! - `models/`: `drl.rsk` (int8), `drl-f32.rsk`, `msra.rsk`, and their checkpoints `drl.json`,
 //!   `msra.json`;
 //! - `plots/`: `roc`, `pr`, `trajectories` and `event-1..3` (the trajectory events drawn as
@@ -55,7 +57,33 @@ pub struct DemoOptions {
     pub transfer: Option<TransferSettings>,
     /// GSSM / SSRA settings of the transfer benchmark.
     pub gssm: GssmConfig,
+    /// The short domain benchmark (held-out speed band, city, geometry); `None` skips it.
+    pub domains: Option<DomainSettings>,
     pub progress: Progress,
+}
+
+/// The demo's short domain benchmark (`riskctl benchmark domains`' default rounds on smaller
+/// settings): two simulated folders of the operating-domain families, the real freeway data
+/// and the real city extract.
+#[derive(Clone, Debug)]
+pub struct DomainSettings {
+    /// Events per simulated folder (training: the demo's mix; test: the transfer's).
+    pub events: usize,
+    pub folds: usize,
+    pub seeds: usize,
+    /// Real city normal-driving folder; `None`: the city rounds report "no data".
+    pub real_city: Option<PathBuf>,
+}
+
+impl Default for DomainSettings {
+    fn default() -> Self {
+        DomainSettings {
+            events: 310,
+            folds: 2,
+            seeds: 1,
+            real_city: default_real_city_data(),
+        }
+    }
 }
 
 /// The transfer benchmark's simulated test folder: another seed and another event mix.
@@ -130,6 +158,7 @@ impl Default for DemoOptions {
             real: default_real_data(),
             transfer: Some(TransferSettings::default()),
             gssm: GssmConfig::default(),
+            domains: Some(DomainSettings::default()),
             progress: Progress::Bar,
         }
     }
@@ -163,6 +192,8 @@ pub enum DemoError {
     Report(#[from] eval::bundle::BundleError),
     #[error("{0}")]
     Transfer(#[from] riskscore_train::transfer::TransferError),
+    #[error("domain benchmark: {0}")]
+    Domains(#[from] riskscore_train::domains::DomainsError),
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
@@ -489,6 +520,21 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         stages.push(("transfer benchmark".into(), t0.elapsed().as_secs_f64()));
     }
 
+    // The domain benchmark, like the transfer benchmark, needs real recordings.
+    if let (Some(settings), Some(transfer), false) =
+        (&opts.domains, &opts.transfer, real_seqs.is_empty())
+    {
+        let t0 = Instant::now();
+        files.extend(domain_benchmark(
+            opts,
+            settings,
+            transfer,
+            &real_seqs,
+            &report_dir,
+        )?);
+        stages.push(("domain benchmark".into(), t0.elapsed().as_secs_f64()));
+    }
+
     // 4. Final models on all data.
     let t0 = Instant::now();
     eprintln!("[4/6] training the final DRL and MSRA on all events, quantising, exporting");
@@ -606,6 +652,76 @@ pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
         .filter_map(|n| riskscore_train::train::msra::parse_surrogate(n))
         .map(|k| k.name().to_string())
         .collect()
+}
+
+/// Stage 3c: the default rounds of `riskctl benchmark domains`, short (`settings`' folds and
+/// seeds): train without a speed band, a city or a geometry, test on it. Simulates its own two
+/// folders with the operating-domain families (the training one at the demo's seed, the test one
+/// at the transfer benchmark's seed and mix); writes `report/domains/`.
+fn domain_benchmark(
+    opts: &DemoOptions,
+    settings: &DomainSettings,
+    transfer: &TransferSettings,
+    real_freeway: &[Sequence],
+    report_dir: &Path,
+) -> Result<Vec<PathBuf>, DemoError> {
+    use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
+    let simulate = |folder: &str, seed: u64, mix: sim::Mix| -> Result<Vec<Sequence>, DemoError> {
+        let dir = opts.out.join("domains-data").join(folder);
+        let cfg = SimConfig {
+            seed,
+            events: settings.events,
+            mix,
+            families: sim::FamilyMix::domain(),
+            progress: opts.progress == Progress::Bar,
+            ..SimConfig::default()
+        };
+        sim::simulate_to_dir(&dir, &cfg)?;
+        Ok(load_sequences(&dir)?.0)
+    };
+    let real_city = match &settings.real_city {
+        Some(dir) => load_sequences(dir)?.0,
+        None => Vec::new(),
+    };
+    eprintln!(
+        "[3c]  domain benchmark: {} + {} events of the operating-domain families (seeds {} and {}), \
+         {} real freeway + {} real city sequences, {} folds x {} seed(s)",
+        settings.events,
+        settings.events,
+        opts.sim_seed,
+        transfer.test_seed,
+        real_freeway.len(),
+        real_city.len(),
+        settings.folds,
+        settings.seeds
+    );
+    let data = DomainData::new(
+        simulate("train", opts.sim_seed, SimConfig::default().mix)?,
+        simulate("test", transfer.test_seed, transfer.test_mix)?,
+        real_freeway.to_vec(),
+        real_city,
+    );
+    let options = riskscore_train::transfer::TransferOptions {
+        folds: settings.folds,
+        seeds: settings.seeds,
+        progress: opts.progress,
+    };
+    let result = domains::run(
+        &Round::defaults(),
+        &data,
+        &opts.config,
+        &opts.gssm,
+        &options,
+        EmptyRound::ReportNoData,
+    )?;
+    println!(
+        "Domain benchmark (short: {} folds x {} seed(s); `riskctl benchmark domains` runs 5 x 3): \
+         each round trains without one slice of the operating domain and tests on it",
+        settings.folds, settings.seeds
+    );
+    println!();
+    println!("{}", result.to_markdown());
+    Ok(result.bundle()?.write_to(&report_dir.join("domains"))?)
 }
 
 /// Write the transfer benchmark's report files into `dir`; returns the paths.

@@ -85,6 +85,12 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
             ..demo::TransferSettings::default()
         }),
         gssm,
+        domains: Some(demo::DomainSettings {
+            events: 80,
+            folds: 2,
+            seeds: 1,
+            real_city: None,
+        }),
         progress: Progress::Hidden,
     };
     let summary = demo::run(&opts).unwrap();
@@ -103,6 +109,10 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "report/transfer/folds.csv",
         "report/transfer/splits.json",
         "transfer-data/events.csv",
+        "report/domains/domains.md",
+        "report/domains/domains.json",
+        "domains-data/train/events.csv",
+        "domains-data/test/events.csv",
         "models/drl.rsk",
         "models/drl-f32.rsk",
         "models/msra.rsk",
@@ -167,6 +177,17 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     let stage_names = stage_names_of(&summary);
     assert_eq!(stage_names[0], "simulate + load");
     assert!(stage_names.contains(&"cross-validation"));
+    assert!(stage_names.contains(&"domain benchmark"));
+    // Every default round is reported, run or "no data" (this tiny run has no city folder).
+    let domains_md = std::fs::read_to_string(out.join("report/domains/domains.md")).unwrap();
+    for round in [
+        "speed-35-50",
+        "city-lankershim",
+        "city-peachtree",
+        "geometry-crossing",
+    ] {
+        assert!(domains_md.contains(round), "{round} missing:\n{domains_md}");
+    }
 
     // The event figures draw the trajectory figure's events; every figure says what it plots.
     let trajectories = std::fs::read_to_string(out.join("plots/trajectories.svg")).unwrap();

@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::demo::{self, DemoOptions, TransferSettings};
+use host_tools::demo::{self, DemoOptions, DomainSettings, TransferSettings};
 use riskscore_data::sim::Mix;
 use riskscore_train::train::{Progress, TrainConfig};
 
@@ -10,11 +10,13 @@ use riskscore_train::train::{Progress, TrainConfig};
 /// (data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the
 /// results table against TTC2D, TAdv and EI, run the transfer benchmark (train on this simulator
 /// seed + part of the real scenario files, test on another seed and event mix + the held-out real
-/// files), quantise and export the final models, and write plots.
+/// files), run a short domain benchmark (train without the 35-50 m/s band, one city's real traffic,
+/// or crossing/oncoming encounters, test on it; 2 folds x 1 seed of `riskctl benchmark domains`),
+/// quantise and export the final models, and write plots.
 ///
 /// Everything goes under --out (default ./out): data/ (the simulated events), transfer-data/ (the
-/// transfer test simulation), report/ (results.md/csv/json, folds.csv, curves.csv, training.json,
-/// transfer/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
+/// transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
+/// (results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
 /// risk trajectories as SVG and PNG).
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -49,9 +51,13 @@ pub struct Args {
     /// Simulation only: no real recordings (and no transfer benchmark).
     #[arg(long)]
     pub no_real: bool,
-    /// Skip the transfer benchmark.
+    /// Skip the transfer benchmark (and the domain benchmark, which uses its test seed and mix).
     #[arg(long)]
     pub no_transfer: bool,
+    /// Skip the short domain benchmark (held-out speed band, city and geometry; the full run is
+    /// `riskctl benchmark domains`).
+    #[arg(long)]
+    pub no_domains: bool,
     /// Simulator seed of the transfer benchmark's test folder.
     #[arg(long, default_value_t = TransferSettings::default().test_seed)]
     pub transfer_seed: u64,
@@ -95,6 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ..TransferSettings::default()
         }),
         gssm: riskscore_train::gssm::GssmConfig::default(),
+        domains: (!args.no_domains).then(DomainSettings::default),
         progress: if args.quiet {
             Progress::Hidden
         } else {
