@@ -124,16 +124,10 @@ pub fn evaluate(
                 message.replace("--skip-bad-events", "skip_bad_events=True"),
             ));
         }
-        let mut json: serde_json::Value = serde_json::from_str(&folder.report.to_json_string())
+        let json = folder
+            .to_json_text()
             .map_err(|e| Failure::Events(e.to_string()))?;
-        if let Some(object) = json.as_object_mut() {
-            let points = folder.thresholds.iter().map(|t| t.to_json()).collect();
-            object.insert(
-                "operating_points".to_owned(),
-                serde_json::Value::Array(points),
-            );
-        }
-        Ok((json.to_string(), issues, count))
+        Ok((json, issues, count))
     });
     evaluated.map_err(|f| f.into_py(py))
 }

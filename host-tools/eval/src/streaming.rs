@@ -458,6 +458,24 @@ pub enum FolderRefusal {
 }
 
 impl FolderEvaluation {
+    /// What `riskctl evaluate --json` prints (and `riskscore.evaluate` returns): the report's
+    /// JSON with the operating points under `"operating_points"` and the guarded models' frames
+    /// outside their training domain under `"domain"` (one object per model with a domain
+    /// record; `[]` when none has one).
+    pub fn to_json_text(&self) -> Result<String, serde_json::Error> {
+        let mut json: serde_json::Value = serde_json::from_str(&self.report.to_json_string())?;
+        if let Some(object) = json.as_object_mut() {
+            let points = self.thresholds.iter().map(|t| t.to_json()).collect();
+            object.insert(
+                "operating_points".to_owned(),
+                serde_json::Value::Array(points),
+            );
+            let domain = self.domain.iter().map(|d| d.to_json()).collect();
+            object.insert("domain".to_owned(), serde_json::Value::Array(domain));
+        }
+        serde_json::to_string_pretty(&json)
+    }
+
     /// `Err` when the metrics would leave events out or have nothing to measure: no valid event,
     /// bad rows (unless `skip_bad_events`), or no event that yields a sequence.
     pub fn check(&self, skip_bad_events: bool) -> Result<(), FolderRefusal> {

@@ -146,7 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let folder = evaluate_checked(dir, &methods, gather, args.skip_bad_events)?;
     if args.json {
-        println!("{}", json_with_operating_points(&folder)?);
+        println!("{}", folder.to_json_text()?);
     } else {
         print!("{}", folder.report.to_markdown());
         print!("{}", riskscore_eval::domain_share::markdown(&folder.domain));
@@ -234,23 +234,6 @@ pub(super) fn operating_thresholds(
         }
     }
     Ok(chosen)
-}
-
-/// The report's JSON with the operating points added under `"operating_points"` and the guarded
-/// models' frames outside their training domain under `"domain"` (one object per model with a
-/// domain record; `[]` when none has one).
-fn json_with_operating_points(folder: &FolderEvaluation) -> anyhow::Result<String> {
-    let mut json: serde_json::Value = serde_json::from_str(&folder.report.to_json_string())?;
-    if let Some(object) = json.as_object_mut() {
-        let points = folder.thresholds.iter().map(|t| t.to_json()).collect();
-        object.insert(
-            "operating_points".to_owned(),
-            serde_json::Value::Array(points),
-        );
-        let domain = folder.domain.iter().map(|d| d.to_json()).collect();
-        object.insert("domain".to_owned(), serde_json::Value::Array(domain));
-    }
-    Ok(serde_json::to_string_pretty(&json)?)
 }
 
 /// Evaluates `dir` one event at a time ([`evaluate_folder_gathering`]) and refuses, after
