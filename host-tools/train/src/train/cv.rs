@@ -111,6 +111,9 @@ pub struct FoldOutcome {
     pub agreement: Option<Agreement>,
     /// The fold's learned MSRA parameters (sign/weight inspection).
     pub msra_params: Option<super::msra::MsraParams>,
+    /// The fold's exported model blobs by row name, with the training-domain record of
+    /// `[guard] policy` (what the benchmark scored).
+    pub blobs: Vec<(String, Vec<u8>)>,
     pub times: FoldTimes,
 }
 
@@ -243,16 +246,26 @@ pub fn run_fold(
     if let Some(m) = &msra {
         blobs.push(("MSRA".into(), export::msra_blob(&m.params).map_err(xerr)?));
     }
+    // The record the final model would carry, measured on what this fold's models trained on.
+    for (_, blob) in &mut blobs {
+        *blob = export::with_measured_domain(blob, &train_ts, cfg.guard.policy).map_err(xerr)?;
+    }
     times.quantise_export = t0.elapsed().as_secs_f64();
 
     let t0 = Instant::now();
     let mut methods = Vec::new();
     for (name, blob) in &blobs {
-        let model =
-            scorer_core::model::decode(blob).map_err(|source| CvError::Decode { fold, source })?;
+        let blob = scorer_core::model::decode_blob(blob)
+            .map_err(|source| CvError::Decode { fold, source })?;
+        // Scored through its guard, as the ECU and `riskctl evaluate` score the exported file.
+        let scorer = if blob.meta.training_domain.is_some() {
+            Scorer::Guarded(blob)
+        } else {
+            Scorer::Model(blob.model)
+        };
         methods.push(Method {
             name: name.clone(),
-            scorer: Scorer::Model(model),
+            scorer,
         });
     }
     if opts.baselines {
@@ -261,6 +274,8 @@ pub fn run_fold(
     let (report, runs) = eval::evaluate_methods(&observed, &methods)
         .map_err(|source| CvError::Eval { fold, source })?;
     times.evaluate = t0.elapsed().as_secs_f64();
+    // The methods borrow the blobs, which the outcome keeps.
+    drop(methods);
 
     Ok(FoldOutcome {
         fold,
@@ -275,6 +290,7 @@ pub fn run_fold(
         msra: msra.as_ref().map(|m| m.report.clone()),
         agreement,
         msra_params: msra.map(|m| m.params),
+        blobs,
         times,
     })
 }
