@@ -98,6 +98,16 @@ fn fold_models_carry_the_configured_record_and_are_scored_through_it() {
     let observation =
         scorer_core::Observation::of(&held_out[0].frames[0].ego, &held_out[0].frames[0].partner);
     assert!(!blob.score_guarded(&observation).in_domain);
+    // Every held-out frame is 25 m/s beyond the training speeds: outside for every model.
+    assert!(none.domain_shares.is_empty());
+    for outcome in [&flag, &clamp] {
+        let shares: Vec<_> = outcome
+            .domain_shares
+            .iter()
+            .map(|d| (d.name.as_str(), d.outside_percent()))
+            .collect();
+        assert_eq!(shares, models.map(|m| (m, Some(100.0))));
+    }
     for m in models {
         // flag-only scores exactly as no record: the default leaves every number unchanged.
         assert!(

@@ -19,6 +19,7 @@ use crate::comparisons::BuildStats;
 use crate::export::{self, ExportError};
 use crate::quantize::{self, Agreement};
 use riskscore_data::events::{kfold_by_event, Sequence};
+use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, FoldResult, Method, MethodRun, Scorer};
 
 /// Which learned models a run trains.
@@ -114,7 +115,31 @@ pub struct FoldOutcome {
     /// The fold's exported model blobs by row name, with the training-domain record of
     /// `[guard] policy` (what the benchmark scored).
     pub blobs: Vec<(String, Vec<u8>)>,
+    /// Per guarded model: how many of the fold's test frames lie outside its training domain.
+    pub domain_shares: Vec<DomainShare>,
     pub times: FoldTimes,
+}
+
+/// The share of `observed` frames each guarded method sees outside its training domain.
+fn domain_shares(observed: &[eval::ObservedSequence], methods: &[Method<'_>]) -> Vec<DomainShare> {
+    let mut shares = Vec::new();
+    for method in methods {
+        let Some(kind) = method
+            .scorer
+            .model_kind()
+            .filter(|_| method.scorer.has_domain())
+        else {
+            continue;
+        };
+        let mut share = DomainShare::new(&method.name, kind);
+        for frame in observed.iter().flat_map(|s| &s.frames) {
+            if let Some(guarded) = method.scorer.score_guarded(&frame.observation) {
+                share.add(&guarded);
+            }
+        }
+        shares.push(share);
+    }
+    shares
 }
 
 /// Keep `fraction` of the events of each kind (at least one per kind present), seeded.
@@ -274,6 +299,7 @@ pub fn run_fold(
     let (report, runs) = eval::evaluate_methods(&observed, &methods)
         .map_err(|source| CvError::Eval { fold, source })?;
     times.evaluate = t0.elapsed().as_secs_f64();
+    let domain_shares = domain_shares(&observed, &methods);
     // The methods borrow the blobs, which the outcome keeps.
     drop(methods);
 
@@ -291,6 +317,7 @@ pub fn run_fold(
         agreement,
         msra_params: msra.map(|m| m.params),
         blobs,
+        domain_shares,
         times,
     })
 }
