@@ -26,6 +26,8 @@ use serde::{Deserialize, Serialize};
 use crate::quantize::{self, Calibration, FloatBuffers, QuantisedDrl};
 use crate::train::drl::DrlParams;
 use crate::train::msra::{parse_surrogate, MsraParams};
+use crate::train::GuardPolicy;
+use riskscore_data::events::Sequence;
 
 pub const CHECKPOINT_FORMAT: &str = "riskscore-checkpoint";
 /// Version 3: the DRL scaler and network read the core's DRL input encoding 3 (version 1 read the
@@ -370,6 +372,33 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         let _ = writeln!(s, "  {:<15} [{}, {}]", name, r.lo, r.hi);
     }
     s
+}
+
+/// `blob` with the training domain measured on every frame of `train` (the model's inputs
+/// between their 0.1 % and 99.9 % quantiles) under `policy`; `GuardPolicy::None` returns the blob
+/// unchanged. Final and fold models both go through here, so a benchmark measures the record the
+/// shipped model would carry. The default `flag-only` scores as the unguarded model; the shipped
+/// policy is picked from held-out measurements (`docs/domain-guard.md`).
+pub fn with_measured_domain(
+    blob: &[u8],
+    train: &[Sequence],
+    policy: GuardPolicy,
+) -> Result<Vec<u8>, ExportError> {
+    let Some(policy) = policy.outside_policy() else {
+        return Ok(blob.to_vec());
+    };
+    let model = model::decode(blob).map_err(ExportError::Model)?;
+    let pairs = train
+        .iter()
+        .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
+    let domain = riskscore_eval::domain_ranges::measure(
+        &model,
+        pairs,
+        riskscore_eval::domain_ranges::DEFAULT_TAIL,
+        policy,
+    )
+    .map_err(|e| ExportError::Domain(e.to_string()))?;
+    with_training_domain(blob, domain.domain())
 }
 
 /// `blob` with its training-domain record set to `domain` (the model and the other records

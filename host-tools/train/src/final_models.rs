@@ -27,27 +27,9 @@ pub struct FinalModels {
     pub pairs_per_second: f64,
 }
 
-/// `blob` with the training domain measured on every frame of `train` (the model's inputs
-/// between their 0.1 % and 99.9 % quantiles) under `FlagOnly`: the scores stay those of the
-/// unguarded model and every consumer learns when an observation lies outside. The lead picks
-/// the shipped policy from held-out measurements (`riskctl calibrate-domain --policy`).
-fn with_measured_domain(blob: &[u8], train: &[Sequence]) -> Result<Vec<u8>, ExportError> {
-    let model = scorer_core::model::decode(blob).map_err(ExportError::Model)?;
-    let pairs = train
-        .iter()
-        .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
-    let domain = riskscore_eval::domain_ranges::measure(
-        &model,
-        pairs,
-        riskscore_eval::domain_ranges::DEFAULT_TAIL,
-        scorer_core::model::OutsidePolicy::FlagOnly,
-    )
-    .map_err(|e| ExportError::Domain(e.to_string()))?;
-    export::with_training_domain(blob, domain.domain())
-}
-
 /// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`: `drl.json`,
-/// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk` (each with its training domain). `meta` goes into both checkpoints.
+/// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk` (each with its training domain under
+/// `config.guard`). `meta` goes into both checkpoints.
 /// Returns the models and the files written.
 pub fn train_and_export(
     train: &[Sequence],
@@ -93,7 +75,10 @@ pub fn train_and_export(
         ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
         ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
     ] {
-        contents.push((dir.join(name), with_measured_domain(&blob, train)?));
+        contents.push((
+            dir.join(name),
+            export::with_measured_domain(&blob, train, config.guard.policy)?,
+        ));
     }
     // The five files are one output: all new or all old.
     export::write_set(dir, &contents)?;

@@ -175,6 +175,39 @@ impl Default for QuantisationConfig {
     }
 }
 
+/// The training-domain record training attaches to every model it exports (final models and the
+/// fold models of cross-validation and the benchmarks): `docs/domain-guard.md`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GuardConfig {
+    pub policy: GuardPolicy,
+}
+
+/// What a model does outside its training domain, as `[guard] policy` names it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GuardPolicy {
+    /// No record: the blob says nothing about its domain.
+    None,
+    /// A record under `flag-only`: scores as unguarded, every consumer sees the flag.
+    #[default]
+    FlagOnly,
+    /// A record under `clamp`: inputs outside are moved to the edge of their trained range.
+    Clamp,
+}
+
+impl GuardPolicy {
+    /// The policy written into the record (`None`: no record).
+    pub fn outside_policy(self) -> Option<scorer_core::model::OutsidePolicy> {
+        use scorer_core::model::OutsidePolicy;
+        match self {
+            GuardPolicy::None => None,
+            GuardPolicy::FlagOnly => Some(OutsidePolicy::FlagOnly),
+            GuardPolicy::Clamp => Some(OutsidePolicy::Clamp),
+        }
+    }
+}
+
 /// The whole training configuration.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -187,6 +220,7 @@ pub struct TrainConfig {
     pub drl: DrlConfig,
     pub msra: MsraConfig,
     pub quantisation: QuantisationConfig,
+    pub guard: GuardConfig,
 }
 
 /// What is wrong with a training configuration's values.
@@ -501,6 +535,22 @@ mod tests {
             .contains("quantisation.max_observations"));
         let at_caps = "[comparisons.temporal]\npairs = 10000000\n[optimiser]\nmax_epochs = 100000";
         assert!(TrainConfig::from_toml(at_caps, "t.toml").is_ok());
+    }
+
+    #[test]
+    fn the_guard_policy_parses_by_name_and_defaults_to_flag_only() {
+        assert_eq!(TrainConfig::default().guard.policy, GuardPolicy::FlagOnly);
+        for (name, policy) in [
+            ("none", GuardPolicy::None),
+            ("flag-only", GuardPolicy::FlagOnly),
+            ("clamp", GuardPolicy::Clamp),
+        ] {
+            let text = format!("[guard]\npolicy = \"{name}\"");
+            let config = TrainConfig::from_toml(&text, "t.toml").unwrap();
+            assert_eq!(config.guard.policy, policy);
+        }
+        let err = invalid("[guard]\npolicy = \"fallback\"");
+        assert!(err.contains("t.toml") && err.contains("fallback"), "{err}");
     }
 
     #[test]

@@ -19,6 +19,7 @@ use crate::comparisons::BuildStats;
 use crate::export::{self, ExportError};
 use crate::quantize::{self, Agreement};
 use riskscore_data::events::{kfold_by_event, Sequence};
+use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, FoldResult, Method, MethodRun, Scorer};
 
 /// Which learned models a run trains.
@@ -111,7 +112,34 @@ pub struct FoldOutcome {
     pub agreement: Option<Agreement>,
     /// The fold's learned MSRA parameters (sign/weight inspection).
     pub msra_params: Option<super::msra::MsraParams>,
+    /// The fold's exported model blobs by row name, with the training-domain record of
+    /// `[guard] policy` (what the benchmark scored).
+    pub blobs: Vec<(String, Vec<u8>)>,
+    /// Per guarded model: how many of the fold's test frames lie outside its training domain.
+    pub domain_shares: Vec<DomainShare>,
     pub times: FoldTimes,
+}
+
+/// The share of `observed` frames each guarded method sees outside its training domain.
+fn domain_shares(observed: &[eval::ObservedSequence], methods: &[Method<'_>]) -> Vec<DomainShare> {
+    let mut shares = Vec::new();
+    for method in methods {
+        let Some(kind) = method
+            .scorer
+            .model_kind()
+            .filter(|_| method.scorer.has_domain())
+        else {
+            continue;
+        };
+        let mut share = DomainShare::new(&method.name, kind);
+        for frame in observed.iter().flat_map(|s| &s.frames) {
+            if let Some(guarded) = method.scorer.score_guarded(&frame.observation) {
+                share.add(&guarded);
+            }
+        }
+        shares.push(share);
+    }
+    shares
 }
 
 /// Keep `fraction` of the events of each kind (at least one per kind present), seeded.
@@ -243,16 +271,26 @@ pub fn run_fold(
     if let Some(m) = &msra {
         blobs.push(("MSRA".into(), export::msra_blob(&m.params).map_err(xerr)?));
     }
+    // The record the final model would carry, measured on what this fold's models trained on.
+    for (_, blob) in &mut blobs {
+        *blob = export::with_measured_domain(blob, &train_ts, cfg.guard.policy).map_err(xerr)?;
+    }
     times.quantise_export = t0.elapsed().as_secs_f64();
 
     let t0 = Instant::now();
     let mut methods = Vec::new();
     for (name, blob) in &blobs {
-        let model =
-            scorer_core::model::decode(blob).map_err(|source| CvError::Decode { fold, source })?;
+        let blob = scorer_core::model::decode_blob(blob)
+            .map_err(|source| CvError::Decode { fold, source })?;
+        // Scored through its guard, as the ECU and `riskctl evaluate` score the exported file.
+        let scorer = if blob.meta.training_domain.is_some() {
+            Scorer::Guarded(blob)
+        } else {
+            Scorer::Model(blob.model)
+        };
         methods.push(Method {
             name: name.clone(),
-            scorer: Scorer::Model(model),
+            scorer,
         });
     }
     if opts.baselines {
@@ -261,6 +299,9 @@ pub fn run_fold(
     let (report, runs) = eval::evaluate_methods(&observed, &methods)
         .map_err(|source| CvError::Eval { fold, source })?;
     times.evaluate = t0.elapsed().as_secs_f64();
+    let domain_shares = domain_shares(&observed, &methods);
+    // The methods borrow the blobs, which the outcome keeps.
+    drop(methods);
 
     Ok(FoldOutcome {
         fold,
@@ -275,6 +316,8 @@ pub fn run_fold(
         msra: msra.as_ref().map(|m| m.report.clone()),
         agreement,
         msra_params: msra.map(|m| m.params),
+        blobs,
+        domain_shares,
         times,
     })
 }

@@ -34,7 +34,7 @@ use riskscore_data::events::Sequence;
 
 use crate::comparisons::{self, ComparisonSet, ObservationTable};
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
-pub use config::TrainConfig;
+pub use config::{GuardPolicy, TrainConfig};
 use config::{ObjectiveConfig, OptimiserConfig};
 pub use model::RiskModel;
 pub use objective::LossParts;

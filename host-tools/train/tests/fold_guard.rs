@@ -1,0 +1,129 @@
+//! The fold models of cross-validation (and so of `benchmark transfer` / `benchmark domains`)
+//! carry the training-domain record of `[guard] policy`, measured on the fold's training data, and
+//! are scored through it: `none` and `flag-only` score alike, `clamp` moves held-out scores.
+use riskscore_data::events::Sequence;
+use riskscore_train::train::cv::{self, CvOptions, FoldOutcome};
+use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
+use scorer_core::model::OutsidePolicy;
+
+mod common;
+use common::{conflict, following};
+
+fn in_town(n: usize) -> Vec<Sequence> {
+    (0..n)
+        .flat_map(|i| {
+            [
+                conflict(i, 5.0 + (i % 8) as f32, 0.0),
+                following(i, 12.0 + i as f32 % 7.0, 25.0 + 3.0 * (i % 5) as f32, 0.0),
+            ]
+        })
+        .collect()
+}
+
+/// The same situations 25 m/s faster: the ego's and the partner's speeds lie far outside
+/// what the training data covered, the relative kinematics inside.
+fn on_the_autobahn(n: usize) -> Vec<Sequence> {
+    let mut seqs = in_town(n);
+    for s in &mut seqs {
+        s.event_id = format!("fast-{}", s.event_id);
+        for f in &mut s.frames {
+            f.ego.vx += 25.0;
+            f.partner.vx += 25.0;
+        }
+    }
+    seqs
+}
+
+fn fold(policy: GuardPolicy) -> FoldOutcome {
+    let mut config = TrainConfig::default();
+    config.comparisons.temporal.pairs = 400;
+    config.comparisons.cross_sequence.pairs = 400;
+    config.comparisons.physics.pairs = 200;
+    config.optimiser.max_epochs = 8;
+    config.optimiser.batch_pairs = 256;
+    config.drl.hidden = vec![8, 8];
+    config.guard.policy = policy;
+    let options = CvOptions {
+        progress: Progress::Hidden,
+        ..CvOptions::default()
+    };
+    cv::run_fold(
+        0,
+        &in_town(24),
+        &on_the_autobahn(8),
+        None,
+        &config,
+        &options,
+    )
+    .unwrap()
+}
+
+fn policies(outcome: &FoldOutcome) -> Vec<(String, Option<OutsidePolicy>)> {
+    outcome
+        .blobs
+        .iter()
+        .map(|(name, blob)| {
+            let blob = scorer_core::model::decode_blob(blob).unwrap();
+            (name.clone(), blob.meta.training_domain.map(|d| d.policy))
+        })
+        .collect()
+}
+
+fn scores(outcome: &FoldOutcome, method: &str) -> Vec<u32> {
+    let run = outcome.runs.iter().find(|r| r.name == method).unwrap();
+    run.scored
+        .iter()
+        .flat_map(|s| s.frames.iter().map(|f| f.score.to_bits()))
+        .collect()
+}
+
+#[test]
+fn fold_models_carry_the_configured_record_and_are_scored_through_it() {
+    let none = fold(GuardPolicy::None);
+    let flag = fold(GuardPolicy::FlagOnly);
+    let clamp = fold(GuardPolicy::Clamp);
+    let models = ["DRL", "DRL-f32", "MSRA"];
+    let with = |p| {
+        models
+            .iter()
+            .map(|m| (m.to_string(), p))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(policies(&none), with(None));
+    assert_eq!(policies(&flag), with(Some(OutsidePolicy::FlagOnly)));
+    assert_eq!(policies(&clamp), with(Some(OutsidePolicy::Clamp)));
+    // The record is measured on the fold's training data: the held-out speeds are outside.
+    let blob = scorer_core::model::decode_blob(&flag.blobs[0].1).unwrap();
+    let held_out = on_the_autobahn(1);
+    let observation =
+        scorer_core::Observation::of(&held_out[0].frames[0].ego, &held_out[0].frames[0].partner);
+    assert!(!blob.score_guarded(&observation).in_domain);
+    // Every held-out frame is 25 m/s beyond the training speeds: outside for every model.
+    assert!(none.domain_shares.is_empty());
+    for outcome in [&flag, &clamp] {
+        let shares: Vec<_> = outcome
+            .domain_shares
+            .iter()
+            .map(|d| (d.name.as_str(), d.outside_percent()))
+            .collect();
+        assert_eq!(shares, models.map(|m| (m, Some(100.0))));
+    }
+    for m in models {
+        // flag-only scores exactly as no record: the default leaves every number unchanged.
+        assert!(
+            scores(&none, m) == scores(&flag, m),
+            "{m}: flag-only moved a score"
+        );
+    }
+    for m in ["DRL", "DRL-f32"] {
+        // clamp moves the network's scores of the held-out frames (it sees its trained edge).
+        assert!(
+            scores(&none, m) != scores(&clamp, m),
+            "{m}: clamp moved no score"
+        );
+    }
+    // MSRA scores from relative-kinematic surrogates (TAdv, EI) that a shift of both speeds
+    // leaves alone: clamping its features changes nothing here.
+    assert!(scores(&none, "MSRA") == scores(&clamp, "MSRA"));
+    assert_eq!(none.result.methods.len(), flag.result.methods.len());
+}
