@@ -136,12 +136,21 @@ check "real radar map: the scene warns (offline: $n_radar frames at threshold $R
 # track by one update (`awaiting motion`, 0.2 s), and a warning whose score sits near the threshold
 # may end one cycle earlier or later live, so the number and interleaving of periodic warning frames
 # are timing, not behaviour; so is the order in which two tracks first warn when offline they do so
-# 5 ms apart (seen in CI: offline 0, 5, 9 within 9 ms; live 0, 9, 5). Behaviour is: the same tracks
-# warn, and each track's own on/off events (level, reason, new_object) come in the same order.
+# 5 ms apart (seen in CI: offline 0, 5, 9 within 9 ms; live 0, 9, 5). For the same reason a
+# track's *last* release may read `score` on one side and `invalid` on the other: its score sat
+# within 0.03 of the threshold when the sensor dropped the object, and jitter decided whether it
+# dipped under one frame before the drop (seen in CI, 2026-11-26: offline 3.854 -> score, live
+# 3.889 -> invalid, threshold 3.878). Behaviour is: the same tracks warn, and each track's own
+# on/off events (level, reason, new_object) come in the same order, its final release being a
+# release whichever of the two ended it.
 warn_tracks() { awk '{ split($3, a, "#"); print substr(a[2], 5, 2) }' "$1" | sort -u; }
 events_by_track() {
   sed -e 's/"t":[-0-9.e+]*,//' -e 's/"score":[-0-9.e+]*,//' "$1" \
-    | sed -E 's/^(.*"track":([0-9]+).*)$/\2 \1/' | sort -s -n -k1,1
+    | sed -E 's/^(.*"track":([0-9]+).*)$/\2 \1/' | sort -s -n -k1,1 \
+    | awk 'function out(l) { if (l != "") print l }
+           { if ($1 != track) { out(final(last)) } else { out(last) } track = $1; last = $0 }
+           END { out(final(last)) }
+           function final(l) { sub(/"reason":"(score|invalid)"/, "\"reason\":\"end\"", l); return l }'
 }
 export -f events_by_track
 check "real radar map: live warning frames over vcan name the offline tracks" \
