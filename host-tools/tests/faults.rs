@@ -194,6 +194,14 @@ const WRITERS: &[Writer] = &[
         long: None,
     },
     Writer {
+        name: "benchmark domains",
+        args: "benchmark domains --real real --real-city real --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --seeds 1 --out OUT --quiet",
+        out: "bd/",
+        inputs: &["real", "sim", "t.toml", "g.toml"],
+        lock: "OUT/report",
+        long: None,
+    },
+    Writer {
         name: "man --out-dir",
         args: "man --out-dir OUT",
         out: "man/",
