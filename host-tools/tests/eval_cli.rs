@@ -503,6 +503,63 @@ fn calibrate_stores_the_threshold_and_inspect_model_prints_its_rule() {
 }
 
 #[test]
+fn calibrate_never_warn_lifts_the_threshold_above_that_driving_and_refuses_conflicts() {
+    let fx = fixture();
+    let safe_dir = fx.root.join("safe-only");
+    write_events(&safe_dir, &safe_only_set()).unwrap();
+    let calibrate = |never_warn: &Path, out: &Path| {
+        riskctl(&[
+            "calibrate",
+            "--model",
+            p(&fx.model),
+            "--normal",
+            p(&safe_dir),
+            "--false-alarm-rate",
+            "20",
+            "--never-warn",
+            p(never_warn),
+            "--out",
+            p(out),
+        ])
+    };
+    // The rule alone lets 2 of the 10 warn; with the same sequences as never-warn, none may.
+    let lifted = fx.root.join("lifted.rsk");
+    let out = calibrate(&safe_dir, &lifted);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("raised to"), "{stdout}");
+    assert!(stdout.contains("0.0 % of 10"), "{stdout}");
+    let bytes = std::fs::read(&lifted).unwrap();
+    let blob = scorer_core::model::decode_blob(&bytes).unwrap();
+    let threshold = blob.default_threshold();
+    let (set, _) = load_events(&safe_dir).unwrap();
+    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
+    for s in observe(&seqs) {
+        for f in &s.frames {
+            let score = blob.model.score_observation(&f.observation);
+            assert!(
+                score < threshold,
+                "{} warns: {score} >= {threshold}",
+                s.event_id
+            );
+        }
+    }
+    // A folder with conflicts cannot be required never to warn; nothing is written.
+    let refused = fx.root.join("refused.rsk");
+    let out = calibrate(&fx.events, &refused);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("conflict sequences"),
+        "{stderr}"
+    );
+    assert!(!refused.exists());
+}
+
+#[test]
 fn plot_draws_any_event_and_names_what_is_wrong() {
     let fx = fixture();
     for (event, file) in [

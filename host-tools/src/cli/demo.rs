@@ -2,8 +2,10 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::demo::{self, DemoOptions, DomainSettings, TransferSettings};
-use riskscore_data::sim::Mix;
+use host_tools::demo::{
+    self, DemoOptions, DomainSettings, ExtraSim, ExtraTraining, TransferSettings,
+};
+use riskscore_data::sim::{FamilyMix, Mix};
 use riskscore_train::train::{Progress, TrainConfig};
 
 /// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
@@ -13,6 +15,13 @@ use riskscore_train::train::{Progress, TrainConfig};
 /// files), run a short domain benchmark (train without the 35-50 m/s band, one city's real traffic,
 /// or crossing/oncoming encounters, test on it; 2 folds x 1 seed of `riskctl benchmark domains`),
 /// quantise and export the final models, and write plots.
+///
+/// The recipe (docs/training.md "Training on the operating domain"): the sets the benchmarks test
+/// on (the simulated default set and the real freeway extract) plus training-only data that joins
+/// every training fold, the transfer benchmark's training side and the final models but never a
+/// test fold: a simulated folder of the operating-domain families (motorway, signalised junctions,
+/// roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--no-extra` runs
+/// the recipe before issue #18.
 ///
 /// Everything goes under --out (default ./out): data/ (the simulated events), transfer-data/ (the
 /// transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
@@ -51,6 +60,29 @@ pub struct Args {
     /// Simulation only: no real recordings (and no transfer benchmark).
     #[arg(long)]
     pub no_real: bool,
+    /// Scenario families of the training-only simulated folder (`default`, `domain` or a list, as
+    /// `riskctl simulate --families`).
+    #[arg(
+        long,
+        value_name = "default|domain|NAME[:W],...",
+        default_value = "domain",
+        conflicts_with = "no_extra"
+    )]
+    pub extra_families: FamilyMix,
+    /// Events in the training-only simulated folder (0: none).
+    #[arg(long, value_name = "N", default_value_t = ExtraSim::default().events, conflicts_with = "no_extra")]
+    pub extra_events: usize,
+    /// Simulator seed of the training-only simulated folder (keep it apart from --sim-seed, the
+    /// transfer seed and any folder you test on).
+    #[arg(long, value_name = "SEED", default_value_t = ExtraSim::DEFAULT_SEED, conflicts_with = "no_extra")]
+    pub extra_seed: u64,
+    /// Training-only real normal-driving folder (repeatable); default: the committed city extract
+    /// data/ngsim-urban-safe when it is found.
+    #[arg(long = "extra-real", value_name = "DIR", conflicts_with = "no_extra")]
+    pub extra_real: Vec<PathBuf>,
+    /// No training-only data: train on the tested sets alone (the recipe before issue #18).
+    #[arg(long)]
+    pub no_extra: bool,
     /// Skip the transfer benchmark (and the domain benchmark, which uses its test seed and mix).
     #[arg(long)]
     pub no_transfer: bool,
@@ -70,11 +102,21 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let extra_real: Vec<(&str, Option<&std::path::Path>)> = args
+        .extra_real
+        .iter()
+        .map(|p| ("--extra-real", Some(p.as_path())))
+        .collect();
     super::output::refuse_inputs_of(
         &[
-            ("--data", args.data.as_deref()),
-            ("--real", args.real.as_deref()),
-        ],
+            [
+                ("--data", args.data.as_deref()),
+                ("--real", args.real.as_deref()),
+            ]
+            .as_slice(),
+            &extra_real,
+        ]
+        .concat(),
         &[("--config", args.config.as_deref())],
         &[("--out", &args.out)],
     )?;
@@ -102,6 +144,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         gssm: riskscore_train::gssm::GssmConfig::default(),
         domains: (!args.no_domains).then(DomainSettings::default),
+        extra: if args.no_extra {
+            ExtraTraining::none()
+        } else {
+            ExtraTraining {
+                sim: (args.extra_events > 0).then(|| ExtraSim {
+                    seed: args.extra_seed,
+                    events: args.extra_events,
+                    families: args.extra_families,
+                }),
+                real: if args.extra_real.is_empty() {
+                    ExtraTraining::default().real
+                } else {
+                    args.extra_real
+                },
+            }
+        },
         progress: if args.quiet {
             Progress::Hidden
         } else {
