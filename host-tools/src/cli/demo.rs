@@ -148,7 +148,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ExtraTraining::none()
         } else {
             ExtraTraining {
-                sim: (args.extra_events > 0).then(|| ExtraSim {
+                sim: (args.extra_events > 0).then_some(ExtraSim {
                     seed: args.extra_seed,
                     events: args.extra_events,
                     families: args.extra_families,
