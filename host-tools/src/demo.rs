@@ -915,10 +915,11 @@ metric exists in 14 of 15 folds (the mean is over those); n/a = it exists in non
 /// (`scripts/demo.sh` and `scripts/demo.sh --no-real` at commit time; docs/benchmarks.md has the
 /// full tables). Quoted, not computed: the other mode is not run.
 pub const WITH_REAL_FIGURES: &str =
-    "with the 606 real US-101 sequences (the default): DRL A_ROC_90 90.9 vs TAdv 87.3, transfer 80.8 vs 77.2";
+    "with the 376 real US-101 sequences (the default; the city ones train too): DRL A_ROC_90 91.0 vs \
+     TAdv 85.8, transfer 80.3 vs 75.1";
 pub const WITHOUT_REAL_FIGURES: &str =
-    "without them (--no-real), in distribution: DRL A_ROC_90 62.2 vs TAdv 64.7 and P_PRC_90 81.8 vs \
-     83.2, so DRL loses to TAdv (MSRA still wins: 73.0 and 87.3)";
+    "without any real driving (--no-real), in distribution: DRL A_ROC_90 66.4 vs TAdv 64.7 and \
+     P_PRC_90 83.8 vs 83.2, a margin within a fold std (MSRA: 73.6 and 87.4)";
 
 /// One short paragraph: what was shown on which data, and the caveats that were measured.
 pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
@@ -971,7 +972,7 @@ pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
     }
     if opts.real.is_some() {
         text.push_str(&format!(
-            " The win depends on the real normal driving: {WITHOUT_REAL_FIGURES} (quoted from \
+            " How much of the win rests on the real normal driving: {WITHOUT_REAL_FIGURES} (quoted from \
              the recorded run, docs/benchmarks.md)."
         ));
     } else {

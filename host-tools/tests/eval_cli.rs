@@ -170,6 +170,13 @@ fn riskctl(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// The folder's evaluation sequences with the core's observations, as `evaluate` sees them.
+fn observed_sequences(dir: &Path) -> Vec<riskscore_eval::ObservedSequence> {
+    let (set, _) = load_events(dir).unwrap();
+    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
+    observe(&seqs)
+}
+
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
@@ -431,9 +438,7 @@ fn calibrate_stores_the_threshold_and_inspect_model_prints_its_rule() {
         .expect("a stored default threshold");
     // At most 2 of the 10 sequences may warn; the rule picks the smallest such maximum.
     let model = blob.model;
-    let (set, _) = load_events(&safe_dir).unwrap();
-    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
-    let mut maxima: Vec<f32> = observe(&seqs)
+    let mut maxima: Vec<f32> = observed_sequences(&safe_dir)
         .iter()
         .map(|s| {
             s.frames
@@ -536,9 +541,7 @@ fn calibrate_never_warn_lifts_the_threshold_above_that_driving_and_refuses_confl
     let bytes = std::fs::read(&lifted).unwrap();
     let blob = scorer_core::model::decode_blob(&bytes).unwrap();
     let threshold = blob.default_threshold();
-    let (set, _) = load_events(&safe_dir).unwrap();
-    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
-    for s in observe(&seqs) {
+    for s in observed_sequences(&safe_dir) {
         for f in &s.frames {
             let score = blob.model.score_observation(&f.observation);
             assert!(

@@ -57,8 +57,9 @@ pub struct Args {
     /// benchmark; default: the committed extract data/ngsim-us101-safe when it is found.
     #[arg(long, value_name = "DIR", conflicts_with = "no_real")]
     pub real: Option<PathBuf>,
-    /// Simulation only: no real recordings (and no transfer benchmark).
-    #[arg(long)]
+    /// Simulation only: no real recordings, neither tested nor training-only (and no transfer
+    /// benchmark).
+    #[arg(long, conflicts_with = "extra_real")]
     pub no_real: bool,
     /// Scenario families of the training-only simulated folder (`default`, `domain` or a list, as
     /// `riskctl simulate --families`).
@@ -153,7 +154,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     events: args.extra_events,
                     families: args.extra_families,
                 }),
-                real: if args.extra_real.is_empty() {
+                // --no-real: no real recordings at all, training-only ones included.
+                real: if args.no_real {
+                    Vec::new()
+                } else if args.extra_real.is_empty() {
                     ExtraTraining::default().real
                 } else {
                     args.extra_real
