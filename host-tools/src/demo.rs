@@ -8,6 +8,7 @@
 //! Output layout under the out folder:
 //! - `data/`: the simulated event folder (`events.csv`, `frames.csv`, ...);
 //! - `transfer-data/`: the simulated test folder of the transfer benchmark;
+//! - `extra-data/`: the training-only simulated folder of the recipe ([`ExtraTraining`]);
 //! - `report/`: `results.{md,csv,json}` (mean ± std over folds), `folds.csv`, `curves.csv`
 //!   (pooled out-of-fold operating points), `training.json` (comparisons, training, quantisation and
 //!   stage statistics), `transfer/` (the transfer benchmark's `results.{md,csv,json}`, `folds.csv`,

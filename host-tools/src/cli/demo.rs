@@ -23,7 +23,8 @@ use riskscore_train::train::{Progress, TrainConfig};
 /// roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--no-extra` runs
 /// the recipe before issue #18.
 ///
-/// Everything goes under --out (default ./out): data/ (the simulated events), transfer-data/ (the
+/// Everything goes under --out (default ./out): data/ (the simulated events), extra-data/ (the
+/// training-only simulated folder), transfer-data/ (the
 /// transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
 /// (results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
 /// risk trajectories as SVG and PNG).
