@@ -543,9 +543,9 @@ fn the_shipped_ngsim_extract_loads_clean_and_prepares_whole() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/ngsim-us101-safe");
     let (set, issues) = load_events(&dir).unwrap();
     assert!(issues.is_empty(), "{:?}", &issues[..issues.len().min(5)]);
-    assert_eq!((set.len(), set.counts().safe), (606, 606));
+    assert_eq!((set.len(), set.counts().safe), (376, 376));
     let frames: usize = set.iter().map(|e| e.frames.len()).sum();
-    assert_eq!(frames, 16_768);
+    assert_eq!(frames, 10_682);
     let (seqs, prep) = prepare_sequences(&set, &PrepareConfig::default());
     assert!(prep.is_empty(), "{:?}", &prep[..prep.len().min(5)]);
     for (s, e) in seqs.iter().zip(set.iter()) {

@@ -91,6 +91,14 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
             seeds: 1,
             real_city: None,
         }),
+        extra: demo::ExtraTraining {
+            sim: Some(demo::ExtraSim {
+                seed: 4,
+                events: 40,
+                families: riskscore_data::sim::FamilyMix::domain(),
+            }),
+            real: Vec::new(),
+        },
         progress: Progress::Hidden,
     };
     let summary = demo::run(&opts).unwrap();
@@ -109,6 +117,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "report/transfer/folds.csv",
         "report/transfer/splits.json",
         "transfer-data/events.csv",
+        "extra-data/events.csv",
         "report/domains/domains.md",
         "report/domains/domains.json",
         "domains-data/train/events.csv",
@@ -132,6 +141,23 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
             "empty {}",
             p.display()
         );
+    }
+    // Training-only events train every fold and the transfer's training side, and are never
+    // scored as test events.
+    assert!(summary.extra_sequences > 0);
+    let maxima = std::fs::read_to_string(out.join("report/sequence_maxima.csv")).unwrap();
+    assert!(maxima.lines().count() > 1);
+    assert!(
+        !maxima.contains(demo::EXTRA_SIM_PREFIX),
+        "an extra event was tested"
+    );
+    let splits: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("report/transfer/splits.json")).unwrap(),
+    )
+    .unwrap();
+    for split in splits.as_array().unwrap() {
+        let train = split["train_sequences"].as_u64().unwrap() as usize;
+        assert!(train > summary.extra_sequences, "{split}");
     }
     // Every method of the table, three folds each.
     let cv = summary.cv.as_ref().unwrap();
@@ -218,6 +244,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         text.contains(&format!("{ok} of {} claims hold", summary.claims.len())),
         "{text}"
     );
+    assert!(text.contains("training-only sequences"), "{text}");
     let no_real = DemoOptions { real: None, ..opts };
     assert!(demo::conclusion(&summary, &no_real).contains(demo::WITH_REAL_FIGURES));
 }

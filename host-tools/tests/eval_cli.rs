@@ -170,6 +170,13 @@ fn riskctl(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// The folder's evaluation sequences with the core's observations, as `evaluate` sees them.
+fn observed_sequences(dir: &Path) -> Vec<riskscore_eval::ObservedSequence> {
+    let (set, _) = load_events(dir).unwrap();
+    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
+    observe(&seqs)
+}
+
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
@@ -431,9 +438,7 @@ fn calibrate_stores_the_threshold_and_inspect_model_prints_its_rule() {
         .expect("a stored default threshold");
     // At most 2 of the 10 sequences may warn; the rule picks the smallest such maximum.
     let model = blob.model;
-    let (set, _) = load_events(&safe_dir).unwrap();
-    let (seqs, _) = prepare_sequences(&set, &PrepareConfig::default());
-    let mut maxima: Vec<f32> = observe(&seqs)
+    let mut maxima: Vec<f32> = observed_sequences(&safe_dir)
         .iter()
         .map(|s| {
             s.frames
@@ -500,6 +505,61 @@ fn calibrate_stores_the_threshold_and_inspect_model_prints_its_rule() {
         assert!(!out.status.success(), "rate {rate} -> {out_path}");
     }
     assert_eq!(std::fs::read(&fx.model).unwrap(), before);
+}
+
+#[test]
+fn calibrate_never_warn_lifts_the_threshold_above_that_driving_and_refuses_conflicts() {
+    let fx = fixture();
+    let safe_dir = fx.root.join("safe-only");
+    write_events(&safe_dir, &safe_only_set()).unwrap();
+    let calibrate = |never_warn: &Path, out: &Path| {
+        riskctl(&[
+            "calibrate",
+            "--model",
+            p(&fx.model),
+            "--normal",
+            p(&safe_dir),
+            "--false-alarm-rate",
+            "20",
+            "--never-warn",
+            p(never_warn),
+            "--out",
+            p(out),
+        ])
+    };
+    // The rule alone lets 2 of the 10 warn; with the same sequences as never-warn, none may.
+    let lifted = fx.root.join("lifted.rsk");
+    let out = calibrate(&safe_dir, &lifted);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("raised to"), "{stdout}");
+    assert!(stdout.contains("0.0 % of 10"), "{stdout}");
+    let bytes = std::fs::read(&lifted).unwrap();
+    let blob = scorer_core::model::decode_blob(&bytes).unwrap();
+    let threshold = blob.default_threshold();
+    for s in observed_sequences(&safe_dir) {
+        for f in &s.frames {
+            let score = blob.model.score_observation(&f.observation);
+            assert!(
+                score < threshold,
+                "{} warns: {score} >= {threshold}",
+                s.event_id
+            );
+        }
+    }
+    // A folder with conflicts cannot be required never to warn; nothing is written.
+    let refused = fx.root.join("refused.rsk");
+    let out = calibrate(&fx.events, &refused);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("conflict sequences"),
+        "{stderr}"
+    );
+    assert!(!refused.exists());
 }
 
 #[test]

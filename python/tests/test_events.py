@@ -11,7 +11,7 @@ from conftest import NGSIM_SAFE, PAIR_COLUMNS
 
 def test_real_folder_reads_with_every_frame():
     events, frames = riskscore.read_events(NGSIM_SAFE)
-    assert events.num_rows == 606
+    assert events.num_rows == 376
     frame_lines = sum(1 for _ in open(NGSIM_SAFE / "frames.csv")) - 1
     assert frames.num_rows == frame_lines
     assert frames.column_names[:2] == ["event_id", "time"]
@@ -38,7 +38,7 @@ def test_existing_files_are_not_overwritten_by_accident(tmp_path):
         riskscore.write_events(target, events, frames)
     assert (target / "events.csv").read_bytes() == before
     riskscore.write_events(target, events, frames, overwrite=True)
-    assert riskscore.read_events(target)[0].num_rows == 606
+    assert riskscore.read_events(target)[0].num_rows == 376
 
 
 def test_bad_frames_are_refused_naming_row_and_column(tmp_path):

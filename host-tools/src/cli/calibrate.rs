@@ -22,9 +22,15 @@ training sequences is optimistic. Check the operating point on other data with
 `riskctl evaluate --model OUT --events DIR` (it reports recall, false alarms per hour and lead time
 at the default threshold).
 
+--never-warn DIR (repeatable) names safe driving that must never warn, e.g. passes beside
+stationary roadside objects: when the rule's threshold would let a frame of DIR reach it, the
+threshold is raised just above DIR's highest score. The printout says by how much and what share
+of the --normal sequences warns then (stored in the blob as the measured share); the recall that
+costs shows in `riskctl evaluate --model OUT --events CONFLICTS`.
+
 Example:
   riskctl calibrate --model models/drl-default.rsk --normal data/ngsim-us101-safe \\
-                    --false-alarm-rate 5 --out drl-calibrated.rsk";
+                    --normal data/ngsim-urban-safe --false-alarm-rate 5 --out drl-calibrated.rsk";
 
 /// Choose and store a model's default warning threshold from real normal driving.
 #[derive(clap::Args, Debug)]
@@ -39,6 +45,10 @@ pub struct Args {
     /// Largest share of the normal-driving sequences allowed to warn, in percent (0-100).
     #[arg(long, value_name = "PERCENT")]
     false_alarm_rate: f64,
+    /// Event folder of safe driving that must never warn (repeatable): the threshold goes just
+    /// above its highest score when the false-alarm rule would put it lower.
+    #[arg(long = "never-warn", value_name = "DIR")]
+    never_warn: Vec<PathBuf>,
     /// Output blob; must not be the input (write to a new file, then move it).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
@@ -56,22 +66,48 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let methods = named_models(std::slice::from_ref(&file))?;
     let mut maxima = Vec::new();
     for dir in &args.normal {
-        let folder = evaluate_folder(dir, &methods, PrepareConfig::default(), workers())
-            .with_context(|| format!("event folder {}", dir.display()))?;
-        folder
-            .check(false)
-            .with_context(|| format!("event folder {}", dir.display()))?;
-        let curve = &folder
-            .curves
-            .first()
-            .context("no model row was evaluated")?
-            .1;
-        maxima.extend(safe_maxima(curve));
+        maxima.extend(safe_maxima(&curve_of(dir, &methods)?));
     }
     let target = args.false_alarm_rate / 100.0;
-    let Some(calibration) = calibrate_safe_share(&maxima, target) else {
+    let Some(mut calibration) = calibrate_safe_share(&maxima, target) else {
         bail!("the --normal folders hold no safe sequence to calibrate on");
     };
+    let by_rule = calibration.threshold;
+    let mut never_warn_max = f32::NEG_INFINITY;
+    let mut never_warn_sequences = 0;
+    for dir in &args.never_warn {
+        let curve = curve_of(dir, &methods)?;
+        if curve.positives > 0 {
+            bail!(
+                "--never-warn {}: holds {} conflict sequences; only safe driving can be required \
+                 never to warn",
+                dir.display(),
+                curve.positives
+            );
+        }
+        let m = safe_maxima(&curve);
+        never_warn_sequences += m.len();
+        never_warn_max = m.into_iter().fold(never_warn_max, f32::max);
+    }
+    if never_warn_max >= calibration.threshold {
+        calibration.threshold = never_warn_max.next_up();
+        let warned = maxima
+            .iter()
+            .filter(|&&m| m >= calibration.threshold)
+            .count();
+        calibration.measured = warned as f64 / maxima.len() as f64;
+    }
+    if !args.never_warn.is_empty() {
+        println!(
+            "--never-warn: the highest score of its {never_warn_sequences} safe sequences is \
+             {never_warn_max}; the false-alarm rule gives {by_rule}, {}",
+            if calibration.threshold > by_rule {
+                format!("raised to {}", calibration.threshold)
+            } else {
+                "kept".to_owned()
+            }
+        );
+    }
     let data = describe(&args.normal);
     let blob = file.blob()?;
     let calibrated = ModelBlob {
@@ -109,6 +145,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The model's warning curve on one event folder (scored exactly as on the ECU).
+fn curve_of(
+    dir: &Path,
+    methods: &[riskscore_eval::Method],
+) -> anyhow::Result<riskscore_eval::WarningCurve> {
+    let folder = evaluate_folder(dir, methods, PrepareConfig::default(), workers())
+        .with_context(|| format!("event folder {}", dir.display()))?;
+    folder
+        .check(false)
+        .with_context(|| format!("event folder {}", dir.display()))?;
+    Ok(folder
+        .curves
+        .into_iter()
+        .next()
+        .context("no model row was evaluated")?
+        .1)
+}
+
 fn workers() -> usize {
     std::thread::available_parallelism().map_or(1, usize::from)
 }
@@ -133,7 +187,8 @@ fn describe(folders: &[PathBuf]) -> String {
 
 /// The output must not be the model, a --normal folder or lie inside one.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    refuse_blob_overlaps(&args.model, "--normal", &args.normal, &args.out)
+    refuse_blob_overlaps(&args.model, "--normal", &args.normal, &args.out)?;
+    refuse_blob_overlaps(&args.model, "--never-warn", &args.never_warn, &args.out)
 }
 
 /// A blob rewritten from `--model` and event folders (given with `folder_flag`): `out` must not

@@ -2,8 +2,10 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use host_tools::demo::{self, DemoOptions, DomainSettings, TransferSettings};
-use riskscore_data::sim::Mix;
+use host_tools::demo::{
+    self, DemoOptions, DomainSettings, ExtraSim, ExtraTraining, TransferSettings,
+};
+use riskscore_data::sim::{FamilyMix, Mix};
 use riskscore_train::train::{Progress, TrainConfig};
 
 /// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
@@ -14,7 +16,15 @@ use riskscore_train::train::{Progress, TrainConfig};
 /// or crossing/oncoming encounters, test on it; 2 folds x 1 seed of `riskctl benchmark domains`),
 /// quantise and export the final models, and write plots.
 ///
-/// Everything goes under --out (default ./out): data/ (the simulated events), transfer-data/ (the
+/// The recipe (docs/training.md "Training on the operating domain"): the sets the benchmarks test
+/// on (the simulated default set and the real freeway extract) plus training-only data that joins
+/// every training fold, the transfer benchmark's training side and the final models but never a
+/// test fold: a simulated folder of the operating-domain families (motorway, signalised junctions,
+/// roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--no-extra` runs
+/// the recipe before issue #18.
+///
+/// Everything goes under --out (default ./out): data/ (the simulated events), extra-data/ (the
+/// training-only simulated folder), transfer-data/ (the
 /// transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
 /// (results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
 /// risk trajectories as SVG and PNG).
@@ -48,9 +58,33 @@ pub struct Args {
     /// benchmark; default: the committed extract data/ngsim-us101-safe when it is found.
     #[arg(long, value_name = "DIR", conflicts_with = "no_real")]
     pub real: Option<PathBuf>,
-    /// Simulation only: no real recordings (and no transfer benchmark).
-    #[arg(long)]
+    /// Simulation only: no real recordings, neither tested nor training-only (and no transfer
+    /// benchmark).
+    #[arg(long, conflicts_with = "extra_real")]
     pub no_real: bool,
+    /// Scenario families of the training-only simulated folder (`default`, `domain` or a list, as
+    /// `riskctl simulate --families`).
+    #[arg(
+        long,
+        value_name = "default|domain|NAME[:W],...",
+        default_value = "domain",
+        conflicts_with = "no_extra"
+    )]
+    pub extra_families: FamilyMix,
+    /// Events in the training-only simulated folder (0: none).
+    #[arg(long, value_name = "N", default_value_t = ExtraSim::default().events, conflicts_with = "no_extra")]
+    pub extra_events: usize,
+    /// Simulator seed of the training-only simulated folder (keep it apart from --sim-seed, the
+    /// transfer seed and any folder you test on).
+    #[arg(long, value_name = "SEED", default_value_t = ExtraSim::DEFAULT_SEED, conflicts_with = "no_extra")]
+    pub extra_seed: u64,
+    /// Training-only real normal-driving folder (repeatable); default: the committed city extract
+    /// data/ngsim-urban-safe when it is found.
+    #[arg(long = "extra-real", value_name = "DIR", conflicts_with = "no_extra")]
+    pub extra_real: Vec<PathBuf>,
+    /// No training-only data: train on the tested sets alone (the recipe before issue #18).
+    #[arg(long)]
+    pub no_extra: bool,
     /// Skip the transfer benchmark (and the domain benchmark, which uses its test seed and mix).
     #[arg(long)]
     pub no_transfer: bool,
@@ -70,11 +104,21 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let extra_real: Vec<(&str, Option<&std::path::Path>)> = args
+        .extra_real
+        .iter()
+        .map(|p| ("--extra-real", Some(p.as_path())))
+        .collect();
     super::output::refuse_inputs_of(
         &[
-            ("--data", args.data.as_deref()),
-            ("--real", args.real.as_deref()),
-        ],
+            [
+                ("--data", args.data.as_deref()),
+                ("--real", args.real.as_deref()),
+            ]
+            .as_slice(),
+            &extra_real,
+        ]
+        .concat(),
         &[("--config", args.config.as_deref())],
         &[("--out", &args.out)],
     )?;
@@ -102,6 +146,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         gssm: riskscore_train::gssm::GssmConfig::default(),
         domains: (!args.no_domains).then(DomainSettings::default),
+        extra: if args.no_extra {
+            ExtraTraining::none()
+        } else {
+            ExtraTraining {
+                sim: (args.extra_events > 0).then_some(ExtraSim {
+                    seed: args.extra_seed,
+                    events: args.extra_events,
+                    families: args.extra_families,
+                }),
+                // --no-real: no real recordings at all, training-only ones included.
+                real: if args.no_real {
+                    Vec::new()
+                } else if args.extra_real.is_empty() {
+                    ExtraTraining::default().real
+                } else {
+                    args.extra_real
+                },
+            }
+        },
         progress: if args.quiet {
             Progress::Hidden
         } else {

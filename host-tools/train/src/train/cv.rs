@@ -178,6 +178,19 @@ pub fn cross_validate(
     config: &TrainConfig,
     opts: &CvOptions,
 ) -> Result<Vec<FoldOutcome>, CvError> {
+    cross_validate_with_extra(seqs, &[], augmentation, config, opts)
+}
+
+/// [`cross_validate`] where `extra_train` joins every fold's training events as they are (the
+/// same comparisons, standardisation, int8 calibration and domain record as the folds' own) but
+/// never a test fold: the folds, and so the figures, stay those of `seqs` alone.
+pub fn cross_validate_with_extra(
+    seqs: &[Sequence],
+    extra_train: &[Sequence],
+    augmentation: Option<&[Sequence]>,
+    config: &TrainConfig,
+    opts: &CvOptions,
+) -> Result<Vec<FoldOutcome>, CvError> {
     if opts.folds < 2 || seqs.is_empty() {
         return Err(CvError::TooFew {
             folds: opts.folds,
@@ -191,6 +204,7 @@ pub fn cross_validate(
             .train(fold)
             .into_iter()
             .map(|i| seqs[i].clone())
+            .chain(extra_train.iter().cloned())
             .collect();
         let test_seqs: Vec<Sequence> = folds
             .test(fold)
