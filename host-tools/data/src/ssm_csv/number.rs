@@ -426,7 +426,7 @@ mod tests {
     }
 
     /// Every 7th f32 bit pattern (614 M values; about 2 minutes in release on one core):
-    /// `cargo test --release -p host-tools --lib -- --ignored every_seventh`.
+    /// `cargo test --release -p riskscore-data --lib -- --ignored every_seventh`.
     #[test]
     #[ignore]
     fn every_seventh_f32_matches_display() {
