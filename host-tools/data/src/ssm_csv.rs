@@ -33,7 +33,7 @@ mod number;
 mod pipeline;
 pub mod split;
 
-pub use number::{parse_plain_decimal, push_f32};
+pub use number::{parse_plain_decimal, push_f32, F32Texts};
 // The record layer, shared with the Parquet path (`riskscore_eval::parquet_io`).
 pub use field::push_field;
 pub use pipeline::{for_each_record, read_header, record_reader, FieldBuf};
@@ -412,6 +412,21 @@ impl PairColumns {
         line: u64,
     ) -> Result<[f64; 9], RowError> {
         let mut v = [0f64; 9];
+        // The usual row: nine plain decimals that pass the checks, seen in one pass each; the
+        // loop below parses the rest and names the first value at fault.
+        let mut plain = true;
+        for (&k, slot) in columns.iter().zip(v.iter_mut()) {
+            match record.field(k).and_then(number::parse_plain_decimal) {
+                Some(wide) => *slot = wide,
+                None => {
+                    plain = false;
+                    break;
+                }
+            }
+        }
+        if plain && values_pass_checks(&v) {
+            return Ok(v);
+        }
         for ((&k, field), slot) in columns.iter().zip(STATE_FIELDS).zip(v.iter_mut()) {
             let err = |problem| RowError {
                 line,

@@ -133,19 +133,13 @@ fn for_each_pair(
     first_row: u64,
     mut each: impl FnMut(usize, Option<(VehicleState, VehicleState)>),
 ) -> Result<Vec<RowError>, KernelError> {
-    let ego: Vec<Column> = columns
-        .ego
-        .iter()
-        .map(|&k| numeric(batch, k))
-        .collect::<Result<_, _>>()?;
-    let partner: Vec<Column> = columns
-        .partner
-        .iter()
-        .map(|&k| numeric(batch, k))
-        .collect::<Result<_, _>>()?;
+    let ego = vehicle_columns(batch, &columns.ego)?;
+    let partner = vehicle_columns(batch, &columns.partner)?;
     let n = batch.num_rows();
-    let ego_values: Vec<&[f64]> = ego.iter().map(|c| &c.values[..n]).collect();
-    let partner_values: Vec<&[f64]> = partner.iter().map(|c| &c.values[..n]).collect();
+    // Fixed-size arrays of slices cut to the batch length: the row loop below then reads 18
+    // values with a loop the compiler unrolls, without a call or a length check per vehicle.
+    let ego_values: [&[f64]; 9] = std::array::from_fn(|k| &ego[k].values[..n]);
+    let partner_values: [&[f64]; 9] = std::array::from_fn(|k| &partner[k].values[..n]);
     let any_nulls = ego.iter().chain(&partner).any(|c| c.nulls.is_some());
     let mut bad = Vec::new();
     for row in 0..n {
@@ -156,9 +150,12 @@ fn for_each_pair(
                 .chain(&partner)
                 .all(|c| c.nulls.is_none_or(|nulls| nulls.is_valid(row)));
         let pair = if present {
-            let gather =
-                |values: &[&[f64]]| -> [f64; 9] { std::array::from_fn(|k| values[k][row]) };
-            columns.pair_from_values(gather(&ego_values), gather(&partner_values), line)
+            let (mut e, mut p) = ([0f64; 9], [0f64; 9]);
+            for k in 0..9 {
+                e[k] = ego_values[k][row];
+                p[k] = partner_values[k][row];
+            }
+            columns.pair_from_values(e, p, line)
         } else {
             let first_null = |cols: &[Column], idx: &[usize; 9]| {
                 cols.iter()
@@ -185,6 +182,14 @@ fn for_each_pair(
     Ok(bad)
 }
 
+/// The nine columns of one vehicle (at `indices`), in [`VehicleState`] order.
+fn vehicle_columns<'a>(
+    batch: &'a RecordBatch,
+    indices: &[usize; 9],
+) -> Result<Vec<Column<'a>>, KernelError> {
+    indices.iter().map(|&k| numeric(batch, k)).collect()
+}
+
 /// Surrogates and features of every row of `batch` (pair columns located by `columns`, e.g.
 /// from [`pair_columns`]). `first_row` numbers the rows in error reports.
 pub fn ssm_kernel(
@@ -193,22 +198,21 @@ pub fn ssm_kernel(
     first_row: u64,
 ) -> Result<SsmBatch, KernelError> {
     let n = batch.num_rows();
-    let mut out: Vec<Vec<f32>> = (0..COMPUTED).map(|_| Vec::with_capacity(n)).collect();
-    let mut valid = Vec::with_capacity(n);
-    let bad = for_each_pair(columns, batch, first_row, |_, pair| {
-        let values = pair.map(|(e, p)| computed_values(&e, &p));
-        valid.push(values.is_some());
-        for (column, v) in out.iter_mut().zip(values.unwrap_or([0.0; COMPUTED])) {
-            column.push(v);
+    // Written in place, row by row (an invalid row keeps its zeros under the null mask).
+    let mut out: [Vec<f32>; COMPUTED] = std::array::from_fn(|_| vec![0f32; n]);
+    let mut valid = vec![true; n];
+    let bad = for_each_pair(columns, batch, first_row, |row, pair| match pair {
+        Some((e, p)) => {
+            for (column, v) in out.iter_mut().zip(computed_values(&e, &p)) {
+                column[row] = v;
+            }
         }
+        None => valid[row] = false,
     })?;
-    let nulls = arrow_buffer::NullBuffer::from(valid.clone());
+    let nulls = (!bad.is_empty()).then(|| NullBuffer::from(valid.clone()));
     let arrays: Vec<ArrayRef> = out
         .into_iter()
-        .map(|values| {
-            let nulls = (nulls.null_count() > 0).then(|| nulls.clone());
-            Arc::new(Float32Array::new(values.into(), nulls)) as ArrayRef
-        })
+        .map(|values| Arc::new(Float32Array::new(values.into(), nulls.clone())) as ArrayRef)
         .collect();
     Ok(SsmBatch {
         computed: RecordBatch::try_new(computed_schema(), arrays)?,

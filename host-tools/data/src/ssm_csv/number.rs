@@ -28,8 +28,10 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
     let mut buffer = zmij::Buffer::new();
     let text = buffer.format_finite(v.abs()).as_bytes();
     // Positional output ending in an odd digit is already what Display writes (no tie to break,
-    // no trailing `.0`, no exponent): the common case.
-    if !text.contains(&b'e') {
+    // no trailing `.0`, no exponent): the common case. Digits never contain an `e`, and an f32
+    // exponent (`e`, sign, at most two digits) is within the last five bytes: looking there is
+    // exact, and cheaper than a `memchr` call on every value.
+    if !text[text.len().saturating_sub(5)..].contains(&b'e') {
         match text.last() {
             Some(b'1' | b'3' | b'5' | b'7' | b'9') => {
                 out.extend_from_slice(text);
@@ -40,7 +42,7 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
             Some(b'2' | b'4' | b'6' | b'8') => {
                 let decimals = text
                     .iter()
-                    .position(|&b| b == b'.')
+                    .rposition(|&b| b == b'.')
                     .map_or(0, |p| text.len() - p - 1);
                 if !twos_allow_tie(v.abs(), -(decimals as i32)) {
                     out.extend_from_slice(text);
@@ -108,6 +110,58 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
     }
 }
 
+/// Texts of recently written f32 values, so that a value seen again is copied instead of
+/// formatted again: a direct-mapped table keyed by the value's bits (an entry holds exactly
+/// what [`push_f32`] wrote for those bits, so the output does not change). Pair data repeats
+/// many values (vehicle sizes, the ego's features for each of its partners, whole-number
+/// speeds): on the NGSIM US-101 pairs about half of the finite computed values are hits.
+pub struct F32Texts {
+    entries: Vec<F32Text>,
+}
+
+#[derive(Clone, Copy, Default)]
+struct F32Text {
+    bits: u32,
+    /// 0: empty (no value's text is empty).
+    len: u8,
+    text: [u8; F32Texts::LONGEST],
+}
+
+impl Default for F32Texts {
+    fn default() -> Self {
+        Self {
+            entries: vec![F32Text::default(); 1 << F32Texts::SLOT_BITS],
+        }
+    }
+}
+
+impl F32Texts {
+    const SLOT_BITS: u32 = 12;
+    /// Longer texts (huge or tiny values in positional notation) are not kept.
+    const LONGEST: usize = 27;
+
+    /// [`push_f32`], through the table.
+    pub fn push(&mut self, out: &mut Vec<u8>, v: f32) {
+        let bits = v.to_bits();
+        let slot = (bits.wrapping_mul(0x9e37_79b1) >> (32 - Self::SLOT_BITS)) as usize;
+        let entry = &mut self.entries[slot];
+        let start = out.len();
+        if entry.bits == bits && entry.len > 0 {
+            // A fixed-size copy, cut back: no `memcpy` call for a few bytes.
+            out.extend_from_slice(&entry.text);
+            out.truncate(start + usize::from(entry.len));
+            return;
+        }
+        push_f32(out, v);
+        let text = &out[start..];
+        if text.len() <= Self::LONGEST {
+            entry.bits = bits;
+            entry.len = text.len() as u8;
+            entry.text[..text.len()].copy_from_slice(text);
+        }
+    }
+}
+
 /// Whether `v` (finite, > 0) lies exactly halfway between `digits x 10^k` and the next decimal
 /// with as many digits, i.e. `2 v = (2 digits + 1) x 10^k`. Both sides are reduced to
 /// `core x 2^a x 5^b` with `core` coprime to 10 and compared exactly.
@@ -167,29 +221,30 @@ pub fn parse_plain_decimal(text: &[u8]) -> Option<f64> {
         b'+' => (false, &text[1..]),
         _ => (false, text),
     };
+    // Two tight digit loops (integer part, fraction) instead of one loop that asks of every
+    // byte whether it is the point: this runs 18 times a row. Wrapping arithmetic: more than
+    // 19 digits would overflow, and more than 15 are refused below anyway.
     let mut mantissa = 0u64;
-    let mut digits = 0usize;
-    let mut fraction: Option<usize> = None;
-    for &b in body {
-        match b {
-            b'0'..=b'9' => {
-                mantissa = mantissa * 10 + u64::from(b - b'0');
-                digits += 1;
-                if let Some(f) = fraction.as_mut() {
-                    *f += 1;
-                }
-            }
-            b'.' if fraction.is_none() => fraction = Some(0),
-            _ => return None,
-        }
-        if digits > 15 {
-            return None;
+    let mut rest = body;
+    while let [d @ b'0'..=b'9', tail @ ..] = rest {
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d - b'0'));
+        rest = tail;
+    }
+    let integer_digits = body.len() - rest.len();
+    let mut fraction_digits = 0;
+    if let [b'.', tail @ ..] = rest {
+        rest = tail;
+        while let [d @ b'0'..=b'9', tail @ ..] = rest {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d - b'0'));
+            rest = tail;
+            fraction_digits += 1;
         }
     }
-    if digits == 0 {
+    let digits = integer_digits + fraction_digits;
+    if !rest.is_empty() || digits == 0 || digits > 15 {
         return None;
     }
-    let value = mantissa as f64 / EXACT_POWERS[fraction.unwrap_or(0)];
+    let value = mantissa as f64 / EXACT_POWERS[fraction_digits];
     Some(if negative { -value } else { value })
 }
 
@@ -227,6 +282,30 @@ mod tests {
             "bits {:#010x}",
             v.to_bits()
         );
+    }
+
+    #[test]
+    fn the_text_table_writes_what_push_f32_writes() {
+        let mut table = F32Texts::default();
+        let (mut direct, mut cached) = (Vec::new(), Vec::new());
+        // Few distinct values (so most are hits, and slots are reused by other values), plus
+        // long texts that are never kept.
+        let mut s: u32 = 0x2545_f491;
+        for k in 0..200_000u32 {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            let v = match k % 5 {
+                0 => f32::from_bits(s),
+                1 => 3.4e38 / (1 + s % 7) as f32,
+                _ => (s % 3000) as f32 / 16.0 - 90.0,
+            };
+            direct.clear();
+            cached.clear();
+            push_f32(&mut direct, v);
+            table.push(&mut cached, v);
+            assert_eq!(direct, cached, "bits {:#010x}", v.to_bits());
+        }
     }
 
     #[test]
@@ -347,7 +426,7 @@ mod tests {
     }
 
     /// Every 7th f32 bit pattern (614 M values; about 2 minutes in release on one core):
-    /// `cargo test --release -p host-tools --lib -- --ignored every_seventh`.
+    /// `cargo test --release -p riskscore-data --lib -- --ignored every_seventh`.
     #[test]
     #[ignore]
     fn every_seventh_f32_matches_display() {

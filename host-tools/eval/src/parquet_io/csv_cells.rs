@@ -10,7 +10,7 @@ use arrow_buffer::NullBuffer;
 use arrow_schema::DataType;
 
 use super::ColumnarError;
-use riskscore_data::ssm_csv::{push_f32, push_field};
+use riskscore_data::ssm_csv::{push_field, F32Texts};
 
 /// One column, its type resolved once per batch.
 enum Cells<'a> {
@@ -53,12 +53,12 @@ impl<'a> Cells<'a> {
     }
 
     /// Appends row `row` (not null) to `line`, quoted if it needs it.
-    fn push(&self, line: &mut Vec<u8>, row: usize) {
+    fn push(&self, line: &mut Vec<u8>, row: usize, texts: &mut F32Texts) {
         match self {
             Cells::Utf8(a) => push_field(line, a.value(row).as_bytes()),
             Cells::LargeUtf8(a) => push_field(line, a.value(row).as_bytes()),
             Cells::Utf8View(a) => push_field(line, a.value(row).as_bytes()),
-            Cells::F32(a) => push_f32(line, a.value(row)),
+            Cells::F32(a) => texts.push(line, a.value(row)),
             Cells::F64(a) => push_f64(line, a.value(row)),
             Cells::I8(a) => push_int(line, i128::from(a.value(row))),
             Cells::I16(a) => push_int(line, i128::from(a.value(row))),
@@ -93,6 +93,7 @@ pub(crate) fn write_csv_rows<W: Write>(
                 })
         })
         .collect::<Result<_, _>>()?;
+    let mut texts = F32Texts::default();
     line.clear();
     for row in 0..batch.num_rows() {
         for (k, (cell, nulls)) in cells.iter().enumerate() {
@@ -100,7 +101,7 @@ pub(crate) fn write_csv_rows<W: Write>(
                 line.push(b',');
             }
             if !nulls.is_some_and(|n| n.is_null(row)) {
-                cell.push(line, row);
+                cell.push(line, row, &mut texts);
             }
         }
         line.push(b'\n');
