@@ -121,6 +121,9 @@ fn pair(ego_speed: f32, gap: f32, closing: f32) -> (VehicleState, VehicleState) 
     (car(0.0, ego_speed), car(4.0 + gap, ego_speed - closing))
 }
 
+/// docs/model-format.md: what the example scores for the pair 400 m apart at 45 m/s.
+const DOCUMENTED_OUTSIDE_SCORE: f32 = -0.499_329_3;
+
 #[test]
 fn the_worked_example_is_byte_for_byte_the_documented_one() {
     let blob = encode(&fallback_blob(example_fallback()));
@@ -170,6 +173,12 @@ fn the_worked_example_is_byte_for_byte_the_documented_one() {
             "00002041",
         )
     );
+    // The documented pair: 400 m apart at 45 m/s, outside (ego speed), scores the fallback.
+    let decoded = model::decode_blob(&blob).unwrap();
+    let (ego, partner) = pair(45.0, 400.0, 0.0);
+    let g = decoded.score_pair_guarded(&ego, &partner);
+    assert_eq!(g.first_outside, Some(3));
+    assert!((g.score - DOCUMENTED_OUTSIDE_SCORE).abs() < 1e-6, "{g:?}");
     // The policy's wire index is pinned, and every name parses back.
     let mut buf = [0u8; 4];
     assert_eq!(
