@@ -84,10 +84,10 @@ const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
 
 /// The fallback the embedded DRL blob gets: the kinematic terms of the embedded MSRA blob, on
 /// the scale `riskctl calibrate-domain --policy fallback --fallback-from models/msra-default.rsk`
-/// fits for the shipped DRL on `data/ngsim-us101-safe` (least squares on the frames inside). The
+/// fits for the shipped DRL on `data/ngsim-us101-safe` (mean and spread on the frames inside). The
 /// instructions do not depend on the values; the parity test checks the bits whatever they are.
-const FIRMWARE_FALLBACK_SCALE: f32 = 1.535_003_1;
-const FIRMWARE_FALLBACK_OFFSET: f32 = -8.349_493;
+const FIRMWARE_FALLBACK_SCALE: f32 = 6.164_552;
+const FIRMWARE_FALLBACK_OFFSET: f32 = -19.346_514;
 
 /// `blob` guarded by the costliest policy outside: its training-domain ranges (or
 /// [`FIRMWARE_DOMAIN`] when it has none) under `Fallback`, with the kinematic terms of

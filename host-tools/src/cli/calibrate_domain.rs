@@ -20,8 +20,8 @@ model has seen data. The model bytes and a stored default threshold are kept (fo
 Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
 into its range first, so the model never extrapolates; fallback (DRL models only) scores a
 kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
-blob, mapped to the DRL's scale by the least-squares line through the DRL's scores on the frames
-of the --events folders that lie inside the new record (docs/domain-guard.md). Either way `riskctl score` writes a
+blob, mapped to the DRL's scale by the affine map that matches the mean and spread of the DRL's
+scores on the frames of the --events folders inside the new record (docs/domain-guard.md). Either way `riskctl score` writes a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
 
@@ -95,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(terms) => {
             let fitted = fit(&blob, &domain.domain(), terms, pairs())?;
             println!(
-                "fallback: {} * MSRA + {} (least squares on {} frames inside, r^2 {:.3})",
+                "fallback: {} * MSRA + {} (mean and spread of the DRL on {} frames inside, r^2 {:.3})",
                 fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
             );
             Some(fitted)

@@ -1,7 +1,9 @@
 //! Fitting a model's kinematic fallback (record tag 3, `docs/domain-guard.md`): the kinematic
 //! terms of an MSRA (TTC2D, TAdv, EI; a GSSM term is dropped: GSSM is learned and has a domain of
-//! its own), put on the model's score scale by the affine map `scale * R + offset` that best
-//! matches (least squares) the model's own scores on the training frames inside its domain.
+//! its own), put on the model's score scale by the affine map `scale * R + offset` that matches
+//! the mean and the spread of the model's own scores on the training frames inside its domain
+//! (the standardised major axis of the two scores: `scale = sd(DRL) / sd(R)`, the line through
+//! both means; refused when the two are not positively correlated).
 //!
 //! Inside its domain the model is trusted; that is where the two scores can be compared. The map
 //! makes one threshold serve both: a frame outside scores what the kinematic terms say, in the
@@ -28,8 +30,8 @@ pub enum FallbackError {
     )]
     ConstantKinematicScore { inside: usize },
     #[error(
-        "the model's scores fall as the kinematic score rises (least-squares slope {slope}) over \
-         the {inside} training frames inside the domain: the fallback would invert the ranking"
+        "the model's scores fall as the kinematic score rises (slope {slope}) over the {inside} \
+         training frames inside the domain: the fallback would invert the ranking"
     )]
     NotIncreasing { slope: f64, inside: usize },
 }
@@ -45,7 +47,7 @@ pub struct FittedFallback {
     pub term_bytes: Vec<u8>,
     /// Training frames inside the domain the map was fitted on.
     pub frames: usize,
-    /// Coefficient of determination of the fit on those frames.
+    /// Squared correlation of the two scores on those frames (how well a line relates them).
     pub r_squared: f64,
 }
 
@@ -79,7 +81,7 @@ pub fn fit<'p>(
 ) -> Result<FittedFallback, FallbackError> {
     let term_bytes = kinematic_term_bytes(terms)?;
     let unit = KinematicFallback::new(1.0, 0.0, &term_bytes);
-    let mut sums = LeastSquares::default();
+    let mut sums = MeanLine::default();
     for (ego, partner) in pairs {
         let o = Observation::of(ego, partner);
         if domain
@@ -111,10 +113,10 @@ pub fn fit<'p>(
     })
 }
 
-/// Running sums of a simple linear regression `y = slope x + intercept`, centred on the first
-/// point so that large offsets do not cancel.
+/// Running sums of a line `y = slope x + intercept` through two samples' means, centred on the
+/// first point so that large offsets do not cancel.
 #[derive(Default)]
-struct LeastSquares {
+struct MeanLine {
     n: usize,
     origin: (f64, f64),
     sx: f64,
@@ -124,7 +126,7 @@ struct LeastSquares {
     syy: f64,
 }
 
-impl LeastSquares {
+impl MeanLine {
     fn add(&mut self, x: f64, y: f64) {
         if self.n == 0 {
             self.origin = (x, y);
@@ -147,11 +149,11 @@ impl LeastSquares {
         if vxx <= 1e-12 * n {
             return None;
         }
-        let slope = if std::env::var("RISKSCORE_FALLBACK_FIT").as_deref() == Ok("moments") {
-            vxy.signum() * (vyy / vxx).sqrt()
-        } else {
-            vxy / vxx
-        };
+        // The standardised major axis: the spread ratio, signed by the correlation. Ordinary
+        // least squares (`vxy / vxx`) shrinks the slope by the correlation, so a weakly
+        // correlated fallback would be squeezed towards the mean and might never reach the
+        // model's threshold (docs/domain-guard.md).
+        let slope = vxy.signum() * (vyy / vxx).sqrt();
         let intercept = (self.sy - slope * self.sx) / n + self.origin.1 - slope * self.origin.0;
         let r_squared = if vyy > 0.0 {
             vxy * vxy / (vxx * vyy)
@@ -167,8 +169,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn least_squares_recovers_a_line_far_from_the_origin() {
-        let mut ls = LeastSquares::default();
+    fn the_line_is_recovered_far_from_the_origin_and_keeps_the_spread() {
+        let mut ls = MeanLine::default();
         for i in 0..100 {
             let x = 1000.0 + f64::from(i) * 0.01;
             ls.add(x, 3.0 * x - 2500.0);
@@ -177,7 +179,22 @@ mod tests {
         assert!((slope - 3.0).abs() < 1e-9, "{slope}");
         assert!((intercept + 2500.0).abs() < 1e-6, "{intercept}");
         assert!((r2 - 1.0).abs() < 1e-9);
-        let mut flat = LeastSquares::default();
+        // Noisy y: the slope is the spread ratio signed by the correlation (-0.6 here):
+        // -sd(y) / sd(x) = -2, not the shrunk least-squares slope -0.6 * 2 = -1.2.
+        let mut noisy = MeanLine::default();
+        for i in 0..1000 {
+            let x = f64::from(i % 2);
+            let y = if (i / 2) % 5 == 0 {
+                2.0 * x
+            } else {
+                2.0 * (1.0 - x)
+            };
+            noisy.add(x, y);
+        }
+        let (slope, _, r2) = noisy.solve().unwrap();
+        assert!((r2 - 0.36).abs() < 1e-9, "{r2}");
+        assert!(slope < 0.0 && (slope + 2.0).abs() < 1e-9, "{slope}");
+        let mut flat = MeanLine::default();
         for _ in 0..5 {
             flat.add(2.0, 1.0);
         }
