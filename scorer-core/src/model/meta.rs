@@ -146,9 +146,7 @@ impl<'a> ModelMeta<'a> {
             })?;
             match tag {
                 DEFAULT_THRESHOLD_TAG => {
-                    let op: DefaultThreshold<'a> = take_record(tag, body, &meta.default_threshold)?;
-                    op.validate()?;
-                    meta.default_threshold = Some(op);
+                    meta.default_threshold = Some(take_record(tag, body, &meta.default_threshold)?);
                 }
                 TRAINING_DOMAIN_TAG => {
                     // A policy byte this build does not know is named, not a postcard error.
@@ -157,20 +155,18 @@ impl<'a> ModelMeta<'a> {
                             return Err(ModelError::UnknownOutsidePolicy(byte));
                         }
                     }
-                    let domain: TrainingDomain<'a> = take_record(tag, body, &meta.training_domain)?;
-                    domain.validate()?;
-                    meta.training_domain = Some(domain);
+                    meta.training_domain = Some(take_record(tag, body, &meta.training_domain)?);
                 }
                 KINEMATIC_FALLBACK_TAG => {
-                    let fallback: KinematicFallback<'a> =
-                        take_record(tag, body, &meta.kinematic_fallback)?;
-                    meta.kinematic_fallback = Some(fallback);
+                    meta.kinematic_fallback =
+                        Some(take_record(tag, body, &meta.kinematic_fallback)?);
                 }
                 _ => {}
             }
             bytes = rest;
         }
-        // The records may come in any order: whether they agree is checked once all are read.
+        // Each record, and whether they agree (they may come in any order), once all are read:
+        // one copy of the checks in the image.
         meta.validate()?;
         Ok(meta)
     }
