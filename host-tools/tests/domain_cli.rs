@@ -226,37 +226,111 @@ fn score_column_and_evaluate_share_count_the_same_frames() {
     assert!(!header.lines().next().unwrap().contains("in_domain"));
 }
 
+/// `riskctl score`'s DRL column and its in-domain flag, row by row.
+fn score_table(model: &Path, events: &Path, out: &Path) -> Vec<(String, String)> {
+    ok(riskctl(&[
+        "score",
+        "--model",
+        model.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let mut reader = csv::Reader::from_path(out).unwrap();
+    let h = reader.headers().unwrap().clone();
+    let score = h.iter().position(|c| c == "DRL").unwrap();
+    let flag = h.iter().position(|c| c == "DRL_in_domain");
+    reader
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            (
+                r[score].to_owned(),
+                flag.map_or("1".into(), |f| r[f].to_owned()),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = simulate(dir.path(), "3");
+    let (drl, msra) = (shipped("drl-default.rsk"), shipped("msra-default.rsk"));
+    let out = dir.path().join("fallback.rsk");
+    let args = |policy: &str, from: Option<&Path>, out: &Path| {
+        let mut a = vec![
+            "calibrate-domain".to_string(),
+            "--model".into(),
+            drl.display().to_string(),
+            "--events".into(),
+            train.display().to_string(),
+            "--tail-percent".into(),
+            "10".into(),
+            "--policy".into(),
+            policy.into(),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        if let Some(from) = from {
+            a.extend(["--fallback-from".into(), from.display().to_string()]);
+        }
+        a
+    };
+    let run = |a: Vec<String>| riskctl(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let text = ok(run(args("fallback", Some(&msra), &out)));
+    assert!(text.contains("policy          fallback outside"), "{text}");
+    assert!(text.contains("fallback term 1 EI"), "{text}");
+    let bytes = std::fs::read(&out).unwrap();
+    let blob = model::decode_blob(&bytes).unwrap();
+    let fallback = blob.meta.kinematic_fallback.expect("a fallback record");
+    let msra_bytes = std::fs::read(&msra).unwrap();
+    let model::Model::Msra(m) = model::decode(&msra_bytes).unwrap() else {
+        panic!("not MSRA")
+    };
+    assert_eq!(fallback.terms().collect::<Vec<_>>(), m.terms.to_vec());
+    assert!(fallback.scale > 0.0);
+    // Inside: the DRL's score; outside: the fallback's (a different number).
+    let plain = score_table(&drl, &train, &dir.path().join("plain.csv"));
+    let guarded = score_table(&out, &train, &dir.path().join("fallback.csv"));
+    assert_eq!(plain.len(), guarded.len());
+    let (mut inside, mut changed) = (0, 0);
+    for ((p, _), (g, flag)) in plain.iter().zip(&guarded) {
+        if flag == "1" {
+            assert_eq!(p, g, "inside: the unguarded score");
+            inside += 1;
+        } else if p != g {
+            changed += 1;
+        }
+    }
+    assert!(
+        inside > 0 && changed > 0,
+        "{inside} inside, {changed} changed"
+    );
+    // The policy and --fallback-from go together, the source must be an MSRA, and it may not be
+    // the output; nothing is written when refused.
+    let bad = dir.path().join("bad.rsk");
+    for a in [
+        args("fallback", None, &bad),
+        args("clamp", Some(&msra), &bad),
+        args("fallback", Some(&drl), &bad),
+    ] {
+        assert!(!run(a.clone()).status.success(), "{a:?}");
+        assert!(!bad.exists());
+    }
+    let copy = dir.path().join("msra-copy.rsk");
+    std::fs::copy(&msra, &copy).unwrap();
+    assert!(!run(args("fallback", Some(&copy), &copy)).status.success());
+    assert_eq!(std::fs::read(&copy).unwrap(), msra_bytes);
+}
+
 #[test]
 fn clamp_changes_only_the_scores_of_frames_outside() {
     let dir = tempfile::tempdir().unwrap();
     let train = simulate(dir.path(), "3");
     let drl = shipped("drl-default.rsk");
-    let table = |model: &Path, name: &str| -> Vec<(String, String)> {
-        let out = dir.path().join(name);
-        ok(riskctl(&[
-            "score",
-            "--model",
-            model.to_str().unwrap(),
-            "--events",
-            train.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]));
-        let mut reader = csv::Reader::from_path(&out).unwrap();
-        let h = reader.headers().unwrap().clone();
-        let score = h.iter().position(|c| c == "DRL").unwrap();
-        let flag = h.iter().position(|c| c == "DRL_in_domain");
-        reader
-            .records()
-            .map(|r| {
-                let r = r.unwrap();
-                (
-                    r[score].to_owned(),
-                    flag.map_or("1".into(), |f| r[f].to_owned()),
-                )
-            })
-            .collect()
-    };
+    let table = |model: &Path, name: &str| score_table(model, &train, &dir.path().join(name));
     let clamp = dir.path().join("clamp.rsk");
     calibrate(&drl, &train, "10", "clamp", &clamp);
     let plain = table(&drl, "plain.csv");

@@ -7,6 +7,10 @@
 //! false). The first range, in record order, that an input leaves is reported for diagnostics. A
 //! blob without the record is inside everywhere and scores exactly as [`Model::score`].
 //!
+//! Under the fallback policy an observation outside scores the blob's kinematic fallback (record
+//! tag 3, [`KinematicFallback`](crate::model::KinematicFallback)) from the pair's surrogates; the
+//! model itself is not run then.
+//!
 //! No allocation, no panic: a fixed 13-element copy of the inputs is clamped when the policy asks.
 use crate::encoding::drl_inputs;
 use crate::features::{features, Features};
@@ -14,7 +18,7 @@ use crate::model::training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 use crate::model::{Model, ModelBlob};
 use crate::observation::Observation;
 use crate::state::VehicleState;
-use crate::surrogates::surrogates;
+use crate::surrogates::{surrogates, Surrogates};
 
 /// Every model kind reads 13 numbers (DRL inputs or features): the vector a domain bounds.
 pub type DomainInputs = Features;
@@ -92,31 +96,44 @@ impl ModelBlob<'_> {
     /// domain (or without a record) the score is [`Model::score_observation`] bit for bit.
     pub fn score_guarded(&self, observation: &Observation) -> Guarded {
         let inputs = *self.model.domain_inputs(observation);
-        self.guard(inputs, |x| {
-            let mut o = *observation;
-            match self.model {
-                Model::DrlInt8(_) | Model::DrlF32(_) => o.drl_inputs = *x,
-                Model::Msra(_) | Model::Gssm(_) => o.features = *x,
-            }
-            self.model.score_observation(&o)
-        })
+        self.guard(
+            inputs,
+            |x| {
+                let mut o = *observation;
+                match self.model {
+                    Model::DrlInt8(_) | Model::DrlF32(_) => o.drl_inputs = *x,
+                    Model::Msra(_) | Model::Gssm(_) => o.features = *x,
+                }
+                self.model.score_observation(&o)
+            },
+            || observation.surrogates,
+        )
     }
 
     /// The guarded score of one pair, computing only what the model reads (the ECU's path); the
     /// same bits as [`ModelBlob::score_guarded`] of [`Observation::of`] the pair.
     pub fn score_pair_guarded(&self, ego: &VehicleState, partner: &VehicleState) -> Guarded {
+        // The surrogates only when the fallback needs them (DRL, GSSM) or the model reads them.
+        let fallback = || surrogates(ego, partner);
         match &self.model {
-            Model::DrlInt8(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0]),
-            Model::DrlF32(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0]),
+            Model::DrlInt8(m) => {
+                self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0], fallback)
+            }
+            Model::DrlF32(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0], fallback),
             Model::Msra(m) => {
                 let s = surrogates(ego, partner);
-                self.guard(features(ego, partner), |f| m.score(f, &s))
+                self.guard(features(ego, partner), |f| m.score(f, &s), || s)
             }
-            Model::Gssm(m) => self.guard(features(ego, partner), |f| m.score(f)),
+            Model::Gssm(m) => self.guard(features(ego, partner), |f| m.score(f), fallback),
         }
     }
 
-    fn guard(&self, mut inputs: DomainInputs, score: impl Fn(&DomainInputs) -> f32) -> Guarded {
+    fn guard(
+        &self,
+        mut inputs: DomainInputs,
+        score: impl Fn(&DomainInputs) -> f32,
+        surrogates: impl Fn() -> Surrogates,
+    ) -> Guarded {
         let Some(domain) = &self.meta.training_domain else {
             return Guarded {
                 score: score(&inputs),
@@ -125,11 +142,19 @@ impl ModelBlob<'_> {
             };
         };
         let first_outside = domain.first_outside(&inputs);
-        if first_outside.is_some() && domain.policy == OutsidePolicy::Clamp {
-            domain.clamp(&mut inputs);
-        }
+        let score = match (first_outside, domain.policy, &self.meta.kinematic_fallback) {
+            (None, ..) | (Some(_), OutsidePolicy::FlagOnly, _) => score(&inputs),
+            (Some(_), OutsidePolicy::Clamp, _) => {
+                domain.clamp(&mut inputs);
+                score(&inputs)
+            }
+            (Some(_), OutsidePolicy::Fallback, Some(fallback)) => fallback.score(&surrogates()),
+            // A decoded blob never has the policy without the record (`ModelMeta::validate`);
+            // an unvalidated one in memory scores as flag-only rather than panic.
+            (Some(_), OutsidePolicy::Fallback, None) => score(&inputs),
+        };
         Guarded {
-            score: score(&inputs),
+            score,
             in_domain: first_outside.is_none(),
             first_outside,
         }

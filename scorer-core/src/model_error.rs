@@ -84,6 +84,12 @@ pub enum ModelError {
         input: u8,
         reason: &'static str,
     },
+    /// The training-domain record names an outside policy this build does not know (the first
+    /// body byte; `0` flag-only, `1` clamp and `2` fallback are known).
+    UnknownOutsidePolicy(u8),
+    /// Term `term` of the kinematic-fallback record is unusable: an unknown or GSSM surrogate,
+    /// or a parameter that [`MsraTerm::validate`](crate::msra::MsraTerm::validate) refuses.
+    BadFallbackTerm { term: usize, reason: &'static str },
 }
 
 impl fmt::Display for ModelError {
@@ -162,6 +168,14 @@ impl fmt::Display for ModelError {
                 input,
                 reason,
             } => write!(f, "training_domain.ranges[{entry}] (input {input}): {reason}"),
+            Self::UnknownOutsidePolicy(byte) => write!(
+                f,
+                "training_domain.policy: unknown outside policy {byte} (this build knows 0 \
+                 flag-only, 1 clamp, 2 fallback); a newer exporter wrote it"
+            ),
+            Self::BadFallbackTerm { term, reason } => {
+                write!(f, "kinematic_fallback.terms[{term}]: {reason}")
+            }
         }
     }
 }

@@ -96,6 +96,33 @@ fn check(v: f32, field: &'static str, index: usize) -> Result<(), ModelError> {
     }
 }
 
+impl MsraTerm {
+    /// Finite, bounded `w`, `a`, `b` and a finite clip range `lo < hi`; `k` names the term.
+    pub fn validate(&self, k: usize) -> Result<(), ModelError> {
+        check(self.weight, "terms.weight", k)?;
+        check(self.a, "terms.a", k)?;
+        check(self.b, "terms.b", k)?;
+        check(self.lo, "terms.lo", k).map_err(|_| ModelError::BadClipRange { term: k })?;
+        check(self.hi, "terms.hi", k).map_err(|_| ModelError::BadClipRange { term: k })?;
+        if self.lo >= self.hi {
+            return Err(ModelError::BadClipRange { term: k });
+        }
+        Ok(())
+    }
+
+    /// The term's contribution `w * sigmoid(a * g(raw) + b)` for the raw surrogate value; 0 if
+    /// that is not finite (it cannot be for a validated term).
+    pub fn value(&self, raw: f32) -> f32 {
+        let g = transform(self.kind, raw, self.lo, self.hi);
+        let v = self.weight * sigmoid(self.a * g + self.b);
+        if v.is_finite() {
+            v
+        } else {
+            0.0
+        }
+    }
+}
+
 impl MsraModel<'_> {
     /// Checks term count, finite bounded parameters, clip ranges, and that GSSM terms have a
     /// (valid) GSSM network.
@@ -105,14 +132,7 @@ impl MsraModel<'_> {
             return Err(ModelError::Empty { field: "terms" });
         }
         for (k, t) in self.terms.iter().enumerate() {
-            check(t.weight, "terms.weight", k)?;
-            check(t.a, "terms.a", k)?;
-            check(t.b, "terms.b", k)?;
-            check(t.lo, "terms.lo", k).map_err(|_| ModelError::BadClipRange { term: k })?;
-            check(t.hi, "terms.hi", k).map_err(|_| ModelError::BadClipRange { term: k })?;
-            if t.lo >= t.hi {
-                return Err(ModelError::BadClipRange { term: k });
-            }
+            t.validate(k)?;
             if t.kind == SurrogateKind::Gssm && self.gssm.is_none() {
                 return Err(ModelError::MissingGssm { term: k });
             }
@@ -125,12 +145,9 @@ impl MsraModel<'_> {
 
     /// The raw surrogate a term of `kind` reads (GSSM: the embedded network's score, NaN without one).
     pub fn raw(&self, kind: SurrogateKind, features: &Features, surrogates: &Surrogates) -> f32 {
-        match kind {
-            SurrogateKind::Ttc2d => surrogates.ttc2d,
-            SurrogateKind::Tadv => surrogates.tadv,
-            SurrogateKind::Ei => surrogates.ei,
-            SurrogateKind::Gssm => self.gssm.as_ref().map_or(f32::NAN, |g| g.score(features)),
-        }
+        surrogates
+            .kinematic(kind)
+            .unwrap_or_else(|| self.gssm.as_ref().map_or(f32::NAN, |g| g.score(features)))
     }
 
     /// Contribution `w_k * sigmoid(a_k * g_k + b_k)` of each term (unused entries 0).
@@ -144,9 +161,7 @@ impl MsraModel<'_> {
             } else {
                 self.raw(t.kind, features, surrogates)
             };
-            let g = transform(t.kind, raw, t.lo, t.hi);
-            let v = t.weight * sigmoid(t.a * g + t.b);
-            *o = if v.is_finite() { v } else { 0.0 };
+            *o = t.value(raw);
         }
         out
     }

@@ -58,6 +58,7 @@ fn the_default_threshold_round_trips_in_a_version_2_blob() {
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
+            kinematic_fallback: None,
         },
     };
     let blob = encode(&original);
@@ -76,6 +77,7 @@ fn the_record_bytes_are_the_documented_ones() {
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
+            kinematic_fallback: None,
         },
     });
     let model_len = model::encoded_len(&example_model()).unwrap();
@@ -175,6 +177,7 @@ fn bad_records_are_refused() {
         meta: ModelMeta {
             default_threshold: Some(calibrated(f32::INFINITY)),
             training_domain: None,
+            kinematic_fallback: None,
         },
     };
     let mut out = vec![0u8; 256];
@@ -187,6 +190,7 @@ fn bad_records_are_refused() {
         meta: ModelMeta {
             default_threshold: Some(long_data),
             training_domain: None,
+            kinematic_fallback: None,
         },
     };
     assert!(matches!(
@@ -212,6 +216,7 @@ fn every_truncation_and_byte_flip_of_a_version_2_blob_is_handled() {
         meta: ModelMeta {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
+            kinematic_fallback: None,
         },
     });
     assert_truncations_refused_and_flips_handled(&blob);

@@ -182,11 +182,16 @@ fn bad_records_are_refused() {
         Err(ModelError::DuplicateRecord { tag: 2 })
     );
     let mut policy = good.clone();
-    policy[2] = 2;
-    assert!(matches!(
+    policy[2] = 3;
+    assert_eq!(
         model::decode_blob(&blob_with_records(&policy)),
-        Err(ModelError::Payload(_))
-    ));
+        Err(ModelError::UnknownOutsidePolicy(3))
+    );
+    policy[2] = 0x80;
+    assert_eq!(
+        model::decode_blob(&blob_with_records(&policy)),
+        Err(ModelError::UnknownOutsidePolicy(0x80))
+    );
     let mut padded = good.clone();
     padded[1] += 1;
     padded.push(0);

@@ -30,13 +30,11 @@ fn main() {
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-changed=test_models.rs");
 
-    for (name, shipped) in [("drl", "drl-default.rsk"), ("msra", "msra-default.rsk")] {
-        let (blob, source) = model_blob(&repo.join("models").join(shipped), name);
-        let (blob, source) = if name == "drl" {
-            with_training_domain(blob, source)
-        } else {
-            (blob, source)
-        };
+    let models = repo.join("models");
+    let (msra, msra_source) = model_blob(&models.join("msra-default.rsk"), "msra");
+    let (drl, drl_source) = model_blob(&models.join("drl-default.rsk"), "drl");
+    let (drl, drl_source) = with_fallback_guard(drl, drl_source, &msra);
+    for (name, blob, source) in [("drl", drl, drl_source), ("msra", msra, msra_source)] {
         fs::write(out.join(format!("{name}.rsk")), &blob).expect("write model blob");
         fs::write(out.join(format!("{name}.source")), source).expect("write model source");
     }
@@ -65,8 +63,8 @@ fn model_blob(shipped: &Path, name: &str) -> (Vec<u8>, String) {
 
 /// The training domain the embedded DRL blob gets when it carries none: the 13 DRL-input ranges
 /// that `riskctl calibrate-domain --model models/drl-default.rsk --events data/ngsim-us101-safe`
-/// measures (0.1 % tails), under `Clamp`, the costlier policy. The firmware then measures and
-/// checks the guarded per-partner path with a full record, whatever the shipped blob holds.
+/// measures (0.1 % tails). The firmware then measures and checks the guarded per-partner path
+/// with a full record, whatever the shipped blob holds.
 const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
     (0, -4.615_120_4, 4.615_120_4),
     (1, 2.7432, 17.6784),
@@ -84,22 +82,50 @@ const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
     (12, -1.725_845_8, 1.689_262_5),
 ];
 
-/// `blob` with [`FIRMWARE_DOMAIN`] attached when it has no training-domain record.
-fn with_training_domain(blob: Vec<u8>, source: String) -> (Vec<u8>, String) {
-    use scorer_core::model::{self, InputRange, OutsidePolicy, TrainingDomain};
-    let ranges: Vec<u8> = FIRMWARE_DOMAIN
-        .iter()
-        .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
-        .collect();
+/// The fallback the embedded DRL blob gets: the kinematic terms of the embedded MSRA blob, on
+/// the scale `riskctl calibrate-domain --policy fallback --fallback-from models/msra-default.rsk`
+/// fits for the shipped DRL on `data/ngsim-us101-safe` (mean and spread on the frames inside). The
+/// instructions do not depend on the values; the parity test checks the bits whatever they are.
+const FIRMWARE_FALLBACK_SCALE: f32 = 6.164_552;
+const FIRMWARE_FALLBACK_OFFSET: f32 = -19.346_514;
+
+/// `blob` guarded by the costliest policy outside: its training-domain ranges (or
+/// [`FIRMWARE_DOMAIN`] when it has none) under `Fallback`, with the kinematic terms of
+/// `msra_blob` as its fallback. An observation outside then computes the four surrogates and the
+/// MSRA terms on top of the DRL inputs and the guard (the network is skipped).
+fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<u8>, String) {
+    use scorer_core::model::kinematic_fallback::term_to_bytes;
+    use scorer_core::model::{self, InputRange, KinematicFallback, Model, OutsidePolicy};
     let mut decoded = model::decode_blob(&blob).expect("the DRL blob decodes");
-    if decoded.meta.training_domain.is_some() {
-        return (blob.clone(), source);
-    }
-    decoded.meta.training_domain = Some(TrainingDomain::new(OutsidePolicy::Clamp, &ranges));
+    let Ok(Model::Msra(msra)) = model::decode(msra_blob) else {
+        panic!("the MSRA slot holds no MSRA model");
+    };
+    let term_bytes: Vec<u8> = msra
+        .terms
+        .iter()
+        .filter(|t| t.kind != scorer_core::SurrogateKind::Gssm)
+        .flat_map(term_to_bytes)
+        .collect();
+    let ranges: Vec<u8> = match &decoded.meta.training_domain {
+        Some(domain) => domain.range_bytes.to_vec(),
+        None => FIRMWARE_DOMAIN
+            .iter()
+            .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
+            .collect(),
+    };
+    decoded.meta.training_domain = Some(model::TrainingDomain::new(
+        OutsidePolicy::Fallback,
+        ranges.leak(),
+    ));
+    decoded.meta.kinematic_fallback = Some(KinematicFallback::new(
+        FIRMWARE_FALLBACK_SCALE,
+        FIRMWARE_FALLBACK_OFFSET,
+        term_bytes.leak(),
+    ));
     let mut out = vec![0u8; model::encoded_blob_len(&decoded).expect("size")];
     let n = model::encode_blob(&decoded, &mut out).expect("encode the guarded DRL blob");
     out.truncate(n);
-    (out, format!("{source} + training domain (build.rs)"))
+    (out, format!("{source} + fallback guard (build.rs)"))
 }
 
 fn file_name(p: &Path) -> String {

@@ -6,7 +6,9 @@ use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_eval::domain_ranges::{measure, DEFAULT_TAIL};
 use riskscore_eval::model_files::ModelFile;
-use scorer_core::model::OutsidePolicy;
+use riskscore_train::fallback::fit;
+use scorer_core::model::{Model, OutsidePolicy};
+use scorer_core::msra::MsraTerm;
 
 const ABOUT_DOMAIN: &str = "\
 The record: for every input the model reads (DRL: its DRL inputs; GSSM/SSRA: its context features;
@@ -16,13 +18,19 @@ an observation outside. Give the folders the model was trained on: the record sa
 model has seen data. The model bytes and a stored default threshold are kept (format version 2).
 
 Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
-into its range first, so the model never extrapolates. Either way `riskctl score` writes a
+into its range first, so the model never extrapolates; fallback (DRL models only) scores a
+kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
+blob, mapped to the DRL's scale by the affine map that matches the mean and spread of the DRL's
+scores on the frames of the --events folders inside the new record (docs/domain-guard.md). Either way `riskctl score` writes a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
 
 Example:
   riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
-                           --events data/ngsim-us101 --policy clamp --out drl-guarded.rsk";
+                           --events data/ngsim-us101 --policy clamp --out drl-guarded.rsk
+  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
+                           --events data/ngsim-us101 --policy fallback \\
+                           --fallback-from models/msra-default.rsk --out drl-fallback.rsk";
 
 /// Attach a model's training domain (the input ranges of its training data and the policy
 /// outside) to its blob.
@@ -35,9 +43,13 @@ pub struct Args {
     /// Event folder of the model's training data (repeatable).
     #[arg(long, value_name = "DIR", required = true)]
     events: Vec<PathBuf>,
-    /// What scoring does outside the domain: flag-only or clamp.
+    /// What scoring does outside the domain: flag-only, clamp or fallback.
     #[arg(long, value_name = "POLICY", default_value = "flag-only", value_parser = parse_policy)]
     policy: OutsidePolicy,
+    /// MSRA blob whose kinematic terms are the fallback (required by, and only with,
+    /// `--policy fallback`).
+    #[arg(long, value_name = "FILE")]
+    fallback_from: Option<PathBuf>,
     /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
     #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAIL)]
     tail_percent: f64,
@@ -47,7 +59,8 @@ pub struct Args {
 }
 
 fn parse_policy(text: &str) -> Result<OutsidePolicy, String> {
-    OutsidePolicy::from_name(text).ok_or_else(|| format!("{text:?}: expected flag-only or clamp"))
+    OutsidePolicy::from_name(text)
+        .ok_or_else(|| format!("{text:?}: expected flag-only, clamp or fallback"))
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -58,7 +71,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let file = ModelFile::read(&args.model.display().to_string())?;
-    let model = file.blob()?.model;
+    let blob = file.blob()?;
+    let model = &blob.model;
+    let fallback_terms = fallback_terms(&args, model)?;
     refuse_overlaps(&args)?;
     let mut sequences = Vec::new();
     for dir in &args.events {
@@ -70,11 +85,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sequences.extend(folder.sequences);
     }
     let frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
-    let pairs = sequences
-        .iter()
-        .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
-    let domain = measure(&model, pairs, args.tail_percent / 100.0, args.policy)?;
-    let bytes = riskscore_train::export::with_training_domain(&file.bytes, domain.domain())?;
+    let pairs = || {
+        sequences
+            .iter()
+            .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
+    };
+    let domain = measure(model, pairs(), args.tail_percent / 100.0, args.policy)?;
+    let fallback = match &fallback_terms {
+        Some(terms) => {
+            let fitted = fit(&blob, &domain.domain(), terms, pairs())?;
+            println!(
+                "fallback: {} * MSRA + {} (mean and spread of the DRL on {} frames inside, r^2 {:.3})",
+                fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
+            );
+            Some(fitted)
+        }
+        None => None,
+    };
+    let bytes = riskscore_train::export::with_training_domain(
+        &file.bytes,
+        domain.domain(),
+        fallback.as_ref().map(|f| f.record()),
+    )?;
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
@@ -90,7 +122,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The MSRA terms of `--fallback-from` when `--policy fallback` (for a DRL model), else `None`;
+/// either without the other is an error.
+fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<MsraTerm>>> {
+    let path = match (args.policy, &args.fallback_from) {
+        (OutsidePolicy::Fallback, Some(path)) => path,
+        (OutsidePolicy::Fallback, None) => {
+            bail!("--policy fallback needs --fallback-from MSRA.rsk (the kinematic terms)")
+        }
+        (_, Some(_)) => bail!("--fallback-from is only used with --policy fallback"),
+        (_, None) => return Ok(None),
+    };
+    if !matches!(model, Model::DrlInt8(_) | Model::DrlF32(_)) {
+        bail!(
+            "{}: --policy fallback is for DRL models (this is {})",
+            args.model.display(),
+            model.kind().name()
+        );
+    }
+    let source = ModelFile::read(&path.display().to_string())?;
+    let Model::Msra(msra) = source.blob()?.model else {
+        bail!("--fallback-from {}: not an MSRA model", path.display());
+    };
+    Ok(Some(msra.terms.to_vec()))
+}
+
 /// The output must not be the model, an --events folder's file or lie inside one.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)
+    super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)?;
+    super::output::refuse_inputs_of(
+        &[],
+        &[("--fallback-from", args.fallback_from.as_deref())],
+        &[("--out", &args.out)],
+    )
 }

@@ -19,7 +19,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use scorer_core::model::{self, BoundedVec, Model, ModelError, HEADER_LEN};
+use scorer_core::model::{self, BoundedVec, Model, ModelError, OutsidePolicy, HEADER_LEN};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use serde::{Deserialize, Serialize};
 
@@ -77,6 +77,8 @@ pub enum ExportError {
     NotDrl { what: &'static str },
     #[error("training domain: {0}")]
     Domain(String),
+    #[error("kinematic fallback: {0}")]
+    Fallback(#[from] crate::fallback::FallbackError),
 }
 
 impl Checkpoint {
@@ -371,6 +373,27 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         let name = names.get(usize::from(r.input)).copied().unwrap_or("?");
         let _ = writeln!(s, "  {:<15} [{}, {}]", name, r.lo, r.hi);
     }
+    if let Some(fallback) = &blob.meta.kinematic_fallback {
+        let _ = writeln!(
+            s,
+            "  fallback        {} * R + {} outside, R = kinematic MSRA of {} terms:",
+            fallback.scale,
+            fallback.offset,
+            fallback.len()
+        );
+        for (k, t) in fallback.terms().enumerate() {
+            let _ = writeln!(
+                s,
+                "  fallback term {k} {}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
+                t.kind.name(),
+                t.weight,
+                t.a,
+                t.b,
+                t.lo,
+                t.hi
+            );
+        }
+    }
     s
 }
 
@@ -379,36 +402,66 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 /// unchanged. Final and fold models both go through here, so a benchmark measures the record the
 /// shipped model would carry. The default `flag-only` scores as the unguarded model; the shipped
 /// policy is picked from held-out measurements (`docs/domain-guard.md`).
+///
+/// Under `fallback` a DRL blob also gets its kinematic fallback: the kinematic terms of
+/// `fallback_terms` (the MSRA trained beside it) aligned to the DRL's scores on the frames of
+/// `train` inside the measured domain ([`crate::fallback::fit`]). An MSRA or GSSM blob is itself
+/// the kinematic score (or has no kinematic stand-in) and gets a `flag-only` record.
 pub fn with_measured_domain(
     blob: &[u8],
     train: &[Sequence],
     policy: GuardPolicy,
+    fallback_terms: Option<&[MsraTerm]>,
 ) -> Result<Vec<u8>, ExportError> {
     let Some(policy) = policy.outside_policy() else {
         return Ok(blob.to_vec());
     };
-    let model = model::decode(blob).map_err(ExportError::Model)?;
-    let pairs = train
-        .iter()
-        .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
+    let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
+    let is_drl = matches!(decoded.model, Model::DrlInt8(_) | Model::DrlF32(_));
+    let policy = match policy {
+        OutsidePolicy::Fallback if !is_drl => OutsidePolicy::FlagOnly,
+        other => other,
+    };
+    let pairs = || {
+        train
+            .iter()
+            .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
+    };
     let domain = riskscore_eval::domain_ranges::measure(
-        &model,
-        pairs,
+        &decoded.model,
+        pairs(),
         riskscore_eval::domain_ranges::DEFAULT_TAIL,
         policy,
     )
     .map_err(|e| ExportError::Domain(e.to_string()))?;
-    with_training_domain(blob, domain.domain())
+    let fallback = if policy == OutsidePolicy::Fallback {
+        let terms = fallback_terms.ok_or(ExportError::Domain(
+            "the fallback policy needs the MSRA trained beside the DRL (its kinematic terms)"
+                .into(),
+        ))?;
+        Some(crate::fallback::fit(
+            &decoded,
+            &domain.domain(),
+            terms,
+            pairs(),
+        )?)
+    } else {
+        None
+    };
+    with_training_domain(blob, domain.domain(), fallback.as_ref().map(|f| f.record()))
 }
 
-/// `blob` with its training-domain record set to `domain` (the model and the other records
-/// unchanged), checked by decoding it again.
+/// `blob` with its training-domain record set to `domain` and its kinematic-fallback record to
+/// `fallback` (which the fallback policy needs and every other policy refuses; the model and the
+/// default threshold unchanged), checked by decoding it again.
 pub fn with_training_domain(
     blob: &[u8],
     domain: model::TrainingDomain<'_>,
+    fallback: Option<model::KinematicFallback<'_>>,
 ) -> Result<Vec<u8>, ExportError> {
     let mut decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     decoded.meta.training_domain = Some(domain);
+    decoded.meta.kinematic_fallback = fallback;
     let mut out = vec![0u8; model::encoded_blob_len(&decoded).map_err(ExportError::Model)?];
     let n = model::encode_blob(&decoded, &mut out).map_err(ExportError::Model)?;
     out.truncate(n);

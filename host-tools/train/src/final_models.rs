@@ -65,6 +65,7 @@ pub fn train_and_export(
         },
         json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
     );
+    let msra_terms = export::msra_terms(&msra.params)?;
     let mut contents = Vec::new();
     for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
         let p = dir.join(name);
@@ -77,7 +78,12 @@ pub fn train_and_export(
     ] {
         contents.push((
             dir.join(name),
-            export::with_measured_domain(&blob, train, config.guard.policy)?,
+            export::with_measured_domain(
+                &blob,
+                train,
+                config.guard.policy,
+                Some(msra_terms.as_slice()),
+            )?,
         ));
     }
     // The five files are one output: all new or all old.

@@ -14,6 +14,7 @@
 pub mod comparisons;
 pub mod domains;
 pub mod export;
+pub mod fallback;
 pub mod final_models;
 pub mod gssm;
 pub mod nn;

@@ -2,7 +2,7 @@
 //! carry the training-domain record of `[guard] policy`, measured on the fold's training data, and
 //! are scored through it: `none` and `flag-only` score alike, `clamp` moves held-out scores.
 use riskscore_data::events::Sequence;
-use riskscore_train::train::cv::{self, CvOptions, FoldOutcome};
+use riskscore_train::train::cv::{self, CvOptions, FoldOutcome, Models};
 use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
 use scorer_core::model::OutsidePolicy;
 
@@ -35,6 +35,10 @@ fn on_the_autobahn(n: usize) -> Vec<Sequence> {
 }
 
 fn fold(policy: GuardPolicy) -> FoldOutcome {
+    fold_of(policy, Models::default())
+}
+
+fn fold_of(policy: GuardPolicy, models: Models) -> FoldOutcome {
     let mut config = TrainConfig::default();
     config.comparisons.temporal.pairs = 400;
     config.comparisons.cross_sequence.pairs = 400;
@@ -45,6 +49,7 @@ fn fold(policy: GuardPolicy) -> FoldOutcome {
     config.guard.policy = policy;
     let options = CvOptions {
         progress: Progress::Hidden,
+        models,
         ..CvOptions::default()
     };
     cv::run_fold(
@@ -126,4 +131,56 @@ fn fold_models_carry_the_configured_record_and_are_scored_through_it() {
     // leaves alone: clamping its features changes nothing here.
     assert!(scores(&none, "MSRA") == scores(&clamp, "MSRA"));
     assert_eq!(none.result.methods.len(), flag.result.methods.len());
+}
+
+#[test]
+fn under_fallback_the_drl_hands_over_to_the_kinematic_terms_of_its_msra() {
+    let flag = fold(GuardPolicy::FlagOnly);
+    let fallback = fold(GuardPolicy::Fallback);
+    // DRL blobs fall back; the MSRA is itself the kinematic score and only flags.
+    assert_eq!(
+        policies(&fallback),
+        vec![
+            ("DRL".to_string(), Some(OutsidePolicy::Fallback)),
+            ("DRL-f32".to_string(), Some(OutsidePolicy::Fallback)),
+            ("MSRA".to_string(), Some(OutsidePolicy::FlagOnly)),
+        ]
+    );
+    let msra_blob = scorer_core::model::decode_blob(&fallback.blobs[2].1).unwrap();
+    let scorer_core::model::Model::Msra(msra) = &msra_blob.model else {
+        panic!("not MSRA")
+    };
+    let held_out = on_the_autobahn(8);
+    for m in ["DRL", "DRL-f32"] {
+        let blob = &fallback.blobs.iter().find(|(n, _)| n == m).unwrap().1;
+        let blob = scorer_core::model::decode_blob(blob).unwrap();
+        let record = blob.meta.kinematic_fallback.expect("a fallback record");
+        // The fallback is the fold MSRA's (kinematic) terms, on a positive scale.
+        assert_eq!(record.terms().collect::<Vec<_>>(), msra.terms.to_vec());
+        assert!(record.scale > 0.0);
+        // Every held-out frame is outside: the fold scored each one with the fallback.
+        let expected: Vec<u32> = held_out
+            .iter()
+            .flat_map(|s| s.frames.iter())
+            .map(|f| {
+                let o = scorer_core::Observation::of(&f.ego, &f.partner);
+                record.score(&o.surrogates).to_bits()
+            })
+            .collect();
+        assert_eq!(scores(&fallback, m), expected, "{m}");
+        assert!(scores(&flag, m) != expected, "{m}");
+    }
+    // The MSRA scores as under flag-only, and the fold trains the MSRA for the fallback even
+    // when it is not asked to report it.
+    assert!(scores(&flag, "MSRA") == scores(&fallback, "MSRA"));
+    let drl_only = fold_of(
+        GuardPolicy::Fallback,
+        Models {
+            msra: false,
+            ..Models::default()
+        },
+    );
+    assert_eq!(drl_only.blobs.len(), 2);
+    assert!(drl_only.msra_params.is_none());
+    assert!(scores(&drl_only, "DRL") == scores(&fallback, "DRL"));
 }

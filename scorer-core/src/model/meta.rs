@@ -8,7 +8,8 @@
 //! specification: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
-use super::training_domain::{TrainingDomain, TRAINING_DOMAIN_TAG};
+use super::kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
+use super::training_domain::{OutsidePolicy, TrainingDomain, TRAINING_DOMAIN_TAG};
 use super::ModelError;
 
 /// Record tag of the [`DefaultThreshold`].
@@ -93,12 +94,17 @@ pub struct ModelMeta<'a> {
     pub default_threshold: Option<DefaultThreshold<'a>>,
     /// Tag 2: the inputs' trained ranges and the policy outside them; `None` scores unguarded.
     pub training_domain: Option<TrainingDomain<'a>>,
+    /// Tag 3: the score outside the domain under [`OutsidePolicy::Fallback`]; present exactly
+    /// when the domain's policy is fallback.
+    pub kinematic_fallback: Option<KinematicFallback<'a>>,
 }
 
 impl<'a> ModelMeta<'a> {
     /// True when there is nothing to write (the blob is then written as version 1).
     pub fn is_empty(&self) -> bool {
-        self.default_threshold.is_none() && self.training_domain.is_none()
+        self.default_threshold.is_none()
+            && self.training_domain.is_none()
+            && self.kinematic_fallback.is_none()
     }
 
     pub fn validate(&self) -> Result<(), ModelError> {
@@ -108,7 +114,24 @@ impl<'a> ModelMeta<'a> {
         if let Some(domain) = &self.training_domain {
             domain.validate()?;
         }
-        Ok(())
+        if let Some(fallback) = &self.kinematic_fallback {
+            fallback.validate()?;
+        }
+        let fallback_policy = self
+            .training_domain
+            .is_some_and(|d| d.policy == OutsidePolicy::Fallback);
+        match (fallback_policy, self.kinematic_fallback.is_some()) {
+            (true, false) => Err(ModelError::BadRecord {
+                field: "training_domain.policy",
+                reason: "fallback policy without a kinematic-fallback record (tag 3)",
+            }),
+            (false, true) => Err(ModelError::BadRecord {
+                field: "kinematic_fallback",
+                reason: "a kinematic-fallback record (tag 3) needs a training domain with the \
+                         fallback policy",
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Reads the records that fill `bytes` entirely.
@@ -123,19 +146,28 @@ impl<'a> ModelMeta<'a> {
             })?;
             match tag {
                 DEFAULT_THRESHOLD_TAG => {
-                    let op: DefaultThreshold<'a> = take_record(tag, body, &meta.default_threshold)?;
-                    op.validate()?;
-                    meta.default_threshold = Some(op);
+                    meta.default_threshold = Some(take_record(tag, body, &meta.default_threshold)?);
                 }
                 TRAINING_DOMAIN_TAG => {
-                    let domain: TrainingDomain<'a> = take_record(tag, body, &meta.training_domain)?;
-                    domain.validate()?;
-                    meta.training_domain = Some(domain);
+                    // A policy byte this build does not know is named, not a postcard error.
+                    if let Some(&byte) = body.first() {
+                        if OutsidePolicy::from_wire(byte).is_none() {
+                            return Err(ModelError::UnknownOutsidePolicy(byte));
+                        }
+                    }
+                    meta.training_domain = Some(take_record(tag, body, &meta.training_domain)?);
+                }
+                KINEMATIC_FALLBACK_TAG => {
+                    meta.kinematic_fallback =
+                        Some(take_record(tag, body, &meta.kinematic_fallback)?);
                 }
                 _ => {}
             }
             bytes = rest;
         }
+        // Each record, and whether they agree (they may come in any order), once all are read:
+        // one copy of the checks in the image.
+        meta.validate()?;
         Ok(meta)
     }
 
@@ -156,6 +188,10 @@ impl<'a> ModelMeta<'a> {
             let rest = out.get_mut(written..).ok_or(too_small.clone())?;
             written += write_record(TRAINING_DOMAIN_TAG, domain, rest, &too_small)?;
         }
+        if let Some(fallback) = &self.kinematic_fallback {
+            let rest = out.get_mut(written..).ok_or(too_small.clone())?;
+            written += write_record(KINEMATIC_FALLBACK_TAG, fallback, rest, &too_small)?;
+        }
         Ok(written)
     }
 
@@ -169,7 +205,11 @@ impl<'a> ModelMeta<'a> {
             Some(domain) => record_len(domain)?,
             None => 0,
         };
-        Ok(threshold + domain)
+        let fallback = match &self.kinematic_fallback {
+            Some(fallback) => record_len(fallback)?,
+            None => 0,
+        };
+        Ok(threshold + domain + fallback)
     }
 }
 

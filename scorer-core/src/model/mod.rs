@@ -21,11 +21,13 @@
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
 
+pub mod kinematic_fallback;
 pub mod meta;
 pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
+pub use kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};
 pub use training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 

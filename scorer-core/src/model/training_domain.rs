@@ -23,7 +23,8 @@ pub const RANGE_BYTES: usize = 9;
 
 /// What scoring does with an observation that is outside the training domain.
 ///
-/// Wire indices are pinned (postcard enum variant index): `0` FlagOnly, `1` Clamp.
+/// Wire indices are pinned (postcard enum variant index, one byte): `0` FlagOnly, `1` Clamp,
+/// `2` Fallback; any other byte is [`ModelError::UnknownOutsidePolicy`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum OutsidePolicy {
     /// Score as an unguarded model would and report the flag.
@@ -31,22 +32,33 @@ pub enum OutsidePolicy {
     /// Clamp each input into its trained range (a NaN input to the range's midpoint), then score:
     /// the model never sees a value it was not trained on.
     Clamp,
+    /// Score the blob's kinematic fallback (record tag 3,
+    /// [`KinematicFallback`](super::KinematicFallback)) instead of the model: outside its domain
+    /// the model hands over to a kinematic MSRA on the model's own score scale.
+    Fallback,
 }
 
 impl OutsidePolicy {
-    /// Lowercase name as the tools print and parse it (`flag-only`, `clamp`).
+    /// Every policy, in wire order.
+    pub const ALL: [OutsidePolicy; 3] = [Self::FlagOnly, Self::Clamp, Self::Fallback];
+
+    /// Lowercase name as the tools print and parse it (`flag-only`, `clamp`, `fallback`).
     pub fn name(self) -> &'static str {
         match self {
             Self::FlagOnly => "flag-only",
             Self::Clamp => "clamp",
+            Self::Fallback => "fallback",
         }
     }
 
     /// The policy for a name of [`OutsidePolicy::name`].
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::FlagOnly, Self::Clamp]
-            .into_iter()
-            .find(|p| p.name() == name)
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// The policy of a wire byte (the first byte of the record body), `None` if unknown.
+    pub fn from_wire(byte: u8) -> Option<Self> {
+        Self::ALL.get(usize::from(byte)).copied()
     }
 }
 

@@ -105,6 +105,19 @@ pub struct Surrogates {
     pub ei: f32,
 }
 
+impl Surrogates {
+    /// The value of a kinematic surrogate (TTC2D, TAdv, EI); `None` for GSSM, which is a model's
+    /// score and not computed here.
+    pub fn kinematic(&self, kind: SurrogateKind) -> Option<f32> {
+        match kind {
+            SurrogateKind::Ttc2d => Some(self.ttc2d),
+            SurrogateKind::Tadv => Some(self.tadv),
+            SurrogateKind::Ei => Some(self.ei),
+            SurrogateKind::Gssm => None,
+        }
+    }
+}
+
 /// Compute every surrogate of the pair (`ego`, `partner`).
 pub fn surrogates(ego: &VehicleState, partner: &VehicleState) -> Surrogates {
     surrogates_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))

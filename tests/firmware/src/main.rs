@@ -195,13 +195,18 @@ fn main() -> ! {
         let c = c_api_step(context, &ego, &partner, id, now);
         probe::probe_idle();
 
-        // The staged guarded score: the int8 network on the guard's inputs.
-        let staged_guarded = drl.score_observation(&Observation {
-            drl_inputs: clamped,
-            ..o
-        });
+        // The staged guarded score: the int8 network on the guard's inputs, or the fallback.
+        let staged_guarded = staged_guarded_score(
+            &drl_guarded,
+            &drl,
+            first_outside,
+            &Observation {
+                drl_inputs: clamped,
+                ..o
+            },
+        );
         // Inside the domain the deployed path is the unguarded one (same score, same table, as
-        // long as no earlier update was clamped); outside it is the staged guarded score.
+        // long as no earlier update was guarded); outside it is the staged guarded score.
         let inside_so_far = pipeline_inside && first_outside.is_none();
         pipeline_inside = inside_so_far;
         let pipeline_ok = g.score.to_bits() == staged_guarded.to_bits()
@@ -479,6 +484,25 @@ fn guard_inputs(blob: &ModelBlob<'_>, x: &DrlInputs) -> (Option<u8>, DrlInputs) 
         domain.clamp(&mut inputs);
     }
     (first, inputs)
+}
+
+/// The score of the staged stages under the blob's policy: the kinematic fallback of the staged
+/// surrogates outside under `Fallback`, else the int8 network on the guard's inputs.
+fn staged_guarded_score(
+    blob: &ModelBlob<'_>,
+    drl: &Model<'_>,
+    first_outside: Option<u8>,
+    guarded: &Observation,
+) -> f32 {
+    let falls_back = first_outside.is_some()
+        && blob
+            .meta
+            .training_domain
+            .is_some_and(|d| d.policy == OutsidePolicy::Fallback);
+    match &blob.meta.kinematic_fallback {
+        Some(fallback) if falls_back => fallback.score(&guarded.surrogates),
+        _ => drl.score_observation(guarded),
+    }
 }
 
 /// Median DRL score of the first `n` inputs: a warning threshold inside the score range, so the

@@ -194,6 +194,9 @@ pub enum GuardPolicy {
     FlagOnly,
     /// A record under `clamp`: inputs outside are moved to the edge of their trained range.
     Clamp,
+    /// A record under `fallback`: outside, a DRL scores the kinematic terms of the MSRA trained
+    /// beside it, aligned to its scale on its training frames (MSRA blobs: `flag-only`).
+    Fallback,
 }
 
 impl GuardPolicy {
@@ -204,6 +207,7 @@ impl GuardPolicy {
             GuardPolicy::None => None,
             GuardPolicy::FlagOnly => Some(OutsidePolicy::FlagOnly),
             GuardPolicy::Clamp => Some(OutsidePolicy::Clamp),
+            GuardPolicy::Fallback => Some(OutsidePolicy::Fallback),
         }
     }
 }
@@ -544,13 +548,14 @@ mod tests {
             ("none", GuardPolicy::None),
             ("flag-only", GuardPolicy::FlagOnly),
             ("clamp", GuardPolicy::Clamp),
+            ("fallback", GuardPolicy::Fallback),
         ] {
             let text = format!("[guard]\npolicy = \"{name}\"");
             let config = TrainConfig::from_toml(&text, "t.toml").unwrap();
             assert_eq!(config.guard.policy, policy);
         }
-        let err = invalid("[guard]\npolicy = \"fallback\"");
-        assert!(err.contains("t.toml") && err.contains("fallback"), "{err}");
+        let err = invalid("[guard]\npolicy = \"fall-back\"");
+        assert!(err.contains("t.toml") && err.contains("fall-back"), "{err}");
     }
 
     #[test]

@@ -252,7 +252,9 @@ pub fn run_fold(
     };
     times.drl = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let msra = if opts.models.msra {
+    // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it.
+    let drl_falls_back = opts.models.drl && cfg.guard.policy == super::GuardPolicy::Fallback;
+    let msra = if opts.models.msra || drl_falls_back {
         Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
     } else {
         None
@@ -282,12 +284,22 @@ pub fn run_fold(
             ));
         }
     }
-    if let Some(m) = &msra {
+    let msra_terms = match &msra {
+        Some(m) => Some(export::msra_terms(&m.params).map_err(xerr)?),
+        None => None,
+    };
+    if let (Some(m), true) = (&msra, opts.models.msra) {
         blobs.push(("MSRA".into(), export::msra_blob(&m.params).map_err(xerr)?));
     }
     // The record the final model would carry, measured on what this fold's models trained on.
     for (_, blob) in &mut blobs {
-        *blob = export::with_measured_domain(blob, &train_ts, cfg.guard.policy).map_err(xerr)?;
+        *blob = export::with_measured_domain(
+            blob,
+            &train_ts,
+            cfg.guard.policy,
+            msra_terms.as_ref().map(|t| t.as_slice()),
+        )
+        .map_err(xerr)?;
     }
     times.quantise_export = t0.elapsed().as_secs_f64();
 
@@ -327,9 +339,12 @@ pub fn run_fold(
         runs,
         comparisons: prepared.fit.stats.clone(),
         drl: drl.as_ref().map(|d| d.report.clone()),
-        msra: msra.as_ref().map(|m| m.report.clone()),
+        msra: msra
+            .as_ref()
+            .filter(|_| opts.models.msra)
+            .map(|m| m.report.clone()),
         agreement,
-        msra_params: msra.map(|m| m.params),
+        msra_params: msra.filter(|_| opts.models.msra).map(|m| m.params),
         blobs,
         domain_shares,
         times,
