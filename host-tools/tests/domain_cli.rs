@@ -43,6 +43,17 @@ fn simulate(dir: &Path, seed: &str) -> PathBuf {
     events
 }
 
+/// `model` without its training-domain and fallback records: what a blob from before the guard is.
+fn write_unguarded(model: &Path, out: &Path) {
+    let bytes = std::fs::read(model).unwrap();
+    let mut blob = model::decode_blob(&bytes).unwrap();
+    blob.meta.training_domain = None;
+    blob.meta.kinematic_fallback = None;
+    let mut buf = vec![0u8; model::encoded_blob_len(&blob).unwrap()];
+    let n = model::encode_blob(&blob, &mut buf).unwrap();
+    std::fs::write(out, &buf[..n]).unwrap();
+}
+
 fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) -> String {
     ok(riskctl(&[
         "calibrate-domain",
@@ -211,12 +222,14 @@ fn score_column_and_evaluate_share_count_the_same_frames() {
     // Another seed's frames lie partly outside the first seed's min/max.
     let (_, other_outside) = score_flags(&own, &other, &dir.path().join("other.csv"));
     assert!(other_outside > 0);
-    // The unguarded shipped model gets no column and no domain entry.
+    // An unguarded model (the shipped one without its records) gets no column and no domain entry.
+    let unguarded = dir.path().join("unguarded.rsk");
+    write_unguarded(&drl, &unguarded);
     let plain = dir.path().join("plain.csv");
     ok(riskctl(&[
         "score",
         "--model",
-        drl.to_str().unwrap(),
+        unguarded.to_str().unwrap(),
         "--events",
         train.to_str().unwrap(),
         "--out",
