@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Float32Type, Float64Type};
+use arrow_array::types::{Float32Type, Float64Type, UInt8Type};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use riskscore_data::events::{load_events, Sequence};
 use riskscore_eval::{observe, Scorer};
@@ -74,9 +74,10 @@ fn every_frame_is_scored_like_the_evaluation() {
         .iter()
         .map(|p| std::fs::read(p).unwrap())
         .collect();
+    // The shipped blobs carry a training-domain record: scored through their guard, as on the ECU.
     let scorers: Vec<Scorer> = models
         .iter()
-        .map(|b| Scorer::Model(scorer_core::model::decode(b).unwrap()))
+        .map(|b| Scorer::Guarded(scorer_core::model::decode_blob(b).unwrap()))
         .collect();
     let mut expected = Vec::new();
     for ev in set.iter() {
@@ -96,6 +97,10 @@ fn every_frame_is_scored_like_the_evaluation() {
                         .iter()
                         .map(|s| s.score(&f.observation))
                         .collect::<Vec<f32>>(),
+                    scorers
+                        .iter()
+                        .map(|s| u8::from(s.score_guarded(&f.observation).unwrap().in_domain))
+                        .collect::<Vec<u8>>(),
                     [
                         f.observation.surrogates.ttc2d,
                         f.observation.surrogates.tadv,
@@ -115,16 +120,30 @@ fn every_frame_is_scored_like_the_evaluation() {
     let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(
         header,
-        ["event_id", "time", "class", "DRL", "mine", "ttc2d", "tadv", "ei"]
+        [
+            "event_id",
+            "time",
+            "class",
+            "DRL",
+            "mine",
+            "ttc2d",
+            "tadv",
+            "ei",
+            "DRL_in_domain",
+            "mine_in_domain"
+        ]
     );
     let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
     assert_eq!(rows.len(), expected.len());
-    for (row, (id, time, class, scores, surrogates)) in rows.iter().zip(&expected) {
+    for (row, (id, time, class, scores, flags, surrogates)) in rows.iter().zip(&expected) {
         assert_eq!(&row[0], id);
         assert_eq!(row[1].parse::<f64>().unwrap(), *time);
         assert_eq!(&row[2], *class);
         for (k, s) in scores.iter().chain(surrogates).enumerate() {
             assert_eq!(parse_out(&row[3 + k]).to_bits(), s.to_bits(), "{row:?}");
+        }
+        for (k, flag) in flags.iter().enumerate() {
+            assert_eq!(row[8 + k].parse::<u8>().unwrap(), *flag, "{row:?}");
         }
     }
     // Risk rises towards a crash: the DRL score at the impact frame beats the event's first frame.
@@ -170,7 +189,7 @@ fn every_frame_is_scored_like_the_evaluation() {
             .collect();
         assert_eq!(names, header);
         for r in 0..batch.num_rows() {
-            let (id, time, class, scores, surrogates) = &expected[k];
+            let (id, time, class, scores, flags, surrogates) = &expected[k];
             assert_eq!(batch.column(0).as_string::<i32>().value(r), id);
             assert_eq!(
                 batch.column(1).as_primitive::<Float64Type>().value(r),
@@ -180,6 +199,10 @@ fn every_frame_is_scored_like_the_evaluation() {
             for (c, s) in scores.iter().chain(surrogates).enumerate() {
                 let got = batch.column(3 + c).as_primitive::<Float32Type>().value(r);
                 assert_eq!(got.to_bits(), s.to_bits());
+            }
+            for (c, flag) in flags.iter().enumerate() {
+                let got = batch.column(8 + c).as_primitive::<UInt8Type>().value(r);
+                assert_eq!(got, *flag);
             }
             k += 1;
         }
