@@ -14,6 +14,7 @@
 //! no allocation on the ECU. Byte layout: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
+use super::record_reader::RecordReader;
 use super::ModelError;
 use crate::msra::{MsraTerm, MAX_TERMS};
 use crate::surrogates::{SurrogateKind, Surrogates};
@@ -70,6 +71,11 @@ impl<'a> KinematicFallback<'a> {
             offset,
             term_bytes,
         }
+    }
+
+    /// The record body's fields, in postcard order.
+    pub(super) fn read(r: &mut RecordReader<'a>) -> Result<Self, postcard::Error> {
+        Ok(Self::new(r.f32()?, r.f32()?, r.bytes()?))
     }
 
     /// The terms, in record order (a term of an unknown kind byte is skipped: validation refuses it).

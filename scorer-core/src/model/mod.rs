@@ -23,6 +23,7 @@
 
 pub mod kinematic_fallback;
 pub mod meta;
+mod record_reader;
 pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
