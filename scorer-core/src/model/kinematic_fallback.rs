@@ -14,10 +14,10 @@
 //! no allocation on the ECU. Byte layout: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
-use super::record_reader::RecordReader;
 use super::ModelError;
 use crate::msra::{MsraTerm, MAX_TERMS};
 use crate::surrogates::{SurrogateKind, Surrogates};
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`KinematicFallback`].
 pub const KINEMATIC_FALLBACK_TAG: u8 = 3;
@@ -74,7 +74,7 @@ impl<'a> KinematicFallback<'a> {
     }
 
     /// The record body's fields, in postcard order.
-    pub(super) fn read(r: &mut RecordReader<'a>) -> Result<Self, postcard::Error> {
+    pub(super) fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
         Ok(Self::new(r.f32()?, r.f32()?, r.bytes()?))
     }
 

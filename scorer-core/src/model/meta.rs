@@ -9,9 +9,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
-use super::record_reader::RecordReader;
 use super::training_domain::{OutsidePolicy, TrainingDomain, TRAINING_DOMAIN_TAG};
 use super::ModelError;
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`DefaultThreshold`].
 pub const DEFAULT_THRESHOLD_TAG: u8 = 1;
@@ -47,7 +47,7 @@ pub struct DefaultThreshold<'a> {
 
 impl<'a> DefaultThreshold<'a> {
     /// The record body's fields, in postcard order.
-    fn read(r: &mut RecordReader<'a>) -> Result<Self, postcard::Error> {
+    fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
         let threshold = r.f32()?;
         let rule = match r.u32()? {
             0 => ThresholdRule::KindDefault,
@@ -159,7 +159,7 @@ impl<'a> ModelMeta<'a> {
     pub fn decode(mut bytes: &'a [u8]) -> Result<Self, ModelError> {
         let mut meta = ModelMeta::default();
         while let Some((&tag, rest)) = bytes.split_first() {
-            let mut r = RecordReader::new(rest);
+            let mut r = WireReader::new(rest);
             let len = usize::try_from(r.u32()?).unwrap_or(usize::MAX);
             let rest = r.rest();
             let (body, rest) = rest.split_at_checked(len).ok_or(ModelError::Truncated {
@@ -255,12 +255,12 @@ fn take_record<'a, T>(
     tag: u8,
     body: &'a [u8],
     earlier: &Option<T>,
-    read: fn(&mut RecordReader<'a>) -> Result<T, postcard::Error>,
+    read: fn(&mut WireReader<'a>) -> Result<T, postcard::Error>,
 ) -> Result<T, ModelError> {
     if earlier.is_some() {
         return Err(ModelError::DuplicateRecord { tag });
     }
-    let mut r = RecordReader::new(body);
+    let mut r = WireReader::new(body);
     let value = read(&mut r)?;
     if !r.rest().is_empty() {
         return Err(ModelError::TrailingBytes {

@@ -12,8 +12,8 @@
 //! record costs the ECU no copy and no per-field deserialiser.
 use serde::{Deserialize, Serialize};
 
-use super::record_reader::RecordReader;
 use super::ModelError;
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`TrainingDomain`].
 pub const TRAINING_DOMAIN_TAG: u8 = 2;
@@ -117,7 +117,7 @@ impl<'a> TrainingDomain<'a> {
 
     /// The record body's fields, in postcard order (a policy index this build does not know is
     /// what serde's derived variant visitor reports through postcard).
-    pub(super) fn read(r: &mut RecordReader<'a>) -> Result<Self, postcard::Error> {
+    pub(super) fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
         let policy = u8::try_from(r.u32()?)
             .ok()
             .and_then(OutsidePolicy::from_wire)
