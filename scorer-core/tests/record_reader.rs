@@ -9,6 +9,8 @@
     clippy::panic
 )]
 
+mod example_blob;
+
 use proptest::prelude::*;
 
 use scorer_core::model::kinematic_fallback::term_to_bytes;
@@ -17,8 +19,6 @@ use scorer_core::model::{
     DefaultThreshold, InputRange, KinematicFallback, ModelError, ModelMeta, OutsidePolicy,
     ThresholdRule, TrainingDomain, KINEMATIC_FALLBACK_TAG,
 };
-use scorer_core::msra::MsraTerm;
-use scorer_core::SurrogateKind;
 
 /// The record loop as it read the bodies through serde.
 fn decode_with_serde(mut bytes: &[u8]) -> Result<ModelMeta<'_>, ModelError> {
@@ -90,15 +90,7 @@ fn valid_streams() -> Vec<Vec<u8>> {
         .iter()
         .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
         .collect();
-    let term = MsraTerm {
-        kind: SurrogateKind::Tadv,
-        weight: 1.0,
-        a: -1.0,
-        b: 2.0,
-        lo: 0.0,
-        hi: 10.0,
-    };
-    let terms = term_to_bytes(&term);
+    let terms = term_to_bytes(&example_blob::tadv_term());
     let fallback = record(
         KINEMATIC_FALLBACK_TAG,
         &body(&KinematicFallback::new(2.0, 0.5, &terms)),
