@@ -74,6 +74,15 @@ impl<T, const N: usize> BoundedVec<T, N> {
     }
 }
 
+impl<T, const N: usize> BoundedVec<T, N> {
+    /// Appends `item`, or counts it past the capacity (what decoding a longer list does).
+    pub(crate) fn push_or_count(&mut self, item: T) {
+        if self.items.push(item).is_err() {
+            self.overflow = self.overflow.saturating_add(1);
+        }
+    }
+}
+
 impl<T: Clone, const N: usize> BoundedVec<T, N> {
     /// Copies `items`; `Err(CapacityExceeded)` if there are more than `N`.
     pub fn from_slice(items: &[T]) -> Result<Self, crate::model_error::ModelError> {
@@ -121,9 +130,7 @@ impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for BoundedVisitor<T
         let mut out = BoundedVec::new();
         // Every element occupies at least one byte, so the loop is bounded by the blob length.
         while let Some(item) = seq.next_element::<T>()? {
-            if out.items.push(item).is_err() {
-                out.overflow = out.overflow.saturating_add(1);
-            }
+            out.push_or_count(item);
         }
         Ok(out)
     }

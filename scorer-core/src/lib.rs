@@ -49,6 +49,7 @@ pub mod state;
 pub mod surrogates;
 pub mod vec2;
 pub mod warning;
+mod wire_reader;
 
 pub use encoding::{drl_inputs, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES};
 pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};

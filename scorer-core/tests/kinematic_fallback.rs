@@ -13,6 +13,7 @@ mod example_blob;
 
 use example_blob::{
     assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model,
+    tadv_term,
 };
 
 use scorer_core::model::kinematic_fallback::term_to_bytes;
@@ -40,17 +41,6 @@ fn example_domain(policy: OutsidePolicy) -> TrainingDomain<'static> {
     ];
     let bytes: Vec<u8> = ranges.iter().flat_map(|r| r.to_bytes()).collect();
     TrainingDomain::new(policy, Vec::leak(bytes))
-}
-
-fn tadv_term() -> MsraTerm {
-    MsraTerm {
-        kind: SurrogateKind::Tadv,
-        weight: 1.0,
-        a: -1.0,
-        b: 2.0,
-        lo: 0.0,
-        hi: 10.0,
-    }
 }
 
 fn ei_term() -> MsraTerm {

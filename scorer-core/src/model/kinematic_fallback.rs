@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::ModelError;
 use crate::msra::{MsraTerm, MAX_TERMS};
 use crate::surrogates::{SurrogateKind, Surrogates};
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`KinematicFallback`].
 pub const KINEMATIC_FALLBACK_TAG: u8 = 3;
@@ -70,6 +71,11 @@ impl<'a> KinematicFallback<'a> {
             offset,
             term_bytes,
         }
+    }
+
+    /// The record body's fields, in postcard order.
+    pub(super) fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
+        Ok(Self::new(r.f32()?, r.f32()?, r.bytes()?))
     }
 
     /// The terms, in record order (a term of an unknown kind byte is skipped: validation refuses it).

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 use super::training_domain::{OutsidePolicy, TrainingDomain, TRAINING_DOMAIN_TAG};
 use super::ModelError;
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`DefaultThreshold`].
 pub const DEFAULT_THRESHOLD_TAG: u8 = 1;
@@ -44,7 +45,27 @@ pub struct DefaultThreshold<'a> {
     pub data: &'a str,
 }
 
-impl DefaultThreshold<'_> {
+impl<'a> DefaultThreshold<'a> {
+    /// The record body's fields, in postcard order.
+    fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
+        let threshold = r.f32()?;
+        let rule = match r.u32()? {
+            0 => ThresholdRule::KindDefault,
+            1 => ThresholdRule::SafeShare {
+                target: r.f32()?,
+                measured: r.f32()?,
+                sequences: r.u32()?,
+            },
+            // What serde's derived variant visitor reports through postcard.
+            _ => return Err(postcard::Error::SerdeDeCustom),
+        };
+        Ok(Self {
+            threshold,
+            rule,
+            data: r.str()?,
+        })
+    }
+
     /// Finite threshold, fractions in `[0, 1]`, a bounded description.
     pub fn validate(&self) -> Result<(), ModelError> {
         let field = "default_threshold";
@@ -138,15 +159,21 @@ impl<'a> ModelMeta<'a> {
     pub fn decode(mut bytes: &'a [u8]) -> Result<Self, ModelError> {
         let mut meta = ModelMeta::default();
         while let Some((&tag, rest)) = bytes.split_first() {
-            let (len, rest) = postcard::take_from_bytes::<u32>(rest)?;
-            let len = usize::try_from(len).unwrap_or(usize::MAX);
+            let mut r = WireReader::new(rest);
+            let len = usize::try_from(r.u32()?).unwrap_or(usize::MAX);
+            let rest = r.rest();
             let (body, rest) = rest.split_at_checked(len).ok_or(ModelError::Truncated {
                 needed: len,
                 available: rest.len(),
             })?;
             match tag {
                 DEFAULT_THRESHOLD_TAG => {
-                    meta.default_threshold = Some(take_record(tag, body, &meta.default_threshold)?);
+                    meta.default_threshold = Some(take_record(
+                        tag,
+                        body,
+                        &meta.default_threshold,
+                        DefaultThreshold::read,
+                    )?);
                 }
                 TRAINING_DOMAIN_TAG => {
                     // A policy byte this build does not know is named, not a postcard error.
@@ -155,11 +182,20 @@ impl<'a> ModelMeta<'a> {
                             return Err(ModelError::UnknownOutsidePolicy(byte));
                         }
                     }
-                    meta.training_domain = Some(take_record(tag, body, &meta.training_domain)?);
+                    meta.training_domain = Some(take_record(
+                        tag,
+                        body,
+                        &meta.training_domain,
+                        TrainingDomain::read,
+                    )?);
                 }
                 KINEMATIC_FALLBACK_TAG => {
-                    meta.kinematic_fallback =
-                        Some(take_record(tag, body, &meta.kinematic_fallback)?);
+                    meta.kinematic_fallback = Some(take_record(
+                        tag,
+                        body,
+                        &meta.kinematic_fallback,
+                        KinematicFallback::read,
+                    )?);
                 }
                 _ => {}
             }
@@ -213,18 +249,23 @@ impl<'a> ModelMeta<'a> {
     }
 }
 
-/// The record body of `tag`, which must be exactly one `T` and the first record of its tag.
-fn take_record<'a, T: Deserialize<'a>>(
+/// The record body of `tag`, which must be exactly one `T` (as `read` reads its postcard
+/// encoding) and the first record of its tag.
+fn take_record<'a, T>(
     tag: u8,
     body: &'a [u8],
     earlier: &Option<T>,
+    read: fn(&mut WireReader<'a>) -> Result<T, postcard::Error>,
 ) -> Result<T, ModelError> {
     if earlier.is_some() {
         return Err(ModelError::DuplicateRecord { tag });
     }
-    let (value, extra) = postcard::take_from_bytes::<T>(body)?;
-    if !extra.is_empty() {
-        return Err(ModelError::TrailingBytes { extra: extra.len() });
+    let mut r = WireReader::new(body);
+    let value = read(&mut r)?;
+    if !r.rest().is_empty() {
+        return Err(ModelError::TrailingBytes {
+            extra: r.rest().len(),
+        });
     }
     Ok(value)
 }

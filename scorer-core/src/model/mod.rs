@@ -23,6 +23,7 @@
 
 pub mod kinematic_fallback;
 pub mod meta;
+mod payload_reader;
 pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
@@ -39,6 +40,7 @@ use crate::msra::MsraModel;
 use crate::observation::Observation;
 use crate::state::VehicleState;
 use crate::surrogates::surrogates;
+use crate::wire_reader::WireReader;
 
 /// First four bytes of every model blob.
 pub const MAGIC: [u8; 4] = *b"RSKM";
@@ -315,8 +317,15 @@ impl ModelBlob<'_> {
 }
 
 /// The kind's model struct at the front of `bytes`, and what follows it.
-fn take_model<'a, T: serde::Deserialize<'a>>(bytes: &'a [u8]) -> Result<(T, &'a [u8]), ModelError> {
-    Ok(postcard::take_from_bytes::<T>(bytes)?)
+fn take_model<'a>(kind: ModelKind, bytes: &'a [u8]) -> Result<(Model<'a>, &'a [u8]), ModelError> {
+    let mut r = WireReader::new(bytes);
+    let model = match kind {
+        ModelKind::DrlInt8 => Model::DrlInt8(payload_reader::quant_mlp(&mut r)?),
+        ModelKind::DrlF32 => Model::DrlF32(payload_reader::float_mlp(&mut r)?),
+        ModelKind::Msra => Model::Msra(payload_reader::msra(&mut r)?),
+        ModelKind::Gssm => Model::Gssm(payload_reader::gssm(&mut r)?),
+    };
+    Ok((model, r.rest()))
 }
 
 /// Decodes and validates a model blob. Borrows the weights from `blob`; allocates nothing; returns
@@ -348,12 +357,7 @@ pub fn decode_blob(blob: &[u8]) -> Result<ModelBlob<'_>, ModelError> {
             computed,
         });
     }
-    let (model, rest) = match header.kind {
-        ModelKind::DrlInt8 => take_model(body).map(|(m, r)| (Model::DrlInt8(m), r)),
-        ModelKind::DrlF32 => take_model(body).map(|(m, r)| (Model::DrlF32(m), r)),
-        ModelKind::Msra => take_model(body).map(|(m, r)| (Model::Msra(m), r)),
-        ModelKind::Gssm => take_model(body).map(|(m, r)| (Model::Gssm(m), r)),
-    }?;
+    let (model, rest) = take_model(header.kind, body)?;
     let meta = if header.version == MODEL_ONLY_VERSION {
         if !rest.is_empty() {
             return Err(ModelError::TrailingBytes { extra: rest.len() });

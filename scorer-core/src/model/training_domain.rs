@@ -13,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::ModelError;
+use crate::wire_reader::WireReader;
 
 /// Record tag of the [`TrainingDomain`].
 pub const TRAINING_DOMAIN_TAG: u8 = 2;
@@ -112,6 +113,16 @@ impl<'a> TrainingDomain<'a> {
             policy,
             range_bytes,
         }
+    }
+
+    /// The record body's fields, in postcard order (a policy index this build does not know is
+    /// what serde's derived variant visitor reports through postcard).
+    pub(super) fn read(r: &mut WireReader<'a>) -> Result<Self, postcard::Error> {
+        let policy = u8::try_from(r.u32()?)
+            .ok()
+            .and_then(OutsidePolicy::from_wire)
+            .ok_or(postcard::Error::SerdeDeCustom)?;
+        Ok(Self::new(policy, r.bytes()?))
     }
 
     /// The ranges, in record order.

@@ -10,6 +10,8 @@
 
 use scorer_core::mlp::{FloatLayer, FloatMlp};
 use scorer_core::model::{self, BoundedVec, Model, ModelBlob, ModelMeta, HEADER_LEN};
+use scorer_core::msra::MsraTerm;
+use scorer_core::SurrogateKind;
 
 const W: [u8; 4] = (-1.0f32).to_le_bytes();
 const B: [u8; 4] = 0.5f32.to_le_bytes();
@@ -31,6 +33,18 @@ pub fn example_model() -> Model<'static> {
         input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
         layers,
     })
+}
+
+/// A kinematic MSRA term of the worked fallback example (TAdv, clipped to [0, 10]).
+pub fn tadv_term() -> MsraTerm {
+    MsraTerm {
+        kind: SurrogateKind::Tadv,
+        weight: 1.0,
+        a: -1.0,
+        b: 2.0,
+        lo: 0.0,
+        hi: 10.0,
+    }
 }
 
 /// `blob` encoded (exactly [`model::encoded_blob_len`] bytes).
