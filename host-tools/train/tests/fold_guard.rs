@@ -50,6 +50,7 @@ fn fold(policy: GuardPolicy) -> FoldOutcome {
     cv::run_fold(
         0,
         &in_town(24),
+        &[],
         &on_the_autobahn(8),
         None,
         &config,
