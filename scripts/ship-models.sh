@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerate every shipped model in models/ end to end (models/README.md "Regenerating"):
 #   1. the release riskctl (scripts/build.sh);
-#   2. the roadside passes of scripts/roadside-passes.py (a grid disjoint from the roadside test's);
+#   2. the roadside passes of `riskctl roadside-passes` (a grid disjoint from the roadside test's);
 #   3. `riskctl demo` with its default recipe (docs/training.md "Training on the operating
 #      domain"): DRL and MSRA trained on the simulated default set, both real extracts and a
 #      simulated folder of the operating-domain families; DRL alone also on the roadside passes
@@ -32,7 +32,7 @@ else
 fi
 mkdir -p "$work/staged"
 
-python3 scripts/roadside-passes.py "$work/roadside"
+"$riskctl" roadside-passes --out "$work/roadside"
 
 echo "==> riskctl demo (log: $work/demo.log)"
 "$riskctl" demo --out "$work/demo" --extra-drl-only "$work/roadside" --quiet | tee "$work/demo.log"

@@ -78,7 +78,7 @@ pub struct ExtraTraining {
     pub real: Vec<PathBuf>,
     /// Event folders only DRL trains on (never MSRA, never a test fold): data that teaches the
     /// network a geometry MSRA's kinematic inputs cannot tell apart from a conflict, e.g. the
-    /// roadside passes of scripts/roadside-passes.py (docs/training.md).
+    /// roadside passes of `riskctl roadside-passes` (docs/training.md).
     pub drl_only: Vec<PathBuf>,
 }
 

@@ -6,8 +6,9 @@
 //! drives from 150 m before the object (or 40 s before, whichever is nearer) to 30 m past it at
 //! 10 Hz. Not one frame may reach the threshold.
 //!
-//! This sweep is NOT training data: scripts/roadside-passes.py, which DRL trains on (DRL-only
-//! training data of scripts/ship-models.sh) and GSSM takes as normal driving, uses a disjoint grid
+//! This sweep is NOT training data: `riskctl roadside-passes` (riskscore_data::sim::roadside_passes),
+//! which DRL trains on (DRL-only training data of scripts/ship-models.sh) and GSSM takes as normal
+//! driving, uses a disjoint grid
 //! (speeds 2,4,6,7,9,12,...,47 m/s, clearances 3.25/4/5/7 m, a van, a small object and a trailer),
 //! so the test measures whether what the models learned generalises to other speeds, clearances
 //! and object sizes. The thresholds are the 5 % false-alarm rule's on real driving, not lifted
@@ -158,6 +159,27 @@ const STILL_WARNING: [&str; 3] = ["gssm-default", "ssra-default", "msra-gssm"];
 fn models_that_still_warn_beside_a_roadside_object() {
     assert_never_warns(&STILL_WARNING);
 }
+#[test]
+fn the_training_passes_share_no_speed_clearance_or_object_with_this_sweep() {
+    use riskscore_data::sim::roadside_passes as training;
+    for v in training::SPEEDS {
+        assert!(!SPEEDS.contains(&v), "{v} m/s is also a training speed");
+    }
+    for c in training::CLEARANCES {
+        assert!(
+            !CLEARANCES.contains(&c),
+            "{c} m is also a training clearance"
+        );
+    }
+    for (name, length, width) in training::OBJECTS {
+        assert!(
+            OBJECTS.iter().all(|&(_, l, w)| (l, w) != (length, width)),
+            "the training {name} has the size of a test object"
+        );
+    }
+    assert_eq!(training::roadside_passes().len(), 480);
+}
+
 #[test]
 fn the_probe_reaches_the_object_at_every_speed() {
     // The sweep must really drive past the object: the closest frame is within half a frame's

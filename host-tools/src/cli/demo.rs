@@ -85,7 +85,7 @@ pub struct Args {
     /// Training-only event folder that DRL alone trains on (repeatable): it joins DRL's side of
     /// every training fold, of the transfer benchmark's training side and of the final DRL, never
     /// a test fold, never MSRA's training (nor the domain benchmark's). For data MSRA's kinematic
-    /// inputs cannot tell from a conflict, e.g. `scripts/roadside-passes.py DIR` (passes beside
+    /// inputs cannot tell from a conflict, e.g. `riskctl roadside-passes --out DIR` (passes beside
     /// stationary roadside objects; scripts/ship-models.sh gives them to DRL this way).
     #[arg(
         long = "extra-drl-only",
