@@ -6,18 +6,7 @@ use riskscore_train::train::cv::{self, CvOptions, ExtraTrain, FoldOutcome};
 use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
 
 mod common;
-use common::{conflict, following};
-
-fn in_town(n: usize) -> Vec<Sequence> {
-    (0..n)
-        .flat_map(|i| {
-            [
-                conflict(i, 5.0 + (i % 8) as f32, 0.0),
-                following(i, 12.0 + i as f32 % 7.0, 25.0 + 3.0 * (i % 5) as f32, 0.0),
-            ]
-        })
-        .collect()
-}
+use common::{following, in_town};
 
 /// Calm following 25 m/s faster than anything in town: speeds only a model that trained on
 /// these sequences has in its domain record.
