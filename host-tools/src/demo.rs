@@ -76,6 +76,10 @@ pub struct ExtraTraining {
     pub sim: Option<ExtraSim>,
     /// Real normal-driving folders (safe sequences).
     pub real: Vec<PathBuf>,
+    /// Event folders only DRL trains on (never MSRA, never a test fold): data that teaches the
+    /// network a geometry MSRA's kinematic inputs cannot tell apart from a conflict, e.g. the
+    /// roadside passes of `riskctl roadside-passes` (docs/training.md).
+    pub drl_only: Vec<PathBuf>,
 }
 
 /// The extra simulated folder: its seed (distinct from the training set's and the test folders'
@@ -108,11 +112,12 @@ impl ExtraTraining {
         ExtraTraining {
             sim: None,
             real: Vec::new(),
+            drl_only: Vec::new(),
         }
     }
 
     pub fn is_none(&self) -> bool {
-        self.sim.is_none() && self.real.is_empty()
+        self.sim.is_none() && self.real.is_empty() && self.drl_only.is_empty()
     }
 }
 
@@ -122,6 +127,7 @@ impl Default for ExtraTraining {
         ExtraTraining {
             sim: Some(ExtraSim::default()),
             real: default_real_city_data().into_iter().collect(),
+            drl_only: Vec::new(),
         }
     }
 }
@@ -474,6 +480,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         seqs.extend(real_seqs.iter().cloned());
     }
     let (extra_seqs, extra_counts) = load_extra(opts)?;
+    let (drl_only_seqs, drl_only_counts) = load_drl_only(&opts.extra.drl_only)?;
+    let extra_counts = match (extra_counts, drl_only_counts) {
+        (Some(a), Some(b)) => Some(format!("{a}; DRL only: {b}")),
+        (None, Some(b)) => Some(format!("DRL only: {b}")),
+        (a, None) => a,
+    };
     if let Some(c) = &extra_counts {
         counts = format!("{counts}; training only: {c}");
     }
@@ -497,7 +509,11 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             progress: opts.progress,
             ..CvOptions::default()
         };
-        let run = cv::cross_validate_with_extra(&seqs, &extra_seqs, None, &config, &cv_opts)?;
+        let extra = cv::ExtraTrain {
+            all_models: &extra_seqs,
+            drl_only: &drl_only_seqs,
+        };
+        let run = cv::cross_validate_with_extra(&seqs, &extra, None, &config, &cv_opts)?;
         if k == 0 {
             first_seed_folds = run.len();
         }
@@ -569,6 +585,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         train_sim.extend(extra_seqs.iter().cloned());
         let data = riskscore_train::transfer::TransferData {
             train_sim,
+            train_drl_only: drl_only_seqs.clone(),
             test_sim,
             real: real_seqs.clone(),
         };
@@ -627,9 +644,17 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             "families": e.families.to_string(),
         })),
         "extra_real": opts.extra.real.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "extra_drl_only": opts.extra.drl_only.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     });
-    let (finals, model_files) =
-        train_and_export(&all, None, &opts.config, &model_dir, meta, opts.progress)?;
+    let (finals, model_files) = train_and_export(
+        &all,
+        &drl_only_seqs,
+        None,
+        &opts.config,
+        &model_dir,
+        meta,
+        opts.progress,
+    )?;
     files.extend(model_files);
     stages.push(("final models + export".into(), t0.elapsed().as_secs_f64()));
 
@@ -767,6 +792,32 @@ fn load_extra(opts: &DemoOptions) -> Result<(Vec<Sequence>, Option<String>), Dem
             s.len()
         );
         counts.push(format!("real {c} ({})", dir.display()));
+        seqs.extend(s);
+    }
+    Ok((seqs, (!counts.is_empty()).then(|| counts.join(" + "))))
+}
+
+/// Event-id prefix of the DRL-only training sequences (`drl-only/<folder index>/<id>`).
+pub const DRL_ONLY_PREFIX: &str = "drl-only/";
+
+/// The training-only folders DRL alone trains on ([`ExtraTraining::drl_only`]), with their
+/// counts (`None`: none).
+fn load_drl_only(dirs: &[PathBuf]) -> Result<(Vec<Sequence>, Option<String>), DemoError> {
+    let mut seqs = Vec::new();
+    let mut counts = Vec::new();
+    for (i, dir) in dirs.iter().enumerate() {
+        let (mut s, c) = load_sequences(dir)?;
+        eprintln!(
+            "      training only, DRL only: {}: {c}; {} sequences",
+            dir.display(),
+            s.len()
+        );
+        // As the extra simulated folder's: ids of their own (a simulated folder's restart at
+        // 000001 and training groups sequences by event id).
+        for seq in &mut s {
+            seq.event_id = format!("{DRL_ONLY_PREFIX}{i}/{}", seq.event_id);
+        }
+        counts.push(format!("{c} ({})", dir.display()));
         seqs.extend(s);
     }
     Ok((seqs, (!counts.is_empty()).then(|| counts.join(" + "))))

@@ -44,6 +44,9 @@ enum Command {
     /// Draw one event: both road users' paths and boxes, and every method's risk over time with
     /// its threshold and first warning (SVG or PNG).
     Plot(cli::plot::Args),
+    /// Write the safe passes beside stationary roadside objects (DRL-only training data; a grid
+    /// disjoint from the roadside test's).
+    RoadsidePasses(cli::roadside_passes::Args),
     /// GSSM, SSRA and MSRA over GSSM: fit, align, msra, ship, cv, augmentation.
     Gssm(cli::gssm::Args),
     /// Import recorded data (CommonRoad scenarios) as an event folder of real safe interactions.
@@ -70,6 +73,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Ssm(a) => cli::ssm::run(a),
         Command::Simulate(a) => cli::simulate::run(a),
+        Command::RoadsidePasses(a) => cli::roadside_passes::run(a),
         Command::Train(a) => cli::train::run(a),
         Command::Evaluate(a) => cli::evaluate::run(a),
         #[cfg(feature = "parquet")]

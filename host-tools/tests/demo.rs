@@ -68,6 +68,19 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     let out = dir.path().join("out");
     let real = dir.path().join("real");
     write_real(&real);
+    // DRL-only training data: a small simulated folder (its ids restart at 000001 like the
+    // training set's, so the demo must keep them apart).
+    let drl_only = dir.path().join("drl-only");
+    riskscore_data::sim::simulate_to_dir(
+        &drl_only,
+        &riskscore_data::sim::SimConfig {
+            seed: 9,
+            events: 20,
+            progress: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let mut gssm = riskscore_train::gssm::GssmConfig::default();
     gssm.fit.max_epochs = 3;
     gssm.ssra.max_epochs = 2;
@@ -98,6 +111,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
                 families: riskscore_data::sim::FamilyMix::domain(),
             }),
             real: Vec::new(),
+            drl_only: vec![drl_only],
         },
         progress: Progress::Hidden,
     };
@@ -159,6 +173,23 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         let train = split["train_sequences"].as_u64().unwrap() as usize;
         assert!(train > summary.extra_sequences, "{split}");
     }
+    assert!(
+        !maxima.contains(demo::DRL_ONLY_PREFIX),
+        "a DRL-only event was tested"
+    );
+    // The final DRL trained on the DRL-only folder (more comparison observations), MSRA not.
+    let observations = |model: &str| {
+        let ck: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("models").join(model)).unwrap())
+                .unwrap();
+        ck["meta"]["comparisons"]["observations"].as_u64().unwrap()
+    };
+    assert!(
+        observations("drl.json") > observations("msra.json"),
+        "DRL {} vs MSRA {} comparison observations",
+        observations("drl.json"),
+        observations("msra.json")
+    );
     // Every method of the table, three folds each.
     let cv = summary.cv.as_ref().unwrap();
     let names: Vec<&str> = cv.methods.iter().map(|m| m.name.as_str()).collect();

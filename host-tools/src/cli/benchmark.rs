@@ -264,6 +264,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::default())?;
     let data = TransferData {
         train_sim,
+        train_drl_only: Vec::new(),
         test_sim,
         real: super::load_prepared(&real_dir)?.sequences,
     };

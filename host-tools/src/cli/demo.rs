@@ -82,6 +82,17 @@ pub struct Args {
     /// data/ngsim-urban-safe when it is found.
     #[arg(long = "extra-real", value_name = "DIR", conflicts_with = "no_extra")]
     pub extra_real: Vec<PathBuf>,
+    /// Training-only event folder that DRL alone trains on (repeatable): it joins DRL's side of
+    /// every training fold, of the transfer benchmark's training side and of the final DRL, never
+    /// a test fold, never MSRA's training (nor the domain benchmark's). For data MSRA's kinematic
+    /// inputs cannot tell from a conflict, e.g. `riskctl roadside-passes --out DIR` (passes beside
+    /// stationary roadside objects; scripts/ship-models.sh gives them to DRL this way).
+    #[arg(
+        long = "extra-drl-only",
+        value_name = "DIR",
+        conflicts_with = "no_extra"
+    )]
+    pub extra_drl_only: Vec<PathBuf>,
     /// No training-only data: train on the tested sets alone (the recipe before issue #18).
     #[arg(long)]
     pub no_extra: bool,
@@ -108,6 +119,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .extra_real
         .iter()
         .map(|p| ("--extra-real", Some(p.as_path())))
+        .chain(
+            args.extra_drl_only
+                .iter()
+                .map(|p| ("--extra-drl-only", Some(p.as_path()))),
+        )
         .collect();
     super::output::refuse_inputs_of(
         &[
@@ -163,6 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 } else {
                     args.extra_real
                 },
+                drl_only: args.extra_drl_only,
             }
         },
         progress: if args.quiet {

@@ -18,6 +18,7 @@ pub mod import;
 pub mod inspect_model;
 pub mod output;
 pub mod plot;
+pub mod roadside_passes;
 #[cfg(feature = "parquet")]
 pub mod score;
 pub mod simulate;

@@ -78,6 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let (finals, files) = train_and_export(
         &seqs,
+        &[],
         augmentation.as_deref(),
         &config,
         &args.out,

@@ -27,12 +27,13 @@ pub struct FinalModels {
     pub pairs_per_second: f64,
 }
 
-/// Train DRL and MSRA on all of `train`, write checkpoints and blobs into `dir`: `drl.json`,
+/// Train DRL and MSRA on all of `train` (DRL also on `drl_only`), write checkpoints and blobs into `dir`: `drl.json`,
 /// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk` (each with its training domain under
 /// `config.guard`). `meta` goes into both checkpoints.
 /// Returns the models and the files written.
 pub fn train_and_export(
     train: &[Sequence],
+    drl_only: &[Sequence],
     augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     dir: &Path,
@@ -46,10 +47,15 @@ pub fn train_and_export(
             source,
         })?;
     let prepared = train::prepare_comparisons(train, augmentation, config);
-    let drl = train::train_drl(train, &prepared, config, progress)?;
+    // DRL's own training side when it has data MSRA must not see.
+    let drl_train: Vec<Sequence> = train.iter().chain(drl_only).cloned().collect();
+    let drl_prepared = (!drl_only.is_empty())
+        .then(|| train::prepare_comparisons(&drl_train, augmentation, config));
+    let drl_comparisons = drl_prepared.as_ref().unwrap_or(&prepared);
+    let drl = train::train_drl(&drl_train, drl_comparisons, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
     let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
-    let obs = train::calibration_observations(train, usize::MAX);
+    let obs = train::calibration_observations(&drl_train, usize::MAX);
     let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;
     let mut files = Vec::new();
     let drl_ck = Checkpoint::new(
@@ -57,7 +63,7 @@ pub fn train_and_export(
             params: drl.params.clone(),
             calibration: drl.calibration.clone(),
         },
-        json!({"model": "DRL", "meta": meta, "training": drl.report, "comparisons": prepared.fit.stats}),
+        json!({"model": "DRL", "meta": meta, "training": drl.report, "comparisons": drl_comparisons.fit.stats}),
     );
     let msra_ck = Checkpoint::new(
         CheckpointModel::Msra {
@@ -71,16 +77,28 @@ pub fn train_and_export(
         let p = dir.join(name);
         contents.push((p.clone(), ck.to_json(&p)?));
     }
-    for (name, blob) in [
-        ("drl.rsk", export::export(&drl_ck, DrlFormat::Int8)?),
-        ("drl-f32.rsk", export::export(&drl_ck, DrlFormat::F32)?),
-        ("msra.rsk", export::export(&msra_ck, DrlFormat::Int8)?),
+    for (name, blob, trained_on) in [
+        (
+            "drl.rsk",
+            export::export(&drl_ck, DrlFormat::Int8)?,
+            drl_train.as_slice(),
+        ),
+        (
+            "drl-f32.rsk",
+            export::export(&drl_ck, DrlFormat::F32)?,
+            drl_train.as_slice(),
+        ),
+        (
+            "msra.rsk",
+            export::export(&msra_ck, DrlFormat::Int8)?,
+            train,
+        ),
     ] {
         contents.push((
             dir.join(name),
             export::with_measured_domain(
                 &blob,
-                train,
+                trained_on,
                 config.guard.policy,
                 Some(msra_terms.as_slice()),
             )?,

@@ -27,6 +27,8 @@ use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult, MethodRun}
 pub struct TransferData {
     /// Simulated training sequences (one seed and mix).
     pub train_sim: Vec<Sequence>,
+    /// Training-only sequences DRL alone trains on in every fold ([`cv::ExtraTrain::drl_only`]).
+    pub train_drl_only: Vec<Sequence>,
     /// Simulated test sequences (another seed and mix).
     pub test_sim: Vec<Sequence>,
     /// Real recorded sequences (normal driving), split by scenario file.
@@ -143,6 +145,7 @@ pub fn run(
                     seed,
                     fold,
                     train: &train,
+                    drl_only: &data.train_drl_only,
                     normal: &real_train,
                     test: &test,
                 },
@@ -186,6 +189,8 @@ pub struct Split<'a> {
     pub fold: usize,
     /// Training sequences (simulated and real) for DRL, MSRA and the SSRA/MSRA comparisons.
     pub train: &'a [Sequence],
+    /// Training sequences DRL alone sees (not MSRA, not the GSSM or SSRA).
+    pub drl_only: &'a [Sequence],
     /// The training part's real normal driving: what the GSSM is fitted on.
     pub normal: &'a [Sequence],
     pub test: &'a [Sequence],
@@ -212,6 +217,7 @@ pub fn run_split(
         seed,
         fold,
         train,
+        drl_only,
         normal,
         test,
     } = *split;
@@ -223,7 +229,7 @@ pub fn run_split(
         progress: options.progress,
         ..CvOptions::default()
     };
-    let outcome = cv::run_fold(fold, train, test, None, &cfg, &cv_opts)?;
+    let outcome = cv::run_fold(fold, train, drl_only, test, None, &cfg, &cv_opts)?;
     let mut methods = outcome.result.methods;
     let mut runs = outcome.runs;
 

@@ -7,18 +7,7 @@ use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
 use scorer_core::model::OutsidePolicy;
 
 mod common;
-use common::{conflict, following};
-
-fn in_town(n: usize) -> Vec<Sequence> {
-    (0..n)
-        .flat_map(|i| {
-            [
-                conflict(i, 5.0 + (i % 8) as f32, 0.0),
-                following(i, 12.0 + i as f32 % 7.0, 25.0 + 3.0 * (i % 5) as f32, 0.0),
-            ]
-        })
-        .collect()
-}
+use common::in_town;
 
 /// The same situations 25 m/s faster: the ego's and the partner's speeds lie far outside
 /// what the training data covered, the relative kinematics inside.
@@ -55,6 +44,7 @@ fn fold_of(policy: GuardPolicy, models: Models) -> FoldOutcome {
     cv::run_fold(
         0,
         &in_town(24),
+        &[],
         &on_the_autobahn(8),
         None,
         &config,

@@ -66,6 +66,7 @@ fn real_scenarios_are_held_out_whole_and_every_model_is_scored() {
     let dir = tempfile::tempdir().unwrap();
     let data = TransferData {
         train_sim: simulated(3, Mix::default(), &dir.path().join("a")),
+        train_drl_only: Vec::new(),
         test_sim: simulated(
             4,
             Mix {
@@ -138,6 +139,7 @@ fn too_few_scenario_files_is_an_error() {
     let sim = simulated(3, Mix::default(), &dir.path().join("a"));
     let data = TransferData {
         train_sim: sim.clone(),
+        train_drl_only: Vec::new(),
         test_sim: sim,
         real: real(1, 2),
     };

@@ -26,6 +26,7 @@ use crate::events::{
 
 mod family_mix;
 pub mod label;
+pub mod roadside_passes;
 pub mod scenarios;
 mod world;
 

@@ -121,6 +121,7 @@ pub fn run_round(
                     seed,
                     fold,
                     train: &split.train,
+                    drl_only: &[],
                     normal: &split.normal,
                     test: &split.test,
                 },

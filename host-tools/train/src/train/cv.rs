@@ -178,15 +178,28 @@ pub fn cross_validate(
     config: &TrainConfig,
     opts: &CvOptions,
 ) -> Result<Vec<FoldOutcome>, CvError> {
-    cross_validate_with_extra(seqs, &[], augmentation, config, opts)
+    cross_validate_with_extra(seqs, &ExtraTrain::default(), augmentation, config, opts)
+}
+
+/// Training-only sequences: they join every fold's training side, never a test fold, so the
+/// folds (and the figures) stay those of the tested sequences alone.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExtraTrain<'a> {
+    /// Every trained model (DRL and MSRA) trains on these.
+    pub all_models: &'a [Sequence],
+    /// Only DRL trains on these (its comparisons, standardisation, int8 calibration and domain
+    /// record); MSRA never sees them: data that teaches the network a geometry the kinematic
+    /// surrogates MSRA combines cannot express (e.g. roadside passes, docs/training.md).
+    pub drl_only: &'a [Sequence],
 }
 
 /// [`cross_validate`] where `extra_train` joins every fold's training events as they are (the
-/// same comparisons, standardisation, int8 calibration and domain record as the folds' own) but
-/// never a test fold: the folds, and so the figures, stay those of `seqs` alone.
+/// same comparisons, standardisation, int8 calibration and domain record as the folds' own; its
+/// `drl_only` part for DRL alone) but never a test fold: the folds, and so the figures, stay
+/// those of `seqs` alone.
 pub fn cross_validate_with_extra(
     seqs: &[Sequence],
-    extra_train: &[Sequence],
+    extra_train: &ExtraTrain<'_>,
     augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
     opts: &CvOptions,
@@ -204,7 +217,7 @@ pub fn cross_validate_with_extra(
             .train(fold)
             .into_iter()
             .map(|i| seqs[i].clone())
-            .chain(extra_train.iter().cloned())
+            .chain(extra_train.all_models.iter().cloned())
             .collect();
         let test_seqs: Vec<Sequence> = folds
             .test(fold)
@@ -214,6 +227,7 @@ pub fn cross_validate_with_extra(
         out.push(run_fold(
             fold,
             &train_seqs,
+            extra_train.drl_only,
             &test_seqs,
             augmentation,
             config,
@@ -223,10 +237,11 @@ pub fn cross_validate_with_extra(
     Ok(out)
 }
 
-/// Train on `train`, evaluate on `test` (one fold).
+/// Train on `train` (DRL also on `drl_only`), evaluate on `test` (one fold).
 pub fn run_fold(
     fold: usize,
     train: &[Sequence],
+    drl_only: &[Sequence],
     test: &[Sequence],
     augmentation: Option<&[Sequence]>,
     config: &TrainConfig,
@@ -240,13 +255,27 @@ pub fn run_fold(
 
     let t0 = Instant::now();
     let prepared = super::prepare_comparisons(&train_ts, augmentation, &cfg);
+    // DRL's own training side when it has data MSRA must not see; otherwise the shared one.
+    let drl_train_ts: Vec<Sequence> = if drl_only.is_empty() {
+        Vec::new()
+    } else {
+        let mut all = train_ts.clone();
+        all.extend(subsample_events(drl_only, opts.train_fraction, cfg.seed));
+        all
+    };
+    let drl_prepared = (!drl_only.is_empty())
+        .then(|| super::prepare_comparisons(&drl_train_ts, augmentation, &cfg));
+    let (drl_train, drl_comparisons) = match &drl_prepared {
+        Some(p) => (drl_train_ts.as_slice(), p),
+        None => (train_ts.as_slice(), &prepared),
+    };
     times.comparisons = t0.elapsed().as_secs_f64();
     let terr = |source| CvError::Train { fold, source };
     let xerr = |source| CvError::Export { fold, source };
 
     let t0 = Instant::now();
     let drl = if opts.models.drl {
-        Some(super::train_drl(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
+        Some(super::train_drl(drl_train, drl_comparisons, &cfg, opts.progress).map_err(terr)?)
     } else {
         None
     };
@@ -292,10 +321,15 @@ pub fn run_fold(
         blobs.push(("MSRA".into(), export::msra_blob(&m.params).map_err(xerr)?));
     }
     // The record the final model would carry, measured on what this fold's models trained on.
-    for (_, blob) in &mut blobs {
+    for (name, blob) in &mut blobs {
+        let trained_on = if name.starts_with("DRL") {
+            drl_train
+        } else {
+            train_ts.as_slice()
+        };
         *blob = export::with_measured_domain(
             blob,
-            &train_ts,
+            trained_on,
             cfg.guard.policy,
             msra_terms.as_ref().map(|t| t.as_slice()),
         )

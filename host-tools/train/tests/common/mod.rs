@@ -52,3 +52,16 @@ pub fn following(id: usize, v: f32, gap: f32, lateral: f32) -> Sequence {
     }
     s
 }
+
+/// `n` rear-end conflicts and `n` calm followings at town speeds (12-19 m/s), the small training
+/// set of the fold tests.
+pub fn in_town(n: usize) -> Vec<Sequence> {
+    (0..n)
+        .flat_map(|i| {
+            [
+                conflict(i, 5.0 + (i % 8) as f32, 0.0),
+                following(i, 12.0 + i as f32 % 7.0, 25.0 + 3.0 * (i % 5) as f32, 0.0),
+            ]
+        })
+        .collect()
+}
