@@ -190,14 +190,12 @@ pub enum GuardPolicy {
     /// No record: the blob says nothing about its domain.
     None,
     /// A record under `flag-only`: scores as unguarded, every consumer sees the flag.
+    #[default]
     FlagOnly,
     /// A record under `clamp`: inputs outside are moved to the edge of their trained range.
     Clamp,
     /// A record under `fallback`: outside, a DRL scores the kinematic terms of the MSRA trained
-    /// beside it, aligned to its scale on its training frames (MSRA blobs: `flag-only`). The
-    /// default: on held-out speed bands and geometries it repairs most of what a DRL gets wrong
-    /// outside its domain, and changes nothing measurable inside (docs/domain-guard.md).
-    #[default]
+    /// beside it, aligned to its scale on its training frames (MSRA blobs: `flag-only`).
     Fallback,
 }
 
@@ -544,8 +542,8 @@ mod tests {
     }
 
     #[test]
-    fn the_guard_policy_parses_by_name_and_defaults_to_fallback() {
-        assert_eq!(TrainConfig::default().guard.policy, GuardPolicy::Fallback);
+    fn the_guard_policy_parses_by_name_and_defaults_to_flag_only() {
+        assert_eq!(TrainConfig::default().guard.policy, GuardPolicy::FlagOnly);
         for (name, policy) in [
             ("none", GuardPolicy::None),
             ("flag-only", GuardPolicy::FlagOnly),
