@@ -70,6 +70,6 @@ def test_a_folder_with_bad_rows_is_refused_unless_skipped(tmp_path):
         riskscore.read_events(folder)
     with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):
         events, _frames = riskscore.read_events(folder, skip_bad=True)
-    assert events.num_rows == 605
+    assert events.num_rows == 375
     with pytest.raises(riskscore.EventsError, match="events.csv"):
         riskscore.read_events(tmp_path / "nowhere")
