@@ -54,6 +54,8 @@ fn write_unguarded(model: &Path, out: &Path) {
     std::fs::write(out, &buf[..n]).unwrap();
 }
 
+/// `calibrate-domain` with frame tails of `tail` % and no widening to what a share of the
+/// sequences reached (`--sequence-percent 100`), so the ranges are the frame quantiles alone.
 fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) -> String {
     ok(riskctl(&[
         "calibrate-domain",
@@ -63,6 +65,8 @@ fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) 
         events.to_str().unwrap(),
         "--tail-percent",
         tail,
+        "--sequence-percent",
+        "100",
         "--policy",
         policy,
         "--out",
@@ -178,7 +182,11 @@ fn calibrate_domain_attaches_the_record_and_keeps_model_and_threshold() {
         after,
         "the input is untouched"
     );
-    for (flag, value) in [("--policy", "extrapolate"), ("--tail-percent", "50")] {
+    for (flag, value) in [
+        ("--policy", "extrapolate"),
+        ("--tail-percent", "50"),
+        ("--sequence-percent", "101"),
+    ] {
         let bad = riskctl(&[
             "calibrate-domain",
             "--model",
@@ -219,6 +227,26 @@ fn score_column_and_evaluate_share_count_the_same_frames() {
     let (e_frames, e_outside, share) = evaluate_domain(&narrow, &train);
     assert_eq!((e_frames, e_outside), (frames, outside));
     assert!((share - 100.0 * outside as f64 / frames as f64).abs() < 1e-9);
+    // Widened to every value 5 % of the sequences reached, the same tails leave fewer outside.
+    let widened = dir.path().join("widened.rsk");
+    ok(riskctl(&[
+        "calibrate-domain",
+        "--model",
+        drl.to_str().unwrap(),
+        "--events",
+        train.to_str().unwrap(),
+        "--tail-percent",
+        "10",
+        "--sequence-percent",
+        "5",
+        "--out",
+        widened.to_str().unwrap(),
+    ]));
+    let (_, widened_outside) = score_flags(&widened, &train, &dir.path().join("widened.csv"));
+    assert!(
+        widened_outside < outside,
+        "{widened_outside} vs {outside} of {frames}"
+    );
     // Another seed's frames lie partly outside the first seed's min/max.
     let (_, other_outside) = score_flags(&own, &other, &dir.path().join("other.csv"));
     assert!(other_outside > 0);
@@ -281,6 +309,8 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
             train.display().to_string(),
             "--tail-percent".into(),
             "10".into(),
+            "--sequence-percent".into(),
+            "100".into(),
             "--policy".into(),
             policy.into(),
             "--out".into(),

@@ -1,24 +1,42 @@
-//! The training-domain record of a model, measured on the observations its training data holds:
-//! per input the model reads, the range between two quantiles of those observations.
+//! The training-domain record of a model, measured on the sequences its training data holds: per
+//! input the model reads, the range its frames cover (less a small tail of outliers) widened to
+//! every value a share of the sequences reached.
 //!
 //! The inputs are computed by scorer-core (`Observation::of`, `Model::domain_inputs`), so the
 //! ranges are of exactly the numbers the ECU checks. Which inputs are bounded: every input the
 //! model's network reads (DRL: its selected DRL inputs; GSSM/SSRA: its context features), and for
 //! MSRA all 13 features (its terms were fitted over that speed and geometry; the features feed
-//! its embedded GSSM, if any). Why quantiles and not min/max: `docs/domain-guard.md`.
+//! its embedded GSSM, if any). Why this and not min/max: `docs/domain-guard.md`.
 use scorer_core::model::{InputRange, Model, ModelError, OutsidePolicy, TrainingDomain};
 use scorer_core::{Observation, VehicleState, FEATURE_COUNT};
 
-/// Default share of the training observations left outside at each end of each range (0.1 %).
-pub const DEFAULT_TAIL: f64 = 0.001;
+/// How much of the training data a range may leave outside at each end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tails {
+    /// Share of the frames left outside at each end (0 = min/max): real tracks carry one-frame
+    /// glitches that must not stretch a range.
+    pub frames: f64,
+    /// Every value at least this share of the sequences reached is inside, whatever the frame
+    /// share says: one frame of each crash is its impact (touching boxes), far fewer than 0.1 %
+    /// of the frames, yet the state the model was trained on hardest.
+    pub sequences: f64,
+}
+
+/// 0.1 % of the frames, and inside whatever at least 1 % of the sequences reached.
+pub const DEFAULT_TAILS: Tails = Tails {
+    frames: 0.001,
+    sequences: 0.01,
+};
 
 /// Measuring a training domain failed.
 #[derive(Debug, thiserror::Error)]
 pub enum DomainRangesError {
     #[error("no observations to measure the training domain on")]
     NoObservations,
-    #[error("tail share {0}: must be in [0, 0.5)")]
+    #[error("frame tail share {0}: must be in [0, 0.5)")]
     BadTail(f64),
+    #[error("sequence share {0}: must be in [0, 1]")]
+    BadSequenceShare(f64),
     #[error("the measured training domain is not a valid record: {0}")]
     Record(ModelError),
 }
@@ -51,33 +69,60 @@ pub fn bounded_inputs(model: &Model<'_>) -> Vec<u8> {
     inputs
 }
 
-/// The domain of `model` over the observations of `pairs` (ego, partner): for each bounded
-/// input, `lo` the `tail` quantile and `hi` the `1 - tail` quantile (nearest rank; `tail = 0` is
-/// min/max), ranges in input order, under `policy`.
-pub fn measure<'p>(
+/// The domain of `model` over `sequences`, each the observations (ego, partner) of one training
+/// sequence: for each bounded input, `lo` the lower of the `tails.frames` quantile of all frames
+/// and the `tails.sequences` quantile of the sequences' minima (nearest rank), `hi` likewise at
+/// the top; ranges in input order, under `policy`.
+pub fn measure<'p, S>(
     model: &Model<'_>,
-    pairs: impl IntoIterator<Item = (&'p VehicleState, &'p VehicleState)>,
-    tail: f64,
+    sequences: impl IntoIterator<Item = S>,
+    tails: Tails,
     policy: OutsidePolicy,
-) -> Result<MeasuredDomain, DomainRangesError> {
-    if !(0.0..0.5).contains(&tail) {
-        return Err(DomainRangesError::BadTail(tail));
+) -> Result<MeasuredDomain, DomainRangesError>
+where
+    S: IntoIterator<Item = (&'p VehicleState, &'p VehicleState)>,
+{
+    if !(0.0..0.5).contains(&tails.frames) {
+        return Err(DomainRangesError::BadTail(tails.frames));
+    }
+    if !(0.0..=1.0).contains(&tails.sequences) {
+        return Err(DomainRangesError::BadSequenceShare(tails.sequences));
     }
     let inputs = bounded_inputs(model);
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
-    for (ego, partner) in pairs {
-        let observation = Observation::of(ego, partner);
-        let values = model.domain_inputs(&observation);
-        for (column, &input) in columns.iter_mut().zip(&inputs) {
-            // The core's inputs are finite by construction; a NaN would have no rank.
-            if let Some(&x) = values.get(usize::from(input)).filter(|x| !x.is_nan()) {
-                column.push(x);
+    let mut minima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
+    let mut maxima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
+    for sequence in sequences {
+        let starts: Vec<usize> = columns.iter().map(Vec::len).collect();
+        for (ego, partner) in sequence {
+            let observation = Observation::of(ego, partner);
+            let values = model.domain_inputs(&observation);
+            for (column, &input) in columns.iter_mut().zip(&inputs) {
+                // The core's inputs are finite by construction; a NaN would have no rank.
+                if let Some(&x) = values.get(usize::from(input)).filter(|x| !x.is_nan()) {
+                    column.push(x);
+                }
+            }
+        }
+        for (k, column) in columns.iter().enumerate() {
+            let frames = column.get(starts[k]..).unwrap_or_default();
+            if let Some(min) = frames.iter().copied().reduce(f32::min) {
+                minima[k].push(min);
+                maxima[k].push(frames.iter().copied().fold(min, f32::max));
             }
         }
     }
     let mut range_bytes = Vec::with_capacity(inputs.len() * 9);
-    for (column, &input) in columns.iter_mut().zip(&inputs) {
-        let (lo, hi) = quantile_range(column, tail).ok_or(DomainRangesError::NoObservations)?;
+    for (k, &input) in inputs.iter().enumerate() {
+        let frame_lo =
+            quantile(&mut columns[k], tails.frames).ok_or(DomainRangesError::NoObservations)?;
+        let frame_hi = quantile(&mut columns[k], 1.0 - tails.frames)
+            .ok_or(DomainRangesError::NoObservations)?;
+        let sequence_lo =
+            quantile(&mut minima[k], tails.sequences).ok_or(DomainRangesError::NoObservations)?;
+        let sequence_hi = quantile(&mut maxima[k], 1.0 - tails.sequences)
+            .ok_or(DomainRangesError::NoObservations)?;
+        let (lo, hi) = (frame_lo.min(sequence_lo), frame_hi.max(sequence_hi));
         range_bytes.extend(InputRange { input, lo, hi }.to_bytes());
     }
     let measured = MeasuredDomain {
@@ -91,13 +136,12 @@ pub fn measure<'p>(
     Ok(measured)
 }
 
-/// The `tail` and `1 - tail` nearest-rank quantiles of `values` (sorted in place); `None` when
-/// empty.
-fn quantile_range(values: &mut [f32], tail: f64) -> Option<(f32, f32)> {
+/// The `q` nearest-rank quantile of `values` (sorted in place); `None` when empty.
+fn quantile(values: &mut [f32], q: f64) -> Option<f32> {
     values.sort_unstable_by(f32::total_cmp);
     let last = values.len().checked_sub(1)?;
-    let rank = |q: f64| ((q * last as f64).round() as usize).min(last);
-    Some((*values.get(rank(tail))?, *values.get(rank(1.0 - tail))?))
+    let rank = ((q * last as f64).round() as usize).min(last);
+    values.get(rank).copied()
 }
 
 #[cfg(test)]
@@ -105,12 +149,106 @@ mod tests {
     use super::*;
 
     #[test]
-    fn quantiles_leave_the_tails_out_and_zero_is_min_max() {
+    fn quantiles_are_nearest_rank() {
         let mut v: Vec<f32> = (0..=1000).rev().map(|i| i as f32).collect();
-        assert_eq!(quantile_range(&mut v, 0.0), Some((0.0, 1000.0)));
-        assert_eq!(quantile_range(&mut v, 0.001), Some((1.0, 999.0)));
-        assert_eq!(quantile_range(&mut v, 0.1), Some((100.0, 900.0)));
-        assert_eq!(quantile_range(&mut [], 0.1), None);
-        assert_eq!(quantile_range(&mut [3.0], 0.1), Some((3.0, 3.0)));
+        assert_eq!(quantile(&mut v, 0.0), Some(0.0));
+        assert_eq!(quantile(&mut v, 1.0), Some(1000.0));
+        assert_eq!(quantile(&mut v, 0.001), Some(1.0));
+        assert_eq!(quantile(&mut v, 0.9), Some(900.0));
+        assert_eq!(quantile(&mut [], 0.1), None);
+        assert_eq!(quantile(&mut [3.0], 0.1), Some(3.0));
+    }
+
+    /// Ego speed `v` (the DRL input `v_ego`), partner 30 m ahead in the same lane.
+    fn pair(v: f32) -> (VehicleState, VehicleState) {
+        let car = |x: f32, vx: f32| VehicleState {
+            x,
+            y: 0.0,
+            vx,
+            vy: 0.0,
+            hx: 1.0,
+            hy: 0.0,
+            acc: 0.0,
+            length: 4.5,
+            width: 1.8,
+        };
+        (car(0.0, v), car(30.0, 15.0))
+    }
+
+    /// The `v_ego` range measured on 200 sequences of 100 frames at 10-20 m/s, of which three
+    /// (1.5 %) end in one frame at 30 m/s and one (0.5 %) carries a one-frame glitch at 60 m/s.
+    fn v_ego_range(tails: Tails) -> (f32, f32) {
+        let sequences: Vec<Vec<(VehicleState, VehicleState)>> = (0..200)
+            .map(|s| {
+                (0..100)
+                    .map(|f| {
+                        let v = match (s, f) {
+                            (0..=2, 99) => 30.0,
+                            (7, 50) => 60.0,
+                            _ => 10.0 + ((s * 100 + f) % 101) as f32 / 10.0,
+                        };
+                        pair(v)
+                    })
+                    .collect()
+            })
+            .collect();
+        let blob =
+            scorer_core::model::decode_blob(include_bytes!("../../../models/drl-default.rsk"))
+                .unwrap();
+        let per_sequence = sequences.iter().map(|s| s.iter().map(|(e, p)| (e, p)));
+        let measured = measure(&blob.model, per_sequence, tails, OutsidePolicy::FlagOnly).unwrap();
+        let v_ego = scorer_core::encoding::DRL_INPUT_NAMES
+            .iter()
+            .position(|&n| n == "v_ego")
+            .unwrap();
+        let range = measured
+            .domain()
+            .ranges()
+            .find(|r| usize::from(r.input) == v_ego)
+            .unwrap();
+        (range.lo, range.hi)
+    }
+
+    #[test]
+    fn a_value_a_share_of_the_sequences_reached_is_inside_and_a_glitch_is_not() {
+        assert_eq!(v_ego_range(DEFAULT_TAILS), (10.0, 30.0));
+        // The frame quantiles alone leave the three sequences' last frames outside.
+        let frames_only = Tails {
+            frames: 0.001,
+            sequences: 1.0,
+        };
+        assert_eq!(v_ego_range(frames_only), (10.0, 20.0));
+        // Min/max takes the glitch in.
+        let min_max = Tails {
+            frames: 0.0,
+            sequences: 1.0,
+        };
+        assert_eq!(v_ego_range(min_max), (10.0, 60.0));
+    }
+
+    #[test]
+    fn shares_out_of_range_are_refused() {
+        let blob =
+            scorer_core::model::decode_blob(include_bytes!("../../../models/drl-default.rsk"))
+                .unwrap();
+        let none = std::iter::empty::<std::iter::Empty<(&VehicleState, &VehicleState)>>;
+        let bad = |frames, sequences| {
+            measure(
+                &blob.model,
+                none(),
+                Tails { frames, sequences },
+                OutsidePolicy::FlagOnly,
+            )
+            .unwrap_err()
+        };
+        assert!(matches!(bad(0.5, 0.01), DomainRangesError::BadTail(_)));
+        assert!(matches!(
+            bad(0.001, 1.5),
+            DomainRangesError::BadSequenceShare(_)
+        ));
+        assert!(matches!(
+            bad(0.001, 0.01),
+            DomainRangesError::NoObservations
+        ));
     }
 }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
-use riskscore_eval::domain_ranges::{measure, DEFAULT_TAIL};
+use riskscore_eval::domain_ranges::{measure, Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
 use riskscore_train::fallback::fit;
 use scorer_core::model::{Model, OutsidePolicy};
@@ -13,8 +13,10 @@ use scorer_core::msra::MsraTerm;
 const ABOUT_DOMAIN: &str = "\
 The record: for every input the model reads (DRL: its DRL inputs; GSSM/SSRA: its context features;
 MSRA: all 13 features), the range between the --tail-percent and 100 - --tail-percent quantiles of
-that input over every frame of the prepared sequences of the --events folders, plus the policy for
-an observation outside. Give the folders the model was trained on: the record says where the
+that input over every frame of the prepared sequences of the --events folders, widened to every
+value at least --sequence-percent of those sequences reached (a one-frame glitch in one track
+stays outside; the touching boxes every crash reaches at impact, far fewer than 0.1 % of the
+frames, stay inside), plus the policy for an observation outside. Give the folders the model was trained on: the record says where the
 model has seen data. The model bytes and a stored default threshold are kept (format version 2).
 
 Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
@@ -51,8 +53,12 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     fallback_from: Option<PathBuf>,
     /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
-    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAIL)]
+    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.frames)]
     tail_percent: f64,
+    /// Every value at least this share of the sequences reached is inside, in percent (100 =
+    /// the frame quantiles alone).
+    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.sequences)]
+    sequence_percent: f64,
     /// Output blob; must not be the input (write to a new file, then move it).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
@@ -68,6 +74,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!(
             "--tail-percent {}: must be at least 0 and below 50",
             args.tail_percent
+        );
+    }
+    if !(0.0..=100.0).contains(&args.sequence_percent) {
+        bail!(
+            "--sequence-percent {}: must be between 0 and 100",
+            args.sequence_percent
         );
     }
     let file = ModelFile::read(&args.model.display().to_string())?;
@@ -90,7 +102,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .iter()
             .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
     };
-    let domain = measure(model, pairs(), args.tail_percent / 100.0, args.policy)?;
+    let per_sequence = sequences
+        .iter()
+        .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
+    let tails = Tails {
+        frames: args.tail_percent / 100.0,
+        sequences: args.sequence_percent / 100.0,
+    };
+    let domain = measure(model, per_sequence, tails, args.policy)?;
     let fallback = match &fallback_terms {
         Some(terms) => {
             let fitted = fit(&blob, &domain.domain(), terms, pairs())?;
@@ -111,11 +130,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
     println!(
-        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails), {} outside",
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached), {} outside",
         args.model.display(),
         args.out.display(),
         sequences.len(),
         args.tail_percent,
+        args.sequence_percent,
         args.policy.name()
     );
     print!("{summary}");
