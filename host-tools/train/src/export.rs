@@ -398,10 +398,10 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 }
 
 /// `blob` with the training domain measured on the sequences of `train` (each input between its
-/// 0.1 % and 99.9 % frame quantiles, widened to what 1 % of the sequences reached) under `policy`; `GuardPolicy::None` returns
-/// the blob unchanged. Final and fold models both go through here, so a benchmark measures the record the
-/// shipped model would carry. The default `flag-only` scores as the unguarded model; the shipped
-/// policy is picked from held-out measurements (`docs/domain-guard.md`).
+/// 0.1 % and 99.9 % frame quantiles, widened to what 1 % of the sequences reached) under
+/// `policy`; `GuardPolicy::None` returns the blob unchanged. Final and fold models both go
+/// through here, so a benchmark measures the record the shipped model would carry. The policy
+/// (default `fallback`) was picked from held-out measurements (`docs/domain-guard.md`).
 ///
 /// Under `fallback` a DRL blob also gets its kinematic fallback: the kinematic terms of
 /// `fallback_terms` (the MSRA trained beside it) aligned to the DRL's scores on the frames of
