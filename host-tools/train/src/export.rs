@@ -407,14 +407,22 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 /// `fallback_terms` (the MSRA trained beside it) aligned to the DRL's scores on the frames of
 /// `train` inside the measured domain ([`crate::fallback::fit`]). An MSRA or GSSM blob is itself
 /// the kinematic score (or has no kinematic stand-in) and gets a `flag-only` record.
+///
+/// A DRL whose fallback cannot be fitted on its data (its scores fall as the kinematic score
+/// rises, too few frames inside, ...) gets a `flag-only` record instead, and the reason comes
+/// back in [`GuardedBlob::fallback_refused`] for the caller to report: a training run or a
+/// benchmark fold does not fail over a model the guard cannot pair with a kinematic stand-in.
 pub fn with_measured_domain(
     blob: &[u8],
     train: &[Sequence],
     policy: GuardPolicy,
     fallback_terms: Option<&[MsraTerm]>,
-) -> Result<Vec<u8>, ExportError> {
+) -> Result<GuardedBlob, ExportError> {
     let Some(policy) = policy.outside_policy() else {
-        return Ok(blob.to_vec());
+        return Ok(GuardedBlob {
+            bytes: blob.to_vec(),
+            fallback_refused: None,
+        });
     };
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     let is_drl = matches!(decoded.model, Model::DrlInt8(_) | Model::DrlF32(_));
@@ -430,28 +438,43 @@ pub fn with_measured_domain(
     let per_sequence = train
         .iter()
         .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
-    let domain = riskscore_eval::domain_ranges::measure(
+    let mut domain = riskscore_eval::domain_ranges::measure(
         &decoded.model,
         per_sequence,
         riskscore_eval::domain_ranges::DEFAULT_TAILS,
         policy,
     )
     .map_err(|e| ExportError::Domain(e.to_string()))?;
+    let mut fallback_refused = None;
     let fallback = if policy == OutsidePolicy::Fallback {
         let terms = fallback_terms.ok_or(ExportError::Domain(
             "the fallback policy needs the MSRA trained beside the DRL (its kinematic terms)"
                 .into(),
         ))?;
-        Some(crate::fallback::fit(
-            &decoded,
-            &domain.domain(),
-            terms,
-            pairs(),
-        )?)
+        match crate::fallback::fit(&decoded, &domain.domain(), terms, pairs()) {
+            Ok(fitted) => Some(fitted),
+            Err(reason) => {
+                domain.policy = OutsidePolicy::FlagOnly;
+                fallback_refused = Some(reason);
+                None
+            }
+        }
     } else {
         None
     };
-    with_training_domain(blob, domain.domain(), fallback.as_ref().map(|f| f.record()))
+    let bytes = with_training_domain(blob, domain.domain(), fallback.as_ref().map(|f| f.record()))?;
+    Ok(GuardedBlob {
+        bytes,
+        fallback_refused,
+    })
+}
+
+/// A blob with its measured training-domain record ([`with_measured_domain`]).
+#[derive(Debug)]
+pub struct GuardedBlob {
+    pub bytes: Vec<u8>,
+    /// Why a `fallback` policy was written as `flag-only`: the fallback could not be fitted.
+    pub fallback_refused: Option<crate::fallback::FallbackError>,
 }
 
 /// `blob` with its training-domain record set to `domain` and its kinematic-fallback record to

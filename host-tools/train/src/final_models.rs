@@ -94,15 +94,16 @@ pub fn train_and_export(
             train,
         ),
     ] {
-        contents.push((
-            dir.join(name),
-            export::with_measured_domain(
-                &blob,
-                trained_on,
-                config.guard.policy,
-                Some(msra_terms.as_slice()),
-            )?,
-        ));
+        let guarded = export::with_measured_domain(
+            &blob,
+            trained_on,
+            config.guard.policy,
+            Some(msra_terms.as_slice()),
+        )?;
+        if let Some(reason) = &guarded.fallback_refused {
+            eprintln!("warning: {name}: no kinematic fallback ({reason}); its guard is flag-only");
+        }
+        contents.push((dir.join(name), guarded.bytes));
     }
     // The five files are one output: all new or all old.
     export::write_set(dir, &contents)?;

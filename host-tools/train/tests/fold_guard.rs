@@ -174,3 +174,47 @@ fn under_fallback_the_drl_hands_over_to_the_kinematic_terms_of_its_msra() {
     assert!(drl_only.msra_params.is_none());
     assert!(scores(&drl_only, "DRL") == scores(&fallback, "DRL"));
 }
+
+#[test]
+fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason() {
+    use riskscore_train::export::with_measured_domain;
+    use riskscore_train::fallback::FallbackError;
+    use scorer_core::model::{decode_blob, Model};
+    let drl = include_bytes!("../../../models/drl-default.rsk");
+    let msra = include_bytes!("../../../models/msra-default.rsk");
+    let Model::Msra(m) = decode_blob(msra).unwrap().model else {
+        panic!("msra-default.rsk is not an MSRA");
+    };
+    let terms = m.terms.to_vec();
+    // Too few frames to align the fallback with: flag-only, and the caller learns why.
+    let mut short = in_town(1);
+    short.truncate(1);
+    short[0].frames.truncate(10);
+    let guarded = with_measured_domain(drl, &short, GuardPolicy::Fallback, Some(&terms)).unwrap();
+    assert!(
+        matches!(
+            guarded.fallback_refused,
+            Some(FallbackError::TooFewFrames { .. })
+        ),
+        "{:?}",
+        guarded.fallback_refused
+    );
+    let blob = decode_blob(&guarded.bytes).unwrap();
+    let domain = blob.meta.training_domain.expect("a record");
+    assert_eq!(domain.policy, OutsidePolicy::FlagOnly);
+    assert!(blob.meta.kinematic_fallback.is_none());
+    // Enough frames: the fallback is fitted.
+    let guarded =
+        with_measured_domain(drl, &in_town(24), GuardPolicy::Fallback, Some(&terms)).unwrap();
+    assert!(
+        guarded.fallback_refused.is_none(),
+        "{:?}",
+        guarded.fallback_refused
+    );
+    let blob = decode_blob(&guarded.bytes).unwrap();
+    assert_eq!(
+        blob.meta.training_domain.unwrap().policy,
+        OutsidePolicy::Fallback
+    );
+    assert!(blob.meta.kinematic_fallback.is_some());
+}

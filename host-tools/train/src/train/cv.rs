@@ -327,13 +327,19 @@ pub fn run_fold(
         } else {
             train_ts.as_slice()
         };
-        *blob = export::with_measured_domain(
+        let guarded = export::with_measured_domain(
             blob,
             trained_on,
             cfg.guard.policy,
             msra_terms.as_ref().map(|t| t.as_slice()),
         )
         .map_err(xerr)?;
+        if let Some(reason) = &guarded.fallback_refused {
+            eprintln!(
+                "warning: fold {fold}: {name}: no kinematic fallback ({reason}); its guard is flag-only"
+            );
+        }
+        *blob = guarded.bytes;
     }
     times.quantise_export = t0.elapsed().as_secs_f64();
 
