@@ -57,6 +57,19 @@ fn write_unguarded(model: &Path, out: &Path) {
 /// `calibrate-domain` with frame tails of `tail` % and no widening to what a share of the
 /// sequences reached (`--sequence-percent 100`), so the ranges are the frame quantiles alone.
 fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) -> String {
+    calibrate_widened(model, events, tail, "100", policy, out)
+}
+
+/// `calibrate-domain` with frame tails of `tail` %, widened to what `sequences` % of the
+/// sequences reached.
+fn calibrate_widened(
+    model: &Path,
+    events: &Path,
+    tail: &str,
+    sequences: &str,
+    policy: &str,
+    out: &Path,
+) -> String {
     ok(riskctl(&[
         "calibrate-domain",
         "--model",
@@ -66,7 +79,7 @@ fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) 
         "--tail-percent",
         tail,
         "--sequence-percent",
-        "100",
+        sequences,
         "--policy",
         policy,
         "--out",
@@ -229,19 +242,7 @@ fn score_column_and_evaluate_share_count_the_same_frames() {
     assert!((share - 100.0 * outside as f64 / frames as f64).abs() < 1e-9);
     // Widened to every value 5 % of the sequences reached, the same tails leave fewer outside.
     let widened = dir.path().join("widened.rsk");
-    ok(riskctl(&[
-        "calibrate-domain",
-        "--model",
-        drl.to_str().unwrap(),
-        "--events",
-        train.to_str().unwrap(),
-        "--tail-percent",
-        "10",
-        "--sequence-percent",
-        "5",
-        "--out",
-        widened.to_str().unwrap(),
-    ]));
+    calibrate_widened(&drl, &train, "10", "5", "flag-only", &widened);
     let (_, widened_outside) = score_flags(&widened, &train, &dir.path().join("widened.csv"));
     assert!(
         widened_outside < outside,
