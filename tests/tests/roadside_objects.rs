@@ -2,9 +2,11 @@
 //!
 //! Every shipped model in `models/` scores, at its own default threshold (the blob's calibrated
 //! operating point), an ego driving a straight lane past a parked car, a post and a parked truck
-//! with at least 3 m of lateral clearance between the boxes, on either side, at 1-50 m/s. The ego
-//! drives from 150 m before the object (or 40 s before, whichever is nearer) to 30 m past it at
-//! 10 Hz. Not one frame may reach the threshold.
+//! with at least 3 m of lateral clearance between the boxes, on either side, at 1-50 m/s, scored
+//! through each blob's training-domain guard as the bridge and the ECU score. The ego drives from
+//! 150 m before the object (or 40 s before, whichever is nearer) to 30 m past it at 10 Hz: the
+//! pass geometry of `riskctl roadside-passes`, on this test's own grid. Not one frame may reach
+//! the threshold.
 //!
 //! This sweep is NOT training data: `riskctl roadside-passes` (riskscore_data::sim::roadside_passes),
 //! which DRL trains on (DRL-only training data of scripts/ship-models.sh) and GSSM takes as normal
@@ -15,6 +17,7 @@
 //! above the passes (models/README.md, "Default thresholds").
 use std::path::{Path, PathBuf};
 
+use riskscore_data::sim::roadside_passes::{pass_frames, roadside_object};
 use scorer_core::model::decode_blob;
 use scorer_core::VehicleState;
 
@@ -36,10 +39,6 @@ const OBJECTS: [(&str, f32, f32); 3] = [
     ("post", 0.5, 0.5),
     ("parked truck", 12.0, 2.5),
 ];
-const EGO_LENGTH: f32 = 4.5;
-const EGO_WIDTH: f32 = 1.8;
-const DT: f32 = 0.1;
-
 fn models_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -47,33 +46,15 @@ fn models_dir() -> PathBuf {
         .join("models")
 }
 
-fn state(x: f32, y: f32, v: f32, length: f32, width: f32) -> VehicleState {
-    VehicleState {
-        x,
-        y,
-        vx: v,
-        vy: 0.0,
-        hx: 1.0,
-        hy: 0.0,
-        acc: 0.0,
-        length,
-        width,
-    }
-}
-
 /// One pass: the highest score and the ego's position relative to the object where it occurred.
 fn worst_frame(
     score: impl Fn(&VehicleState, &VehicleState) -> f32,
     v: f32,
-    object: &VehicleState,
+    object: VehicleState,
 ) -> (f32, f32) {
-    let start = (-150.0f32).max(-40.0 * v);
-    let frames = ((30.0 - start) / (v * DT)).ceil() as usize;
-    (0..=frames)
-        .map(|k| {
-            let ego = state(start + v * DT * k as f32, 0.0, v, EGO_LENGTH, EGO_WIDTH);
-            (score(&ego, object), ego.x)
-        })
+    pass_frames(v, object)
+        .iter()
+        .map(|f| (score(&f.ego, &f.partner), f.ego.x))
         .fold(
             (f32::NEG_INFINITY, 0.0),
             |a, b| if b.0 > a.0 { b } else { a },
@@ -92,11 +73,13 @@ fn warning_passes(name: &str) -> (Vec<String>, usize) {
     for (object_name, length, width) in OBJECTS {
         for clearance in CLEARANCES {
             for side in [-1.0f32, 1.0] {
-                let y = side * (clearance + (width + EGO_WIDTH) / 2.0);
-                let object = state(0.0, y, 0.0, length, width);
+                let object = roadside_object(length, width, clearance, side);
                 for v in SPEEDS {
                     passes += 1;
-                    let (worst, at) = worst_frame(|e, p| blob.model.score(e, p), v, &object);
+                    // Through the blob's guard, as the bridge and the ECU score.
+                    let guarded =
+                        |e: &VehicleState, p: &VehicleState| blob.score_pair_guarded(e, p).score;
+                    let (worst, at) = worst_frame(guarded, v, object);
                     if worst >= threshold {
                         warned.push(format!(
                             "{name}: {object_name}, {clearance} m clearance on the {}, {v} m/s: \
@@ -184,11 +167,11 @@ fn the_training_passes_share_no_speed_clearance_or_object_with_this_sweep() {
 fn the_probe_reaches_the_object_at_every_speed() {
     // The sweep must really drive past the object: the closest frame is within half a frame's
     // travel of it, whatever the speed.
-    let object = state(0.0, 4.8, 0.0, 4.5, 1.8);
+    let object = roadside_object(4.5, 1.8, 3.0, 1.0);
     for v in SPEEDS {
-        let (_, at) = worst_frame(|e, p| -(e.x - p.x).abs(), v, &object);
+        let (_, at) = worst_frame(|e, p| -(e.x - p.x).abs(), v, object);
         assert!(
-            at.abs() <= v * DT / 2.0 + 1e-3,
+            at.abs() <= v * 0.1 / 2.0 + 1e-3,
             "{v} m/s: closest frame at {at} m"
         );
     }

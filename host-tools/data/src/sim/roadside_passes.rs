@@ -24,7 +24,8 @@ pub const OBJECTS: [(&str, f32, f32); 3] = [
 ];
 const EGO_LENGTH: f32 = 4.5;
 const EGO_WIDTH: f32 = 1.8;
-const DT: f64 = 0.1;
+/// Frame interval of a pass (s).
+pub const DT: f64 = 0.1;
 
 fn state(x: f32, y: f32, v: f32, length: f32, width: f32) -> VehicleState {
     VehicleState {
@@ -47,9 +48,9 @@ pub fn roadside_passes() -> Vec<Event> {
     for (name, length, width) in OBJECTS {
         for clearance in CLEARANCES {
             for (side, side_name) in [(-1.0f32, "right"), (1.0, "left")] {
-                let y = side * (clearance + (width + EGO_WIDTH) / 2.0);
+                let object = roadside_object(length, width, clearance, side);
                 for v in SPEEDS {
-                    events.push(pass(name, (length, width), clearance, side_name, y, v));
+                    events.push(pass(name, object, clearance, side_name, v));
                 }
             }
         }
@@ -57,19 +58,20 @@ pub fn roadside_passes() -> Vec<Event> {
     events
 }
 
-fn pass(
-    name: &str,
-    (length, width): (f32, f32),
-    clearance: f32,
-    side_name: &str,
-    y: f32,
-    v: f32,
-) -> Event {
+/// A stationary `length` x `width` object `clearance` m (box to box) beside the ego's lane, on
+/// the right (`side` -1) or the left (+1), level with the origin.
+pub fn roadside_object(length: f32, width: f32, clearance: f32, side: f32) -> VehicleState {
+    let y = side * (clearance + (width + EGO_WIDTH) / 2.0);
+    state(0.0, y, 0.0, length, width)
+}
+
+/// The frames of one pass: the ego (4.5 x 1.8 m) at `v` m/s along the x axis past `object`, from
+/// 150 m before it (or 40 s before, whichever is nearer) to 30 m past it, every [`DT`] s.
+pub fn pass_frames(v: f32, object: VehicleState) -> Vec<Frame> {
     let start = (-150.0f64).max(-40.0 * f64::from(v));
     let step = f64::from(v) * DT;
     let frame_count = ((30.0 - start) / step).ceil() as usize;
-    let object = state(0.0, y, 0.0, length, width);
-    let frames = (0..=frame_count)
+    (0..=frame_count)
         .map(|k| Frame {
             time: k as f64 * DT,
             ego: state(
@@ -81,12 +83,17 @@ fn pass(
             ),
             partner: object,
         })
-        .collect();
+        .collect()
+}
+
+fn pass(name: &str, object: VehicleState, clearance: f32, side_name: &str, v: f32) -> Event {
+    let frames = pass_frames(v, object);
+    let (length, width) = (object.length, object.width);
     Event {
         id: format!("roadside/{name}-{clearance:?}m-{side_name}-{v}mps"),
         kind: EventKind::Safe,
         t_start: 0.0,
-        t_end: frame_count as f64 * DT,
+        t_end: frames.last().map_or(0.0, |f| f.time),
         t_impact: None,
         dims: Dims {
             length_ego: EGO_LENGTH,
