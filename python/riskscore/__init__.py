@@ -149,7 +149,9 @@ class Model:
     def score(self, data: Any, *, strict: bool = False) -> np.ndarray:
         """The model's risk score of every row of ``data`` as a float32 numpy array, row for
         row; NaN where a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when
-        ``strict``). Input as for :func:`ssm`. Higher is riskier."""
+        ``strict``). Input as for :func:`ssm`. Higher is riskier. A blob with a training-domain
+        record is scored through its guard, as ``riskctl score`` and the ECU score it: outside
+        the domain the blob's policy decides (the shipped DRL falls back to a kinematic score)."""
         scores, listed, count = self._native._score(as_table(data))
         report_bad(listed, count, strict)
         return scores.to_numpy(zero_copy_only=True)

@@ -125,7 +125,7 @@ impl Model {
         let (batches, schema) = table.0.into_inner();
         let scored = py.detach(|| -> Result<_, Failure> {
             let columns = locate(&schema)?;
-            let decoded = self.blob().model;
+            let decoded = self.blob();
             let total = batches.iter().map(|b| b.num_rows()).sum();
             let results: Vec<_> = slices(&batches, rows_per_task(total))
                 .par_iter()

@@ -18,7 +18,7 @@ use arrow_array::types::{ArrowPrimitiveType, Float32Type, Float64Type, Int32Type
 use arrow_array::{Array, ArrayRef, BooleanArray, Float32Array, PrimitiveArray, RecordBatch};
 use arrow_buffer::NullBuffer;
 use arrow_schema::{ArrowError, DataType, Field, Schema, SchemaRef};
-use scorer_core::model::Model;
+use scorer_core::model::ModelBlob;
 use scorer_core::VehicleState;
 
 use crate::Scorer;
@@ -221,15 +221,16 @@ pub fn ssm_kernel(
     })
 }
 
-/// A model's risk score for every row of `batch`, through the same scoring path as
-/// `riskctl evaluate` ([`Scorer::Model`]: int8 for DRL). Invalid rows are null.
+/// A model blob's risk score for every row of `batch`, through the same scoring path as
+/// `riskctl score` and `riskctl evaluate` ([`Scorer::Guarded`]: int8 for DRL, the blob's
+/// training-domain policy outside its domain, as on the ECU). Invalid rows are null.
 pub fn score_kernel(
-    model: &Model<'_>,
+    blob: &ModelBlob<'_>,
     columns: &PairColumns,
     batch: &RecordBatch,
     first_row: u64,
 ) -> Result<(Float32Array, Vec<RowError>), KernelError> {
-    let scorer = Scorer::Model(model.clone());
+    let scorer = Scorer::Guarded(blob.clone());
     let mut scores = Vec::with_capacity(batch.num_rows());
     let bad = for_each_pair(columns, batch, first_row, |_, pair| {
         scores.push(
@@ -415,34 +416,51 @@ mod tests {
     }
 
     #[test]
-    fn model_scores_match_the_evaluation_scorer() {
+    fn model_scores_match_the_evaluation_scorer_through_the_guard() {
         for file in ["drl-default.rsk", "msra-default.rsk"] {
             let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/").to_string() + file;
             let bytes = std::fs::read(&path).unwrap();
-            let model = scorer_core::model::decode(&bytes).unwrap();
+            let blob = scorer_core::model::decode_blob(&bytes).unwrap();
             let mut near = rear_end();
             near[9] = Some(8.0);
             let mut bad = rear_end();
             bad[7] = Some(-1.0);
-            let b = batch(&[rear_end(), near, bad]);
+            // An ego at 60 m/s: beyond every shipped model's training domain.
+            let mut fast = rear_end();
+            fast[2] = Some(60.0);
+            fast[11] = Some(50.0);
+            let b = batch(&[rear_end(), near, bad, fast]);
             let columns = pair_columns(&b.schema()).unwrap();
-            let (scores, errors) = score_kernel(&model, &columns, &b, 0).unwrap();
-            assert_eq!(scores.len(), 3);
+            let (scores, errors) = score_kernel(&blob, &columns, &b, 0).unwrap();
+            assert_eq!(scores.len(), 4);
             assert!(scores.is_null(2));
             assert_eq!(errors.len(), 1);
             assert_eq!(errors[0].line, 3);
-            let scorer = Scorer::Model(model.clone());
-            for (row, values) in [rear_end(), near].iter().enumerate() {
+            let scorer = Scorer::Guarded(blob.clone());
+            for (row, values) in [(0, rear_end()), (1, near), (3, fast)] {
                 let (e, s) = (
                     state(&values[..9], (0.0, 0.0)),
                     state(&values[9..], (0.0, 0.0)),
                 );
-                let expected = scorer.score(&scorer_core::Observation::of(&e, &s));
+                let o = scorer_core::Observation::of(&e, &s);
+                let expected = scorer.score(&o);
                 assert_eq!(
                     scores.value(row).to_bits(),
                     expected.to_bits(),
                     "{file} row {row}"
                 );
+                if row == 3 {
+                    let guarded = blob.score_guarded(&o);
+                    assert!(!guarded.in_domain, "{file}: 60 m/s is outside");
+                    let unguarded = blob.model.score_observation(&o);
+                    let fallback = blob.meta.training_domain.map(|d| d.policy)
+                        == Some(scorer_core::model::OutsidePolicy::Fallback);
+                    assert_eq!(
+                        scores.value(row) != unguarded,
+                        fallback,
+                        "{file}: the policy decides the score outside"
+                    );
+                }
             }
             assert!(
                 scores.value(1) > scores.value(0),
