@@ -33,18 +33,11 @@ pub unsafe extern "C" fn riskscore_score_pair(
         }
         let o = Observation::of(&ego, &partner);
         let s = o.surrogates;
-        // An empty slot reads as NaN and inside (there is no domain to leave).
-        let guarded = |blob: &Option<ModelBlob<'static>>| {
-            blob.as_ref().map_or(
-                Guarded {
-                    score: f32::NAN,
-                    in_domain: true,
-                    first_outside: None,
-                },
-                |b| b.score_guarded(&o),
-            )
-        };
-        let (drl, msra, gssm) = (guarded(&ctx.drl), guarded(&ctx.msra), guarded(&ctx.gssm));
+        let (drl, msra, gssm) = (
+            guarded(&ctx.drl, &o),
+            guarded(&ctx.msra, &o),
+            guarded(&ctx.gssm, &o),
+        );
         let result = RiskscorePairResult {
             features: o.features,
             box_distance: s.box_distance,
@@ -65,4 +58,18 @@ pub unsafe extern "C" fn riskscore_score_pair(
         unsafe { write(out, result) }
     };
     status(run())
+}
+
+/// The guarded score of the slot's model; an empty slot reads as NaN and inside (there is no
+/// domain to leave). Not inlined: one copy of the guard serves the three slots (flash).
+#[inline(never)]
+fn guarded(slot: &Option<ModelBlob<'static>>, o: &Observation) -> Guarded {
+    slot.as_ref().map_or(
+        Guarded {
+            score: f32::NAN,
+            in_domain: true,
+            first_outside: None,
+        },
+        |b| b.score_guarded(o),
+    )
 }
