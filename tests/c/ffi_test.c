@@ -390,13 +390,23 @@ static void test_golden(const char *path) {
 static const RiskscoreVehicleState TRUCK_EGO = {0.0f, 0.0f, 0.0f, 30.0f, 0.0f, 1.0f, 0.0f, 4.5f, 1.8f};
 static const RiskscoreVehicleState LONG_TRUCK = {0.0f, 60.0f, 0.0f, 22.0f, 0.0f, 1.0f, 0.0f, 18.75f, 2.55f};
 
-/* One "G <case> <blobs> <drl bits> <drl in> <msra bits> <msra in>" line. */
+/* One "G <pair> <blobs> <18 state bits: ego, partner> <drl bits> <drl in> <msra bits> <msra in>"
+ * line (the states as given, so the Rust side scores exactly this pair). */
 static void print_guarded(RiskscoreContext *c, const char *pair, const char *blobs,
                           const RiskscoreVehicleState *ego, const RiskscoreVehicleState *partner) {
     RiskscorePairResult r;
     EXPECT_STATUS(riskscore_score_pair(c, ego, partner, &r), RISKSCORE_STATUS_OK);
-    printf("G %s %s %08x %u %08x %u\n", pair, blobs, bits(r.drl_score), r.drl_in_domain,
-           bits(r.msra_score), r.msra_in_domain);
+    printf("G %s %s", pair, blobs);
+    const RiskscoreVehicleState *states[2] = {ego, partner};
+    for (int k = 0; k < 2; k++) {
+        const RiskscoreVehicleState *v = states[k];
+        const float fields[9] = {v->x, v->y, v->vx, v->vy, v->hx, v->hy, v->acc, v->length, v->width};
+        for (int f = 0; f < 9; f++) {
+            printf(" %08x", bits(fields[f]));
+        }
+    }
+    printf(" %08x %u %08x %u\n", bits(r.drl_score), r.drl_in_domain, bits(r.msra_score),
+           r.msra_in_domain);
     CHECK(r.gssm_in_domain == 1 && r.has_gssm == 0, "%s %s: no GSSM loaded, gssm_in_domain %u",
           pair, blobs, r.gssm_in_domain);
 }

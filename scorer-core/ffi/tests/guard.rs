@@ -4,26 +4,12 @@
 use std::path::Path;
 
 use scorer_core::model::{self, ModelBlob, ModelMeta, OutsidePolicy, TrainingDomain};
-use scorer_core::{Observation, VehicleState};
+use scorer_core::Observation;
 use scorer_ffi::*;
 
-const EGO: RiskscoreVehicleState = RiskscoreVehicleState {
-    x: 0.0,
-    y: 0.0,
-    vx: 0.0,
-    vy: 20.0,
-    hx: 0.0,
-    hy: 1.0,
-    acc: 0.0,
-    length: 4.5,
-    width: 1.8,
-};
-/// 30 m ahead at 10 m/s: everyday following, inside the shipped DRL's domain.
-const LEAD: RiskscoreVehicleState = RiskscoreVehicleState {
-    y: 30.0,
-    vy: 10.0,
-    ..EGO
-};
+mod common;
+use common::{config, context, core_state, EGO, LEAD};
+
 /// Ego at 30 m/s, 60 m behind an 18.75 m articulated truck at 22 m/s: the shipped DRL's (and
 /// MSRA's) training data has no partner longer than 16.5 m.
 const TRUCK_EGO: RiskscoreVehicleState = RiskscoreVehicleState { vy: 30.0, ..EGO };
@@ -47,37 +33,13 @@ fn encoded(blob: &ModelBlob<'_>) -> &'static [u8] {
     Box::leak(out.into_boxed_slice())
 }
 
-fn core_state(s: &RiskscoreVehicleState) -> VehicleState {
-    VehicleState {
-        x: s.x,
-        y: s.y,
-        vx: s.vx,
-        vy: s.vy,
-        hx: s.hx,
-        hy: s.hy,
-        acc: s.acc,
-        length: s.length,
-        width: s.width,
-    }
-}
-
 /// A context holding `blobs` (any kinds).
 fn context_with(blobs: &[&'static [u8]]) -> Box<RiskscoreContext> {
-    let mut ctx = Box::new(RiskscoreContext {
-        opaque: [0; RISKSCORE_CONTEXT_WORDS],
-    });
-    let config = RiskscoreWarningConfig {
-        threshold: 0.5,
-        hysteresis: 0.05,
-        min_on_us: 0,
-        stale_after_us: 1_000_000,
-        latch: 0,
-        evict_when_full: 1,
-    };
+    let mut ctx = context();
     // SAFETY: a live, aligned context of the right size; the blobs are leaked ('static).
     unsafe {
         assert_eq!(
-            riskscore_init(&mut *ctx, RISKSCORE_CONTEXT_SIZE, &config),
+            riskscore_init(&mut *ctx, RISKSCORE_CONTEXT_SIZE, &config()),
             RiskscoreStatus::Ok
         );
         for blob in blobs {
