@@ -1,14 +1,20 @@
 /* C test of the riskscore C ABI (scorer-core/ffi/include/riskscore.h), linked against the static
  * library libscorer_ffi.a. Built and run by tests/tests/ffi_c.rs:
  *
- *   ffi_test GOLDEN_CSV DRL_BLOB MSRA_BLOB
+ *   ffi_test GOLDEN_CSV DRL_BLOB MSRA_BLOB THRESHOLD UNGUARDED_DRL_BLOB
+ *
+ * (UNGUARDED_DRL_BLOB: the DRL blob with its metadata records stripped.)
  *
  * 1. Error paths: every status code the API can return for bad arguments, bad contexts, bad blobs,
  *    bad states, NaN scores, out-of-order updates, full tables and unknown tracks.
  * 2. Golden parity: scores every row of the golden CSV through riskscore_score_pair and checks
  *    the features and surrogates against the reference columns (tolerances below).
- * 3. Prints every result as exact float bits ("P ..." lines) and a warning sequence ("T ..."
- *    lines) so the Rust side can compare them bit for bit with scorer-core on the host.
+ * 3. Prints every result as exact float bits with the DRL and MSRA training-domain flags ("P ..."
+ *    lines) and a warning sequence ("T ..." lines) so the Rust side can compare them bit for bit
+ *    with scorer-core's guarded scores on the host.
+ * 4. The training-domain guard: a pair inside and a pair outside the DRL's domain, scored with
+ *    the blobs as given and with the records stripped ("G ..." lines, compared on the Rust side);
+ *    the stripped blob must read as inside everywhere.
  *
  * Exit status 0 when every check passed; otherwise 1, with one line per failure on stderr.
  * No malloc: the context and the blobs live in static storage.
@@ -28,6 +34,7 @@ static RiskscoreContext ctx;
 static RiskscoreContext other;
 static uint8_t drl_blob[MAX_BLOB];
 static uint8_t msra_blob[MAX_BLOB];
+static uint8_t unguarded_blob[MAX_BLOB];
 static uint8_t scratch[MAX_BLOB];
 /* A context one byte off its alignment, to check RISKSCORE_STATUS_CONTEXT_MISALIGNED. */
 static uint64_t misaligned_storage[RISKSCORE_CONTEXT_WORDS + 1];
@@ -96,6 +103,7 @@ static void test_error_paths(size_t drl_len) {
     RiskscoreLoadInfo info;
 
     CHECK(riskscore_abi_version() == RISKSCORE_ABI_VERSION, "ABI version mismatch");
+    CHECK(RISKSCORE_ABI_VERSION == 2, "this test is written for ABI 2 (guarded scores, domain flags)");
     CHECK(riskscore_context_size() == RISKSCORE_CONTEXT_SIZE, "context size mismatch");
     CHECK(sizeof(RiskscoreContext) == RISKSCORE_CONTEXT_SIZE, "sizeof(RiskscoreContext)");
     CHECK(_Alignof(RiskscoreContext) >= RISKSCORE_CONTEXT_ALIGN, "alignof(RiskscoreContext)");
@@ -300,7 +308,7 @@ static void test_golden(const char *path) {
     int tadv_col = column(header, nh, "TAdv");
     int ei_col = column(header, nh, "EI");
 
-    int line_no = 1, rows = 0, far = 0;
+    int line_no = 1, rows = 0, far = 0, outside = 0;
     while (fgets(line, sizeof line, f)) {
         line_no++;
         int n = split(line, cols);
@@ -352,8 +360,13 @@ static void test_golden(const char *path) {
         for (int k = 0; k < RISKSCORE_FEATURE_COUNT; k++) {
             printf(" %08x", bits(r.features[k]));
         }
-        printf(" %08x %08x %08x %08x %08x %08x\n", bits(r.box_distance), bits(r.ttc2d),
-               bits(r.tadv), bits(r.ei), bits(r.drl_score), bits(r.msra_score));
+        printf(" %08x %08x %08x %08x %08x %08x %u %u\n", bits(r.box_distance), bits(r.ttc2d),
+               bits(r.tadv), bits(r.ei), bits(r.drl_score), bits(r.msra_score), r.drl_in_domain,
+               r.msra_in_domain);
+        CHECK(r.drl_in_domain <= 1 && r.msra_in_domain <= 1 && r.gssm_in_domain == 1,
+              "line %d: domain flags %u %u %u", line_no, r.drl_in_domain, r.msra_in_domain,
+              r.gssm_in_domain);
+        outside += r.drl_in_domain == 0;
 
         /* Warning sequence: three partners in turn, 40 ms apart, on the DRL score. */
         uint32_t id = (uint32_t)(rows % 3) + 1;
@@ -367,17 +380,68 @@ static void test_golden(const char *path) {
     fclose(f);
     CHECK(rows > 1000, "only %d golden rows", rows);
     CHECK(far * 100 <= rows, "%d of %d rows disagree with the golden surrogates", far, rows);
-    fprintf(stderr, "golden: %d rows scored, %d with a surrogate outside 1e-3\n", rows, far);
+    fprintf(stderr, "golden: %d rows scored, %d with a surrogate outside 1e-3, %d outside the DRL's "
+                    "training domain\n",
+            rows, far, outside);
+}
+
+/* Ego 30 m/s, 60 m behind an 18.75 m articulated truck at 22 m/s (longer than any partner the
+ * shipped models were trained on), and the everyday follower EGO/LEAD. */
+static const RiskscoreVehicleState TRUCK_EGO = {0.0f, 0.0f, 0.0f, 30.0f, 0.0f, 1.0f, 0.0f, 4.5f, 1.8f};
+static const RiskscoreVehicleState LONG_TRUCK = {0.0f, 60.0f, 0.0f, 22.0f, 0.0f, 1.0f, 0.0f, 18.75f, 2.55f};
+
+/* One "G <pair> <blobs> <18 state bits: ego, partner> <drl bits> <drl in> <msra bits> <msra in>"
+ * line (the states as given, so the Rust side scores exactly this pair). */
+static void print_guarded(RiskscoreContext *c, const char *pair, const char *blobs,
+                          const RiskscoreVehicleState *ego, const RiskscoreVehicleState *partner) {
+    RiskscorePairResult r;
+    EXPECT_STATUS(riskscore_score_pair(c, ego, partner, &r), RISKSCORE_STATUS_OK);
+    printf("G %s %s", pair, blobs);
+    const RiskscoreVehicleState *states[2] = {ego, partner};
+    for (int k = 0; k < 2; k++) {
+        const RiskscoreVehicleState *v = states[k];
+        const float fields[9] = {v->x, v->y, v->vx, v->vy, v->hx, v->hy, v->acc, v->length, v->width};
+        for (int f = 0; f < 9; f++) {
+            printf(" %08x", bits(fields[f]));
+        }
+    }
+    printf(" %08x %u %08x %u\n", bits(r.drl_score), r.drl_in_domain, bits(r.msra_score),
+           r.msra_in_domain);
+    CHECK(r.gssm_in_domain == 1 && r.has_gssm == 0, "%s %s: no GSSM loaded, gssm_in_domain %u",
+          pair, blobs, r.gssm_in_domain);
+}
+
+/* `ctx` holds the DRL and MSRA blobs as given; `other` gets the DRL blob without its records. */
+static void test_guard(size_t unguarded_len) {
+    print_guarded(&ctx, "inside", "given", &EGO, &LEAD);
+    print_guarded(&ctx, "outside", "given", &TRUCK_EGO, &LONG_TRUCK);
+
+    RiskscoreWarningConfig cfg = live_config(0.5f);
+    EXPECT_STATUS(riskscore_init(&other, sizeof other, &cfg), RISKSCORE_STATUS_OK);
+    EXPECT_STATUS(riskscore_load_model(&other, unguarded_blob, unguarded_len, NULL),
+                  RISKSCORE_STATUS_OK);
+    const RiskscoreVehicleState *pairs[2][2] = {{&EGO, &LEAD}, {&TRUCK_EGO, &LONG_TRUCK}};
+    for (int k = 0; k < 2; k++) {
+        RiskscorePairResult r;
+        EXPECT_STATUS(riskscore_score_pair(&other, pairs[k][0], pairs[k][1], &r), RISKSCORE_STATUS_OK);
+        CHECK(r.drl_in_domain == 1, "a blob without records is inside everywhere (pair %d)", k);
+        CHECK(r.has_msra == 0 && isnan(r.msra_score) && r.msra_in_domain == 1,
+              "no MSRA loaded: NaN score, inside (pair %d)", k);
+    }
+    print_guarded(&other, "inside", "unguarded", &EGO, &LEAD);
+    print_guarded(&other, "outside", "unguarded", &TRUCK_EGO, &LONG_TRUCK);
 }
 
 int main(int argc, char **argv) {
-    if (argc != 5) {
-        fprintf(stderr, "usage: %s GOLDEN_CSV DRL_BLOB MSRA_BLOB THRESHOLD\n", argv[0]);
+    if (argc != 6) {
+        fprintf(stderr, "usage: %s GOLDEN_CSV DRL_BLOB MSRA_BLOB THRESHOLD UNGUARDED_DRL_BLOB\n",
+                argv[0]);
         return 2;
     }
     size_t drl_len = read_file(argv[2], drl_blob, MAX_BLOB - 1);
     size_t msra_len = read_file(argv[3], msra_blob, MAX_BLOB);
     float threshold = strtof(argv[4], NULL);
+    size_t unguarded_len = read_file(argv[5], unguarded_blob, MAX_BLOB);
 
     test_error_paths(drl_len);
 
@@ -389,6 +453,7 @@ int main(int argc, char **argv) {
     CHECK(info.kind == RISKSCORE_MODEL_KIND_MSRA, "MSRA kind %d", (int)info.kind);
     printf("C threshold %08x hysteresis %08x\n", bits(cfg.threshold), bits(cfg.hysteresis));
     test_golden(argv[1]);
+    test_guard(unguarded_len);
 
     if (failures) {
         fprintf(stderr, "%d check(s) failed\n", failures);

@@ -1,14 +1,16 @@
 //! The C ABI from C: builds `libscorer_ffi.a` (panic = abort), compiles tests/c/ffi_test.c with gcc
 //! (`-Wall -Wextra -Werror -pedantic`) against the checked-in header, and runs it on the golden
 //! data. The C program checks every error path and the golden features/surrogates itself; this test
-//! then compares every number it printed bit for bit with `scorer-core` on the host, and replays its
-//! warning sequence through a host `TrackTable`.
+//! then compares every number it printed bit for bit with `scorer-core` on the host (the models'
+//! scores and training-domain flags with `ModelBlob::score_guarded`), checks a pair inside and a
+//! pair outside the DRL's domain with the blob as given and with its records stripped, and
+//! replays the warning sequence through a host `TrackTable`.
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use scorer_core::model;
+use scorer_core::model::{self, ModelBlob};
 use scorer_core::warning::{TrackTable, WarningConfig, WarningEvent};
-use scorer_core::{Observation, VehicleState};
+use scorer_core::{Guarded, Observation, VehicleState};
 
 #[path = "../firmware/test_models.rs"]
 #[allow(dead_code)]
@@ -80,20 +82,24 @@ fn golden_states(root: &Path) -> Vec<(usize, VehicleState, VehicleState)> {
                         .unwrap_or_else(|e| panic!("line {}: {e}", i + 2))
                 })
                 .collect();
-            let st = |o: usize| VehicleState {
-                x: v[o],
-                y: v[o + 1],
-                vx: v[o + 2],
-                vy: v[o + 3],
-                hx: v[o + 4],
-                hy: v[o + 5],
-                acc: v[o + 6],
-                length: v[o + 7],
-                width: v[o + 8],
-            };
-            (i + 2, st(0), st(9))
+            (i + 2, state_at(&v, 0), state_at(&v, 9))
         })
         .collect()
+}
+
+/// The state of the nine values at `v[o..]`, in `VehicleState` field order.
+fn state_at(v: &[f32], o: usize) -> VehicleState {
+    VehicleState {
+        x: v[o],
+        y: v[o + 1],
+        vx: v[o + 2],
+        vy: v[o + 3],
+        hx: v[o + 4],
+        hy: v[o + 5],
+        acc: v[o + 6],
+        length: v[o + 7],
+        width: v[o + 8],
+    }
 }
 
 #[test]
@@ -157,13 +163,16 @@ fn c_program_links_staticlib_and_matches_host() {
     // 3. Inputs: model blobs and a threshold inside the score range (median of the first rows).
     let drl_blob = model_blob(&root, "drl");
     let msra_blob = model_blob(&root, "msra");
-    let drl = model::decode(&drl_blob).expect("DRL blob decodes");
-    let msra = model::decode(&msra_blob).expect("MSRA blob decodes");
+    let drl = model::decode_blob(&drl_blob).expect("DRL blob decodes");
+    let msra = model::decode_blob(&msra_blob).expect("MSRA blob decodes");
+    let unguarded_drl = ModelBlob::from(drl.model.clone());
+    let mut unguarded_blob = vec![0u8; model::encoded_blob_len(&unguarded_drl).expect("length")];
+    model::encode_blob(&unguarded_drl, &mut unguarded_blob).expect("the stripped DRL encodes");
     let states = golden_states(&root);
     let mut sample: Vec<f32> = states
         .iter()
         .take(101)
-        .map(|(_, e, p)| drl.score(e, p))
+        .map(|(_, e, p)| drl.score_pair_guarded(e, p).score)
         .collect();
     sample.sort_by(f32::total_cmp);
     let threshold = sample[sample.len() / 2];
@@ -171,12 +180,15 @@ fn c_program_links_staticlib_and_matches_host() {
     let msra_path = out_dir.join("msra.rsk");
     std::fs::write(&drl_path, &drl_blob).expect("write drl.rsk");
     std::fs::write(&msra_path, &msra_blob).expect("write msra.rsk");
+    let unguarded_path = out_dir.join("drl-unguarded.rsk");
+    std::fs::write(&unguarded_path, &unguarded_blob).expect("write drl-unguarded.rsk");
 
     let output = Command::new(&exe)
         .arg(root.join("tests/data/golden_surrogates.csv"))
         .arg(&drl_path)
         .arg(&msra_path)
         .arg(format!("{threshold}"))
+        .arg(&unguarded_path)
         .output()
         .expect("running ffi_test");
     let stdout = String::from_utf8_lossy(&output.stdout);
@@ -218,7 +230,8 @@ fn c_program_links_staticlib_and_matches_host() {
         "threshold passed to C"
     );
     let mut table = TrackTable::<32>::new(config).expect("config");
-    let (mut rows, mut onsets, mut releases) = (0, 0, 0);
+    let (mut rows, mut onsets, mut releases, mut outside) = (0, 0, 0, 0);
+    let mut guard_lines = 0;
     let mut last_drl = 0u32;
     for line in stdout.lines() {
         let t: Vec<&str> = line.split(' ').collect();
@@ -229,12 +242,13 @@ fn c_program_links_staticlib_and_matches_host() {
                 let (ego, partner) = by_line[&n];
                 let o = Observation::of(&ego, &partner);
                 let s = o.surrogates;
+                let (d, m) = (drl.score_guarded(&o), msra.score_guarded(&o));
                 let host: Vec<f32> = o
                     .features
                     .iter()
                     .copied()
                     .chain([s.box_distance, s.ttc2d, s.tadv, s.ei])
-                    .chain([drl.score_observation(&o), msra.score_observation(&o)])
+                    .chain([d.score, m.score])
                     .collect();
                 for (k, (tok, h)) in t[2..].iter().zip(&host).enumerate() {
                     assert_eq!(
@@ -244,7 +258,14 @@ fn c_program_links_staticlib_and_matches_host() {
                         f32::from_bits(bits(tok))
                     );
                 }
-                assert_eq!(t.len() - 2, host.len(), "golden line {n}: value count");
+                assert_eq!(t.len() - 4, host.len(), "golden line {n}: value count");
+                let flags = [d.in_domain, m.in_domain].map(|inside| u8::from(inside).to_string());
+                assert_eq!(
+                    t[t.len() - 2..],
+                    flags,
+                    "golden line {n}: DRL and MSRA in-domain flags via C vs host"
+                );
+                outside += usize::from(!d.in_domain);
                 last_drl = host[17].to_bits();
             }
             "T" => {
@@ -271,12 +292,76 @@ fn c_program_links_staticlib_and_matches_host() {
                 onsets += usize::from(st.event == WarningEvent::Onset);
                 releases += usize::from(st.event == WarningEvent::Release);
             }
+            "G" => {
+                guard_lines += 1;
+                check_guard_line(&t, &drl, &unguarded_drl, &msra);
+            }
             _ => {}
         }
     }
     assert_eq!(rows, states.len(), "every golden row scored through C");
+    assert_eq!(
+        guard_lines, 4,
+        "guard lines: inside/outside x given/unguarded"
+    );
+    eprintln!("golden rows outside the DRL's training domain (host and C agree): {outside}");
     assert!(
         onsets > 0 && releases > 0,
         "warning sequence without onset/release"
     );
+}
+
+/// A `G <pair> <given|unguarded> <18 state bits> <drl bits> <drl in> <msra bits> <msra in>` line
+/// against the host's guarded scores of the same states: the pair named "outside" must be outside
+/// the DRL's domain (else the line checks nothing), the stripped blob inside everywhere with the
+/// network's own score.
+fn check_guard_line(
+    t: &[&str],
+    drl: &ModelBlob<'_>,
+    unguarded: &ModelBlob<'_>,
+    msra: &ModelBlob<'_>,
+) {
+    assert_eq!(t.len(), 25, "guard line fields: {t:?}");
+    let v: Vec<f32> = t[3..21]
+        .iter()
+        .map(|tok| f32::from_bits(bits(tok)))
+        .collect();
+    let (ego, partner) = (state_at(&v, 0), state_at(&v, 9));
+    let o = Observation::of(&ego, &partner);
+    let blob = match t[2] {
+        "given" => drl,
+        "unguarded" => unguarded,
+        other => panic!("unknown blob set {other:?}"),
+    };
+    let d = blob.score_guarded(&o);
+    let host_drl = drl.score_guarded(&o);
+    // The stand-in DRL (no shipped blob) has no record: inside everywhere.
+    let guarded = drl.meta.training_domain.is_some();
+    assert_eq!(
+        host_drl.in_domain,
+        t[1] == "inside" || !guarded,
+        "the {} pair is {} the DRL's domain on the host",
+        t[1],
+        if host_drl.in_domain {
+            "inside"
+        } else {
+            "outside"
+        }
+    );
+    let render = |g: &Guarded| format!("{:08x} {}", g.score.to_bits(), u8::from(g.in_domain));
+    let msra_expected = match t[2] {
+        "given" => render(&msra.score_guarded(&o)),
+        _ => format!("{:08x} 1", f32::NAN.to_bits()),
+    };
+    assert_eq!(
+        t[21..].join(" "),
+        format!("{} {msra_expected}", render(&d)),
+        "{} pair, {} blobs: C vs host score_guarded (DRL bits, flag, MSRA bits, flag)",
+        t[1],
+        t[2]
+    );
+    if t[2] == "unguarded" {
+        assert!(d.in_domain);
+        assert_eq!(d.score.to_bits(), drl.model.score_observation(&o).to_bits());
+    }
 }

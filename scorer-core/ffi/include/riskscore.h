@@ -24,8 +24,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-// Version of this C ABI; bumped on any incompatible change of the header.
-#define RISKSCORE_ABI_VERSION 1
+// Version of this C ABI; bumped on any incompatible change of the header (2: the scores are
+// guarded by the blob's training domain and `RiskscorePairResult` reports the `*_in_domain` flags).
+#define RISKSCORE_ABI_VERSION 2
 
 // Bytes a RiskscoreContext occupies (large enough on 32- and 64-bit targets).
 #define RISKSCORE_CONTEXT_SIZE 5120
@@ -221,11 +222,14 @@ typedef struct {
   float tadv;
   // Emergency index (m/s); -INFINITY = no conflict.
   float ei;
-  // Score of the loaded DRL model (int8 or f32); NaN when `has_drl` is 0.
+  // Score of the loaded DRL model (int8 or f32) under its blob's training-domain policy (see
+  // `drl_in_domain`); NaN when `has_drl` is 0.
   float drl_score;
-  // Score of the loaded MSRA model; NaN when `has_msra` is 0.
+  // Score of the loaded MSRA model under its blob's training-domain policy; NaN when
+  // `has_msra` is 0.
   float msra_score;
-  // Score of the loaded GSSM model; NaN when `has_gssm` is 0.
+  // Score of the loaded GSSM model under its blob's training-domain policy; NaN when
+  // `has_gssm` is 0.
   float gssm_score;
   // 1 when a DRL model is loaded (and `drl_score` valid), else 0.
   uint8_t has_drl;
@@ -233,6 +237,16 @@ typedef struct {
   uint8_t has_msra;
   // 1 when a GSSM model is loaded, else 0.
   uint8_t has_gssm;
+  // 1 when the pair is inside the training domain the DRL blob records (or the blob has no
+  // training-domain record, or no DRL model is loaded); 0 when an input is outside its trained
+  // range. Outside, `drl_score` follows the blob's policy: `flag-only` scores the model as is,
+  // `clamp` scores it on inputs clamped into their ranges, `fallback` scores the blob's
+  // kinematic fallback instead of the model (docs/domain-guard.md).
+  uint8_t drl_in_domain;
+  // As `drl_in_domain`, for the MSRA blob and `msra_score`.
+  uint8_t msra_in_domain;
+  // As `drl_in_domain`, for the GSSM blob and `gssm_score`.
+  uint8_t gssm_in_domain;
 } RiskscorePairResult;
 
 // Result of one `riskscore_track_update`.
@@ -293,8 +307,10 @@ RiskscoreStatus riskscore_init(RiskscoreContext *context,
                                const RiskscoreWarningConfig *config);
 
 // Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
-// replacing the previous model of that family. On error the context is unchanged. `info` may be
-// NULL; otherwise it receives the kind and, on error, the offending field.
+// replacing the previous model of that family. The model keeps the blob's metadata records: a
+// training-domain record guards its scores in `riskscore_score_pair`. On error the context is
+// unchanged. `info` may be NULL; otherwise it receives the kind and, on error, the offending
+// field.
 //
 // # Safety
 // `context` must be NULL or a context initialised by `riskscore_init`; `blob` must be NULL or
@@ -317,7 +333,9 @@ RiskscoreStatus riskscore_model_default_threshold(const uint8_t *blob,
                                                   size_t len,
                                                   float *threshold);
 
-// Scores one ego/partner pair: features, surrogates and the score of every loaded model.
+// Scores one ego/partner pair: features, surrogates and, for every loaded model, its score
+// through the blob's training-domain guard (`ModelBlob::score_guarded`, the score `riskctl`, the
+// CAN bridge and the Rust ECU path give) with whether the pair was inside the model's domain.
 //
 // # Safety
 // `context` must be NULL or initialised; `ego`, `partner` NULL or readable; `out` NULL or

@@ -6,7 +6,7 @@ use crate::{
     RISKSCORE_FEATURE_COUNT, RISKSCORE_MAX_TRACKS,
 };
 use core::mem::{align_of, size_of};
-use scorer_core::model::Model;
+use scorer_core::model::ModelBlob;
 use scorer_core::warning::TrackTable;
 use scorer_core::FEATURE_COUNT;
 
@@ -17,9 +17,11 @@ pub(crate) const CONTEXT_MAGIC: u32 = 0x434b_5352;
 pub(crate) struct Context {
     /// First field, so it can be checked through a `u32` read before the rest is trusted.
     pub magic: u32,
-    pub drl: Option<Model<'static>>,
-    pub msra: Option<Model<'static>>,
-    pub gssm: Option<Model<'static>>,
+    /// Each slot keeps the blob's metadata records with its model: the training domain and the
+    /// fallback are what `riskscore_score_pair` scores through (`ModelBlob::score_guarded`).
+    pub drl: Option<ModelBlob<'static>>,
+    pub msra: Option<ModelBlob<'static>>,
+    pub gssm: Option<ModelBlob<'static>>,
     pub tracks: TrackTable<RISKSCORE_MAX_TRACKS>,
 }
 

@@ -8,7 +8,9 @@
 //!
 //! A context has one slot per model family (DRL, MSRA, GSSM); loading a blob fills the slot of its
 //! kind and replaces what was there. [`riskscore_score_pair`] computes the 13 features, the
-//! surrogates and the score of every loaded model for one ego/partner pair; the caller feeds the
+//! surrogates and the score of every loaded model for one ego/partner pair, each through its
+//! blob's training-domain guard (the same bits as `scorer_core`'s `ModelBlob::score_guarded`, with
+//! a flag per model saying whether the pair was inside the domain); the caller feeds the
 //! score it warns on to [`riskscore_track_update`], which runs the warning rule of the partner's
 //! track; [`riskscore_track_get`] and [`riskscore_any_warning`] read the warning state.
 //!
@@ -58,8 +60,9 @@ pub use types::{
     RiskscoreWarningEvent,
 };
 
-/// Version of this C ABI; bumped on any incompatible change of the header.
-pub const RISKSCORE_ABI_VERSION: u32 = 1;
+/// Version of this C ABI; bumped on any incompatible change of the header (2: the scores are
+/// guarded by the blob's training domain and `RiskscorePairResult` reports the `*_in_domain` flags).
+pub const RISKSCORE_ABI_VERSION: u32 = 2;
 /// Bytes a RiskscoreContext occupies (large enough on 32- and 64-bit targets).
 pub const RISKSCORE_CONTEXT_SIZE: usize = 5120;
 /// RISKSCORE_CONTEXT_SIZE in 64-bit words.

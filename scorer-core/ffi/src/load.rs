@@ -33,8 +33,10 @@ pub unsafe extern "C" fn riskscore_init(
 }
 
 /// Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
-/// replacing the previous model of that family. On error the context is unchanged. `info` may be
-/// NULL; otherwise it receives the kind and, on error, the offending field.
+/// replacing the previous model of that family. The model keeps the blob's metadata records: a
+/// training-domain record guards its scores in `riskscore_score_pair`. On error the context is
+/// unchanged. `info` may be NULL; otherwise it receives the kind and, on error, the offending
+/// field.
 ///
 /// # Safety
 /// `context` must be NULL or a context initialised by `riskscore_init`; `blob` must be NULL or
@@ -56,8 +58,8 @@ pub unsafe extern "C" fn riskscore_load_model(
         if let Ok(header) = model::decode_header(bytes) {
             details.kind = kind_code(header.kind);
         }
-        let m = model::decode(bytes).map_err(|e| model_error(&e, &mut details))?;
-        let slot = match m.kind() {
+        let m = model::decode_blob(bytes).map_err(|e| model_error(&e, &mut details))?;
+        let slot = match m.model.kind() {
             ModelKind::DrlInt8 | ModelKind::DrlF32 => &mut ctx.drl,
             ModelKind::Msra => &mut ctx.msra,
             ModelKind::Gssm => &mut ctx.gssm,

@@ -173,11 +173,14 @@ pub struct RiskscorePairResult {
     pub tadv: f32,
     /// Emergency index (m/s); -INFINITY = no conflict.
     pub ei: f32,
-    /// Score of the loaded DRL model (int8 or f32); NaN when `has_drl` is 0.
+    /// Score of the loaded DRL model (int8 or f32) under its blob's training-domain policy (see
+    /// `drl_in_domain`); NaN when `has_drl` is 0.
     pub drl_score: f32,
-    /// Score of the loaded MSRA model; NaN when `has_msra` is 0.
+    /// Score of the loaded MSRA model under its blob's training-domain policy; NaN when
+    /// `has_msra` is 0.
     pub msra_score: f32,
-    /// Score of the loaded GSSM model; NaN when `has_gssm` is 0.
+    /// Score of the loaded GSSM model under its blob's training-domain policy; NaN when
+    /// `has_gssm` is 0.
     pub gssm_score: f32,
     /// 1 when a DRL model is loaded (and `drl_score` valid), else 0.
     pub has_drl: u8,
@@ -185,6 +188,16 @@ pub struct RiskscorePairResult {
     pub has_msra: u8,
     /// 1 when a GSSM model is loaded, else 0.
     pub has_gssm: u8,
+    /// 1 when the pair is inside the training domain the DRL blob records (or the blob has no
+    /// training-domain record, or no DRL model is loaded); 0 when an input is outside its trained
+    /// range. Outside, `drl_score` follows the blob's policy: `flag-only` scores the model as is,
+    /// `clamp` scores it on inputs clamped into their ranges, `fallback` scores the blob's
+    /// kinematic fallback instead of the model (docs/domain-guard.md).
+    pub drl_in_domain: u8,
+    /// As `drl_in_domain`, for the MSRA blob and `msra_score`.
+    pub msra_in_domain: u8,
+    /// As `drl_in_domain`, for the GSSM blob and `gssm_score`.
+    pub gssm_in_domain: u8,
 }
 
 /// Result of one `riskscore_track_update`.

@@ -1,43 +1,12 @@
 //! Rust-side checks of the C ABI contract that the C test (tests/c/ffi_test.c) cannot see easily.
 use scorer_ffi::*;
 
+mod common;
+use common::{config, context, core_state, EGO, LEAD};
+
 #[path = "../../../tests/firmware/test_models.rs"]
 #[allow(dead_code)]
 mod test_models;
-
-fn config() -> RiskscoreWarningConfig {
-    RiskscoreWarningConfig {
-        threshold: 0.5,
-        hysteresis: 0.05,
-        min_on_us: 0,
-        stale_after_us: 1_000_000,
-        latch: 0,
-        evict_when_full: 1,
-    }
-}
-
-fn context() -> Box<RiskscoreContext> {
-    Box::new(RiskscoreContext {
-        opaque: [0; RISKSCORE_CONTEXT_WORDS],
-    })
-}
-
-const EGO: RiskscoreVehicleState = RiskscoreVehicleState {
-    x: 0.0,
-    y: 0.0,
-    vx: 0.0,
-    vy: 20.0,
-    hx: 0.0,
-    hy: 1.0,
-    acc: 0.0,
-    length: 4.5,
-    width: 1.8,
-};
-const LEAD: RiskscoreVehicleState = RiskscoreVehicleState {
-    y: 30.0,
-    vy: 10.0,
-    ..EGO
-};
 
 #[test]
 fn every_status_code_round_trips_and_is_described() {
@@ -98,22 +67,7 @@ fn failed_load_keeps_the_previous_model_and_scores_match_the_core() {
 
     // Same numbers as the core called directly.
     let model = scorer_core::model::decode(blob).expect("decode");
-    let ego = scorer_core::VehicleState {
-        x: EGO.x,
-        y: EGO.y,
-        vx: EGO.vx,
-        vy: EGO.vy,
-        hx: EGO.hx,
-        hy: EGO.hy,
-        acc: EGO.acc,
-        length: EGO.length,
-        width: EGO.width,
-    };
-    let lead = scorer_core::VehicleState {
-        y: LEAD.y,
-        vy: LEAD.vy,
-        ..ego
-    };
+    let (ego, lead) = (core_state(&EGO), core_state(&LEAD));
     assert_eq!(
         after.drl_score.to_bits(),
         model.score(&ego, &lead).to_bits()

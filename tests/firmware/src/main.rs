@@ -92,6 +92,11 @@ fn main() -> ! {
         Ok(b) if b.meta.training_domain.is_some() => b,
         _ => fail(&mut out, "the DRL blob carries no training domain"),
     };
+    // What the C ABI's MSRA slot scores: the blob with its records (the host checks the flag too).
+    let msra_guarded = match model::decode_blob(MSRA_BLOB) {
+        Ok(b) => b,
+        Err(_) => fail(&mut out, "the MSRA blob does not decode"),
+    };
 
     out.str("SIZES context_used=")
         .u32(scorer_ffi::context_bytes_used() as u32)
@@ -214,15 +219,20 @@ fn main() -> ! {
             && g.in_domain == first_outside.is_none()
             && pipeline_status.is_ok()
             && (!inside_so_far || (g.score.to_bits() == d.to_bits() && pipeline_status == status));
-        let c_ok = match (&c, &status) {
+        // The C ABI scores through each blob's guard: the deployed path's DRL score and table.
+        let msra_g = msra_guarded.score_guarded(&o);
+        let c_ok = match (&c, &pipeline_status) {
             (Some((pr, ts)), Ok(st)) => {
                 same_bits(&pr.features, &f)
                     && same_bits(
                         &[pr.box_distance, pr.ttc2d, pr.tadv, pr.ei],
                         &[bd, t2, ta, e],
                     )
-                    && pr.drl_score.to_bits() == d.to_bits()
-                    && pr.msra_score.to_bits() == m.to_bits()
+                    && pr.drl_score.to_bits() == g.score.to_bits()
+                    && (pr.drl_in_domain != 0) == g.in_domain
+                    && pr.msra_score.to_bits() == msra_g.score.to_bits()
+                    && (pr.msra_in_domain != 0) == msra_g.in_domain
+                    && pr.gssm_in_domain == 1
                     && (ts.warning != 0) == st.warning
                     && ts.event as u8 == event_code(st.event)
                     && (ts.new_track != 0) == st.new_track
