@@ -187,6 +187,19 @@ fn a_tiny_run_reports_each_round_like_evaluate_plus_the_real_safe_share() {
         ] {
             assert!(names.contains(&expected), "{name}: {names:?}");
         }
+        // The fold models' guards: every test frame of every fold counted, as `evaluate` does.
+        let domain = round["domain"].as_array().unwrap();
+        let guarded: Vec<&str> = domain.iter().map(|d| d["name"].as_str().unwrap()).collect();
+        for expected in ["DRL", "DRL-f32", "MSRA"] {
+            assert!(guarded.contains(&expected), "{name}: {guarded:?}");
+        }
+        for d in domain {
+            let (frames, outside) = (
+                d["frames"].as_u64().unwrap(),
+                d["outside"].as_u64().unwrap(),
+            );
+            assert!(frames > 0 && outside <= frames, "{name}: {d}");
+        }
         for m in methods {
             for key in ["A_ROC_90", "A_ROC_80", "P_PRC_90", "P_PRC_80", "mTTI_90"] {
                 assert!(m.get(key).is_some() && m["std"].get(key).is_some(), "{m}");
@@ -234,6 +247,7 @@ fn a_tiny_run_reports_each_round_like_evaluate_plus_the_real_safe_share() {
         "{md}"
     );
     assert!(md.contains("90 %-recall threshold"), "{md}");
+    assert!(md.contains("Outside the training domain"), "{md}");
 }
 
 #[test]

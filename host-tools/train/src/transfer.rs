@@ -20,6 +20,7 @@ use crate::gssm::{self, GssmConfig, GssmError};
 use crate::train::cv::{self, CvError, CvOptions};
 use crate::train::{Progress, TrainConfig};
 use riskscore_data::events::Sequence;
+use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult, MethodRun};
 
 /// What the benchmark trains and tests on.
@@ -202,6 +203,8 @@ pub struct Split<'a> {
 pub struct SplitOutcome {
     pub result: FoldResult,
     pub runs: Vec<MethodRun>,
+    /// Per guarded model: how many of the test frames lie outside its training domain.
+    pub domain_shares: Vec<DomainShare>,
 }
 
 /// The fold runner every benchmark shares: DRL and MSRA trained exactly as in cross-validation
@@ -232,6 +235,7 @@ pub fn run_split(
     let outcome = cv::run_fold(fold, train, drl_only, test, None, &cfg, &cv_opts)?;
     let mut methods = outcome.result.methods;
     let mut runs = outcome.runs;
+    let domain_shares = outcome.domain_shares;
 
     let mut gcfg = cfg.clone();
     gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
@@ -259,6 +263,7 @@ pub fn run_split(
             methods,
         },
         runs,
+        domain_shares,
     })
 }
 

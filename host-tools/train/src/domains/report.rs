@@ -93,6 +93,7 @@ impl DomainsResult {
                                 row[SHARE_KEY] = share_json(&summarise(&r.shares, &name));
                             }
                         }
+                        v["domain"] = r.domain.iter().map(|d| d.to_json()).collect();
                         v["status"] = "ok".into();
                         v
                     }
@@ -140,6 +141,7 @@ impl DomainsResult {
                             share_cell(&summarise(&r.shares, &m.name))
                         ));
                     }
+                    out.push_str(&riskscore_eval::domain_share::markdown(&r.domain));
                     out.push('\n');
                 }
             }

@@ -7,6 +7,7 @@ use super::share::{share_of, ShareRun};
 use crate::gssm::GssmConfig;
 use crate::train::{Progress, TrainConfig};
 use crate::transfer::{self, scenario_groups, Split, TransferError, TransferOptions};
+use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
 
 /// Domain benchmark failures.
@@ -80,6 +81,9 @@ pub struct RoundResult {
     pub folds: Vec<FoldResult>,
     pub shares: Vec<ShareRun>,
     pub splits: Vec<RoundFoldSplit>,
+    /// Per guarded model, over every fold and seed: the test frames outside the fold model's
+    /// training domain (each fold's model measured on its own training data).
+    pub domain: Vec<DomainShare>,
 }
 
 /// Run one round: `options.seeds` x `options.folds` trainings without the slice, each scored on it.
@@ -109,6 +113,7 @@ pub fn run_round(
     let mut folds = Vec::new();
     let mut shares = Vec::new();
     let mut splits = Vec::new();
+    let mut domain: Vec<DomainShare> = Vec::new();
     for k in 0..options.seeds.max(1) {
         let seed = config.seed.wrapping_add(k as u64);
         for (fold, held) in scenario_groups(&real, options.folds, seed)
@@ -137,6 +142,7 @@ pub fn run_round(
                     .iter()
                     .map(|run| share_of(run, real_range.clone(), seed, fold)),
             );
+            merge_shares(&mut domain, &outcome.domain_shares);
             folds.push(outcome.result);
             let real_test = KindCounts::of(&split.test[split.real_from..]);
             splits.push(RoundFoldSplit {
@@ -164,7 +170,18 @@ pub fn run_round(
         folds,
         shares,
         splits,
+        domain,
     })
+}
+
+/// Adds each of `fold`'s shares to the entry of the same model in `total` (new models appended).
+fn merge_shares(total: &mut Vec<DomainShare>, fold: &[DomainShare]) {
+    for share in fold {
+        match total.iter_mut().find(|t| t.name == share.name) {
+            Some(t) => t.merge(share),
+            None => total.push(share.clone()),
+        }
+    }
 }
 
 /// The event counts of the slice's test sequences over all folds (the table header).
