@@ -47,15 +47,15 @@ pub fn train_and_export(
             source,
         })?;
     let prepared = train::prepare_comparisons(train, augmentation, config);
-    // DRL's own training side when it has data MSRA must not see.
-    let drl_train: Vec<Sequence> = train.iter().chain(drl_only).cloned().collect();
-    let drl_prepared = (!drl_only.is_empty())
-        .then(|| train::prepare_comparisons(&drl_train, augmentation, config));
-    let drl_comparisons = drl_prepared.as_ref().unwrap_or(&prepared);
-    let drl = train::train_drl(&drl_train, drl_comparisons, config, progress)?;
+    let drl_own = train::drl_own_side(train, drl_only, augmentation, config);
+    let (drl_train, drl_comparisons) = match &drl_own {
+        Some((sequences, comparisons)) => (sequences.as_slice(), comparisons),
+        None => (train, &prepared),
+    };
+    let drl = train::train_drl(drl_train, drl_comparisons, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
     let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
-    let obs = train::calibration_observations(&drl_train, usize::MAX);
+    let obs = train::calibration_observations(drl_train, usize::MAX);
     let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;
     let mut files = Vec::new();
     let drl_ck = Checkpoint::new(
@@ -81,12 +81,12 @@ pub fn train_and_export(
         (
             "drl.rsk",
             export::export(&drl_ck, DrlFormat::Int8)?,
-            drl_train.as_slice(),
+            drl_train,
         ),
         (
             "drl-f32.rsk",
             export::export(&drl_ck, DrlFormat::F32)?,
-            drl_train.as_slice(),
+            drl_train,
         ),
         (
             "msra.rsk",

@@ -255,18 +255,10 @@ pub fn run_fold(
 
     let t0 = Instant::now();
     let prepared = super::prepare_comparisons(&train_ts, augmentation, &cfg);
-    // DRL's own training side when it has data MSRA must not see; otherwise the shared one.
-    let drl_train_ts: Vec<Sequence> = if drl_only.is_empty() {
-        Vec::new()
-    } else {
-        let mut all = train_ts.clone();
-        all.extend(subsample_events(drl_only, opts.train_fraction, cfg.seed));
-        all
-    };
-    let drl_prepared = (!drl_only.is_empty())
-        .then(|| super::prepare_comparisons(&drl_train_ts, augmentation, &cfg));
-    let (drl_train, drl_comparisons) = match &drl_prepared {
-        Some(p) => (drl_train_ts.as_slice(), p),
+    let drl_only_ts = subsample_events(drl_only, opts.train_fraction, cfg.seed);
+    let drl_own = super::drl_own_side(&train_ts, &drl_only_ts, augmentation, &cfg);
+    let (drl_train, drl_comparisons) = match &drl_own {
+        Some((sequences, comparisons)) => (sequences.as_slice(), comparisons),
         None => (train_ts.as_slice(), &prepared),
     };
     times.comparisons = t0.elapsed().as_secs_f64();

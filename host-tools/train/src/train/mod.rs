@@ -341,6 +341,23 @@ pub struct PreparedComparisons {
     pub fit_sequences: Vec<Sequence>,
 }
 
+/// DRL's own training side when it has data MSRA must not see (`drl_only`, e.g. the roadside
+/// passes): `train` and `drl_only` together with their comparisons; `None` when there is none and
+/// DRL trains on MSRA's sequences and comparisons.
+pub fn drl_own_side(
+    train: &[Sequence],
+    drl_only: &[Sequence],
+    augmentation: Option<&[Sequence]>,
+    config: &TrainConfig,
+) -> Option<(Vec<Sequence>, PreparedComparisons)> {
+    if drl_only.is_empty() {
+        return None;
+    }
+    let all: Vec<Sequence> = train.iter().chain(drl_only).cloned().collect();
+    let prepared = prepare_comparisons(&all, augmentation, config);
+    Some((all, prepared))
+}
+
 /// Split the training sequences by event and build comparisons on both parts (the validation part
 /// gets targets scaled by its share, so its loss is comparable).
 pub fn prepare_comparisons(
