@@ -29,6 +29,7 @@ use scorer_core::surrogates::surrogates_and_features;
 use scorer_core::{VehicleState, FEATURE_NAMES};
 
 mod field;
+mod last_ego;
 mod number;
 mod pipeline;
 pub mod split;
@@ -36,6 +37,7 @@ pub mod split;
 pub use number::{parse_plain_decimal, push_f32, F32Texts};
 // The record layer, shared with the Parquet path (`riskscore_eval::parquet_io`).
 pub use field::push_field;
+pub use last_ego::LastEgo;
 pub use pipeline::{for_each_record, read_header, record_reader, FieldBuf};
 pub use pipeline::{score_csv, SsmOptions, SsmSummary};
 pub use split::DEFAULT_MAX_RECORD_BYTES;
@@ -295,12 +297,14 @@ impl PairColumns {
 
     /// Parse and validate the ego and partner states of one record. Positions are returned
     /// relative to the ego's centre (the ego is at the origin).
+    /// `last_ego`: the ego of the previous row, reused when this row repeats it (see [`LastEgo`]).
     pub fn parse_pair<F: RowFields + ?Sized>(
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<(VehicleState, VehicleState), RowError> {
-        let (ego, partner) = self.parsed_values(record, line)?;
+        let (ego, partner) = self.parsed_values(record, line, last_ego)?;
         self.build_pair(ego, partner, line)
     }
 
@@ -310,6 +314,7 @@ impl PairColumns {
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<([f64; 9], [f64; 9]), RowError> {
         if record.field_count() > self.names.len() {
             return Err(RowError {
@@ -337,7 +342,14 @@ impl PairColumns {
                 problem: RowProblem::Missing,
             });
         }
-        let ego = self.parse_state(record, &self.ego, line)?;
+        let ego = match last_ego.values_if_same(record, &self.ego) {
+            Some(values) => values,
+            None => {
+                let values = self.parse_state(record, &self.ego, line)?;
+                last_ego.keep(record, &self.ego, values);
+                values
+            }
+        };
         let partner = self.parse_state(record, &self.partner, line)?;
         Ok((ego, partner))
     }
@@ -398,8 +410,9 @@ impl PairColumns {
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<([f64; 9], [f64; 9]), RowError> {
-        let (ego, partner) = self.parsed_values(record, line)?;
+        let (ego, partner) = self.parsed_values(record, line, last_ego)?;
         self.build_pair(ego, partner, line)?;
         Ok((ego, partner))
     }

@@ -7,7 +7,9 @@
 //! chunk order, so the output is the same as a one-row-at-a-time run.
 use super::field::push_field;
 use super::split::{Chunk, Piece, Splitter, DEFAULT_MAX_RECORD_BYTES};
-use super::{computed_values, F32Texts, PairColumns, RowError, RowFields, RowProblem, SsmError};
+use super::{
+    computed_values, F32Texts, LastEgo, PairColumns, RowError, RowFields, RowProblem, SsmError,
+};
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::sync::mpsc;
@@ -221,6 +223,7 @@ fn process_chunk(
     reader: &mut csv_core::Reader,
     fields: &mut FieldBuf,
     texts: &mut F32Texts,
+    last_ego: &mut LastEgo,
     job: Job,
 ) -> Done {
     let Job {
@@ -252,7 +255,7 @@ fn process_chunk(
                     if fields.is_blank() {
                         return true;
                     }
-                    match columns.parse_pair(fields, line) {
+                    match columns.parse_pair(fields, line, last_ego) {
                         Ok((ego, partner)) => {
                             match raw {
                                 // No field needs quoting: the line is its own output.
@@ -385,6 +388,7 @@ pub fn score_csv<R: Read, W: Write>(
                 let mut reader = record_reader();
                 let mut fields = FieldBuf::default();
                 let mut texts = F32Texts::default();
+                let mut last_ego = LastEgo::default();
                 loop {
                     // Hold the lock only to take a job, not while working on it.
                     let job = match job_rx.lock() {
@@ -392,8 +396,15 @@ pub fn score_csv<R: Read, W: Write>(
                         Err(_) => return,
                     };
                     let Ok(job) = job else { return };
-                    let done =
-                        process_chunk(columns, strict, &mut reader, &mut fields, &mut texts, job);
+                    let done = process_chunk(
+                        columns,
+                        strict,
+                        &mut reader,
+                        &mut fields,
+                        &mut texts,
+                        &mut last_ego,
+                        job,
+                    );
                     if done_tx.send(done).is_err() {
                         return;
                     }
