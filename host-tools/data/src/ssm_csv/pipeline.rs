@@ -94,8 +94,11 @@ impl FieldBuf {
     pub fn is_blank(&self) -> bool {
         (0..self.count).all(|k| {
             let f = self.field(k).unwrap_or_default();
-            f.iter().all(u8::is_ascii_whitespace)
-                || std::str::from_utf8(f).is_ok_and(|s| s.trim().is_empty())
+            // An ASCII character that is not white space settles it without decoding the field
+            // (the usual row: its first field).
+            !f.iter()
+                .any(|&b| b.is_ascii() && !char::from(b).is_whitespace())
+                && std::str::from_utf8(f).is_ok_and(|s| s.trim().is_empty())
         })
     }
 }
@@ -487,6 +490,23 @@ pub fn score_csv<R: Read, W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_blank_record_is_white_space_in_every_field_unicode_included() {
+        let mut fields = FieldBuf::default();
+        for (line, blank) in [
+            (&b""[..], true),
+            (b" ,\t, \x0c", true),
+            ("\u{3000},\u{a0} ".as_bytes(), true),
+            (b" , x", false),
+            ("\u{3000}x".as_bytes(), false),
+            (b"\xff, ", false),
+            (b"\x0b", true),
+        ] {
+            fields.set_plain(line);
+            assert_eq!(fields.is_blank(), blank, "{line:?}");
+        }
+    }
 
     #[test]
     fn comma_offsets_are_those_of_a_byte_scan() {
