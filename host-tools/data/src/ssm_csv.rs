@@ -371,6 +371,37 @@ impl PairColumns {
         self.build_pair(ego, partner, line)
     }
 
+    /// [`Self::pair_from_values`] for rows that list an ego's partners one after another:
+    /// `last_ego` holds the values and state of the last ego that passed, and an ego with the
+    /// same values (bit for bit) takes that state without being checked and built again. The
+    /// state depends on the ego's values alone, so the result and every error are the same.
+    pub fn pair_from_values_reusing(
+        &self,
+        ego: [f64; 9],
+        partner: [f64; 9],
+        line: u64,
+        last_ego: &mut Option<([f64; 9], VehicleState)>,
+    ) -> Result<(VehicleState, VehicleState), RowError> {
+        if let Some((values, ego_state)) = last_ego.as_ref() {
+            if values
+                .iter()
+                .zip(&ego)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+            {
+                // The ego passed every check before: only the partner can be at fault.
+                if !values_pass_checks(&partner) {
+                    self.first_bad_value(&ego, &partner, line)?;
+                }
+                let partner_state =
+                    self.to_state(partner, (ego[0], ego[1]), &self.partner, line)?;
+                return Ok((*ego_state, partner_state));
+            }
+        }
+        let pair = self.pair_from_values(ego, partner, line)?;
+        *last_ego = Some((ego, pair.0));
+        Ok(pair)
+    }
+
     /// The error of the first value (ego, then partner, in [`STATE_FIELDS`] order) that fails
     /// [`check_value`].
     fn first_bad_value(
@@ -624,6 +655,47 @@ mod tests {
                     .all(|(&w, field)| check_value(w, field).is_ok());
                 assert_eq!(values_pass_checks(&values), per_value, "{v} in {slot}");
             }
+        }
+    }
+
+    #[test]
+    fn reusing_the_last_ego_gives_the_same_pairs_and_errors() {
+        let names: Vec<Vec<u8>> = HEADER.split(',').map(|n| n.as_bytes().to_vec()).collect();
+        let columns = PairColumns::from_header_bytes(names).unwrap();
+        let good_ego = [100.0, 5.0, 20.0, 0.0, 1.0, 0.0, 0.0, 4.5, 1.8];
+        let other_ego = [130.0, 5.0, 10.0, 1.0, 1.0, 0.5, 0.2, 4.0, 1.7];
+        let partner = |k: usize| [110.0 + k as f64, 8.0, 18.0, 0.0, 1.0, 0.0, 0.0, 4.0, 1.9];
+        let mut bad_partner = partner(9);
+        bad_partner[7] = -1.0;
+        let mut zero_heading = partner(3);
+        (zero_heading[4], zero_heading[5]) = (0.0, 0.0);
+        let mut bad_ego = good_ego;
+        bad_ego[2] = f64::INFINITY;
+        let mut negative_zero = good_ego;
+        negative_zero[3] = -0.0;
+        // Runs of one ego with good and bad partners, a bad ego between them, and an ego equal
+        // to the last one but for the sign of a zero.
+        let rows = [
+            (good_ego, partner(1)),
+            (good_ego, bad_partner),
+            (good_ego, partner(2)),
+            (good_ego, zero_heading),
+            (bad_ego, partner(1)),
+            (good_ego, partner(4)),
+            (negative_zero, partner(5)),
+            (other_ego, bad_partner),
+            (other_ego, partner(6)),
+            (other_ego, partner(7)),
+            (good_ego, partner(8)),
+        ];
+        let mut last = None;
+        for (line, (ego, partner)) in rows.into_iter().enumerate() {
+            let line = line as u64 + 2;
+            assert_eq!(
+                columns.pair_from_values_reusing(ego, partner, line, &mut last),
+                columns.pair_from_values(ego, partner, line),
+                "line {line}"
+            );
         }
     }
 
