@@ -29,6 +29,7 @@ use scorer_core::surrogates::surrogates_and_features;
 use scorer_core::{VehicleState, FEATURE_NAMES};
 
 mod field;
+mod last_ego;
 mod number;
 mod pipeline;
 pub mod split;
@@ -36,6 +37,7 @@ pub mod split;
 pub use number::{parse_plain_decimal, push_f32, F32Texts};
 // The record layer, shared with the Parquet path (`riskscore_eval::parquet_io`).
 pub use field::push_field;
+pub use last_ego::LastEgo;
 pub use pipeline::{for_each_record, read_header, record_reader, FieldBuf};
 pub use pipeline::{score_csv, SsmOptions, SsmSummary};
 pub use split::DEFAULT_MAX_RECORD_BYTES;
@@ -295,12 +297,14 @@ impl PairColumns {
 
     /// Parse and validate the ego and partner states of one record. Positions are returned
     /// relative to the ego's centre (the ego is at the origin).
+    /// `last_ego`: the ego of the previous row, reused when this row repeats it (see [`LastEgo`]).
     pub fn parse_pair<F: RowFields + ?Sized>(
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<(VehicleState, VehicleState), RowError> {
-        let (ego, partner) = self.parsed_values(record, line)?;
+        let (ego, partner) = self.parsed_values(record, line, last_ego)?;
         self.build_pair(ego, partner, line)
     }
 
@@ -310,6 +314,7 @@ impl PairColumns {
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<([f64; 9], [f64; 9]), RowError> {
         if record.field_count() > self.names.len() {
             return Err(RowError {
@@ -337,7 +342,14 @@ impl PairColumns {
                 problem: RowProblem::Missing,
             });
         }
-        let ego = self.parse_state(record, &self.ego, line)?;
+        let ego = match last_ego.values_if_same(record, &self.ego) {
+            Some(values) => values,
+            None => {
+                let values = self.parse_state(record, &self.ego, line)?;
+                last_ego.keep(record, &self.ego, values);
+                values
+            }
+        };
         let partner = self.parse_state(record, &self.partner, line)?;
         Ok((ego, partner))
     }
@@ -357,6 +369,37 @@ impl PairColumns {
             self.first_bad_value(&ego, &partner, line)?;
         }
         self.build_pair(ego, partner, line)
+    }
+
+    /// [`Self::pair_from_values`] for rows that list an ego's partners one after another:
+    /// `last_ego` holds the values and state of the last ego that passed, and an ego with the
+    /// same values (bit for bit) takes that state without being checked and built again. The
+    /// state depends on the ego's values alone, so the result and every error are the same.
+    pub fn pair_from_values_reusing(
+        &self,
+        ego: [f64; 9],
+        partner: [f64; 9],
+        line: u64,
+        last_ego: &mut Option<([f64; 9], VehicleState)>,
+    ) -> Result<(VehicleState, VehicleState), RowError> {
+        if let Some((values, ego_state)) = last_ego.as_ref() {
+            if values
+                .iter()
+                .zip(&ego)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+            {
+                // The ego passed every check before: only the partner can be at fault.
+                if !values_pass_checks(&partner) {
+                    self.first_bad_value(&ego, &partner, line)?;
+                }
+                let partner_state =
+                    self.to_state(partner, (ego[0], ego[1]), &self.partner, line)?;
+                return Ok((*ego_state, partner_state));
+            }
+        }
+        let pair = self.pair_from_values(ego, partner, line)?;
+        *last_ego = Some((ego, pair.0));
+        Ok(pair)
     }
 
     /// The error of the first value (ego, then partner, in [`STATE_FIELDS`] order) that fails
@@ -398,8 +441,9 @@ impl PairColumns {
         &self,
         record: &F,
         line: u64,
+        last_ego: &mut LastEgo,
     ) -> Result<([f64; 9], [f64; 9]), RowError> {
-        let (ego, partner) = self.parsed_values(record, line)?;
+        let (ego, partner) = self.parsed_values(record, line, last_ego)?;
         self.build_pair(ego, partner, line)?;
         Ok((ego, partner))
     }
@@ -611,6 +655,47 @@ mod tests {
                     .all(|(&w, field)| check_value(w, field).is_ok());
                 assert_eq!(values_pass_checks(&values), per_value, "{v} in {slot}");
             }
+        }
+    }
+
+    #[test]
+    fn reusing_the_last_ego_gives_the_same_pairs_and_errors() {
+        let names: Vec<Vec<u8>> = HEADER.split(',').map(|n| n.as_bytes().to_vec()).collect();
+        let columns = PairColumns::from_header_bytes(names).unwrap();
+        let good_ego = [100.0, 5.0, 20.0, 0.0, 1.0, 0.0, 0.0, 4.5, 1.8];
+        let other_ego = [130.0, 5.0, 10.0, 1.0, 1.0, 0.5, 0.2, 4.0, 1.7];
+        let partner = |k: usize| [110.0 + k as f64, 8.0, 18.0, 0.0, 1.0, 0.0, 0.0, 4.0, 1.9];
+        let mut bad_partner = partner(9);
+        bad_partner[7] = -1.0;
+        let mut zero_heading = partner(3);
+        (zero_heading[4], zero_heading[5]) = (0.0, 0.0);
+        let mut bad_ego = good_ego;
+        bad_ego[2] = f64::INFINITY;
+        let mut negative_zero = good_ego;
+        negative_zero[3] = -0.0;
+        // Runs of one ego with good and bad partners, a bad ego between them, and an ego equal
+        // to the last one but for the sign of a zero.
+        let rows = [
+            (good_ego, partner(1)),
+            (good_ego, bad_partner),
+            (good_ego, partner(2)),
+            (good_ego, zero_heading),
+            (bad_ego, partner(1)),
+            (good_ego, partner(4)),
+            (negative_zero, partner(5)),
+            (other_ego, bad_partner),
+            (other_ego, partner(6)),
+            (other_ego, partner(7)),
+            (good_ego, partner(8)),
+        ];
+        let mut last = None;
+        for (line, (ego, partner)) in rows.into_iter().enumerate() {
+            let line = line as u64 + 2;
+            assert_eq!(
+                columns.pair_from_values_reusing(ego, partner, line, &mut last),
+                columns.pair_from_values(ego, partner, line),
+                "line {line}"
+            );
         }
     }
 

@@ -142,6 +142,8 @@ fn for_each_pair(
     let partner_values: [&[f64]; 9] = std::array::from_fn(|k| &partner[k].values[..n]);
     let any_nulls = ego.iter().chain(&partner).any(|c| c.nulls.is_some());
     let mut bad = Vec::new();
+    // Partners of one ego usually follow each other: its state is built once for them all.
+    let mut last_ego = None;
     for row in 0..n {
         let line = first_row + row as u64 + 1;
         let present = !any_nulls
@@ -155,7 +157,7 @@ fn for_each_pair(
                 e[k] = ego_values[k][row];
                 p[k] = partner_values[k][row];
             }
-            columns.pair_from_values(e, p, line)
+            columns.pair_from_values_reusing(e, p, line, &mut last_ego)
         } else {
             let first_null = |cols: &[Column], idx: &[usize; 9]| {
                 cols.iter()

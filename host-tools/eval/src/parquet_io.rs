@@ -6,7 +6,8 @@
 //! become Float64 (the parsed values) and every other column Utf8 (its text). Parquet strings
 //! must be UTF-8 and nothing is replaced by U+FFFD: a row whose pass-through text is not UTF-8 is a
 //! bad row (reported with its line and column, skipped; `--strict` stops), and a header name that
-//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is Snappy-compressed;
+//! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is
+//! Snappy-compressed but for the computed columns that do not compress ([`UNCOMPRESSED_COLUMNS`]);
 //! `riskctl ssm` writes a row group per 65,536 input rows (Parquet input) or per 8 MiB of CSV,
 //! [`BatchSink`] (`riskctl score`) row groups of up to 131,072 rows (it buffers one group). Bad
 //! rows are skipped and reported with their 1-based row number (Parquet input) or line number
@@ -43,7 +44,7 @@ mod ssm_parallel;
 
 pub use csv_batches::{CsvBatches, CsvLayout, CsvRows};
 pub(crate) use csv_cells::write_csv_rows;
-pub use row_groups::{writer_properties, MAX_ROW_GROUP_ROWS};
+pub use row_groups::{writer_properties, MAX_ROW_GROUP_ROWS, UNCOMPRESSED_COLUMNS};
 pub use ssm_parallel::ssm_columnar;
 
 /// Rows per Arrow batch read or built.

@@ -7,7 +7,9 @@
 //! chunk order, so the output is the same as a one-row-at-a-time run.
 use super::field::push_field;
 use super::split::{Chunk, Piece, Splitter, DEFAULT_MAX_RECORD_BYTES};
-use super::{computed_values, F32Texts, PairColumns, RowError, RowFields, RowProblem, SsmError};
+use super::{
+    computed_values, F32Texts, LastEgo, PairColumns, RowError, RowFields, RowProblem, SsmError,
+};
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::sync::mpsc;
@@ -92,8 +94,11 @@ impl FieldBuf {
     pub fn is_blank(&self) -> bool {
         (0..self.count).all(|k| {
             let f = self.field(k).unwrap_or_default();
-            f.iter().all(u8::is_ascii_whitespace)
-                || std::str::from_utf8(f).is_ok_and(|s| s.trim().is_empty())
+            // An ASCII character that is not white space settles it without decoding the field
+            // (the usual row: its first field).
+            !f.iter()
+                .any(|&b| b.is_ascii() && !char::from(b).is_whitespace())
+                && std::str::from_utf8(f).is_ok_and(|s| s.trim().is_empty())
         })
     }
 }
@@ -221,6 +226,7 @@ fn process_chunk(
     reader: &mut csv_core::Reader,
     fields: &mut FieldBuf,
     texts: &mut F32Texts,
+    last_ego: &mut LastEgo,
     job: Job,
 ) -> Done {
     let Job {
@@ -252,7 +258,7 @@ fn process_chunk(
                     if fields.is_blank() {
                         return true;
                     }
-                    match columns.parse_pair(fields, line) {
+                    match columns.parse_pair(fields, line, last_ego) {
                         Ok((ego, partner)) => {
                             match raw {
                                 // No field needs quoting: the line is its own output.
@@ -385,6 +391,7 @@ pub fn score_csv<R: Read, W: Write>(
                 let mut reader = record_reader();
                 let mut fields = FieldBuf::default();
                 let mut texts = F32Texts::default();
+                let mut last_ego = LastEgo::default();
                 loop {
                     // Hold the lock only to take a job, not while working on it.
                     let job = match job_rx.lock() {
@@ -392,8 +399,15 @@ pub fn score_csv<R: Read, W: Write>(
                         Err(_) => return,
                     };
                     let Ok(job) = job else { return };
-                    let done =
-                        process_chunk(columns, strict, &mut reader, &mut fields, &mut texts, job);
+                    let done = process_chunk(
+                        columns,
+                        strict,
+                        &mut reader,
+                        &mut fields,
+                        &mut texts,
+                        &mut last_ego,
+                        job,
+                    );
                     if done_tx.send(done).is_err() {
                         return;
                     }
@@ -476,6 +490,23 @@ pub fn score_csv<R: Read, W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_blank_record_is_white_space_in_every_field_unicode_included() {
+        let mut fields = FieldBuf::default();
+        for (line, blank) in [
+            (&b""[..], true),
+            (b" ,\t, \x0c", true),
+            ("\u{3000},\u{a0} ".as_bytes(), true),
+            (b" , x", false),
+            ("\u{3000}x".as_bytes(), false),
+            (b"\xff, ", false),
+            (b"\x0b", true),
+        ] {
+            fields.set_plain(line);
+            assert_eq!(fields.is_blank(), blank, "{line:?}");
+        }
+    }
 
     #[test]
     fn comma_offsets_are_those_of_a_byte_scan() {

@@ -10,7 +10,7 @@ use arrow_schema::{DataType, Field, Schema};
 use super::BATCH_ROWS;
 use riskscore_data::ssm_csv::split::{Chunk, Piece, Splitter};
 use riskscore_data::ssm_csv::{
-    FieldBuf, PairColumns, RowError, RowFields, RowProblem, SsmError, SsmOptions,
+    FieldBuf, LastEgo, PairColumns, RowError, RowFields, RowProblem, SsmError, SsmOptions,
 };
 
 /// The Arrow layout of a pair CSV, fixed by its header.
@@ -66,6 +66,7 @@ pub struct CsvRows {
     rows: usize,
     reader: csv_core::Reader,
     fields: FieldBuf,
+    last_ego: LastEgo,
 }
 
 impl Default for CsvRows {
@@ -76,6 +77,7 @@ impl Default for CsvRows {
             rows: 0,
             reader: riskscore_data::ssm_csv::record_reader(),
             fields: FieldBuf::default(),
+            last_ego: LastEgo::default(),
         }
     }
 }
@@ -98,7 +100,12 @@ impl CsvRows {
         let n = layout.columns.names.len();
         self.numbers.resize_with(18, Float64Builder::new);
         self.texts.resize_with(n, StringBuilder::new);
-        let (numbers, texts, rows) = (&mut self.numbers, &mut self.texts, &mut self.rows);
+        let (numbers, texts, rows, last_ego) = (
+            &mut self.numbers,
+            &mut self.texts,
+            &mut self.rows,
+            &mut self.last_ego,
+        );
         let mut failure: Option<RowError> = None;
         for piece in &chunk.pieces {
             let (start, end, line) = match *piece {
@@ -122,7 +129,7 @@ impl CsvRows {
                     return true;
                 }
                 let values = columns
-                    .parse_values(f, line)
+                    .parse_values(f, line, last_ego)
                     .and_then(|v| texts_are_utf8(layout, f, line).map(|()| v));
                 match values {
                     Ok((ego, partner)) => {

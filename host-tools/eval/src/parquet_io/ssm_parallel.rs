@@ -303,6 +303,7 @@ pub(crate) fn ssm_columnar_cut<R: Read, W: Write + Send>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::parquet_io::UNCOMPRESSED_COLUMNS;
     use arrow_array::{ArrayRef, Float64Array, StringArray};
     use parquet::arrow::ArrowWriter;
     use parquet::file::reader::{FileReader, SerializedFileReader};
@@ -488,6 +489,34 @@ mod tests {
                 assert_eq!(text.lines().count(), 2997, "header + good rows");
             }
         }
+    }
+
+    #[test]
+    fn incompressible_computed_columns_are_stored_plain_and_the_rest_with_snappy() {
+        use parquet::basic::Compression;
+        let (file, _, summary) = run(&csv(1000, &[]), false, true, 2, false).unwrap();
+        assert_eq!(summary.rows_ok, 1000);
+        let reader = SerializedFileReader::new(as_file(&file)).unwrap();
+        let meta = reader.metadata();
+        let mut plain = Vec::new();
+        for (k, group) in meta.row_groups().iter().enumerate() {
+            for column in group.columns() {
+                let name = column.column_path().string();
+                let expected = if UNCOMPRESSED_COLUMNS.contains(&name.as_str()) {
+                    Compression::UNCOMPRESSED
+                } else {
+                    Compression::SNAPPY
+                };
+                assert_eq!(column.compression(), expected, "{name}");
+                if k == 0 && expected == Compression::UNCOMPRESSED {
+                    plain.push(name);
+                }
+            }
+        }
+        assert_eq!(
+            plain, UNCOMPRESSED_COLUMNS,
+            "every listed column is computed"
+        );
     }
 
     #[test]
