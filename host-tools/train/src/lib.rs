@@ -11,6 +11,7 @@
 //! - [`final_models`]: DRL and MSRA trained on all data, quantised and written (`riskctl train`).
 //! - [`transfer`]: the transfer benchmark (train on one data set, test on another).
 //! - [`domains`]: the domain benchmark (slices by speed, geometry and source; hold one out).
+//! - [`parallel`]: the folds of a benchmark on every core, results in fold order.
 pub mod comparisons;
 pub mod domains;
 pub mod export;
@@ -18,6 +19,7 @@ pub mod fallback;
 pub mod final_models;
 pub mod gssm;
 pub mod nn;
+pub mod parallel;
 pub mod quantize;
 pub mod train;
 pub mod transfer;

@@ -125,51 +125,67 @@ pub fn run(
             scenarios,
         });
     }
+    // Every (seed, fold) of the benchmark, run side by side on the cores, reported in order.
+    let jobs: Vec<(u64, usize, Vec<String>)> = (0..options.seeds.max(1))
+        .flat_map(|k| {
+            let seed = config.seed.wrapping_add(k as u64);
+            scenario_groups(&data.real, options.folds, seed)
+                .into_iter()
+                .enumerate()
+                .map(move |(fold, held_out)| (seed, fold, held_out))
+        })
+        .collect();
+    let threads = crate::parallel::threads_for(jobs.len());
+    let fold_options = TransferOptions {
+        progress: if threads > 1 {
+            Progress::Hidden
+        } else {
+            options.progress
+        },
+        ..options.clone()
+    };
+    let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
+        let (seed, fold, held_out) = &jobs[j];
+        let is_test = |s: &Sequence| held_out.iter().any(|n| n == scenario_of(&s.event_id));
+        let real_train: Vec<Sequence> = data.real.iter().filter(|s| !is_test(s)).cloned().collect();
+        let real_test: Vec<Sequence> = data.real.iter().filter(|s| is_test(s)).cloned().collect();
+        let mut train = data.train_sim.clone();
+        train.extend(real_train.iter().cloned());
+        let mut test = data.test_sim.clone();
+        test.extend(real_test.iter().cloned());
+        let outcome = run_split(
+            &Split {
+                seed: *seed,
+                fold: *fold,
+                train: &train,
+                drl_only: &data.train_drl_only,
+                normal: &real_train,
+                test: &test,
+            },
+            config,
+            gssm_config,
+            &fold_options,
+        )?;
+        let split = FoldSplit {
+            seed: *seed,
+            fold: *fold,
+            test_scenarios: held_out.clone(),
+            train_sequences: train.len(),
+            test_sequences: test.len(),
+        };
+        Ok::<_, TransferError>((outcome.result, split))
+    })?;
     let mut folds = Vec::new();
     let mut splits = Vec::new();
-    for k in 0..options.seeds.max(1) {
-        let seed = config.seed.wrapping_add(k as u64);
-        let groups = scenario_groups(&data.real, options.folds, seed);
-        for (fold, held_out) in groups.iter().enumerate() {
-            let is_test = |s: &Sequence| held_out.iter().any(|n| n == scenario_of(&s.event_id));
-            let real_train: Vec<Sequence> =
-                data.real.iter().filter(|s| !is_test(s)).cloned().collect();
-            let real_test: Vec<Sequence> =
-                data.real.iter().filter(|s| is_test(s)).cloned().collect();
-            let mut train = data.train_sim.clone();
-            train.extend(real_train.iter().cloned());
-            let mut test = data.test_sim.clone();
-            test.extend(real_test.iter().cloned());
-
-            let outcome = run_split(
-                &Split {
-                    seed,
-                    fold,
-                    train: &train,
-                    drl_only: &data.train_drl_only,
-                    normal: &real_train,
-                    test: &test,
-                },
-                config,
-                gssm_config,
-                options,
-            )?;
-            folds.push(outcome.result);
-            splits.push(FoldSplit {
-                seed,
-                fold,
-                test_scenarios: held_out.clone(),
-                train_sequences: train.len(),
-                test_sequences: test.len(),
-            });
-            if options.progress != Progress::Hidden {
-                eprintln!(
-                    "      transfer seed {seed} fold {fold}: {} train / {} test sequences",
-                    train.len(),
-                    test.len()
-                );
-            }
+    for (result, split) in outcomes {
+        if options.progress != Progress::Hidden {
+            eprintln!(
+                "      transfer seed {} fold {}: {} train / {} test sequences",
+                split.seed, split.fold, split.train_sequences, split.test_sequences
+            );
         }
+        folds.push(result);
+        splits.push(split);
     }
     // Event counts of one test set as the table header reports them (simulated test events plus
     // every real sequence, each held out once per seed).

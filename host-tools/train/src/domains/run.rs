@@ -110,58 +110,81 @@ pub fn run_round(
         round: round.name.clone(),
         source: Box::new(source),
     };
+    // Every (seed, fold) of the round, run side by side on the cores, reported in order.
+    let jobs: Vec<(u64, usize, Vec<String>)> = (0..options.seeds.max(1))
+        .flat_map(|k| {
+            let seed = config.seed.wrapping_add(k as u64);
+            scenario_groups(&real, options.folds, seed)
+                .into_iter()
+                .enumerate()
+                .map(move |(fold, held)| (seed, fold, held))
+        })
+        .collect();
+    let threads = crate::parallel::threads_for(jobs.len());
+    let fold_options = TransferOptions {
+        progress: if threads > 1 {
+            Progress::Hidden
+        } else {
+            options.progress
+        },
+        ..options.clone()
+    };
+    let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
+        let (seed, fold, held) = &jobs[j];
+        let split = split_round(round, data, held);
+        let outcome = transfer::run_split(
+            &Split {
+                seed: *seed,
+                fold: *fold,
+                train: &split.train,
+                drl_only: &[],
+                normal: &split.normal,
+                test: &split.test,
+            },
+            config,
+            gssm_config,
+            &fold_options,
+        )
+        .map_err(round_err)?;
+        let real_range = split.real_from..split.test.len();
+        let fold_shares: Vec<ShareRun> = outcome
+            .runs
+            .iter()
+            .map(|run| share_of(run, real_range.clone(), *seed, *fold))
+            .collect();
+        let real_test = KindCounts::of(&split.test[split.real_from..]);
+        let fold_split = RoundFoldSplit {
+            seed: *seed,
+            fold: *fold,
+            held_scenarios: held.clone(),
+            train: KindCounts::of(&split.train),
+            test: KindCounts::of(&split.test),
+            real_test_safe: real_test.safe,
+        };
+        let sizes = (split.train.len(), split.test.len());
+        Ok::<_, DomainsError>((
+            outcome.result,
+            outcome.domain_shares,
+            fold_shares,
+            fold_split,
+            sizes,
+        ))
+    })?;
     let mut folds = Vec::new();
     let mut shares = Vec::new();
     let mut splits = Vec::new();
     let mut domain: Vec<DomainShare> = Vec::new();
-    for k in 0..options.seeds.max(1) {
-        let seed = config.seed.wrapping_add(k as u64);
-        for (fold, held) in scenario_groups(&real, options.folds, seed)
-            .into_iter()
-            .enumerate()
-        {
-            let split = split_round(round, data, &held);
-            let outcome = transfer::run_split(
-                &Split {
-                    seed,
-                    fold,
-                    train: &split.train,
-                    drl_only: &[],
-                    normal: &split.normal,
-                    test: &split.test,
-                },
-                config,
-                gssm_config,
-                options,
-            )
-            .map_err(round_err)?;
-            let real_range = split.real_from..split.test.len();
-            shares.extend(
-                outcome
-                    .runs
-                    .iter()
-                    .map(|run| share_of(run, real_range.clone(), seed, fold)),
+    for (result, fold_domain, fold_shares, fold_split, (train_len, test_len)) in outcomes {
+        if options.progress != Progress::Hidden {
+            eprintln!(
+                "      round {} seed {} fold {}: {train_len} train / {test_len} test sequences",
+                round.name, fold_split.seed, fold_split.fold
             );
-            merge_shares(&mut domain, &outcome.domain_shares);
-            folds.push(outcome.result);
-            let real_test = KindCounts::of(&split.test[split.real_from..]);
-            splits.push(RoundFoldSplit {
-                seed,
-                fold,
-                held_scenarios: held,
-                train: KindCounts::of(&split.train),
-                test: KindCounts::of(&split.test),
-                real_test_safe: real_test.safe,
-            });
-            if options.progress != Progress::Hidden {
-                eprintln!(
-                    "      round {} seed {seed} fold {fold}: {} train / {} test sequences",
-                    round.name,
-                    split.train.len(),
-                    split.test.len()
-                );
-            }
         }
+        merge_shares(&mut domain, &fold_domain);
+        shares.extend(fold_shares);
+        folds.push(result);
+        splits.push(fold_split);
     }
     Ok(RoundResult {
         round: round.clone(),

@@ -211,8 +211,17 @@ pub fn cross_validate_with_extra(
         });
     }
     let folds = kfold_by_event(seqs, opts.folds, opts.seed);
-    let mut out = Vec::with_capacity(opts.folds);
-    for fold in 0..folds.k() {
+    let threads = crate::parallel::threads_for(folds.k());
+    // Side by side, one fold's progress bars would overwrite the other's.
+    let fold_opts = CvOptions {
+        progress: if threads > 1 {
+            Progress::Hidden
+        } else {
+            opts.progress
+        },
+        ..opts.clone()
+    };
+    crate::parallel::map_in_order(folds.k(), threads, |fold| {
         let train_seqs: Vec<Sequence> = folds
             .train(fold)
             .into_iter()
@@ -224,17 +233,16 @@ pub fn cross_validate_with_extra(
             .into_iter()
             .map(|i| seqs[i].clone())
             .collect();
-        out.push(run_fold(
+        run_fold(
             fold,
             &train_seqs,
             extra_train.drl_only,
             &test_seqs,
             augmentation,
             config,
-            opts,
-        )?);
-    }
-    Ok(out)
+            &fold_opts,
+        )
+    })
 }
 
 /// Train on `train` (DRL also on `drl_only`), evaluate on `test` (one fold).
