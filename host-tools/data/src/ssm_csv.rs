@@ -32,6 +32,7 @@ mod field;
 mod last_ego;
 mod number;
 mod pipeline;
+mod row_fields;
 pub mod split;
 
 pub use number::{parse_plain_decimal, push_f32, F32Texts};
@@ -40,6 +41,7 @@ pub use field::push_field;
 pub use last_ego::LastEgo;
 pub use pipeline::{for_each_record, read_header, record_reader, FieldBuf};
 pub use pipeline::{score_csv, SsmOptions, SsmSummary};
+pub use row_fields::RowFields;
 pub use split::DEFAULT_MAX_RECORD_BYTES;
 
 /// The per-vehicle input fields, in [`VehicleState`] order; columns are `<field>_i` / `<field>_j`.
@@ -130,30 +132,6 @@ impl From<split::SplitProblem> for RowProblem {
                 RowProblem::UnterminatedQuote { limit }
             }
         }
-    }
-}
-
-/// The fields of one parsed CSV record, as bytes (pass-through columns need not be UTF-8).
-pub trait RowFields {
-    fn field_count(&self) -> usize;
-    fn field(&self, k: usize) -> Option<&[u8]>;
-}
-
-impl RowFields for csv::StringRecord {
-    fn field_count(&self) -> usize {
-        self.len()
-    }
-    fn field(&self, k: usize) -> Option<&[u8]> {
-        self.get(k).map(str::as_bytes)
-    }
-}
-
-impl RowFields for csv::ByteRecord {
-    fn field_count(&self) -> usize {
-        self.len()
-    }
-    fn field(&self, k: usize) -> Option<&[u8]> {
-        self.get(k)
     }
 }
 

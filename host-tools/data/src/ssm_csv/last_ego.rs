@@ -5,7 +5,7 @@
 //! A row whose ego fields are byte for byte those of the last parsed ego gets the same values
 //! back without parsing them: the same bytes always parse to the same values, so the result
 //! (and every error) is what parsing would give.
-use super::RowFields;
+use super::row_fields::RowFields;
 
 /// The last ego parsed without error: its nine field texts and their values.
 #[derive(Default)]
