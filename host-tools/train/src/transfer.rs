@@ -46,6 +46,39 @@ pub struct TransferOptions {
     pub progress: Progress,
 }
 
+impl TransferOptions {
+    /// The options of one fold while `threads` folds run side by side: their progress bars would
+    /// overwrite each other, so they are hidden (the per-fold lines remain).
+    pub fn side_by_side(&self, threads: usize) -> TransferOptions {
+        TransferOptions {
+            progress: if threads > 1 {
+                Progress::Hidden
+            } else {
+                self.progress
+            },
+            ..self.clone()
+        }
+    }
+}
+
+/// Every (seed, fold, held-out scenario files) of a benchmark over the real recordings `real`:
+/// `options.seeds` seeds from `base_seed`, `options.folds` groups of scenario files each.
+pub fn fold_jobs(
+    real: &[Sequence],
+    options: &TransferOptions,
+    base_seed: u64,
+) -> Vec<(u64, usize, Vec<String>)> {
+    (0..options.seeds.max(1))
+        .flat_map(|k| {
+            let seed = base_seed.wrapping_add(k as u64);
+            scenario_groups(real, options.folds, seed)
+                .into_iter()
+                .enumerate()
+                .map(move |(fold, held_out)| (seed, fold, held_out))
+        })
+        .collect()
+}
+
 /// Benchmark failures.
 #[derive(Debug, thiserror::Error)]
 pub enum TransferError {
@@ -126,24 +159,9 @@ pub fn run(
         });
     }
     // Every (seed, fold) of the benchmark, run side by side on the cores, reported in order.
-    let jobs: Vec<(u64, usize, Vec<String>)> = (0..options.seeds.max(1))
-        .flat_map(|k| {
-            let seed = config.seed.wrapping_add(k as u64);
-            scenario_groups(&data.real, options.folds, seed)
-                .into_iter()
-                .enumerate()
-                .map(move |(fold, held_out)| (seed, fold, held_out))
-        })
-        .collect();
+    let jobs = fold_jobs(&data.real, options, config.seed);
     let threads = crate::parallel::threads_for(jobs.len());
-    let fold_options = TransferOptions {
-        progress: if threads > 1 {
-            Progress::Hidden
-        } else {
-            options.progress
-        },
-        ..options.clone()
-    };
+    let fold_options = options.side_by_side(threads);
     let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
         let (seed, fold, held_out) = &jobs[j];
         let is_test = |s: &Sequence| held_out.iter().any(|n| n == scenario_of(&s.event_id));

@@ -6,7 +6,7 @@ use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, Sl
 use super::share::{share_of, ShareRun};
 use crate::gssm::GssmConfig;
 use crate::train::{Progress, TrainConfig};
-use crate::transfer::{self, scenario_groups, Split, TransferError, TransferOptions};
+use crate::transfer::{self, Split, TransferError, TransferOptions};
 use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
 
@@ -111,24 +111,9 @@ pub fn run_round(
         source: Box::new(source),
     };
     // Every (seed, fold) of the round, run side by side on the cores, reported in order.
-    let jobs: Vec<(u64, usize, Vec<String>)> = (0..options.seeds.max(1))
-        .flat_map(|k| {
-            let seed = config.seed.wrapping_add(k as u64);
-            scenario_groups(&real, options.folds, seed)
-                .into_iter()
-                .enumerate()
-                .map(move |(fold, held)| (seed, fold, held))
-        })
-        .collect();
+    let jobs = transfer::fold_jobs(&real, options, config.seed);
     let threads = crate::parallel::threads_for(jobs.len());
-    let fold_options = TransferOptions {
-        progress: if threads > 1 {
-            Progress::Hidden
-        } else {
-            options.progress
-        },
-        ..options.clone()
-    };
+    let fold_options = options.side_by_side(threads);
     let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
         let (seed, fold, held) = &jobs[j];
         let split = split_round(round, data, held);
