@@ -156,6 +156,17 @@ class Model:
         report_bad(listed, count, strict)
         return scores.to_numpy(zero_copy_only=True)
 
+    def in_domain(self, data: Any, *, strict: bool = False) -> np.ndarray:
+        """Whether each row of ``data`` lies inside the model's training domain, as a bool numpy
+        array row for row: the flag ``riskctl score`` writes as ``<model>_in_domain``, computed
+        by the same core. Always True for a blob without a training-domain record; False where
+        a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when ``strict``). Outside
+        the domain :meth:`score` follows the blob's policy (``model.info["domain_policy"]``:
+        ``"fallback"``, ``"clamp"``, ``"flag-only"``, or ``None`` without a record)."""
+        flags, listed, count = self._native._in_domain(as_table(data))
+        report_bad(listed, count, strict)
+        return flags.to_numpy(zero_copy_only=False)
+
     def __repr__(self) -> str:
         return repr(self._native)
 

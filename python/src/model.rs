@@ -1,16 +1,18 @@
 //! `riskscore.Model`: a model blob, scored over tables of pairs exactly as on the ECU.
-use arrow_array::{Array, Float32Array};
+use arrow_array::{Array, BooleanArray, Float32Array};
 use arrow_data::ArrayData;
 use arrow_pyarrow::{PyArrowType, Table};
 
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayon::prelude::*;
-use riskscore_eval::arrow_kernel::score_kernel;
+use riskscore_eval::arrow_kernel::{guarded_kernel, score_kernel};
 use scorer_core::model::{self, ThresholdRule, DRL_INPUT_SCHEMA};
 
 use crate::errors::{BadRow, Failure};
-use crate::tables::{flatten_scores, gather_bad, kernel_failure, locate, rows_per_task, slices};
+use crate::tables::{
+    flatten_flags, flatten_scores, gather_bad, kernel_failure, locate, rows_per_task, slices,
+};
 
 /// A decoded, validated model blob (`*.rsk`).
 #[pyclass(frozen, module = "riskscore._riskscore")]
@@ -112,6 +114,11 @@ impl Model {
         }
         rule.set_item("stored", blob.meta.default_threshold.is_some())?;
         info.set_item("threshold_rule", rule)?;
+        // What scoring does outside the training domain (`None`: the blob has no record).
+        info.set_item(
+            "domain_policy",
+            blob.meta.training_domain.map(|d| d.policy.name()),
+        )?;
         Ok(info)
     }
 
@@ -139,6 +146,34 @@ impl Model {
             Ok((PyArrowType(scores.into_data()), listed, count))
         });
         scored.map_err(|f| f.into_py(py))
+    }
+
+    /// Whether every row of `table` lies inside the model's training domain, as one bool column
+    /// (false where a row is bad), the first bad rows and their count.
+    fn _in_domain(
+        &self,
+        py: Python<'_>,
+        table: PyArrowType<Table>,
+    ) -> PyResult<(PyArrowType<ArrayData>, Vec<BadRow>, u64)> {
+        let (batches, schema) = table.0.into_inner();
+        let flagged = py.detach(|| -> Result<_, Failure> {
+            let columns = locate(&schema)?;
+            let decoded = self.blob();
+            let total = batches.iter().map(|b| b.num_rows()).sum();
+            let results: Vec<_> = slices(&batches, rows_per_task(total))
+                .par_iter()
+                .map(|(first, batch)| {
+                    guarded_kernel(&decoded, &columns, batch, *first)
+                        .map(|(_, inside, bad)| (inside, bad))
+                        .map_err(kernel_failure)
+                })
+                .collect::<Result<_, Failure>>()?;
+            let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
+            let (listed, count) = gather_bad(bad);
+            let flags = BooleanArray::from(flatten_flags(&parts, total));
+            Ok((PyArrowType(flags.into_data()), listed, count))
+        });
+        flagged.map_err(|f| f.into_py(py))
     }
 
     fn __repr__(&self) -> String {

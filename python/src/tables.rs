@@ -2,7 +2,7 @@
 //! core with the GIL released, reassembled in input order.
 use std::sync::Arc;
 
-use arrow_array::{Array, Float32Array, RecordBatch};
+use arrow_array::{Array, BooleanArray, Float32Array, RecordBatch};
 use arrow_pyarrow::{PyArrowType, Table};
 use arrow_schema::{Field, Schema};
 use pyo3::prelude::*;
@@ -118,6 +118,15 @@ fn joined_schema(input: &Schema) -> Arc<Schema> {
         .cloned()
         .collect();
     Arc::new(Schema::new(fields))
+}
+
+/// The kernel's in-domain flags of consecutive slices as one, false where a row was bad.
+pub fn flatten_flags(parts: &[BooleanArray], total: usize) -> Vec<bool> {
+    let mut out = Vec::with_capacity(total);
+    for part in parts {
+        out.extend(part.iter().map(|v| v.unwrap_or(false)));
+    }
+    out
 }
 
 /// One column of f32 scores as a contiguous vector, NaN where a slice's score is null.

@@ -20,6 +20,21 @@ def test_scores_match_riskctl_score_bit_for_bit(riskctl, tmp_path, ngsim_frames,
     assert np.array_equal(scores.view(np.uint32), expected.view(np.uint32))
 
 
+@pytest.mark.parametrize("file,column", [("drl-default.rsk", "DRL"), ("msra-default.rsk", "MSRA")])
+def test_in_domain_matches_riskctl_score(riskctl, tmp_path, ngsim_frames, file, column):
+    out = tmp_path / "scores.parquet"
+    riskctl("score", "--model", MODELS / file, "--events", NGSIM_SAFE, "--out", out)
+    expected = pq.read_table(out).column(f"{column}_in_domain").to_numpy() == 1
+    model = riskscore.Model.load(MODELS / file)
+    flags = model.in_domain(ngsim_frames)
+    assert flags.dtype == np.bool_ and flags.shape == (ngsim_frames.num_rows,)
+    assert np.array_equal(flags, expected)
+    if column == "DRL":
+        # The shipped DRL falls back outside its domain, and some real frames are outside.
+        assert model.info["domain_policy"] == "fallback"
+        assert 0 < (~flags).sum() < flags.size
+
+
 def test_info_matches_inspect_model(riskctl):
     for file, kind in (("drl-default.rsk", "DRL"), ("msra-default.rsk", "MSRA")):
         model = riskscore.Model.load(MODELS / file)

@@ -232,14 +232,30 @@ pub fn score_kernel(
     batch: &RecordBatch,
     first_row: u64,
 ) -> Result<(Float32Array, Vec<RowError>), KernelError> {
+    let (scores, _, bad) = guarded_kernel(blob, columns, batch, first_row)?;
+    Ok((scores, bad))
+}
+
+/// [`score_kernel`]'s scores and, per row, whether the pair lies inside the blob's training
+/// domain (the `<model>_in_domain` column of `riskctl score`; always for a blob without a
+/// record). Invalid rows are null in both.
+pub fn guarded_kernel(
+    blob: &ModelBlob<'_>,
+    columns: &PairColumns,
+    batch: &RecordBatch,
+    first_row: u64,
+) -> Result<(Float32Array, BooleanArray, Vec<RowError>), KernelError> {
     let scorer = Scorer::Guarded(blob.clone());
     let mut scores = Vec::with_capacity(batch.num_rows());
+    let mut inside = Vec::with_capacity(batch.num_rows());
     let bad = for_each_pair(columns, batch, first_row, |_, pair| {
-        scores.push(
-            pair.map(|(ego, partner)| scorer.score(&scorer_core::Observation::of(&ego, &partner))),
-        );
+        let guarded = pair.and_then(|(ego, partner)| {
+            scorer.score_guarded(&scorer_core::Observation::of(&ego, &partner))
+        });
+        scores.push(guarded.map(|g| g.score));
+        inside.push(guarded.map(|g| g.in_domain));
     })?;
-    Ok((Float32Array::from(scores), bad))
+    Ok((Float32Array::from(scores), BooleanArray::from(inside), bad))
 }
 
 /// `input`'s columns followed by `computed`'s, keeping only the rows where `keep` is true (all
@@ -438,6 +454,8 @@ mod tests {
             assert!(scores.is_null(2));
             assert_eq!(errors.len(), 1);
             assert_eq!(errors[0].line, 3);
+            let (_, inside, _) = guarded_kernel(&blob, &columns, &b, 0).unwrap();
+            assert!(inside.is_null(2));
             let scorer = Scorer::Guarded(blob.clone());
             for (row, values) in [(0, rear_end()), (1, near), (3, fast)] {
                 let (e, s) = (
@@ -446,6 +464,7 @@ mod tests {
                 );
                 let o = scorer_core::Observation::of(&e, &s);
                 let expected = scorer.score(&o);
+                assert_eq!(inside.value(row), blob.score_guarded(&o).in_domain);
                 assert_eq!(
                     scores.value(row).to_bits(),
                     expected.to_bits(),
