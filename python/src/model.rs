@@ -3,10 +3,12 @@ use arrow_array::{Array, BooleanArray, Float32Array};
 use arrow_data::ArrayData;
 use arrow_pyarrow::{PyArrowType, Table};
 
+use arrow_array::RecordBatch;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayon::prelude::*;
-use riskscore_eval::arrow_kernel::{guarded_kernel, score_kernel};
+use riskscore_data::ssm_csv::{PairColumns, RowError};
+use riskscore_eval::arrow_kernel::{guarded_kernel, score_kernel, KernelError};
 use scorer_core::model::{self, ThresholdRule, DRL_INPUT_SCHEMA};
 
 use crate::errors::{BadRow, Failure};
@@ -33,6 +35,32 @@ impl Model {
     fn blob(&self) -> model::ModelBlob<'_> {
         // Validated in `checked`, and the bytes never change.
         model::decode_blob(&self.bytes).expect("validated at construction")
+    }
+
+    /// `kernel` over the slices of `table` on every core: its per-slice outputs in row order,
+    /// the first bad rows, their count and the number of rows.
+    fn over_slices<T: Send>(
+        &self,
+        table: PyArrowType<Table>,
+        kernel: impl Fn(
+                &model::ModelBlob<'_>,
+                &PairColumns,
+                &RecordBatch,
+                u64,
+            ) -> Result<(T, Vec<RowError>), KernelError>
+            + Sync,
+    ) -> Result<(Vec<T>, Vec<BadRow>, u64, usize), Failure> {
+        let (batches, schema) = table.0.into_inner();
+        let columns = locate(&schema)?;
+        let blob = self.blob();
+        let total = batches.iter().map(|b| b.num_rows()).sum();
+        let results: Vec<_> = slices(&batches, rows_per_task(total))
+            .par_iter()
+            .map(|(first, batch)| kernel(&blob, &columns, batch, *first).map_err(kernel_failure))
+            .collect::<Result<_, Failure>>()?;
+        let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
+        let (listed, count) = gather_bad(bad);
+        Ok((parts, listed, count, total))
     }
 }
 
@@ -129,21 +157,14 @@ impl Model {
         py: Python<'_>,
         table: PyArrowType<Table>,
     ) -> PyResult<(PyArrowType<ArrayData>, Vec<BadRow>, u64)> {
-        let (batches, schema) = table.0.into_inner();
-        let scored = py.detach(|| -> Result<_, Failure> {
-            let columns = locate(&schema)?;
-            let decoded = self.blob();
-            let total = batches.iter().map(|b| b.num_rows()).sum();
-            let results: Vec<_> = slices(&batches, rows_per_task(total))
-                .par_iter()
-                .map(|(first, batch)| {
-                    score_kernel(&decoded, &columns, batch, *first).map_err(kernel_failure)
-                })
-                .collect::<Result<_, Failure>>()?;
-            let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
-            let (listed, count) = gather_bad(bad);
-            let scores = Float32Array::from(flatten_scores(&parts, total));
-            Ok((PyArrowType(scores.into_data()), listed, count))
+        let scored = py.detach(|| {
+            self.over_slices(table, |blob, columns, batch, first| {
+                score_kernel(blob, columns, batch, first)
+            })
+            .map(|(parts, listed, count, total)| {
+                let scores = Float32Array::from(flatten_scores(&parts, total));
+                (PyArrowType(scores.into_data()), listed, count)
+            })
         });
         scored.map_err(|f| f.into_py(py))
     }
@@ -155,23 +176,14 @@ impl Model {
         py: Python<'_>,
         table: PyArrowType<Table>,
     ) -> PyResult<(PyArrowType<ArrayData>, Vec<BadRow>, u64)> {
-        let (batches, schema) = table.0.into_inner();
-        let flagged = py.detach(|| -> Result<_, Failure> {
-            let columns = locate(&schema)?;
-            let decoded = self.blob();
-            let total = batches.iter().map(|b| b.num_rows()).sum();
-            let results: Vec<_> = slices(&batches, rows_per_task(total))
-                .par_iter()
-                .map(|(first, batch)| {
-                    guarded_kernel(&decoded, &columns, batch, *first)
-                        .map(|(_, inside, bad)| (inside, bad))
-                        .map_err(kernel_failure)
-                })
-                .collect::<Result<_, Failure>>()?;
-            let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
-            let (listed, count) = gather_bad(bad);
-            let flags = BooleanArray::from(flatten_flags(&parts, total));
-            Ok((PyArrowType(flags.into_data()), listed, count))
+        let flagged = py.detach(|| {
+            self.over_slices(table, |blob, columns, batch, first| {
+                guarded_kernel(blob, columns, batch, first).map(|(_, inside, bad)| (inside, bad))
+            })
+            .map(|(parts, listed, count, total)| {
+                let flags = BooleanArray::from(flatten_flags(&parts, total));
+                (PyArrowType(flags.into_data()), listed, count)
+            })
         });
         flagged.map_err(|f| f.into_py(py))
     }
