@@ -19,9 +19,8 @@ use arrow_array::{Array, ArrayRef, BooleanArray, Float32Array, PrimitiveArray, R
 use arrow_buffer::NullBuffer;
 use arrow_schema::{ArrowError, DataType, Field, Schema, SchemaRef};
 use scorer_core::model::ModelBlob;
-use scorer_core::VehicleState;
+use scorer_core::{Guarded, VehicleState};
 
-use crate::Scorer;
 use riskscore_data::ssm_csv::{
     computed_values, PairColumns, RowError, RowProblem, SsmError, SURROGATE_COLUMNS,
 };
@@ -224,7 +223,7 @@ pub fn ssm_kernel(
 }
 
 /// A model blob's risk score for every row of `batch`, through the same scoring path as
-/// `riskctl score` and `riskctl evaluate` ([`Scorer::Guarded`]: int8 for DRL, the blob's
+/// `riskctl score` and `riskctl evaluate` ([`crate::Scorer::Guarded`]: int8 for DRL, the blob's
 /// training-domain policy outside its domain, as on the ECU). Invalid rows are null.
 pub fn score_kernel(
     blob: &ModelBlob<'_>,
@@ -232,8 +231,11 @@ pub fn score_kernel(
     batch: &RecordBatch,
     first_row: u64,
 ) -> Result<(Float32Array, Vec<RowError>), KernelError> {
-    let (scores, _, bad) = guarded_kernel(blob, columns, batch, first_row)?;
-    Ok((scores, bad))
+    let mut scores = Vec::with_capacity(batch.num_rows());
+    let bad = for_each_guarded(blob, columns, batch, first_row, |guarded| {
+        scores.push(guarded.map(|g| g.score));
+    })?;
+    Ok((Float32Array::from(scores), bad))
 }
 
 /// [`score_kernel`]'s scores and, per row, whether the pair lies inside the blob's training
@@ -245,17 +247,29 @@ pub fn guarded_kernel(
     batch: &RecordBatch,
     first_row: u64,
 ) -> Result<(Float32Array, BooleanArray, Vec<RowError>), KernelError> {
-    let scorer = Scorer::Guarded(blob.clone());
     let mut scores = Vec::with_capacity(batch.num_rows());
     let mut inside = Vec::with_capacity(batch.num_rows());
-    let bad = for_each_pair(columns, batch, first_row, |_, pair| {
-        let guarded = pair.and_then(|(ego, partner)| {
-            scorer.score_guarded(&scorer_core::Observation::of(&ego, &partner))
-        });
+    let bad = for_each_guarded(blob, columns, batch, first_row, |guarded| {
         scores.push(guarded.map(|g| g.score));
         inside.push(guarded.map(|g| g.in_domain));
     })?;
     Ok((Float32Array::from(scores), BooleanArray::from(inside), bad))
+}
+
+/// Each row's guarded score in row order (`None`: an invalid row), so that a caller builds only
+/// the columns it returns.
+fn for_each_guarded(
+    blob: &ModelBlob<'_>,
+    columns: &PairColumns,
+    batch: &RecordBatch,
+    first_row: u64,
+    mut each: impl FnMut(Option<Guarded>),
+) -> Result<Vec<RowError>, KernelError> {
+    for_each_pair(columns, batch, first_row, |_, pair| {
+        each(pair.map(|(ego, partner)| {
+            blob.score_guarded(&scorer_core::Observation::of(&ego, &partner))
+        }));
+    })
 }
 
 /// `input`'s columns followed by `computed`'s, keeping only the rows where `keep` is true (all
@@ -456,7 +470,7 @@ mod tests {
             assert_eq!(errors[0].line, 3);
             let (_, inside, _) = guarded_kernel(&blob, &columns, &b, 0).unwrap();
             assert!(inside.is_null(2));
-            let scorer = Scorer::Guarded(blob.clone());
+            let scorer = crate::Scorer::Guarded(blob.clone());
             for (row, values) in [(0, rear_end()), (1, near), (3, fast)] {
                 let (e, s) = (
                     state(&values[..9], (0.0, 0.0)),

@@ -114,13 +114,14 @@ where
     }
     let mut range_bytes = Vec::with_capacity(inputs.len() * 9);
     for (k, &input) in inputs.iter().enumerate() {
+        let frames = sorted(&mut columns[k]);
         let frame_lo =
-            quantile(&mut columns[k], tails.frames).ok_or(DomainRangesError::NoObservations)?;
-        let frame_hi = quantile(&mut columns[k], 1.0 - tails.frames)
+            at_quantile(frames, tails.frames).ok_or(DomainRangesError::NoObservations)?;
+        let frame_hi =
+            at_quantile(frames, 1.0 - tails.frames).ok_or(DomainRangesError::NoObservations)?;
+        let sequence_lo = at_quantile(sorted(&mut minima[k]), tails.sequences)
             .ok_or(DomainRangesError::NoObservations)?;
-        let sequence_lo =
-            quantile(&mut minima[k], tails.sequences).ok_or(DomainRangesError::NoObservations)?;
-        let sequence_hi = quantile(&mut maxima[k], 1.0 - tails.sequences)
+        let sequence_hi = at_quantile(sorted(&mut maxima[k]), 1.0 - tails.sequences)
             .ok_or(DomainRangesError::NoObservations)?;
         let (lo, hi) = (frame_lo.min(sequence_lo), frame_hi.max(sequence_hi));
         range_bytes.extend(InputRange { input, lo, hi }.to_bytes());
@@ -136,12 +137,17 @@ where
     Ok(measured)
 }
 
-/// The `q` nearest-rank quantile of `values` (sorted in place); `None` when empty.
-fn quantile(values: &mut [f32], q: f64) -> Option<f32> {
+/// `values` in ascending order (sorted in place), for [`at_quantile`].
+fn sorted(values: &mut [f32]) -> &[f32] {
     values.sort_unstable_by(f32::total_cmp);
-    let last = values.len().checked_sub(1)?;
+    values
+}
+
+/// The `q` nearest-rank quantile of ascending `sorted`; `None` when empty.
+fn at_quantile(sorted: &[f32], q: f64) -> Option<f32> {
+    let last = sorted.len().checked_sub(1)?;
     let rank = ((q * last as f64).round() as usize).min(last);
-    values.get(rank).copied()
+    sorted.get(rank).copied()
 }
 
 #[cfg(test)]
@@ -151,12 +157,13 @@ mod tests {
     #[test]
     fn quantiles_are_nearest_rank() {
         let mut v: Vec<f32> = (0..=1000).rev().map(|i| i as f32).collect();
-        assert_eq!(quantile(&mut v, 0.0), Some(0.0));
-        assert_eq!(quantile(&mut v, 1.0), Some(1000.0));
-        assert_eq!(quantile(&mut v, 0.001), Some(1.0));
-        assert_eq!(quantile(&mut v, 0.9), Some(900.0));
-        assert_eq!(quantile(&mut [], 0.1), None);
-        assert_eq!(quantile(&mut [3.0], 0.1), Some(3.0));
+        let v = sorted(&mut v);
+        assert_eq!(at_quantile(v, 0.0), Some(0.0));
+        assert_eq!(at_quantile(v, 1.0), Some(1000.0));
+        assert_eq!(at_quantile(v, 0.001), Some(1.0));
+        assert_eq!(at_quantile(v, 0.9), Some(900.0));
+        assert_eq!(at_quantile(&[], 0.1), None);
+        assert_eq!(at_quantile(&[3.0], 0.1), Some(3.0));
     }
 
     /// Ego speed `v` (the DRL input `v_ego`), partner 30 m ahead in the same lane.
