@@ -146,30 +146,30 @@ pub fn run_round(
             test: KindCounts::of(&split.test),
             real_test_safe: real_test.safe,
         };
-        let sizes = (split.train.len(), split.test.len());
-        Ok::<_, DomainsError>((
-            outcome.result,
-            outcome.domain_shares,
-            fold_shares,
-            fold_split,
-            sizes,
-        ))
+        Ok::<_, DomainsError>(RoundFold {
+            result: outcome.result,
+            domain: outcome.domain_shares,
+            shares: fold_shares,
+            train_len: split.train.len(),
+            test_len: split.test.len(),
+            split: fold_split,
+        })
     })?;
     let mut folds = Vec::new();
     let mut shares = Vec::new();
     let mut splits = Vec::new();
     let mut domain: Vec<DomainShare> = Vec::new();
-    for (result, fold_domain, fold_shares, fold_split, (train_len, test_len)) in outcomes {
+    for fold in outcomes {
         if options.progress != Progress::Hidden {
             eprintln!(
-                "      round {} seed {} fold {}: {train_len} train / {test_len} test sequences",
-                round.name, fold_split.seed, fold_split.fold
+                "      round {} seed {} fold {}: {} train / {} test sequences",
+                round.name, fold.split.seed, fold.split.fold, fold.train_len, fold.test_len
             );
         }
-        merge_shares(&mut domain, &fold_domain);
-        shares.extend(fold_shares);
-        folds.push(result);
-        splits.push(fold_split);
+        merge_shares(&mut domain, &fold.domain);
+        shares.extend(fold.shares);
+        folds.push(fold.result);
+        splits.push(fold.split);
     }
     Ok(RoundResult {
         round: round.clone(),
@@ -180,6 +180,18 @@ pub fn run_round(
         splits,
         domain,
     })
+}
+
+/// What one (seed, fold) of a round gives.
+struct RoundFold {
+    result: FoldResult,
+    /// Per guarded model, its test frames outside the training domain.
+    domain: Vec<DomainShare>,
+    /// The real-safe share at each method's thresholds.
+    shares: Vec<ShareRun>,
+    split: RoundFoldSplit,
+    train_len: usize,
+    test_len: usize,
 }
 
 /// Adds each of `fold`'s shares to the entry of the same model in `total` (new models appended).
