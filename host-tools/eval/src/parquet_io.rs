@@ -39,6 +39,8 @@ use riskscore_data::ssm_csv::SsmError;
 mod csv_batches;
 mod csv_cells;
 mod ordered;
+mod page_checksums;
+mod raw_copy;
 mod row_groups;
 mod ssm_parallel;
 
