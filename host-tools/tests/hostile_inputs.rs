@@ -371,6 +371,33 @@ fn a_flipped_bit_in_a_checksummed_parquet_page_is_an_error_naming_file_row_group
     }
 }
 
+#[test]
+fn a_flipped_bit_in_a_copied_text_column_is_an_error_naming_row_group_and_column() {
+    // Parquet -> Parquet copies the `id` column's pages without decoding them: their checksums
+    // are verified all the same. Parquet -> CSV decodes it. Fixtures: tests/data/parquet/.
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.parquet");
+    let input = parquet_fixture("crc_text.parquet");
+    let o = riskctl(&["ssm", "-i", s(&input), "-o", s(&good)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("200 rows ok, 0 rows bad"));
+
+    for out in ["flipped.parquet", "flipped.csv"] {
+        let out = dir.path().join(out);
+        let flipped = parquet_fixture("crc_text_flipped.parquet");
+        let o = riskctl(&["ssm", "-i", s(&flipped), "-o", s(&out)]);
+        assert_refused(
+            &o,
+            &format!(
+                "{}: row group 1 (counting from 0), column id: a page's CRC-32 checksum does \
+                 not match its bytes",
+                flipped.display()
+            ),
+        );
+        assert!(!out.exists());
+    }
+}
+
 // ---- Bytes that are not UTF-8 -------------------------------------------------------------------
 
 #[test]
