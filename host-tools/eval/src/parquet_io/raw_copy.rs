@@ -114,58 +114,19 @@ impl ChunkReader for PositionalFile {
     }
 }
 
-/// Bytes read from a file at offset `start`, addressed by file offsets (what
-/// `SerializedRowGroupWriter::append_column` asks for).
-pub(crate) struct BytesAt {
-    start: u64,
-    bytes: Bytes,
-}
-
-impl Length for BytesAt {
-    fn len(&self) -> u64 {
-        self.start + self.bytes.len() as u64
-    }
-}
-
-impl ChunkReader for BytesAt {
-    type T = bytes::buf::Reader<Bytes>;
-
-    fn get_read(&self, start: u64) -> Result<Self::T, ParquetError> {
-        Ok(bytes::Buf::reader(self.slice(start, None)?))
-    }
-
-    fn get_bytes(&self, start: u64, length: usize) -> Result<Bytes, ParquetError> {
-        self.slice(start, Some(length))
-    }
-}
-
-impl BytesAt {
-    fn slice(&self, start: u64, length: Option<usize>) -> Result<Bytes, ParquetError> {
-        let from = start
-            .checked_sub(self.start)
-            .map(|k| k as usize)
-            .filter(|&k| k <= self.bytes.len());
-        let to = from.map(|k| length.map_or(self.bytes.len(), |n| k + n));
-        match (from, to) {
-            (Some(from), Some(to)) if to <= self.bytes.len() => Ok(self.bytes.slice(from..to)),
-            _ => Err(ParquetError::General(format!(
-                "column chunk at {start} lies outside the bytes read for its row group"
-            ))),
-        }
-    }
-}
-
 /// One output column chunk of a copied row group, in output order.
 pub(crate) enum Piece {
-    /// The input's chunk, copied from [`CopiedGroup::source`].
+    /// The input's chunk, copied from the input file.
     Copied(ColumnCloseResult),
     /// Encoded by the worker (a computed column, or a pass-through one that is not copied).
     Encoded(ArrowColumnChunk),
 }
 
-/// An output row group made from an input row group by copying.
+/// An output row group made from an input row group by copying: its column chunks in order.
+/// The copied chunks' bytes are not held here: the writing thread reads them from the input
+/// when it writes them, so a job in flight holds only its computed chunks, however wide the
+/// pass-through columns are.
 pub(crate) struct CopiedGroup {
-    pub source: BytesAt,
     pub pieces: Vec<Piece>,
 }
 
@@ -289,6 +250,11 @@ impl RawSource {
         self.file.file()
     }
 
+    /// The input, to copy column chunks from.
+    pub fn input(&self) -> &PositionalFile {
+        &self.file
+    }
+
     /// Scores row group `group` (its first row is row `first_row` of the file, counting from 0)
     /// in batches of `batch_rows`, and makes its output row group if every row is good.
     pub fn score_group(
@@ -339,7 +305,6 @@ impl RawSource {
             }
         }
         let meta = self.metadata.metadata().row_group(group);
-        let source = self.read_copied_chunks(group)?;
         let mut writers: Vec<_> = writers.into_iter().map(Some).collect();
         let mut pieces = Vec::with_capacity(writers.len());
         for (k, leaves) in self.output_leaves.iter().enumerate() {
@@ -347,9 +312,13 @@ impl RawSource {
                 for leaf in self.input_leaves[k].clone() {
                     let column = meta.column(leaf);
                     let (start, length) = column.byte_range();
-                    let damage = source
-                        .get_bytes(start, length as usize)
+                    let damage = usize::try_from(length)
                         .map_err(|_| PageDamage::Layout)
+                        .and_then(|n| {
+                            self.file
+                                .get_bytes(start, n)
+                                .map_err(|_| PageDamage::Layout)
+                        })
                         .and_then(|chunk| verify_pages(&chunk));
                     if let Err(damage) = damage {
                         return Err(damaged(group, &column.column_path().string(), damage));
@@ -375,33 +344,7 @@ impl RawSource {
         }
         Ok(GroupOutcome::Copied {
             rows,
-            group: CopiedGroup { source, pieces },
-        })
-    }
-
-    /// The bytes of the copied column chunks of row group `group` (one read from the first
-    /// such chunk to the end of the last).
-    fn read_copied_chunks(&self, group: usize) -> Result<BytesAt, ParquetError> {
-        let meta = self.metadata.metadata().row_group(group);
-        let mut span: Option<(u64, u64)> = None;
-        for (k, leaves) in self.input_leaves.iter().enumerate() {
-            if !self.copied[k] {
-                continue;
-            }
-            for leaf in leaves.clone() {
-                let (start, length) = meta.column(leaf).byte_range();
-                let end = start.checked_add(length).ok_or_else(|| {
-                    ParquetError::General(format!("column chunk {leaf}: impossible byte range"))
-                })?;
-                span = Some(span.map_or((start, end), |(s, e)| (s.min(start), e.max(end))));
-            }
-        }
-        let (start, end) = span.unwrap_or((0, 0));
-        let length = usize::try_from(end - start)
-            .map_err(|_| ParquetError::General("row group larger than memory".into()))?;
-        Ok(BytesAt {
-            start,
-            bytes: self.file.get_bytes(start, length)?,
+            group: CopiedGroup { pieces },
         })
     }
 }

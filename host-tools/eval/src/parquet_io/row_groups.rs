@@ -13,6 +13,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::basic::Compression;
 use parquet::errors::ParquetError;
 use parquet::file::properties::WriterProperties;
+use parquet::file::reader::ChunkReader;
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::{ColumnPath, SchemaDescriptor};
 
@@ -133,12 +134,17 @@ impl<W: Write + Send> RowGroupFile<W> {
         Ok(())
     }
 
-    /// Writes one row group made of copied and encoded column chunks after the ones before it.
-    pub fn append_copied(&mut self, group: CopiedGroup) -> Result<(), ParquetError> {
+    /// Writes one row group made of copied and encoded column chunks after the ones before it,
+    /// the copied ones read from `input`.
+    pub fn append_copied<R: ChunkReader>(
+        &mut self,
+        input: &R,
+        group: CopiedGroup,
+    ) -> Result<(), ParquetError> {
         let mut row_group = self.writer.next_row_group()?;
         for piece in group.pieces {
             match piece {
-                Piece::Copied(close) => row_group.append_column(&group.source, close)?,
+                Piece::Copied(close) => row_group.append_column(input, close)?,
                 Piece::Encoded(chunk) => chunk.append_to_row_group(&mut row_group)?,
             }
         }

@@ -2,10 +2,13 @@
 //!
 //! The calling thread reads (decodes Parquet batches in file order, or cuts CSV into chunks of
 //! whole records) and writes; `threads` workers parse (CSV), score with the Arrow kernel and
-//! encode (a Parquet row group, or CSV text). Results are written in input order and at most
+//! encode (a Parquet row group, or CSV text). Parquet -> Parquet: a job is an input row group,
+//! which its worker decodes itself (only the pair columns) and whose pass-through column chunks
+//! are copied ([`super::raw_copy`]); the calling thread only decodes a row group too large to
+//! copy, cut into batches as before. Results are written in input order and at most
 //! `2 x threads + 2` jobs are in flight ([`super::ordered`]), so memory does not grow with the
-//! file. How the input is cut does not depend on the thread count (Parquet: batches of a fixed
-//! number of rows; CSV: chunks of a fixed number of bytes), and each piece of output depends only
+//! file. How the input is cut does not depend on the thread count (Parquet: its row groups, or
+//! batches of a fixed number of rows; CSV: chunks of a fixed number of bytes), and each piece of output depends only
 //! on its own rows, so the output is byte-identical whatever `--threads` is.
 use std::io::{Read, Write};
 use std::sync::Arc;
@@ -420,7 +423,14 @@ pub(crate) fn ssm_columnar_cut<R: Read, W: Write + Send>(
             (Encoded::Nothing, _) => {}
             (Encoded::Csv(text), Output::Csv(out)) => out.write_all(&text)?,
             (Encoded::RowGroup(chunks), Output::Parquet(file)) => file.append(chunks)?,
-            (Encoded::Copied(group), Output::Parquet(file)) => file.append_copied(group)?,
+            (Encoded::Copied(group), Output::Parquet(file)) => match raw.as_ref() {
+                Some(raw) => file.append_copied(raw.input(), group)?,
+                None => {
+                    return Err(
+                        std::io::Error::other("a copied row group without its input").into(),
+                    )
+                }
+            },
             (Encoded::RowGroups(groups), Output::Parquet(file)) => {
                 for chunks in groups {
                     file.append(chunks)?;
