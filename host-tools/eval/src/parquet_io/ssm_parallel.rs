@@ -563,6 +563,12 @@ mod tests {
         out
     }
 
+    /// `batch`'s fields, to change.
+    fn fields_of(batch: &RecordBatch) -> Vec<Field> {
+        let schema = batch.schema();
+        schema.fields().iter().map(|f| f.as_ref().clone()).collect()
+    }
+
     fn small_cuts() -> Cutting {
         Cutting {
             rows_to_parquet: 300,
@@ -767,12 +773,7 @@ mod tests {
         let batch = reader.into_iter().next().unwrap().unwrap();
         // width_j as text.
         let k = batch.schema().index_of("width_j").unwrap();
-        let mut fields: Vec<Field> = batch
-            .schema()
-            .fields()
-            .iter()
-            .map(|f| f.as_ref().clone())
-            .collect();
+        let mut fields = fields_of(&batch);
         fields[k] = Field::new("width_j", arrow_schema::DataType::Utf8, true);
         let mut columns = batch.columns().to_vec();
         columns[k] = Arc::new(StringArray::from(vec!["1.9"; 10]));
@@ -863,12 +864,7 @@ mod tests {
         let lane: DictionaryArray<arrow_array::types::Int32Type> = (0..rows)
             .map(|k| ["left", "middle", "right"][k % 3])
             .collect();
-        let mut fields: Vec<Field> = pairs
-            .schema()
-            .fields()
-            .iter()
-            .map(|f| f.as_ref().clone())
-            .collect();
+        let mut fields = fields_of(&pairs);
         let mut columns = pairs.columns().to_vec();
         let extra: [(&str, DataType, bool, ArrayRef); 6] = [
             ("note", DataType::Utf8, true, Arc::new(note)),
