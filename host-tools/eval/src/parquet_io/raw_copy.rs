@@ -24,6 +24,7 @@ use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk};
 use parquet::arrow::ProjectionMask;
 use parquet::column::writer::ColumnCloseResult;
 use parquet::errors::ParquetError;
+use parquet::file::metadata::PageIndexPolicy;
 use parquet::file::reader::{ChunkReader, Length};
 use parquet::schema::types::SchemaDescriptor;
 
@@ -323,13 +324,20 @@ impl RawSource {
                     if let Err(damage) = damage {
                         return Err(damaged(group, &column.column_path().string(), damage));
                     }
+                    // The input's page index goes with the pages where it has one (the writer
+                    // moves its page offsets to where the chunk lands).
+                    let page_index = self.metadata.metadata().page_index();
                     pieces.push(Piece::Copied(ColumnCloseResult {
                         bytes_written: column.compressed_size().max(0) as u64,
                         rows_written: rows,
                         metadata: column.clone(),
                         bloom_filter: None,
-                        column_index: None,
-                        offset_index: None,
+                        column_index: page_index
+                            .and_then(|p| p.column_index(group, leaf))
+                            .cloned(),
+                        offset_index: page_index
+                            .and_then(|p| p.offset_index(group, leaf))
+                            .cloned(),
                     }));
                 }
             } else {
@@ -364,7 +372,9 @@ fn damaged(row_group: usize, column: &str, damage: PageDamage) -> ColumnarError 
     }
 }
 
-/// Reads the metadata of a Parquet input (and its Arrow schema) once, for every worker.
+/// Reads the metadata of a Parquet input (and its Arrow schema, and its page index if it has
+/// one, to copy with the pages) once, for every worker.
 pub(crate) fn read_metadata(file: &PositionalFile) -> Result<ArrowReaderMetadata, ParquetError> {
-    ArrowReaderMetadata::load(file, ArrowReaderOptions::new())
+    let options = ArrowReaderOptions::new().with_page_index_policy(PageIndexPolicy::Optional);
+    ArrowReaderMetadata::load(file, options)
 }

@@ -1066,4 +1066,47 @@ mod tests {
             .collect();
         assert_eq!(sizes, [400, 400, 200]);
     }
+
+    #[test]
+    fn a_copied_chunk_keeps_the_input_page_index_pointing_at_its_new_place() {
+        use parquet::arrow::arrow_reader::{ArrowReaderOptions, RowSelection, RowSelector};
+        use parquet::file::metadata::PageIndexPolicy;
+        // Pages of 100 rows, with the page index the parquet crate writes by default.
+        let batch = typed_batch(3000, &[]);
+        let props = parquet::file::properties::WriterProperties::builder()
+            .set_max_row_group_row_count(Some(700))
+            .set_data_page_row_count_limit(100)
+            .set_write_batch_size(50)
+            .build();
+        let mut input = Vec::new();
+        let mut writer = ArrowWriter::try_new(&mut input, batch.schema(), Some(props)).unwrap();
+        writer.write(&batch).unwrap();
+        writer.close().unwrap();
+        let (copied, _, _) = run(&input, true, true, 2, false).unwrap();
+        assert_eq!(
+            groups_and_codec(&copied, "note")[1],
+            (700, parquet::basic::Compression::UNCOMPRESSED),
+            "copied"
+        );
+        let options = ArrowReaderOptions::new().with_page_index_policy(PageIndexPolicy::Required);
+        let builder =
+            ParquetRecordBatchReaderBuilder::try_new_with_options(as_file(&copied), options)
+                .unwrap();
+        let index = builder.metadata().page_index().expect("a page index");
+        let columns = builder.parquet_schema().columns();
+        let note = columns.iter().position(|c| c.name() == "note").unwrap();
+        let pages = index.offset_index(1, note).unwrap().page_locations().len();
+        assert!(
+            pages >= 7,
+            "{pages} pages in the copied chunk's offset index"
+        );
+        // A selection that the reader serves from the offset index: only the pages it needs,
+        // read at the offsets the index gives.
+        let selection = RowSelection::from(vec![RowSelector::skip(1250), RowSelector::select(300)]);
+        let reader = builder.with_row_selection(selection).build().unwrap();
+        let batches: Vec<RecordBatch> = reader.map(|b| b.unwrap()).collect();
+        let selected =
+            arrow_select::concat::concat_batches(&batches[0].schema(), &batches).unwrap();
+        assert_eq!(selected, read_back(&copied).slice(1250, 300));
+    }
 }
