@@ -1,7 +1,8 @@
 //! Parquet -> Parquet without re-encoding what does not change: the input's columns are the
 //! output's first columns, value for value, so an input row group whose rows are all good is
 //! written as one output row group whose pass-through column chunks are the input's bytes,
-//! copied as they are (codec, encodings, statistics and all), followed by the 17 computed
+//! copied as they are (codec, encodings, statistics and the page index if the input has one),
+//! followed by the 17 computed
 //! chunks. Only the 18 pair columns are decoded, by the worker that scores the row group, from
 //! its own positional reads of the file.
 //!
