@@ -12,7 +12,7 @@
 //! Arrow schema (stored by [`super::row_groups::row_group_file`], as before), so a table read
 //! back is equal to the re-encoded one.
 use std::fs::File;
-use std::io::Read;
+use std::io::{BufReader, Read};
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -89,13 +89,14 @@ impl Length for PositionalFile {
 }
 
 impl ChunkReader for PositionalFile {
-    type T = ReadAt;
+    // Buffered: the parquet crate reads page headers a few bytes at a time.
+    type T = BufReader<ReadAt>;
 
-    fn get_read(&self, start: u64) -> Result<ReadAt, ParquetError> {
-        Ok(ReadAt {
+    fn get_read(&self, start: u64) -> Result<Self::T, ParquetError> {
+        Ok(BufReader::new(ReadAt {
             file: self.0.clone(),
             position: start,
-        })
+        }))
     }
 
     fn get_bytes(&self, start: u64, length: usize) -> Result<Bytes, ParquetError> {
