@@ -2,9 +2,10 @@
 //! output's first columns, value for value, so an input row group whose rows are all good is
 //! written as one output row group whose pass-through column chunks are the input's bytes,
 //! copied as they are (codec, encodings, statistics and the page index if the input has one),
-//! followed by the 17 computed
-//! chunks. Only the 18 pair columns are decoded, by the worker that scores the row group, from
-//! its own positional reads of the file.
+//! followed by the 17 computed chunks. Only the 18 pair columns are decoded, by the worker that
+//! scores the row group, from its own positional reads of the file; the page checksums of the
+//! copied chunks are verified ([`super::page_checksums`]), their values are not (a text column
+//! that is not UTF-8 is copied as it is).
 //!
 //! A pass-through column is copied when its Parquet column descriptors (physical and logical
 //! type, repetition, levels, path) are the ones the output schema gives it; any other is decoded
