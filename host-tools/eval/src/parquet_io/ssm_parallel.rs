@@ -794,8 +794,10 @@ mod tests {
     fn a_truncated_parquet_file_is_an_error() {
         let file = parquet(1000, &[], 300);
         for cut in [file.len() - 3, file.len() / 2] {
-            let err = run(&file[..cut], true, false, 2, false).unwrap_err();
-            assert!(matches!(err, ColumnarError::Parquet(_)), "{err}");
+            for parquet_out in [false, true] {
+                let err = run(&file[..cut], true, parquet_out, 2, false).unwrap_err();
+                assert!(matches!(err, ColumnarError::Parquet(_)), "{err}");
+            }
         }
     }
 
@@ -1108,5 +1110,19 @@ mod tests {
         let selected =
             arrow_select::concat::concat_batches(&batches[0].schema(), &batches).unwrap();
         assert_eq!(selected, read_back(&copied).slice(1250, 300));
+    }
+
+    #[test]
+    fn a_copied_chunk_whose_page_header_is_damaged_is_an_error_naming_it() {
+        let mut file = parquet(1000, &[], 300);
+        let reader = SerializedFileReader::new(as_file(&file)).unwrap();
+        let (start, _) = reader.metadata().row_group(1).column(0).byte_range();
+        // A field of type 0, which is no Thrift type: the page cannot be walked.
+        file[start as usize] = 0x10;
+        let err = run(&file, true, true, 2, false).unwrap_err().to_string();
+        assert!(
+            err.contains("row group 1 (counting from 0), column id: its pages cannot be read"),
+            "{err}"
+        );
     }
 }
