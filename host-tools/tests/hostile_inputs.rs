@@ -339,36 +339,45 @@ fn parquet_fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-#[test]
-fn a_flipped_bit_in_a_checksummed_parquet_page_is_an_error_naming_file_row_group_and_column() {
-    // N60: x_j of three rows was read as 42.0078125 instead of 42 and scored, exit 0. The
-    // fixtures and the script that made them: tests/data/parquet/.
+/// The intact fixture `good` scores its 200 rows; `flipped`, the same file with one bit of
+/// `column`'s page in row group 1 flipped, is refused with that row group and column named and
+/// nothing written, to CSV and to Parquet. The fixtures and the scripts that made them:
+/// tests/data/parquet/.
+fn assert_flipped_page_refused(good: &str, flipped: &str, column: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let good = dir.path().join("good.csv");
-    let o = riskctl(&[
-        "ssm",
-        "-i",
-        s(&parquet_fixture("crc.parquet")),
-        "-o",
-        s(&good),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("200 rows ok, 0 rows bad"));
-
+    for out in ["good.csv", "good.parquet"] {
+        let out = dir.path().join(out);
+        let o = riskctl(&["ssm", "-i", s(&parquet_fixture(good)), "-o", s(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("200 rows ok, 0 rows bad"));
+    }
     for out in ["flipped.csv", "flipped.parquet"] {
         let out = dir.path().join(out);
-        let flipped = parquet_fixture("crc_flipped.parquet");
+        let flipped = parquet_fixture(flipped);
         let o = riskctl(&["ssm", "-i", s(&flipped), "-o", s(&out)]);
         assert_refused(
             &o,
             &format!(
-                "{}: row group 1 (counting from 0), column x_j: a page's CRC-32 checksum does \
-                 not match its bytes",
+                "{}: row group 1 (counting from 0), column {column}: a page's CRC-32 checksum \
+                 does not match its bytes",
                 flipped.display()
             ),
         );
         assert!(!out.exists());
     }
+}
+
+#[test]
+fn a_flipped_bit_in_a_checksummed_parquet_page_is_an_error_naming_file_row_group_and_column() {
+    // N60: x_j of three rows was read as 42.0078125 instead of 42 and scored, exit 0.
+    assert_flipped_page_refused("crc.parquet", "crc_flipped.parquet", "x_j");
+}
+
+#[test]
+fn a_flipped_bit_in_a_copied_text_column_is_an_error_naming_row_group_and_column() {
+    // Parquet -> Parquet copies the `id` column's pages without decoding them: their checksums
+    // are verified all the same. Parquet -> CSV decodes it.
+    assert_flipped_page_refused("crc_text.parquet", "crc_text_flipped.parquet", "id");
 }
 
 // ---- Bytes that are not UTF-8 -------------------------------------------------------------------

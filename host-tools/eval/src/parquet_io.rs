@@ -8,15 +8,20 @@
 //! bad row (reported with its line and column, skipped; `--strict` stops), and a header name that
 //! is not UTF-8 stops the run. CSV output keeps such bytes as they are. Parquet output is
 //! Snappy-compressed but for the computed columns that do not compress ([`UNCOMPRESSED_COLUMNS`]);
-//! `riskctl ssm` writes a row group per 65,536 input rows (Parquet input) or per 8 MiB of CSV,
-//! [`BatchSink`] (`riskctl score`) row groups of up to 131,072 rows (it buffers one group). Bad
+//! `riskctl ssm` writes a row group per 8 MiB of CSV input; from Parquet it keeps the input's row
+//! groups, copying their column chunks ([`raw_copy`]; a row group with a bad row or of more than
+//! [`raw_copy::RAW_MAX_ROWS`] rows is encoded again in row groups of 65,536 rows).
+//! [`BatchSink`] (`riskctl score`) writes row groups of up to 131,072 rows (it buffers one group). Bad
 //! rows are skipped and reported with their 1-based row number (Parquet input) or line number
 //! (CSV input).
 //!
 //! Page checksums: a page that carries a CRC-32 (written by pyarrow with `write_page_checksum`,
-//! by Spark and others) is verified when read; a mismatch stops the run with the row group and
-//! column named (a flipped bit would otherwise become a plausible wrong value). Pages without a
-//! checksum cannot be verified.
+//! by Spark and others) is verified when read, or when its column chunk is copied
+//! ([`page_checksums`]); a mismatch stops the run with the row group and column named (a flipped
+//! bit would otherwise become a plausible wrong value). Pages without a checksum cannot be
+//! verified. A copied column is not decoded, so its values are not checked either: a text column
+//! whose bytes are not UTF-8 is copied as the input has it (decoding it, e.g. to CSV, is an
+//! error), where re-encoding would have stopped the run.
 //!
 //! `riskctl ssm` runs on every core ([`ssm_parallel`]): batches are scored and encoded in
 //! parallel and written in input order, the output byte-identical whatever the thread count.
@@ -39,6 +44,8 @@ use riskscore_data::ssm_csv::SsmError;
 mod csv_batches;
 mod csv_cells;
 mod ordered;
+mod page_checksums;
+mod raw_copy;
 mod row_groups;
 mod ssm_parallel;
 

@@ -70,7 +70,11 @@ PARQUET:
   (16,384 for CSV output), or chunks of 8 MiB for CSV input, which are scored and encoded in
   parallel and written in input order; the output is the same byte for byte whatever
   --threads is, and memory stays bounded (a few batches) whatever the file size. Parquet
-  output gets one row group per batch or chunk.
+  output gets one row group per batch or chunk, but Parquet -> Parquet keeps the input's row
+  groups: each of up to 262,144 rows whose rows are all good is written as one row group whose
+  input columns are the input's column chunks copied as they are (same codec and encodings;
+  only the pair columns are decoded) followed by the 17 computed ones. A row group with a bad
+  row, or a larger one, is encoded again in row groups of 65,536 rows.
 
 EXAMPLES:
   riskctl ssm --input pairs.csv --output pairs_ssm.csv

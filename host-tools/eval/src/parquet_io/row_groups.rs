@@ -6,13 +6,18 @@ use std::io::Write;
 
 use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Schema, SchemaRef};
-use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk, ArrowRowGroupWriterFactory};
+use parquet::arrow::arrow_writer::{
+    compute_leaves, ArrowColumnChunk, ArrowColumnWriter, ArrowRowGroupWriterFactory,
+};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::Compression;
 use parquet::errors::ParquetError;
 use parquet::file::properties::WriterProperties;
+use parquet::file::reader::ChunkReader;
 use parquet::file::writer::SerializedFileWriter;
-use parquet::schema::types::ColumnPath;
+use parquet::schema::types::{ColumnPath, SchemaDescriptor};
+
+use super::raw_copy::{CopiedGroup, Piece};
 
 /// Most rows in one row group.
 pub const MAX_ROW_GROUP_ROWS: usize = 1 << 17;
@@ -84,6 +89,17 @@ pub fn row_group_file<W: Write + Send>(
 }
 
 impl RowGroupEncoder {
+    /// The file's Arrow schema.
+    pub fn schema(&self) -> &SchemaRef {
+        &self.schema
+    }
+
+    /// A fresh writer for each leaf column of the file, in order.
+    pub fn column_writers(&self) -> Result<Vec<ArrowColumnWriter>, ParquetError> {
+        // The row group's ordinal only matters to encryption, which riskscore does not use.
+        self.factory.create_column_writers(0)
+    }
+
     /// `batch` (of the file's schema) as the column chunks of row group number `index`.
     pub fn encode(
         &self,
@@ -116,6 +132,29 @@ impl<W: Write + Send> RowGroupFile<W> {
         }
         row_group.close()?;
         Ok(())
+    }
+
+    /// Writes one row group made of copied and encoded column chunks after the ones before it,
+    /// the copied ones read from `input`.
+    pub fn append_copied<R: ChunkReader>(
+        &mut self,
+        input: &R,
+        group: CopiedGroup,
+    ) -> Result<(), ParquetError> {
+        let mut row_group = self.writer.next_row_group()?;
+        for piece in group.pieces {
+            match piece {
+                Piece::Copied(close) => row_group.append_column(input, close)?,
+                Piece::Encoded(chunk) => chunk.append_to_row_group(&mut row_group)?,
+            }
+        }
+        row_group.close()?;
+        Ok(())
+    }
+
+    /// The file's Parquet schema.
+    pub fn schema_descr(&self) -> &SchemaDescriptor {
+        self.writer.schema_descr()
     }
 
     /// Writes the footer; returns the output, flushed.
