@@ -28,10 +28,11 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
     let mut buffer = zmij::Buffer::new();
     let text = buffer.format_finite(v.abs()).as_bytes();
     // Positional output ending in an odd digit is already what Display writes (no tie to break,
-    // no trailing `.0`, no exponent): the common case. Digits never contain an `e`, and an f32
-    // exponent (`e`, sign, at most two digits) is within the last five bytes: looking there is
-    // exact, and cheaper than a `memchr` call on every value.
-    if !text[text.len().saturating_sub(5)..].contains(&b'e') {
+    // no trailing `.0`, no exponent): the common case. zmij writes an f32 positionally when its
+    // decimal exponent is in -6..=12 (`FIXED_DEC_EXP`), which every value in POSITIONAL has:
+    // no need to look. Outside it, digits never contain an `e`, and an f32 exponent (`e`, sign,
+    // at most two digits) is within the last five bytes: looking there is exact.
+    if POSITIONAL.contains(&v.abs()) || !text[text.len().saturating_sub(5)..].contains(&b'e') {
         match text.last() {
             Some(b'1' | b'3' | b'5' | b'7' | b'9') => {
                 out.extend_from_slice(text);
@@ -109,6 +110,10 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
         out.extend_from_slice(frac);
     }
 }
+
+/// Magnitudes that zmij always writes without an exponent (well inside its -6..=12 decimal
+/// exponents, so that no rounding at either end can leave the range).
+const POSITIONAL: std::ops::Range<f32> = 1e-5..1e11;
 
 /// Texts of recently written f32 values, so that a value seen again is copied instead of
 /// formatted again: a direct-mapped table keyed by the value's bits (an entry holds exactly
