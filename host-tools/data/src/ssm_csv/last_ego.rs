@@ -10,7 +10,9 @@ use super::row_fields::RowFields;
 /// The last ego parsed without error: its nine field texts and their values.
 #[derive(Default)]
 pub struct LastEgo {
-    /// The nine fields back to back; field `k` ends at `ends[k]`.
+    /// The nine fields joined by commas, as a plain line holds them; field `k` ends at
+    /// `ends[k]`. A kept field never holds a comma (it parsed as a number), so a plain line's
+    /// span of the nine fields equals `texts` exactly when each field equals its own.
     texts: Vec<u8>,
     ends: [usize; 9],
     values: Option<[f64; 9]>,
@@ -24,12 +26,23 @@ impl LastEgo {
         columns: &[usize; 9],
     ) -> Option<[f64; 9]> {
         let values = self.values?;
+        // The usual header lists the nine ego columns side by side: one comparison of the
+        // span instead of nine.
+        let side_by_side = columns
+            .iter()
+            .enumerate()
+            .all(|(i, &k)| k == columns[0] + i);
+        if side_by_side {
+            if let Some(span) = record.plain_span(columns[0], columns[8]) {
+                return (span == self.texts.as_slice()).then_some(values);
+            }
+        }
         let mut start = 0;
         for (&k, &end) in columns.iter().zip(&self.ends) {
             if record.field(k)? != &self.texts[start..end] {
                 return None;
             }
-            start = end;
+            start = end + 1;
         }
         Some(values)
     }
@@ -42,7 +55,10 @@ impl LastEgo {
         values: [f64; 9],
     ) {
         self.texts.clear();
-        for (&k, end) in columns.iter().zip(self.ends.iter_mut()) {
+        for (i, (&k, end)) in columns.iter().zip(self.ends.iter_mut()).enumerate() {
+            if i > 0 {
+                self.texts.push(b',');
+            }
             self.texts
                 .extend_from_slice(record.field(k).unwrap_or_default());
             *end = self.texts.len();
@@ -63,6 +79,34 @@ mod tests {
         }
         fn field(&self, k: usize) -> Option<&[u8]> {
             self.0.get(k).copied()
+        }
+    }
+
+    /// A plain line: its fields are the pieces between commas, and it has a span.
+    struct Line(&'static [u8]);
+
+    impl RowFields for Line {
+        fn field_count(&self) -> usize {
+            self.0.split(|&b| b == b',').count()
+        }
+        fn field(&self, k: usize) -> Option<&[u8]> {
+            self.0.split(|&b| b == b',').nth(k)
+        }
+        fn plain_span(&self, first: usize, last: usize) -> Option<&[u8]> {
+            let start: usize = self
+                .0
+                .split(|&b| b == b',')
+                .take(first)
+                .map(|f| f.len() + 1)
+                .sum();
+            let end = start
+                + self.0[start..]
+                    .split(|&b| b == b',')
+                    .take(last - first + 1)
+                    .map(|f| f.len() + 1)
+                    .sum::<usize>()
+                - 1;
+            (last < self.field_count()).then(|| &self.0[start..end])
         }
     }
 
@@ -97,5 +141,35 @@ mod tests {
         }
         let short = Fields(vec![b"a", b"1", b"2"]);
         assert_eq!(last.values_if_same(&short, &COLUMNS), None);
+    }
+
+    #[test]
+    fn a_plain_line_compared_as_one_span_answers_like_field_by_field() {
+        let values = [1.0, 2.0, 3.0, 4.0, 1.0, 0.0, 0.0, 4.5, 1.8];
+        let lines: [&'static [u8]; 7] = [
+            b"a,1,2,3,4,1,0,0,4.5,1.8,z",
+            b"b,1,2,3,4,1,0,0,4.5,1.8",
+            b"a,12,,3,4,1,0,0,4.5,1.8,z",
+            b"a,1,2,3,4,1,0,0,4.5,1.8,,",
+            b"a,1,2,3,4,1,0,0,4.5,1.80,z",
+            b"a,1,2,3,4,1,0,0,4.5",
+            b"a,1,2,3,4,1,0,0,4.5,1.8",
+        ];
+        // Side by side (one span) and in another order (field by field).
+        let shuffled = [9, 1, 2, 3, 4, 5, 6, 7, 8];
+        for columns in [COLUMNS, shuffled] {
+            for kept in lines {
+                let mut last = LastEgo::default();
+                last.keep(&Line(kept), &columns, values);
+                for line in lines {
+                    let as_fields = Fields(line.split(|&b| b == b',').collect());
+                    assert_eq!(
+                        last.values_if_same(&Line(line), &columns),
+                        last.values_if_same(&as_fields, &columns),
+                        "kept {kept:?}, line {line:?}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -28,10 +28,11 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
     let mut buffer = zmij::Buffer::new();
     let text = buffer.format_finite(v.abs()).as_bytes();
     // Positional output ending in an odd digit is already what Display writes (no tie to break,
-    // no trailing `.0`, no exponent): the common case. Digits never contain an `e`, and an f32
-    // exponent (`e`, sign, at most two digits) is within the last five bytes: looking there is
-    // exact, and cheaper than a `memchr` call on every value.
-    if !text[text.len().saturating_sub(5)..].contains(&b'e') {
+    // no trailing `.0`, no exponent): the common case. zmij writes an f32 positionally when its
+    // decimal exponent is in -6..=12 (`FIXED_DEC_EXP`), which every value in POSITIONAL has:
+    // no need to look. Outside it, digits never contain an `e`, and an f32 exponent (`e`, sign,
+    // at most two digits) is within the last five bytes: looking there is exact.
+    if POSITIONAL.contains(&v.abs()) || !text[text.len().saturating_sub(5)..].contains(&b'e') {
         match text.last() {
             Some(b'1' | b'3' | b'5' | b'7' | b'9') => {
                 out.extend_from_slice(text);
@@ -39,15 +40,9 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
             }
             // An even last digit is Display's too unless the value is an exact tie, which needs
             // the powers of two to line up: almost never, and cheap to rule out.
-            Some(b'2' | b'4' | b'6' | b'8') => {
-                let decimals = text
-                    .iter()
-                    .rposition(|&b| b == b'.')
-                    .map_or(0, |p| text.len() - p - 1);
-                if !twos_allow_tie(v.abs(), -(decimals as i32)) {
-                    out.extend_from_slice(text);
-                    return;
-                }
+            Some(b'2' | b'4' | b'6' | b'8') if !twos_allow_tie_in(v.abs(), text) => {
+                out.extend_from_slice(text);
+                return;
             }
             _ => {}
         }
@@ -109,6 +104,10 @@ pub fn push_f32(out: &mut Vec<u8>, v: f32) {
         out.extend_from_slice(frac);
     }
 }
+
+/// Magnitudes that zmij always writes without an exponent (well inside its -6..=12 decimal
+/// exponents, so that no rounding at either end can leave the range).
+const POSITIONAL: std::ops::Range<f32> = 1e-5..1e11;
 
 /// Texts of recently written f32 values, so that a value seen again is copied instead of
 /// formatted again: a direct-mapped table keyed by the value's bits (an entry holds exactly
@@ -200,10 +199,26 @@ fn odd_mantissa(v: f32) -> (u64, i32) {
     (u64::from(mantissa >> twos), exp2 + twos as i32)
 }
 
-/// False when `v` cannot be an exact tie between two decimals whose last digit is at `10^k`
-/// (the first, 2-adic test of [`is_exact_tie`]).
-fn twos_allow_tie(v: f32, k: i32) -> bool {
-    odd_mantissa(v).1 == k - 1
+/// False when `v` cannot be an exact tie between two decimals written like its positional
+/// `text` (the first, 2-adic test of [`is_exact_tie`], with `k` = minus the number of
+/// decimals): the tie needs `v`'s odd-mantissa exponent to be `k - 1`, so that exponent says
+/// how many decimals there must be, and one byte says whether there are (instead of searching
+/// the text for its point).
+fn twos_allow_tie_in(v: f32, text: &[u8]) -> bool {
+    let decimals = -odd_mantissa(v).1 - 1;
+    if decimals < 0 {
+        return false;
+    }
+    let d = decimals as usize;
+    // The last point is `d` bytes before the end (no point, or a final one, when `d` is 0).
+    match d {
+        0 => text.last() == Some(&b'.') || !text.contains(&b'.'),
+        _ => {
+            d < text.len()
+                && text[text.len() - 1 - d] == b'.'
+                && !text[text.len() - d..].contains(&b'.')
+        }
+    }
 }
 
 /// Powers of ten that are exact in f64.
@@ -244,7 +259,8 @@ pub fn parse_plain_decimal(text: &[u8]) -> Option<f64> {
     if !rest.is_empty() || digits == 0 || digits > 15 {
         return None;
     }
-    let value = mantissa as f64 / EXACT_POWERS[fraction_digits];
+    // Below 2^53 either way; from i64 the conversion is one instruction, from u64 several.
+    let value = mantissa as i64 as f64 / EXACT_POWERS[fraction_digits];
     Some(if negative { -value } else { value })
 }
 
@@ -423,6 +439,50 @@ mod tests {
             let std: f64 = text.parse().unwrap();
             assert_eq!(fast.to_bits(), std.to_bits(), "{text}");
         }
+    }
+
+    #[test]
+    fn the_tie_test_from_the_exponent_agrees_with_the_one_from_the_point() {
+        let searched = |v: f32, text: &[u8]| {
+            let decimals = text
+                .iter()
+                .rposition(|&b| b == b'.')
+                .map_or(0, |p| text.len() - p - 1);
+            odd_mantissa(v).1 == -(decimals as i32) - 1
+        };
+        let mut s: u32 = 0x1234_5679;
+        let mut allowed = 0;
+        for k in 0..2_000_000u32 {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            // Random bits, and values with few mantissa bits (halves, quarters: tie candidates).
+            let v = match k % 2 {
+                0 => f32::from_bits(s & 0x7fff_ffff),
+                _ => (s % 100_000) as f32 / (1u32 << (s >> 28)) as f32,
+            };
+            if !v.is_finite() || v == 0.0 {
+                continue;
+            }
+            let mut buffer = zmij::Buffer::new();
+            let text = buffer.format_finite(v).as_bytes();
+            if text.contains(&b'e') {
+                continue;
+            }
+            let fast = twos_allow_tie_in(v, text);
+            assert_eq!(fast, searched(v, text), "{v}");
+            allowed += usize::from(fast);
+        }
+        for text in [&b"5"[..], b"5.", b"2.5", b"0.125", b"1.2.5", b"25", b"."] {
+            for v in [0.5f32, 2.5, 0.125, 0.0625, 5.0, 1.0e-3] {
+                assert_eq!(
+                    twos_allow_tie_in(v, text),
+                    searched(v, text),
+                    "{v} {text:?}"
+                );
+            }
+        }
+        assert!(allowed > 1000, "only {allowed} tie candidates were tried");
     }
 
     /// Every 7th f32 bit pattern (614 M values; about 2 minutes in release on one core):

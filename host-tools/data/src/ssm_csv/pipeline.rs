@@ -75,6 +75,16 @@ impl RowFields for FieldBuf {
         };
         Some(&self.bytes[start..self.ends[k]])
     }
+    fn plain_span(&self, first: usize, last: usize) -> Option<&[u8]> {
+        if !self.plain || first > last || last >= self.count {
+            return None;
+        }
+        let start = match first {
+            0 => 0,
+            _ => self.ends[first - 1] + 1,
+        };
+        Some(&self.bytes[start..self.ends[last]])
+    }
 }
 
 impl FieldBuf {
@@ -239,6 +249,8 @@ fn process_chunk(
     let mut rows_ok = 0u64;
     let mut stopped = false;
     let n_names = columns.names.len();
+    // One look at the whole chunk instead of one per line: pair files rarely quote anything.
+    let plain_chunk = memchr::memchr2(b'"', b'\r', &chunk.data).is_none();
     for piece in &chunk.pieces {
         match *piece {
             Piece::Problem { line, problem } => {
@@ -292,7 +304,7 @@ fn process_chunk(
                         }
                     }
                 };
-                if memchr::memchr2(b'"', b'\r', line_body).is_none() {
+                if plain_chunk || memchr::memchr2(b'"', b'\r', line_body).is_none() {
                     fields.set_plain(line_body);
                     emit(fields, Some(line_body));
                 } else {

@@ -4,6 +4,12 @@
 pub trait RowFields {
     fn field_count(&self) -> usize;
     fn field(&self, k: usize) -> Option<&[u8]>;
+    /// Fields `first..=last` as they stand in the line, with the one comma between each two,
+    /// when the record is a plain line (no quotes: no field holds a comma); `None` when the
+    /// record is not plain or has no field `last`.
+    fn plain_span(&self, _first: usize, _last: usize) -> Option<&[u8]> {
+        None
+    }
 }
 
 impl RowFields for csv::StringRecord {

@@ -155,24 +155,16 @@ impl<R: Read> Splitter<R> {
         }
     }
 
-    /// Read until `buf` holds at least `want` bytes or the input ends.
+    /// Read until `buf` holds at least `want` bytes or the input ends. Through `read_to_end`,
+    /// which reads into the spare capacity of a reused buffer without zeroing it first (a
+    /// `File` fills uninitialised memory), unlike growing the buffer with zeros to read into.
     fn fill(&mut self, buf: &mut Vec<u8>, want: usize) -> io::Result<()> {
         while !self.eof && buf.len() < want {
-            let old = buf.len();
-            let grow = (want - old).max(64 * 1024);
-            buf.resize(old + grow, 0);
-            let n = loop {
-                match self.input.read(&mut buf[old..]) {
-                    Ok(n) => break n,
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                    Err(e) => {
-                        buf.truncate(old);
-                        return Err(e);
-                    }
-                }
-            };
-            buf.truncate(old + n);
-            if n == 0 {
+            let grow = (want - buf.len()).max(64 * 1024);
+            buf.reserve(grow);
+            let n = (&mut self.input).take(grow as u64).read_to_end(buf)?;
+            // `take` stops at `grow` bytes; fewer means the input ended.
+            if n < grow {
                 self.eof = true;
             }
         }
