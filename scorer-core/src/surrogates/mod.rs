@@ -11,9 +11,10 @@
 //! TTC2D and TAdv move the vehicles with `(vx, vy)` and use the heading only for the box; EI, like
 //! its reference, moves each vehicle with its speed `|(vx, vy)|` along its heading.
 use crate::features::{features_with_headings, Features};
-use crate::geometry::{boxes_distance, unit_heading, OrientedBox, Vec2};
+use crate::geometry::{unit_heading, BoxPair, OrientedBox, Speeds, Vec2};
 use crate::state::VehicleState;
 
+mod angle;
 mod ei;
 mod guard;
 mod tadv;
@@ -158,12 +159,16 @@ pub(crate) fn surrogates_with_headings(
             ei: f32::NEG_INFINITY,
         };
     };
-    let box_distance = boxes_distance(&bi, &bj);
+    let boxes = BoxPair::new(&bi, &bj);
+    let speeds = Speeds::of(ego, partner);
+    let box_distance = boxes.gap();
     Surrogates {
         box_distance,
-        ttc2d: ttc2d::ttc2d_of_boxes(bi, bj, ego, partner),
-        tadv: tadv::tadv_of_boxes(bi, bj, ego, partner, || box_distance),
-        ei: ei::ei_of_boxes(&bi, &bj, ego, partner),
+        ttc2d: ttc2d::ttc2d_of_pair(&boxes, ego, partner),
+        tadv: tadv::tadv_of_pair(&boxes, ego, partner, speeds, || box_distance),
+        ei: ei::ei_of_pair(&boxes, ego, partner, speeds, boxes.b.center.norm(), || {
+            libm::atan2f(boxes.sin, boxes.cos)
+        }),
     }
 }
 
