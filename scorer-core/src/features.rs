@@ -25,7 +25,7 @@
 //! can never poison the network. A zero or non-finite ego heading is replaced by the world `+y`
 //! axis, a partner's by the ego heading (`psi_sur = 0`); the host rejects such rows before they
 //! get here.
-use crate::geometry::{position, unit_heading, velocity, Vec2};
+use crate::geometry::{centre_distance, position, unit_heading, velocity, Vec2};
 use crate::state::VehicleState;
 
 /// Number of observation features.
@@ -39,6 +39,9 @@ pub const FEATURE_NAMES: [&str; FEATURE_COUNT] = [
     "l_ego", "l_sur", "w_comb", "vy_ego", "vx_sur", "vy_sur", "v_ego2", "v_sur2", "delta_v2",
     "delta_v", "psi_sur", "rho", "s",
 ];
+
+/// Index of `psi_sur`, the angle from the ego's heading to the partner's.
+pub(crate) const PSI_SUR: usize = 10;
 
 /// Coordinates of `v` in the frame whose `+y` is the unit vector `y_axis` and `+x` its right.
 fn in_frame(y_axis: Vec2, v: Vec2) -> Vec2 {
@@ -56,26 +59,41 @@ fn sign(x: f32) -> f32 {
     }
 }
 
-/// Replace NaN by 0 and infinities by the largest finite value of the same sign.
-fn finite_or_clamped(x: f32) -> f32 {
-    if x.is_nan() {
-        0.0
-    } else {
-        x.clamp(-f32::MAX, f32::MAX)
+/// `values` with NaN replaced by 0 and infinities by the largest finite value of the same sign.
+///
+/// Branch-free, so the loop runs four lanes at a time: the clamp leaves NaN as it is, then a mask
+/// that is all ones where the value equals itself keeps the clamped value and zeroes NaN (`+0.0`).
+pub(crate) fn finite_or_clamped<const N: usize>(mut values: [f32; N]) -> [f32; N] {
+    for v in &mut values {
+        let clamped = v.clamp(-f32::MAX, f32::MAX);
+        #[allow(clippy::eq_op)] // x == x is false exactly for NaN
+        let keep = u32::from(*v == *v).wrapping_neg();
+        *v = f32::from_bits(clamped.to_bits() & keep);
     }
+    values
 }
 
 /// The 13 features of the pair (`ego`, `partner`), see the module table.
 pub fn features(ego: &VehicleState, partner: &VehicleState) -> Features {
-    features_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))
+    features_from(
+        ego,
+        unit_heading(ego),
+        partner,
+        unit_heading(partner),
+        ego.speed(),
+        centre_distance(ego, partner),
+    )
 }
 
-/// [`features`] with the [`unit_heading`] of each state already computed.
-pub(crate) fn features_with_headings(
+/// [`features`] with the [`unit_heading`] of each state, the ego's speed and the centre distance
+/// already computed (the surrogates read them too).
+pub(crate) fn features_from(
     ego: &VehicleState,
     heading_ego: Option<Vec2>,
     partner: &VehicleState,
     heading_partner: Option<Vec2>,
+    speed_ego: f32,
+    distance: f32,
 ) -> Features {
     let heading_ego = heading_ego.unwrap_or(Vec2::new(0.0, 1.0));
     let heading_partner = heading_partner.unwrap_or(heading_ego);
@@ -84,7 +102,6 @@ pub(crate) fn features_with_headings(
     let dv = v_ego - v_partner;
     let dp = position(partner) - position(ego);
 
-    let speed_ego = v_ego.norm();
     let v_ego2 = v_ego.norm2();
     let v_partner2 = v_partner.norm2();
     let delta_v2 = dv.norm2();
@@ -102,7 +119,7 @@ pub(crate) fn features_with_headings(
     let dp_relative = in_frame(relative_axis, dp);
     let rho = libm::atan2f(dp_relative.y, dp_relative.x);
 
-    [
+    finite_or_clamped([
         ego.length,
         partner.length,
         (ego.width + partner.width) * 0.5,
@@ -115,9 +132,8 @@ pub(crate) fn features_with_headings(
         dv_norm * sign(v_ego2 - v_partner2),
         psi_partner,
         rho,
-        dp.norm(),
-    ]
-    .map(finite_or_clamped)
+        distance,
+    ])
 }
 
 #[cfg(test)]

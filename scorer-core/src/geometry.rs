@@ -25,6 +25,11 @@ pub fn velocity(s: &VehicleState) -> Vec2 {
     Vec2::new(s.vx, s.vy)
 }
 
+/// Centre-to-centre distance `|p_b - p_a|` of two states.
+pub(crate) fn centre_distance(a: &VehicleState, b: &VehicleState) -> f32 {
+    (position(b) - position(a)).norm()
+}
+
 /// The speeds `|(vx, vy)|` of the ego and of the partner of a pair, computed once for the measures
 /// that read them (features, TAdv, EI).
 #[derive(Clone, Copy, Debug, PartialEq)]
