@@ -197,34 +197,56 @@ impl BoxPair {
         if self.intersects() {
             return 0.0;
         }
-        let ((ha, wa), (hb, wb)) = self.half_extents();
+        let (a, b) = self.half_extents();
         let (c, s) = (self.cos, self.sin);
+        let mut nearest = NearestCorner {
+            best2: f32::INFINITY,
+            best_far: f32::INFINITY,
+        };
+        // b's axis is (c, s) in a's frame, a's axis (c, -s) in b's frame.
         let (bu, bv) = self.b_in_a;
+        nearest.add_corners(Vec2::new(bu, bv), Vec2::new(c, s), b, a);
         let (au, av) = self.a_in_b;
-        // Corner offsets: b's axis is (c, s) and its left normal (-s, c) in a's frame; a's axis is
-        // (c, -s) and its left normal (s, c) in b's frame.
-        let corner_gaps = [
-            point_box_gap(bu + hb * c - wb * s, bv + hb * s + wb * c, ha, wa),
-            point_box_gap(bu + hb * c + wb * s, bv + hb * s - wb * c, ha, wa),
-            point_box_gap(bu - hb * c - wb * s, bv - hb * s + wb * c, ha, wa),
-            point_box_gap(bu - hb * c + wb * s, bv - hb * s - wb * c, ha, wa),
-            point_box_gap(au + ha * c + wa * s, av - ha * s + wa * c, hb, wb),
-            point_box_gap(au + ha * c - wa * s, av - ha * s - wa * c, hb, wb),
-            point_box_gap(au - ha * c + wa * s, av + ha * s + wa * c, hb, wb),
-            point_box_gap(au - ha * c - wa * s, av + ha * s - wa * c, hb, wb),
-        ];
-        let mut best2 = f32::INFINITY;
-        for (dx, dy) in corner_gaps {
-            best2 = best2.min(dx * dx + dy * dy);
+        nearest.add_corners(Vec2::new(au, av), Vec2::new(c, -s), a, b);
+        if nearest.best2.is_finite() {
+            libm::sqrtf(nearest.best2)
+        } else {
+            nearest.best_far
         }
-        if best2.is_finite() {
-            return libm::sqrtf(best2);
+    }
+}
+
+/// The smallest corner-to-box gap seen so far, squared, and the smallest gap itself among those
+/// whose square overflows f32 (gaps beyond ~1.8e19 m; used only when every square does).
+struct NearestCorner {
+    best2: f32,
+    best_far: f32,
+}
+
+impl NearestCorner {
+    /// Takes in the four corners of the box with centre `centre`, unit axis `axis` and half
+    /// extents `(half_length, half_width)`, all given in the frame of the origin-centred,
+    /// axis-aligned box of half extents `target`.
+    fn add_corners(
+        &mut self,
+        centre: Vec2,
+        axis: Vec2,
+        (half_length, half_width): (f32, f32),
+        (target_x, target_y): (f32, f32),
+    ) {
+        let along = axis.scale(half_length);
+        let side = axis.perp_left().scale(half_width);
+        for end in [centre + along, centre - along] {
+            for corner in [end + side, end - side] {
+                let (dx, dy) = point_box_gap(corner.x, corner.y, target_x, target_y);
+                let d2 = dx * dx + dy * dy;
+                if d2.is_finite() {
+                    self.best2 = self.best2.min(d2);
+                } else {
+                    self.best_far = self.best_far.min(Vec2::new(dx, dy).norm());
+                }
+            }
         }
-        // A squared gap overflowed f32 (gaps beyond ~1.8e19 m): compare the gaps themselves.
-        corner_gaps
-            .iter()
-            .map(|&(dx, dy)| Vec2::new(dx, dy).norm())
-            .fold(f32::INFINITY, f32::min)
     }
 }
 
