@@ -61,14 +61,13 @@ fn sign(x: f32) -> f32 {
 
 /// `values` with NaN replaced by 0 and infinities by the largest finite value of the same sign.
 ///
-/// Branch-free, so the loop runs four lanes at a time: the clamp leaves NaN as it is, then a mask
-/// that is all ones where the value equals itself keeps the clamped value and zeroes NaN (`+0.0`).
+/// The clamp leaves NaN as it is and the NaN test comes after it, so each lane is a clamp and a
+/// select: the compiler runs the loop four lanes at a time on x86-64 (a NaN test before the clamp
+/// makes it a branch per value), and the Cortex-M4F executes as few instructions as with branches.
 pub(crate) fn finite_or_clamped<const N: usize>(mut values: [f32; N]) -> [f32; N] {
     for v in &mut values {
         let clamped = v.clamp(-f32::MAX, f32::MAX);
-        #[allow(clippy::eq_op)] // x == x is false exactly for NaN
-        let keep = u32::from(*v == *v).wrapping_neg();
-        *v = f32::from_bits(clamped.to_bits() & keep);
+        *v = if clamped.is_nan() { 0.0 } else { clamped };
     }
     values
 }

@@ -236,15 +236,14 @@ impl NearestCorner {
     ) {
         let along = axis.scale(half_length);
         let side = axis.perp_left().scale(half_width);
-        for end in [centre + along, centre - along] {
-            for corner in [end + side, end - side] {
-                let (dx, dy) = point_box_gap(corner.x, corner.y, target_x, target_y);
-                let d2 = dx * dx + dy * dy;
-                if d2.is_finite() {
-                    self.best2 = self.best2.min(d2);
-                } else {
-                    self.best_far = self.best_far.min(Vec2::new(dx, dy).norm());
-                }
+        let (front, rear) = (centre + along, centre - along);
+        for corner in [front + side, front - side, rear + side, rear - side] {
+            let (dx, dy) = point_box_gap(corner.x, corner.y, target_x, target_y);
+            let d2 = dx * dx + dy * dy;
+            if d2.is_finite() {
+                self.best2 = self.best2.min(d2);
+            } else {
+                self.best_far = self.best_far.min(Vec2::new(dx, dy).norm());
             }
         }
     }

@@ -205,7 +205,7 @@ fn surrogates_from(
     let box_distance = boxes.gap();
     Surrogates {
         box_distance,
-        ttc2d: ttc2d::ttc2d_of_pair(&boxes, ego, partner),
+        ttc2d: ttc2d::ttc2d_of_boxes(&boxes.a, &boxes.b, boxes.b_in_a.0 < 0.0, ego, partner),
         tadv: tadv::tadv_of_pair(&boxes, ego, partner, speeds, || box_distance),
         ei: ei::ei_of_pair(&boxes, ego, partner, speeds, distance, || {
             heading_angle.unwrap_or_else(|| libm::atan2f(boxes.sin, boxes.cos))

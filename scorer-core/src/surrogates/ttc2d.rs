@@ -15,7 +15,7 @@
 //! `clamp` keeps `|dv| >= 1e-6`. The lateral offsets are signed (no absolute value), exactly as in
 //! the reference: a leader to the follower's left is judged by the longitudinal branch only.
 use super::guard::clamp_away_from_zero;
-use crate::geometry::{velocity, BoxPair, OrientedBox, Vec2};
+use crate::geometry::{velocity, OrientedBox, Vec2};
 use crate::state::VehicleState;
 
 /// Coordinates of `v` in the frame with `+y` along `axis` and `+x` to its right.
@@ -58,14 +58,23 @@ pub fn ttc2d(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
     };
-    ttc2d_of_pair(&BoxPair::new(&bi, &bj), ego, partner)
+    // Only this much of a `BoxPair` is read here: the boxes relative to the ego's centre and the
+    // partner's centre along the ego's heading.
+    let origin = bi.center;
+    let (bi, bj) = (bi.relative_to(origin), bj.relative_to(origin));
+    let partner_behind = bj.center.dot(bi.axis) < 0.0;
+    ttc2d_of_boxes(&bi, &bj, partner_behind, ego, partner)
 }
 
-/// [`ttc2d`] of two states whose boxes are `boxes.a` (ego) and `boxes.b` (partner).
-pub(super) fn ttc2d_of_pair(boxes: &BoxPair, ego: &VehicleState, partner: &VehicleState) -> f32 {
-    let (bi, bj) = (&boxes.a, &boxes.b);
-    // The partner's centre along the ego's heading.
-    let partner_behind = boxes.b_in_a.0 < 0.0;
+/// [`ttc2d`] of two states whose boxes, relative to the ego's centre, are `bi` (ego) and `bj`
+/// (partner); `partner_behind` when the partner's centre lies behind the ego along its heading.
+pub(super) fn ttc2d_of_boxes(
+    bi: &OrientedBox,
+    bj: &OrientedBox,
+    partner_behind: bool,
+    ego: &VehicleState,
+    partner: &VehicleState,
+) -> f32 {
     let ttc = if partner_behind {
         follower_leader_ttc((bj, partner), (bi, ego))
     } else {
