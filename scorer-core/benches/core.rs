@@ -1,7 +1,8 @@
-//! Per-observation cost of the core on the host: features, each surrogate, the int8 and f32 DRL
-//! networks, MSRA and a warning-table update. Inputs are the golden configurations (a realistic mix
-//! of conflicts and non-conflicts). Models: the shipped `models/*.rsk` when present, else a
-//! synthetic 13-32-16-1 network with the same structure (printed at start).
+//! Per-observation cost of the core on the host: features, each surrogate, all of them at once (what
+//! `riskctl ssm` computes per pair), the int8 and f32 DRL networks, MSRA and a warning-table update.
+//! Inputs are the golden configurations (a realistic mix of conflicts and non-conflicts). Models:
+//! the shipped `models/*.rsk` when present, else a synthetic 13-32-16-1 network with the same
+//! structure (printed at start).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -196,6 +197,16 @@ fn bench_core(c: &mut Criterion) {
         b.iter(|| {
             for (e, p) in &pairs {
                 black_box(ei(black_box(e), black_box(p)));
+            }
+        })
+    });
+    g.bench_function("surrogates_and_features", |b| {
+        b.iter(|| {
+            for (e, p) in &pairs {
+                black_box(scorer_core::surrogates::surrogates_and_features(
+                    black_box(e),
+                    black_box(p),
+                ));
             }
         })
     });

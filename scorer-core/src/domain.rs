@@ -18,7 +18,7 @@ use crate::model::training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 use crate::model::{Model, ModelBlob};
 use crate::observation::Observation;
 use crate::state::VehicleState;
-use crate::surrogates::{surrogates, Surrogates};
+use crate::surrogates::{surrogates, surrogates_and_features, Surrogates};
 
 /// Every model kind reads 13 numbers (DRL inputs or features): the vector a domain bounds.
 pub type DomainInputs = Features;
@@ -121,8 +121,8 @@ impl ModelBlob<'_> {
             }
             Model::DrlF32(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0], fallback),
             Model::Msra(m) => {
-                let s = surrogates(ego, partner);
-                self.guard(features(ego, partner), |f| m.score(f, &s), || s)
+                let (s, f) = surrogates_and_features(ego, partner);
+                self.guard(f, |f| m.score(f, &s), || s)
             }
             Model::Gssm(m) => self.guard(features(ego, partner), |f| m.score(f), fallback),
         }

@@ -45,6 +45,7 @@
 //! A model blob records the encoding its inputs need in the header's input-schema field
 //! ([`crate::model::decode`] refuses a DRL blob of another encoding rather than score it with the
 //! wrong inputs). Changing anything in this table means a new encoding number.
+use crate::features::finite_or_clamped;
 use crate::geometry::{box_distance_with_headings, position, unit_heading, velocity, Vec2};
 use crate::state::VehicleState;
 
@@ -132,7 +133,7 @@ pub(crate) fn encode(
         dp.cross(hi)
     };
     let miss_gap = (libm::fabsf(across) - w_comb).max(0.0);
-    [
+    finite_or_clamped([
         slog(tca),
         partner.length,
         w_comb,
@@ -146,14 +147,7 @@ pub(crate) fn encode(
         log_gap(miss_gap),
         slog(dp.dot(hi)),
         slog(dp.cross(hi)),
-    ]
-    .map(|x| {
-        if x.is_nan() {
-            0.0
-        } else {
-            x.clamp(-f32::MAX, f32::MAX)
-        }
-    })
+    ])
 }
 
 #[cfg(test)]

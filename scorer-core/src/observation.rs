@@ -5,10 +5,10 @@
 //! scores it; [`Model::score`](crate::model::Model::score) computes only the part its model reads
 //! and gives the same bits.
 use crate::encoding::{encode, DrlInputs};
-use crate::features::{features_with_headings, Features};
+use crate::features::Features;
 use crate::geometry::unit_heading;
 use crate::state::VehicleState;
-use crate::surrogates::{surrogates_with_headings, Surrogates};
+use crate::surrogates::{surrogates_and_features_with_headings, Surrogates};
 
 /// One ego/partner pair as every model sees it: the 13 reference features (GSSM, MSRA), the
 /// surrogates (MSRA, baselines) and the DRL input encoding (DRL).
@@ -25,9 +25,10 @@ impl Observation {
     pub fn of(ego: &VehicleState, partner: &VehicleState) -> Self {
         // Each heading is normalised once for all three parts.
         let (heading_ego, heading_partner) = (unit_heading(ego), unit_heading(partner));
-        let surrogates = surrogates_with_headings(ego, heading_ego, partner, heading_partner);
+        let (surrogates, features) =
+            surrogates_and_features_with_headings(ego, heading_ego, partner, heading_partner);
         Self {
-            features: features_with_headings(ego, heading_ego, partner, heading_partner),
+            features,
             surrogates,
             drl_inputs: encode(
                 ego,

@@ -39,7 +39,7 @@ use crate::mlp::{FloatMlp, QuantMlp};
 use crate::msra::MsraModel;
 use crate::observation::Observation;
 use crate::state::VehicleState;
-use crate::surrogates::surrogates;
+use crate::surrogates::surrogates_and_features;
 use crate::wire_reader::WireReader;
 
 /// First four bytes of every model blob.
@@ -187,7 +187,10 @@ impl<'a> Model<'a> {
         match self {
             Self::DrlInt8(m) => m.forward(&drl_inputs(ego, partner))[0],
             Self::DrlF32(m) => m.forward(&drl_inputs(ego, partner))[0],
-            Self::Msra(m) => m.score(&features(ego, partner), &surrogates(ego, partner)),
+            Self::Msra(m) => {
+                let (s, f) = surrogates_and_features(ego, partner);
+                m.score(&f, &s)
+            }
             Self::Gssm(m) => m.score(&features(ego, partner)),
         }
     }

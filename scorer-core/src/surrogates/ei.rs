@@ -18,18 +18,23 @@
 //! extents `width / |sin(dh)|`, the zone is ahead of each vehicle's rear. "Near-parallel overlap": the
 //! headings differ by at most `gamma = 0.01396` rad modulo pi, the boxes overlap laterally, and one
 //! is ahead of the other (or they overlap longitudinally by the reference's rotated-axis test).
-use crate::geometry::{velocity, OrientedBox, Vec2};
+use super::angle::{line_angle_within, TangentBand};
+use crate::geometry::{BoxPair, OrientedBox, Speeds, Vec2};
 use crate::state::VehicleState;
 use core::f32::consts::PI;
 
 /// Near-parallel tolerance (rad), the reference's default (0.8 degrees).
 const GAMMA: f32 = 0.01396;
+/// Around `tan(GAMMA) = 0.013961`.
+const GAMMA_TANGENTS: TangentBand = TangentBand {
+    below: 0.0136,
+    above: 0.0143,
+};
 /// The safety margin of the index; 0 = the bare vehicle boxes.
 const D_SAFE: f32 = 0.0;
 
-/// One vehicle as the EI reference sees it: centre, unit heading, speed, size.
+/// One vehicle as the EI reference sees it: unit heading, speed, size.
 struct Mover {
-    p: Vec2,
     h: Vec2,
     speed: f32,
     length: f32,
@@ -37,18 +42,10 @@ struct Mover {
 }
 
 impl Mover {
-    #[cfg(test)]
-    fn of(s: &VehicleState) -> Option<Self> {
-        OrientedBox::of(s).map(|b| Self::with_box(s, &b))
-    }
-
-    /// The mover of a state whose box is `b` (a box exists exactly when the state is finite and
-    /// its heading normalises; its centre is the position, its axis the unit heading).
-    fn with_box(s: &VehicleState, b: &OrientedBox) -> Self {
+    fn new(b: &OrientedBox, s: &VehicleState, speed: f32) -> Self {
         Self {
-            p: b.center,
             h: b.axis,
-            speed: velocity(s).norm(),
+            speed,
             length: s.length,
             width: s.width,
         }
@@ -66,26 +63,31 @@ fn closing_after_rounding(closing: f32) -> bool {
 }
 
 /// The headings are parallel or anti-parallel within `GAMMA` (the heading difference modulo pi).
+/// `heading_angle` gives the signed angle from the ego's heading to the partner's,
+/// `atan2(sin, cos)` of `boxes` (asked only when the tangent does not settle it).
 ///
 /// The reference compares `dh = psi_j - psi_i` (each from `atan2`, so `dh` is in `[-2 pi, 2 pi]`)
 /// with 0 and +-pi; it misses the `+-2 pi` wrap for two vehicles heading almost exactly west
 /// (one at `+pi - e`, the other at `-pi + e`). Folding the signed angle between the headings
 /// gives the same answer everywhere else and the physically right one there.
-fn near_parallel(a: &Mover, b: &Mover) -> bool {
-    let dh = libm::atan2f(a.h.cross(b.h), a.h.dot(b.h)).abs(); // in [0, pi]
-    dh <= GAMMA || PI - dh <= GAMMA
+fn near_parallel(boxes: &BoxPair, heading_angle: impl FnOnce() -> f32) -> bool {
+    line_angle_within(GAMMA_TANGENTS, boxes.sin, boxes.cos).unwrap_or_else(|| {
+        let dh = heading_angle().abs(); // in [0, pi]
+        dh <= GAMMA || PI - dh <= GAMMA
+    })
 }
 
 /// The two heading lines cross in a zone that lies ahead of both vehicles' rears.
-fn paths_cross(a: &Mover, b: &Mover, d: Vec2) -> bool {
-    let sin_dh = a.h.cross(b.h);
+fn paths_cross(a: &Mover, b: &Mover, boxes: &BoxPair) -> bool {
+    let sin_dh = boxes.sin;
     if sin_dh == 0.0 {
         // Exactly parallel lines never meet. (The reference's arithmetic yields NaN or +-inf
         // here depending on float64 rounding of sin/cos; near-parallel pairs are judged by
         // `parallel_overlap` instead.)
         return false;
     }
-    let cos_dh = a.h.dot(b.h);
+    let cos_dh = boxes.cos;
+    let d = boxes.b.center;
     let t_a = d.cross(b.h) / sin_dh; // P = p_a + t_a h_a
     let s_b = t_a * cos_dh - d.dot(b.h); // P = p_b + s_b h_b
     let zone_a = a.width / sin_dh.abs(); // extent of the crossing zone along b's heading
@@ -97,10 +99,12 @@ fn paths_cross(a: &Mover, b: &Mover, d: Vec2) -> bool {
 
 /// Near-parallel configuration with lateral overlap, per the reference's test (including its
 /// `dx cos - dy sin` longitudinal term).
-fn parallel_overlap(a: &Mover, b: &Mover, d: Vec2) -> bool {
+fn parallel_overlap(a: &Mover, b: &Mover, boxes: &BoxPair) -> bool {
+    let d = boxes.b.center;
     let (cos_a, sin_a) = (a.h.x, a.h.y);
-    let b_ahead_of_a = d.dot(a.h) >= 0.0;
-    let a_ahead_of_b = -d.dot(b.h) >= 0.0;
+    // Each centre along the other's heading.
+    let b_ahead_of_a = boxes.b_in_a.0 >= 0.0;
+    let a_ahead_of_b = boxes.a_in_b.0 >= 0.0;
     let lon_overlap = (d.x * cos_a - d.y * sin_a).abs() - 0.5 * (a.length + b.length) <= 0.0;
     let lat_overlap = (d.x * sin_a - d.y * cos_a).abs() - 0.5 * (a.width + b.width) <= 0.0;
     (b_ahead_of_a || a_ahead_of_b || lon_overlap) && lat_overlap
@@ -114,25 +118,43 @@ pub fn ei(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::NEG_INFINITY;
     };
-    ei_of_boxes(&bi, &bj, ego, partner)
+    let boxes = BoxPair::new(&bi, &bj);
+    let distance = boxes.b.center.norm();
+    ei_of_pair(
+        &boxes,
+        ego,
+        partner,
+        Speeds::of(ego, partner),
+        distance,
+        || libm::atan2f(boxes.sin, boxes.cos),
+    )
 }
 
-/// [`ei`] of two states whose boxes are `bi` (ego) and `bj` (partner).
-pub(super) fn ei_of_boxes(
-    bi: &OrientedBox,
-    bj: &OrientedBox,
+/// [`ei`] of two states whose boxes are `boxes.a` (ego) and `boxes.b` (partner), with their
+/// `speeds` and centre `distance`; `heading_angle` gives `atan2(boxes.sin, boxes.cos)` when it
+/// is needed (a caller that has it passes it instead of computing it twice).
+pub(super) fn ei_of_pair(
+    boxes: &BoxPair,
     ego: &VehicleState,
     partner: &VehicleState,
+    speeds: Speeds,
+    distance: f32,
+    heading_angle: impl FnOnce() -> f32,
 ) -> f32 {
-    let (a, b) = (Mover::with_box(ego, bi), Mover::with_box(partner, bj));
-    let d = b.p - a.p;
+    let a = Mover::new(&boxes.a, ego, speeds.ego);
+    let b = Mover::new(&boxes.b, partner, speeds.partner);
+    let d = boxes.b.center;
     let u = b.h.scale(b.speed) - a.h.scale(a.speed);
-    let dist = d.norm();
-    let closing = if dist != 0.0 { -d.dot(u) / dist } else { 0.0 };
+    let closing = if distance != 0.0 {
+        -d.dot(u) / distance
+    } else {
+        0.0
+    };
     if !closing_after_rounding(closing) {
         return f32::NEG_INFINITY;
     }
-    let conflict = paths_cross(&a, &b, d) || (near_parallel(&a, &b) && parallel_overlap(&a, &b, d));
+    let conflict = paths_cross(&a, &b, boxes)
+        || (near_parallel(boxes, heading_angle) && parallel_overlap(&a, &b, boxes));
     if !conflict {
         return f32::NEG_INFINITY;
     }
@@ -208,20 +230,21 @@ mod tests {
 
     #[test]
     fn near_parallel_is_modulo_pi_across_the_atan2_branch_cut() {
-        let mover = |angle: f32| {
-            let s = car(0.0, 0.0, 1.0, libm::cosf(angle), libm::sinf(angle));
-            Mover::of(&s).unwrap()
+        let parallel = |angle_a: f32, angle_b: f32| {
+            let [a, b] = [angle_a, angle_b].map(|angle| {
+                OrientedBox::of(&car(0.0, 0.0, 1.0, libm::cosf(angle), libm::sinf(angle))).unwrap()
+            });
+            let boxes = BoxPair::new(&a, &b);
+            near_parallel(&boxes, || libm::atan2f(boxes.sin, boxes.cos))
         };
-        let west_up = mover(PI - 0.005);
-        let west_down = mover(-PI + 0.005);
         assert!(
-            near_parallel(&west_up, &west_down),
+            parallel(PI - 0.005, -PI + 0.005),
             "0.01 rad apart across +-pi"
         );
-        assert!(
-            near_parallel(&mover(0.3), &mover(0.3 + PI - 0.01)),
-            "anti-parallel"
-        );
-        assert!(!near_parallel(&mover(0.3), &mover(0.33)));
+        assert!(parallel(0.3, 0.3 + PI - 0.01), "anti-parallel");
+        assert!(!parallel(0.3, 0.33));
+        // Near GAMMA itself the arctangent decides, as the reference does.
+        assert!(parallel(0.3, 0.3 + GAMMA * 0.999));
+        assert!(!parallel(0.3, 0.3 + GAMMA * 1.001));
     }
 }

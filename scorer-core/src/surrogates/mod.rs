@@ -10,10 +10,11 @@
 //! values give the "no conflict" sentinel (or a finite value), never NaN and never a panic.
 //! TTC2D and TAdv move the vehicles with `(vx, vy)` and use the heading only for the box; EI, like
 //! its reference, moves each vehicle with its speed `|(vx, vy)|` along its heading.
-use crate::features::{features_with_headings, Features};
-use crate::geometry::{boxes_distance, unit_heading, OrientedBox, Vec2};
+use crate::features::{features_from, Features, PSI_SUR};
+use crate::geometry::{centre_distance, unit_heading, BoxPair, OrientedBox, Speeds, Vec2};
 use crate::state::VehicleState;
 
+mod angle;
 mod ei;
 mod guard;
 mod tadv;
@@ -120,30 +121,72 @@ impl Surrogates {
 
 /// Compute every surrogate of the pair (`ego`, `partner`).
 pub fn surrogates(ego: &VehicleState, partner: &VehicleState) -> Surrogates {
-    surrogates_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))
+    surrogates_from(
+        ego,
+        unit_heading(ego),
+        partner,
+        unit_heading(partner),
+        Speeds::of(ego, partner),
+        centre_distance(ego, partner),
+        None,
+    )
 }
 
 /// Every surrogate and the 13 features of the pair, bit for bit [`surrogates`] and
 /// [`features`](crate::features::features), with what they share done once: each heading is
-/// normalised and each box built once (not once per measure), and TAdv's near-parallel fallback
-/// reuses the box distance.
+/// normalised, each box built and the boxes' relative geometry taken once (not once per measure);
+/// the two speeds and the centre distance are one square root each; TAdv's near-parallel
+/// fallback reuses the box distance and EI's heading test the feature `psi_sur`.
 pub fn surrogates_and_features(
     ego: &VehicleState,
     partner: &VehicleState,
 ) -> (Surrogates, Features) {
-    let (heading_ego, heading_partner) = (unit_heading(ego), unit_heading(partner));
-    (
-        surrogates_with_headings(ego, heading_ego, partner, heading_partner),
-        features_with_headings(ego, heading_ego, partner, heading_partner),
-    )
+    surrogates_and_features_with_headings(ego, unit_heading(ego), partner, unit_heading(partner))
 }
 
-/// [`surrogates`] with the [`unit_heading`] of each state already computed.
-pub(crate) fn surrogates_with_headings(
+/// [`surrogates_and_features`] with the [`unit_heading`] of each state already computed.
+pub(crate) fn surrogates_and_features_with_headings(
     ego: &VehicleState,
     heading_ego: Option<Vec2>,
     partner: &VehicleState,
     heading_partner: Option<Vec2>,
+) -> (Surrogates, Features) {
+    let speeds = Speeds::of(ego, partner);
+    let distance = centre_distance(ego, partner);
+    let features = features_from(
+        ego,
+        heading_ego,
+        partner,
+        heading_partner,
+        speeds.ego,
+        distance,
+    );
+    // With both boxes (the only case EI asks), `psi_sur` is `atan2` of the unit headings' cross
+    // and dot products, finite and so not clamped: the boxes' `atan2(sin, cos)`.
+    let heading_angle = features.get(PSI_SUR).copied();
+    let surrogates = surrogates_from(
+        ego,
+        heading_ego,
+        partner,
+        heading_partner,
+        speeds,
+        distance,
+        heading_angle,
+    );
+    (surrogates, features)
+}
+
+/// [`surrogates`] with the [`unit_heading`] of each state, the pair's speeds and centre distance
+/// already computed, and the angle from the ego's heading to the partner's when the caller has it
+/// (else EI computes it if it needs it).
+fn surrogates_from(
+    ego: &VehicleState,
+    heading_ego: Option<Vec2>,
+    partner: &VehicleState,
+    heading_partner: Option<Vec2>,
+    speeds: Speeds,
+    distance: f32,
+    heading_angle: Option<f32>,
 ) -> Surrogates {
     let boxes = (
         OrientedBox::with_axis(ego, heading_ego),
@@ -158,12 +201,15 @@ pub(crate) fn surrogates_with_headings(
             ei: f32::NEG_INFINITY,
         };
     };
-    let box_distance = boxes_distance(&bi, &bj);
+    let boxes = BoxPair::new(&bi, &bj);
+    let box_distance = boxes.gap();
     Surrogates {
         box_distance,
-        ttc2d: ttc2d::ttc2d_of_boxes(bi, bj, ego, partner),
-        tadv: tadv::tadv_of_boxes(bi, bj, ego, partner, || box_distance),
-        ei: ei::ei_of_boxes(&bi, &bj, ego, partner),
+        ttc2d: ttc2d::ttc2d_of_boxes(&boxes.a, &boxes.b, boxes.b_in_a.0 < 0.0, ego, partner),
+        tadv: tadv::tadv_of_pair(&boxes, ego, partner, speeds, || box_distance),
+        ei: ei::ei_of_pair(&boxes, ego, partner, speeds, distance, || {
+            heading_angle.unwrap_or_else(|| libm::atan2f(boxes.sin, boxes.cos))
+        }),
     }
 }
 

@@ -16,14 +16,20 @@
 //! difference `|v_i| - |v_j|` (ego behind), `|v_j| - |v_i|` (partner behind, same direction) or
 //! `|v_i| + |v_j|` (opposite directions, judged along the ego heading), kept at `|dv| >= 1e-6`.
 //! A negative result (the gap opens) is `+inf`; two stopped vehicles give `D / 1e-6`, about 1e7 s.
+use super::angle::{line_angle_within, TangentBand};
 use super::guard::clamp_away_from_zero;
-use crate::geometry::{boxes_distance, velocity, OrientedBox};
+use crate::geometry::{velocity, BoxPair, OrientedBox, Speeds};
 use crate::state::VehicleState;
 
 /// 3 degrees: below it (or above 177 degrees) the paths are treated as parallel.
 const PARALLEL_ANGLE: f32 = core::f32::consts::PI / 60.0;
 /// 177 degrees.
 const ANTIPARALLEL_ANGLE: f32 = core::f32::consts::PI * 59.0 / 60.0;
+/// Around `tan(3 deg) = 0.05241`.
+const PARALLEL_TANGENTS: TangentBand = TangentBand {
+    below: 0.0512,
+    above: 0.0536,
+};
 /// Speeds below this divide as if they were this (the reference's zero-division guard).
 const MIN_SPEED: f32 = 1e-6;
 
@@ -34,33 +40,37 @@ pub fn tadv(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
     };
-    tadv_of_boxes(bi, bj, ego, partner, || boxes_distance(&bi, &bj))
+    let boxes = BoxPair::new(&bi, &bj);
+    tadv_of_pair(&boxes, ego, partner, Speeds::of(ego, partner), || {
+        boxes.gap()
+    })
 }
 
-/// [`tadv`] of two states whose boxes are `bi` (ego) and `bj` (partner); `gap` gives their
-/// [`boxes_distance`] (asked for near-parallel motion only, so a caller that has it already
+/// [`tadv`] of two states whose boxes are `boxes.a` (ego) and `boxes.b` (partner); `gap` gives
+/// their [`BoxPair::gap`] (asked for near-parallel motion only, so a caller that has it already
 /// passes it instead of measuring twice).
-pub(super) fn tadv_of_boxes(
-    bi: OrientedBox,
-    bj: OrientedBox,
+pub(super) fn tadv_of_pair(
+    boxes: &BoxPair,
     ego: &VehicleState,
     partner: &VehicleState,
+    speeds: Speeds,
     gap: impl FnOnce() -> f32,
 ) -> f32 {
-    let origin = bi.center;
-    let bi = bi.relative_to(origin);
-    let bj = bj.relative_to(origin);
     let v_i = velocity(ego);
     let v_j = velocity(partner);
 
     let cross = v_i.cross(v_j);
-    let angle = libm::atan2f(cross, v_i.dot(v_j)).abs();
-    let parallel = cross == 0.0 || !(PARALLEL_ANGLE..=ANTIPARALLEL_ANGLE).contains(&angle);
+    let dot = v_i.dot(v_j);
+    let parallel = cross == 0.0
+        || line_angle_within(PARALLEL_TANGENTS, cross, dot).unwrap_or_else(|| {
+            let angle = libm::atan2f(cross, dot).abs();
+            !(PARALLEL_ANGLE..=ANTIPARALLEL_ANGLE).contains(&angle)
+        });
 
     let result = if parallel {
-        parallel_fallback(&bi, &bj, ego, partner, gap())
+        parallel_fallback(boxes, partner, speeds, gap())
     } else {
-        crossing_time_advantage(&bi, &bj, ego, partner, cross)
+        crossing_time_advantage(boxes, ego, partner, speeds, cross)
     };
     if result.is_nan() {
         f32::INFINITY
@@ -70,19 +80,13 @@ pub(super) fn tadv_of_boxes(
 }
 
 /// The box distance `gap` over the signed speed difference (see the module doc). A NaN gap
-/// (which [`boxes_distance`] reports as `+inf`) ends as `+inf` either way: NaN and `+-inf` over
+/// (which [`BoxPair::gap`] reports as `+inf`) ends as `+inf` either way: NaN and `+-inf` over
 /// any speed are NaN, `+inf` or negative, all "no conflict".
-fn parallel_fallback(
-    bi: &OrientedBox,
-    bj: &OrientedBox,
-    ego: &VehicleState,
-    partner: &VehicleState,
-    gap: f32,
-) -> f32 {
-    let partner_behind = (bj.center - bi.center).dot(bi.axis) < 0.0;
-    let partner_forward = velocity(partner).dot(bi.axis);
-    let speed_i = velocity(ego).norm();
-    let speed_j = velocity(partner).norm();
+fn parallel_fallback(boxes: &BoxPair, partner: &VehicleState, speeds: Speeds, gap: f32) -> f32 {
+    // The partner's centre along the ego's heading.
+    let partner_behind = boxes.b_in_a.0 < 0.0;
+    let partner_forward = velocity(partner).dot(boxes.a.axis);
+    let (speed_i, speed_j) = (speeds.ego, speeds.partner);
     let closing = if partner_forward < 0.0 {
         speed_i + speed_j
     } else if partner_behind {
@@ -100,22 +104,22 @@ fn parallel_fallback(
 
 /// Minimum over the 16 corner pairs of the arrival-time difference at their path crossing.
 fn crossing_time_advantage(
-    bi: &OrientedBox,
-    bj: &OrientedBox,
+    boxes: &BoxPair,
     ego: &VehicleState,
     partner: &VehicleState,
+    speeds: Speeds,
     cross: f32,
 ) -> f32 {
     let v_i = velocity(ego);
     let v_j = velocity(partner);
-    let speed_i = v_i.norm();
-    let speed_j = v_j.norm();
+    let (speed_i, speed_j) = (speeds.ego, speeds.partner);
     // Time to travel distance `t * |v|` at the guarded speed, as the reference does.
     let time_i = |t: f32| t * speed_i / speed_i.max(MIN_SPEED);
     let time_j = |u: f32| u * speed_j / speed_j.max(MIN_SPEED);
     let mut best = f32::INFINITY;
-    for a in bi.corners() {
-        for b in bj.corners() {
+    let corners_j = boxes.b.corners();
+    for a in boxes.a.corners() {
+        for b in corners_j {
             let ab = b - a;
             let t = ab.cross(v_j) / cross;
             let u = ab.cross(v_i) / cross;

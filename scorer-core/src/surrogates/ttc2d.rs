@@ -58,24 +58,27 @@ pub fn ttc2d(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
     };
-    ttc2d_of_boxes(bi, bj, ego, partner)
+    // Only this much of a `BoxPair` is read here: the boxes relative to the ego's centre and the
+    // partner's centre along the ego's heading.
+    let origin = bi.center;
+    let (bi, bj) = (bi.relative_to(origin), bj.relative_to(origin));
+    let partner_behind = bj.center.dot(bi.axis) < 0.0;
+    ttc2d_of_boxes(&bi, &bj, partner_behind, ego, partner)
 }
 
-/// [`ttc2d`] of two states whose boxes are `bi` (ego) and `bj` (partner).
+/// [`ttc2d`] of two states whose boxes, relative to the ego's centre, are `bi` (ego) and `bj`
+/// (partner); `partner_behind` when the partner's centre lies behind the ego along its heading.
 pub(super) fn ttc2d_of_boxes(
-    bi: OrientedBox,
-    bj: OrientedBox,
+    bi: &OrientedBox,
+    bj: &OrientedBox,
+    partner_behind: bool,
     ego: &VehicleState,
     partner: &VehicleState,
 ) -> f32 {
-    let origin = bi.center;
-    let bi = bi.relative_to(origin);
-    let bj = bj.relative_to(origin);
-    let partner_behind = bj.center.dot(bi.axis) < 0.0;
     let ttc = if partner_behind {
-        follower_leader_ttc((&bj, partner), (&bi, ego))
+        follower_leader_ttc((bj, partner), (bi, ego))
     } else {
-        follower_leader_ttc((&bi, ego), (&bj, partner))
+        follower_leader_ttc((bi, ego), (bj, partner))
     };
     if ttc.is_nan() || ttc < 0.0 {
         f32::INFINITY
