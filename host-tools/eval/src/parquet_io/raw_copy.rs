@@ -22,7 +22,7 @@ use parquet::arrow::arrow_reader::{
     ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReader,
     ParquetRecordBatchReaderBuilder,
 };
-use parquet::arrow::arrow_writer::{compute_leaves, ArrowColumnChunk};
+use parquet::arrow::arrow_writer::compute_leaves;
 use parquet::arrow::ProjectionMask;
 use parquet::column::writer::ColumnCloseResult;
 use parquet::errors::ParquetError;
@@ -31,7 +31,7 @@ use parquet::file::reader::{ChunkReader, Length};
 use parquet::schema::types::SchemaDescriptor;
 
 use super::page_checksums::{verify_pages, PageDamage};
-use super::row_groups::RowGroupEncoder;
+use super::row_groups::{CopiedGroup, Piece, RowGroupEncoder};
 use super::{locate_checksum_error, ColumnarError};
 use crate::arrow_kernel::{pair_columns, ssm_kernel};
 use riskscore_data::ssm_csv::{PairColumns, RowError};
@@ -116,22 +116,6 @@ impl ChunkReader for PositionalFile {
         }
         Ok(buffer.into())
     }
-}
-
-/// One output column chunk of a copied row group, in output order.
-pub(crate) enum Piece {
-    /// The input's chunk, copied from the input file.
-    Copied(ColumnCloseResult),
-    /// Encoded by the worker (a computed column, or a pass-through one that is not copied).
-    Encoded(ArrowColumnChunk),
-}
-
-/// An output row group made from an input row group by copying: its column chunks in order.
-/// The copied chunks' bytes are not held here: the writing thread reads them from the input
-/// when it writes them, so a job in flight holds only its computed chunks, however wide the
-/// pass-through columns are.
-pub(crate) struct CopiedGroup {
-    pub pieces: Vec<Piece>,
 }
 
 /// What a worker made of an input row group.

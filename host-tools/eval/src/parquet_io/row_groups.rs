@@ -11,13 +11,12 @@ use parquet::arrow::arrow_writer::{
 };
 use parquet::arrow::ArrowWriter;
 use parquet::basic::Compression;
+use parquet::column::writer::ColumnCloseResult;
 use parquet::errors::ParquetError;
 use parquet::file::properties::WriterProperties;
 use parquet::file::reader::ChunkReader;
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::{ColumnPath, SchemaDescriptor};
-
-use super::raw_copy::{CopiedGroup, Piece};
 
 /// Most rows in one row group.
 pub const MAX_ROW_GROUP_ROWS: usize = 1 << 17;
@@ -69,6 +68,22 @@ pub fn writer_properties(schema: &Schema) -> WriterProperties {
 /// The writing side: the file, its row groups appended in order.
 pub struct RowGroupFile<W: Write + Send> {
     writer: SerializedFileWriter<W>,
+}
+
+/// One output column chunk of a copied row group, in output order.
+pub(crate) enum Piece {
+    /// The input's chunk, copied from the input file.
+    Copied(ColumnCloseResult),
+    /// Encoded by the worker (a computed column, or a pass-through one that is not copied).
+    Encoded(ArrowColumnChunk),
+}
+
+/// An output row group made from an input row group by copying: its column chunks in order.
+/// The copied chunks' bytes are not held here: the writing thread reads them from the input
+/// when it writes them, so a job in flight holds only its computed chunks, however wide the
+/// pass-through columns are.
+pub(crate) struct CopiedGroup {
+    pub pieces: Vec<Piece>,
 }
 
 /// The encoding side, shared by the workers.

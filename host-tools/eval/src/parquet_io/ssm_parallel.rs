@@ -20,7 +20,8 @@ use parquet::arrow::arrow_writer::ArrowColumnChunk;
 
 use super::csv_batches::{CsvLayout, CsvRows};
 use super::ordered::ordered_map;
-use super::raw_copy::{read_metadata, CopiedGroup, GroupOutcome, PositionalFile, RawSource};
+use super::raw_copy::{read_metadata, GroupOutcome, PositionalFile, RawSource};
+use super::row_groups::CopiedGroup;
 use super::row_groups::{row_group_file, RowGroupEncoder, RowGroupFile};
 use super::{locate_checksum_error, write_csv_rows, BatchSink, ColumnarError, ColumnarInput};
 use crate::arrow_kernel::{append_columns, computed_schema, pair_columns, ssm_kernel};
