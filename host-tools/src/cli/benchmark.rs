@@ -27,8 +27,9 @@ pub enum Command {
     ///
     /// Per seed and fold, the real scenario files (the event-id prefix before `/`, as written by
     /// `riskctl import commonroad`) are dealt into --folds groups; one group is held out. DRL and
-    /// MSRA train as in the demo's cross-validation, the GSSM is fitted on the training part's real
-    /// sequences (normal driving) and aligned to SSRA. Every model is scored through its exported
+    /// MSRA train as in the demo's cross-validation, the GSSM is fitted on every safe training
+    /// sequence, simulated and real (normal driving, as the shipped GSSM is), and aligned to SSRA.
+    /// Every model is scored through its exported
     /// blob, and the table (and --json) has the schema of `riskctl evaluate`.
     Transfer(TransferArgs),
     /// Hold one slice of the operating domain out per round: train without it, test on it.

@@ -286,8 +286,6 @@ pub fn slice_counts(round: &Round, data: &DomainData) -> SliceCounts {
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoundSplit {
     pub train: Vec<Sequence>,
-    /// The training part's real sequences (the GSSM's normal driving).
-    pub normal: Vec<Sequence>,
     /// Test sequences: the simulated part first, then the real ones from `real_from` on.
     pub test: Vec<Sequence>,
     pub real_from: usize,
@@ -300,21 +298,23 @@ pub fn split_round(round: &Round, data: &DomainData, held_scenarios: &[String]) 
             .iter()
             .any(|n| n == scenario_of(&l.sequence.event_id))
     };
-    let normal: Vec<Sequence> = data
+    let real_train: Vec<Sequence> = data
         .real
         .iter()
         .filter(|l| !round.contains(&l.domain) && !held(l))
         .map(|l| l.sequence.clone())
         .collect();
-    let training_scenarios: BTreeSet<&str> =
-        normal.iter().map(|s| scenario_of(&s.event_id)).collect();
+    let training_scenarios: BTreeSet<&str> = real_train
+        .iter()
+        .map(|s| scenario_of(&s.event_id))
+        .collect();
     let mut train: Vec<Sequence> = data
         .train_sim
         .iter()
         .filter(|l| !round.contains(&l.domain))
         .map(|l| l.sequence.clone())
         .collect();
-    train.extend(normal.iter().cloned());
+    train.extend(real_train.iter().cloned());
     let mut test: Vec<Sequence> = data
         .test_sim_part(round)
         .into_iter()
@@ -330,7 +330,6 @@ pub fn split_round(round: &Round, data: &DomainData, held_scenarios: &[String]) 
     );
     RoundSplit {
         train,
-        normal,
         test,
         real_from,
     }
@@ -414,7 +413,6 @@ mod tests {
                 "USA_Peach-1_1_T-1/1"
             ]
         );
-        assert_eq!(ids(&split.normal), ids(&split.train[3..]));
         // US101-1 trained (its 12 m/s sequence), so its 40 m/s sequence is not tested in this
         // fold; US101-2 is held out: its 36 m/s sequence is.
         assert_eq!(ids(&split.test), ["b1", "b3", "USA_US101-2/1"]);

@@ -123,7 +123,6 @@ pub fn run_round(
                 fold: *fold,
                 train: &split.train,
                 drl_only: &[],
-                normal: &split.normal,
                 test: &split.test,
             },
             config,
