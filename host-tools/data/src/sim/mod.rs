@@ -590,6 +590,7 @@ pub fn simulate_events(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::events::{LENGTH_RANGE_M, WIDTH_RANGE_M};
 
     /// Outcome counts per family and regime over `n` draws: [crash, near_crash, safe, rejected].
     fn outcomes(family: Family, hazardous: bool, n: u64) -> [u32; 4] {
@@ -629,6 +630,25 @@ mod tests {
                 f.name()
             );
             assert!(bn[2] > 0, "{}: no safe event from benign draws", f.name());
+        }
+    }
+
+    #[test]
+    fn every_family_draws_boxes_the_event_loader_accepts() {
+        let (lengths, widths) = (LENGTH_RANGE_M, WIDTH_RANGE_M);
+        for f in Family::ALL {
+            for (i, hazardous) in (0..2000u64).flat_map(|i| [(i, true), (i, false)]) {
+                let mut rng = ChaCha8Rng::seed_from_u64(11);
+                rng.set_stream(i);
+                for a in scenarios::build(f, &mut rng, hazardous).agents {
+                    let (l, w) = (a.length as f32, a.width as f32);
+                    assert!(
+                        (lengths.0..=lengths.1).contains(&l) && (widths.0..=widths.1).contains(&w),
+                        "{} draw {i}: a {l} x {w} m box is outside the loader's range",
+                        f.name()
+                    );
+                }
+            }
         }
     }
 

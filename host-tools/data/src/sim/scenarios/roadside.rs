@@ -7,13 +7,14 @@ use rand_chacha::ChaCha8Rng;
 use super::parts::{
     agent, distracted_until, driver, scripted, sign, u, Built, Vehicle, VehicleClass, CRUISE,
 };
+use crate::events::LENGTH_RANGE_M;
 use crate::sim::world::Path;
 
 /// Ego speeds (m/s) of the family: the whole speed range of the operating domain above walking.
 const V_EGO: (f64, f64) = (5.0, 50.0);
 
 /// The ego (always the moving vehicle) drives straight at constant speed past a stationary
-/// object: a parked vehicle (65 %, the drawn partner) or a non-vehicle object (35 %: 0.4-2.5 m
+/// object: a parked vehicle (65 %, the drawn partner) or a non-vehicle object (35 %: 0.5-2.5 m
 /// long, 0.3-1.5 m wide), on the right (75 %) or left. Benign: lateral clearance (edge to edge)
 /// U(3, 8) m; the object is outside the driver's corridor and nobody reacts to it. Hazardous: the
 /// object reaches 0.2-1.2 m into the ego's path; the driver is distracted until a time to contact
@@ -27,7 +28,13 @@ pub(super) fn roadside_object(
     let object = if rng.random_bool(0.35) {
         Vehicle {
             class: VehicleClass::Object,
-            dims: (u(rng, 0.4, 2.5), u(rng, 0.3, 1.5)),
+            // Drawn from 0.4 m and raised to the event format's (and the CAN signal's) shortest
+            // box, 0.5 m: the loader drops shorter ones, and the same draw keeps every other
+            // event of a seed as it was.
+            dims: (
+                u(rng, 0.4, 2.5).max(LENGTH_RANGE_M.0 as f64),
+                u(rng, 0.3, 1.5),
+            ),
             limits: (0.0, 0.0),
         }
     } else {
