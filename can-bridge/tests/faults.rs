@@ -162,6 +162,8 @@ fn a_read_only_target_folder_fails_naming_the_file() {
 #[test]
 fn ctrl_c_in_the_middle_and_a_second_run_leave_the_old_output() {
     let d = scratch();
-    event_folder_and_log(d.path(), "long", "long.log", 150);
+    // Long enough that a `check` run (which writes only at its end) is still working when the
+    // harness signals it 300 ms after the start: 150 events took 0.34 s on a fast core, a race.
+    event_folder_and_log(d.path(), "long", "long.log", 1000);
     ctrl_c_and_second_run(BRIDGE, d.path(), WRITERS);
 }
