@@ -29,8 +29,8 @@ pub enum Command {
     /// `riskctl import commonroad`) are dealt into --folds groups; one group is held out. DRL and
     /// MSRA train as in the demo's cross-validation, the GSSM is fitted on every safe training
     /// sequence, simulated and real (normal driving, as the shipped GSSM is), and aligned to SSRA.
-    /// Every model is scored through its exported
-    /// blob, and the table (and --json) has the schema of `riskctl evaluate`.
+    /// Every model is scored through its exported blob, and the table (and --json) has the schema
+    /// of `riskctl evaluate`.
     Transfer(TransferArgs),
     /// Hold one slice of the operating domain out per round: train without it, test on it.
     ///

@@ -7,8 +7,9 @@
 //! the test simulation + the real sequences of group `f`. DRL and MSRA are trained exactly as in
 //! cross-validation ([`crate::train::cv::run_fold`]); the GSSM is fitted on every safe training
 //! sequence (real and simulated normal driving, as the shipped GSSM is), aligned to SSRA on the
-//! training comparisons ([`crate::gssm::study::train_fold`]). Every model is scored through its exported blob. The
-//! result is the same [`CvReport`] (table, CSV, JSON schema) as `riskctl evaluate` and the demo.
+//! training comparisons ([`crate::gssm::study::train_fold`]). Every model is scored through its
+//! exported blob. The result is the same [`CvReport`] (table, CSV, JSON schema) as `riskctl
+//! evaluate` and the demo.
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 
@@ -166,12 +167,10 @@ pub fn run(
     let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
         let (seed, fold, held_out) = &jobs[j];
         let is_test = |s: &Sequence| held_out.iter().any(|n| n == scenario_of(&s.event_id));
-        let real_train: Vec<Sequence> = data.real.iter().filter(|s| !is_test(s)).cloned().collect();
-        let real_test: Vec<Sequence> = data.real.iter().filter(|s| is_test(s)).cloned().collect();
         let mut train = data.train_sim.clone();
-        train.extend(real_train.iter().cloned());
+        train.extend(data.real.iter().filter(|s| !is_test(s)).cloned());
         let mut test = data.test_sim.clone();
-        test.extend(real_test.iter().cloned());
+        test.extend(data.real.iter().filter(|s| is_test(s)).cloned());
         let outcome = run_split(
             &Split {
                 seed: *seed,
@@ -241,7 +240,8 @@ pub struct SplitOutcome {
 
 /// The fold runner every benchmark shares: DRL and MSRA trained exactly as in cross-validation
 /// ([`cv::run_fold`]), the GSSM fitted on the safe sequences of `train` and `drl_only` and aligned
-/// to SSRA on the training comparisons ([`gssm::study::train_fold`]); every model scored through its exported blob.
+/// to SSRA on the training comparisons ([`gssm::study::train_fold`]); every model scored through
+/// its exported blob.
 pub fn run_split(
     split: &Split<'_>,
     config: &TrainConfig,

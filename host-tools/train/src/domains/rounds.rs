@@ -298,23 +298,21 @@ pub fn split_round(round: &Round, data: &DomainData, held_scenarios: &[String]) 
             .iter()
             .any(|n| n == scenario_of(&l.sequence.event_id))
     };
-    let real_train: Vec<Sequence> = data
-        .real
-        .iter()
-        .filter(|l| !round.contains(&l.domain) && !held(l))
-        .map(|l| l.sequence.clone())
-        .collect();
-    let training_scenarios: BTreeSet<&str> = real_train
-        .iter()
-        .map(|s| scenario_of(&s.event_id))
-        .collect();
+    let real_train = || {
+        data.real
+            .iter()
+            .filter(|l| !round.contains(&l.domain) && !held(l))
+            .map(|l| &l.sequence)
+    };
+    let training_scenarios: BTreeSet<&str> =
+        real_train().map(|s| scenario_of(&s.event_id)).collect();
     let mut train: Vec<Sequence> = data
         .train_sim
         .iter()
         .filter(|l| !round.contains(&l.domain))
         .map(|l| l.sequence.clone())
         .collect();
-    train.extend(real_train.iter().cloned());
+    train.extend(real_train().cloned());
     let mut test: Vec<Sequence> = data
         .test_sim_part(round)
         .into_iter()

@@ -32,7 +32,7 @@ pub(super) fn roadside_object(
             // box, 0.5 m: the loader drops shorter ones, and the same draw keeps every other
             // event of a seed as it was.
             dims: (
-                u(rng, 0.4, 2.5).max(LENGTH_RANGE_M.0 as f64),
+                u(rng, 0.4, 2.5).max(f64::from(LENGTH_RANGE_M.0)),
                 u(rng, 0.3, 1.5),
             ),
             limits: (0.0, 0.0),
