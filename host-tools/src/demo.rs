@@ -514,6 +514,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             drl_only: &drl_only_seqs,
         };
         let run = cv::cross_validate_with_extra(&seqs, &extra, None, &config, &cv_opts)?;
+        crate::warnings::print(run.iter().flat_map(|f| &f.warnings));
         if k == 0 {
             first_seed_folds = run.len();
         }
@@ -595,6 +596,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             progress: opts.progress,
         };
         let result = riskscore_train::transfer::run(&data, &opts.config, &opts.gssm, &topts)?;
+        crate::warnings::print(&result.warnings);
         let tdir = report_dir.join("transfer");
         files.extend(write_transfer_report(&tdir, &result)?);
         println!(
@@ -655,6 +657,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         meta,
         opts.progress,
     )?;
+    crate::warnings::print(&finals.warnings);
     files.extend(model_files);
     stages.push(("final models + export".into(), t0.elapsed().as_secs_f64()));
 
@@ -894,6 +897,7 @@ fn domain_benchmark(
         &options,
         EmptyRound::ReportNoData,
     )?;
+    crate::warnings::print(result.warnings());
     println!(
         "Domain benchmark (short: {} folds x {} seed(s); `riskctl benchmark domains` runs 5 x 3): \
          each round trains without one slice of the operating domain and tests on it",

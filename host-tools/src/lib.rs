@@ -4,3 +4,4 @@
 //! `riskscore-eval` (warning protocol, metrics, reports, plots) and `riskscore-train` (comparisons,
 //! training, GSSM, quantisation, export, transfer benchmark).
 pub mod demo;
+pub mod warnings;

@@ -164,6 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut tables = AblationTables::create(&args.out, &data, args.folds, &base)
         .with_context(|| format!("{}: cannot create the ablation tables", args.out.display()))?;
     ablation::run(&seqs, aug.as_deref(), &config, &opts, |cell| {
+        host_tools::warnings::print(&cell.warnings);
         for line in tables.add(cell) {
             println!("{line}");
         }

@@ -276,6 +276,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     );
     let options = a.training.options(a.quiet);
     let result = transfer::run(&data, &config, &gssm_config, &options)?;
+    host_tools::warnings::print(&result.warnings);
     write_transfer_report(&a.out.join("report"), &result)?;
     if a.json {
         println!(
@@ -347,6 +348,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         &a.training.options(a.quiet),
         empty,
     )?;
+    host_tools::warnings::print(result.warnings());
     let report_dir = a.out.join("report");
     result.bundle()?.write_to(&report_dir)?;
     if a.json {

@@ -86,6 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         progress,
     )
     .context("training failed")?;
+    host_tools::warnings::print(&finals.warnings);
     let d = &finals.drl.report;
     let m = &finals.msra.report;
     println!(

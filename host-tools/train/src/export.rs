@@ -477,6 +477,15 @@ pub struct GuardedBlob {
     pub fallback_refused: Option<crate::fallback::FallbackError>,
 }
 
+impl GuardedBlob {
+    /// The warning a user of model `name` should read when its fallback was refused.
+    pub fn warning(&self, name: &str) -> Option<String> {
+        self.fallback_refused.as_ref().map(|reason| {
+            format!("{name}: no kinematic fallback ({reason}); its guard is flag-only")
+        })
+    }
+}
+
 /// `blob` with its training-domain record set to `domain` and its kinematic-fallback record to
 /// `fallback` (which the fallback policy needs and every other policy refuses; the model and the
 /// default threshold unchanged), checked by decoding it again.

@@ -25,6 +25,9 @@ pub struct FinalModels {
     pub msra: TrainedMsra,
     pub agreement: Agreement,
     pub pairs_per_second: f64,
+    /// What the caller should show its user: a DRL whose kinematic fallback could not be fitted
+    /// (its guard became `flag-only`).
+    pub warnings: Vec<String>,
 }
 
 /// Train DRL and MSRA on all of `train` (DRL also on `drl_only`), write checkpoints and blobs into `dir`: `drl.json`,
@@ -73,6 +76,7 @@ pub fn train_and_export(
     );
     let msra_terms = export::msra_terms(&msra.params)?;
     let mut contents = Vec::new();
+    let mut warnings = Vec::new();
     for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
         let p = dir.join(name);
         contents.push((p.clone(), ck.to_json(&p)?));
@@ -100,9 +104,7 @@ pub fn train_and_export(
             config.guard.policy,
             Some(msra_terms.as_slice()),
         )?;
-        if let Some(reason) = &guarded.fallback_refused {
-            eprintln!("warning: {name}: no kinematic fallback ({reason}); its guard is flag-only");
-        }
+        warnings.extend(guarded.warning(name));
         contents.push((dir.join(name), guarded.bytes));
     }
     // The five files are one output: all new or all old.
@@ -115,6 +117,7 @@ pub fn train_and_export(
             msra,
             agreement,
             pairs_per_second: prepared.fit.stats.pairs_per_second(),
+            warnings,
         },
         files,
     ))

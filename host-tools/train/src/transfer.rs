@@ -112,6 +112,8 @@ pub struct TransferResult {
     pub report: CvReport,
     pub folds: Vec<FoldResult>,
     pub splits: Vec<FoldSplit>,
+    /// Every fold's warnings for the user, in fold order ([`SplitOutcome::warnings`]).
+    pub warnings: Vec<String>,
 }
 
 /// The scenario (recording file) a real sequence came from: [`riskscore_data::events::fold_group`] (the
@@ -190,11 +192,12 @@ pub fn run(
             train_sequences: train.len(),
             test_sequences: test.len(),
         };
-        Ok::<_, TransferError>((outcome.result, split))
+        Ok::<_, TransferError>((outcome.result, split, outcome.warnings))
     })?;
     let mut folds = Vec::new();
     let mut splits = Vec::new();
-    for (result, split) in outcomes {
+    let mut warnings = Vec::new();
+    for (result, split, fold_warnings) in outcomes {
         if options.progress != Progress::Hidden {
             eprintln!(
                 "      transfer seed {} fold {}: {} train / {} test sequences",
@@ -203,6 +206,7 @@ pub fn run(
         }
         folds.push(result);
         splits.push(split);
+        warnings.extend(fold_warnings);
     }
     // Event counts of one test set as the table header reports them (simulated test events plus
     // every real sequence, each held out once per seed).
@@ -212,6 +216,7 @@ pub fn run(
         report,
         folds,
         splits,
+        warnings,
     })
 }
 
@@ -236,6 +241,8 @@ pub struct SplitOutcome {
     pub runs: Vec<MethodRun>,
     /// Per guarded model: how many of the test frames lie outside its training domain.
     pub domain_shares: Vec<DomainShare>,
+    /// The fold's warnings for the user ([`cv::FoldOutcome::warnings`]), prefixed with the seed.
+    pub warnings: Vec<String>,
 }
 
 /// The fold runner every benchmark shares: DRL and MSRA trained exactly as in cross-validation
@@ -267,6 +274,11 @@ pub fn run_split(
     let mut methods = outcome.result.methods;
     let mut runs = outcome.runs;
     let domain_shares = outcome.domain_shares;
+    let warnings = outcome
+        .warnings
+        .into_iter()
+        .map(|w| format!("seed {seed} {w}"))
+        .collect();
 
     let mut gcfg = cfg.clone();
     gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
@@ -296,6 +308,7 @@ pub fn run_split(
         },
         runs,
         domain_shares,
+        warnings,
     })
 }
 

@@ -136,6 +136,8 @@ fn under_fallback_the_drl_hands_over_to_the_kinematic_terms_of_its_msra() {
             ("MSRA".to_string(), Some(OutsidePolicy::FlagOnly)),
         ]
     );
+    // Every fallback was fitted, so the fold has nothing to warn about.
+    assert!(fallback.warnings.is_empty(), "{:?}", fallback.warnings);
     let msra_blob = scorer_core::model::decode_blob(&fallback.blobs[2].1).unwrap();
     let scorer_core::model::Model::Msra(msra) = &msra_blob.model else {
         panic!("not MSRA")
@@ -199,6 +201,14 @@ fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason(
         "{:?}",
         guarded.fallback_refused
     );
+    // The warning a caller prints (training and the benchmarks return it, never print it).
+    let warning = guarded.warning("fold 3: DRL").expect("a warning");
+    assert!(
+        warning.starts_with("fold 3: DRL: no kinematic fallback (")
+            && warning.contains("training frames inside the domain")
+            && warning.ends_with("its guard is flag-only"),
+        "{warning}"
+    );
     let blob = decode_blob(&guarded.bytes).unwrap();
     let domain = blob.meta.training_domain.expect("a record");
     assert_eq!(domain.policy, OutsidePolicy::FlagOnly);
@@ -211,6 +221,7 @@ fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason(
         "{:?}",
         guarded.fallback_refused
     );
+    assert_eq!(guarded.warning("DRL"), None);
     let blob = decode_blob(&guarded.bytes).unwrap();
     assert_eq!(
         blob.meta.training_domain.unwrap().policy,

@@ -75,6 +75,14 @@ fn share_cell(s: &ShareSummary) -> String {
 }
 
 impl DomainsResult {
+    /// Every run round's warnings for the user, in round order ([`RoundResult::warnings`]).
+    pub fn warnings(&self) -> impl Iterator<Item = &String> {
+        self.rounds.iter().flat_map(|outcome| match outcome {
+            RoundOutcome::Ran(result) => result.warnings.as_slice(),
+            RoundOutcome::NoData { .. } => &[],
+        })
+    }
+
     /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
     /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice` and, in each method row,
     /// [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.

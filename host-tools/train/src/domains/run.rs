@@ -84,6 +84,8 @@ pub struct RoundResult {
     /// Per guarded model, over every fold and seed: the test frames outside the fold model's
     /// training domain (each fold's model measured on its own training data).
     pub domain: Vec<DomainShare>,
+    /// Every fold's warnings for the user, in fold order, prefixed with the round.
+    pub warnings: Vec<String>,
 }
 
 /// Run one round: `options.seeds` x `options.folds` trainings without the slice, each scored on it.
@@ -148,6 +150,7 @@ pub fn run_round(
         Ok::<_, DomainsError>(RoundFold {
             result: outcome.result,
             domain: outcome.domain_shares,
+            warnings: outcome.warnings,
             shares: fold_shares,
             train_len: split.train.len(),
             test_len: split.test.len(),
@@ -158,6 +161,7 @@ pub fn run_round(
     let mut shares = Vec::new();
     let mut splits = Vec::new();
     let mut domain: Vec<DomainShare> = Vec::new();
+    let mut warnings = Vec::new();
     for fold in outcomes {
         if options.progress != Progress::Hidden {
             eprintln!(
@@ -166,6 +170,12 @@ pub fn run_round(
             );
         }
         merge_shares(&mut domain, &fold.domain);
+        let round_name = &round.name;
+        warnings.extend(
+            fold.warnings
+                .into_iter()
+                .map(|w| format!("round {round_name} {w}")),
+        );
         shares.extend(fold.shares);
         folds.push(fold.result);
         splits.push(fold.split);
@@ -178,6 +188,7 @@ pub fn run_round(
         shares,
         splits,
         domain,
+        warnings,
     })
 }
 
@@ -186,6 +197,8 @@ struct RoundFold {
     result: FoldResult,
     /// Per guarded model, its test frames outside the training domain.
     domain: Vec<DomainShare>,
+    /// The fold's warnings for the user.
+    warnings: Vec<String>,
     /// The real-safe share at each method's thresholds.
     shares: Vec<ShareRun>,
     split: RoundFoldSplit,

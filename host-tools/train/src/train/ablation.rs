@@ -56,6 +56,9 @@ pub struct AblationCell {
     pub fraction: f64,
     pub report: CvReport,
     pub seconds: f64,
+    /// Every fold's warnings for the user ([`cv::FoldOutcome::warnings`]); not in the tables.
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 /// Run the ablation; `on_cell` is called after each cell (for incremental output).
@@ -85,12 +88,14 @@ pub fn run(
                 progress: opts.progress,
             };
             let folds = cv::cross_validate(seqs, augmentation, &cfg, &cv_opts)?;
+            let warnings = folds.iter().flat_map(|f| f.warnings.clone()).collect();
             let results: Vec<_> = folds.into_iter().map(|f| f.result).collect();
             let cell = AblationCell {
                 sources: set_name(set),
                 fraction,
                 report: eval::aggregate(events, &results),
                 seconds: started.elapsed().as_secs_f64(),
+                warnings,
             };
             on_cell(&cell);
             cells.push(cell);

@@ -117,6 +117,9 @@ pub struct FoldOutcome {
     pub blobs: Vec<(String, Vec<u8>)>,
     /// Per guarded model: how many of the fold's test frames lie outside its training domain.
     pub domain_shares: Vec<DomainShare>,
+    /// What the caller should show its user: a model whose kinematic fallback could not be fitted
+    /// (its guard became `flag-only`). Printing is the caller's choice, not the library's.
+    pub warnings: Vec<String>,
     pub times: FoldTimes,
 }
 
@@ -321,6 +324,7 @@ pub fn run_fold(
         blobs.push(("MSRA".into(), export::msra_blob(&m.params).map_err(xerr)?));
     }
     // The record the final model would carry, measured on what this fold's models trained on.
+    let mut warnings = Vec::new();
     for (name, blob) in &mut blobs {
         let trained_on = if name.starts_with("DRL") {
             drl_train
@@ -334,11 +338,7 @@ pub fn run_fold(
             msra_terms.as_ref().map(|t| t.as_slice()),
         )
         .map_err(xerr)?;
-        if let Some(reason) = &guarded.fallback_refused {
-            eprintln!(
-                "warning: fold {fold}: {name}: no kinematic fallback ({reason}); its guard is flag-only"
-            );
-        }
+        warnings.extend(guarded.warning(&format!("fold {fold}: {name}")));
         *blob = guarded.bytes;
     }
     times.quantise_export = t0.elapsed().as_secs_f64();
@@ -387,6 +387,7 @@ pub fn run_fold(
         msra_params: msra.filter(|_| opts.models.msra).map(|m| m.params),
         blobs,
         domain_shares,
+        warnings,
         times,
     })
 }
