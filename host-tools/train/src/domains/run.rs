@@ -170,11 +170,10 @@ pub fn run_round(
             );
         }
         merge_shares(&mut domain, &fold.domain);
-        let round_name = &round.name;
         warnings.extend(
             fold.warnings
                 .into_iter()
-                .map(|w| format!("round {round_name} {w}")),
+                .map(|w| format!("round {} {w}", round.name)),
         );
         shares.extend(fold.shares);
         folds.push(fold.result);

@@ -93,8 +93,9 @@ pub struct GssmFold {
     pub detail: FoldDetail,
 }
 
-/// One fold: fit the GSSM on the safe sequences of `normal` (real normal driving, as the original
-/// GSSM is fitted; the training sequences themselves when `None`), align it to SSRA with the
+/// One fold: fit the GSSM on the safe sequences of `normal` (the normal driving it models: the
+/// benchmarks pass every safe training sequence, simulated and real, as the shipped GSSM is
+/// fitted; the training sequences themselves when `None`), align it to SSRA with the
 /// comparisons of `train`, train the MSRA configurations over it, and score `test` through the
 /// deployed path. `cfg.seed` seeds everything.
 pub fn train_fold(

@@ -88,8 +88,14 @@ pub fn run(
                 progress: opts.progress,
             };
             let folds = cv::cross_validate(seqs, augmentation, &cfg, &cv_opts)?;
-            let warnings = folds.iter().flat_map(|f| f.warnings.clone()).collect();
-            let results: Vec<_> = folds.into_iter().map(|f| f.result).collect();
+            let mut warnings = Vec::new();
+            let results: Vec<_> = folds
+                .into_iter()
+                .map(|f| {
+                    warnings.extend(f.warnings);
+                    f.result
+                })
+                .collect();
             let cell = AblationCell {
                 sources: set_name(set),
                 fraction,
