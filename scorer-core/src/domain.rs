@@ -5,7 +5,10 @@
 //! the DRL inputs (schema 3) for DRL, the 13 features for MSRA and GSSM. An observation is inside
 //! when every bounded input `x` satisfies `lo <= x <= hi`; a NaN input is outside (it compares
 //! false). The first range, in record order, that an input leaves is reported for diagnostics. A
-//! blob without the record is inside everywhere and scores exactly as [`Model::score`].
+//! DRL domain may also carry the geometry cells its training data reached (record tag 4,
+//! [`crate::geometry_cell`]): an observation inside every range whose cell is not covered is
+//! outside, reported as input [`GEOMETRY_INPUT`] (13). A blob without the record is inside
+//! everywhere and scores exactly as [`Model::score`].
 //!
 //! Under the fallback policy an observation outside scores the blob's kinematic fallback (record
 //! tag 3, [`KinematicFallback`](crate::model::KinematicFallback)) from the pair's surrogates; the
@@ -14,6 +17,8 @@
 //! No allocation, no panic: a fixed 13-element copy of the inputs is clamped when the policy asks.
 use crate::encoding::drl_inputs;
 use crate::features::{features, Features};
+use crate::geometry_cell::geometry_cell;
+use crate::model::geometry_coverage::GEOMETRY_INPUT;
 use crate::model::training_domain::{InputRange, OutsidePolicy, TrainingDomain};
 use crate::model::{Model, ModelBlob};
 use crate::observation::Observation;
@@ -64,14 +69,20 @@ impl InputRange {
 }
 
 impl TrainingDomain<'_> {
-    /// The input index of the first range `inputs` leaves, `None` when inside.
+    /// The input index of the first range `inputs` leaves; inside every range,
+    /// [`GEOMETRY_INPUT`] when their geometry cell is not covered; `None` when inside.
     pub fn first_outside(&self, inputs: &DomainInputs) -> Option<u8> {
         self.ranges()
             .find(|r| !r.contains(r.value(inputs)))
             .map(|r| r.input)
+            .or_else(|| {
+                let covered = self.coverage?.covers(geometry_cell(inputs));
+                (!covered).then_some(GEOMETRY_INPUT)
+            })
     }
 
-    /// Moves every bounded input into its range (see [`InputRange::clamp`]).
+    /// Moves every bounded input into its range (see [`InputRange::clamp`]). Clamping cannot move
+    /// an observation into a covered geometry cell: there the model scores as under flag-only.
     pub fn clamp(&self, inputs: &mut DomainInputs) {
         for r in self.ranges() {
             if let Some(x) = inputs.get_mut(usize::from(r.input)) {

@@ -9,6 +9,7 @@
 //! - [`interaction`]: the geometry of a pair (following, adjacent, crossing, oncoming).
 //! - [`features`]: the 13 observation features of an ego/partner pair.
 //! - [`encoding`]: the DRL input encoding (versioned, trig-free transform of the two states).
+//! - [`geometry_cell`]: bearing, relative heading and distance band of a pair, from its DRL inputs.
 //! - [`observation`]: features + surrogates + DRL inputs of a pair, computed once ([`Observation`]).
 //! - [`surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
@@ -37,6 +38,7 @@ pub mod domain;
 pub mod encoding;
 pub mod features;
 pub mod geometry;
+pub mod geometry_cell;
 pub mod gssm;
 pub mod interaction;
 pub mod mlp;

@@ -12,7 +12,7 @@
 mod example_blob;
 
 use example_blob::{
-    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model,
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model, hex,
     tadv_term,
 };
 
@@ -92,10 +92,6 @@ fn domain_record(policy: OutsidePolicy) -> Vec<u8> {
 fn fallback_record(fallback: &KinematicFallback) -> Vec<u8> {
     let mut buf = [0u8; 256];
     record(3, postcard::to_slice(fallback, &mut buf).unwrap())
-}
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Ego at `ego_speed` straight ahead, partner `gap` m ahead closing at `closing` m/s.

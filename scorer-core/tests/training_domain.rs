@@ -11,7 +11,7 @@
 mod example_blob;
 
 use example_blob::{
-    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model,
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model, hex,
 };
 
 use scorer_core::model::{
@@ -63,10 +63,6 @@ fn domain_record(domain: &TrainingDomain) -> Vec<u8> {
     ];
     record.extend_from_slice(body);
     record
-}
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// A pair whose DRL inputs are the given ego speed and a box gap of `gap` m (straight ahead,

@@ -8,6 +8,7 @@
 //! specification: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
+use super::geometry_coverage::{GeometryCoverage, GEOMETRY_COVERAGE_TAG};
 use super::kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 use super::training_domain::{OutsidePolicy, TrainingDomain, TRAINING_DOMAIN_TAG};
 use super::ModelError;
@@ -113,7 +114,8 @@ impl<'a> DefaultThreshold<'a> {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelMeta<'a> {
     pub default_threshold: Option<DefaultThreshold<'a>>,
-    /// Tag 2: the inputs' trained ranges and the policy outside them; `None` scores unguarded.
+    /// Tag 2: the inputs' trained ranges and the policy outside them, with the covered geometry
+    /// cells of tag 4 when the blob has them; `None` scores unguarded.
     pub training_domain: Option<TrainingDomain<'a>>,
     /// Tag 3: the score outside the domain under [`OutsidePolicy::Fallback`]; present exactly
     /// when the domain's policy is fallback.
@@ -158,6 +160,7 @@ impl<'a> ModelMeta<'a> {
     /// Reads the records that fill `bytes` entirely.
     pub fn decode(mut bytes: &'a [u8]) -> Result<Self, ModelError> {
         let mut meta = ModelMeta::default();
+        let mut coverage = None;
         while let Some((&tag, rest)) = bytes.split_first() {
             let mut r = WireReader::new(rest);
             let len = usize::try_from(r.u32()?).unwrap_or(usize::MAX);
@@ -197,9 +200,22 @@ impl<'a> ModelMeta<'a> {
                         KinematicFallback::read,
                     )?);
                 }
+                GEOMETRY_COVERAGE_TAG => {
+                    if coverage.is_some() {
+                        return Err(ModelError::DuplicateRecord { tag });
+                    }
+                    coverage = Some(GeometryCoverage::from_body(body));
+                }
                 _ => {}
             }
             bytes = rest;
+        }
+        if coverage.is_some() {
+            let domain = meta.training_domain.as_mut().ok_or(ModelError::BadRecord {
+                field: "geometry_coverage",
+                reason: "needs a training domain (tag 2)",
+            })?;
+            domain.coverage = coverage;
         }
         // Each record, and whether they agree (they may come in any order), once all are read:
         // one copy of the checks in the image.
@@ -228,6 +244,10 @@ impl<'a> ModelMeta<'a> {
             let rest = out.get_mut(written..).ok_or(too_small.clone())?;
             written += write_record(KINEMATIC_FALLBACK_TAG, fallback, rest, &too_small)?;
         }
+        if let Some(coverage) = self.coverage() {
+            let rest = out.get_mut(written..).ok_or(too_small.clone())?;
+            written += write_record(GEOMETRY_COVERAGE_TAG, coverage, rest, &too_small)?;
+        }
         Ok(written)
     }
 
@@ -245,7 +265,16 @@ impl<'a> ModelMeta<'a> {
             Some(fallback) => record_len(fallback)?,
             None => 0,
         };
-        Ok(threshold + domain + fallback)
+        let coverage = match self.coverage() {
+            Some(coverage) => record_len(coverage)?,
+            None => 0,
+        };
+        Ok(threshold + domain + fallback + coverage)
+    }
+
+    /// The training domain's geometry coverage (record tag 4), if any.
+    pub fn coverage(&self) -> Option<&GeometryCoverage<'a>> {
+        self.training_domain.as_ref()?.coverage.as_ref()
     }
 }
 

@@ -21,6 +21,7 @@
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
 
+pub mod geometry_coverage;
 pub mod kinematic_fallback;
 pub mod meta;
 mod payload_reader;
@@ -28,6 +29,7 @@ pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
+pub use geometry_coverage::{GeometryCoverage, GEOMETRY_COVERAGE_TAG, GEOMETRY_INPUT};
 pub use kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};
 pub use training_domain::{InputRange, OutsidePolicy, TrainingDomain};
@@ -370,7 +372,19 @@ pub fn decode_blob(blob: &[u8]) -> Result<ModelBlob<'_>, ModelError> {
         ModelMeta::decode(rest)?
     };
     model.validate()?;
+    meta_fits_model(&model, &meta)?;
     Ok(ModelBlob { model, meta })
+}
+
+/// The records that only some kinds may carry: a geometry coverage is read off the DRL inputs.
+fn meta_fits_model(model: &Model<'_>, meta: &ModelMeta<'_>) -> Result<(), ModelError> {
+    if meta.coverage().is_some() && !matches!(model, Model::DrlInt8(_) | Model::DrlF32(_)) {
+        return Err(ModelError::BadRecord {
+            field: "geometry_coverage",
+            reason: "only DRL blobs carry one (its cells are read off the DRL inputs)",
+        });
+    }
+    Ok(())
 }
 
 fn payload_size(model: &Model<'_>) -> Result<usize, ModelError> {
@@ -411,6 +425,7 @@ pub fn encode_blob(blob: &ModelBlob<'_>, out: &mut [u8]) -> Result<usize, ModelE
     let model = &blob.model;
     model.validate()?;
     blob.meta.validate()?;
+    meta_fits_model(model, &blob.meta)?;
     let needed = encoded_blob_len(blob)?;
     let available = out.len();
     let too_small = ModelError::BufferTooSmall { needed, available };

@@ -12,6 +12,7 @@
 //! record costs the ECU no copy and no per-field deserialiser.
 use serde::{Deserialize, Serialize};
 
+use super::geometry_coverage::GeometryCoverage;
 use super::ModelError;
 use crate::wire_reader::WireReader;
 
@@ -96,7 +97,8 @@ impl InputRange {
     }
 }
 
-/// The training domain: the ranges of the bounded inputs (inputs not listed are unbounded) and
+/// The training domain: the ranges of the bounded inputs (inputs not listed are unbounded), the
+/// geometry cells the training data reached (DRL blobs; record tag 4, stored beside this one) and
 /// the policy for outside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainingDomain<'a> {
@@ -104,6 +106,10 @@ pub struct TrainingDomain<'a> {
     /// [`InputRange`]s, [`RANGE_BYTES`] each ([`TrainingDomain::ranges`] reads them).
     #[serde(borrow)]
     pub range_bytes: &'a [u8],
+    /// The covered geometry cells; `None`: every cell counts as covered. Its own record (tag 4),
+    /// so a build that does not know it still reads the ranges.
+    #[serde(skip)]
+    pub coverage: Option<GeometryCoverage<'a>>,
 }
 
 impl<'a> TrainingDomain<'a> {
@@ -112,7 +118,13 @@ impl<'a> TrainingDomain<'a> {
         Self {
             policy,
             range_bytes,
+            coverage: None,
         }
+    }
+
+    /// The domain with its geometry coverage set.
+    pub fn with_coverage(self, coverage: Option<GeometryCoverage<'a>>) -> Self {
+        Self { coverage, ..self }
     }
 
     /// The record body's fields, in postcard order (a policy index this build does not know is
@@ -142,8 +154,12 @@ impl<'a> TrainingDomain<'a> {
         self.len() == 0
     }
 
-    /// Whole ranges, at most 13, each of a known input given once, with finite `lo <= hi`.
+    /// Whole ranges, at most 13, each of a known input given once, with finite `lo <= hi`; a
+    /// valid coverage.
     pub fn validate(&self) -> Result<(), ModelError> {
+        if let Some(coverage) = &self.coverage {
+            coverage.validate()?;
+        }
         let field = "training_domain.ranges";
         if !self.range_bytes.len().is_multiple_of(RANGE_BYTES) {
             return Err(ModelError::DimensionMismatch {

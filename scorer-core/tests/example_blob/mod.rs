@@ -47,6 +47,11 @@ pub fn tadv_term() -> MsraTerm {
     }
 }
 
+/// Lowercase hex of `bytes`, for comparing blobs with the byte listings of docs/model-format.md.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
 /// `blob` encoded (exactly [`model::encoded_blob_len`] bytes).
 pub fn encode(blob: &ModelBlob<'_>) -> Vec<u8> {
     let mut out = vec![0u8; model::encoded_blob_len(blob).unwrap()];
