@@ -61,12 +61,26 @@ fn calibrate(model: &Path, events: &Path, tail: &str, policy: &str, out: &Path) 
 }
 
 /// `calibrate-domain` with frame tails of `tail` %, widened to what `sequences` % of the
-/// sequences reached.
+/// sequences reached, every geometry cell a sequence reached covered (a dozen events are too few
+/// for the default of 5 sequences per cell).
 fn calibrate_widened(
     model: &Path,
     events: &Path,
     tail: &str,
     sequences: &str,
+    policy: &str,
+    out: &Path,
+) -> String {
+    calibrate_cells(model, events, tail, sequences, "1", policy, out)
+}
+
+/// [`calibrate_widened`] with a geometry cell covered once `cells` sequences reached it.
+fn calibrate_cells(
+    model: &Path,
+    events: &Path,
+    tail: &str,
+    sequences: &str,
+    cells: &str,
     policy: &str,
     out: &Path,
 ) -> String {
@@ -80,6 +94,8 @@ fn calibrate_widened(
         tail,
         "--sequence-percent",
         sequences,
+        "--cell-sequences",
+        cells,
         "--policy",
         policy,
         "--out",
@@ -120,6 +136,16 @@ fn score_flags(model: &Path, events: &Path, out: &Path) -> (u64, u64) {
 
 /// The `domain` entry of `riskctl evaluate --json` for DRL: (frames, outside, share).
 fn evaluate_domain(model: &Path, events: &Path) -> (u64, u64, f64) {
+    let d = evaluate_domain_json(model, events);
+    (
+        d["frames"].as_u64().unwrap(),
+        d["outside"].as_u64().unwrap(),
+        d["outside_share"].as_f64().unwrap(),
+    )
+}
+
+/// The DRL's `domain` entry of `riskctl evaluate --json`.
+fn evaluate_domain_json(model: &Path, events: &Path) -> serde_json::Value {
     let text = ok(riskctl(&[
         "evaluate",
         "--model",
@@ -135,11 +161,7 @@ fn evaluate_domain(model: &Path, events: &Path) -> (u64, u64, f64) {
     assert_eq!(domain.len(), 1, "only the guarded model: {json}");
     let d = &domain[0];
     assert_eq!(d["name"], "DRL");
-    (
-        d["frames"].as_u64().unwrap(),
-        d["outside"].as_u64().unwrap(),
-        d["outside_share"].as_f64().unwrap(),
-    )
+    d.clone()
 }
 
 #[test]
@@ -199,6 +221,7 @@ fn calibrate_domain_attaches_the_record_and_keeps_model_and_threshold() {
         ("--policy", "extrapolate"),
         ("--tail-percent", "50"),
         ("--sequence-percent", "101"),
+        ("--cell-sequences", "0"),
     ] {
         let bad = riskctl(&[
             "calibrate-domain",
@@ -248,6 +271,24 @@ fn score_column_and_evaluate_share_count_the_same_frames() {
         widened_outside < outside,
         "{widened_outside} vs {outside} of {frames}"
     );
+    // Min/max again, but a geometry cell needs 3 sequences: the cells only one or two of the 12
+    // (diverse) sequences reached are outside, named "geometry", and score and evaluate agree.
+    let cells = dir.path().join("cells.rsk");
+    calibrate_cells(&drl, &train, "0", "100", "3", "flag-only", &cells);
+    let (_, cells_outside) = score_flags(&cells, &train, &dir.path().join("cells.csv"));
+    let d = evaluate_domain_json(&cells, &train);
+    assert!(
+        cells_outside > 0 && cells_outside < frames,
+        "{cells_outside} of {frames}"
+    );
+    assert_eq!(d["outside"].as_u64(), Some(cells_outside));
+    assert_eq!(
+        d["first_outside"]["geometry"].as_u64(),
+        Some(cells_outside),
+        "{d}"
+    );
+    let text = ok(riskctl(&["inspect-model", cells.to_str().unwrap()]));
+    assert!(text.contains("cells covered (scheme 1"), "{text}");
     // Another seed's frames lie partly outside the first seed's min/max.
     let (_, other_outside) = score_flags(&own, &other, &dir.path().join("other.csv"));
     assert!(other_outside > 0);
@@ -312,6 +353,8 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
             "10".into(),
             "--sequence-percent".into(),
             "100".into(),
+            "--cell-sequences".into(),
+            "1".into(),
             "--policy".into(),
             policy.into(),
             "--out".into(),

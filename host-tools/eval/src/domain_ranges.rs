@@ -2,12 +2,20 @@
 //! input the model reads, the range its frames cover (less a small tail of outliers) widened to
 //! every value a share of the sequences reached.
 //!
+//! A DRL model's domain also records the geometry cells (`scorer_core::geometry_cell`) that at
+//! least a few sequences reached: inside every range, a partner crossing 60 m ahead is still a
+//! combination the network never saw.
+//!
 //! The inputs are computed by scorer-core (`Observation::of`, `Model::domain_inputs`), so the
 //! ranges are of exactly the numbers the ECU checks. Which inputs are bounded: every input the
 //! model's network reads (DRL: its selected DRL inputs; GSSM/SSRA: its context features), and for
 //! MSRA all 13 features (its terms were fitted over that speed and geometry; the features feed
 //! its embedded GSSM, if any). Why this and not min/max: `docs/domain-guard.md`.
-use scorer_core::model::{InputRange, Model, ModelError, OutsidePolicy, TrainingDomain};
+use scorer_core::geometry_cell::{geometry_cell, GEOMETRY_CELLS};
+use scorer_core::model::geometry_coverage::COVERAGE_BYTES;
+use scorer_core::model::{
+    GeometryCoverage, InputRange, Model, ModelError, OutsidePolicy, TrainingDomain,
+};
 use scorer_core::{Observation, VehicleState, FEATURE_COUNT};
 
 /// How much of the training data a range may leave outside at each end.
@@ -20,12 +28,17 @@ pub struct Tails {
     /// share says: one frame of each crash is its impact (touching boxes), far fewer than 0.1 %
     /// of the frames, yet the state the model was trained on hardest.
     pub sequences: f64,
+    /// A geometry cell (DRL models) is covered when at least this many sequences reached it (at
+    /// least one): a count, not a share, because a network learns a geometry from examples.
+    pub cell_sequences: usize,
 }
 
-/// 0.1 % of the frames, and inside whatever at least 1 % of the sequences reached.
+/// 0.1 % of the frames, inside whatever at least 1 % of the sequences reached, and the geometry
+/// cells at least 5 sequences reached (measured: docs/domain-guard.md, "The geometry cells").
 pub const DEFAULT_TAILS: Tails = Tails {
     frames: 0.001,
     sequences: 0.01,
+    cell_sequences: 5,
 };
 
 /// Measuring a training domain failed.
@@ -41,17 +54,20 @@ pub enum DomainRangesError {
     Record(ModelError),
 }
 
-/// A measured training domain, owning its ranges' wire bytes.
+/// A measured training domain, owning its ranges' wire bytes and its covered geometry cells.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeasuredDomain {
     pub policy: OutsidePolicy,
     pub range_bytes: Vec<u8>,
+    /// The cell bit set (DRL models), `None` for the kinds whose inputs have no geometry cell.
+    pub coverage: Option<[u8; COVERAGE_BYTES]>,
 }
 
 impl MeasuredDomain {
-    /// The record to store in a blob.
+    /// The records to store in a blob (tag 2, and tag 4 for a DRL model).
     pub fn domain(&self) -> TrainingDomain<'_> {
         TrainingDomain::new(self.policy, &self.range_bytes)
+            .with_coverage(self.coverage.as_ref().map(|c| GeometryCoverage::new(c)))
     }
 }
 
@@ -72,7 +88,8 @@ pub fn bounded_inputs(model: &Model<'_>) -> Vec<u8> {
 /// The domain of `model` over `sequences`, each the observations (ego, partner) of one training
 /// sequence: for each bounded input, `lo` the lower of the `tails.frames` quantile of all frames
 /// and the `tails.sequences` quantile of the sequences' minima (nearest rank), `hi` likewise at
-/// the top; ranges in input order, under `policy`.
+/// the top; ranges in input order, under `policy`. For a DRL model, the geometry cells that at
+/// least `tails.cell_sequences` sequences reached are covered.
 pub fn measure<'p, S>(
     model: &Model<'_>,
     sequences: impl IntoIterator<Item = S>,
@@ -92,17 +109,24 @@ where
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut minima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut maxima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
+    let is_drl = matches!(model, Model::DrlInt8(_) | Model::DrlF32(_));
+    let mut cell_sequences = [0usize; GEOMETRY_CELLS];
     for sequence in sequences {
         let starts: Vec<usize> = columns.iter().map(Vec::len).collect();
+        let mut reached = [false; GEOMETRY_CELLS];
         for (ego, partner) in sequence {
             let observation = Observation::of(ego, partner);
             let values = model.domain_inputs(&observation);
+            reached[usize::from(geometry_cell(values))] = true;
             for (column, &input) in columns.iter_mut().zip(&inputs) {
                 // The core's inputs are finite by construction; a NaN would have no rank.
                 if let Some(&x) = values.get(usize::from(input)).filter(|x| !x.is_nan()) {
                     column.push(x);
                 }
             }
+        }
+        for (count, hit) in cell_sequences.iter_mut().zip(reached) {
+            *count += usize::from(hit);
         }
         for (k, column) in columns.iter().enumerate() {
             let frames = column.get(starts[k]..).unwrap_or_default();
@@ -126,9 +150,20 @@ where
         let (lo, hi) = (frame_lo.min(sequence_lo), frame_hi.max(sequence_hi));
         range_bytes.extend(InputRange { input, lo, hi }.to_bytes());
     }
+
+    let coverage = is_drl.then(|| {
+        let mut cells = [0u8; COVERAGE_BYTES];
+        for (cell, &count) in cell_sequences.iter().enumerate() {
+            if count >= tails.cell_sequences.max(1) {
+                cells[cell / 8] |= 1 << (cell % 8);
+            }
+        }
+        cells
+    });
     let measured = MeasuredDomain {
         policy,
         range_bytes,
+        coverage,
     };
     measured
         .domain()
@@ -221,14 +256,15 @@ mod tests {
         assert_eq!(v_ego_range(DEFAULT_TAILS), (10.0, 30.0));
         // The frame quantiles alone leave the three sequences' last frames outside.
         let frames_only = Tails {
-            frames: 0.001,
             sequences: 1.0,
+            ..DEFAULT_TAILS
         };
         assert_eq!(v_ego_range(frames_only), (10.0, 20.0));
         // Min/max takes the glitch in.
         let min_max = Tails {
             frames: 0.0,
             sequences: 1.0,
+            ..DEFAULT_TAILS
         };
         assert_eq!(v_ego_range(min_max), (10.0, 60.0));
     }
@@ -243,7 +279,11 @@ mod tests {
             measure(
                 &blob.model,
                 none(),
-                Tails { frames, sequences },
+                Tails {
+                    frames,
+                    sequences,
+                    ..DEFAULT_TAILS
+                },
                 OutsidePolicy::FlagOnly,
             )
             .unwrap_err()
@@ -257,5 +297,60 @@ mod tests {
             bad(0.001, 0.01),
             DomainRangesError::NoObservations
         ));
+    }
+
+    #[test]
+    fn a_geometry_cell_is_covered_once_enough_sequences_reached_it() {
+        let blob =
+            scorer_core::model::decode_blob(include_bytes!("../../../models/drl-default.rsk"))
+                .unwrap();
+        // 100 following sequences; `crossing` of them also pass a partner crossing 20 m to the
+        // right of a straight lane.
+        let crossing_pair = {
+            let (ego, mut partner) = pair(10.0);
+            (partner.x, partner.y, partner.vx, partner.hx, partner.hy) =
+                (0.0, -20.0, 0.0, 0.0, 1.0);
+            partner.vy = 8.0;
+            (ego, partner)
+        };
+        let cell_of = |(e, p): &(VehicleState, VehicleState)| {
+            scorer_core::geometry_cell::geometry_cell(&scorer_core::drl_inputs(e, p))
+        };
+        let (following, crossing) = (cell_of(&pair(10.0)), cell_of(&crossing_pair));
+        assert_ne!(following, crossing);
+        let covered = |crossing_sequences: usize, cell_sequences: usize| {
+            let sequences: Vec<Vec<(VehicleState, VehicleState)>> = (0..100)
+                .map(|s| {
+                    let mut frames = vec![pair(10.0); 10];
+                    if s < crossing_sequences {
+                        frames.push(crossing_pair);
+                    }
+                    frames
+                })
+                .collect();
+            let per_sequence = sequences.iter().map(|s| s.iter().map(|(e, p)| (e, p)));
+            let tails = Tails {
+                cell_sequences,
+                ..DEFAULT_TAILS
+            };
+            let measured =
+                measure(&blob.model, per_sequence, tails, OutsidePolicy::FlagOnly).unwrap();
+            let domain = measured.domain();
+            let coverage = domain.coverage.unwrap();
+            assert!(coverage.covers(following));
+            (coverage.covers(crossing), coverage.covered())
+        };
+        assert_eq!(covered(4, 5), (false, 1));
+        assert_eq!(covered(5, 5), (true, 2));
+        assert_eq!(covered(1, 1), (true, 2));
+        assert_eq!(covered(0, 1), (false, 1));
+        // MSRA reads the features: no cells.
+        let msra =
+            scorer_core::model::decode_blob(include_bytes!("../../../models/msra-default.rsk"))
+                .unwrap();
+        let frames = [pair(10.0)];
+        let one = std::iter::once(frames.iter().map(|(e, p)| (e, p)));
+        let measured = measure(&msra.model, one, DEFAULT_TAILS, OutsidePolicy::FlagOnly).unwrap();
+        assert_eq!(measured.coverage, None);
     }
 }

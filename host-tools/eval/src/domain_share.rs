@@ -1,6 +1,7 @@
 //! How many of the scored frames each guarded model saw outside its training domain, and which
 //! input left the range first how often: the `domain` part of `riskctl evaluate`'s report.
-use scorer_core::model::ModelKind;
+use scorer_core::model::geometry_coverage::GEOMETRY_INPUT_NAME;
+use scorer_core::model::{ModelKind, GEOMETRY_INPUT};
 use scorer_core::{Guarded, DRL_INPUT_NAMES, FEATURE_COUNT, FEATURE_NAMES};
 use serde_json::{json, Value};
 
@@ -14,8 +15,9 @@ pub struct DomainShare {
     pub frames: u64,
     /// Frames outside the training domain.
     pub outside: u64,
-    /// Per input index: frames on which it was the first input outside its range.
-    pub first_outside: [u64; FEATURE_COUNT],
+    /// Per input index: frames on which it was the first input outside its range (the last
+    /// slot, [`GEOMETRY_INPUT`]: inside every range, in an uncovered geometry cell).
+    pub first_outside: [u64; FEATURE_COUNT + 1],
 }
 
 impl DomainShare {
@@ -25,7 +27,7 @@ impl DomainShare {
             kind,
             frames: 0,
             outside: 0,
-            first_outside: [0; FEATURE_COUNT],
+            first_outside: [0; FEATURE_COUNT + 1],
         }
     }
 
@@ -57,8 +59,11 @@ impl DomainShare {
         (self.frames > 0).then(|| 100.0 * self.outside as f64 / self.frames as f64)
     }
 
-    /// The name of input `index` of this model's kind (DRL inputs or features).
+    /// The name of input `index` of this model's kind (DRL inputs or features, or `geometry`).
     pub fn input_name(&self, index: usize) -> &'static str {
+        if index == usize::from(GEOMETRY_INPUT) {
+            return GEOMETRY_INPUT_NAME;
+        }
         let names = match self.kind {
             ModelKind::DrlInt8 | ModelKind::DrlF32 => &DRL_INPUT_NAMES,
             ModelKind::Msra | ModelKind::Gssm => &FEATURE_NAMES,
@@ -151,14 +156,21 @@ mod tests {
         s.add(&g(false, Some(8)));
         let mut other = DomainShare::new("DRL", ModelKind::DrlInt8);
         other.add(&g(true, None));
+        other.add(&g(false, Some(GEOMETRY_INPUT)));
         s.merge(&other);
-        assert_eq!((s.frames, s.outside), (5, 3));
-        assert_eq!(s.outside_percent(), Some(60.0));
-        assert_eq!(s.leavers(), vec![("v_ego", 2), ("log_gap", 1)]);
+        assert_eq!((s.frames, s.outside), (6, 4));
+        assert_eq!(
+            s.leavers(),
+            vec![("v_ego", 2), ("log_gap", 1), ("geometry", 1)]
+        );
         let json = s.to_json();
-        assert_eq!(json["outside_share"], 60.0);
         assert_eq!(json["first_outside"]["v_ego"], 2);
-        assert!(markdown(&[s]).contains("| DRL | 5 | 60.00 | v_ego 2, log_gap 1 |"));
+        assert_eq!(json["first_outside"]["geometry"], 1);
+        s.add(&g(true, None));
+        s.add(&g(true, None));
+        assert_eq!(s.outside_percent(), Some(50.0));
+        assert_eq!(s.to_json()["outside_share"], 50.0);
+        assert!(markdown(&[s]).contains("| DRL | 8 | 50.00 | v_ego 2, log_gap 1, geometry 1 |"));
         assert_eq!(markdown(&[]), "");
     }
 }

@@ -59,9 +59,23 @@ pub struct Args {
     /// the frame quantiles alone).
     #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.sequences)]
     sequence_percent: f64,
+    /// DRL models: a geometry cell (where the partner is, which way it heads, how far) is inside
+    /// when at least this many sequences reached it (at least 1).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_TAILS.cell_sequences,
+          value_parser = parse_cell_sequences)]
+    cell_sequences: usize,
     /// Output blob; must not be the input (write to a new file, then move it).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+}
+
+fn parse_cell_sequences(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!(
+            "{text:?}: expected a whole number of sequences, at least 1"
+        )),
+    }
 }
 
 fn parse_policy(text: &str) -> Result<OutsidePolicy, String> {
@@ -108,6 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let tails = Tails {
         frames: args.tail_percent / 100.0,
         sequences: args.sequence_percent / 100.0,
+        cell_sequences: args.cell_sequences,
     };
     let domain = measure(model, per_sequence, tails, args.policy)?;
     let fallback = match &fallback_terms {
@@ -130,12 +145,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
     println!(
-        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached), {} outside",
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached; geometry cells of at least {} sequences), {} outside",
         args.model.display(),
         args.out.display(),
         sequences.len(),
         args.tail_percent,
         args.sequence_percent,
+        args.cell_sequences,
         args.policy.name()
     );
     print!("{summary}");

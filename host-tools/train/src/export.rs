@@ -373,6 +373,16 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         let name = names.get(usize::from(r.input)).copied().unwrap_or("?");
         let _ = writeln!(s, "  {:<15} [{}, {}]", name, r.lo, r.hi);
     }
+    if let Some(coverage) = &domain.coverage {
+        let _ = writeln!(
+            s,
+            "  geometry        {} of {} cells covered (scheme {}: 3 gap bands x 8 bearings x 8 \
+             headings, scorer_core::geometry_cell)",
+            coverage.covered(),
+            scorer_core::geometry_cell::GEOMETRY_CELLS,
+            coverage.scheme
+        );
+    }
     if let Some(fallback) = &blob.meta.kinematic_fallback {
         let _ = writeln!(
             s,
