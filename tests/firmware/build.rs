@@ -89,8 +89,8 @@ const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
 const FIRMWARE_FALLBACK_SCALE: f32 = 6.164_552;
 const FIRMWARE_FALLBACK_OFFSET: f32 = -19.346_514;
 
-/// `blob` guarded by the costliest policy outside: its training-domain ranges (or
-/// [`FIRMWARE_DOMAIN`] when it has none) under `Fallback`, with the kinematic terms of
+/// `blob` guarded by the costliest policy outside: its training-domain ranges and geometry
+/// coverage (or [`FIRMWARE_DOMAIN`] when it has none) under `Fallback`, with the kinematic terms of
 /// `msra_blob` as its fallback. An observation outside then computes the four surrogates and the
 /// MSRA terms on top of the DRL inputs and the guard (the network is skipped).
 fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<u8>, String) {
@@ -106,17 +106,19 @@ fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<
         .filter(|t| t.kind != scorer_core::SurrogateKind::Gssm)
         .flat_map(term_to_bytes)
         .collect();
-    let ranges: Vec<u8> = match &decoded.meta.training_domain {
-        Some(domain) => domain.range_bytes.to_vec(),
-        None => FIRMWARE_DOMAIN
-            .iter()
-            .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
-            .collect(),
+    let (ranges, coverage): (Vec<u8>, _) = match &decoded.meta.training_domain {
+        Some(domain) => (domain.range_bytes.to_vec(), domain.coverage),
+        None => (
+            FIRMWARE_DOMAIN
+                .iter()
+                .flat_map(|&(input, lo, hi)| InputRange { input, lo, hi }.to_bytes())
+                .collect(),
+            None,
+        ),
     };
-    decoded.meta.training_domain = Some(model::TrainingDomain::new(
-        OutsidePolicy::Fallback,
-        ranges.leak(),
-    ));
+    decoded.meta.training_domain = Some(
+        model::TrainingDomain::new(OutsidePolicy::Fallback, ranges.leak()).with_coverage(coverage),
+    );
     decoded.meta.kinematic_fallback = Some(KinematicFallback::new(
         FIRMWARE_FALLBACK_SCALE,
         FIRMWARE_FALLBACK_OFFSET,

@@ -5,6 +5,8 @@
 #![no_std]
 #![no_main]
 
+#[path = "../footprint_report.rs"]
+mod footprint_report;
 #[path = "../stack.rs"]
 #[allow(dead_code)]
 mod stack;
@@ -12,7 +14,7 @@ mod stack;
 use core::ptr::{addr_of, addr_of_mut, read_volatile};
 
 use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hprintln};
+use cortex_m_semihosting::debug;
 use scorer_ffi::{
     RiskscoreContext, RiskscorePairResult, RiskscoreStatus, RiskscoreVehicleState,
     RiskscoreWarningConfig, RISKSCORE_CONTEXT_SIZE, RISKSCORE_CONTEXT_WORDS,
@@ -90,7 +92,7 @@ fn main() -> ! {
             ) == RiskscoreStatus::Ok
     };
     let hw = painted.measure();
-    hprintln!("FOOTPRINT c_api ok={} stack={}", ok as u8, hw.total);
+    footprint_report::report("c_api", ok, hw.total);
     debug::exit(if ok {
         debug::EXIT_SUCCESS
     } else {

@@ -5,6 +5,8 @@
 #![no_std]
 #![no_main]
 
+#[path = "../footprint_report.rs"]
+mod footprint_report;
 #[path = "../stack.rs"]
 #[allow(dead_code)]
 mod stack;
@@ -12,7 +14,7 @@ mod stack;
 use core::ptr::{addr_of, read_volatile};
 
 use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hprintln};
+use cortex_m_semihosting::debug;
 use scorer_core::model;
 use scorer_core::warning::{TrackTable, WarningConfig};
 use scorer_core::VehicleState;
@@ -73,7 +75,7 @@ fn main() -> ! {
         _ => false,
     };
     let hw = painted.measure();
-    hprintln!("FOOTPRINT drl ok={} stack={}", ok as u8, hw.total);
+    footprint_report::report("drl", ok, hw.total);
     debug::exit(if ok {
         debug::EXIT_SUCCESS
     } else {
