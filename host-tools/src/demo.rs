@@ -971,11 +971,11 @@ metric exists in 14 of 15 folds (the mean is over those); n/a = it exists in non
 /// (`scripts/demo.sh` and `scripts/demo.sh --no-real` at commit time; docs/benchmarks.md has the
 /// full tables). Quoted, not computed: the other mode is not run.
 pub const WITH_REAL_FIGURES: &str =
-    "with the 376 real US-101 sequences (the default; the city ones train too): DRL A_ROC_90 91.0 vs \
-     TAdv 85.8, transfer 80.3 vs 75.1";
+    "with the 376 real US-101 sequences (the default; the city ones train too): DRL A_ROC_90 91.1 vs \
+     TAdv 85.8, transfer 79.9 vs 75.1";
 pub const WITHOUT_REAL_FIGURES: &str =
-    "without any real driving (--no-real), in distribution: DRL A_ROC_90 66.4 vs TAdv 64.7 and \
-     P_PRC_90 83.8 vs 83.2, a margin within a fold std (MSRA: 73.6 and 87.4)";
+    "without any real driving (--no-real), in distribution: DRL A_ROC_90 64.6 vs TAdv 64.7 (a tie \
+     within the fold std of 10.5) and P_PRC_90 83.9 vs 83.2 (MSRA: 73.6 and 87.4)";
 
 /// One short paragraph: what was shown on which data, and the caveats that were measured.
 pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
