@@ -117,7 +117,9 @@ where
         for (ego, partner) in sequence {
             let observation = Observation::of(ego, partner);
             let values = model.domain_inputs(&observation);
-            reached[usize::from(geometry_cell(values))] = true;
+            if is_drl {
+                reached[usize::from(geometry_cell(values))] = true;
+            }
             for (column, &input) in columns.iter_mut().zip(&inputs) {
                 // The core's inputs are finite by construction; a NaN would have no rank.
                 if let Some(&x) = values.get(usize::from(input)).filter(|x| !x.is_nan()) {

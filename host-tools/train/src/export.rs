@@ -376,8 +376,9 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
     if let Some(coverage) = &domain.coverage {
         let _ = writeln!(
             s,
-            "  geometry        {} of {} cells covered (scheme {}: 3 gap bands x 8 bearings x 8 \
-             headings, scorer_core::geometry_cell)",
+            "  {:<15} {} of {} cells covered (scheme {}: 3 gap bands x 8 bearings x 8 headings, \
+             scorer_core::geometry_cell)",
+            model::geometry_coverage::GEOMETRY_INPUT_NAME,
             coverage.covered(),
             scorer_core::geometry_cell::GEOMETRY_CELLS,
             coverage.scheme
