@@ -279,7 +279,7 @@ fn firmware_on_cortex_m4f_matches_host() {
         drl_guarded.meta.training_domain.is_some(),
         "the firmware's DRL blob must carry a training domain (the guard is part of the budget)"
     );
-    let (mut inside, mut outside) = (0usize, 0usize);
+    let (mut inside, mut outside, mut outside_by_geometry) = (0usize, 0usize, 0usize);
     let msra = model::decode(&blobs["msra"]).expect("host decodes the MSRA blob");
     assert!(
         matches!(drl, Model::DrlInt8(_)),
@@ -435,6 +435,9 @@ fn firmware_on_cortex_m4f_matches_host() {
         } else {
             outside += 1;
         }
+        if host_g.first_outside == Some(model::GEOMETRY_INPUT) {
+            outside_by_geometry += 1;
+        }
         let m = hex_f32(t[at("M") + 1], "msra", line);
         let host_m = msra.score_observation(&host_o);
         assert!(
@@ -497,6 +500,14 @@ fn firmware_on_cortex_m4f_matches_host() {
         inside > 0 && outside > 0,
         "inputs inside the domain: {inside}, outside: {outside}"
     );
+    // With a geometry coverage, the cell check runs on the MCU too: some input inside every
+    // range lies in an uncovered cell.
+    if drl_guarded.meta.coverage().is_some() {
+        assert!(
+            outside_by_geometry > 0,
+            "no input outside by its geometry cell ({outside} outside)"
+        );
+    }
     // The run must exercise the warning logic, or the bit-exact replay proves little.
     assert!(
         onsets > 0 && releases > 0,
