@@ -11,14 +11,14 @@
 mod example_blob;
 
 use example_blob::{
-    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model, hex,
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_domain,
+    example_model, hex,
 };
 
 use scorer_core::geometry_cell::{geometry_cell, GEOMETRY_CELLS};
 use scorer_core::model::geometry_coverage::COVERAGE_BYTES;
 use scorer_core::model::{
-    self, GeometryCoverage, InputRange, ModelBlob, ModelError, ModelMeta, OutsidePolicy,
-    TrainingDomain, GEOMETRY_INPUT,
+    self, GeometryCoverage, ModelBlob, ModelError, ModelMeta, OutsidePolicy, GEOMETRY_INPUT,
 };
 use scorer_core::{drl_inputs, Observation, VehicleState};
 
@@ -85,23 +85,7 @@ fn bits(cells: &[u8]) -> &'static [u8] {
 
 /// The worked example's domain (ego speed 0-40 m/s, log gap -0.75..5) covering `cells`.
 fn covered_blob(policy: OutsidePolicy, cells: &[u8]) -> ModelBlob<'static> {
-    let ranges: Vec<u8> = [
-        InputRange {
-            input: 3,
-            lo: 0.0,
-            hi: 40.0,
-        },
-        InputRange {
-            input: 8,
-            lo: -0.75,
-            hi: 5.0,
-        },
-    ]
-    .iter()
-    .flat_map(|r| r.to_bytes())
-    .collect();
-    let domain = TrainingDomain::new(policy, Vec::leak(ranges))
-        .with_coverage(Some(GeometryCoverage::new(bits(cells))));
+    let domain = example_domain(policy).with_coverage(Some(GeometryCoverage::new(bits(cells))));
     ModelBlob {
         model: example_model(),
         meta: ModelMeta {

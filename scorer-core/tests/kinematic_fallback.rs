@@ -12,36 +12,16 @@
 mod example_blob;
 
 use example_blob::{
-    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model, hex,
-    tadv_term,
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_domain,
+    example_model, hex, tadv_term,
 };
 
 use scorer_core::model::kinematic_fallback::term_to_bytes;
 use scorer_core::model::{
-    self, BoundedVec, InputRange, KinematicFallback, ModelBlob, ModelError, ModelMeta,
-    OutsidePolicy, TrainingDomain,
+    self, BoundedVec, KinematicFallback, ModelBlob, ModelError, ModelMeta, OutsidePolicy,
 };
 use scorer_core::msra::{MsraModel, MsraTerm};
 use scorer_core::{Observation, SurrogateKind, VehicleState};
-
-/// The documented example domain of the worked example: ego speed (DRL input 3) in [0, 40] m/s,
-/// log gap (8) in [-0.75, 5].
-fn example_domain(policy: OutsidePolicy) -> TrainingDomain<'static> {
-    let ranges = [
-        InputRange {
-            input: 3,
-            lo: 0.0,
-            hi: 40.0,
-        },
-        InputRange {
-            input: 8,
-            lo: -0.75,
-            hi: 5.0,
-        },
-    ];
-    let bytes: Vec<u8> = ranges.iter().flat_map(|r| r.to_bytes()).collect();
-    TrainingDomain::new(policy, Vec::leak(bytes))
-}
 
 fn ei_term() -> MsraTerm {
     MsraTerm {

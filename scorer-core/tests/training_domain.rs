@@ -11,7 +11,8 @@
 mod example_blob;
 
 use example_blob::{
-    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_model, hex,
+    assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_domain,
+    example_model, hex,
 };
 
 use scorer_core::model::{
@@ -23,25 +24,6 @@ use scorer_core::{Observation, VehicleState};
 fn domain_of(policy: OutsidePolicy, ranges: &[InputRange]) -> TrainingDomain<'static> {
     let bytes: Vec<u8> = ranges.iter().flat_map(|r| r.to_bytes()).collect();
     TrainingDomain::new(policy, Vec::leak(bytes))
-}
-
-/// The documented example domain: ego speed (DRL input 3) in [0, 40] m/s, log gap in [-0.75, 5].
-fn example_domain(policy: OutsidePolicy) -> TrainingDomain<'static> {
-    domain_of(
-        policy,
-        &[
-            InputRange {
-                input: 3,
-                lo: 0.0,
-                hi: 40.0,
-            },
-            InputRange {
-                input: 8,
-                lo: -0.75,
-                hi: 5.0,
-            },
-        ],
-    )
 }
 
 fn guarded_blob(policy: OutsidePolicy) -> ModelBlob<'static> {

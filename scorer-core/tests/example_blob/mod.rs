@@ -9,7 +9,10 @@
 )]
 
 use scorer_core::mlp::{FloatLayer, FloatMlp};
-use scorer_core::model::{self, BoundedVec, Model, ModelBlob, ModelMeta, HEADER_LEN};
+use scorer_core::model::{
+    self, BoundedVec, InputRange, Model, ModelBlob, ModelMeta, OutsidePolicy, TrainingDomain,
+    HEADER_LEN,
+};
 use scorer_core::msra::MsraTerm;
 use scorer_core::SurrogateKind;
 
@@ -33,6 +36,25 @@ pub fn example_model() -> Model<'static> {
         input_offset: BoundedVec::from_slice(&[-1.0]).unwrap(),
         layers,
     })
+}
+
+/// The documented example domain of the worked example: ego speed (DRL input 3) in [0, 40] m/s,
+/// log gap (8) in [-0.75, 5] (its range bytes leaked: test data lives as long as the test).
+pub fn example_domain(policy: OutsidePolicy) -> TrainingDomain<'static> {
+    let ranges = [
+        InputRange {
+            input: 3,
+            lo: 0.0,
+            hi: 40.0,
+        },
+        InputRange {
+            input: 8,
+            lo: -0.75,
+            hi: 5.0,
+        },
+    ];
+    let bytes: Vec<u8> = ranges.iter().flat_map(|r| r.to_bytes()).collect();
+    TrainingDomain::new(policy, Vec::leak(bytes))
 }
 
 /// A kinematic MSRA term of the worked fallback example (TAdv, clipped to [0, 10]).
