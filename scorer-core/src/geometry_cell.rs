@@ -16,8 +16,9 @@
 //!
 //! `cell = (distance * 8 + bearing) * 8 + heading`, in `0..GEOMETRY_CELLS`. Octant boundaries lie on
 //! the axes and the diagonals; an octant is read off three comparisons (`s < 0`, `c < 0`,
-//! `|s| > |c|` for the direction `(c, s)`), which settles a direction on a boundary. `slog` is odd and increasing, so the signs and magnitude
-//! comparisons of `ahead` and `right` are those of the metres they encode.
+//! `|s| > |c|` for the direction `(c, s)`), which also settles a direction on a boundary. `slog`
+//! is odd and increasing, so the signs and magnitude comparisons of `ahead` and `right` are those
+//! of the metres they encode.
 use crate::encoding::DrlInputs;
 
 /// The cell scheme this build computes (the coverage record's scheme byte).
