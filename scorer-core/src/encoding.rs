@@ -64,6 +64,14 @@ pub const DRL_INPUT_NAMES: [&str; DRL_INPUT_COUNT] = [
     "closing", "miss_gap", "ahead", "right",
 ];
 
+/// Indices (into [`DrlInputs`]) of the inputs other modules read by name: the geometry cell
+/// ([`crate::geometry_cell`]) reads the relative heading, the gap and the partner's offsets.
+pub(crate) const COS_PSI: usize = 6;
+pub(crate) const SIN_PSI: usize = 7;
+pub(crate) const LOG_GAP: usize = 8;
+pub(crate) const AHEAD: usize = 11;
+pub(crate) const RIGHT: usize = 12;
+
 /// Largest box gap the encoding distinguishes (m); farther (or no box at all) reads as this.
 pub const MAX_GAP: f32 = 1000.0;
 /// Largest time to closest approach the encoding distinguishes (s).
@@ -153,6 +161,19 @@ pub(crate) fn encode(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_named_indices_are_the_table_s() {
+        for (index, name) in [
+            (COS_PSI, "cos_psi"),
+            (SIN_PSI, "sin_psi"),
+            (LOG_GAP, "log_gap"),
+            (AHEAD, "ahead"),
+            (RIGHT, "right"),
+        ] {
+            assert_eq!(DRL_INPUT_NAMES[index], name);
+        }
+    }
 
     fn car(x: f32, y: f32, vx: f32, vy: f32, hx: f32, hy: f32) -> VehicleState {
         VehicleState {

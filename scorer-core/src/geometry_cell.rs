@@ -19,7 +19,7 @@
 //! `|s| > |c|` for the direction `(c, s)`), which also settles a direction on a boundary. `slog`
 //! is odd and increasing, so the signs and magnitude comparisons of `ahead` and `right` are those
 //! of the metres they encode.
-use crate::encoding::DrlInputs;
+use crate::encoding::{DrlInputs, AHEAD, COS_PSI, LOG_GAP, RIGHT, SIN_PSI};
 
 /// The cell scheme this build computes (the coverage record's scheme byte).
 pub const GEOMETRY_CELL_SCHEME: u8 = 1;
@@ -33,12 +33,6 @@ pub const MID_GAP: f32 = 35.0;
 /// `ln(0.5 + NEAR_GAP)` and `ln(0.5 + MID_GAP)` as `log_gap` encodes them (rounded to f32).
 const LOG_NEAR_GAP: f32 = 2.351_375_3;
 const LOG_MID_GAP: f32 = 3.569_532_7;
-
-const COS_PSI: usize = 6;
-const SIN_PSI: usize = 7;
-const LOG_GAP: usize = 8;
-const AHEAD: usize = 11;
-const RIGHT: usize = 12;
 
 /// The geometry cell of DRL inputs `x` (encoding 3), in `0..GEOMETRY_CELLS`.
 pub fn geometry_cell(x: &DrlInputs) -> u8 {

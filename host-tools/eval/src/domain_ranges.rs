@@ -109,7 +109,7 @@ where
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut minima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut maxima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
-    let is_drl = matches!(model, Model::DrlInt8(_) | Model::DrlF32(_));
+    let is_drl = model.reads_drl_inputs();
     let mut cell_sequences = [0usize; GEOMETRY_CELLS];
     for sequence in sequences {
         let starts: Vec<usize> = columns.iter().map(Vec::len).collect();

@@ -169,7 +169,7 @@ fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<M
         (_, Some(_)) => bail!("--fallback-from is only used with --policy fallback"),
         (_, None) => return Ok(None),
     };
-    if !matches!(model, Model::DrlInt8(_) | Model::DrlF32(_)) {
+    if !model.reads_drl_inputs() {
         bail!(
             "{}: --policy fallback is for DRL models (this is {})",
             args.model.display(),

@@ -436,7 +436,7 @@ pub fn with_measured_domain(
         });
     };
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
-    let is_drl = matches!(decoded.model, Model::DrlInt8(_) | Model::DrlF32(_));
+    let is_drl = decoded.model.reads_drl_inputs();
     let policy = match policy {
         OutsidePolicy::Fallback if !is_drl => OutsidePolicy::FlagOnly,
         other => other,

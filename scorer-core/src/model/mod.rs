@@ -175,6 +175,12 @@ impl<'a> Model<'a> {
         }
     }
 
+    /// True for the DRL kinds: they read the DRL inputs (encoding 3), and only their training
+    /// domain may carry geometry cells (read off those inputs).
+    pub fn reads_drl_inputs(&self) -> bool {
+        matches!(self, Self::DrlInt8(_) | Self::DrlF32(_))
+    }
+
     /// True when scoring needs the surrogates (MSRA); DRL reads its own inputs (computed from the
     /// states, box distance included) and GSSM the features.
     pub fn needs_surrogates(&self) -> bool {
@@ -378,7 +384,7 @@ pub fn decode_blob(blob: &[u8]) -> Result<ModelBlob<'_>, ModelError> {
 
 /// The records that only some kinds may carry: a geometry coverage is read off the DRL inputs.
 fn meta_fits_model(model: &Model<'_>, meta: &ModelMeta<'_>) -> Result<(), ModelError> {
-    if meta.coverage().is_some() && !matches!(model, Model::DrlInt8(_) | Model::DrlF32(_)) {
+    if meta.coverage().is_some() && !model.reads_drl_inputs() {
         return Err(ModelError::BadRecord {
             field: "geometry_coverage",
             reason: "only DRL blobs carry one (its cells are read off the DRL inputs)",
