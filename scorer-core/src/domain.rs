@@ -4,9 +4,10 @@
 //! The domain ([`TrainingDomain`], record tag 2 of the blob) bounds the vector the model kind reads:
 //! the DRL inputs (schema 3) for DRL, the 13 features for MSRA and GSSM. An observation is inside
 //! when every bounded input `x` satisfies `lo <= x <= hi`; a NaN input is outside (it compares
-//! false). The first range, in record order, that an input leaves is reported for diagnostics. A
-//! DRL domain may also carry the geometry cells its training data reached (record tag 4,
-//! [`crate::geometry_cell`]): an observation inside every range whose cell is not covered is
+//! false). The first range, in record order, that an input leaves is reported for diagnostics. The
+//! domain of a network (DRL, GSSM: [`Model::runs_a_network`]) may also carry the geometry cells
+//! its training data reached (record tag 4, [`crate::geometry_cell`], read off the DRL inputs
+//! whatever the kind reads): an observation inside every range whose cell is not covered is
 //! outside, reported as input [`GEOMETRY_INPUT`] (13). A blob without the record is inside
 //! everywhere and scores exactly as [`Model::score`].
 //!
@@ -70,15 +71,23 @@ impl InputRange {
 
 impl TrainingDomain<'_> {
     /// The input index of the first range `inputs` leaves; inside every range,
-    /// [`GEOMETRY_INPUT`] when their geometry cell is not covered; `None` when inside.
-    pub fn first_outside(&self, inputs: &DomainInputs) -> Option<u8> {
+    /// [`GEOMETRY_INPUT`] when the observation's geometry cell (`cell`, asked only when the domain
+    /// has cells: [`geometry_cell`] of its DRL inputs) is not covered; `None` when inside.
+    pub fn first_outside(&self, inputs: &DomainInputs, cell: impl FnOnce() -> u8) -> Option<u8> {
         self.ranges()
             .find(|r| !r.contains(r.value(inputs)))
             .map(|r| r.input)
             .or_else(|| {
-                let covered = self.coverage?.covers(geometry_cell(inputs));
+                let covered = self.coverage?.covers(cell());
                 (!covered).then_some(GEOMETRY_INPUT)
             })
+    }
+
+    /// [`TrainingDomain::first_outside`] of an observation computed once, as `model` reads it.
+    pub fn first_outside_of(&self, model: &Model<'_>, observation: &Observation) -> Option<u8> {
+        self.first_outside(model.domain_inputs(observation), || {
+            geometry_cell(&observation.drl_inputs)
+        })
     }
 
     /// Moves every bounded input into its range (see [`InputRange::clamp`]). Clamping cannot move
@@ -109,6 +118,7 @@ impl ModelBlob<'_> {
         let inputs = *self.model.domain_inputs(observation);
         self.guard(
             inputs,
+            || geometry_cell(&observation.drl_inputs),
             |x| {
                 let mut o = *observation;
                 match self.model {
@@ -124,24 +134,34 @@ impl ModelBlob<'_> {
     /// The guarded score of one pair, computing only what the model reads (the ECU's path); the
     /// same bits as [`ModelBlob::score_guarded`] of [`Observation::of`] the pair.
     pub fn score_pair_guarded(&self, ego: &VehicleState, partner: &VehicleState) -> Guarded {
-        // The surrogates only when the fallback needs them (DRL, GSSM) or the model reads them.
+        // The surrogates only when the fallback needs them (DRL, GSSM) or the model reads them;
+        // a GSSM's geometry cell only when its domain has cells.
         let fallback = || surrogates(ego, partner);
         match &self.model {
             Model::DrlInt8(m) => {
-                self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0], fallback)
+                let x = drl_inputs(ego, partner);
+                self.guard(x, || geometry_cell(&x), |x| m.forward(x)[0], fallback)
             }
-            Model::DrlF32(m) => self.guard(drl_inputs(ego, partner), |x| m.forward(x)[0], fallback),
+            Model::DrlF32(m) => {
+                let x = drl_inputs(ego, partner);
+                self.guard(x, || geometry_cell(&x), |x| m.forward(x)[0], fallback)
+            }
             Model::Msra(m) => {
                 let (s, f) = surrogates_and_features(ego, partner);
-                self.guard(f, |f| m.score(f, &s), || s)
+                let cell = || geometry_cell(&drl_inputs(ego, partner));
+                self.guard(f, cell, |f| m.score(f, &s), || s)
             }
-            Model::Gssm(m) => self.guard(features(ego, partner), |f| m.score(f), fallback),
+            Model::Gssm(m) => {
+                let cell = || geometry_cell(&drl_inputs(ego, partner));
+                self.guard(features(ego, partner), cell, |f| m.score(f), fallback)
+            }
         }
     }
 
     fn guard(
         &self,
         mut inputs: DomainInputs,
+        cell: impl FnOnce() -> u8,
         score: impl Fn(&DomainInputs) -> f32,
         surrogates: impl Fn() -> Surrogates,
     ) -> Guarded {
@@ -152,7 +172,7 @@ impl ModelBlob<'_> {
                 first_outside: None,
             };
         };
-        let first_outside = domain.first_outside(&inputs);
+        let first_outside = domain.first_outside(&inputs, cell);
         let score = match (first_outside, domain.policy, &self.meta.kinematic_fallback) {
             (None, ..) | (Some(_), OutsidePolicy::FlagOnly, _) => score(&inputs),
             (Some(_), OutsidePolicy::Clamp, _) => {

@@ -217,18 +217,23 @@ fn every_truncation_and_byte_flip_of_a_guarded_blob_is_handled() {
     assert_truncations_refused_and_flips_handled(&encode(&guarded_blob(OutsidePolicy::Clamp)));
 }
 
+/// The cell of an observation: a domain without cells never asks for it.
+fn no_cells() -> u8 {
+    unreachable!("a domain without geometry cells asked for one")
+}
+
 #[test]
 fn each_bounded_input_is_checked_on_its_own_and_the_first_leaver_is_named() {
     let domain = example_domain(OutsidePolicy::FlagOnly);
     let mut x = [0.0f32; 13];
     x[3] = 20.0;
     x[8] = 2.0;
-    assert_eq!(domain.first_outside(&x), None);
+    assert_eq!(domain.first_outside(&x, no_cells), None);
     // Unbounded inputs may be anything.
     let mut free = x;
     free[0] = 1e30;
     free[12] = f32::NAN;
-    assert_eq!(domain.first_outside(&free), None);
+    assert_eq!(domain.first_outside(&free, no_cells), None);
     // Each bound on its own, ends included.
     for (input, value, outside) in [
         (3, 0.0, false),
@@ -246,7 +251,7 @@ fn each_bounded_input_is_checked_on_its_own_and_the_first_leaver_is_named() {
         y[input] = value;
         let expected = outside.then_some(input as u8);
         assert_eq!(
-            domain.first_outside(&y),
+            domain.first_outside(&y, no_cells),
             expected,
             "input {input} = {value}"
         );
@@ -255,7 +260,7 @@ fn each_bounded_input_is_checked_on_its_own_and_the_first_leaver_is_named() {
     let mut both = x;
     both[3] = 45.0;
     both[8] = 6.0;
-    assert_eq!(domain.first_outside(&both), Some(3));
+    assert_eq!(domain.first_outside(&both, no_cells), Some(3));
 }
 
 #[test]
@@ -264,11 +269,11 @@ fn nan_is_outside_and_clamps_to_the_midpoint() {
     let mut x = [0.0f32; 13];
     x[3] = 10.0;
     x[8] = f32::NAN;
-    assert_eq!(domain.first_outside(&x), Some(8));
+    assert_eq!(domain.first_outside(&x, no_cells), Some(8));
     domain.clamp(&mut x);
     assert_eq!(x[8], 2.125);
     assert_eq!(x[3], 10.0);
-    assert_eq!(domain.first_outside(&x), None);
+    assert_eq!(domain.first_outside(&x, no_cells), None);
 }
 
 #[test]

@@ -84,10 +84,7 @@ pub fn fit<'p>(
     let mut sums = MeanLine::default();
     for (ego, partner) in pairs {
         let o = Observation::of(ego, partner);
-        if domain
-            .first_outside(model.model.domain_inputs(&o))
-            .is_none()
-        {
+        if domain.first_outside_of(&model.model, &o).is_none() {
             sums.add(
                 f64::from(unit.msra(&o.surrogates)),
                 f64::from(model.model.score_observation(&o)),

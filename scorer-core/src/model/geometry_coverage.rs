@@ -3,8 +3,10 @@
 //! domain: an observation whose inputs are all inside their ranges but whose cell is not covered is
 //! outside ([`crate::domain`]), reported as input [`GEOMETRY_INPUT`].
 //!
-//! Only DRL blobs carry it (the cell is read off the DRL inputs), and only beside a training-domain
-//! record (tag 2). A build that does not know tag 4 skips it and guards by the ranges alone.
+//! Only the blobs of a network carry it (DRL, GSSM:
+//! [`Model::runs_a_network`](super::Model::runs_a_network); the cell is read off the DRL inputs of
+//! the pair whatever the model reads), and only beside a training-domain record (tag 2). A build
+//! that does not know tag 4 skips it and guards by the ranges alone.
 //!
 //! Body (postcard): `scheme: u8` (the cell scheme, [`GEOMETRY_CELL_SCHEME`]), then `cells` as a
 //! byte string of [`COVERAGE_BYTES`] bytes: cell `c` is covered when bit `c % 8` of byte `c / 8` is

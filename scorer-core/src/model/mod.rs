@@ -175,10 +175,16 @@ impl<'a> Model<'a> {
         }
     }
 
-    /// True for the DRL kinds: they read the DRL inputs (encoding 3), and only their training
-    /// domain may carry geometry cells (read off those inputs).
+    /// True for the DRL kinds: they read the DRL inputs (encoding 3).
     pub fn reads_drl_inputs(&self) -> bool {
         matches!(self, Self::DrlInt8(_) | Self::DrlF32(_))
+    }
+
+    /// True for the kinds that run a network fitted on data (DRL, GSSM, SSRA): only their
+    /// training domain may carry geometry cells, and only they hand over to a kinematic fallback
+    /// (an MSRA is itself a sum of kinematic terms).
+    pub fn runs_a_network(&self) -> bool {
+        !matches!(self, Self::Msra(_))
     }
 
     /// True when scoring needs the surrogates (MSRA); DRL reads its own inputs (computed from the
@@ -382,12 +388,12 @@ pub fn decode_blob(blob: &[u8]) -> Result<ModelBlob<'_>, ModelError> {
     Ok(ModelBlob { model, meta })
 }
 
-/// The records that only some kinds may carry: a geometry coverage is read off the DRL inputs.
+/// The records that only some kinds may carry: geometry cells bound where a network was fitted.
 fn meta_fits_model(model: &Model<'_>, meta: &ModelMeta<'_>) -> Result<(), ModelError> {
-    if meta.coverage().is_some() && !model.reads_drl_inputs() {
+    if meta.coverage().is_some() && !model.runs_a_network() {
         return Err(ModelError::BadRecord {
             field: "geometry_coverage",
-            reason: "only DRL blobs carry one (its cells are read off the DRL inputs)",
+            reason: "only DRL and GSSM blobs carry one (an MSRA's terms are kinematic)",
         });
     }
     Ok(())

@@ -98,8 +98,8 @@ impl InputRange {
 }
 
 /// The training domain: the ranges of the bounded inputs (inputs not listed are unbounded), the
-/// geometry cells the training data reached (DRL blobs; record tag 4, stored beside this one) and
-/// the policy for outside.
+/// geometry cells the training data reached (DRL and GSSM blobs; record tag 4, stored beside this
+/// one) and the policy for outside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainingDomain<'a> {
     pub policy: OutsidePolicy,

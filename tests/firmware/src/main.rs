@@ -31,6 +31,7 @@ use core::mem::size_of;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
+use scorer_core::geometry_cell::geometry_cell;
 use scorer_core::model::{self, Model, ModelBlob, OutsidePolicy};
 use scorer_core::warning::{Track, TrackTable, WarningConfig, WarningEvent};
 use scorer_core::{
@@ -489,7 +490,7 @@ fn guard_inputs(blob: &ModelBlob<'_>, x: &DrlInputs) -> (Option<u8>, DrlInputs) 
     let Some(domain) = &blob.meta.training_domain else {
         return (None, inputs);
     };
-    let first = domain.first_outside(x);
+    let first = domain.first_outside(x, || geometry_cell(x));
     if first.is_some() && domain.policy == OutsidePolicy::Clamp {
         domain.clamp(&mut inputs);
     }
