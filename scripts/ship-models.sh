@@ -9,7 +9,8 @@
 #      passes collapse MSRA's recall);
 #   4. `riskctl gssm ship`: GSSM fitted on all normal driving (both real extracts, the simulated
 #      safe driving of both simulated folders and the roadside passes), SSRA and MSRA-GSSM
-#      aligned on all of those events;
+#      aligned on all of those events; GSSM and SSRA guarded by the domain of that normal driving,
+#      handing over to the kinematic terms of the demo's MSRA outside it (docs/domain-guard.md);
 #   5. `riskctl calibrate` per model: 5 % of the real safe sequences of both extracts may warn.
 #      No lift above the roadside passes (it cut DRL's recall to 46 %); NEVER_WARN=1 adds
 #      `--never-warn` over them for every model.
@@ -47,6 +48,7 @@ echo "==> riskctl gssm ship"
   --events data/ngsim-us101-safe --events data/ngsim-urban-safe --events "$work/roadside" \
   --normal "$work/demo/data" --normal "$work/demo/extra-data" \
   --normal data/ngsim-us101-safe --normal data/ngsim-urban-safe --normal "$work/roadside" \
+  --fallback-from "$work/demo/models/msra.rsk" \
   --out-dir "$work/gssm" | tee "$work/gssm.log"
 for m in gssm-default ssra-default msra-gssm; do
   cp "$work/gssm/$m.rsk" "$work/staged/$m.rsk"

@@ -433,3 +433,45 @@ fn clamp_changes_only_the_scores_of_frames_outside() {
     }
     assert!(changed > 0, "clamping moved no score");
 }
+
+#[test]
+fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallback() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = simulate(dir.path(), "3");
+    let gssm = dir.path().join("gssm-unguarded.rsk");
+    write_unguarded(&shipped("gssm-default.rsk"), &gssm);
+    let msra = shipped("msra-default.rsk");
+    let run = |model: &Path, out: &Path| {
+        riskctl(&[
+            "calibrate-domain",
+            "--model",
+            model.to_str().unwrap(),
+            "--events",
+            train.to_str().unwrap(),
+            "--cell-sequences",
+            "1",
+            "--policy",
+            "fallback",
+            "--fallback-from",
+            msra.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let out = dir.path().join("gssm.rsk");
+    let text = ok(run(&gssm, &out));
+    // The domain of a model of normal driving is measured on the 4 safe sequences alone.
+    assert!(text.contains("in 4 sequences"), "{text}");
+    assert!(text.contains("policy          fallback outside"), "{text}");
+    let bytes = std::fs::read(&out).unwrap();
+    let blob = model::decode_blob(&bytes).unwrap();
+    let domain = blob.meta.training_domain.expect("a domain");
+    assert!(domain.coverage.is_some(), "a GSSM's domain lists its cells");
+    assert!(blob.meta.kinematic_fallback.is_some());
+    // An MSRA is itself kinematic: no fallback for it, and nothing written.
+    let bad = dir.path().join("msra-fallback.rsk");
+    let refused = run(&msra, &bad);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("itself kinematic"));
+    assert!(!bad.exists());
+}

@@ -109,7 +109,7 @@ where
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut minima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
     let mut maxima: Vec<Vec<f32>> = vec![Vec::new(); inputs.len()];
-    let is_drl = model.reads_drl_inputs();
+    let has_cells = model.runs_a_network();
     let mut cell_sequences = [0usize; GEOMETRY_CELLS];
     for sequence in sequences {
         let starts: Vec<usize> = columns.iter().map(Vec::len).collect();
@@ -117,8 +117,8 @@ where
         for (ego, partner) in sequence {
             let observation = Observation::of(ego, partner);
             let values = model.domain_inputs(&observation);
-            if is_drl {
-                reached[usize::from(geometry_cell(values))] = true;
+            if has_cells {
+                reached[usize::from(geometry_cell(&observation.drl_inputs))] = true;
             }
             for (column, &input) in columns.iter_mut().zip(&inputs) {
                 // The core's inputs are finite by construction; a NaN would have no rank.
@@ -153,7 +153,7 @@ where
         range_bytes.extend(InputRange { input, lo, hi }.to_bytes());
     }
 
-    let coverage = is_drl.then(|| {
+    let coverage = has_cells.then(|| {
         let mut cells = [0u8; COVERAGE_BYTES];
         for (cell, &count) in cell_sequences.iter().enumerate() {
             if count >= tails.cell_sequences.max(1) {

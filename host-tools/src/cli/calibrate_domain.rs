@@ -16,13 +16,17 @@ MSRA: all 13 features), the range between the --tail-percent and 100 - --tail-pe
 that input over every frame of the prepared sequences of the --events folders, widened to every
 value at least --sequence-percent of those sequences reached (a one-frame glitch in one track
 stays outside; the touching boxes every crash reaches at impact, far fewer than 0.1 % of the
-frames, stay inside), plus the policy for an observation outside. Give the folders the model was trained on: the record says where the
-model has seen data. The model bytes and a stored default threshold are kept (format version 2).
+frames, stay inside), plus the policy for an observation outside. Give the folders the model was
+trained on: the record says where the model has seen data. A GSSM or SSRA models normal driving:
+its record is measured on the safe sequences of those folders alone. DRL, GSSM and SSRA records
+also list the geometry cells (where the partner is, which way it heads, how far) that at least
+--cell-sequences of those sequences reached. The model bytes and a stored default threshold are
+kept (format version 2).
 
 Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
-into its range first, so the model never extrapolates; fallback (DRL models only) scores a
+into its range first, so the model never extrapolates; fallback (DRL, GSSM and SSRA) scores a
 kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
-blob, mapped to the DRL's scale by the affine map that matches the mean and spread of the DRL's
+blob, mapped to the model's scale by the affine map that matches the mean and spread of its
 scores on the frames of the --events folders inside the new record (docs/domain-guard.md). Either way `riskctl score` writes a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
@@ -59,8 +63,8 @@ pub struct Args {
     /// the frame quantiles alone).
     #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.sequences)]
     sequence_percent: f64,
-    /// DRL models: a geometry cell (where the partner is, which way it heads, how far) is inside
-    /// when at least this many sequences reached it (at least 1).
+    /// DRL, GSSM and SSRA models: a geometry cell (where the partner is, which way it heads, how
+    /// far) is inside when at least this many sequences reached it (at least 1).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_TAILS.cell_sequences,
           value_parser = parse_cell_sequences)]
     cell_sequences: usize,
@@ -110,13 +114,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         sequences.extend(folder.sequences);
     }
-    let frames: usize = sequences.iter().map(|s| s.frames.len()).sum();
+    let measured_on = riskscore_train::export::domain_sequences(model, &sequences);
+    let frames: usize = measured_on.iter().map(|s| s.frames.len()).sum();
     let pairs = || {
         sequences
             .iter()
             .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
     };
-    let per_sequence = sequences
+    let per_sequence = measured_on
         .iter()
         .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
     let tails = Tails {
@@ -129,7 +134,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(terms) => {
             let fitted = fit(&blob, &domain.domain(), terms, pairs())?;
             println!(
-                "fallback: {} * MSRA + {} (mean and spread of the DRL on {} frames inside, r^2 {:.3})",
+                "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
                 fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
             );
             Some(fitted)
@@ -148,7 +153,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached; geometry cells of at least {} sequences), {} outside",
         args.model.display(),
         args.out.display(),
-        sequences.len(),
+        measured_on.len(),
         args.tail_percent,
         args.sequence_percent,
         args.cell_sequences,
@@ -158,7 +163,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The MSRA terms of `--fallback-from` when `--policy fallback` (for a DRL model), else `None`;
+/// The MSRA terms of `--fallback-from` when `--policy fallback` (for a DRL or GSSM model), else `None`;
 /// either without the other is an error.
 fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<MsraTerm>>> {
     let path = match (args.policy, &args.fallback_from) {
@@ -169,18 +174,23 @@ fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<M
         (_, Some(_)) => bail!("--fallback-from is only used with --policy fallback"),
         (_, None) => return Ok(None),
     };
-    if !model.reads_drl_inputs() {
+    if !model.runs_a_network() {
         bail!(
-            "{}: --policy fallback is for DRL models (this is {})",
+            "{}: --policy fallback is for DRL and GSSM models (this is {}, itself kinematic)",
             args.model.display(),
             model.kind().name()
         );
     }
+    read_kinematic_terms(path).map(Some)
+}
+
+/// The terms of the MSRA blob of `--fallback-from` (the fallback keeps its kinematic ones).
+pub fn read_kinematic_terms(path: &std::path::Path) -> anyhow::Result<Vec<MsraTerm>> {
     let source = ModelFile::read(&path.display().to_string())?;
     let Model::Msra(msra) = source.blob()?.model else {
         bail!("--fallback-from {}: not an MSRA model", path.display());
     };
-    Ok(Some(msra.terms.to_vec()))
+    Ok(msra.terms.to_vec())
 }
 
 /// The output must not be the model, an --events folder's file or lie inside one.

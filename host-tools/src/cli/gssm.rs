@@ -127,6 +127,12 @@ pub struct ShipArgs {
     /// Folder for gssm-default.rsk, ssra-default.rsk, msra-gssm.rsk and gssm-ship.json.
     #[arg(long, value_name = "DIR")]
     pub out_dir: PathBuf,
+    /// MSRA blob (e.g. the `msra.rsk` trained on the same data by `riskctl train`) whose
+    /// TTC2D/TAdv/EI terms GSSM and SSRA hand over to outside the normal driving the GSSM was
+    /// fitted on (`[guard] policy = "fallback"`, the default; docs/domain-guard.md). Without it
+    /// the three models carry a flag-only record.
+    #[arg(long, value_name = "FILE")]
+    pub fallback_from: Option<PathBuf>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -356,20 +362,33 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 }
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
-    refuse_inputs(&a.common, &[], &a.out_dir)?;
+    let more: Vec<(&str, &Path)> = a
+        .fallback_from
+        .iter()
+        .map(|p| ("--fallback-from", p.as_path()))
+        .collect();
+    refuse_inputs(&a.common, &more, &a.out_dir)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
+    let fallback_terms = match &a.fallback_from {
+        Some(path) => Some(super::calibrate_domain::read_kinematic_terms(path)?),
+        None => None,
+    };
     let seqs = load_all(&a.common.events)?;
     let shipped = ship(
         &seqs,
         &normal_sequences(&a.common, &seqs)?,
         &cfg,
         &gcfg,
+        fallback_terms.as_deref(),
         progress(),
     )?;
+    for warning in &shipped.warnings {
+        eprintln!("riskctl: warning: {warning}");
+    }
     print_weights(
         &msra_row_name(&shipped.kinds),
         &shipped.msra.params.weights(),
@@ -430,6 +449,7 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         },
         configurations,
         baselines: true,
+        fallback_terms: None,
     };
     let result = cross_validate(&seqs, normal.as_deref(), &cfg, &gcfg, &options, progress())?;
     if a.json {

@@ -414,10 +414,11 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 /// through here, so a benchmark measures the record the shipped model would carry. The policy
 /// (default `fallback`) was picked from held-out measurements (`docs/domain-guard.md`).
 ///
-/// Under `fallback` a DRL blob also gets its kinematic fallback: the kinematic terms of
-/// `fallback_terms` (the MSRA trained beside it) aligned to the DRL's scores on the frames of
-/// `train` inside the measured domain ([`crate::fallback::fit`]). An MSRA or GSSM blob is itself
-/// the kinematic score (or has no kinematic stand-in) and gets a `flag-only` record.
+/// Under `fallback` a DRL or GSSM blob also gets its kinematic fallback: the kinematic terms of
+/// `fallback_terms` (the MSRA trained beside it) aligned to the model's scores on the frames of
+/// `train` inside the measured domain ([`crate::fallback::fit`]). An MSRA blob is itself a
+/// kinematic score and gets a `flag-only` record. A GSSM's domain is measured on the safe
+/// sequences of `train` alone ([`domain_sequences`]).
 ///
 /// A DRL whose fallback cannot be fitted on its data (its scores fall as the kinematic score
 /// rises, too few frames inside, ...) gets a `flag-only` record instead, and the reason comes
@@ -436,9 +437,8 @@ pub fn with_measured_domain(
         });
     };
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
-    let is_drl = decoded.model.reads_drl_inputs();
     let policy = match policy {
-        OutsidePolicy::Fallback if !is_drl => OutsidePolicy::FlagOnly,
+        OutsidePolicy::Fallback if !decoded.model.runs_a_network() => OutsidePolicy::FlagOnly,
         other => other,
     };
     let pairs = || {
@@ -446,8 +446,8 @@ pub fn with_measured_domain(
             .iter()
             .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
     };
-    let per_sequence = train
-        .iter()
+    let per_sequence = domain_sequences(&decoded.model, train)
+        .into_iter()
         .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
     let mut domain = riskscore_eval::domain_ranges::measure(
         &decoded.model,
@@ -478,6 +478,17 @@ pub fn with_measured_domain(
         bytes,
         fallback_refused,
     })
+}
+
+/// The sequences of `train` a model's training domain is measured on: all of them, except for a
+/// GSSM (SSRA is one too), a model of normal driving fitted on the safe ones: a context only
+/// conflicts reached is one its spacing distribution never saw.
+pub fn domain_sequences<'s>(model: &model::Model<'_>, train: &'s [Sequence]) -> Vec<&'s Sequence> {
+    let normal_only = matches!(model, model::Model::Gssm(_));
+    train
+        .iter()
+        .filter(|s| !(normal_only && s.is_conflict()))
+        .collect()
 }
 
 /// A blob with its measured training-domain record ([`with_measured_domain`]).

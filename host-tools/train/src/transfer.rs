@@ -274,7 +274,7 @@ pub fn run_split(
     let mut methods = outcome.result.methods;
     let mut runs = outcome.runs;
     let domain_shares = outcome.domain_shares;
-    let warnings = outcome
+    let mut warnings: Vec<String> = outcome
         .warnings
         .into_iter()
         .map(|w| format!("seed {seed} {w}"))
@@ -282,11 +282,21 @@ pub fn run_split(
 
     let mut gcfg = cfg.clone();
     gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
+    // The GSSM family hands over to the kinematic terms of the fold's MSRA, as the DRL does.
+    let fallback_terms = match &outcome.msra_params {
+        Some(p) => Some(
+            crate::export::msra_terms(p)
+                .map_err(gssm::GssmError::from)?
+                .to_vec(),
+        ),
+        None => None,
+    };
     let gssm_options = gssm::study::CvOptions {
         folds: options.folds,
         seeds: Vec::new(),
         configurations: Vec::new(),
         baselines: false,
+        fallback_terms,
     };
     let normal = gssm_fit_sequences(train, drl_only);
     let g = gssm::study::train_fold(
@@ -300,6 +310,11 @@ pub fn run_split(
     )?;
     methods.extend(g.methods);
     runs.extend(g.runs);
+    warnings.extend(
+        g.warnings
+            .into_iter()
+            .map(|w| format!("seed {seed} fold {fold}: {w}")),
+    );
     Ok(SplitOutcome {
         result: FoldResult {
             seed,

@@ -17,6 +17,8 @@ use riskscore_train::gssm::ssra::{set_objective, Ssra};
 use riskscore_train::gssm::{align_msra_gssm, align_ssra, row_name, GssmConfig};
 use riskscore_train::train::{self, Progress, TrainConfig};
 use scorer_core::gssm::{GssmScore, S_INDEX};
+use scorer_core::model::OutsidePolicy;
+use scorer_core::msra::MsraTerm;
 use scorer_core::{Features, Model, SurrogateKind, Surrogates, FEATURE_COUNT};
 
 mod common;
@@ -441,7 +443,76 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
     assert_eq!(config.seed, 1);
     let gssm_config = GssmConfig::load_or_default(Some(&gssm_toml)).unwrap();
     // Without a separate normal-driving folder the GSSM is fitted on the training sequences.
-    let shipped = ship(&train, &train, &config, &gssm_config, Progress::Hidden).unwrap();
+    let kinematic = [
+        MsraTerm {
+            kind: SurrogateKind::Tadv,
+            weight: 4.0,
+            a: -2.5,
+            b: 12.0,
+            lo: 0.0,
+            hi: 5.0,
+        },
+        MsraTerm {
+            kind: SurrogateKind::Ei,
+            weight: 5.0,
+            a: 2.0,
+            b: -0.5,
+            lo: 0.0,
+            hi: 20.0,
+        },
+    ];
+    let shipped = ship(
+        &train,
+        &train,
+        &config,
+        &gssm_config,
+        Some(&kinematic),
+        Progress::Hidden,
+    )
+    .unwrap();
+    assert!(shipped.warnings.is_empty(), "{:?}", shipped.warnings);
+    // GSSM and SSRA hand over to the kinematic terms outside the fit data's domain (with its
+    // geometry cells); the MSRA over the GSSM is flagged only.
+    let policies: Vec<_> = shipped
+        .blobs
+        .iter()
+        .map(|b| {
+            let meta = scorer_core::model::decode_blob(b).unwrap().meta;
+            let domain = meta
+                .training_domain
+                .expect("every shipped blob has a domain");
+            (
+                domain.policy,
+                meta.kinematic_fallback.is_some(),
+                domain.coverage.is_some(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        policies,
+        [
+            (OutsidePolicy::Fallback, true, true),
+            (OutsidePolicy::Fallback, true, true),
+            (OutsidePolicy::FlagOnly, false, false),
+        ]
+    );
+    // Without the terms the fallback policy is written as flag-only.
+    let unpaired = ship(
+        &train,
+        &train,
+        &config,
+        &gssm_config,
+        None,
+        Progress::Hidden,
+    )
+    .unwrap();
+    for b in &unpaired.blobs {
+        let domain = scorer_core::model::decode_blob(b)
+            .unwrap()
+            .meta
+            .training_domain;
+        assert_eq!(domain.unwrap().policy, OutsidePolicy::FlagOnly);
+    }
     let out = dir.path().join("models");
     let written = shipped.write_models(&out).unwrap();
     assert_eq!(written, SHIPPED_FILES.map(|f| out.join(f)));

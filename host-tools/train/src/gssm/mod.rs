@@ -17,6 +17,7 @@
 //!   baselines, and the simulation-augmentation study.
 pub mod config;
 pub mod fit;
+pub mod guard;
 pub mod msra;
 pub mod net;
 pub mod ship;

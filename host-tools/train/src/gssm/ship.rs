@@ -4,15 +4,17 @@
 use std::path::{Path, PathBuf};
 
 use scorer_core::gssm::GssmScore;
+use scorer_core::msra::MsraTerm;
 use scorer_core::SurrogateKind;
 
+use super::guard::guard_blobs;
 use super::msra::{configuration_name, parse_configuration};
 use super::{
     align_msra_gssm, align_ssra, fit_gssm, GssmConfig, GssmError, TrainedGssm, TrainedMsraGssm,
     TrainedSsra,
 };
 use crate::export::write_blob;
-use crate::train::{prepare_comparisons, Progress, TrainConfig};
+use crate::train::{prepare_comparisons, GuardPolicy, Progress, TrainConfig};
 use riskscore_data::events::Sequence;
 
 /// File names of the shipped models, in the order [`Shipped::blobs`] returns them.
@@ -29,17 +31,24 @@ pub struct Shipped {
     pub gssm: TrainedGssm,
     pub ssra: TrainedSsra,
     pub msra: TrainedMsraGssm,
-    /// GSSM (scoring its intensity), SSRA and MSRA blobs, as named by [`SHIPPED_FILES`].
+    /// GSSM (scoring its intensity), SSRA and MSRA blobs, as named by [`SHIPPED_FILES`], each
+    /// with its training-domain record.
     pub blobs: [Vec<u8>; 3],
+    /// Models whose kinematic fallback could not be fitted (their guard became `flag-only`).
+    pub warnings: Vec<String>,
 }
 
 /// Fits the GSSM on `normal` (safe sequences are used), aligns SSRA and trains MSRA over it on the
-/// comparisons of `train`.
+/// comparisons of `train`; every blob carries the training domain of `normal` under
+/// `config.guard.policy` ([`guard_blobs`]), with `fallback_terms` (an MSRA's, the TTC2D/TAdv/EI
+/// ones are kept) as the kinematic fallback; without them a `fallback` policy is written as
+/// `flag-only`.
 pub fn ship(
     train: &[Sequence],
     normal: &[Sequence],
     config: &TrainConfig,
     gssm_config: &GssmConfig,
+    fallback_terms: Option<&[MsraTerm]>,
     progress: Progress,
 ) -> Result<Shipped, GssmError> {
     let kinds = parse_configuration(&gssm_config.msra.shipped)?;
@@ -61,11 +70,20 @@ pub fn ship(
         gssm_config.msra.learning_rate,
         progress,
     )?;
-    let blobs = [
-        gssm.params.gssm_blob(GssmScore::Intensity)?,
-        ssra.blob()?,
-        msra.params.blob()?,
+    let mut named = [
+        (
+            "gssm".to_string(),
+            gssm.params.gssm_blob(GssmScore::Intensity)?,
+        ),
+        ("ssra".to_string(), ssra.blob()?),
+        ("msra-gssm".to_string(), msra.params.blob()?),
     ];
+    let (policy, terms) = match (config.guard.policy, fallback_terms) {
+        (GuardPolicy::Fallback, None) => (GuardPolicy::FlagOnly, &[][..]),
+        (policy, terms) => (policy, terms.unwrap_or_default()),
+    };
+    let warnings = guard_blobs(&mut named, normal, policy, terms)?;
+    let blobs = named.map(|(_, bytes)| bytes);
     Ok(Shipped {
         kinds,
         sequences: train.len(),
@@ -73,6 +91,7 @@ pub fn ship(
         ssra,
         msra,
         blobs,
+        warnings,
     })
 }
 

@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use super::config::GssmConfig;
 use super::fit::{fit_gssm, FitReport};
+use super::guard::guard_blobs;
 use super::msra::{align_msra_gssm, row_name as msra_row_name, TermWeight};
 use super::ssra::align_ssra;
 use super::GssmError;
@@ -19,6 +20,7 @@ use riskscore_eval::scoring::{
     evaluate_methods, observe, Method, MethodRun, ObservedSequence, Scorer,
 };
 use scorer_core::gssm::GssmScore;
+use scorer_core::msra::MsraTerm;
 use scorer_core::SurrogateKind;
 
 /// Options of [`cross_validate`].
@@ -31,6 +33,11 @@ pub struct CvOptions {
     pub configurations: Vec<Vec<SurrogateKind>>,
     /// Include the TTC2D, TAdv, EI baseline rows.
     pub baselines: bool,
+    /// The kinematic terms of the MSRA trained beside the fold's models (the benchmarks pass the
+    /// fold's): with them every blob carries the training domain of its GSSM's fit data under
+    /// the training configuration's `[guard] policy` ([`guard_blobs`]) and is scored through it,
+    /// as the shipped ones are; without, the blobs are unguarded.
+    pub fallback_terms: Option<Vec<MsraTerm>>,
 }
 
 /// What one fold trained.
@@ -76,9 +83,16 @@ fn evaluate_blobs(
         Vec::new()
     };
     for (name, blob) in blobs {
+        let blob = scorer_core::model::decode_blob(blob)?;
+        // Scored through its guard, as the ECU and `riskctl evaluate` score the exported file.
+        let scorer = if blob.meta.training_domain.is_some() {
+            Scorer::Guarded(blob)
+        } else {
+            Scorer::Model(blob.model)
+        };
         methods.push(Method {
             name: name.clone(),
-            scorer: Scorer::Model(scorer_core::model::decode(blob)?),
+            scorer,
         });
     }
     let (report, runs) = evaluate_methods(observed, &methods)?;
@@ -91,13 +105,15 @@ pub struct GssmFold {
     /// Every method's scored test sequences (e.g. to read a threshold off its curve).
     pub runs: Vec<MethodRun>,
     pub detail: FoldDetail,
+    /// Models whose kinematic fallback could not be fitted (their guard became `flag-only`).
+    pub warnings: Vec<String>,
 }
 
 /// One fold: fit the GSSM on the safe sequences of `normal` (the normal driving it models: the
 /// benchmarks pass every safe training sequence, simulated and real, as the shipped GSSM is
 /// fitted; the training sequences themselves when `None`), align it to SSRA with the
 /// comparisons of `train`, train the MSRA configurations over it, and score `test` through the
-/// deployed path. `cfg.seed` seeds everything.
+/// deployed path, through the guard of `options.fallback_terms`. `cfg.seed` seeds everything.
 pub fn train_fold(
     train: &[Sequence],
     normal: Option<&[Sequence]>,
@@ -138,10 +154,15 @@ pub fn train_fold(
         msra_weights.push((name.clone(), m.params.weights()));
         blobs.push((name, m.params.blob()?));
     }
+    let warnings = match &options.fallback_terms {
+        Some(terms) => guard_blobs(&mut blobs, normal.unwrap_or(train), cfg.guard.policy, terms)?,
+        None => Vec::new(),
+    };
     let (methods, runs) = evaluate_blobs(test, &blobs, options.baselines)?;
     Ok(GssmFold {
         methods,
         runs,
+        warnings,
         detail: FoldDetail {
             seed: cfg.seed,
             fold: 0,

@@ -193,8 +193,9 @@ pub enum GuardPolicy {
     FlagOnly,
     /// A record under `clamp`: inputs outside are moved to the edge of their trained range.
     Clamp,
-    /// A record under `fallback`: outside, a DRL scores the kinematic terms of the MSRA trained
-    /// beside it, aligned to its scale on its training frames (MSRA blobs: `flag-only`). The
+    /// A record under `fallback`: outside, a DRL (or a GSSM, SSRA) scores the kinematic terms of
+    /// the MSRA trained beside it, aligned to its scale on its training frames (MSRA blobs:
+    /// `flag-only`). The
     /// default: measured best on held-out slices at no cost beyond a fold std elsewhere
     /// (`docs/domain-guard.md`).
     #[default]
