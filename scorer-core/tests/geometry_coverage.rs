@@ -159,7 +159,8 @@ fn bad_coverage_records_are_refused() {
             ..
         }
     ));
-    // Only a DRL blob reads the DRL inputs the cells are computed from; the encoder refuses too.
+    // Only a network's domain (DRL, GSSM) carries cells: an MSRA's terms are kinematic. The
+    // encoder refuses too.
     let mut msra = covered_blob(OutsidePolicy::FlagOnly, &[0]);
     msra.model = model::decode(include_bytes!("../../models/msra-default.rsk")).unwrap();
     let mut out = vec![0u8; 4096];
@@ -201,4 +202,60 @@ fn an_in_range_observation_in_an_uncovered_cell_is_outside() {
             Some(3)
         );
     }
+}
+
+#[test]
+fn a_gssm_reads_its_cells_off_the_drl_inputs_and_falls_back_outside_them() {
+    // The shipped GSSM carries the cells of the normal driving it was fitted on and the
+    // kinematic fallback (docs/domain-guard.md, "The GSSM family").
+    let blob = model::decode_blob(include_bytes!("../../models/gssm-default.rsk")).unwrap();
+    let domain = blob
+        .meta
+        .training_domain
+        .expect("the shipped GSSM is guarded");
+    let coverage = domain.coverage.expect("with geometry cells");
+    let fallback = blob
+        .meta
+        .kinematic_fallback
+        .expect("and a kinematic fallback");
+    assert_eq!(domain.policy, OutsidePolicy::Fallback);
+    let (mut by_cell, mut inside) = (0, 0);
+    for (x, y) in [
+        (0.0, 20.0),
+        (15.0, 15.0),
+        (20.0, 0.0),
+        (-20.0, 5.0),
+        (5.0, -20.0),
+    ] {
+        for (hx, hy) in [(0.0, 1.0), (1.0, 0.0), (-1.0, 0.0), (0.0, -1.0), (0.6, 0.8)] {
+            let (ego, partner) = pair(x, y, hx, hy);
+            let g = blob.score_pair_guarded(&ego, &partner);
+            // The ECU's path and the host's give the same bits.
+            assert_eq!(g, blob.score_guarded(&Observation::of(&ego, &partner)));
+            let covered = coverage.covers(geometry_cell(&drl_inputs(&ego, &partner)));
+            match g.first_outside {
+                Some(GEOMETRY_INPUT) => {
+                    assert!(!covered);
+                    by_cell += 1;
+                }
+                None => {
+                    assert!(covered);
+                    assert_eq!(
+                        g.score.to_bits(),
+                        blob.model.score(&ego, &partner).to_bits()
+                    );
+                    inside += 1;
+                }
+                Some(_) => {}
+            }
+            if g.first_outside.is_some() {
+                let surrogates = Observation::of(&ego, &partner).surrogates;
+                assert_eq!(g.score.to_bits(), fallback.score(&surrogates).to_bits());
+            }
+        }
+    }
+    assert!(
+        by_cell > 0 && inside > 0,
+        "{by_cell} by cell, {inside} inside"
+    );
 }

@@ -125,18 +125,20 @@ fn every_shipped_model_is_in_exactly_one_roadside_test() {
 }
 
 /// The shipped models that never warn on the sweep at their default threshold.
-const PASSING: [&str; 2] = ["drl-default", "msra-default"];
+const PASSING: [&str; 3] = ["drl-default", "msra-default", "ssra-default"];
 /// The shipped models that still warn on some passes at their default threshold (the 5 % rule):
 /// measured counts in the doc comment of [`models_that_still_warn_beside_a_roadside_object`].
-const STILL_WARNING: [&str; 3] = ["gssm-default", "ssra-default", "msra-gssm"];
+const STILL_WARNING: [&str; 2] = ["gssm-default", "msra-gssm"];
 
-/// An honest failure, run with `--ignored`. Measured on the models of scripts/ship-models.sh
-/// (2026-11-26, 312 passes each): GSSM 18 warn (threshold 1.863; highest 3.18, a post 3 m aside at
-/// 5 m/s), SSRA 32 (6.117; highest 9.01, a post 3 m aside at 10 m/s), MSRA-GSSM 65 (3.954;
-/// highest 4.11, a parked truck 3 m aside at 50 m/s). GSSM learned the training passes'
-/// spacings as normal but not the test's (a post, 3 m): the density model does not generalise
-/// across the disjoint grid, and SSRA and MSRA-GSSM inherit it. Lifting their thresholds above
-/// the passes (`NEVER_WARN=1 scripts/ship-models.sh`) would cut their recall (SSRA to 0 %).
+/// An honest failure, run with `--ignored`. Measured on the shipped blobs (2026-11-27, 312 passes
+/// each): GSSM 7 warn (threshold 1.863; highest 2.37, a parked truck 3 m aside at 45 m/s, all at
+/// 40-50 m/s beside a truck or a car), MSRA-GSSM 65 (3.954; highest 4.11, a parked truck 3 m aside
+/// at 50 m/s, through its GSSM term). GSSM learned the training passes' spacings as normal but not
+/// all of the test's: the density model does not generalise across the disjoint grid. Since the
+/// GSSM family carries the guard of its fit data (docs/domain-guard.md, "The GSSM family"), the
+/// frames beside a post at 3-10 m/s fall back to the kinematic score (GSSM 18 -> 7 passes, SSRA
+/// 32 -> 0); MSRA-GSSM's guard only flags. Lifting the thresholds above the passes
+/// (`NEVER_WARN=1 scripts/ship-models.sh`) would cut their recall.
 #[test]
 #[ignore = "known to fail: see the doc comment for the measured counts"]
 fn models_that_still_warn_beside_a_roadside_object() {
