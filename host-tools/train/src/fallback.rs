@@ -2,7 +2,7 @@
 //! terms of an MSRA (TTC2D, TAdv, EI; a GSSM term is dropped: GSSM is learned and has a domain of
 //! its own), put on the model's score scale by the affine map `scale * R + offset` that matches
 //! the mean and the spread of the model's own scores on the training frames inside its domain
-//! (the standardised major axis of the two scores: `scale = sd(DRL) / sd(R)`, the line through
+//! (the standardised major axis of the two scores: `scale = sd(model) / sd(R)`, the line through
 //! both means; refused when the two are not positively correlated).
 //!
 //! Inside its domain the model is trusted; that is where the two scores can be compared. The map

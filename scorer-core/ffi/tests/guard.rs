@@ -111,6 +111,11 @@ fn shipped_models_score_as_the_hosts_guard_inside_and_outside() {
         !outside.in_domain,
         "an 18.75 m truck: outside the DRL's domain"
     );
+    // The GSSM carries the domain of its normal driving too and falls back there.
+    assert!(
+        !host(gssm, &TRUCK_EGO, &LONG_TRUCK).in_domain,
+        "an 18.75 m truck: outside the GSSM's domain"
+    );
     for (what, ego, partner) in [
         ("inside", &EGO, &LEAD),
         ("outside", &TRUCK_EGO, &LONG_TRUCK),

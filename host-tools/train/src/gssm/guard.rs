@@ -16,17 +16,23 @@ use super::GssmError;
 use crate::export::with_measured_domain;
 use crate::train::GuardPolicy;
 
-/// Replaces every blob of `blobs` (row name, bytes) by the blob with its measured record; returns
-/// the warnings of the blobs whose fallback could not be fitted (their guard became `flag-only`).
+/// Replaces every blob of `blobs` (row name, bytes) by the blob with its record measured on
+/// `fit_sequences` under `policy`, `fallback_terms` its kinematic fallback (without them a
+/// `fallback` policy is written as `flag-only`); returns the warnings of the blobs whose fallback
+/// could not be fitted (their guard became `flag-only` too).
 pub fn guard_blobs(
     blobs: &mut [(String, Vec<u8>)],
     fit_sequences: &[Sequence],
     policy: GuardPolicy,
-    fallback_terms: &[MsraTerm],
+    fallback_terms: Option<&[MsraTerm]>,
 ) -> Result<Vec<String>, GssmError> {
+    let policy = match (policy, fallback_terms) {
+        (GuardPolicy::Fallback, None) => GuardPolicy::FlagOnly,
+        (policy, _) => policy,
+    };
     let mut warnings = Vec::new();
     for (name, blob) in blobs {
-        let guarded = with_measured_domain(blob, fit_sequences, policy, Some(fallback_terms))?;
+        let guarded = with_measured_domain(blob, fit_sequences, policy, fallback_terms)?;
         warnings.extend(guarded.warning(name));
         *blob = guarded.bytes;
     }

@@ -14,7 +14,7 @@ use super::{
     TrainedSsra,
 };
 use crate::export::write_blob;
-use crate::train::{prepare_comparisons, GuardPolicy, Progress, TrainConfig};
+use crate::train::{prepare_comparisons, Progress, TrainConfig};
 use riskscore_data::events::Sequence;
 
 /// File names of the shipped models, in the order [`Shipped::blobs`] returns them.
@@ -78,11 +78,7 @@ pub fn ship(
         ("ssra".to_string(), ssra.blob()?),
         ("msra-gssm".to_string(), msra.params.blob()?),
     ];
-    let (policy, terms) = match (config.guard.policy, fallback_terms) {
-        (GuardPolicy::Fallback, None) => (GuardPolicy::FlagOnly, &[][..]),
-        (policy, terms) => (policy, terms.unwrap_or_default()),
-    };
-    let warnings = guard_blobs(&mut named, normal, policy, terms)?;
+    let warnings = guard_blobs(&mut named, normal, config.guard.policy, fallback_terms)?;
     let blobs = named.map(|(_, bytes)| bytes);
     Ok(Shipped {
         kinds,

@@ -155,7 +155,12 @@ pub fn train_fold(
         blobs.push((name, m.params.blob()?));
     }
     let warnings = match &options.fallback_terms {
-        Some(terms) => guard_blobs(&mut blobs, normal.unwrap_or(train), cfg.guard.policy, terms)?,
+        Some(terms) => guard_blobs(
+            &mut blobs,
+            normal.unwrap_or(train),
+            cfg.guard.policy,
+            Some(terms),
+        )?,
         None => Vec::new(),
     };
     let (methods, runs) = evaluate_blobs(test, &blobs, options.baselines)?;
