@@ -1,6 +1,6 @@
 //! `riskctl gssm ship` end to end on a tiny simulated folder: the command wires the library
 //! (`riskscore_train::gssm::ship`) to its flags and writes the three models and the summary.
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn riskctl(args: &[&str]) -> Output {
@@ -20,22 +20,31 @@ fn arg(p: &Path) -> &str {
     p.to_str().expect("utf-8 temp path")
 }
 
-#[test]
-fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
-    let dir = tempfile::tempdir().unwrap();
-    let events = dir.path().join("events");
+/// A simulated folder of `events` events under `dir`, and the tiny training and GSSM
+/// configurations of riskscore-train's ship test.
+fn simulated_with_tiny_configs(
+    dir: &Path,
+    events: &str,
+    seed: &str,
+) -> (PathBuf, PathBuf, PathBuf) {
+    let folder = dir.join("events");
     riskctl(&[
         "simulate",
         "--out",
-        arg(&events),
+        arg(&folder),
         "--events",
-        "40",
+        events,
         "--seed",
-        "3",
+        seed,
     ]);
-    // The tiny configurations of riskscore-train's ship test.
     let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("train/tests/data/tiny");
-    let (train_toml, gssm_toml) = (tiny.join("train.toml"), tiny.join("gssm.toml"));
+    (folder, tiny.join("train.toml"), tiny.join("gssm.toml"))
+}
+
+#[test]
+fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let (events, train_toml, gssm_toml) = simulated_with_tiny_configs(dir.path(), "40", "3");
     let models = dir.path().join("models");
     let out = riskctl(&[
         "gssm",
@@ -153,4 +162,57 @@ fn gssm_fit_pools_the_safe_driving_of_every_normal_folder() {
             "{text}"
         );
     }
+}
+
+#[test]
+fn gssm_ship_and_cv_hand_the_gssm_over_to_the_fallback_of_the_given_msra() {
+    let dir = tempfile::tempdir().unwrap();
+    let (events, train_toml, gssm_toml) = simulated_with_tiny_configs(dir.path(), "150", "4");
+    let msra = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/msra-default.rsk");
+    let common = [
+        "--events",
+        arg(&events),
+        "--config",
+        arg(&train_toml),
+        "--gssm-config",
+        arg(&gssm_toml),
+        "--fallback-from",
+        arg(&msra),
+    ];
+    let models = dir.path().join("models");
+    riskctl(&[&["gssm", "ship"], &common[..], &["--out-dir", arg(&models)]].concat());
+    let bytes = std::fs::read(models.join("gssm-default.rsk")).unwrap();
+    let blob = scorer_core::model::decode_blob(&bytes).unwrap();
+    let fallback = blob.meta.kinematic_fallback.expect("the GSSM falls back");
+    let msra_bytes = std::fs::read(&msra).unwrap();
+    let scorer_core::Model::Msra(m) = scorer_core::model::decode(&msra_bytes).unwrap() else {
+        panic!("msra-default.rsk is an MSRA")
+    };
+    assert_eq!(fallback.terms().collect::<Vec<_>>(), m.terms.to_vec());
+    // The study scores its fold models through the same guard (150 events: enough for cells of 5
+    // safe sequences, and the GSSM row differs); a source that is no MSRA is refused before
+    // anything runs.
+    let gssm_row = |args: &[&str]| {
+        let out = riskctl(&[&["gssm", "cv", "--folds", "2", "--json"], args].concat());
+        assert!(
+            !String::from_utf8_lossy(&out.stderr).contains("no kinematic fallback"),
+            "every fold's fallback is fitted"
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let methods = v["methods"].as_array().unwrap().clone();
+        methods
+            .into_iter()
+            .find(|m| m["name"] == "GSSM")
+            .expect("a GSSM row")
+    };
+    let guarded = gssm_row(&common);
+    let unguarded = gssm_row(&common[..common.len() - 2]);
+    assert_ne!(guarded, unguarded);
+    let refused = Command::new(env!("CARGO_BIN_EXE_riskctl"))
+        .args(["gssm", "cv", "--events", arg(&events), "--fallback-from"])
+        .arg(models.join("gssm-default.rsk"))
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("not an MSRA model"));
 }

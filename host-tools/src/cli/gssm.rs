@@ -154,6 +154,11 @@ pub struct CvArgs {
     /// Also write cv.json (report, folds, per-fold details) here.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// MSRA blob whose TTC2D/TAdv/EI terms every fold's GSSM and SSRA hand over to outside the
+    /// normal driving the fold's GSSM was fitted on, as `gssm ship --fallback-from` ships them
+    /// (docs/domain-guard.md, "The GSSM family"). Without it the fold models are unguarded.
+    #[arg(long, value_name = "FILE")]
+    pub fallback_from: Option<PathBuf>,
 }
 
 /// The augmentation study's flags (flatten into `riskctl ablation` as well).
@@ -280,6 +285,24 @@ fn refuse_inputs(common: &Common, more: &[(&str, &Path)], out: &Path) -> anyhow:
     super::output::refuse_inputs_of(&folders, &files, &[("--out", out)])
 }
 
+/// `--fallback-from`, when given, as an input the output may not overwrite.
+fn fallback_input(fallback_from: &Option<PathBuf>) -> Vec<(&'static str, &Path)> {
+    fallback_from
+        .iter()
+        .map(|p| ("--fallback-from", p.as_path()))
+        .collect()
+}
+
+/// The MSRA terms of `--fallback-from`, when given (the guard keeps its kinematic ones).
+fn read_fallback_terms(
+    fallback_from: &Option<PathBuf>,
+) -> anyhow::Result<Option<Vec<scorer_core::msra::MsraTerm>>> {
+    fallback_from
+        .as_deref()
+        .map(super::calibrate_domain::read_kinematic_terms)
+        .transpose()
+}
+
 fn run_fit(a: FitArgs) -> anyhow::Result<()> {
     refuse_inputs(&a.common, &[], &a.out)?;
     let (cfg, gcfg) = load_configs(
@@ -362,21 +385,13 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 }
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
-    let more: Vec<(&str, &Path)> = a
-        .fallback_from
-        .iter()
-        .map(|p| ("--fallback-from", p.as_path()))
-        .collect();
-    refuse_inputs(&a.common, &more, &a.out_dir)?;
+    refuse_inputs(&a.common, &fallback_input(&a.fallback_from), &a.out_dir)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
         a.common.seed,
     )?;
-    let fallback_terms = match &a.fallback_from {
-        Some(path) => Some(super::calibrate_domain::read_kinematic_terms(path)?),
-        None => None,
-    };
+    let fallback_terms = read_fallback_terms(&a.fallback_from)?;
     let seqs = load_all(&a.common.events)?;
     let shipped = ship(
         &seqs,
@@ -423,8 +438,9 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         a.common.seed,
     )?;
     if let Some(out) = &a.out {
-        refuse_inputs(&a.common, &[], out)?;
+        refuse_inputs(&a.common, &fallback_input(&a.fallback_from), out)?;
     }
+    let fallback_terms = read_fallback_terms(&a.fallback_from)?;
     let names = if a.msra.is_empty() {
         gcfg.msra.configurations.clone()
     } else {
@@ -449,9 +465,12 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         },
         configurations,
         baselines: true,
-        fallback_terms: None,
+        fallback_terms,
     };
     let result = cross_validate(&seqs, normal.as_deref(), &cfg, &gcfg, &options, progress())?;
+    for warning in &result.warnings {
+        eprintln!("riskctl: warning: {warning}");
+    }
     if a.json {
         println!(
             "{}",

@@ -61,6 +61,8 @@ pub struct GssmCvResult {
     pub report: CvReport,
     pub folds: Vec<FoldResult>,
     pub details: Vec<FoldDetail>,
+    /// Per fold, the models whose kinematic fallback could not be fitted (guard `flag-only`).
+    pub warnings: Vec<String>,
 }
 
 fn counts(seqs: &[Sequence]) -> EventCounts {
@@ -195,6 +197,7 @@ pub fn cross_validate(
 ) -> Result<GssmCvResult, GssmError> {
     let mut folds_out = Vec::new();
     let mut details = Vec::new();
+    let mut warnings = Vec::new();
     for &seed in &options.seeds {
         let folds = kfold_by_event(seqs, options.folds, seed);
         for fold in 0..folds.k() {
@@ -221,12 +224,18 @@ pub fn cross_validate(
                 fold,
                 ..out.detail
             });
+            warnings.extend(
+                out.warnings
+                    .into_iter()
+                    .map(|w| format!("seed {seed} fold {fold}: {w}")),
+            );
         }
     }
     Ok(GssmCvResult {
         report: aggregate(counts(seqs), &folds_out),
         folds: folds_out,
         details,
+        warnings,
     })
 }
 
