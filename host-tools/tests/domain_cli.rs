@@ -462,13 +462,30 @@ fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallbac
     let text = ok(run(&gssm, &out));
     // The domain of a model of normal driving is measured on the 4 safe sequences alone.
     assert!(text.contains("in 4 sequences"), "{text}");
+    assert!(
+        text.contains("geometry cells of at least 1 sequences"),
+        "{text}"
+    );
     assert!(text.contains("policy          fallback outside"), "{text}");
     let bytes = std::fs::read(&out).unwrap();
     let blob = model::decode_blob(&bytes).unwrap();
     let domain = blob.meta.training_domain.expect("a domain");
     assert!(domain.coverage.is_some(), "a GSSM's domain lists its cells");
     assert!(blob.meta.kinematic_fallback.is_some());
-    // An MSRA is itself kinematic: no fallback for it, and nothing written.
+    // An MSRA's record has no cells to speak of, and it is itself kinematic: no fallback for it,
+    // and nothing written.
+    let flagged = dir.path().join("msra-flagged.rsk");
+    let text = ok(riskctl(&[
+        "calibrate-domain",
+        "--model",
+        msra.to_str().unwrap(),
+        "--events",
+        train.to_str().unwrap(),
+        "--out",
+        flagged.to_str().unwrap(),
+    ]));
+    assert!(!text.contains("geometry cells"), "{text}");
+    assert!(text.contains("in 12 sequences"), "{text}");
     let bad = dir.path().join("msra-fallback.rsk");
     let refused = run(&msra, &bad);
     assert!(!refused.status.success());

@@ -149,14 +149,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
+    // An MSRA's domain has no cells: saying how they were counted would mislead.
+    let cells = if model.runs_a_network() {
+        format!(
+            "; geometry cells of at least {} sequences",
+            args.cell_sequences
+        )
+    } else {
+        String::new()
+    };
     println!(
-        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached; geometry cells of at least {} sequences), {} outside",
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), {} outside",
         args.model.display(),
         args.out.display(),
         measured_on.len(),
         args.tail_percent,
         args.sequence_percent,
-        args.cell_sequences,
         args.policy.name()
     );
     print!("{summary}");
