@@ -4,9 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
-use riskscore_eval::domain_ranges::{measure, Tails, DEFAULT_TAILS};
+use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
-use riskscore_train::fallback::fit;
 use scorer_core::model::{Model, OutsidePolicy};
 use scorer_core::msra::MsraTerm;
 
@@ -116,36 +115,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let measured_on = riskscore_train::export::domain_sequences(model, &sequences);
     let frames: usize = measured_on.iter().map(|s| s.frames.len()).sum();
-    let pairs = || {
-        sequences
-            .iter()
-            .flat_map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)))
-    };
-    let per_sequence = measured_on
-        .iter()
-        .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
     let tails = Tails {
         frames: args.tail_percent / 100.0,
         sequences: args.sequence_percent / 100.0,
         cell_sequences: args.cell_sequences,
     };
-    let domain = measure(model, per_sequence, tails, args.policy)?;
-    let fallback = match &fallback_terms {
-        Some(terms) => {
-            let fitted = fit(&blob, &domain.domain(), terms, pairs())?;
-            println!(
-                "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
-                fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
-            );
-            Some(fitted)
-        }
-        None => None,
-    };
-    let bytes = riskscore_train::export::with_training_domain(
+    let guarded = riskscore_train::export::with_domain_measured(
         &file.bytes,
-        domain.domain(),
-        fallback.as_ref().map(|f| f.record()),
+        &sequences,
+        tails,
+        args.policy,
+        fallback_terms.as_deref(),
     )?;
+    // Training writes `flag-only` where a fallback cannot be fitted; asked for one, this fails.
+    if let Some(reason) = guarded.fallback_refused {
+        bail!("{reason}");
+    }
+    if let Some(fitted) = &guarded.fallback {
+        println!(
+            "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
+            fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
+        );
+    }
+    let bytes = guarded.bytes;
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;

@@ -433,9 +433,29 @@ pub fn with_measured_domain(
     let Some(policy) = policy.outside_policy() else {
         return Ok(GuardedBlob {
             bytes: blob.to_vec(),
+            fallback: None,
             fallback_refused: None,
         });
     };
+    with_domain_measured(
+        blob,
+        train,
+        riskscore_eval::domain_ranges::DEFAULT_TAILS,
+        policy,
+        fallback_terms,
+    )
+}
+
+/// [`with_measured_domain`] with the ranges' and cells' `tails` and a record policy: the one
+/// pipeline behind training's exports and `riskctl calibrate-domain` (which sets the tails and
+/// fails where a fallback is refused).
+pub fn with_domain_measured(
+    blob: &[u8],
+    train: &[Sequence],
+    tails: riskscore_eval::domain_ranges::Tails,
+    policy: OutsidePolicy,
+    fallback_terms: Option<&[MsraTerm]>,
+) -> Result<GuardedBlob, ExportError> {
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     let policy = match policy {
         OutsidePolicy::Fallback if !decoded.model.runs_a_network() => OutsidePolicy::FlagOnly,
@@ -449,17 +469,13 @@ pub fn with_measured_domain(
     let per_sequence = domain_sequences(&decoded.model, train)
         .into_iter()
         .map(|s| s.frames.iter().map(|f| (&f.ego, &f.partner)));
-    let mut domain = riskscore_eval::domain_ranges::measure(
-        &decoded.model,
-        per_sequence,
-        riskscore_eval::domain_ranges::DEFAULT_TAILS,
-        policy,
-    )
-    .map_err(|e| ExportError::Domain(e.to_string()))?;
+    let mut domain =
+        riskscore_eval::domain_ranges::measure(&decoded.model, per_sequence, tails, policy)
+            .map_err(|e| ExportError::Domain(e.to_string()))?;
     let mut fallback_refused = None;
     let fallback = if policy == OutsidePolicy::Fallback {
         let terms = fallback_terms.ok_or(ExportError::Domain(
-            "the fallback policy needs the MSRA trained beside the DRL (its kinematic terms)"
+            "the fallback policy needs the MSRA trained beside the model (its kinematic terms)"
                 .into(),
         ))?;
         match crate::fallback::fit(&decoded, &domain.domain(), terms, pairs()) {
@@ -476,6 +492,7 @@ pub fn with_measured_domain(
     let bytes = with_training_domain(blob, domain.domain(), fallback.as_ref().map(|f| f.record()))?;
     Ok(GuardedBlob {
         bytes,
+        fallback,
         fallback_refused,
     })
 }
@@ -495,6 +512,8 @@ pub fn domain_sequences<'s>(model: &model::Model<'_>, train: &'s [Sequence]) -> 
 #[derive(Debug)]
 pub struct GuardedBlob {
     pub bytes: Vec<u8>,
+    /// The kinematic fallback the record carries, with how it was fitted.
+    pub fallback: Option<crate::fallback::FittedFallback>,
     /// Why a `fallback` policy was written as `flag-only`: the fallback could not be fitted.
     pub fallback_refused: Option<crate::fallback::FallbackError>,
 }
