@@ -268,6 +268,41 @@ fn a_named_round_with_an_empty_slice_is_an_error_naming_it_and_its_counts() {
 }
 
 #[test]
+fn all_runs_every_round_and_reports_the_empty_ones_as_no_data() {
+    let d = scratch();
+    let o = domains(
+        d.path(),
+        &[
+            "--rounds", "all", "--folds", "2", "--seeds", "1", "--out", "out",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rounds = json["rounds"].as_array().unwrap();
+    let listed = ok(d.path(), &["benchmark", "domains", "--list-rounds"]);
+    let names: Vec<&str> = rounds
+        .iter()
+        .map(|r| r["round"].as_str().unwrap())
+        .collect();
+    let every: Vec<&str> = listed
+        .lines()
+        .map(|l| l[1..].split_whitespace().next().unwrap())
+        .collect();
+    assert_eq!(names, every);
+    let status = |name: &str| {
+        rounds.iter().find(|r| r["round"] == name).unwrap()["status"]
+            .as_str()
+            .unwrap()
+            .to_owned()
+    };
+    // The tiny data has nothing at 35-50 m/s (named alone, that round is an error) ...
+    assert_eq!(status("speed-35-50"), "no data");
+    // ... and runs the rounds it has data for.
+    assert_eq!(status("speed-5-15"), "ok");
+    assert_eq!(status("city-lankershim"), "ok");
+}
+
+#[test]
 fn an_output_that_is_an_input_is_refused() {
     let d = scratch();
     let o = domains(d.path(), &["--rounds", "speed-5-15", "--out", "city"]);

@@ -8,7 +8,7 @@ use host_tools::demo::{
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
-use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
+use riskscore_train::domains::{self, DomainData, Round};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
 use riskscore_train::transfer::{self, TransferData, TransferOptions};
@@ -200,8 +200,9 @@ pub struct DomainsArgs {
     pub sim: SimArgs,
     #[command(flatten)]
     pub training: TrainingArgs,
-    /// Rounds to run, comma-separated (see --list-rounds). A named round whose slice is empty is
-    /// an error; of the default rounds, such a round is reported as "no data".
+    /// Rounds to run, comma-separated (see --list-rounds), or `all` for every one. A named round
+    /// whose slice is empty is an error; under `all` and of the default rounds, such a round is
+    /// reported as "no data".
     #[arg(long, value_name = "NAME,...")]
     pub rounds: Option<String>,
     /// List the rounds (name and held-out slice; `*` marks the defaults) and exit.
@@ -304,13 +305,8 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let (rounds, empty) = match a.rounds.as_deref() {
-        Some(list) => (
-            Round::parse_list(list).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?,
-            EmptyRound::Fail,
-        ),
-        None => (Round::defaults(), EmptyRound::ReportNoData),
-    };
+    let (rounds, empty) =
+        Round::selection(a.rounds.as_deref()).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?;
     let mut event_folders = vec![("--real", a.real.as_deref())];
     event_folders.extend(
         a.real_city

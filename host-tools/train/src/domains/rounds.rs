@@ -18,11 +18,14 @@ use serde::Serialize;
 
 use super::slice::{domain_of, Domain, SpeedBand};
 use super::source::Source;
+use super::EmptyRound;
 use crate::transfer::scenario_of;
 use riskscore_data::events::Sequence;
 
 /// The cities a city round can hold out (each while training on the other).
 pub const CITIES: [&str; 2] = ["Lankershim", "Peachtree"];
+/// The `--rounds` value that runs every round ([`Round::all`]).
+pub const ALL: &str = "all";
 
 /// What a round holds out.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -81,6 +84,17 @@ impl Round {
         rounds.push(Round::geometry(Geometry::Crossing));
         rounds.push(Round::geometry(Geometry::Oncoming));
         rounds
+    }
+
+    /// The rounds a run asks for, and what an empty one means: none named runs the defaults,
+    /// `all` every round, both reporting an empty slice as "no data" (a city's folder may be
+    /// missing); a list of names fails on an empty one, since it was asked for by name.
+    pub fn selection(list: Option<&str>) -> Result<(Vec<Round>, EmptyRound), String> {
+        match list.map(str::trim) {
+            None => Ok((Round::defaults(), EmptyRound::ReportNoData)),
+            Some(ALL) => Ok((Round::all(), EmptyRound::ReportNoData)),
+            Some(list) => Ok((Round::parse_list(list)?, EmptyRound::Fail)),
+        }
     }
 
     /// The rounds of a comma-separated list of names (as [`Round::all`] spells them).
@@ -491,5 +505,24 @@ mod tests {
             "{err}"
         );
         assert_eq!(Round::parse_list("speed-0-5,speed-0-5").unwrap().len(), 1);
+    }
+
+    #[test]
+    fn all_runs_every_round_and_reports_empty_ones_like_the_defaults() {
+        assert_eq!(
+            Round::selection(None).unwrap(),
+            (Round::defaults(), EmptyRound::ReportNoData)
+        );
+        assert_eq!(
+            Round::selection(Some(" all ")).unwrap(),
+            (Round::all(), EmptyRound::ReportNoData)
+        );
+        assert_eq!(
+            Round::selection(Some("speed-0-5")).unwrap(),
+            (Round::parse_list("speed-0-5").unwrap(), EmptyRound::Fail)
+        );
+        // `all` names the whole set, not a round to mix with others.
+        let err = Round::selection(Some("all,speed-0-5")).unwrap_err();
+        assert!(err.contains("unknown round `all`"), "{err}");
     }
 }
