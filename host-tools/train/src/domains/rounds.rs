@@ -102,6 +102,11 @@ impl Round {
         let all = Round::all();
         let mut rounds: Vec<Round> = Vec::new();
         for name in list.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            if name == ALL {
+                return Err(format!(
+                    "`{ALL}` runs every round and stands alone, not in a list"
+                ));
+            }
             let round = all.iter().find(|r| r.name == name).ok_or_else(|| {
                 let known: Vec<&str> = all.iter().map(|r| r.name.as_str()).collect();
                 format!("unknown round `{name}` (known: {})", known.join(", "))
@@ -523,6 +528,9 @@ mod tests {
         );
         // `all` names the whole set, not a round to mix with others.
         let err = Round::selection(Some("all,speed-0-5")).unwrap_err();
-        assert!(err.contains("unknown round `all`"), "{err}");
+        assert!(
+            err.contains("`all` runs every round and stands alone"),
+            "{err}"
+        );
     }
 }
