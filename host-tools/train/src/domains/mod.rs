@@ -16,23 +16,13 @@ pub mod slice;
 pub mod source;
 
 pub use report::{DomainsResult, RoundOutcome};
-pub use rounds::{DomainData, Round};
+pub use rounds::{DomainData, EmptyRound, Round};
 pub use run::{run_round, DomainsError, RoundResult};
 
 use crate::gssm::GssmConfig;
 use crate::train::TrainConfig;
 use crate::transfer::TransferOptions;
 use rounds::slice_counts;
-
-/// What to do with a round whose slice is empty in the data given.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EmptyRound {
-    /// Refuse the run (the round was asked for by name).
-    Fail,
-    /// Report it as "no data" and run the others (the default rounds, some of whose data, e.g. a
-    /// city, may not be there).
-    ReportNoData,
-}
 
 /// Run `rounds` in order. Every round's slice is checked before any training starts, so an empty
 /// round named on the command line fails at once.

@@ -18,7 +18,6 @@ use serde::Serialize;
 
 use super::slice::{domain_of, Domain, SpeedBand};
 use super::source::Source;
-use super::EmptyRound;
 use crate::transfer::scenario_of;
 use riskscore_data::events::Sequence;
 
@@ -26,6 +25,16 @@ use riskscore_data::events::Sequence;
 pub const CITIES: [&str; 2] = ["Lankershim", "Peachtree"];
 /// The `--rounds` value that runs every round ([`Round::all`]).
 pub const ALL: &str = "all";
+
+/// What to do with a round whose slice is empty in the data given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmptyRound {
+    /// Refuse the run (the round was asked for by name).
+    Fail,
+    /// Report it as "no data" and run the others (the default rounds, some of whose data, e.g. a
+    /// city, may not be there).
+    ReportNoData,
+}
 
 /// What a round holds out.
 #[derive(Clone, Debug, PartialEq, Eq)]
