@@ -94,12 +94,7 @@ pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileErr
         .zip(names)
         .map(|((_, blob, _), name)| Method {
             name,
-            // A blob with a training domain is scored through its guard, as the ECU scores it.
-            scorer: if blob.meta.training_domain.is_some() {
-                Scorer::Guarded(blob)
-            } else {
-                Scorer::Model(blob.model)
-            },
+            scorer: Scorer::of_blob(blob),
         })
         .collect())
 }

@@ -90,6 +90,18 @@ pub enum Scorer<'a> {
     Baseline(Baseline),
 }
 
+impl<'a> Scorer<'a> {
+    /// How a model file is scored: through its guard when it carries a training domain, as the
+    /// ECU scores it; as the bare model otherwise.
+    pub fn of_blob(blob: ModelBlob<'a>) -> Self {
+        if blob.meta.training_domain.is_some() {
+            Scorer::Guarded(blob)
+        } else {
+            Scorer::Model(blob.model)
+        }
+    }
+}
+
 impl Scorer<'_> {
     pub fn score(&self, observation: &Observation) -> f32 {
         match self {

@@ -85,16 +85,10 @@ fn evaluate_blobs(
         Vec::new()
     };
     for (name, blob) in blobs {
-        let blob = scorer_core::model::decode_blob(blob)?;
-        // Scored through its guard, as the ECU and `riskctl evaluate` score the exported file.
-        let scorer = if blob.meta.training_domain.is_some() {
-            Scorer::Guarded(blob)
-        } else {
-            Scorer::Model(blob.model)
-        };
+        // Scored as the ECU and `riskctl evaluate` score the exported file.
         methods.push(Method {
             name: name.clone(),
-            scorer,
+            scorer: Scorer::of_blob(scorer_core::model::decode_blob(blob)?),
         });
     }
     let (report, runs) = evaluate_methods(observed, &methods)?;

@@ -348,15 +348,10 @@ pub fn run_fold(
     for (name, blob) in &blobs {
         let blob = scorer_core::model::decode_blob(blob)
             .map_err(|source| CvError::Decode { fold, source })?;
-        // Scored through its guard, as the ECU and `riskctl evaluate` score the exported file.
-        let scorer = if blob.meta.training_domain.is_some() {
-            Scorer::Guarded(blob)
-        } else {
-            Scorer::Model(blob.model)
-        };
+        // Scored as the ECU and `riskctl evaluate` score the exported file.
         methods.push(Method {
             name: name.clone(),
-            scorer,
+            scorer: Scorer::of_blob(blob),
         });
     }
     if opts.baselines {
