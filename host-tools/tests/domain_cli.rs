@@ -43,12 +43,14 @@ fn simulate(dir: &Path, seed: &str) -> PathBuf {
     events
 }
 
-/// `model` without its training-domain and fallback records: what a blob from before the guard is.
+/// `model` without its training-domain, fallback and blend records: what a blob from before the
+/// guard is.
 fn write_unguarded(model: &Path, out: &Path) {
     let bytes = std::fs::read(model).unwrap();
     let mut blob = model::decode_blob(&bytes).unwrap();
     blob.meta.training_domain = None;
     blob.meta.kinematic_fallback = None;
+    blob.meta.blend = None;
     let mut buf = vec![0u8; model::encoded_blob_len(&blob).unwrap()];
     let n = model::encode_blob(&blob, &mut buf).unwrap();
     std::fs::write(out, &buf[..n]).unwrap();
@@ -366,6 +368,8 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
         a
     };
     let run = |a: Vec<String>| riskctl(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let unguarded = dir.path().join("unguarded.rsk");
+    write_unguarded(&drl, &unguarded);
     let text = ok(run(args("fallback", Some(&msra), &out)));
     assert!(text.contains("policy          fallback outside"), "{text}");
     assert!(text.contains("fallback term 1 EI"), "{text}");
@@ -379,7 +383,7 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     assert_eq!(fallback.terms().collect::<Vec<_>>(), m.terms.to_vec());
     assert!(fallback.scale > 0.0);
     // Inside: the DRL's score; outside: the fallback's (a different number).
-    let plain = score_table(&drl, &train, &dir.path().join("plain.csv"));
+    let plain = score_table(&unguarded, &train, &dir.path().join("plain.csv"));
     let guarded = score_table(&out, &train, &dir.path().join("fallback.csv"));
     assert_eq!(plain.len(), guarded.len());
     let (mut inside, mut changed) = (0, 0);
@@ -410,6 +414,66 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     std::fs::copy(&msra, &copy).unwrap();
     assert!(!run(args("fallback", Some(&copy), &copy)).status.success());
     assert_eq!(std::fs::read(&copy).unwrap(), msra_bytes);
+
+    // Blend: the same record and fallback, the network's share inside (0.7 by default).
+    let blend = dir.path().join("blend.rsk");
+    let text = ok(run(args("blend", Some(&msra), &blend)));
+    assert!(
+        text.contains("blend: inside the domain 0.7 * model + 0.3 * fallback")
+            && text.contains("policy          blend (fallback outside")
+            && text.contains("blend           0.7 * model + 0.3 * fallback inside"),
+        "{text}"
+    );
+    let blend_bytes = std::fs::read(&blend).unwrap();
+    let blended = model::decode_blob(&blend_bytes).unwrap();
+    assert_eq!(blended.meta.kinematic_fallback, Some(fallback));
+    assert_eq!(blended.meta.blend.unwrap().network_weight, 0.7);
+    let mixed = score_table(&blend, &train, &dir.path().join("blend.csv"));
+    let (mut inside, mut outside) = (0, 0);
+    for (((p, _), (g, _)), (b, flag)) in plain.iter().zip(&guarded).zip(&mixed) {
+        let (p, g, b): (f32, f32, f32) =
+            (p.parse().unwrap(), g.parse().unwrap(), b.parse().unwrap());
+        if flag == "1" {
+            // The fallback's score of an inside frame is not in the tables: the mix lies
+            // strictly off the network's score wherever the two differ.
+            inside += usize::from(b != p);
+        } else {
+            assert_eq!(b, g, "outside: the fallback, as under fallback");
+            outside += 1;
+        }
+    }
+    assert!(
+        inside > 0 && outside > 0,
+        "{inside} moved inside, {outside} outside"
+    );
+    // An explicit weight is stored; a weight without blend, or outside (0, 1), is refused and
+    // nothing is written.
+    let mut half = args("blend", Some(&msra), &dir.path().join("half.rsk"));
+    half.extend(["--blend-weight".into(), "0.5".into()]);
+    ok(run(half));
+    let half = std::fs::read(dir.path().join("half.rsk")).unwrap();
+    assert_eq!(
+        model::decode_blob(&half)
+            .unwrap()
+            .meta
+            .blend
+            .unwrap()
+            .network_weight,
+        0.5
+    );
+    for (policy, weight) in [("fallback", "0.5"), ("blend", "1"), ("blend", "0")] {
+        let mut a = args(policy, Some(&msra), &bad);
+        a.extend(["--blend-weight".into(), weight.into()]);
+        let refused = run(a);
+        assert!(!refused.status.success(), "{policy} {weight}");
+        assert!(
+            String::from_utf8_lossy(&refused.stderr).contains("--blend-weight"),
+            "{policy} {weight}"
+        );
+        assert!(!bad.exists());
+    }
+    assert!(!run(args("blend", None, &bad)).status.success());
+    assert!(!bad.exists());
 }
 
 #[test]
@@ -420,7 +484,9 @@ fn clamp_changes_only_the_scores_of_frames_outside() {
     let table = |model: &Path, name: &str| score_table(model, &train, &dir.path().join(name));
     let clamp = dir.path().join("clamp.rsk");
     calibrate(&drl, &train, "10", "clamp", &clamp);
-    let plain = table(&drl, "plain.csv");
+    let unguarded = dir.path().join("unguarded.rsk");
+    write_unguarded(&drl, &unguarded);
+    let plain = table(&unguarded, "plain.csv");
     let clamped = table(&clamp, "clamp.csv");
     assert_eq!(plain.len(), clamped.len());
     let mut changed = 0;

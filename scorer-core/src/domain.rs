@@ -13,7 +13,8 @@
 //!
 //! Under the fallback policy an observation outside scores the blob's kinematic fallback (record
 //! tag 3, [`KinematicFallback`](crate::model::KinematicFallback)) from the pair's surrogates; the
-//! model itself is not run then.
+//! model itself is not run then. The blend policy does the same outside and, inside, mixes the
+//! model's score with that fallback by the blob's [`Blend`](crate::model::Blend) record (tag 5).
 //!
 //! No allocation, no panic: a fixed 13-element copy of the inputs is clamped when the policy asks.
 use crate::encoding::drl_inputs;
@@ -32,7 +33,7 @@ pub type DomainInputs = Features;
 /// A score with what the guard says about the observation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guarded {
-    /// The score under the blob's policy (unchanged inside the domain).
+    /// The score under the blob's policy (inside the domain the model's own, or its blend).
     pub score: f32,
     /// True when every bounded input is inside its trained range (always for an unguarded blob).
     pub in_domain: bool,
@@ -113,7 +114,8 @@ impl Model<'_> {
 
 impl ModelBlob<'_> {
     /// The guarded score of an observation computed once ([`Observation::of`]). Inside the
-    /// domain (or without a record) the score is [`Model::score_observation`] bit for bit.
+    /// domain (or without a record) the score is [`Model::score_observation`] bit for bit, except
+    /// under the blend policy (its mix with the fallback).
     pub fn score_guarded(&self, observation: &Observation) -> Guarded {
         let inputs = *self.model.domain_inputs(observation);
         self.guard(
@@ -173,16 +175,23 @@ impl ModelBlob<'_> {
             };
         };
         let first_outside = domain.first_outside(&inputs, cell);
-        let score = match (first_outside, domain.policy, &self.meta.kinematic_fallback) {
-            (None, ..) | (Some(_), OutsidePolicy::FlagOnly, _) => score(&inputs),
-            (Some(_), OutsidePolicy::Clamp, _) => {
+        let fallback = self.meta.kinematic_fallback.as_ref();
+        let score = match (first_outside, domain.policy, fallback, &self.meta.blend) {
+            (None, OutsidePolicy::Blend, Some(fallback), Some(blend)) => {
+                blend.mix(score(&inputs), fallback.score(&surrogates()))
+            }
+            (None, ..) | (Some(_), OutsidePolicy::FlagOnly, ..) => score(&inputs),
+            (Some(_), OutsidePolicy::Clamp, ..) => {
                 domain.clamp(&mut inputs);
                 score(&inputs)
             }
-            (Some(_), OutsidePolicy::Fallback, Some(fallback)) => fallback.score(&surrogates()),
-            // A decoded blob never has the policy without the record (`ModelMeta::validate`);
-            // an unvalidated one in memory scores as flag-only rather than panic.
-            (Some(_), OutsidePolicy::Fallback, None) => score(&inputs),
+            (Some(_), OutsidePolicy::Fallback | OutsidePolicy::Blend, Some(fallback), _) => {
+                fallback.score(&surrogates())
+            }
+            // A decoded blob never has these policies without their records
+            // (`ModelMeta::validate`); an unvalidated one in memory scores as flag-only rather
+            // than panic.
+            (Some(_), OutsidePolicy::Fallback | OutsidePolicy::Blend, None, _) => score(&inputs),
         };
         Guarded {
             score,

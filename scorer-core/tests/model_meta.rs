@@ -59,6 +59,7 @@ fn the_default_threshold_round_trips_in_a_version_2_blob() {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
         },
     };
     let blob = encode(&original);
@@ -78,6 +79,7 @@ fn the_record_bytes_are_the_documented_ones() {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
         },
     });
     let model_len = model::encoded_len(&example_model()).unwrap();
@@ -178,6 +180,7 @@ fn bad_records_are_refused() {
             default_threshold: Some(calibrated(f32::INFINITY)),
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
         },
     };
     let mut out = vec![0u8; 256];
@@ -191,6 +194,7 @@ fn bad_records_are_refused() {
             default_threshold: Some(long_data),
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
         },
     };
     assert!(matches!(
@@ -217,6 +221,7 @@ fn every_truncation_and_byte_flip_of_a_version_2_blob_is_handled() {
             default_threshold: Some(calibrated(2.5)),
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
         },
     });
     assert_truncations_refused_and_flips_handled(&blob);

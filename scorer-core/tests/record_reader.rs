@@ -16,8 +16,8 @@ use proptest::prelude::*;
 use scorer_core::model::kinematic_fallback::term_to_bytes;
 use scorer_core::model::meta::DEFAULT_THRESHOLD_TAG;
 use scorer_core::model::{
-    DefaultThreshold, InputRange, KinematicFallback, ModelError, ModelMeta, OutsidePolicy,
-    ThresholdRule, TrainingDomain, KINEMATIC_FALLBACK_TAG,
+    Blend, DefaultThreshold, InputRange, KinematicFallback, ModelError, ModelMeta, OutsidePolicy,
+    ThresholdRule, TrainingDomain, BLEND_TAG, KINEMATIC_FALLBACK_TAG,
 };
 
 /// The record loop as it read the bodies through serde.
@@ -55,6 +55,7 @@ fn decode_with_serde(mut bytes: &[u8]) -> Result<ModelMeta<'_>, ModelError> {
                 meta.training_domain = Some(take(tag, body, &meta.training_domain)?);
             }
             3 => meta.kinematic_fallback = Some(take(tag, body, &meta.kinematic_fallback)?),
+            5 => meta.blend = Some(take(tag, body, &meta.blend)?),
             _ => {}
         }
         bytes = rest;
@@ -113,8 +114,16 @@ fn valid_streams() -> Vec<Vec<u8>> {
             sequences: 606,
         });
         s.extend(record(2, &body(&TrainingDomain::new(policy, &ranges))));
-        if policy == OutsidePolicy::Fallback {
+        if policy.uses_fallback() {
             s.extend(&fallback);
+        }
+        if policy == OutsidePolicy::Blend {
+            s.extend(record(
+                BLEND_TAG,
+                &body(&Blend {
+                    network_weight: 0.7,
+                }),
+            ));
         }
         streams.push(s);
     }

@@ -160,10 +160,10 @@ fn bad_records_are_refused() {
         Err(ModelError::DuplicateRecord { tag: 2 })
     );
     let mut policy = good.clone();
-    policy[2] = 3;
+    policy[2] = 4;
     assert_eq!(
         model::decode_blob(&blob_with_records(&policy)),
-        Err(ModelError::UnknownOutsidePolicy(3))
+        Err(ModelError::UnknownOutsidePolicy(4))
     );
     policy[2] = 0x80;
     assert_eq!(

@@ -33,7 +33,7 @@ fn main() {
     let models = repo.join("models");
     let (msra, msra_source) = model_blob(&models.join("msra-default.rsk"), "msra");
     let (drl, drl_source) = model_blob(&models.join("drl-default.rsk"), "drl");
-    let (drl, drl_source) = with_fallback_guard(drl, drl_source, &msra);
+    let (drl, drl_source) = with_blend_guard(drl, drl_source, &msra);
     for (name, blob, source) in [("drl", drl, drl_source), ("msra", msra, msra_source)] {
         fs::write(out.join(format!("{name}.rsk")), &blob).expect("write model blob");
         fs::write(out.join(format!("{name}.source")), source).expect("write model source");
@@ -89,13 +89,14 @@ const FIRMWARE_DOMAIN: [(u8, f32, f32); 13] = [
 const FIRMWARE_FALLBACK_SCALE: f32 = 6.164_552;
 const FIRMWARE_FALLBACK_OFFSET: f32 = -19.346_514;
 
-/// `blob` guarded by the costliest policy outside: its training-domain ranges and geometry
-/// coverage (or [`FIRMWARE_DOMAIN`] when it has none) under `Fallback`, with the kinematic terms of
-/// `msra_blob` as its fallback. An observation outside then computes the four surrogates and the
-/// MSRA terms on top of the DRL inputs and the guard (the network is skipped).
-fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<u8>, String) {
+/// `blob` guarded by the costliest policy: its training-domain ranges and geometry coverage (or
+/// [`FIRMWARE_DOMAIN`] when it has none) under `Blend` (its own blend weight, or the training
+/// default 0.7), with the kinematic terms of `msra_blob` as its fallback. An observation inside
+/// then computes the network, the four surrogates and the MSRA terms on top of the DRL inputs and
+/// the guard; one outside skips the network.
+fn with_blend_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<u8>, String) {
     use scorer_core::model::kinematic_fallback::term_to_bytes;
-    use scorer_core::model::{self, InputRange, KinematicFallback, Model, OutsidePolicy};
+    use scorer_core::model::{self, Blend, InputRange, KinematicFallback, Model, OutsidePolicy};
     let mut decoded = model::decode_blob(&blob).expect("the DRL blob decodes");
     let Ok(Model::Msra(msra)) = model::decode(msra_blob) else {
         panic!("the MSRA slot holds no MSRA model");
@@ -117,8 +118,11 @@ fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<
         ),
     };
     decoded.meta.training_domain = Some(
-        model::TrainingDomain::new(OutsidePolicy::Fallback, ranges.leak()).with_coverage(coverage),
+        model::TrainingDomain::new(OutsidePolicy::Blend, ranges.leak()).with_coverage(coverage),
     );
+    decoded.meta.blend = Some(decoded.meta.blend.unwrap_or(Blend {
+        network_weight: 0.7,
+    }));
     decoded.meta.kinematic_fallback = Some(KinematicFallback::new(
         FIRMWARE_FALLBACK_SCALE,
         FIRMWARE_FALLBACK_OFFSET,
@@ -127,7 +131,7 @@ fn with_fallback_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<
     let mut out = vec![0u8; model::encoded_blob_len(&decoded).expect("size")];
     let n = model::encode_blob(&decoded, &mut out).expect("encode the guarded DRL blob");
     out.truncate(n);
-    (out, format!("{source} + fallback guard (build.rs)"))
+    (out, format!("{source} + blend guard (build.rs)"))
 }
 
 fn file_name(p: &Path) -> String {

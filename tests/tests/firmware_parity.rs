@@ -239,14 +239,18 @@ fn firmware_on_cortex_m4f_matches_host() {
         let shipped = root.join(format!("models/{slot}-default.rsk"));
         if shipped.exists() {
             let shipped_bytes = std::fs::read(&shipped).expect("read shipped model");
-            // The DRL blob is guarded by the fallback policy (build.rs): the same model and
-            // threshold, the shipped ranges if any, and the MSRA's kinematic terms as fallback.
+            // The DRL blob is guarded by the blend policy (build.rs): the same model and
+            // threshold, the shipped ranges and blend weight if any, and the MSRA's kinematic
+            // terms as fallback.
             let embedded = model::decode_blob(blob).expect("embedded blob");
             let original = model::decode_blob(&shipped_bytes).expect("shipped blob");
             if slot == "drl" {
                 let domain = embedded.meta.training_domain.expect("a training domain");
-                assert_eq!(domain.policy, model::OutsidePolicy::Fallback);
+                assert_eq!(domain.policy, model::OutsidePolicy::Blend);
                 assert!(embedded.meta.kinematic_fallback.is_some());
+                if let Some(shipped_blend) = original.meta.blend {
+                    assert_eq!(embedded.meta.blend, Some(shipped_blend));
+                }
                 if let Some(shipped_domain) = original.meta.training_domain {
                     assert_eq!(domain.range_bytes, shipped_domain.range_bytes);
                 }
@@ -260,7 +264,7 @@ fn firmware_on_cortex_m4f_matches_host() {
                 );
                 assert_eq!(
                     source,
-                    &format!("models/{slot}-default.rsk + fallback guard (build.rs)")
+                    &format!("models/{slot}-default.rsk + blend guard (build.rs)")
                 );
             } else {
                 assert_eq!(

@@ -488,8 +488,10 @@ mod tests {
                     let guarded = blob.score_guarded(&o);
                     assert!(!guarded.in_domain, "{file}: 60 m/s is outside");
                     let unguarded = blob.model.score_observation(&o);
-                    let fallback = blob.meta.training_domain.map(|d| d.policy)
-                        == Some(scorer_core::model::OutsidePolicy::Fallback);
+                    let fallback = blob
+                        .meta
+                        .training_domain
+                        .is_some_and(|d| d.policy.uses_fallback());
                     assert_eq!(
                         scores.value(row) != unguarded,
                         fallback,

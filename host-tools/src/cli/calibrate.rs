@@ -116,6 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // A stored training domain is kept: the threshold does not change what the model read.
             training_domain: blob.meta.training_domain,
             kinematic_fallback: blob.meta.kinematic_fallback,
+            blend: blob.meta.blend,
             default_threshold: Some(DefaultThreshold {
                 threshold: calibration.threshold,
                 rule: ThresholdRule::SafeShare {

@@ -6,7 +6,7 @@ use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
-use scorer_core::model::{Model, OutsidePolicy};
+use scorer_core::model::{Blend, Model, OutsidePolicy};
 use scorer_core::msra::MsraTerm;
 
 const ABOUT_DOMAIN: &str = "\
@@ -26,7 +26,10 @@ Policies: flag-only scores as an unguarded model does and reports the flag; clam
 into its range first, so the model never extrapolates; fallback (DRL, GSSM and SSRA) scores a
 kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
 blob, mapped to the model's scale by the affine map that matches the mean and spread of its
-scores on the frames of the --events folders inside the new record (docs/domain-guard.md). Either way `riskctl score` writes a
+scores on the frames of the --events folders inside the new record (docs/domain-guard.md); blend
+(DRL, the training default) does the same outside and, inside, scores --blend-weight of the model
+plus the rest of that fallback, so a network that extrapolates between what it saw keeps a
+kinematic ordering. Either way `riskctl score` writes a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
 
@@ -35,7 +38,10 @@ Example:
                            --events data/ngsim-us101 --policy clamp --out drl-guarded.rsk
   riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
                            --events data/ngsim-us101 --policy fallback \\
-                           --fallback-from models/msra-default.rsk --out drl-fallback.rsk";
+                           --fallback-from models/msra-default.rsk --out drl-fallback.rsk
+  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
+                           --events data/ngsim-us101 --policy blend --blend-weight 0.7 \\
+                           --fallback-from models/msra-default.rsk --out drl-blend.rsk";
 
 /// Attach a model's training domain (the input ranges of its training data and the policy
 /// outside) to its blob.
@@ -48,13 +54,17 @@ pub struct Args {
     /// Event folder of the model's training data (repeatable).
     #[arg(long, value_name = "DIR", required = true)]
     events: Vec<PathBuf>,
-    /// What scoring does outside the domain: flag-only, clamp or fallback.
+    /// What scoring does outside the domain: flag-only, clamp, fallback or blend.
     #[arg(long, value_name = "POLICY", default_value = "flag-only", value_parser = parse_policy)]
     policy: OutsidePolicy,
     /// MSRA blob whose kinematic terms are the fallback (required by, and only with,
-    /// `--policy fallback`).
+    /// `--policy fallback` and `--policy blend`).
     #[arg(long, value_name = "FILE")]
     fallback_from: Option<PathBuf>,
+    /// `--policy blend` only: the model's share of the score inside the domain (the kinematic
+    /// fallback has the rest), strictly between 0 and 1 [default: 0.7, training's default].
+    #[arg(long, value_name = "W")]
+    blend_weight: Option<f32>,
     /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
     #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.frames)]
     tail_percent: f64,
@@ -83,7 +93,7 @@ fn parse_cell_sequences(text: &str) -> Result<usize, String> {
 
 fn parse_policy(text: &str) -> Result<OutsidePolicy, String> {
     OutsidePolicy::from_name(text)
-        .ok_or_else(|| format!("{text:?}: expected flag-only, clamp or fallback"))
+        .ok_or_else(|| format!("{text:?}: expected flag-only, clamp, fallback or blend"))
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -103,6 +113,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let blob = file.blob()?;
     let model = &blob.model;
     let fallback_terms = fallback_terms(&args, model)?;
+    let blend = blend(&args)?;
     refuse_overlaps(&args)?;
     let mut sequences = Vec::new();
     for dir in &args.events {
@@ -124,7 +135,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &file.bytes,
         &sequences,
         tails,
-        args.policy,
+        (args.policy, blend),
         fallback_terms.as_deref(),
     )?;
     // Training writes `flag-only` where a fallback cannot be fitted; asked for one, this fails.
@@ -135,6 +146,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!(
             "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
             fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
+        );
+    }
+    if let Some(b) = blend {
+        println!(
+            "blend: inside the domain {} * model + {} * fallback",
+            b.network_weight,
+            1.0 - b.network_weight
         );
     }
     let bytes = guarded.bytes;
@@ -163,25 +181,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The MSRA terms of `--fallback-from` when `--policy fallback` (for a DRL or GSSM model), else `None`;
-/// either without the other is an error.
+/// The MSRA terms of `--fallback-from` under `--policy fallback` or `blend` (for a DRL or GSSM
+/// model), else `None`; either without the other is an error.
 fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<MsraTerm>>> {
-    let path = match (args.policy, &args.fallback_from) {
-        (OutsidePolicy::Fallback, Some(path)) => path,
-        (OutsidePolicy::Fallback, None) => {
-            bail!("--policy fallback needs --fallback-from MSRA.rsk (the kinematic terms)")
+    let policy = args.policy.name();
+    let path = match (args.policy.uses_fallback(), &args.fallback_from) {
+        (true, Some(path)) => path,
+        (true, None) => {
+            bail!("--policy {policy} needs --fallback-from MSRA.rsk (the kinematic terms)")
         }
-        (_, Some(_)) => bail!("--fallback-from is only used with --policy fallback"),
-        (_, None) => return Ok(None),
+        (false, Some(_)) => {
+            bail!("--fallback-from is only used with --policy fallback or blend")
+        }
+        (false, None) => return Ok(None),
     };
     if !model.runs_a_network() {
         bail!(
-            "{}: --policy fallback is for DRL and GSSM models (this is {}, itself kinematic)",
+            "{}: --policy {policy} is for DRL and GSSM models (this is {}, itself kinematic)",
             args.model.display(),
             model.kind().name()
         );
     }
     read_kinematic_terms(path).map(Some)
+}
+
+/// The blend record under `--policy blend` (`--blend-weight`, training's default without it);
+/// `--blend-weight` with another policy, or outside (0, 1), is an error.
+fn blend(args: &Args) -> anyhow::Result<Option<Blend>> {
+    let blend_policy = args.policy == OutsidePolicy::Blend;
+    let weight = match (blend_policy, args.blend_weight) {
+        (false, None) => return Ok(None),
+        (false, Some(_)) => bail!("--blend-weight is only used with --policy blend"),
+        (true, w) => w.unwrap_or(riskscore_train::train::DEFAULT_BLEND_WEIGHT),
+    };
+    let blend = Blend {
+        network_weight: weight,
+    };
+    if blend.validate().is_err() {
+        bail!("--blend-weight {weight}: must lie strictly between 0 and 1");
+    }
+    Ok(Some(blend))
 }
 
 /// The terms of the MSRA blob of `--fallback-from` (the fallback keeps its kinematic ones).

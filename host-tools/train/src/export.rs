@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::quantize::{self, Calibration, FloatBuffers, QuantisedDrl};
 use crate::train::drl::DrlParams;
 use crate::train::msra::{parse_surrogate, MsraParams};
-use crate::train::GuardPolicy;
+use crate::train::GuardConfig;
 use riskscore_data::events::Sequence;
 
 pub const CHECKPOINT_FORMAT: &str = "riskscore-checkpoint";
@@ -363,10 +363,13 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         model::ModelKind::DrlInt8 | model::ModelKind::DrlF32 => &scorer_core::DRL_INPUT_NAMES,
         model::ModelKind::Msra | model::ModelKind::Gssm => &scorer_core::FEATURE_NAMES,
     };
+    let policy = match domain.policy {
+        OutsidePolicy::Blend => "blend (fallback outside, the blend below inside)".to_owned(),
+        other => format!("{} outside", other.name()),
+    };
     let _ = writeln!(
         s,
-        "  policy          {} outside, {} inputs bounded",
-        domain.policy.name(),
+        "  policy          {policy}, {} inputs bounded",
         domain.len()
     );
     for r in domain.ranges() {
@@ -405,20 +408,29 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
             );
         }
     }
+    if let Some(blend) = &blob.meta.blend {
+        let w = blend.network_weight;
+        let _ = writeln!(
+            s,
+            "  blend           {w} * model + {} * fallback inside",
+            1.0 - w
+        );
+    }
     s
 }
 
 /// `blob` with the training domain measured on the sequences of `train` (each input between its
 /// 0.1 % and 99.9 % frame quantiles, widened to what 1 % of the sequences reached) under
-/// `policy`; `GuardPolicy::None` returns the blob unchanged. Final and fold models both go
-/// through here, so a benchmark measures the record the shipped model would carry. The policy
-/// (default `fallback`) was picked from held-out measurements (`docs/domain-guard.md`).
+/// `guard`'s policy; `GuardPolicy::None` returns the blob unchanged. Final and fold models both
+/// go through here, so a benchmark measures the record the shipped model would carry. The policy
+/// (default `blend`) was picked from held-out measurements (`docs/domain-guard.md`).
 ///
-/// Under `fallback` a DRL or GSSM blob also gets its kinematic fallback: the kinematic terms of
-/// `fallback_terms` (the MSRA trained beside it) aligned to the model's scores on the frames of
-/// `train` inside the measured domain ([`crate::fallback::fit`]). An MSRA blob is itself a
-/// kinematic score and gets a `flag-only` record. A GSSM's domain is measured on the safe
-/// sequences of `train` alone ([`domain_sequences`]).
+/// Under `fallback` and `blend` a DRL or GSSM blob also gets its kinematic fallback: the
+/// kinematic terms of `fallback_terms` (the MSRA trained beside it) aligned to the model's scores
+/// on the frames of `train` inside the measured domain ([`crate::fallback::fit`]); under `blend`
+/// also the blend record with `guard.blend_weight`. An MSRA blob is itself a kinematic score and
+/// gets a `flag-only` record. A GSSM's domain is measured on the safe sequences of `train` alone
+/// ([`domain_sequences`]).
 ///
 /// A DRL whose fallback cannot be fitted on its data (its scores fall as the kinematic score
 /// rises, too few frames inside, ...) gets a `flag-only` record instead, and the reason comes
@@ -427,10 +439,10 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 pub fn with_measured_domain(
     blob: &[u8],
     train: &[Sequence],
-    policy: GuardPolicy,
+    guard: &GuardConfig,
     fallback_terms: Option<&[MsraTerm]>,
 ) -> Result<GuardedBlob, ExportError> {
-    let Some(policy) = policy.outside_policy() else {
+    let Some((policy, blend)) = guard.record() else {
         return Ok(GuardedBlob {
             bytes: blob.to_vec(),
             fallback: None,
@@ -441,24 +453,29 @@ pub fn with_measured_domain(
         blob,
         train,
         riskscore_eval::domain_ranges::DEFAULT_TAILS,
-        policy,
+        (policy, blend),
         fallback_terms,
     )
 }
 
-/// [`with_measured_domain`] with the ranges' and cells' `tails` and a record policy: the one
-/// pipeline behind training's exports and `riskctl calibrate-domain` (which sets the tails and
-/// fails where a fallback is refused).
+/// [`with_measured_domain`] with the ranges' and cells' `tails` and a record policy (with its
+/// blend record under `blend`): the one pipeline behind training's exports and `riskctl
+/// calibrate-domain` (which sets the tails and fails where a fallback is refused).
 pub fn with_domain_measured(
     blob: &[u8],
     train: &[Sequence],
     tails: riskscore_eval::domain_ranges::Tails,
-    policy: OutsidePolicy,
+    (policy, blend): (OutsidePolicy, Option<model::Blend>),
     fallback_terms: Option<&[MsraTerm]>,
 ) -> Result<GuardedBlob, ExportError> {
+    if (policy == OutsidePolicy::Blend) != blend.is_some() {
+        return Err(ExportError::Domain(
+            "the blend policy, and only it, needs the network's share (a blend record)".into(),
+        ));
+    }
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     let policy = match policy {
-        OutsidePolicy::Fallback if !decoded.model.runs_a_network() => OutsidePolicy::FlagOnly,
+        p if p.uses_fallback() && !decoded.model.runs_a_network() => OutsidePolicy::FlagOnly,
         other => other,
     };
     let pairs = || {
@@ -473,9 +490,10 @@ pub fn with_domain_measured(
         riskscore_eval::domain_ranges::measure(&decoded.model, per_sequence, tails, policy)
             .map_err(|e| ExportError::Domain(e.to_string()))?;
     let mut fallback_refused = None;
-    let fallback = if policy == OutsidePolicy::Fallback {
+    let fallback = if policy.uses_fallback() {
         let terms = fallback_terms.ok_or(ExportError::Domain(
-            "the fallback policy needs the MSRA trained beside the model (its kinematic terms)"
+            "the fallback and blend policies need the MSRA trained beside the model (its \
+             kinematic terms)"
                 .into(),
         ))?;
         match crate::fallback::fit(&decoded, &domain.domain(), terms, pairs()) {
@@ -489,7 +507,13 @@ pub fn with_domain_measured(
     } else {
         None
     };
-    let bytes = with_training_domain(blob, domain.domain(), fallback.as_ref().map(|f| f.record()))?;
+    let blend = blend.filter(|_| domain.policy == OutsidePolicy::Blend);
+    let bytes = with_training_domain(
+        blob,
+        domain.domain(),
+        fallback.as_ref().map(|f| f.record()),
+        blend,
+    )?;
     Ok(GuardedBlob {
         bytes,
         fallback,
@@ -527,17 +551,20 @@ impl GuardedBlob {
     }
 }
 
-/// `blob` with its training-domain record set to `domain` and its kinematic-fallback record to
-/// `fallback` (which the fallback policy needs and every other policy refuses; the model and the
-/// default threshold unchanged), checked by decoding it again.
+/// `blob` with its training-domain record set to `domain`, its kinematic-fallback record to
+/// `fallback` (which the fallback and blend policies need and every other policy refuses) and its
+/// blend record to `blend` (the blend policy's alone); the model and the default threshold
+/// unchanged, checked by decoding it again.
 pub fn with_training_domain(
     blob: &[u8],
     domain: model::TrainingDomain<'_>,
     fallback: Option<model::KinematicFallback<'_>>,
+    blend: Option<model::Blend>,
 ) -> Result<Vec<u8>, ExportError> {
     let mut decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     decoded.meta.training_domain = Some(domain);
     decoded.meta.kinematic_fallback = fallback;
+    decoded.meta.blend = blend;
     let mut out = vec![0u8; model::encoded_blob_len(&decoded).map_err(ExportError::Model)?];
     let n = model::encode_blob(&decoded, &mut out).map_err(ExportError::Model)?;
     out.truncate(n);

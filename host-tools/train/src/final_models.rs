@@ -101,7 +101,7 @@ pub fn train_and_export(
         let guarded = export::with_measured_domain(
             &blob,
             trained_on,
-            config.guard.policy,
+            &config.guard,
             Some(msra_terms.as_slice()),
         )?;
         warnings.extend(guarded.warning(name));

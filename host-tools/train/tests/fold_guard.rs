@@ -1,9 +1,10 @@
 //! The fold models of cross-validation (and so of `benchmark transfer` / `benchmark domains`)
 //! carry the training-domain record of `[guard] policy`, measured on the fold's training data, and
-//! are scored through it: `none` and `flag-only` score alike, `clamp` moves held-out scores.
+//! are scored through it: `none` and `flag-only` score alike, `clamp` moves held-out scores,
+//! `fallback` and `blend` hand held-out frames to the kinematic terms of the fold's MSRA.
 use riskscore_data::events::Sequence;
 use riskscore_train::train::cv::{self, CvOptions, FoldOutcome, Models};
-use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
+use riskscore_train::train::{GuardConfig, GuardPolicy, Progress, TrainConfig};
 use scorer_core::model::OutsidePolicy;
 
 mod common;
@@ -192,7 +193,11 @@ fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason(
     let mut short = in_town(1);
     short.truncate(1);
     short[0].frames.truncate(10);
-    let guarded = with_measured_domain(drl, &short, GuardPolicy::Fallback, Some(&terms)).unwrap();
+    let fallback = GuardConfig {
+        policy: GuardPolicy::Fallback,
+        ..GuardConfig::default()
+    };
+    let guarded = with_measured_domain(drl, &short, &fallback, Some(&terms)).unwrap();
     assert!(
         matches!(
             guarded.fallback_refused,
@@ -214,8 +219,7 @@ fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason(
     assert_eq!(domain.policy, OutsidePolicy::FlagOnly);
     assert!(blob.meta.kinematic_fallback.is_none());
     // Enough frames: the fallback is fitted.
-    let guarded =
-        with_measured_domain(drl, &in_town(24), GuardPolicy::Fallback, Some(&terms)).unwrap();
+    let guarded = with_measured_domain(drl, &in_town(24), &fallback, Some(&terms)).unwrap();
     assert!(
         guarded.fallback_refused.is_none(),
         "{:?}",
@@ -228,4 +232,69 @@ fn a_drl_whose_fallback_cannot_be_fitted_gets_a_flag_only_record_and_the_reason(
         OutsidePolicy::Fallback
     );
     assert!(blob.meta.kinematic_fallback.is_some());
+    assert!(blob.meta.blend.is_none());
+    // Under blend the same refusal leaves no blend record either.
+    let blend = GuardConfig::default();
+    assert_eq!(blend.policy, GuardPolicy::Blend);
+    let refused = with_measured_domain(drl, &short, &blend, Some(&terms)).unwrap();
+    assert!(refused.fallback_refused.is_some());
+    let refused = decode_blob(&refused.bytes).unwrap();
+    assert_eq!(
+        refused.meta.training_domain.unwrap().policy,
+        OutsidePolicy::FlagOnly
+    );
+    assert!(refused.meta.kinematic_fallback.is_none() && refused.meta.blend.is_none());
+}
+
+#[test]
+fn under_blend_the_drl_mixes_in_the_fallback_inside_and_hands_over_outside() {
+    let fallback = fold(GuardPolicy::Fallback);
+    let blend = fold(GuardPolicy::Blend);
+    assert_eq!(
+        policies(&blend),
+        vec![
+            ("DRL".to_string(), Some(OutsidePolicy::Blend)),
+            ("DRL-f32".to_string(), Some(OutsidePolicy::Blend)),
+            ("MSRA".to_string(), Some(OutsidePolicy::FlagOnly)),
+        ]
+    );
+    assert!(blend.warnings.is_empty(), "{:?}", blend.warnings);
+    let inside = in_town(24);
+    for m in ["DRL", "DRL-f32"] {
+        // The same network and fallback; every held-out frame is outside, where both policies
+        // score the fallback.
+        assert!(scores(&blend, m) == scores(&fallback, m), "{m}");
+        let blob_of = |outcome: &FoldOutcome| {
+            let bytes = outcome
+                .blobs
+                .iter()
+                .find(|(n, _)| n == m)
+                .unwrap()
+                .1
+                .clone();
+            bytes
+        };
+        let (blend_bytes, fallback_bytes) = (blob_of(&blend), blob_of(&fallback));
+        let mixed = scorer_core::model::decode_blob(&blend_bytes).unwrap();
+        let handed = scorer_core::model::decode_blob(&fallback_bytes).unwrap();
+        assert_eq!(mixed.model, handed.model, "{m}: one network");
+        let weight = mixed.meta.blend.expect("a blend record").network_weight;
+        assert_eq!(weight, riskscore_train::train::DEFAULT_BLEND_WEIGHT);
+        let record = mixed.meta.kinematic_fallback.expect("a fallback record");
+        // Inside the domain: the network's share plus the rest of the fallback, bit for bit.
+        let mut checked = 0;
+        for f in inside.iter().flat_map(|s| s.frames.iter()) {
+            let o = scorer_core::Observation::of(&f.ego, &f.partner);
+            let guarded = mixed.score_guarded(&o);
+            if !guarded.in_domain {
+                continue;
+            }
+            let network = mixed.model.score_observation(&o);
+            let expected = weight * network + (1.0 - weight) * record.score(&o.surrogates);
+            assert_eq!(guarded.score.to_bits(), expected.to_bits(), "{m}");
+            assert_eq!(handed.score_guarded(&o).score.to_bits(), network.to_bits());
+            checked += 1;
+        }
+        assert!(checked > 100, "{m}: only {checked} frames inside");
+    }
 }

@@ -111,6 +111,7 @@ fn default_threshold_is_the_blobs_own_or_the_kinds_rule() {
         meta: ModelMeta {
             training_domain: None,
             kinematic_fallback: None,
+            blend: None,
             default_threshold: Some(DefaultThreshold {
                 threshold: 2.75,
                 rule: ThresholdRule::KindDefault,

@@ -3,7 +3,7 @@
 //! each outside policy, and for a blob without records (unguarded, inside everywhere).
 use std::path::Path;
 
-use scorer_core::model::{self, ModelBlob, ModelMeta, OutsidePolicy, TrainingDomain};
+use scorer_core::model::{self, Blend, ModelBlob, ModelMeta, OutsidePolicy, TrainingDomain};
 use scorer_core::Observation;
 use scorer_ffi::*;
 
@@ -155,12 +155,16 @@ fn every_outside_policy_scores_as_the_hosts_guard() {
         .kinematic_fallback
         .expect("the shipped DRL carries a kinematic fallback");
     let plain = unguarded(drl, &TRUCK_EGO, &LONG_TRUCK);
+    let plain_inside = unguarded(drl, &EGO, &LEAD);
     for policy in OutsidePolicy::ALL {
         let blob = encoded(&ModelBlob {
             model: base.model.clone(),
             meta: ModelMeta {
                 training_domain: Some(TrainingDomain::new(policy, domain.range_bytes)),
-                kinematic_fallback: (policy == OutsidePolicy::Fallback).then_some(fallback),
+                kinematic_fallback: policy.uses_fallback().then_some(fallback),
+                blend: (policy == OutsidePolicy::Blend).then_some(Blend {
+                    network_weight: 0.7,
+                }),
                 ..base.meta
             },
         });
@@ -184,6 +188,15 @@ fn every_outside_policy_scores_as_the_hosts_guard() {
             );
             assert!(r.msra_score.is_nan() && r.gssm_score.is_nan());
         }
+        // Inside, only blend moves the network's score.
+        let r = score_pair(&ctx, &EGO, &LEAD);
+        assert_eq!(
+            r.drl_score.to_bits() != plain_inside.to_bits(),
+            policy == OutsidePolicy::Blend,
+            "{}: inside score {:e}, unguarded {plain_inside:e}",
+            policy.name(),
+            r.drl_score
+        );
         // Outside, only flag-only leaves the network's score alone.
         let r = score_pair(&ctx, &TRUCK_EGO, &LONG_TRUCK);
         assert_eq!(

@@ -8,6 +8,7 @@
 //! specification: `docs/model-format.md`.
 use serde::{Deserialize, Serialize};
 
+use super::blend::{Blend, BLEND_TAG};
 use super::geometry_coverage::{GeometryCoverage, GEOMETRY_COVERAGE_TAG};
 use super::kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 use super::training_domain::{OutsidePolicy, TrainingDomain, TRAINING_DOMAIN_TAG};
@@ -117,9 +118,12 @@ pub struct ModelMeta<'a> {
     /// Tag 2: the inputs' trained ranges and the policy outside them, with the covered geometry
     /// cells of tag 4 when the blob has them; `None` scores unguarded.
     pub training_domain: Option<TrainingDomain<'a>>,
-    /// Tag 3: the score outside the domain under [`OutsidePolicy::Fallback`]; present exactly
-    /// when the domain's policy is fallback.
+    /// Tag 3: the score outside the domain under [`OutsidePolicy::Fallback`] and
+    /// [`OutsidePolicy::Blend`]; present exactly when the domain has one of them.
     pub kinematic_fallback: Option<KinematicFallback<'a>>,
+    /// Tag 5: the model's share inside the domain under [`OutsidePolicy::Blend`]; present
+    /// exactly when the domain's policy is blend.
+    pub blend: Option<Blend>,
 }
 
 impl<'a> ModelMeta<'a> {
@@ -128,6 +132,7 @@ impl<'a> ModelMeta<'a> {
         self.default_threshold.is_none()
             && self.training_domain.is_none()
             && self.kinematic_fallback.is_none()
+            && self.blend.is_none()
     }
 
     pub fn validate(&self) -> Result<(), ModelError> {
@@ -140,18 +145,35 @@ impl<'a> ModelMeta<'a> {
         if let Some(fallback) = &self.kinematic_fallback {
             fallback.validate()?;
         }
-        let fallback_policy = self
-            .training_domain
-            .is_some_and(|d| d.policy == OutsidePolicy::Fallback);
-        match (fallback_policy, self.kinematic_fallback.is_some()) {
+        if let Some(blend) = &self.blend {
+            blend.validate()?;
+        }
+        let policy = self.training_domain.map(|d| d.policy);
+        let uses_fallback = policy.is_some_and(OutsidePolicy::uses_fallback);
+        match (uses_fallback, self.kinematic_fallback.is_some()) {
+            (true, false) => {
+                return Err(ModelError::BadRecord {
+                    field: "training_domain.policy",
+                    reason: "fallback or blend policy without a kinematic-fallback record (tag 3)",
+                })
+            }
+            (false, true) => {
+                return Err(ModelError::BadRecord {
+                    field: "kinematic_fallback",
+                    reason: "a kinematic-fallback record (tag 3) needs a training domain with the \
+                             fallback or blend policy",
+                })
+            }
+            _ => {}
+        }
+        match (policy == Some(OutsidePolicy::Blend), self.blend.is_some()) {
             (true, false) => Err(ModelError::BadRecord {
                 field: "training_domain.policy",
-                reason: "fallback policy without a kinematic-fallback record (tag 3)",
+                reason: "blend policy without a blend record (tag 5)",
             }),
             (false, true) => Err(ModelError::BadRecord {
-                field: "kinematic_fallback",
-                reason: "a kinematic-fallback record (tag 3) needs a training domain with the \
-                         fallback policy",
+                field: "blend",
+                reason: "a blend record (tag 5) needs a training domain with the blend policy",
             }),
             _ => Ok(()),
         }
@@ -199,6 +221,9 @@ impl<'a> ModelMeta<'a> {
                         &meta.kinematic_fallback,
                         KinematicFallback::read,
                     )?);
+                }
+                BLEND_TAG => {
+                    meta.blend = Some(take_record(tag, body, &meta.blend, Blend::read)?);
                 }
                 GEOMETRY_COVERAGE_TAG => {
                     if coverage.is_some() {
@@ -248,6 +273,10 @@ impl<'a> ModelMeta<'a> {
             let rest = out.get_mut(written..).ok_or(too_small.clone())?;
             written += write_record(GEOMETRY_COVERAGE_TAG, coverage, rest, &too_small)?;
         }
+        if let Some(blend) = &self.blend {
+            let rest = out.get_mut(written..).ok_or(too_small.clone())?;
+            written += write_record(BLEND_TAG, blend, rest, &too_small)?;
+        }
         Ok(written)
     }
 
@@ -269,7 +298,11 @@ impl<'a> ModelMeta<'a> {
             Some(coverage) => record_len(coverage)?,
             None => 0,
         };
-        Ok(threshold + domain + fallback + coverage)
+        let blend = match &self.blend {
+            Some(blend) => record_len(blend)?,
+            None => 0,
+        };
+        Ok(threshold + domain + fallback + coverage + blend)
     }
 
     /// The training domain's geometry coverage (record tag 4), if any.

@@ -21,6 +21,7 @@
 //! dimensions, finite parameters, positive scales). [`encode`] validates before writing, so the host
 //! cannot produce a blob the MCU would reject.
 
+pub mod blend;
 pub mod geometry_coverage;
 pub mod kinematic_fallback;
 pub mod meta;
@@ -29,6 +30,7 @@ pub mod training_domain;
 
 pub use crate::bounded::BoundedVec;
 pub use crate::model_error::ModelError;
+pub use blend::{Blend, BLEND_TAG};
 pub use geometry_coverage::{GeometryCoverage, GEOMETRY_COVERAGE_TAG, GEOMETRY_INPUT};
 pub use kinematic_fallback::{KinematicFallback, KINEMATIC_FALLBACK_TAG};
 pub use meta::{DefaultThreshold, ModelMeta, ThresholdRule};

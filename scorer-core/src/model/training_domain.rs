@@ -26,7 +26,7 @@ pub const RANGE_BYTES: usize = 9;
 /// What scoring does with an observation that is outside the training domain.
 ///
 /// Wire indices are pinned (postcard enum variant index, one byte): `0` FlagOnly, `1` Clamp,
-/// `2` Fallback; any other byte is [`ModelError::UnknownOutsidePolicy`].
+/// `2` Fallback, `3` Blend; any other byte is [`ModelError::UnknownOutsidePolicy`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum OutsidePolicy {
     /// Score as an unguarded model would and report the flag.
@@ -38,18 +38,23 @@ pub enum OutsidePolicy {
     /// [`KinematicFallback`](super::KinematicFallback)) instead of the model: outside its domain
     /// the model hands over to a kinematic MSRA on the model's own score scale.
     Fallback,
+    /// Outside the domain as [`OutsidePolicy::Fallback`]; inside it the score is the model's
+    /// mixed with the same fallback by the blob's [`Blend`](super::Blend) record (tag 5).
+    Blend,
 }
 
 impl OutsidePolicy {
     /// Every policy, in wire order.
-    pub const ALL: [OutsidePolicy; 3] = [Self::FlagOnly, Self::Clamp, Self::Fallback];
+    pub const ALL: [OutsidePolicy; 4] = [Self::FlagOnly, Self::Clamp, Self::Fallback, Self::Blend];
 
-    /// Lowercase name as the tools print and parse it (`flag-only`, `clamp`, `fallback`).
+    /// Lowercase name as the tools print and parse it (`flag-only`, `clamp`, `fallback`,
+    /// `blend`).
     pub fn name(self) -> &'static str {
         match self {
             Self::FlagOnly => "flag-only",
             Self::Clamp => "clamp",
             Self::Fallback => "fallback",
+            Self::Blend => "blend",
         }
     }
 
@@ -61,6 +66,11 @@ impl OutsidePolicy {
     /// The policy of a wire byte (the first byte of the record body), `None` if unknown.
     pub fn from_wire(byte: u8) -> Option<Self> {
         Self::ALL.get(usize::from(byte)).copied()
+    }
+
+    /// True for the policies that score the kinematic fallback (record tag 3) outside the domain.
+    pub fn uses_fallback(self) -> bool {
+        matches!(self, Self::Fallback | Self::Blend)
     }
 }
 

@@ -212,8 +212,10 @@ fn main() -> ! {
             },
         );
         // Inside the domain the deployed path is the unguarded one (same score, same table, as
-        // long as no earlier update was guarded); outside it is the staged guarded score.
-        let inside_so_far = pipeline_inside && first_outside.is_none();
+        // long as no earlier update was guarded), unless the blob blends the fallback in there;
+        // everywhere it is the staged guarded score.
+        let inside_so_far =
+            pipeline_inside && first_outside.is_none() && drl_guarded.meta.blend.is_none();
         pipeline_inside = inside_so_far;
         let pipeline_ok = g.score.to_bits() == staged_guarded.to_bits()
             && g.first_outside == first_outside
@@ -498,20 +500,24 @@ fn guard_inputs(blob: &ModelBlob<'_>, x: &DrlInputs) -> (Option<u8>, DrlInputs) 
 }
 
 /// The score of the staged stages under the blob's policy: the kinematic fallback of the staged
-/// surrogates outside under `Fallback`, else the int8 network on the guard's inputs.
+/// surrogates outside under `Fallback` and `Blend`, the int8 network on the guard's inputs inside
+/// (under `Blend` mixed with that fallback) and under the other policies.
 fn staged_guarded_score(
     blob: &ModelBlob<'_>,
     drl: &Model<'_>,
     first_outside: Option<u8>,
     guarded: &Observation,
 ) -> f32 {
-    let falls_back = first_outside.is_some()
-        && blob
-            .meta
-            .training_domain
-            .is_some_and(|d| d.policy == OutsidePolicy::Fallback);
-    match &blob.meta.kinematic_fallback {
-        Some(fallback) if falls_back => fallback.score(&guarded.surrogates),
+    let policy = blob.meta.training_domain.map(|d| d.policy);
+    let uses_fallback = policy.is_some_and(OutsidePolicy::uses_fallback);
+    match (&blob.meta.kinematic_fallback, &blob.meta.blend) {
+        (Some(fallback), _) if uses_fallback && first_outside.is_some() => {
+            fallback.score(&guarded.surrogates)
+        }
+        (Some(fallback), Some(blend)) if policy == Some(OutsidePolicy::Blend) => blend.mix(
+            drl.score_observation(guarded),
+            fallback.score(&guarded.surrogates),
+        ),
         _ => drl.score_observation(guarded),
     }
 }

@@ -14,11 +14,11 @@ use scorer_core::msra::MsraTerm;
 
 use super::GssmError;
 use crate::export::with_measured_domain;
-use crate::train::GuardPolicy;
+use crate::train::{GuardConfig, GuardPolicy};
 
 /// Replaces every blob of `blobs` (row name, bytes) by the blob with its record measured on
-/// `fit_sequences` under `policy`, `fallback_terms` its kinematic fallback (without them a
-/// `fallback` policy is written as `flag-only`); returns the warnings of the blobs whose fallback
+/// `fit_sequences` under `policy` (`blend` as `fallback`), `fallback_terms` its kinematic fallback
+/// (without them a `fallback` policy is written as `flag-only`); returns the warnings of the blobs whose fallback
 /// could not be fitted (their guard became `flag-only` too).
 pub fn guard_blobs(
     blobs: &mut [(String, Vec<u8>)],
@@ -27,12 +27,17 @@ pub fn guard_blobs(
     fallback_terms: Option<&[MsraTerm]>,
 ) -> Result<Vec<String>, GssmError> {
     let policy = match (policy, fallback_terms) {
-        (GuardPolicy::Fallback, None) => GuardPolicy::FlagOnly,
+        (GuardPolicy::Fallback | GuardPolicy::Blend, None) => GuardPolicy::FlagOnly,
+        (GuardPolicy::Blend, Some(_)) => GuardPolicy::Fallback,
         (policy, _) => policy,
+    };
+    let guard = GuardConfig {
+        policy,
+        ..GuardConfig::default()
     };
     let mut warnings = Vec::new();
     for (name, blob) in blobs {
-        let guarded = with_measured_domain(blob, fit_sequences, policy, fallback_terms)?;
+        let guarded = with_measured_domain(blob, fit_sequences, &guard, fallback_terms)?;
         warnings.extend(guarded.warning(name));
         *blob = guarded.bytes;
     }

@@ -177,10 +177,42 @@ impl Default for QuantisationConfig {
 
 /// The training-domain record training attaches to every model it exports (final models and the
 /// fold models of cross-validation and the benchmarks): `docs/domain-guard.md`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GuardConfig {
     pub policy: GuardPolicy,
+    /// Under `blend`: the network's share of a DRL's score inside its domain (the kinematic
+    /// fallback has the rest), strictly between 0 and 1.
+    pub blend_weight: f32,
+}
+
+/// The network's share under `blend` by default: measured on the held-out rounds against 0.5
+/// (`docs/domain-guard.md`, "Blend").
+pub const DEFAULT_BLEND_WEIGHT: f32 = 0.7;
+
+impl Default for GuardConfig {
+    fn default() -> Self {
+        GuardConfig {
+            policy: GuardPolicy::default(),
+            blend_weight: DEFAULT_BLEND_WEIGHT,
+        }
+    }
+}
+
+impl GuardConfig {
+    /// The record's policy and, under `blend`, its blend record (`None`: no record).
+    pub fn record(
+        &self,
+    ) -> Option<(
+        scorer_core::model::OutsidePolicy,
+        Option<scorer_core::model::Blend>,
+    )> {
+        let policy = self.policy.outside_policy()?;
+        let blend = (self.policy == GuardPolicy::Blend).then_some(scorer_core::model::Blend {
+            network_weight: self.blend_weight,
+        });
+        Some((policy, blend))
+    }
 }
 
 /// What a model does outside its training domain, as `[guard] policy` names it.
@@ -195,11 +227,14 @@ pub enum GuardPolicy {
     Clamp,
     /// A record under `fallback`: outside, a DRL (or a GSSM, SSRA) scores the kinematic terms of
     /// the MSRA trained beside it, aligned to its scale on its training frames (MSRA blobs:
-    /// `flag-only`). The
-    /// default: measured best on held-out slices at no cost beyond a fold std elsewhere
-    /// (`docs/domain-guard.md`).
-    #[default]
+    /// `flag-only`).
     Fallback,
+    /// `fallback` outside; inside, a DRL scores `blend_weight` of its network plus the rest of
+    /// that kinematic fallback. The default: measured best on the held-out slices, and better in
+    /// distribution and in transfer too (`docs/domain-guard.md`, "Blend"). A GSSM or SSRA stays
+    /// under `fallback`: inside its domain it is the model of normal driving it was fitted as.
+    #[default]
+    Blend,
 }
 
 impl GuardPolicy {
@@ -211,7 +246,14 @@ impl GuardPolicy {
             GuardPolicy::FlagOnly => Some(OutsidePolicy::FlagOnly),
             GuardPolicy::Clamp => Some(OutsidePolicy::Clamp),
             GuardPolicy::Fallback => Some(OutsidePolicy::Fallback),
+            GuardPolicy::Blend => Some(OutsidePolicy::Blend),
         }
+    }
+
+    /// True for the policies that fit a kinematic fallback (`fallback`, `blend`).
+    pub fn uses_fallback(self) -> bool {
+        self.outside_policy()
+            .is_some_and(scorer_core::model::OutsidePolicy::uses_fallback)
     }
 }
 
@@ -272,6 +314,8 @@ pub enum InvalidConfig {
     SurrogateCount,
     #[error("msra.surrogates: unknown surrogate {0:?} (expected ttc2d, tadv or ei)")]
     UnknownSurrogate(String),
+    #[error("guard.blend_weight = {0}: must lie strictly between 0 and 1")]
+    BlendWeight(f32),
 }
 
 /// The most epochs a configuration may ask for: far beyond where early stopping ends any run, but
@@ -497,6 +541,10 @@ impl TrainConfig {
                 return Err(InvalidConfig::UnknownSurrogate(s.clone()));
             }
         }
+        let w = self.guard.blend_weight;
+        if !(w > 0.0 && w < 1.0) {
+            return Err(InvalidConfig::BlendWeight(w));
+        }
         Ok(())
     }
 }
@@ -545,13 +593,16 @@ mod tests {
     }
 
     #[test]
-    fn the_guard_policy_parses_by_name_and_defaults_to_fallback() {
-        assert_eq!(TrainConfig::default().guard.policy, GuardPolicy::Fallback);
+    fn the_guard_policy_parses_by_name_and_defaults_to_blend() {
+        let guard = TrainConfig::default().guard;
+        assert_eq!(guard.policy, GuardPolicy::Blend);
+        assert_eq!(guard.blend_weight, DEFAULT_BLEND_WEIGHT);
         for (name, policy) in [
             ("none", GuardPolicy::None),
             ("flag-only", GuardPolicy::FlagOnly),
             ("clamp", GuardPolicy::Clamp),
             ("fallback", GuardPolicy::Fallback),
+            ("blend", GuardPolicy::Blend),
         ] {
             let text = format!("[guard]\npolicy = \"{name}\"");
             let config = TrainConfig::from_toml(&text, "t.toml").unwrap();
@@ -559,6 +610,19 @@ mod tests {
         }
         let err = invalid("[guard]\npolicy = \"fall-back\"");
         assert!(err.contains("t.toml") && err.contains("fall-back"), "{err}");
+        for weight in ["0", "1", "1.5", "-0.2", "nan"] {
+            let err = invalid(&format!("[guard]\nblend_weight = {weight}"));
+            assert!(err.contains("guard.blend_weight"), "{weight}: {err}");
+        }
+        let half = TrainConfig::from_toml("[guard]\nblend_weight = 0.5", "t.toml").unwrap();
+        let (policy, blend) = half.guard.record().unwrap();
+        assert_eq!(policy, scorer_core::model::OutsidePolicy::Blend);
+        assert_eq!(blend.unwrap().network_weight, 0.5);
+        let fallback = GuardConfig {
+            policy: GuardPolicy::Fallback,
+            ..half.guard
+        };
+        assert_eq!(fallback.record().unwrap().1, None);
     }
 
     #[test]

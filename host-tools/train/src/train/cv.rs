@@ -285,7 +285,7 @@ pub fn run_fold(
     times.drl = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it.
-    let drl_falls_back = opts.models.drl && cfg.guard.policy == super::GuardPolicy::Fallback;
+    let drl_falls_back = opts.models.drl && cfg.guard.policy.uses_fallback();
     let msra = if opts.models.msra || drl_falls_back {
         Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
     } else {
@@ -334,7 +334,7 @@ pub fn run_fold(
         let guarded = export::with_measured_domain(
             blob,
             trained_on,
-            cfg.guard.policy,
+            &cfg.guard,
             msra_terms.as_ref().map(|t| t.as_slice()),
         )
         .map_err(xerr)?;

@@ -34,7 +34,7 @@ use riskscore_data::events::Sequence;
 
 use crate::comparisons::{self, ComparisonSet, ObservationTable};
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
-pub use config::{GuardPolicy, TrainConfig};
+pub use config::{GuardConfig, GuardPolicy, TrainConfig, DEFAULT_BLEND_WEIGHT};
 use config::{ObjectiveConfig, OptimiserConfig};
 pub use model::RiskModel;
 pub use objective::LossParts;
