@@ -30,8 +30,9 @@ def test_in_domain_matches_riskctl_score(riskctl, tmp_path, ngsim_frames, file, 
     assert flags.dtype == np.bool_ and flags.shape == (ngsim_frames.num_rows,)
     assert np.array_equal(flags, expected)
     if column == "DRL":
-        # The shipped DRL falls back outside its domain, and some real frames are outside.
-        assert model.info["domain_policy"] == "fallback"
+        # The shipped DRL blends in, and outside falls back to, the kinematic score; some real
+        # frames are outside.
+        assert model.info["domain_policy"] == "blend"
         assert 0 < (~flags).sum() < flags.size
 
 
