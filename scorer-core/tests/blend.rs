@@ -13,14 +13,14 @@ mod example_blob;
 
 use example_blob::{
     assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_domain,
-    example_model, hex, tadv_term,
+    example_model, following_pair, hex, tadv_term,
 };
 
 use scorer_core::model::kinematic_fallback::term_to_bytes;
 use scorer_core::model::{
     self, Blend, KinematicFallback, ModelBlob, ModelError, ModelMeta, OutsidePolicy, BLEND_TAG,
 };
-use scorer_core::{Observation, VehicleState};
+use scorer_core::Observation;
 
 /// The documented example's fallback: one TAdv term, `2 * R - 0.5`.
 fn example_fallback() -> KinematicFallback<'static> {
@@ -46,19 +46,6 @@ fn record<T: serde::Serialize>(tag: u8, value: &T) -> Vec<u8> {
     let mut r = vec![tag, body.len() as u8];
     r.extend_from_slice(body);
     r
-}
-
-/// Ego at `ego_speed` straight ahead, partner `gap` m ahead closing at `closing` m/s.
-fn pair(ego_speed: f32, gap: f32, closing: f32) -> (VehicleState, VehicleState) {
-    let car = |y: f32, vy: f32| VehicleState {
-        y,
-        vy,
-        hy: 1.0,
-        length: 4.0,
-        width: 2.0,
-        ..Default::default()
-    };
-    (car(0.0, ego_speed), car(4.0 + gap, ego_speed - closing))
 }
 
 #[test]
@@ -151,7 +138,7 @@ fn inside_mixes_the_model_with_the_fallback_and_outside_scores_the_fallback() {
         (38.0, 150.0, 10.0),
         (44.0, 5.0, 20.0),
     ] {
-        let (ego, partner) = pair(speed, gap, closing);
+        let (ego, partner) = following_pair(speed, gap, closing);
         let o = Observation::of(&ego, &partner);
         let g = blob.score_guarded(&o);
         let kinematic = fallback.score(&o.surrogates);

@@ -13,7 +13,7 @@ mod example_blob;
 
 use example_blob::{
     assert_truncations_refused_and_flips_handled, blob_with_records, encode, example_domain,
-    example_model, hex, tadv_term,
+    example_model, following_pair, hex, tadv_term,
 };
 
 use scorer_core::model::kinematic_fallback::term_to_bytes;
@@ -21,7 +21,7 @@ use scorer_core::model::{
     self, BoundedVec, KinematicFallback, ModelBlob, ModelError, ModelMeta, OutsidePolicy,
 };
 use scorer_core::msra::{MsraModel, MsraTerm};
-use scorer_core::{Observation, SurrogateKind, VehicleState};
+use scorer_core::{Observation, SurrogateKind};
 
 fn ei_term() -> MsraTerm {
     MsraTerm {
@@ -72,19 +72,6 @@ fn domain_record(policy: OutsidePolicy) -> Vec<u8> {
 fn fallback_record(fallback: &KinematicFallback) -> Vec<u8> {
     let mut buf = [0u8; 256];
     record(3, postcard::to_slice(fallback, &mut buf).unwrap())
-}
-
-/// Ego at `ego_speed` straight ahead, partner `gap` m ahead closing at `closing` m/s.
-fn pair(ego_speed: f32, gap: f32, closing: f32) -> (VehicleState, VehicleState) {
-    let car = |y: f32, vy: f32| VehicleState {
-        y,
-        vy,
-        hy: 1.0,
-        length: 4.0,
-        width: 2.0,
-        ..Default::default()
-    };
-    (car(0.0, ego_speed), car(4.0 + gap, ego_speed - closing))
 }
 
 /// docs/model-format.md: what the example scores for the pair 400 m apart at 45 m/s.
@@ -141,7 +128,7 @@ fn the_worked_example_is_byte_for_byte_the_documented_one() {
     );
     // The documented pair: 400 m apart at 45 m/s, outside (ego speed), scores the fallback.
     let decoded = model::decode_blob(&blob).unwrap();
-    let (ego, partner) = pair(45.0, 400.0, 0.0);
+    let (ego, partner) = following_pair(45.0, 400.0, 0.0);
     let g = decoded.score_pair_guarded(&ego, &partner);
     assert_eq!(g.first_outside, Some(3));
     assert!((g.score - DOCUMENTED_OUTSIDE_SCORE).abs() < 1e-6, "{g:?}");
@@ -320,7 +307,7 @@ fn outside_scores_the_kinematic_msra_on_the_model_scale_and_inside_the_model() {
         (44.0, 5.0, 20.0),
         (15.0, 1.0, 0.0),
     ] {
-        let (ego, partner) = pair(speed, gap, closing);
+        let (ego, partner) = following_pair(speed, gap, closing);
         let o = Observation::of(&ego, &partner);
         let g = blob.score_guarded(&o);
         if g.in_domain {
@@ -342,8 +329,14 @@ fn outside_scores_the_kinematic_msra_on_the_model_scale_and_inside_the_model() {
         "{inside} inside, {outside} outside"
     );
     // A closer, faster approach outside scores higher: the map keeps "larger is riskier".
-    let far = blob.score_pair_guarded(&pair(45.0, 60.0, 5.0).0, &pair(45.0, 60.0, 5.0).1);
-    let near = blob.score_pair_guarded(&pair(45.0, 8.0, 15.0).0, &pair(45.0, 8.0, 15.0).1);
+    let far = blob.score_pair_guarded(
+        &following_pair(45.0, 60.0, 5.0).0,
+        &following_pair(45.0, 60.0, 5.0).1,
+    );
+    let near = blob.score_pair_guarded(
+        &following_pair(45.0, 8.0, 15.0).0,
+        &following_pair(45.0, 8.0, 15.0).1,
+    );
     assert!(!far.in_domain && !near.in_domain);
     assert!(near.score > far.score, "{near:?} {far:?}");
 }
@@ -360,7 +353,7 @@ fn pair_and_observation_entry_points_agree_bit_for_bit() {
     for speed in [0.0, 12.0, 39.0, 41.0, 50.0] {
         for gap in [0.0, 0.5, 3.0, 60.0, 400.0] {
             for closing in [-3.0, 0.0, 8.0, 25.0] {
-                let (ego, partner) = pair(speed, gap, closing);
+                let (ego, partner) = following_pair(speed, gap, closing);
                 let o = Observation::of(&ego, &partner);
                 let (a, b) = (
                     blob.score_pair_guarded(&ego, &partner),

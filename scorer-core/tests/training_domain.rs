@@ -50,15 +50,7 @@ fn domain_record(domain: &TrainingDomain) -> Vec<u8> {
 /// A pair whose DRL inputs are the given ego speed and a box gap of `gap` m (straight ahead,
 /// partner at the same speed).
 fn pair(ego_speed: f32, gap: f32) -> (VehicleState, VehicleState) {
-    let car = |y: f32| VehicleState {
-        y,
-        vy: ego_speed,
-        hy: 1.0,
-        length: 4.0,
-        width: 2.0,
-        ..Default::default()
-    };
-    (car(0.0), car(4.0 + gap))
+    example_blob::following_pair(ego_speed, gap, 0.0)
 }
 
 #[test]

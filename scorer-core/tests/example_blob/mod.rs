@@ -14,7 +14,7 @@ use scorer_core::model::{
     HEADER_LEN,
 };
 use scorer_core::msra::MsraTerm;
-use scorer_core::SurrogateKind;
+use scorer_core::{SurrogateKind, VehicleState};
 
 const W: [u8; 4] = (-1.0f32).to_le_bytes();
 const B: [u8; 4] = 0.5f32.to_le_bytes();
@@ -112,4 +112,18 @@ pub fn assert_truncations_refused_and_flips_handled(blob: &[u8]) {
             let _ = model::decode_blob(&flipped);
         }
     }
+}
+
+/// Ego at `ego_speed` straight ahead, a car of the same size `gap` m ahead (box gap) closing at
+/// `closing` m/s: the pairs the guard tests place inside or outside the example domain.
+pub fn following_pair(ego_speed: f32, gap: f32, closing: f32) -> (VehicleState, VehicleState) {
+    let car = |y: f32, vy: f32| VehicleState {
+        y,
+        vy,
+        hy: 1.0,
+        length: 4.0,
+        width: 2.0,
+        ..Default::default()
+    };
+    (car(0.0, ego_speed), car(4.0 + gap, ego_speed - closing))
 }
