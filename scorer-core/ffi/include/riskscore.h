@@ -240,8 +240,9 @@ typedef struct {
   // 1 when the pair is inside the training domain the DRL blob records (or the blob has no
   // training-domain record, or no DRL model is loaded); 0 when an input is outside its trained
   // range. Outside, `drl_score` follows the blob's policy: `flag-only` scores the model as is,
-  // `clamp` scores it on inputs clamped into their ranges, `fallback` scores the blob's
-  // kinematic fallback instead of the model (docs/domain-guard.md).
+  // `clamp` scores it on inputs clamped into their ranges, `fallback` and `blend` score the
+  // blob's kinematic fallback instead of the model; inside, `blend` mixes the model's score
+  // with that fallback by the blob's weight (docs/domain-guard.md).
   uint8_t drl_in_domain;
   // As `drl_in_domain`, for the MSRA blob and `msra_score`.
   uint8_t msra_in_domain;

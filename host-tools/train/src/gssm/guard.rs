@@ -18,8 +18,8 @@ use crate::train::{GuardConfig, GuardPolicy};
 
 /// Replaces every blob of `blobs` (row name, bytes) by the blob with its record measured on
 /// `fit_sequences` under `policy` (`blend` as `fallback`), `fallback_terms` its kinematic fallback
-/// (without them a `fallback` policy is written as `flag-only`); returns the warnings of the blobs whose fallback
-/// could not be fitted (their guard became `flag-only` too).
+/// (without them a `fallback` policy is written as `flag-only`); returns the warnings of the blobs
+/// whose fallback could not be fitted (their guard became `flag-only` too).
 pub fn guard_blobs(
     blobs: &mut [(String, Vec<u8>)],
     fit_sequences: &[Sequence],
