@@ -129,8 +129,9 @@ pub struct ShipArgs {
     pub out_dir: PathBuf,
     /// MSRA blob (e.g. the `msra.rsk` trained on the same data by `riskctl train`) whose
     /// TTC2D/TAdv/EI terms GSSM and SSRA hand over to outside the normal driving the GSSM was
-    /// fitted on (`[guard] policy = "fallback"`, the default; docs/domain-guard.md). Without it
-    /// the three models carry a flag-only record.
+    /// fitted on (`[guard] policy` `fallback`, or the default `blend`, which the GSSM family is
+    /// written with as `fallback`; docs/domain-guard.md). Without it the three models carry a
+    /// flag-only record.
     #[arg(long, value_name = "FILE")]
     pub fallback_from: Option<PathBuf>,
 }
