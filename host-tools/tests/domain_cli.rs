@@ -448,19 +448,28 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     );
     // An explicit weight is stored; a weight without blend, or outside (0, 1), is refused and
     // nothing is written.
-    let mut half = args("blend", Some(&msra), &dir.path().join("half.rsk"));
+    let half_path = dir.path().join("half.rsk");
+    let mut half = args("blend", Some(&msra), &half_path);
     half.extend(["--blend-weight".into(), "0.5".into()]);
-    ok(run(half));
-    let half = std::fs::read(dir.path().join("half.rsk")).unwrap();
-    assert_eq!(
-        model::decode_blob(&half)
-            .unwrap()
-            .meta
-            .blend
-            .unwrap()
-            .network_weight,
-        0.5
-    );
+    let halved = run(half);
+    ok(halved.clone());
+    // Another weight moves every score inside: the stored threshold is flagged for calibration.
+    let note = "run `riskctl calibrate` on it again";
+    assert!(String::from_utf8_lossy(&halved.stderr).contains(note));
+    let weight_of = |path: &Path| {
+        let bytes = std::fs::read(path).unwrap();
+        let blend = model::decode_blob(&bytes).unwrap().meta.blend;
+        blend.unwrap().network_weight
+    };
+    assert_eq!(weight_of(&half_path), 0.5);
+    // Refreshing a blend blob without --blend-weight keeps its weight (and its scores' mix).
+    let again_path = dir.path().join("again.rsk");
+    let mut again = args("blend", Some(&msra), &again_path);
+    again[2] = half_path.display().to_string();
+    let again = run(again);
+    ok(again.clone());
+    assert!(!String::from_utf8_lossy(&again.stderr).contains(note));
+    assert_eq!(weight_of(&again_path), 0.5);
     for (policy, weight) in [("fallback", "0.5"), ("blend", "1"), ("blend", "0")] {
         let mut a = args(policy, Some(&msra), &bad);
         a.extend(["--blend-weight".into(), weight.into()]);
@@ -525,6 +534,24 @@ fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallbac
         ])
     };
     let out = dir.path().join("gssm.rsk");
+    // A GSSM stays the model of normal driving inside its domain: no blend, nothing written.
+    let blended = dir.path().join("gssm-blend.rsk");
+    let refused = riskctl(&[
+        "calibrate-domain",
+        "--model",
+        gssm.to_str().unwrap(),
+        "--events",
+        train.to_str().unwrap(),
+        "--policy",
+        "blend",
+        "--fallback-from",
+        msra.to_str().unwrap(),
+        "--out",
+        blended.to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("takes --policy fallback"));
+    assert!(!blended.exists());
     let text = ok(run(&gssm, &out));
     // The domain of a model of normal driving is measured on the 4 safe sequences alone.
     assert!(text.contains("in 4 sequences"), "{text}");

@@ -162,7 +162,8 @@ class Model:
         by the same core. Always True for a blob without a training-domain record; False where
         a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when ``strict``). Outside
         the domain :meth:`score` follows the blob's policy (``model.info["domain_policy"]``:
-        ``"blend"``, ``"fallback"``, ``"clamp"``, ``"flag-only"``, or ``None`` without a record)."""
+        ``"blend"``, ``"fallback"``, ``"clamp"``, ``"flag-only"``, or ``None`` without a record);
+        under ``"blend"`` (the shipped DRL's) the score inside mixes in the kinematic fallback."""
         flags, listed, count = self._native._in_domain(as_table(data))
         report_bad(listed, count, strict)
         return flags.to_numpy(zero_copy_only=False)

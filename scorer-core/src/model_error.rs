@@ -171,7 +171,7 @@ impl fmt::Display for ModelError {
             Self::UnknownOutsidePolicy(byte) => write!(
                 f,
                 "training_domain.policy: unknown outside policy {byte} (this build knows 0 \
-                 flag-only, 1 clamp, 2 fallback); a newer exporter wrote it"
+                 flag-only, 1 clamp, 2 fallback, 3 blend); a newer exporter wrote it"
             ),
             Self::BadFallbackTerm { term, reason } => {
                 write!(f, "kinematic_fallback.terms[{term}]: {reason}")

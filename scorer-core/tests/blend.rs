@@ -52,9 +52,19 @@ fn record<T: serde::Serialize>(tag: u8, value: &T) -> Vec<u8> {
 fn the_worked_example_ends_in_the_documented_records() {
     let blob = encode(&blend_blob(0.7));
     let text = hex(&blob);
-    // The policy byte of tag 2 is 3 (blend); tag 5 closes the records: 4 body bytes, 0.7f32.
-    assert!(text.contains("021403"), "{text}");
-    assert!(text.ends_with("05043333333f"), "{text}");
+    // Tag 2 with policy byte 3 (blend), tag 3, then tag 5 closes the records: 4 body bytes,
+    // 0.7f32.
+    let records = [
+        record(2, &example_domain(OutsidePolicy::Blend)),
+        record(3, &example_fallback()),
+        hex_bytes("05043333333f"),
+    ]
+    .concat();
+    assert_eq!(&records[..3], [2, 0x14, 3]);
+    assert!(text.ends_with(&hex(&records)), "{text}");
+    // A reader names the policies it knows when a newer exporter wrote another.
+    let msg = ModelError::UnknownOutsidePolicy(4).to_string();
+    assert!(msg.contains("3 blend"), "{msg}");
     let mut buf = [0u8; 4];
     assert_eq!(
         postcard::to_slice(&OutsidePolicy::Blend, &mut buf).unwrap(),
@@ -65,6 +75,36 @@ fn the_worked_example_ends_in_the_documented_records() {
         Some(OutsidePolicy::Blend)
     );
     assert_eq!(model::decode_blob(&blob).unwrap(), blend_blob(0.7));
+}
+
+fn hex_bytes(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn the_records_read_alike_in_any_order() {
+    let (domain, fallback) = (
+        record(2, &example_domain(OutsidePolicy::Blend)),
+        record(3, &example_fallback()),
+    );
+    let blend = record(
+        BLEND_TAG,
+        &Blend {
+            network_weight: 0.7,
+        },
+    );
+    let expected = blend_blob(0.7).meta;
+    for order in [
+        [&blend, &domain, &fallback],
+        [&fallback, &blend, &domain],
+        [&domain, &blend, &fallback],
+    ] {
+        let bytes = blob_with_records(&order.map(|r| r.as_slice()).concat());
+        assert_eq!(model::decode_blob(&bytes).unwrap().meta, expected);
+    }
 }
 
 #[test]

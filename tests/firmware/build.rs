@@ -120,6 +120,8 @@ fn with_blend_guard(blob: Vec<u8>, source: String, msra_blob: &[u8]) -> (Vec<u8>
     decoded.meta.training_domain = Some(
         model::TrainingDomain::new(OutsidePolicy::Blend, ranges.leak()).with_coverage(coverage),
     );
+    // 0.7 is training's default (`riskscore_train::train::DEFAULT_BLEND_WEIGHT`; the firmware
+    // build depends on scorer-core alone); the instructions do not depend on the value.
     decoded.meta.blend = Some(decoded.meta.blend.unwrap_or(Blend {
         network_weight: 0.7,
     }));

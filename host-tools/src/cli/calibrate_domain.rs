@@ -6,7 +6,7 @@ use anyhow::{bail, Context};
 use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
-use scorer_core::model::{Blend, Model, OutsidePolicy};
+use scorer_core::model::{Blend, Model, ModelBlob, OutsidePolicy};
 use scorer_core::msra::MsraTerm;
 
 const ABOUT_DOMAIN: &str = "\
@@ -27,9 +27,10 @@ into its range first, so the model never extrapolates; fallback (DRL, GSSM and S
 kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
 blob, mapped to the model's scale by the affine map that matches the mean and spread of its
 scores on the frames of the --events folders inside the new record (docs/domain-guard.md); blend
-(DRL, the training default) does the same outside and, inside, scores --blend-weight of the model
-plus the rest of that fallback, so a network that extrapolates between what it saw keeps a
-kinematic ordering. Either way `riskctl score` writes a
+(DRL only, the training default) does the same outside and, inside, scores --blend-weight of the
+model plus the rest of that fallback, so a network that extrapolates between what it saw keeps a
+kinematic ordering. A blend changes the scores inside: run `riskctl calibrate` again afterwards
+(a stored default threshold is kept as it was). Either way `riskctl score` writes a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
 
@@ -62,7 +63,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     fallback_from: Option<PathBuf>,
     /// `--policy blend` only: the model's share of the score inside the domain (the kinematic
-    /// fallback has the rest), strictly between 0 and 1 [default: 0.7, training's default].
+    /// fallback has the rest), strictly between 0 and 1 [default: the blob's own weight, else
+    /// 0.7, training's default].
     #[arg(long, value_name = "W")]
     blend_weight: Option<f32>,
     /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
@@ -113,7 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let blob = file.blob()?;
     let model = &blob.model;
     let fallback_terms = fallback_terms(&args, model)?;
-    let blend = blend(&args)?;
+    let blend = blend(&args, &blob)?;
     refuse_overlaps(&args)?;
     let mut sequences = Vec::new();
     for dir in &args.events {
@@ -169,15 +171,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         String::new()
     };
     println!(
-        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), {} outside",
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), policy {}",
         args.model.display(),
         args.out.display(),
         measured_on.len(),
         args.tail_percent,
         args.sequence_percent,
-        args.policy.name()
+        match args.policy {
+            OutsidePolicy::Blend => "blend (fallback outside, mixed in inside)",
+            other => other.name(),
+        }
     );
     print!("{summary}");
+    // The blend moves every score inside the domain: a threshold chosen on the old scores no
+    // longer has the false-alarm rate its record states.
+    let was_blend = blob.meta.blend;
+    if let (Some(b), Some(_)) = (blend, blob.meta.default_threshold) {
+        if was_blend != Some(b) {
+            eprintln!(
+                "riskctl: {}: the stored default threshold was chosen on scores the blend has \
+                 changed; run `riskctl calibrate` on it again",
+                args.out.display()
+            );
+        }
+    }
     Ok(())
 }
 
@@ -205,15 +222,25 @@ fn fallback_terms(args: &Args, model: &Model<'_>) -> anyhow::Result<Option<Vec<M
     read_kinematic_terms(path).map(Some)
 }
 
-/// The blend record under `--policy blend` (`--blend-weight`, training's default without it);
-/// `--blend-weight` with another policy, or outside (0, 1), is an error.
-fn blend(args: &Args) -> anyhow::Result<Option<Blend>> {
+/// The blend record under `--policy blend`: `--blend-weight`, else the blob's own, else
+/// training's default. `--blend-weight` with another policy, or outside (0, 1), is an error, and
+/// so is blend on a GSSM or SSRA (they stay the model of normal driving they were fitted as).
+fn blend(args: &Args, blob: &ModelBlob<'_>) -> anyhow::Result<Option<Blend>> {
     let blend_policy = args.policy == OutsidePolicy::Blend;
     let weight = match (blend_policy, args.blend_weight) {
         (false, None) => return Ok(None),
         (false, Some(_)) => bail!("--blend-weight is only used with --policy blend"),
-        (true, w) => w.unwrap_or(riskscore_train::train::DEFAULT_BLEND_WEIGHT),
+        (true, w) => w
+            .or(blob.meta.blend.map(|b| b.network_weight))
+            .unwrap_or(riskscore_train::train::DEFAULT_BLEND_WEIGHT),
     };
+    if matches!(blob.model, Model::Gssm(_)) {
+        bail!(
+            "{}: --policy blend is for DRL models; a GSSM or SSRA takes --policy fallback \
+             (inside its domain it stays the model of normal driving it was fitted as)",
+            args.model.display()
+        );
+    }
     let blend = Blend {
         network_weight: weight,
     };

@@ -26,7 +26,8 @@ OUTPUT COLUMNS (one row per frame, events in folder order, frames in time order)
                 docs/domain-guard.md): 1 when the frame lies inside the input ranges its
                 training data covered, 0 outside. Its score column is then the guarded score
                 (the blob's policy: flag-only scores as without the record, clamp scores the
-                inputs moved into their ranges).
+                inputs moved into their ranges, fallback the kinematic fallback outside; blend,
+                the shipped DRL's, also mixes that fallback into the score inside).
 
 By default every frame of every event is scored. With --sequences only the frames of the
 evaluation sequences are (the windows `riskctl evaluate` scores: docs/evaluation.md).

@@ -140,11 +140,14 @@ fn main() -> ! {
         .str(" ")
         .u32(STALE_AFTER_US as u32)
         .end();
-    let (mut staged, mut pipeline) = match (
+    // `staged` takes the unguarded staged score, `pipeline` the deployed path's guarded one,
+    // `staged_guarded` the staged guarded score: the last two must agree update for update.
+    let (mut staged, mut pipeline, mut staged_guarded_table) = match (
+        TrackTable::<RISKSCORE_MAX_TRACKS>::new(config),
         TrackTable::<RISKSCORE_MAX_TRACKS>::new(config),
         TrackTable::<RISKSCORE_MAX_TRACKS>::new(config),
     ) {
-        (Ok(a), Ok(b)) => (a, b),
+        (Ok(a), Ok(b), Ok(c)) => (a, b, c),
         _ => fail(&mut out, "warning config rejected"),
     };
     let context = c_api_init(&mut out, &config);
@@ -217,7 +220,9 @@ fn main() -> ! {
         let inside_so_far =
             pipeline_inside && first_outside.is_none() && drl_guarded.meta.blend.is_none();
         pipeline_inside = inside_so_far;
+        let staged_guarded_status = staged_guarded_table.update(id, now, staged_guarded);
         let pipeline_ok = g.score.to_bits() == staged_guarded.to_bits()
+            && pipeline_status == staged_guarded_status
             && g.first_outside == first_outside
             && g.in_domain == first_outside.is_none()
             && pipeline_status.is_ok()

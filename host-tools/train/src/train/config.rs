@@ -542,7 +542,10 @@ impl TrainConfig {
             }
         }
         let w = self.guard.blend_weight;
-        if !(w > 0.0 && w < 1.0) {
+        // The blob's own rule (0 < w < 1), checked even when another policy leaves it unused: a
+        // bad value in a configuration file is an error wherever it sits.
+        let blend = scorer_core::model::Blend { network_weight: w };
+        if blend.validate().is_err() {
             return Err(InvalidConfig::BlendWeight(w));
         }
         Ok(())
