@@ -516,7 +516,7 @@ fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallbac
     let gssm = dir.path().join("gssm-unguarded.rsk");
     write_unguarded(&shipped("gssm-default.rsk"), &gssm);
     let msra = shipped("msra-default.rsk");
-    let run = |model: &Path, out: &Path| {
+    let run_policy = |model: &Path, policy: &str, out: &Path| {
         riskctl(&[
             "calibrate-domain",
             "--model",
@@ -526,29 +526,18 @@ fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallbac
             "--cell-sequences",
             "1",
             "--policy",
-            "fallback",
+            policy,
             "--fallback-from",
             msra.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
         ])
     };
+    let run = |model: &Path, out: &Path| run_policy(model, "fallback", out);
     let out = dir.path().join("gssm.rsk");
     // A GSSM stays the model of normal driving inside its domain: no blend, nothing written.
     let blended = dir.path().join("gssm-blend.rsk");
-    let refused = riskctl(&[
-        "calibrate-domain",
-        "--model",
-        gssm.to_str().unwrap(),
-        "--events",
-        train.to_str().unwrap(),
-        "--policy",
-        "blend",
-        "--fallback-from",
-        msra.to_str().unwrap(),
-        "--out",
-        blended.to_str().unwrap(),
-    ]);
+    let refused = run_policy(&gssm, "blend", &blended);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("takes --policy fallback"));
     assert!(!blended.exists());
