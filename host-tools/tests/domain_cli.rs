@@ -338,6 +338,27 @@ fn score_table(model: &Path, events: &Path, out: &Path) -> Vec<(String, String)>
         .collect()
 }
 
+/// The surrogates `riskctl score` wrote beside each row of the CSV `table` (TTC2D, TAdv, EI: the
+/// kinematic fallback's inputs; the box distance is not among them).
+fn surrogate_rows(table: &Path) -> Vec<scorer_core::Surrogates> {
+    let mut reader = csv::Reader::from_path(table).unwrap();
+    let h = reader.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    let (ttc2d, tadv, ei) = (col("ttc2d"), col("tadv"), col("ei"));
+    reader
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            scorer_core::Surrogates {
+                box_distance: f32::NAN,
+                ttc2d: r[ttc2d].parse().unwrap(),
+                tadv: r[tadv].parse().unwrap(),
+                ei: r[ei].parse().unwrap(),
+            }
+        })
+        .collect()
+}
+
 #[test]
 fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     let dir = tempfile::tempdir().unwrap();
@@ -428,15 +449,21 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     let blended = model::decode_blob(&blend_bytes).unwrap();
     assert_eq!(blended.meta.kinematic_fallback, Some(fallback));
     assert_eq!(blended.meta.blend.unwrap().network_weight, 0.7);
-    let mixed = score_table(&blend, &train, &dir.path().join("blend.csv"));
+    let mixed_csv = dir.path().join("blend.csv");
+    let mixed = score_table(&blend, &train, &mixed_csv);
+    let surrogates = surrogate_rows(&mixed_csv);
+    let record = blended.meta.kinematic_fallback.unwrap();
     let (mut inside, mut outside) = (0, 0);
-    for (((p, _), (g, _)), (b, flag)) in plain.iter().zip(&guarded).zip(&mixed) {
+    for ((((p, _), (g, _)), (b, flag)), s) in
+        plain.iter().zip(&guarded).zip(&mixed).zip(&surrogates)
+    {
         let (p, g, b): (f32, f32, f32) =
             (p.parse().unwrap(), g.parse().unwrap(), b.parse().unwrap());
         if flag == "1" {
-            // The fallback's score of an inside frame is not in the tables: the mix lies
-            // strictly off the network's score wherever the two differ.
-            inside += usize::from(b != p);
+            // The network's score and the fallback of the row's own surrogates, bit for bit.
+            let expected = 0.7 * p + (1.0 - 0.7) * record.score(s);
+            assert_eq!(b.to_bits(), expected.to_bits(), "inside: {b} vs {expected}");
+            inside += 1;
         } else {
             assert_eq!(b, g, "outside: the fallback, as under fallback");
             outside += 1;
@@ -444,7 +471,7 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
     }
     assert!(
         inside > 0 && outside > 0,
-        "{inside} moved inside, {outside} outside"
+        "{inside} inside, {outside} outside"
     );
     // An explicit weight is stored; a weight without blend, or outside (0, 1), is refused and
     // nothing is written.
