@@ -171,29 +171,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         String::new()
     };
     println!(
-        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), policy {}",
+        "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), {}",
         args.model.display(),
         args.out.display(),
         measured_on.len(),
         args.tail_percent,
         args.sequence_percent,
-        match args.policy {
-            OutsidePolicy::Blend => "blend (fallback outside, mixed in inside)",
-            other => other.name(),
-        }
+        riskscore_train::export::policy_text(args.policy)
     );
     print!("{summary}");
     // The blend moves every score inside the domain: a threshold chosen on the old scores no
     // longer has the false-alarm rate its record states.
-    let was_blend = blob.meta.blend;
-    if let (Some(b), Some(_)) = (blend, blob.meta.default_threshold) {
-        if was_blend != Some(b) {
-            eprintln!(
-                "riskctl: {}: the stored default threshold was chosen on scores the blend has \
-                 changed; run `riskctl calibrate` on it again",
-                args.out.display()
-            );
-        }
+    if blend.is_some() && blend != blob.meta.blend && blob.meta.default_threshold.is_some() {
+        eprintln!(
+            "riskctl: {}: the stored default threshold was chosen on scores the blend has \
+             changed; run `riskctl calibrate` on it again",
+            args.out.display()
+        );
     }
     Ok(())
 }

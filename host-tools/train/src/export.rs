@@ -363,13 +363,10 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         model::ModelKind::DrlInt8 | model::ModelKind::DrlF32 => &scorer_core::DRL_INPUT_NAMES,
         model::ModelKind::Msra | model::ModelKind::Gssm => &scorer_core::FEATURE_NAMES,
     };
-    let policy = match domain.policy {
-        OutsidePolicy::Blend => "blend (fallback outside, the blend below inside)".to_owned(),
-        other => format!("{} outside", other.name()),
-    };
     let _ = writeln!(
         s,
-        "  policy          {policy}, {} inputs bounded",
+        "  policy          {}, {} inputs bounded",
+        policy_text(domain.policy),
         domain.len()
     );
     for r in domain.ranges() {
@@ -419,6 +416,15 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
     s
 }
 
+/// What `policy` does, as the tools print it: "clamp outside", "blend (fallback outside, mixed in
+/// inside)".
+pub fn policy_text(policy: OutsidePolicy) -> String {
+    match policy {
+        OutsidePolicy::Blend => "blend (fallback outside, mixed in inside)".to_owned(),
+        other => format!("{} outside", other.name()),
+    }
+}
+
 /// `blob` with the training domain measured on the sequences of `train` (each input between its
 /// 0.1 % and 99.9 % frame quantiles, widened to what 1 % of the sequences reached) under
 /// `guard`'s policy; `GuardPolicy::None` returns the blob unchanged. Final and fold models both
@@ -428,8 +434,8 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
 /// Under `fallback` and `blend` a DRL or GSSM blob also gets its kinematic fallback: the
 /// kinematic terms of `fallback_terms` (the MSRA trained beside it) aligned to the model's scores
 /// on the frames of `train` inside the measured domain ([`crate::fallback::fit`]); under `blend`
-/// also the blend record with `guard.blend_weight`. An MSRA blob is itself a kinematic score and
-/// gets a `flag-only` record. A GSSM's domain is measured on the safe sequences of `train` alone
+/// also the blend record with `guard.blend_weight` (a DRL's alone: a GSSM gets `fallback`). An
+/// MSRA blob is itself a kinematic score and gets a `flag-only` record. A GSSM's domain is measured on the safe sequences of `train` alone
 /// ([`domain_sequences`]).
 ///
 /// A DRL whose fallback cannot be fitted on its data (its scores fall as the kinematic score
@@ -476,6 +482,9 @@ pub fn with_domain_measured(
     let decoded = model::decode_blob(blob).map_err(ExportError::Model)?;
     let policy = match policy {
         p if p.uses_fallback() && !decoded.model.runs_a_network() => OutsidePolicy::FlagOnly,
+        // Inside its domain a GSSM (SSRA is one) stays the model of normal driving it was fitted
+        // as: the baseline the method is compared with, not a mix with the kinematic score.
+        OutsidePolicy::Blend if matches!(decoded.model, Model::Gssm(_)) => OutsidePolicy::Fallback,
         other => other,
     };
     let pairs = || {

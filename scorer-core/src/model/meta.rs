@@ -149,34 +149,25 @@ impl<'a> ModelMeta<'a> {
             blend.validate()?;
         }
         let policy = self.training_domain.map(|d| d.policy);
-        let uses_fallback = policy.is_some_and(OutsidePolicy::uses_fallback);
-        match (uses_fallback, self.kinematic_fallback.is_some()) {
-            (true, false) => {
-                return Err(ModelError::BadRecord {
-                    field: "training_domain.policy",
-                    reason: "fallback or blend policy without a kinematic-fallback record (tag 3)",
-                })
-            }
-            (false, true) => {
-                return Err(ModelError::BadRecord {
-                    field: "kinematic_fallback",
-                    reason: "a kinematic-fallback record (tag 3) needs a training domain with the \
-                             fallback or blend policy",
-                })
-            }
-            _ => {}
-        }
-        match (policy == Some(OutsidePolicy::Blend), self.blend.is_some()) {
-            (true, false) => Err(ModelError::BadRecord {
-                field: "training_domain.policy",
-                reason: "blend policy without a blend record (tag 5)",
-            }),
-            (false, true) => Err(ModelError::BadRecord {
-                field: "blend",
-                reason: "a blend record (tag 5) needs a training domain with the blend policy",
-            }),
-            _ => Ok(()),
-        }
+        present_exactly_when(
+            policy.is_some_and(OutsidePolicy::uses_fallback),
+            self.kinematic_fallback.is_some(),
+            "fallback or blend policy without a kinematic-fallback record (tag 3)",
+            (
+                "kinematic_fallback",
+                "a kinematic-fallback record (tag 3) needs a training domain with the fallback \
+                 or blend policy",
+            ),
+        )?;
+        present_exactly_when(
+            policy == Some(OutsidePolicy::Blend),
+            self.blend.is_some(),
+            "blend policy without a blend record (tag 5)",
+            (
+                "blend",
+                "a blend record (tag 5) needs a training domain with the blend policy",
+            ),
+        )
     }
 
     /// Reads the records that fill `bytes` entirely.
@@ -308,6 +299,27 @@ impl<'a> ModelMeta<'a> {
     /// The training domain's geometry coverage (record tag 4), if any.
     pub fn coverage(&self) -> Option<&GeometryCoverage<'a>> {
         self.training_domain.as_ref()?.coverage.as_ref()
+    }
+}
+
+/// A record the domain's policy asks for (`asked`) must be there, and one it does not ask for must
+/// not: `missing` names the first failure (on the policy), `orphan` (field, reason) the second.
+fn present_exactly_when(
+    asked: bool,
+    present: bool,
+    missing: &'static str,
+    (orphan_field, orphan): (&'static str, &'static str),
+) -> Result<(), ModelError> {
+    match (asked, present) {
+        (true, false) => Err(ModelError::BadRecord {
+            field: "training_domain.policy",
+            reason: missing,
+        }),
+        (false, true) => Err(ModelError::BadRecord {
+            field: orphan_field,
+            reason: orphan,
+        }),
+        _ => Ok(()),
     }
 }
 

@@ -7,8 +7,8 @@
 //! fitted on ([`crate::export::domain_sequences`]) under the training configuration's `[guard]
 //! policy`; under `fallback` they hand over to the kinematic terms of the MSRA trained beside
 //! them, aligned to their own score scale on all the fit sequences' frames inside, conflicts
-//! included, as a DRL's is. An MSRA over the GSSM gets a `flag-only` record
-//! ([`crate::export::with_measured_domain`]).
+//! included, as a DRL's is. `blend` (a DRL's default) is written as `fallback` for them, and an
+//! MSRA over the GSSM gets a `flag-only` record ([`crate::export::with_measured_domain`]).
 use riskscore_data::events::Sequence;
 use scorer_core::msra::MsraTerm;
 
@@ -28,7 +28,6 @@ pub fn guard_blobs(
 ) -> Result<Vec<String>, GssmError> {
     let policy = match (policy, fallback_terms) {
         (GuardPolicy::Fallback | GuardPolicy::Blend, None) => GuardPolicy::FlagOnly,
-        (GuardPolicy::Blend, Some(_)) => GuardPolicy::Fallback,
         (policy, _) => policy,
     };
     let guard = GuardConfig {
