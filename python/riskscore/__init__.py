@@ -142,8 +142,10 @@ class Model:
     def info(self) -> Dict[str, Any]:
         """What ``riskctl inspect-model`` reports: ``kind`` (e.g. "DRL (int8)"), ``int8``,
         ``format_version``, ``input_schema``, ``encoding``, ``inputs`` (names of the network's
-        inputs), ``payload_bytes``, ``payload_crc32``, ``total_bytes``, ``default_threshold`` and
-        ``threshold_rule`` (how the default threshold was chosen)."""
+        inputs), ``payload_bytes``, ``payload_crc32``, ``total_bytes``, ``default_threshold``,
+        ``threshold_rule`` (how the default threshold was chosen), ``domain_policy`` (what scoring
+        does outside the training domain; ``None`` without a record) and ``blend_network_weight``
+        (the network's share of the score inside the domain under ``"blend"``, else ``None``)."""
         return dict(self._native.info)
 
     def score(self, data: Any, *, strict: bool = False) -> np.ndarray:

@@ -147,6 +147,11 @@ impl Model {
             "domain_policy",
             blob.meta.training_domain.map(|d| d.policy.name()),
         )?;
+        // The network's share inside the domain under `blend` (`None` under any other policy).
+        info.set_item(
+            "blend_network_weight",
+            blob.meta.blend.map(|b| b.network_weight),
+        )?;
         Ok(info)
     }
 

@@ -48,6 +48,13 @@ def test_info_matches_inspect_model(riskctl):
         assert f"{info['payload_crc32']:#010x}" in text
         assert info["int8"] == (kind == "DRL")
         assert len(info["inputs"]) > 0
+        blend = re.search(r"blend +(\S+) \* model", text)
+        if kind == "DRL":
+            # The shipped DRL blends; inspect-model prints the weight to one decimal.
+            assert info["domain_policy"] == "blend"
+            assert info["blend_network_weight"] == pytest.approx(float(blend.group(1)), abs=0.05)
+        else:
+            assert blend is None and info["blend_network_weight"] is None
     assert "model" in repr(model).lower()
 
 
