@@ -243,6 +243,9 @@ pub struct SplitOutcome {
     pub domain_shares: Vec<DomainShare>,
     /// The fold's warnings for the user ([`cv::FoldOutcome::warnings`]), prefixed with the seed.
     pub warnings: Vec<String>,
+    /// Every model's blob by row name (DRL, DRL-f32, MSRA, GSSM, SSRA), exactly as scored (with
+    /// its training-domain record when guarded), e.g. to look inside a guarded score.
+    pub blobs: Vec<(String, Vec<u8>)>,
 }
 
 /// The fold runner every benchmark shares: DRL and MSRA trained exactly as in cross-validation
@@ -274,6 +277,7 @@ pub fn run_split(
     let mut methods = outcome.result.methods;
     let mut runs = outcome.runs;
     let domain_shares = outcome.domain_shares;
+    let mut blobs = outcome.blobs;
     let mut warnings: Vec<String> = outcome
         .warnings
         .into_iter()
@@ -310,6 +314,7 @@ pub fn run_split(
     )?;
     methods.extend(g.methods);
     runs.extend(g.runs);
+    blobs.extend(g.blobs);
     warnings.extend(
         g.warnings
             .into_iter()
@@ -324,6 +329,7 @@ pub fn run_split(
         runs,
         domain_shares,
         warnings,
+        blobs,
     })
 }
 

@@ -316,6 +316,8 @@ pub struct RoundSplit {
     pub train: Vec<Sequence>,
     /// Test sequences: the simulated part first, then the real ones from `real_from` on.
     pub test: Vec<Sequence>,
+    /// The place in the domain of each test sequence (same order as `test`).
+    pub test_domains: Vec<Domain>,
     pub real_from: usize,
 }
 
@@ -341,22 +343,18 @@ pub fn split_round(round: &Round, data: &DomainData, held_scenarios: &[String]) 
         .map(|l| l.sequence.clone())
         .collect();
     train.extend(real_train().cloned());
-    let mut test: Vec<Sequence> = data
-        .test_sim_part(round)
-        .into_iter()
-        .map(|l| l.sequence.clone())
-        .collect();
-    let real_from = test.len();
-    test.extend(
+    let mut tested: Vec<&Labelled> = data.test_sim_part(round);
+    let real_from = tested.len();
+    tested.extend(
         data.real
             .iter()
             .filter(|l| round.contains(&l.domain))
-            .filter(|l| !training_scenarios.contains(scenario_of(&l.sequence.event_id)))
-            .map(|l| l.sequence.clone()),
+            .filter(|l| !training_scenarios.contains(scenario_of(&l.sequence.event_id))),
     );
     RoundSplit {
         train,
-        test,
+        test: tested.iter().map(|l| l.sequence.clone()).collect(),
+        test_domains: tested.iter().map(|l| l.domain.clone()).collect(),
         real_from,
     }
 }
@@ -443,6 +441,12 @@ mod tests {
         // fold; US101-2 is held out: its 36 m/s sequence is.
         assert_eq!(ids(&split.test), ["b1", "b3", "USA_US101-2/1"]);
         assert_eq!(split.real_from, 2);
+        let sources: Vec<&Source> = split.test_domains.iter().map(|d| &d.source).collect();
+        assert_eq!(sources, [&Source::Sim, &Source::Sim, &Source::RealFreeway]);
+        assert!(split
+            .test_domains
+            .iter()
+            .all(|d| d.band == Some(SpeedBand::Motorway)));
         let counts = slice_counts(&round, &data);
         assert_eq!(
             counts.test,
@@ -491,6 +495,12 @@ mod tests {
         assert_eq!(
             ids(&split.test),
             ["b2", "b5", "USA_Lanker-1_1_T-1/1", "USA_Lanker-1_1_T-1/2"]
+        );
+        let lankershim = Source::RealCity("Lankershim".into());
+        let sources: Vec<&Source> = split.test_domains.iter().map(|d| &d.source).collect();
+        assert_eq!(
+            sources,
+            [&Source::Sim, &Source::Sim, &lankershim, &lankershim]
         );
         let train = ids(&split.train);
         assert!(train.contains(&"USA_Peach-1_1_T-1/1"));

@@ -30,6 +30,15 @@ impl Source {
     pub fn is_real(&self) -> bool {
         !matches!(self, Source::Sim)
     }
+
+    /// The source as a table cell: `sim`, `real-freeway` or `real-city:<city>`.
+    pub fn label(&self) -> String {
+        match self {
+            Source::Sim => "sim".into(),
+            Source::RealFreeway => "real-freeway".into(),
+            Source::RealCity(city) => format!("real-city:{city}"),
+        }
+    }
 }
 
 impl fmt::Display for Source {
@@ -70,5 +79,11 @@ mod tests {
             Source::RealCity("Peachtree".into())
         );
         assert!(Source::RealFreeway.is_real() && !Source::Sim.is_real());
+        assert_eq!(Source::Sim.label(), "sim");
+        assert_eq!(Source::RealFreeway.label(), "real-freeway");
+        assert_eq!(
+            Source::RealCity("Lankershim".into()).label(),
+            "real-city:Lankershim"
+        );
     }
 }

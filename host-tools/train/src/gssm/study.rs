@@ -103,6 +103,9 @@ pub struct GssmFold {
     pub detail: FoldDetail,
     /// Models whose kinematic fallback could not be fitted (their guard became `flag-only`).
     pub warnings: Vec<String>,
+    /// The fold's model blobs by row name (GSSM, SSRA, the MSRA configurations), as scored:
+    /// with their training-domain record when guarded.
+    pub blobs: Vec<(String, Vec<u8>)>,
 }
 
 /// One fold: fit the GSSM on the safe sequences of `normal` (the normal driving it models: the
@@ -164,6 +167,7 @@ pub fn train_fold(
         methods,
         runs,
         warnings,
+        blobs,
         detail: FoldDetail {
             seed: cfg.seed,
             fold: 0,
