@@ -896,6 +896,7 @@ fn domain_benchmark(
         &opts.gssm,
         &options,
         EmptyRound::ReportNoData,
+        None,
     )?;
     crate::warnings::print(result.warnings());
     println!(

@@ -343,6 +343,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         &gssm_config,
         &a.training.options(a.quiet),
         empty,
+        None,
     )?;
     host_tools::warnings::print(result.warnings());
     let report_dir = a.out.join("report");

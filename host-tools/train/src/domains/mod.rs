@@ -8,9 +8,11 @@
 //! - [`share`]: real safe sequences above a method's 90 %-recall threshold.
 //! - [`run`]: one round over folds x seeds.
 //! - [`report`]: the tables, JSON and report folder.
+//! - [`sequences`]: the per-sequence rows of every run (`--sequences-out`).
 pub mod report;
 pub mod rounds;
 pub mod run;
+pub mod sequences;
 pub mod share;
 pub mod slice;
 pub mod source;
@@ -18,6 +20,7 @@ pub mod source;
 pub use report::{DomainsResult, RoundOutcome};
 pub use rounds::{DomainData, EmptyRound, Round};
 pub use run::{run_round, DomainsError, RoundResult};
+pub use sequences::{SequenceRow, SequenceSink, SequencesCsv};
 
 use crate::gssm::GssmConfig;
 use crate::train::TrainConfig;
@@ -25,7 +28,8 @@ use crate::transfer::TransferOptions;
 use rounds::slice_counts;
 
 /// Run `rounds` in order. Every round's slice is checked before any training starts, so an empty
-/// round named on the command line fails at once.
+/// round named on the command line fails at once. With `sequences`, every run's per-sequence rows
+/// go there as the runs finish, in round, seed and fold order ([`sequences`]).
 pub fn run(
     rounds: &[Round],
     data: &DomainData,
@@ -33,6 +37,7 @@ pub fn run(
     gssm_config: &GssmConfig,
     options: &TransferOptions,
     empty: EmptyRound,
+    mut sequences: Option<&mut dyn SequenceSink>,
 ) -> Result<DomainsResult, DomainsError> {
     let mut plan = Vec::new();
     for round in rounds {
@@ -51,6 +56,9 @@ pub fn run(
                 config,
                 gssm_config,
                 options,
+                sequences
+                    .as_mut()
+                    .map(|s| &mut **s as &mut dyn SequenceSink),
             )?))
         } else {
             RoundOutcome::NoData {
@@ -82,6 +90,7 @@ mod tests {
             &GssmConfig::default(),
             &options,
             empty,
+            None,
         )
     }
 

@@ -2,7 +2,11 @@
 //! fold runner ([`transfer::run_split`]), and read the real-safe share off every method's curve.
 use serde::Serialize;
 
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+
 use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, SliceCounts};
+use super::sequences::{rows_of, SequenceRow, SequenceSink};
 use super::share::{share_of, ShareRun};
 use crate::gssm::GssmConfig;
 use crate::train::{Progress, TrainConfig};
@@ -39,6 +43,8 @@ pub enum DomainsError {
         #[source]
         source: Box<TransferError>,
     },
+    #[error("domain benchmark: writing the per-sequence rows: {0}")]
+    Sequences(#[source] std::io::Error),
 }
 
 /// The error for a round whose slice (or whose training remainder) cannot be run.
@@ -88,13 +94,35 @@ pub struct RoundResult {
     pub warnings: Vec<String>,
 }
 
+/// Hands each job's rows to the sink in job order, as soon as every earlier job has handed its
+/// own: at most the runs finished out of order wait in memory, not the round's.
+struct InOrder<'s> {
+    sink: &'s mut dyn SequenceSink,
+    next: usize,
+    waiting: BTreeMap<usize, Vec<SequenceRow>>,
+}
+
+impl InOrder<'_> {
+    fn push(&mut self, round: &str, job: usize, rows: Vec<SequenceRow>) -> std::io::Result<()> {
+        self.waiting.insert(job, rows);
+        while let Some(rows) = self.waiting.remove(&self.next) {
+            self.sink.write(round, &rows)?;
+            self.next += 1;
+        }
+        Ok(())
+    }
+}
+
 /// Run one round: `options.seeds` x `options.folds` trainings without the slice, each scored on it.
+/// With `sequences`, every run's per-sequence rows ([`super::sequences`]) go there, in seed and
+/// fold order; nothing else changes.
 pub fn run_round(
     round: &Round,
     data: &DomainData,
     config: &TrainConfig,
     gssm_config: &GssmConfig,
     options: &TransferOptions,
+    sequences: Option<&mut dyn SequenceSink>,
 ) -> Result<RoundResult, DomainsError> {
     let counts = slice_counts(round, data);
     if !counts.is_runnable() {
@@ -116,6 +144,13 @@ pub fn run_round(
     let jobs = transfer::fold_jobs(&real, options, config.seed);
     let threads = crate::parallel::threads_for(jobs.len());
     let fold_options = options.side_by_side(threads);
+    let sequences = sequences.map(|sink| {
+        Mutex::new(InOrder {
+            sink,
+            next: 0,
+            waiting: BTreeMap::new(),
+        })
+    });
     let outcomes = crate::parallel::map_in_order(jobs.len(), threads, |j| {
         let (seed, fold, held) = &jobs[j];
         let split = split_round(round, data, held);
@@ -138,6 +173,14 @@ pub fn run_round(
             .iter()
             .map(|run| share_of(run, real_range.clone(), *seed, *fold))
             .collect();
+        if let Some(sequences) = &sequences {
+            let rows = rows_of(&split, &outcome.runs, &fold_shares, &outcome.blobs);
+            sequences
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(&round.name, j, rows)
+                .map_err(DomainsError::Sequences)?;
+        }
         let real_test = KindCounts::of(&split.test[split.real_from..]);
         let fold_split = RoundFoldSplit {
             seed: *seed,
