@@ -1,6 +1,8 @@
 //! `riskctl benchmark domains` end to end on tiny data: the JSON shape (one `riskctl evaluate`
 //! row group per round, the real-safe share per method), the report folder, a real-city round,
-//! and the errors for an empty round and an output that is an input.
+//! the errors for an empty round and an output that is an input, and `--sequences-out` (its rows
+//! give back every run's report; the report is the same without it).
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -333,4 +335,329 @@ fn list_rounds_marks_the_defaults() {
             "city-peachtree"
         ]
     );
+}
+
+/// The tiny two-round run of these tests into `out`, with `extra` arguments.
+fn two_rounds(dir: &Path, out: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "--rounds",
+        "speed-5-15,city-lankershim",
+        "--folds",
+        "2",
+        "--seeds",
+        "1",
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    domains(dir, &args)
+}
+
+/// Every file of a folder, by name, with its bytes.
+fn files_of(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// A CSV row: column name -> cell.
+type Row = BTreeMap<String, String>;
+/// One method in one run: (round, seed, fold, method).
+type RunKey = (String, String, String, String);
+
+/// A CSV file as its header and rows.
+fn csv_rows(path: &Path) -> (Vec<String>, Vec<Row>) {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let rows = r
+        .records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            header
+                .iter()
+                .cloned()
+                .zip(rec.iter().map(String::from))
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+/// A^ROC_90 of one run from its sequence maxima (docs/evaluation.md, written out again here):
+/// the ROC polyline through `(FPR(T), TPR(T))` at every distinct maximum `T`, highest first,
+/// from `(0, 0)` to `(1, 1)`, and the area of `1 - FPR` over TPR in `[0.9, 1]`, divided by 0.1.
+/// `None` without conflicts or safe sequences.
+fn a_roc_90(maxima: &[(bool, Option<f32>)]) -> Option<f64> {
+    let p = maxima.iter().filter(|(conflict, _)| *conflict).count();
+    let n = maxima.len() - p;
+    if p == 0 || n == 0 {
+        return None;
+    }
+    let mut thresholds: Vec<f32> = maxima.iter().filter_map(|(_, m)| *m).collect();
+    thresholds.sort_by(|a, b| b.total_cmp(a));
+    thresholds.dedup();
+    let mut curve = vec![(0.0, 0.0)];
+    for t in thresholds {
+        let warned = |conflict: bool| {
+            maxima
+                .iter()
+                .filter(|(c, m)| *c == conflict && m.is_some_and(|m| m >= t))
+                .count() as f64
+        };
+        curve.push((warned(false) / n as f64, warned(true) / p as f64));
+    }
+    curve.push((1.0, 1.0));
+    let alpha = 0.9;
+    let mut area = 0.0;
+    for w in curve.windows(2) {
+        let ((f0, t0), (f1, t1)) = (w[0], w[1]);
+        let (lo, hi) = (f64::max(t0, alpha), f64::min(t1, 1.0));
+        if t1 > t0 && hi > lo {
+            let fpr = |t: f64| f0 + (f1 - f0) * (t - t0) / (t1 - t0);
+            area += (hi - lo) * (1.0 - 0.5 * (fpr(lo) + fpr(hi)));
+        }
+    }
+    Some(100.0 * area / (1.0 - alpha))
+}
+
+/// The 90 %-recall threshold from the maxima: the highest maximum at which at least 90 % of the
+/// conflicts reach it.
+fn t90(maxima: &[(bool, Option<f32>)]) -> Option<f32> {
+    let p = maxima.iter().filter(|(conflict, _)| *conflict).count();
+    let mut thresholds: Vec<f32> = maxima.iter().filter_map(|(_, m)| *m).collect();
+    thresholds.sort_by(|a, b| b.total_cmp(a));
+    thresholds.into_iter().find(|&t| {
+        let tp = maxima
+            .iter()
+            .filter(|(c, m)| *c && m.is_some_and(|m| m >= t))
+            .count();
+        p > 0 && tp * 100 >= 90 * p
+    })
+}
+
+fn f32_cell(row: &Row, key: &str) -> Option<f32> {
+    let cell = &row[key];
+    (!cell.is_empty()).then(|| cell.parse().unwrap())
+}
+
+#[test]
+fn sequences_out_adds_a_file_whose_rows_give_back_every_runs_report() {
+    let d = scratch();
+    let p = d.path();
+    let with = two_rounds(p, "a", &["--sequences-out", "a/rows/sequences.csv"]);
+    assert!(
+        with.status.success(),
+        "{}",
+        String::from_utf8_lossy(&with.stderr)
+    );
+    let without = two_rounds(p, "b", &[]);
+    assert!(without.status.success());
+    // The option only adds its file: stdout and every report file byte for byte the same.
+    assert_eq!(with.stdout, without.stdout);
+    let report = files_of(&p.join("a/report"));
+    assert_eq!(report, files_of(&p.join("b/report")));
+    let mut beside: Vec<String> = std::fs::read_dir(p.join("a"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    beside.sort();
+    assert_eq!(beside, ["report", "rows"]);
+
+    let (header, rows) = csv_rows(&p.join("a/rows/sequences.csv"));
+    assert_eq!(
+        header.join(","),
+        "round,seed,fold,method,event_id,class,source,speed_band,geometry,max,peak_time,t90,\
+         above_t90,in_domain,network,fallback,ttc2d,tadv,ei,v_ego,v_partner"
+    );
+    let mut runs: BTreeMap<RunKey, Vec<&Row>> = BTreeMap::new();
+    for row in &rows {
+        let key = ["round", "seed", "fold", "method"].map(|k| row[k].clone());
+        runs.entry(key.into()).or_default().push(row);
+    }
+    // Every run's reported figures, by (round, seed, fold, method).
+    let mut a_roc: BTreeMap<RunKey, String> = BTreeMap::new();
+    for round in ["speed-5-15", "city-lankershim"] {
+        let (_, folds) = csv_rows(&p.join(format!("a/report/{round}.folds.csv")));
+        for f in folds {
+            let key = (
+                round.to_string(),
+                f["seed"].clone(),
+                f["fold"].clone(),
+                f["method"].clone(),
+            );
+            a_roc.insert(key, f["A_ROC_90"].clone());
+        }
+    }
+    let (_, shares) = csv_rows(&p.join("a/report/shares.csv"));
+    assert_eq!(
+        runs.len(),
+        a_roc.len(),
+        "one group of rows per method and run"
+    );
+    assert_eq!(runs.len(), shares.len());
+    let splits: Value =
+        serde_json::from_slice(&std::fs::read(p.join("a/report/splits.json")).unwrap()).unwrap();
+    let (mut outside_checked, mut inside_checked) = (0, 0);
+    for share in &shares {
+        let key = (
+            share["round"].clone(),
+            share["seed"].clone(),
+            share["fold"].clone(),
+            share["method"].clone(),
+        );
+        let run = &runs[&key];
+        // As many rows as the fold tested sequences.
+        let split = splits
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["round"] == key.0.as_str())
+            .unwrap()["folds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| {
+                f["seed"] == key.1.parse::<u64>().unwrap()
+                    && f["fold"] == key.2.parse::<u64>().unwrap()
+            })
+            .unwrap()
+            .clone();
+        let tested =
+            split["test"]["conflicts"].as_u64().unwrap() + split["test"]["safe"].as_u64().unwrap();
+        assert_eq!(run.len() as u64, tested, "{key:?}");
+        // The run's A^ROC_90 and T90 again from the dumped maxima alone.
+        let maxima: Vec<(bool, Option<f32>)> = run
+            .iter()
+            .map(|r| (r["class"] != "safe", f32_cell(r, "max")))
+            .collect();
+        let reported = &a_roc[&key];
+        match a_roc_90(&maxima) {
+            Some(v) => {
+                let r: f64 = reported.parse().unwrap();
+                assert!(
+                    (v - r).abs() < 1e-9,
+                    "{key:?}: {v} from the rows, {r} reported"
+                );
+            }
+            None => assert_eq!(reported, "", "{key:?}"),
+        }
+        let threshold = t90(&maxima);
+        assert_eq!(
+            threshold.map_or(String::new(), |t| t.to_string()),
+            share["threshold"],
+            "{key:?}"
+        );
+        // The real-safe share of the report: real safe rows above T90.
+        let real_safe: Vec<_> = run
+            .iter()
+            .filter(|r| r["source"].starts_with("real-") && r["class"] == "safe")
+            .collect();
+        let above = real_safe.iter().filter(|r| r["above_t90"] == "1").count();
+        assert_eq!(
+            (above.to_string(), real_safe.len().to_string()),
+            (share["above"].clone(), share["of"].clone()),
+            "{key:?}"
+        );
+        for r in run {
+            assert_eq!(r["t90"], share["threshold"]);
+            let max = f32_cell(r, "max");
+            let above = matches!((max, threshold), (Some(m), Some(t)) if m >= t);
+            assert_eq!(r["above_t90"], if above { "1" } else { "0" });
+            if key.0 == "city-lankershim" && r["source"] != "sim" {
+                assert_eq!(r["source"], "real-city:Lankershim");
+            }
+            let guarded = !["TTC2D", "TAdv", "EI"].contains(&key.3.as_str());
+            if !guarded {
+                assert_eq!([&r["in_domain"], &r["network"], &r["fallback"]], [""; 3]);
+                continue;
+            }
+            // The guard's parts at the peak frame: outside, a fallback scores alone; inside
+            // without one, the network does.
+            let (network, fallback) = (f32_cell(r, "network"), f32_cell(r, "fallback"));
+            match (r["in_domain"].as_str(), fallback) {
+                ("0", Some(fb)) => {
+                    assert_eq!(max, Some(fb), "{key:?} {}", r["event_id"]);
+                    outside_checked += 1;
+                }
+                ("1", None) => {
+                    assert_eq!(max, network, "{key:?} {}", r["event_id"]);
+                    inside_checked += 1;
+                }
+                ("0" | "1", _) => assert!(network.is_some()),
+                (other, _) => panic!("{key:?}: in_domain {other:?}"),
+            }
+        }
+    }
+    assert!(
+        outside_checked > 0 && inside_checked > 0,
+        "{outside_checked} {inside_checked}"
+    );
+    let err = String::from_utf8_lossy(&with.stderr);
+    assert!(
+        err.contains(&format!(
+            "{} per-sequence rows in a/rows/sequences.csv",
+            rows.len()
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn sequences_out_refuses_an_input_a_folder_the_run_writes_parquet_and_stdout() {
+    let d = scratch();
+    let p = d.path();
+    let events = std::fs::read(p.join("freeway/events.csv")).unwrap();
+    for (out, says) in [
+        (
+            "freeway/events.csv",
+            "is the same file as --real freeway/events.csv",
+        ),
+        ("./t.toml", "is the same file as --config t.toml"),
+        ("city/rows.csv", "lies inside --real-city city"),
+        ("out", "is the same file as --out out"),
+        (
+            "out/report/rows.csv",
+            "lies inside out/report, which this run writes whole",
+        ),
+        ("out/rows.parquet", "written as CSV only"),
+        ("-", "standard output carries the report"),
+    ] {
+        let o = two_rounds(p, "out", &["--sequences-out", out]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{out}");
+        assert!(
+            err.contains(&format!("--sequences-out {out}")),
+            "{out}: {err}"
+        );
+        assert!(err.contains(says), "{out}: {err}");
+        assert!(!p.join("out").exists(), "{out}: something written");
+    }
+    assert_eq!(std::fs::read(p.join("freeway/events.csv")).unwrap(), events);
+    assert!(!p.join("city/rows.csv").exists());
+    // Simulated folders are written by the run too (refused before simulating).
+    let o = riskctl(
+        p,
+        &[
+            "benchmark",
+            "domains",
+            "--real",
+            "freeway",
+            "--rounds",
+            "speed-5-15",
+            "--out",
+            "out",
+            "--sequences-out",
+            "out/train-data/r.csv",
+        ],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("lies inside out/train-data"), "{err}");
+    assert!(!p.join("out").exists());
 }

@@ -8,7 +8,7 @@ use host_tools::demo::{
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
-use riskscore_train::domains::{self, DomainData, Round};
+use riskscore_train::domains::{self, DomainData, Round, SequenceSink, SequencesCsv};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
 use riskscore_train::transfer::{self, TransferData, TransferOptions};
@@ -214,6 +214,20 @@ pub struct DomainsArgs {
     /// Print the report as JSON (per round the schema of `riskctl evaluate --json`).
     #[arg(long)]
     pub json: bool,
+    /// Also write every method's result on every test sequence to FILE (CSV only: a `.parquet`
+    /// name is refused).
+    ///
+    /// One row per round, seed, fold, method and test sequence: round, seed, fold, method,
+    /// event_id, class, source (sim, real-freeway, real-city:<city>), speed_band and geometry
+    /// (the sequence's slice labels), max (the sequence maximum the metrics rank), peak_time (the
+    /// first frame at that maximum), t90 (the method's 90 %-recall threshold in that run, as the
+    /// real-safe share reads it; empty without one), above_t90 (1/0); then at the peak frame:
+    /// in_domain (1/0 for a model with a training domain, else empty), network and fallback (a
+    /// guarded model's own score and its kinematic fallback's; empty otherwise), ttc2d, tadv, ei
+    /// and the speeds v_ego, v_partner (m/s). Written under a temporary name and renamed into
+    /// place when the run succeeds; the report is unchanged by it. See docs/evaluation.md.
+    #[arg(long = "sequences-out", value_name = "FILE")]
+    pub sequences_out: Option<PathBuf>,
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
@@ -314,7 +328,12 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
             .map(|d| ("--real-city", Some(d.as_path()))),
     );
     event_folders.extend(a.sim.event_folders());
-    super::output::refuse_inputs_of(&event_folders, &a.training.files(), &[("--out", &a.out)])?;
+    let mut outputs = vec![("--out", a.out.as_path())];
+    if let Some(path) = &a.sequences_out {
+        refuse_sequences_out(path, &a)?;
+        outputs.push(("--sequences-out", path));
+    }
+    super::output::refuse_inputs_of(&event_folders, &a.training.files(), &outputs)?;
     let (config, gssm_config) = a.training.configs()?;
     let real_dir = real_freeway_dir(a.real.as_deref())?;
     let real_freeway = super::load_prepared(&real_dir)?.sequences;
@@ -336,15 +355,22 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     );
     let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::domain())?;
     let data = DomainData::new(train_sim, test_sim, real_freeway, real_city);
-    let result = domains::run(
-        &rounds,
-        &data,
-        &config,
-        &gssm_config,
-        &a.training.options(a.quiet),
-        empty,
-        None,
-    )?;
+    let options = a.training.options(a.quiet);
+    let run = |sequences: Option<&mut dyn SequenceSink>| {
+        domains::run(
+            &rounds,
+            &data,
+            &config,
+            &gssm_config,
+            &options,
+            empty,
+            sequences,
+        )
+    };
+    let result = match &a.sequences_out {
+        None => run(None)?,
+        Some(path) => write_sequences(path, |sink| run(Some(sink)))?,
+    };
     host_tools::warnings::print(result.warnings());
     let report_dir = a.out.join("report");
     result.bundle()?.write_to(&report_dir)?;
@@ -356,6 +382,108 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     }
     eprintln!("riskctl: report in {}", report_dir.display());
     Ok(())
+}
+
+/// The folders under `--out` that this run writes whole: the report and the simulated folders
+/// (when simulated).
+fn written_folders(a: &DomainsArgs) -> Vec<PathBuf> {
+    let mut folders = vec![a.out.join("report")];
+    for (given, name) in [
+        (&a.sim.train_events, "train-data"),
+        (&a.sim.test_events, "test-data"),
+    ] {
+        if given.is_none() {
+            folders.push(a.out.join(name));
+        }
+    }
+    folders
+}
+
+/// `p` absolute, with its existing part made canonical (links and `..` resolved) and the rest
+/// appended as written (`.` and `..` there taken lexically: nothing below exists to link).
+fn resolved(p: &Path) -> PathBuf {
+    let absolute = std::env::current_dir().map_or_else(|_| p.to_path_buf(), |d| d.join(p));
+    let existing = absolute
+        .ancestors()
+        .find(|a| a.exists())
+        .unwrap_or(Path::new("/"));
+    let mut out = existing
+        .canonicalize()
+        .unwrap_or_else(|_| existing.to_path_buf());
+    for part in absolute.strip_prefix(existing).unwrap_or(Path::new("")) {
+        match part.to_str() {
+            Some(".") => {}
+            Some("..") => {
+                out.pop();
+            }
+            _ => out.push(part),
+        }
+    }
+    out
+}
+
+/// `--sequences-out` must name a file of its own: not standard output (the report goes there),
+/// not Parquet (CSV only), and not inside a folder the run replaces whole.
+fn refuse_sequences_out(path: &Path, a: &DomainsArgs) -> anyhow::Result<()> {
+    let shown = path.display();
+    if super::output::is_dash(path) {
+        anyhow::bail!("--sequences-out -: standard output carries the report; name a file");
+    }
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"))
+    {
+        anyhow::bail!(
+            "--sequences-out {shown}: the per-sequence table is written as CSV only; name it .csv ({})",
+            super::output::left_alone(path)
+        );
+    }
+    let file = resolved(path);
+    for folder in written_folders(a) {
+        if file.starts_with(resolved(&folder)) {
+            anyhow::bail!(
+                "--sequences-out {shown} lies inside {}, which this run writes whole: refusing to \
+                 write into it ({}); put it beside, e.g. {}",
+                folder.display(),
+                super::output::left_alone(path),
+                a.out.join("sequences.csv").display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Runs `run` with a CSV sink on `path`: written under a temporary name, renamed into place when
+/// `run` succeeds (a failed or interrupted run leaves an old file as it was), its folder created
+/// if needed (and removed again, if still empty, on failure).
+fn write_sequences<T>(
+    path: &Path,
+    run: impl FnOnce(&mut dyn SequenceSink) -> Result<T, domains::DomainsError>,
+) -> anyhow::Result<T> {
+    let folders = match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) => Some(riskscore_output::NewFolders::create(dir).with_context(|| {
+            format!(
+                "--sequences-out {}: cannot create {}",
+                path.display(),
+                dir.display()
+            )
+        })?),
+        None => None,
+    };
+    let written = super::output::write_output(path, |out| {
+        let mut csv = SequencesCsv::new(out)?;
+        let result = run(&mut csv)?;
+        let rows = csv.rows();
+        csv.finish()?;
+        Ok((result, rows))
+    })?;
+    let (result, rows) =
+        written.ok_or_else(|| anyhow::anyhow!("--sequences-out {}: closed", path.display()))?;
+    if let Some(folders) = folders {
+        folders.keep();
+    }
+    eprintln!("riskctl: {rows} per-sequence rows in {}", path.display());
+    Ok(result)
 }
 
 /// The issue's claims per run round: the acceptance claims of the transfer benchmark, and DRL's

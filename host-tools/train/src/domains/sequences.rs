@@ -181,6 +181,7 @@ fn guard_parts(blob: &ModelBlob<'_>, observation: &Observation, score: f32) -> O
 /// without conflict), booleans 1/0, an absent value empty.
 pub struct SequencesCsv<W: Write> {
     out: csv::Writer<W>,
+    rows: usize,
 }
 
 fn cell<T: ToString>(v: Option<T>) -> String {
@@ -200,7 +201,12 @@ impl<W: Write> SequencesCsv<W> {
     pub fn new(out: W) -> io::Result<Self> {
         let mut out = csv::Writer::from_writer(out);
         out.write_record(COLUMNS)?;
-        Ok(Self { out })
+        Ok(Self { out, rows: 0 })
+    }
+
+    /// Rows written so far (the header not counted).
+    pub fn rows(&self) -> usize {
+        self.rows
     }
 
     /// Flushes and hands back the output.
@@ -237,6 +243,7 @@ impl<W: Write> SequencesCsv<W> {
             &cell(peak.map(|p| p.v_ego)),
             &cell(peak.map(|p| p.v_partner)),
         ])?;
+        self.rows += 1;
         Ok(())
     }
 }
