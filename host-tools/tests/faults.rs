@@ -202,6 +202,14 @@ const WRITERS: &[Writer] = &[
         long: None,
     },
     Writer {
+        name: "benchmark domains --sequences-out",
+        args: "benchmark domains --real real --real-city real --train-events sim --test-events sim --config t.toml --gssm-config g.toml --folds 2 --seeds 1 --out bds --sequences-out OUT --quiet",
+        out: "bds.csv",
+        inputs: &["real", "sim", "t.toml", "g.toml"],
+        lock: "OUT",
+        long: None,
+    },
+    Writer {
         name: "man --out-dir",
         args: "man --out-dir OUT",
         out: "man/",
