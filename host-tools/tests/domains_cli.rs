@@ -149,19 +149,7 @@ fn domains(dir: &Path, extra: &[&str]) -> Output {
 fn a_tiny_run_reports_each_round_like_evaluate_plus_the_real_safe_share() {
     let d = scratch();
     let p = d.path();
-    let o = domains(
-        p,
-        &[
-            "--rounds",
-            "speed-5-15,city-lankershim",
-            "--folds",
-            "2",
-            "--seeds",
-            "1",
-            "--out",
-            "out",
-        ],
-    );
+    let o = two_rounds(p, "out", &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json: Value = serde_json::from_slice(&o.stdout).unwrap();
     let rounds = json["rounds"].as_array().unwrap();
