@@ -150,11 +150,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
         );
     }
-    if let Some(b) = blend {
+    if let Some(b) = &blend {
         println!(
-            "blend: inside the domain {} * model + {} * fallback",
-            b.network_weight,
-            1.0 - b.network_weight
+            "blend: inside the domain {}",
+            riskscore_train::export::blend_text(b)
         );
     }
     let bytes = guarded.bytes;

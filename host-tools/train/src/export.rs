@@ -406,14 +406,15 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
         }
     }
     if let Some(blend) = &blob.meta.blend {
-        let w = blend.network_weight;
-        let _ = writeln!(
-            s,
-            "  blend           {w} * model + {} * fallback inside",
-            1.0 - w
-        );
+        let _ = writeln!(s, "  blend           {} inside", blend_text(blend));
     }
     s
+}
+
+/// A blend record's mix as the tools print it: "0.7 * model + 0.3 * fallback".
+pub fn blend_text(blend: &model::Blend) -> String {
+    let w = blend.network_weight;
+    format!("{w} * model + {} * fallback", 1.0 - w)
 }
 
 /// What `policy` does, as the tools print it: "clamp outside", "blend (fallback outside, mixed in
