@@ -65,6 +65,12 @@ fn policies(outcome: &FoldOutcome) -> Vec<(String, Option<OutsidePolicy>)> {
         .collect()
 }
 
+/// The fold's blob of `method`, decoded.
+fn blob_of<'a>(outcome: &'a FoldOutcome, method: &str) -> scorer_core::model::ModelBlob<'a> {
+    let bytes = &outcome.blobs.iter().find(|(n, _)| n == method).unwrap().1;
+    scorer_core::model::decode_blob(bytes).unwrap()
+}
+
 fn scores(outcome: &FoldOutcome, method: &str) -> Vec<u32> {
     let run = outcome.runs.iter().find(|r| r.name == method).unwrap();
     run.scored
@@ -145,8 +151,7 @@ fn under_fallback_the_drl_hands_over_to_the_kinematic_terms_of_its_msra() {
     };
     let held_out = on_the_autobahn(8);
     for m in ["DRL", "DRL-f32"] {
-        let blob = &fallback.blobs.iter().find(|(n, _)| n == m).unwrap().1;
-        let blob = scorer_core::model::decode_blob(blob).unwrap();
+        let blob = blob_of(&fallback, m);
         let record = blob.meta.kinematic_fallback.expect("a fallback record");
         // The fallback is the fold MSRA's (kinematic) terms, on a positive scale.
         assert_eq!(record.terms().collect::<Vec<_>>(), msra.terms.to_vec());
@@ -264,19 +269,7 @@ fn under_blend_the_drl_mixes_in_the_fallback_inside_and_hands_over_outside() {
         // The same network and fallback; every held-out frame is outside, where both policies
         // score the fallback.
         assert!(scores(&blend, m) == scores(&fallback, m), "{m}");
-        let blob_of = |outcome: &FoldOutcome| {
-            let bytes = outcome
-                .blobs
-                .iter()
-                .find(|(n, _)| n == m)
-                .unwrap()
-                .1
-                .clone();
-            bytes
-        };
-        let (blend_bytes, fallback_bytes) = (blob_of(&blend), blob_of(&fallback));
-        let mixed = scorer_core::model::decode_blob(&blend_bytes).unwrap();
-        let handed = scorer_core::model::decode_blob(&fallback_bytes).unwrap();
+        let (mixed, handed) = (blob_of(&blend, m), blob_of(&fallback, m));
         assert_eq!(mixed.model, handed.model, "{m}: one network");
         let weight = mixed.meta.blend.expect("a blend record").network_weight;
         assert_eq!(weight, riskscore_train::train::DEFAULT_BLEND_WEIGHT);
