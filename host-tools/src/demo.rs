@@ -28,6 +28,7 @@ use serde_json::json;
 
 use riskscore_data::events::{self, PrepareConfig, Sequence};
 use riskscore_data::sim::{self, SimConfig};
+use riskscore_eval::claims::{self, acceptance_claims, verdict, Claim};
 use riskscore_eval::metrics::Metric;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
 use riskscore_train::export;
@@ -274,17 +275,6 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
     }
 }
 
-/// One claim of the acceptance criteria, checked on the fold means.
-#[derive(Clone, Debug, Serialize)]
-pub struct Claim {
-    pub method: String,
-    pub baseline: String,
-    pub metric: String,
-    pub method_mean: Option<f64>,
-    pub baseline_mean: Option<f64>,
-    pub holds: bool,
-}
-
 /// What the demo did, measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoSummary {
@@ -311,54 +301,6 @@ impl DemoSummary {
     pub fn total_seconds(&self) -> f64 {
         self.stages.iter().map(|(_, s)| s).sum()
     }
-}
-
-/// The acceptance claims: DRL beats each baseline on A_ROC_90, P_PRC_90 and mTTI_90; MSRA beats
-/// each of its inputs on the same metrics (fold means, strictly greater); where the report has SSRA
-/// and GSSM rows (the transfer benchmark), SSRA is at least GSSM on A_ROC_90 and P_PRC_90.
-pub fn acceptance_claims(report: &CvReport, msra_inputs: &[String]) -> Vec<Claim> {
-    let metrics = [Metric::ARoc90, Metric::PPrc90, Metric::MTti90];
-    let mut claims = Vec::new();
-    let has = |name: &str| report.methods.iter().any(|m| m.name == name);
-    if has("SSRA") && has("GSSM") {
-        for metric in [Metric::ARoc90, Metric::PPrc90] {
-            let m = report.mean("SSRA", metric);
-            let b = report.mean("GSSM", metric);
-            claims.push(Claim {
-                method: "SSRA".into(),
-                baseline: "GSSM".into(),
-                metric: format!("{} (>=)", metric.key()),
-                method_mean: m,
-                baseline_mean: b,
-                holds: matches!((m, b), (Some(m), Some(b)) if m >= b),
-            });
-        }
-    }
-    let mut add = |method: &str, baseline: &str| {
-        for metric in metrics {
-            let m = report.mean(method, metric);
-            let b = report.mean(baseline, metric);
-            claims.push(Claim {
-                method: method.into(),
-                baseline: baseline.into(),
-                metric: metric.key().into(),
-                method_mean: m,
-                baseline_mean: b,
-                holds: match (m, b) {
-                    (Some(m), Some(b)) => m > b,
-                    (Some(_), None) => true,
-                    _ => false,
-                },
-            });
-        }
-    };
-    for b in eval::Baseline::ALL.map(eval::Baseline::name) {
-        add("DRL", b);
-    }
-    for b in msra_inputs {
-        add("MSRA", b);
-    }
-    claims
 }
 
 /// The folder's prepared sequences ([`events::load_prepared`]) and its event counts; problems are
@@ -597,8 +539,13 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         };
         let result = riskscore_train::transfer::run(&data, &opts.config, &opts.gssm, &topts)?;
         crate::warnings::print(&result.warnings);
+        transfer_claims = acceptance_claims(
+            &result.report,
+            &result.folds,
+            &opts.config.msra.input_names(),
+        );
         let tdir = report_dir.join("transfer");
-        files.extend(write_transfer_report(&tdir, &result)?);
+        files.extend(write_transfer_report(&tdir, &result, &transfer_claims)?);
         println!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
@@ -608,8 +555,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         );
         println!();
         println!("{}", result.report.to_markdown());
-        let msra_inputs = msra_input_names(&opts.config);
-        transfer_claims = acceptance_claims(&result.report, &msra_inputs);
         stages.push(("transfer benchmark".into(), t0.elapsed().as_secs_f64()));
     }
 
@@ -699,8 +644,8 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             .iter()
             .filter_map(|f| f.msra.as_ref().map(|r| r.epochs_per_second)),
     );
-    let msra_inputs = msra_input_names(&opts.config);
-    let claims = acceptance_claims(&report, &msra_inputs);
+    let msra_inputs = opts.config.msra.input_names();
+    let claims = acceptance_claims(&report, &results, &msra_inputs);
     let training = json!({
         "folds": folds.iter().map(|f| json!({
             "seed": f.result.seed,
@@ -826,17 +771,6 @@ fn load_drl_only(dirs: &[PathBuf]) -> Result<(Vec<Sequence>, Option<String>), De
     Ok((seqs, (!counts.is_empty()).then(|| counts.join(" + "))))
 }
 
-/// Display names of the surrogates MSRA combines (its "inputs" for the claims).
-pub fn msra_input_names(config: &TrainConfig) -> Vec<String> {
-    config
-        .msra
-        .surrogates
-        .iter()
-        .filter_map(|n| riskscore_train::train::msra::parse_surrogate(n))
-        .map(|k| k.name().to_string())
-        .collect()
-}
-
 /// Stage 3c: the default rounds of `riskctl benchmark domains`, short (`settings`' folds and
 /// seeds): train without a speed band, a city or a geometry, test on it. Simulates its own two
 /// folders with the operating-domain families (the training one at the demo's seed, the test one
@@ -909,13 +843,23 @@ fn domain_benchmark(
     Ok(result.bundle()?.write_to(&report_dir.join("domains"))?)
 }
 
-/// Write the transfer benchmark's report files into `dir`; returns the paths.
+/// Write the transfer benchmark's report files into `dir`, its `claims` as `claims.md` and
+/// `claims.csv` among them; returns the paths.
 pub fn write_transfer_report(
     dir: &Path,
     result: &riskscore_train::transfer::TransferResult,
+    claims: &[Claim],
 ) -> Result<Vec<PathBuf>, DemoError> {
     let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
     bundle.add_json("splits.json", &result.splits)?;
+    bundle.add("claims.md", claims::to_markdown(claims));
+    bundle.add_csv("claims.csv", |w| {
+        let mut w = csv::Writer::from_writer(w);
+        w.write_record(claims::CSV_COLUMNS)?;
+        claims::write_csv_rows(&mut w, &[], claims)?;
+        w.flush()?;
+        Ok(())
+    })?;
     Ok(bundle.write_to(dir)?)
 }
 
@@ -932,31 +876,9 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
 }
 
-/// A claim's verdict: `ok`, `FAIL`, or `n/a` where the baseline has no value (e.g. a baseline
-/// that never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
-pub fn verdict(c: &Claim) -> &'static str {
-    match (c.method_mean, c.baseline_mean) {
-        (Some(_), None) => "n/a",
-        _ if c.holds => "ok",
-        _ => "FAIL",
-    }
-}
-
-/// Print claims as `[ok]` / `[FAIL]` / `[n/a]` lines under a title.
+/// Print claims as `[ok]` / `[FAIL]` / `[n/a]` lines under a title, each with its run tally.
 pub fn print_claims(title: &str, claims: &[Claim]) {
-    println!("{title}");
-    for c in claims {
-        println!(
-            "  [{}] {} {} {} vs {} {}",
-            verdict(c),
-            c.method,
-            c.metric,
-            fmt_opt(c.method_mean),
-            c.baseline,
-            fmt_opt(c.baseline_mean)
-        );
-    }
-    println!();
+    print!("{}", claims::to_text(title, claims));
 }
 
 /// What the metric names in the tables and claims mean.

@@ -1,8 +1,9 @@
 //! `riskctl benchmark domains` end to end on tiny data: the JSON shape (one `riskctl evaluate`
 //! row group per round, the real-safe share per method), the report folder, a real-city round,
 //! the errors for an empty round and an output that is an input, and `--sequences-out` (its rows
-//! give back every run's report; the report is the same without it).
-use std::collections::BTreeMap;
+//! give back every run's report; the report is the same without it) and the claims (each run
+//! tally recomputed from the fold and share files).
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -238,6 +239,132 @@ fn a_tiny_run_reports_each_round_like_evaluate_plus_the_real_safe_share() {
     );
     assert!(md.contains("90 %-recall threshold"), "{md}");
     assert!(md.contains("Outside the training domain"), "{md}");
+    assert!(md.contains("| DRL > TAdv on A_ROC_90 |"), "{md}");
+    claims_are_the_runs_paired(&report, &json);
+}
+
+/// Every row of `claims.csv` recomputed from the other report files: its means from
+/// `domains.json`, its verdict from the means, its run tally from `<round>.folds.csv` (or
+/// `shares.csv` for the real-safe share) paired by seed and fold; and the claims `domains.json`
+/// carries are the same rows.
+fn claims_are_the_runs_paired(report: &Path, json: &Value) {
+    let (header, claims) = csv_rows(&report.join("claims.csv"));
+    assert_eq!(
+        header.join(","),
+        "round,method,baseline,metric,rule,method_mean,baseline_mean,verdict,runs_holding,runs_compared"
+    );
+    let rule = |r: &str, m: f64, b: f64| match r {
+        ">" => m > b,
+        ">=" => m >= b,
+        "<=" => m <= b,
+        other => panic!("rule {other}"),
+    };
+    let cell = |v: &str| (!v.is_empty()).then(|| v.parse::<f64>().unwrap());
+    let (_, shares) = csv_rows(&report.join("shares.csv"));
+    let mut per_round = BTreeMap::<String, usize>::new();
+    let mut seen = BTreeSet::new();
+    for c in &claims {
+        let round = &c["round"];
+        *per_round.entry(round.clone()).or_default() += 1;
+        seen.insert((
+            c["method"].clone(),
+            c["baseline"].clone(),
+            c["metric"].clone(),
+        ));
+        let r = json["rounds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["round"] == round.as_str())
+            .unwrap();
+        let share_claim = c["metric"] == "real_safe_above_recall_90";
+        let mean = |name: &str| {
+            let m = r["methods"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|m| m["name"] == name)
+                .unwrap();
+            if share_claim {
+                m["real_safe_above_recall_90"]["mean"].as_f64()
+            } else {
+                m[c["metric"].as_str()].as_f64()
+            }
+        };
+        let (m, b) = (mean(&c["method"]), mean(&c["baseline"]));
+        let close = |x: Option<f64>, y: Option<f64>| match (x, y) {
+            (Some(x), Some(y)) => (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+            (x, y) => x.is_none() && y.is_none(),
+        };
+        assert!(close(cell(&c["method_mean"]), m), "{c:?}");
+        assert!(close(cell(&c["baseline_mean"]), b), "{c:?}");
+        let verdict = match (m, b) {
+            (Some(_), None) => "n/a",
+            (Some(m), Some(b)) if rule(&c["rule"], m, b) => "ok",
+            _ => "FAIL",
+        };
+        assert_eq!(c["verdict"], verdict, "{c:?}");
+        // The run values, by (seed, fold), of a method.
+        let runs = |name: &str| -> BTreeMap<(String, String), Option<f64>> {
+            if share_claim {
+                shares
+                    .iter()
+                    .filter(|s| s["round"] == *round && s["method"] == name)
+                    .map(|s| {
+                        let of: f64 = s["of"].parse().unwrap();
+                        let pct = (!s["threshold"].is_empty() && of > 0.0)
+                            .then(|| 100.0 * s["above"].parse::<f64>().unwrap() / of);
+                        ((s["seed"].clone(), s["fold"].clone()), pct)
+                    })
+                    .collect()
+            } else {
+                let (_, folds) = csv_rows(&report.join(format!("{round}.folds.csv")));
+                folds
+                    .iter()
+                    .filter(|f| f["method"] == name)
+                    .map(|f| {
+                        (
+                            (f["seed"].clone(), f["fold"].clone()),
+                            cell(&f[c["metric"].as_str()]),
+                        )
+                    })
+                    .collect()
+            }
+        };
+        let (mine, theirs) = (runs(&c["method"]), runs(&c["baseline"]));
+        assert_eq!(mine.len(), 2, "{c:?}: 1 seed x 2 folds");
+        let (mut holding, mut compared) = (0, 0);
+        for (run, b) in &theirs {
+            let Some(b) = b else { continue };
+            compared += 1;
+            holding += usize::from(mine[run].is_some_and(|m| rule(&c["rule"], m, *b)));
+        }
+        assert_eq!(c["runs_holding"], holding.to_string(), "{c:?}");
+        assert_eq!(c["runs_compared"], compared.to_string(), "{c:?}");
+        let listed = r["claims"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|j| {
+                j["method"] == c["method"].as_str()
+                    && j["baseline"] == c["baseline"].as_str()
+                    && j["metric"] == c["metric"].as_str()
+            })
+            .unwrap_or_else(|| panic!("{c:?} not in domains.json"));
+        assert_eq!(listed["runs"]["holding"], holding);
+    }
+    // Both rounds: DRL against 3 baselines x 3 metrics, MSRA against TAdv and EI x 3, SSRA >=
+    // GSSM x 2, GSSM > TTC2D, DRL's real-safe share <= TAdv's.
+    assert_eq!(per_round.len(), 2);
+    assert!(
+        per_round.values().all(|&n| n == 9 + 6 + 2 + 1 + 1),
+        "{per_round:?}"
+    );
+    assert!(seen.contains(&(
+        "DRL".to_string(),
+        "TAdv".to_string(),
+        "real_safe_above_recall_90".to_string()
+    )));
 }
 
 #[test]

@@ -28,6 +28,7 @@
 #[cfg(feature = "arrow")]
 pub mod arrow_kernel;
 pub mod bundle;
+pub mod claims;
 pub mod domain_ranges;
 pub mod domain_share;
 #[cfg(feature = "plots")]

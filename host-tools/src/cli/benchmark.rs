@@ -3,11 +3,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    acceptance_claims, default_real_city_data, default_real_data, msra_input_names, print_claims,
-    write_transfer_report, Claim, REAL_DATA,
+    default_real_city_data, default_real_data, print_claims, write_transfer_report, REAL_DATA,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
+use riskscore_eval::claims::acceptance_claims;
 use riskscore_train::domains::{self, DomainData, Round, SequenceSink, SequencesCsv};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
@@ -30,7 +30,8 @@ pub enum Command {
     /// MSRA train as in the demo's cross-validation, the GSSM is fitted on every safe training
     /// sequence, simulated and real (normal driving, as the shipped GSSM is), and aligned to SSRA.
     /// Every model is scored through its exported blob, and the table (and --json) has the schema
-    /// of `riskctl evaluate`.
+    /// of `riskctl evaluate`. The acceptance claims follow, on the fold means and with the number
+    /// of runs (folds x seeds) in which each holds (also report/claims.csv).
     Transfer(TransferArgs),
     /// Hold one slice of the operating domain out per round: train without it, test on it.
     ///
@@ -42,7 +43,9 @@ pub enum Command {
     /// sequences inside it (a real-city slice's conflicts: the test simulation's conflicts in the
     /// geometry and speed cells the city's sequences occupy). Models train as in `benchmark
     /// transfer`; one `riskctl evaluate` table (and JSON row group) per round, plus per method the
-    /// share of real safe sequences above its 90 %-recall threshold. See docs/evaluation.md.
+    /// share of real safe sequences above its 90 %-recall threshold, and the acceptance claims on
+    /// the fold means with the number of runs in which each holds (report/claims.csv). See
+    /// docs/evaluation.md.
     Domains(DomainsArgs),
 }
 
@@ -292,7 +295,8 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     let options = a.training.options(a.quiet);
     let result = transfer::run(&data, &config, &gssm_config, &options)?;
     host_tools::warnings::print(&result.warnings);
-    write_transfer_report(&a.out.join("report"), &result)?;
+    let claims = acceptance_claims(&result.report, &result.folds, &config.msra.input_names());
+    write_transfer_report(&a.out.join("report"), &result, &claims)?;
     if a.json {
         println!(
             "{}",
@@ -303,8 +307,8 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     print!("{}", result.report.to_markdown());
     println!();
     print_claims(
-        "Claims (fold means, strictly better unless marked >=):",
-        &acceptance_claims(&result.report, &msra_input_names(&config)),
+        "Claims (fold means, strictly better unless marked >=; runs paired fold by fold):",
+        &claims,
     );
     eprintln!("riskctl: report in {}", a.out.join("report").display());
     Ok(())
@@ -378,7 +382,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
         print!("{}", result.to_markdown());
-        print_round_claims(&result, &msra_input_names(&config));
+        print_round_claims(&result);
     }
     eprintln!("riskctl: report in {}", report_dir.display());
     Ok(())
@@ -486,31 +490,9 @@ fn write_sequences<T>(
     Ok(result)
 }
 
-/// The claims per run round: the acceptance claims of the transfer benchmark, and DRL's
-/// real safe sequences above its 90 %-recall threshold against TAdv's (fewer or as many).
-fn print_round_claims(result: &domains::DomainsResult, msra_inputs: &[String]) {
-    for outcome in &result.rounds {
-        let domains::RoundOutcome::Ran(r) = outcome else {
-            continue;
-        };
-        let share = |method: &str| {
-            domains::share::summarise(&r.shares, method)
-                .percent
-                .map(|p| p.mean)
-        };
-        let (drl, tadv) = (share("DRL"), share("TAdv"));
-        let mut claims = acceptance_claims(&r.report, msra_inputs);
-        // Without real safe test sequences there is no share to compare.
-        if drl.is_some() || tadv.is_some() {
-            claims.push(Claim {
-                method: "DRL".into(),
-                baseline: "TAdv".into(),
-                metric: "real safe above 90 %-recall threshold % (<=)".into(),
-                method_mean: drl,
-                baseline_mean: tadv,
-                holds: matches!((drl, tadv), (Some(d), Some(t)) if d <= t),
-            });
-        }
+/// The claims of every run round ([`domains::claims`]), printed under the round's name.
+fn print_round_claims(result: &domains::DomainsResult) {
+    for (r, claims) in result.claims() {
         let small = if r.counts.is_small() {
             " [small slice: read with care]"
         } else {

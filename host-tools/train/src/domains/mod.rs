@@ -7,8 +7,10 @@
 //! - [`rounds`]: the rounds, what each holds out, and the train/test split of a fold.
 //! - [`share`]: real safe sequences above a method's 90 %-recall threshold.
 //! - [`run`]: one round over folds x seeds.
+//! - [`claims`]: a round's acceptance claims, on the means and run by run.
 //! - [`report`]: the tables, JSON and report folder.
 //! - [`sequences`]: the per-sequence rows of every run (`--sequences-out`).
+pub mod claims;
 pub mod report;
 pub mod rounds;
 pub mod run;
@@ -67,7 +69,10 @@ pub fn run(
             }
         });
     }
-    Ok(DomainsResult { rounds: outcomes })
+    Ok(DomainsResult {
+        rounds: outcomes,
+        msra_inputs: config.msra.input_names(),
+    })
 }
 
 #[cfg(test)]

@@ -1,12 +1,15 @@
 //! The domain benchmark's report: per round the table and JSON of `riskctl evaluate` (mean ± std
 //! over folds x seeds), each method row with the share of real safe sequences above its 90 %-recall
-//! threshold, and the slice's counts (flagged below [`SMALL_SLICE`]); rounds without data say so.
+//! threshold, the slice's counts (flagged below [`SMALL_SLICE`]) and the acceptance claims with
+//! their run tallies ([`super::claims`]); rounds without data say so.
 use serde_json::{json, Value};
 
+use super::claims::round_claims;
 use super::rounds::{Round, SliceCounts, SMALL_SLICE};
 use super::run::RoundResult;
 use super::share::{summarise, ShareSummary, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
+use riskscore_eval::claims::{self, Claim, CSV_COLUMNS};
 use riskscore_eval::report::write_folds_csv;
 
 /// The JSON key of the share in a method row.
@@ -43,6 +46,8 @@ impl RoundOutcome {
 #[derive(Clone, Debug, Default)]
 pub struct DomainsResult {
     pub rounds: Vec<RoundOutcome>,
+    /// Display names of MSRA's inputs, the baselines its claims compare it with.
+    pub msra_inputs: Vec<String>,
 }
 
 fn slice_json(counts: &SliceCounts) -> Value {
@@ -75,6 +80,14 @@ fn share_cell(s: &ShareSummary) -> String {
 }
 
 impl DomainsResult {
+    /// The claims of every run round, in round order.
+    pub fn claims(&self) -> impl Iterator<Item = (&RoundResult, Vec<Claim>)> {
+        self.rounds.iter().filter_map(|outcome| match outcome {
+            RoundOutcome::Ran(r) => Some((r.as_ref(), round_claims(r, &self.msra_inputs))),
+            RoundOutcome::NoData { .. } => None,
+        })
+    }
+
     /// Every run round's warnings for the user, in round order ([`RoundResult::warnings`]).
     pub fn warnings(&self) -> impl Iterator<Item = &String> {
         self.rounds.iter().flat_map(|outcome| match outcome {
@@ -84,8 +97,8 @@ impl DomainsResult {
     }
 
     /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
-    /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice` and, in each method row,
-    /// [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.
+    /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice`, `claims` and, in each method
+    /// row, [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.
     pub fn to_json(&self) -> Value {
         let rounds: Vec<Value> = self
             .rounds
@@ -102,6 +115,8 @@ impl DomainsResult {
                             }
                         }
                         v["domain"] = r.domain.iter().map(|d| d.to_json()).collect();
+                        v["claims"] = serde_json::to_value(round_claims(r, &self.msra_inputs))
+                            .unwrap_or_default();
                         v["status"] = "ok".into();
                         v
                     }
@@ -116,7 +131,7 @@ impl DomainsResult {
         json!({ "rounds": rounds })
     }
 
-    /// One section per round: counts, the results table, the real-safe shares.
+    /// One section per round: counts, the results table, the real-safe shares, the claims.
     pub fn to_markdown(&self) -> String {
         let mut out = String::new();
         for outcome in &self.rounds {
@@ -150,6 +165,11 @@ impl DomainsResult {
                         ));
                     }
                     out.push_str(&riskscore_eval::domain_share::markdown(&r.domain));
+                    out.push_str(&format!(
+                        "\nClaims (on the fold means; runs = the {} folds x seeds, each method paired on the same test set):\n\n",
+                        r.report.runs
+                    ));
+                    out.push_str(&claims::to_markdown(&round_claims(r, &self.msra_inputs)));
                     out.push('\n');
                 }
             }
@@ -158,7 +178,8 @@ impl DomainsResult {
     }
 
     /// The report folder: `domains.md`, `domains.json`, `shares.csv` (every method, fold and
-    /// seed), `splits.json` (the sets of every fold) and `<round>.folds.csv` per run round.
+    /// seed), `claims.csv` (every round's claims), `splits.json` (the sets of every fold) and
+    /// `<round>.folds.csv` per run round.
     pub fn bundle(&self) -> Result<ReportBundle, BundleError> {
         let mut bundle = ReportBundle::default();
         bundle.add("domains.md", self.to_markdown());
@@ -194,6 +215,17 @@ impl DomainsResult {
                         s.of.to_string(),
                     ])?;
                 }
+            }
+            w.flush()?;
+            Ok(())
+        })?;
+        bundle.add_csv("claims.csv", |w| {
+            let mut w = csv::Writer::from_writer(w);
+            let mut header = vec!["round"];
+            header.extend(CSV_COLUMNS);
+            w.write_record(&header)?;
+            for (r, round_claims) in self.claims() {
+                claims::write_csv_rows(&mut w, &[&r.round.name], &round_claims)?;
             }
             w.flush()?;
             Ok(())

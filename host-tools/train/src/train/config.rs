@@ -145,6 +145,16 @@ impl Default for MsraConfig {
 }
 
 impl MsraConfig {
+    /// Display names of the surrogates MSRA combines (`TAdv`, `EI`): its inputs, the baselines
+    /// it must beat (`riskscore_eval::claims`).
+    pub fn input_names(&self) -> Vec<String> {
+        self.surrogates
+            .iter()
+            .filter_map(|n| super::msra::parse_surrogate(n))
+            .map(|k| k.name().to_string())
+            .collect()
+    }
+
     /// Clip range `[lo, hi]` of surrogate `kind`'s transform under this configuration.
     pub fn range(&self, kind: SurrogateKind) -> (f32, f32) {
         use scorer_core::SurrogateKind::{Tadv, Ttc2d};

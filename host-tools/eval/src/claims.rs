@@ -1,0 +1,343 @@
+//! Acceptance claims: "method beats baseline on a metric", checked on the fold means and, run by
+//! run, on every fold × seed, so a report says both whether a claim holds and how consistently.
+//!
+//! A mean can fail on two outlying folds while the method wins most runs, or pass on one lucky
+//! fold; the run tally (`holds in k of n runs`) tells the two apart without a second tool. Each run
+//! compares the two methods on the same test set, so the tally is paired.
+//!
+//! The standard list ([`acceptance_claims`]): DRL beats each kinematic baseline on A_ROC_90,
+//! P_PRC_90 and mTTI_90; MSRA beats each of its inputs on the same; where the report has them,
+//! SSRA is at least GSSM on A_ROC_90 and P_PRC_90 and GSSM beats TTC2D on A_ROC_90.
+use std::io::Write;
+
+use serde::Serialize;
+
+use crate::metrics::Metric;
+use crate::protocol::Baseline;
+use crate::report::{CvReport, FoldResult};
+
+/// How a claim compares the method's value `m` with the baseline's `b`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rule {
+    /// `m > b`: strictly better, where larger is better.
+    Greater,
+    /// `m >= b`.
+    AtLeast,
+    /// `m <= b`: no worse, where smaller is better (a false-alarm share).
+    AtMost,
+}
+
+impl Rule {
+    fn holds(self, m: f64, b: f64) -> bool {
+        match self {
+            Rule::Greater => m > b,
+            Rule::AtLeast => m >= b,
+            Rule::AtMost => m <= b,
+        }
+    }
+
+    /// The comparison as printed: `>`, `>=`, `<=`.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Rule::Greater => ">",
+            Rule::AtLeast => ">=",
+            Rule::AtMost => "<=",
+        }
+    }
+}
+
+/// Whether `m` satisfies `rule` against `b`: a baseline without a value has nothing to beat (the
+/// claim holds, and [`verdict`] says `n/a`); a method without a value loses to one with.
+fn holds(rule: Rule, m: Option<f64>, b: Option<f64>) -> bool {
+    match (m, b) {
+        (Some(m), Some(b)) => rule.holds(m, b),
+        (Some(_), None) => true,
+        (None, _) => false,
+    }
+}
+
+/// In how many runs (folds × seeds) a claim holds, paired run by run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RunTally {
+    /// Runs in which the claim holds.
+    pub holding: usize,
+    /// Runs in which the baseline has a value (the others have nothing to beat).
+    pub compared: usize,
+}
+
+impl RunTally {
+    /// The tally of `runs`, each `(method value, baseline value)` of one run.
+    pub fn of(rule: Rule, runs: impl IntoIterator<Item = (Option<f64>, Option<f64>)>) -> Self {
+        let mut tally = RunTally::default();
+        for (m, b) in runs {
+            if b.is_some() {
+                tally.compared += 1;
+                tally.holding += usize::from(holds(rule, m, b));
+            }
+        }
+        tally
+    }
+}
+
+/// One claim, checked on the fold means and run by run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Claim {
+    pub method: String,
+    pub baseline: String,
+    /// What is compared: a metric key (`A_ROC_90`) or another report key.
+    pub metric: String,
+    pub rule: Rule,
+    pub method_mean: Option<f64>,
+    pub baseline_mean: Option<f64>,
+    /// The claim on the fold means.
+    pub holds: bool,
+    pub runs: RunTally,
+}
+
+impl Claim {
+    /// The metric as printed: marked ` (>=)` / ` (<=)` when the rule is not strict improvement.
+    pub fn label(&self) -> String {
+        match self.rule {
+            Rule::Greater => self.metric.clone(),
+            rule => format!("{} ({})", self.metric, rule.symbol()),
+        }
+    }
+
+    /// A claim on `metric` from the two means and the per-run value pairs.
+    pub fn new(
+        method: &str,
+        baseline: &str,
+        metric: String,
+        rule: Rule,
+        means: (Option<f64>, Option<f64>),
+        runs: impl IntoIterator<Item = (Option<f64>, Option<f64>)>,
+    ) -> Self {
+        Claim {
+            method: method.into(),
+            baseline: baseline.into(),
+            metric,
+            rule,
+            method_mean: means.0,
+            baseline_mean: means.1,
+            holds: holds(rule, means.0, means.1),
+            runs: RunTally::of(rule, runs),
+        }
+    }
+
+    /// `method` against `baseline` on `metric` of a CV report and the fold results it aggregates.
+    pub fn on_metric(
+        report: &CvReport,
+        folds: &[FoldResult],
+        method: &str,
+        baseline: &str,
+        metric: Metric,
+        rule: Rule,
+    ) -> Self {
+        let value = |fold: &FoldResult, name: &str| {
+            fold.methods
+                .iter()
+                .find(|m| m.name == name)
+                .and_then(|m| m.metrics.get(metric))
+        };
+        Claim::new(
+            method,
+            baseline,
+            metric.key().to_string(),
+            rule,
+            (report.mean(method, metric), report.mean(baseline, metric)),
+            folds.iter().map(|f| (value(f, method), value(f, baseline))),
+        )
+    }
+}
+
+/// `ok`, `FAIL`, or `n/a` where the baseline has no value on the means (e.g. a baseline that
+/// never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
+pub fn verdict(c: &Claim) -> &'static str {
+    match (c.method_mean, c.baseline_mean) {
+        (Some(_), None) => "n/a",
+        _ if c.holds => "ok",
+        _ => "FAIL",
+    }
+}
+
+/// The standard claims (module doc) of a CV report; `msra_inputs` are the display names of the
+/// surrogates MSRA combines. Claims whose method is not in the report are left out.
+pub fn acceptance_claims(
+    report: &CvReport,
+    folds: &[FoldResult],
+    msra_inputs: &[String],
+) -> Vec<Claim> {
+    let has = |name: &str| report.methods.iter().any(|m| m.name == name);
+    let mut claims = Vec::new();
+    let mut add = |method: &str, baseline: &str, metric: Metric, rule: Rule| {
+        if has(method) && has(baseline) {
+            claims.push(Claim::on_metric(
+                report, folds, method, baseline, metric, rule,
+            ));
+        }
+    };
+    for metric in [Metric::ARoc90, Metric::PPrc90] {
+        add("SSRA", "GSSM", metric, Rule::AtLeast);
+    }
+    add(
+        "GSSM",
+        Baseline::Ttc2d.name(),
+        Metric::ARoc90,
+        Rule::Greater,
+    );
+    let beats = [Metric::ARoc90, Metric::PPrc90, Metric::MTti90];
+    for baseline in Baseline::ALL.map(Baseline::name) {
+        for metric in beats {
+            add("DRL", baseline, metric, Rule::Greater);
+        }
+    }
+    for input in msra_inputs {
+        for metric in beats {
+            add("MSRA", input, metric, Rule::Greater);
+        }
+    }
+    claims
+}
+
+fn cell(v: Option<f64>) -> String {
+    v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
+}
+
+/// `holds in k of n runs`, or `no run to compare` when the baseline never had a value.
+pub fn tally_text(t: RunTally) -> String {
+    if t.compared == 0 {
+        "no run to compare".into()
+    } else {
+        format!("holds in {} of {} runs", t.holding, t.compared)
+    }
+}
+
+/// `[ok] DRL A_ROC_90 91.10 vs TAdv 85.80 (holds in 14 of 15 runs)`, one line per claim, under
+/// `title`, and a blank line.
+pub fn to_text(title: &str, claims: &[Claim]) -> String {
+    let mut out = format!("{title}\n");
+    for c in claims {
+        out.push_str(&format!(
+            "  [{}] {} {} {} vs {} {} ({})\n",
+            verdict(c),
+            c.method,
+            c.label(),
+            cell(c.method_mean),
+            c.baseline,
+            cell(c.baseline_mean),
+            tally_text(c.runs)
+        ));
+    }
+    out.push('\n');
+    out
+}
+
+/// A Markdown table of `claims`: the comparison, both means, the verdict and the run tally.
+pub fn to_markdown(claims: &[Claim]) -> String {
+    let mut out = String::from(
+        "| Claim | Method | Baseline | On the means | Runs where it holds |\n|---|---:|---:|---|---:|\n",
+    );
+    for c in claims {
+        let runs = if c.runs.compared == 0 {
+            "n/a".to_string()
+        } else {
+            format!("{} of {}", c.runs.holding, c.runs.compared)
+        };
+        out.push_str(&format!(
+            "| {} {} {} on {} | {} | {} | {} | {} |\n",
+            c.method,
+            c.rule.symbol(),
+            c.baseline,
+            c.metric,
+            cell(c.method_mean),
+            cell(c.baseline_mean),
+            verdict(c),
+            runs
+        ));
+    }
+    out
+}
+
+/// The header of [`write_csv_rows`], after the caller's leading columns.
+pub const CSV_COLUMNS: [&str; 9] = [
+    "method",
+    "baseline",
+    "metric",
+    "rule",
+    "method_mean",
+    "baseline_mean",
+    "verdict",
+    "runs_holding",
+    "runs_compared",
+];
+
+/// One CSV row per claim, each led by `lead` (e.g. the round's name); empty cells for values
+/// that do not exist.
+pub fn write_csv_rows<W: Write>(
+    w: &mut csv::Writer<W>,
+    lead: &[&str],
+    claims: &[Claim],
+) -> csv::Result<()> {
+    let opt = |v: Option<f64>| v.map_or_else(String::new, |x| x.to_string());
+    for c in claims {
+        let mut row: Vec<String> = lead.iter().map(|s| s.to_string()).collect();
+        row.extend([
+            c.method.clone(),
+            c.baseline.clone(),
+            c.metric.clone(),
+            c.rule.symbol().to_string(),
+            opt(c.method_mean),
+            opt(c.baseline_mean),
+            verdict(c).to_string(),
+            c.runs.holding.to_string(),
+            c.runs.compared.to_string(),
+        ]);
+        w.write_record(&row)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_baseline_without_a_value_is_na_and_not_counted_in_the_runs() {
+        let c = Claim::new(
+            "DRL",
+            "TTC2D",
+            "mTTI_90".into(),
+            Rule::Greater,
+            (Some(3.4), None),
+            [(Some(3.0), None), (Some(3.5), Some(0.7)), (None, Some(0.7))],
+        );
+        assert_eq!(verdict(&c), "n/a");
+        assert_eq!(
+            c.runs,
+            RunTally {
+                holding: 1,
+                compared: 2
+            }
+        );
+        assert_eq!(tally_text(c.runs), "holds in 1 of 2 runs");
+    }
+
+    #[test]
+    fn each_rule_decides_ties_its_own_way() {
+        let tie = |rule| Claim::new("A", "B", "m".into(), rule, (Some(1.0), Some(1.0)), []);
+        assert_eq!(verdict(&tie(Rule::Greater)), "FAIL");
+        assert_eq!(verdict(&tie(Rule::AtLeast)), "ok");
+        assert_eq!(verdict(&tie(Rule::AtMost)), "ok");
+        let below = Claim::new(
+            "A",
+            "B",
+            "m".into(),
+            Rule::AtMost,
+            (Some(2.0), Some(1.0)),
+            [],
+        );
+        assert_eq!(verdict(&below), "FAIL");
+        assert_eq!(tally_text(below.runs), "no run to compare");
+    }
+}
