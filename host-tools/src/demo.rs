@@ -10,10 +10,11 @@
 //! - `transfer-data/`: the simulated test folder of the transfer benchmark;
 //! - `extra-data/`: the training-only simulated folder of the recipe ([`ExtraTraining`]);
 //! - `report/`: `results.{md,csv,json}` (mean ± std over folds), `folds.csv`, `curves.csv`
-//!   (pooled out-of-fold operating points), `training.json` (comparisons, training, quantisation and
-//!   stage statistics), `transfer/` (the transfer benchmark's `results.{md,csv,json}`, `folds.csv`,
-//!   `splits.json`), `domains/` (the short domain benchmark's `domains.{md,json}`, per-round
-//!   folds and the real-safe shares);
+//!   (pooled out-of-fold operating points), `claims.{md,csv}` (the acceptance claims with their
+//!   run tallies), `training.json` (comparisons, training, quantisation and stage statistics),
+//!   `transfer/` (the transfer benchmark's `results.{md,csv,json}`, `folds.csv`, `splits.json`,
+//!   `claims.{md,csv}`), `domains/` (the short domain benchmark's `domains.{md,json}`, per-round
+//!   folds, the real-safe shares and `claims.csv`);
 //! - `domains-data/`: the domain benchmark's two simulated folders (`train/`, `test/`);
 //! - `models/`: `drl.rsk` (int8), `drl-f32.rsk`, `msra.rsk`, and their checkpoints `drl.json`,
 //!   `msra.json`;
@@ -472,12 +473,14 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let events_counts = EventCounts::from_classes(seqs.iter().map(|s| s.kind));
     let results: Vec<_> = folds.iter().map(|f| f.result.clone()).collect();
     let report = eval::aggregate(events_counts, &results);
+    let claims = acceptance_claims(&report, &results, &opts.config.msra.input_names());
 
     // 3. Report.
     let t0 = Instant::now();
     eprintln!("[3/6] writing the reports");
     let report_dir = opts.out.join("report");
     let mut bundle = eval::bundle::cv_report_bundle(&report, &results)?;
+    claims::add_to(&mut bundle, &claims)?;
     // Pooled out-of-fold scores of the first seed: every event exactly once.
     let pooled = pooled_runs(&folds[..first_seed_folds]);
     let (_, pooled_runs) = eval::evaluate_scored(pooled.clone())?;
@@ -644,8 +647,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             .iter()
             .filter_map(|f| f.msra.as_ref().map(|r| r.epochs_per_second)),
     );
-    let msra_inputs = opts.config.msra.input_names();
-    let claims = acceptance_claims(&report, &results, &msra_inputs);
     let training = json!({
         "folds": folds.iter().map(|f| json!({
             "seed": f.result.seed,
@@ -852,14 +853,7 @@ pub fn write_transfer_report(
 ) -> Result<Vec<PathBuf>, DemoError> {
     let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
     bundle.add_json("splits.json", &result.splits)?;
-    bundle.add("claims.md", claims::to_markdown(claims));
-    bundle.add_csv("claims.csv", |w| {
-        let mut w = csv::Writer::from_writer(w);
-        w.write_record(claims::CSV_COLUMNS)?;
-        claims::write_csv_rows(&mut w, &[], claims)?;
-        w.flush()?;
-        Ok(())
-    })?;
+    claims::add_to(&mut bundle, claims)?;
     Ok(bundle.write_to(dir)?)
 }
 

@@ -124,6 +124,8 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "report/results.json",
         "report/folds.csv",
         "report/curves.csv",
+        "report/claims.md",
+        "report/claims.csv",
         "report/sequence_maxima.csv",
         "report/training.json",
         "report/transfer/results.md",

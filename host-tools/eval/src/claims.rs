@@ -12,6 +12,7 @@ use std::io::Write;
 
 use serde::Serialize;
 
+use crate::bundle::{BundleError, ReportBundle};
 use crate::metrics::Metric;
 use crate::protocol::Baseline;
 use crate::report::{CvReport, FoldResult};
@@ -296,6 +297,19 @@ pub fn write_csv_rows<W: Write>(
         w.write_record(&row)?;
     }
     Ok(())
+}
+
+/// Adds `claims.md` ([`to_markdown`]) and `claims.csv` ([`CSV_COLUMNS`], one row per claim) to
+/// a report folder.
+pub fn add_to(bundle: &mut ReportBundle, claims: &[Claim]) -> Result<(), BundleError> {
+    bundle.add("claims.md", to_markdown(claims));
+    bundle.add_csv("claims.csv", |w| {
+        let mut w = csv::Writer::from_writer(w);
+        w.write_record(CSV_COLUMNS)?;
+        write_csv_rows(&mut w, &[], claims)?;
+        w.flush()?;
+        Ok(())
+    })
 }
 
 #[cfg(test)]
