@@ -3,9 +3,8 @@
 //! 90 %-recall threshold than TAdv at its own, each with its run-by-run tally.
 use riskscore_eval::claims::{acceptance_claims, Claim, Rule};
 
-use super::report::SHARE_KEY;
 use super::run::RoundResult;
-use super::share::{summarise, ShareRun};
+use super::share::{summarise, ShareRun, SHARE_KEY};
 
 /// The claims of `round`; `msra_inputs` as for [`acceptance_claims`]. The share claim is left
 /// out where neither method has a share (no real safe test sequences).

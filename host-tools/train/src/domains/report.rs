@@ -7,13 +7,10 @@ use serde_json::{json, Value};
 use super::claims::round_claims;
 use super::rounds::{Round, SliceCounts, SMALL_SLICE};
 use super::run::RoundResult;
-use super::share::{summarise, ShareSummary, SHARE_RECALL_PERCENT};
+use super::share::{summarise, ShareSummary, SHARE_KEY, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
 use riskscore_eval::claims::{self, Claim, CSV_COLUMNS};
 use riskscore_eval::report::write_folds_csv;
-
-/// The JSON key of the share in a method row.
-pub const SHARE_KEY: &str = "real_safe_above_recall_90";
 
 /// What became of one round.
 #[derive(Clone, Debug)]

@@ -9,6 +9,8 @@ use riskscore_eval::{MethodRun, Stat, WarningCurve};
 
 /// The recall (percent) whose threshold the share is read at.
 pub const SHARE_RECALL_PERCENT: u32 = 90;
+/// The JSON key of the share in a method row (and the metric of its claim).
+pub const SHARE_KEY: &str = "real_safe_above_recall_90";
 
 /// The highest threshold at which the curve warns at least `percent` % of its conflicts; `None`
 /// without conflicts (or when no threshold reaches it).
