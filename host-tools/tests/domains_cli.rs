@@ -263,6 +263,7 @@ fn claims_are_the_runs_paired(report: &Path, json: &Value) {
     let (_, shares) = csv_rows(&report.join("shares.csv"));
     let mut per_round = BTreeMap::<String, usize>::new();
     let mut seen = BTreeSet::new();
+    let mut tallies = BTreeSet::new();
     for c in &claims {
         let round = &c["round"];
         *per_round.entry(round.clone()).or_default() += 1;
@@ -352,7 +353,20 @@ fn claims_are_the_runs_paired(report: &Path, json: &Value) {
             })
             .unwrap_or_else(|| panic!("{c:?} not in domains.json"));
         assert_eq!(listed["runs"]["holding"], holding);
+        assert_eq!(listed["runs"]["compared"], compared);
+        assert_eq!(listed["verdict"], verdict);
+        let json_rule = match c["rule"].as_str() {
+            ">" => "greater",
+            ">=" => "at_least",
+            _ => "at_most",
+        };
+        assert_eq!(listed["rule"], json_rule, "{c:?}");
+        tallies.insert((holding, compared));
     }
+    // The tallies are not all alike (the checks above would pass on all-zero ones): some claim
+    // holds in every compared run, and some in none.
+    assert!(tallies.iter().any(|&(k, n)| n > 0 && k == n), "{tallies:?}");
+    assert!(tallies.iter().any(|&(k, n)| n > 0 && k == 0), "{tallies:?}");
     // Both rounds: DRL against 3 baselines x 3 metrics, MSRA against TAdv and EI x 3, SSRA >=
     // GSSM x 2, GSSM > TTC2D, DRL's real-safe share <= TAdv's.
     assert_eq!(per_round.len(), 2);

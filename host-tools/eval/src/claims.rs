@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::bundle::{BundleError, ReportBundle};
 use crate::metrics::Metric;
 use crate::protocol::Baseline;
-use crate::report::{CvReport, FoldResult};
+use crate::report::{csv_cell, format_value, CvReport, FoldResult};
 
 /// How a claim compares the method's value `m` with the baseline's `b`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -91,8 +91,10 @@ pub struct Claim {
     pub rule: Rule,
     pub method_mean: Option<f64>,
     pub baseline_mean: Option<f64>,
-    /// The claim on the fold means.
+    /// The claim on the fold means (also where the baseline has no mean: nothing to beat).
     pub holds: bool,
+    /// `ok`, `FAIL` or `n/a` ([`verdict`]).
+    pub verdict: &'static str,
     pub runs: RunTally,
 }
 
@@ -114,6 +116,7 @@ impl Claim {
         means: (Option<f64>, Option<f64>),
         runs: impl IntoIterator<Item = (Option<f64>, Option<f64>)>,
     ) -> Self {
+        let holds = holds(rule, means.0, means.1);
         Claim {
             method: method.into(),
             baseline: baseline.into(),
@@ -121,7 +124,12 @@ impl Claim {
             rule,
             method_mean: means.0,
             baseline_mean: means.1,
-            holds: holds(rule, means.0, means.1),
+            holds,
+            verdict: match means {
+                (Some(_), None) => "n/a",
+                _ if holds => "ok",
+                _ => "FAIL",
+            },
             runs: RunTally::of(rule, runs),
         }
     }
@@ -155,15 +163,13 @@ impl Claim {
 /// `ok`, `FAIL`, or `n/a` where the baseline has no value on the means (e.g. a baseline that
 /// never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
 pub fn verdict(c: &Claim) -> &'static str {
-    match (c.method_mean, c.baseline_mean) {
-        (Some(_), None) => "n/a",
-        _ if c.holds => "ok",
-        _ => "FAIL",
-    }
+    c.verdict
 }
 
 /// The standard claims (module doc) of a CV report; `msra_inputs` are the display names of the
-/// surrogates MSRA combines. Claims whose method is not in the report are left out.
+/// surrogates MSRA combines. DRL's and MSRA's claims are always made (a report without the method
+/// fails them); SSRA's and GSSM's only where the report has both rows (the transfer and domain
+/// benchmarks).
 pub fn acceptance_claims(
     report: &CvReport,
     folds: &[FoldResult],
@@ -172,21 +178,23 @@ pub fn acceptance_claims(
     let has = |name: &str| report.methods.iter().any(|m| m.name == name);
     let mut claims = Vec::new();
     let mut add = |method: &str, baseline: &str, metric: Metric, rule: Rule| {
-        if has(method) && has(baseline) {
-            claims.push(Claim::on_metric(
-                report, folds, method, baseline, metric, rule,
-            ));
-        }
+        claims.push(Claim::on_metric(
+            report, folds, method, baseline, metric, rule,
+        ));
     };
-    for metric in [Metric::ARoc90, Metric::PPrc90] {
-        add("SSRA", "GSSM", metric, Rule::AtLeast);
+    if has("SSRA") && has("GSSM") {
+        for metric in [Metric::ARoc90, Metric::PPrc90] {
+            add("SSRA", "GSSM", metric, Rule::AtLeast);
+        }
     }
-    add(
-        "GSSM",
-        Baseline::Ttc2d.name(),
-        Metric::ARoc90,
-        Rule::Greater,
-    );
+    if has("GSSM") && has(Baseline::Ttc2d.name()) {
+        add(
+            "GSSM",
+            Baseline::Ttc2d.name(),
+            Metric::ARoc90,
+            Rule::Greater,
+        );
+    }
     let beats = [Metric::ARoc90, Metric::PPrc90, Metric::MTti90];
     for baseline in Baseline::ALL.map(Baseline::name) {
         for metric in beats {
@@ -202,7 +210,7 @@ pub fn acceptance_claims(
 }
 
 fn cell(v: Option<f64>) -> String {
-    v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
+    format_value(v, 2)
 }
 
 /// `holds in k of n runs`, or `no run to compare` when the baseline never had a value.
@@ -237,7 +245,7 @@ pub fn to_text(title: &str, claims: &[Claim]) -> String {
 /// A Markdown table of `claims`: the comparison, both means, the verdict and the run tally.
 pub fn to_markdown(claims: &[Claim]) -> String {
     let mut out = String::from(
-        "| Claim | Method | Baseline | On the means | Runs where it holds |\n|---|---:|---:|---|---:|\n",
+        "| Claim | Method mean | Baseline mean | On the means | Runs where it holds |\n|---|---:|---:|---|---:|\n",
     );
     for c in claims {
         let runs = if c.runs.compared == 0 {
@@ -260,7 +268,7 @@ pub fn to_markdown(claims: &[Claim]) -> String {
     out
 }
 
-/// The header of [`write_csv_rows`], after the caller's leading columns.
+/// The columns of `claims.csv`, after the caller's leading ones ([`write_csv`]).
 pub const CSV_COLUMNS: [&str; 9] = [
     "method",
     "baseline",
@@ -273,29 +281,36 @@ pub const CSV_COLUMNS: [&str; 9] = [
     "runs_compared",
 ];
 
-/// One CSV row per claim, each led by `lead` (e.g. the round's name); empty cells for values
-/// that do not exist.
-pub fn write_csv_rows<W: Write>(
-    w: &mut csv::Writer<W>,
-    lead: &[&str],
-    claims: &[Claim],
+/// `claims.csv`: the header `lead_columns` + [`CSV_COLUMNS`], then one row per claim of each
+/// group, led by the group's cells (e.g. a round's name); empty cells for values that do not
+/// exist, `rule` as `>`, `>=`, `<=`.
+pub fn write_csv<'c, W: Write>(
+    writer: W,
+    lead_columns: &[&str],
+    groups: impl IntoIterator<Item = (Vec<String>, &'c [Claim])>,
 ) -> csv::Result<()> {
-    let opt = |v: Option<f64>| v.map_or_else(String::new, |x| x.to_string());
-    for c in claims {
-        let mut row: Vec<String> = lead.iter().map(|s| s.to_string()).collect();
-        row.extend([
-            c.method.clone(),
-            c.baseline.clone(),
-            c.metric.clone(),
-            c.rule.symbol().to_string(),
-            opt(c.method_mean),
-            opt(c.baseline_mean),
-            verdict(c).to_string(),
-            c.runs.holding.to_string(),
-            c.runs.compared.to_string(),
-        ]);
-        w.write_record(&row)?;
+    let mut w = csv::Writer::from_writer(writer);
+    let mut header = lead_columns.to_vec();
+    header.extend(CSV_COLUMNS);
+    w.write_record(&header)?;
+    for (lead, claims) in groups {
+        for c in claims {
+            let mut row = lead.clone();
+            row.extend([
+                c.method.clone(),
+                c.baseline.clone(),
+                c.metric.clone(),
+                c.rule.symbol().to_string(),
+                csv_cell(c.method_mean),
+                csv_cell(c.baseline_mean),
+                verdict(c).to_string(),
+                c.runs.holding.to_string(),
+                c.runs.compared.to_string(),
+            ]);
+            w.write_record(&row)?;
+        }
     }
+    w.flush()?;
     Ok(())
 }
 
@@ -303,13 +318,7 @@ pub fn write_csv_rows<W: Write>(
 /// a report folder.
 pub fn add_to(bundle: &mut ReportBundle, claims: &[Claim]) -> Result<(), BundleError> {
     bundle.add("claims.md", to_markdown(claims));
-    bundle.add_csv("claims.csv", |w| {
-        let mut w = csv::Writer::from_writer(w);
-        w.write_record(CSV_COLUMNS)?;
-        write_csv_rows(&mut w, &[], claims)?;
-        w.flush()?;
-        Ok(())
-    })
+    bundle.add_csv("claims.csv", |w| write_csv(w, &[], [(Vec::new(), claims)]))
 }
 
 #[cfg(test)]

@@ -175,11 +175,11 @@ impl EvaluationReport {
     }
 }
 
-fn format_value(v: Option<f64>, decimals: usize) -> String {
+pub(crate) fn format_value(v: Option<f64>, decimals: usize) -> String {
     v.map_or_else(|| "n/a".to_owned(), |x| format!("{x:.decimals$}"))
 }
 
-fn csv_cell(v: Option<f64>) -> String {
+pub(crate) fn csv_cell(v: Option<f64>) -> String {
     v.map_or_else(String::new, |x| x.to_string())
 }
 

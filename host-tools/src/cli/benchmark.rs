@@ -307,7 +307,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     print!("{}", result.report.to_markdown());
     println!();
     print_claims(
-        "Claims (fold means, strictly better unless marked >=; runs paired fold by fold):",
+        "Claims (fold means, strictly better unless marked >=; a run = one fold x seed, both methods on its test set):",
         &claims,
     );
     eprintln!("riskctl: report in {}", a.out.join("report").display());
@@ -381,8 +381,8 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
+        // Each round's section ends with its claims table.
         print!("{}", result.to_markdown());
-        print_round_claims(&result);
     }
     eprintln!("riskctl: report in {}", report_dir.display());
     Ok(())
@@ -488,19 +488,4 @@ fn write_sequences<T>(
     }
     eprintln!("riskctl: {rows} per-sequence rows in {}", path.display());
     Ok(result)
-}
-
-/// The claims of every run round ([`domains::claims`]), printed under the round's name.
-fn print_round_claims(result: &domains::DomainsResult) {
-    for (r, claims) in result.claims() {
-        let small = if r.counts.is_small() {
-            " [small slice: read with care]"
-        } else {
-            ""
-        };
-        print_claims(
-            &format!("Claims, round `{}` (fold means){small}:", r.round.name),
-            &claims,
-        );
-    }
 }

@@ -69,10 +69,7 @@ pub fn run(
             }
         });
     }
-    Ok(DomainsResult {
-        rounds: outcomes,
-        msra_inputs: config.msra.input_names(),
-    })
+    Ok(DomainsResult { rounds: outcomes })
 }
 
 #[cfg(test)]

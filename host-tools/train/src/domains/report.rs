@@ -4,12 +4,11 @@
 //! their run tallies ([`super::claims`]); rounds without data say so.
 use serde_json::{json, Value};
 
-use super::claims::round_claims;
 use super::rounds::{Round, SliceCounts, SMALL_SLICE};
 use super::run::RoundResult;
 use super::share::{summarise, ShareSummary, SHARE_KEY, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
-use riskscore_eval::claims::{self, Claim, CSV_COLUMNS};
+use riskscore_eval::claims;
 use riskscore_eval::report::write_folds_csv;
 
 /// What became of one round.
@@ -43,8 +42,6 @@ impl RoundOutcome {
 #[derive(Clone, Debug, Default)]
 pub struct DomainsResult {
     pub rounds: Vec<RoundOutcome>,
-    /// Display names of MSRA's inputs, the baselines its claims compare it with.
-    pub msra_inputs: Vec<String>,
 }
 
 fn slice_json(counts: &SliceCounts) -> Value {
@@ -77,10 +74,10 @@ fn share_cell(s: &ShareSummary) -> String {
 }
 
 impl DomainsResult {
-    /// The claims of every run round, in round order.
-    pub fn claims(&self) -> impl Iterator<Item = (&RoundResult, Vec<Claim>)> {
+    /// Every run round, in round order.
+    pub fn ran(&self) -> impl Iterator<Item = &RoundResult> {
         self.rounds.iter().filter_map(|outcome| match outcome {
-            RoundOutcome::Ran(r) => Some((r.as_ref(), round_claims(r, &self.msra_inputs))),
+            RoundOutcome::Ran(r) => Some(r.as_ref()),
             RoundOutcome::NoData { .. } => None,
         })
     }
@@ -112,8 +109,7 @@ impl DomainsResult {
                             }
                         }
                         v["domain"] = r.domain.iter().map(|d| d.to_json()).collect();
-                        v["claims"] = serde_json::to_value(round_claims(r, &self.msra_inputs))
-                            .unwrap_or_default();
+                        v["claims"] = serde_json::to_value(&r.claims).unwrap_or_default();
                         v["status"] = "ok".into();
                         v
                     }
@@ -166,7 +162,7 @@ impl DomainsResult {
                         "\nClaims (on the fold means; runs = the {} folds x seeds, each method paired on the same test set):\n\n",
                         r.report.runs
                     ));
-                    out.push_str(&claims::to_markdown(&round_claims(r, &self.msra_inputs)));
+                    out.push_str(&claims::to_markdown(&r.claims));
                     out.push('\n');
                 }
             }
@@ -181,14 +177,7 @@ impl DomainsResult {
         let mut bundle = ReportBundle::default();
         bundle.add("domains.md", self.to_markdown());
         bundle.add_json("domains.json", &self.to_json())?;
-        let ran: Vec<&RoundResult> = self
-            .rounds
-            .iter()
-            .filter_map(|o| match o {
-                RoundOutcome::Ran(r) => Some(r.as_ref()),
-                RoundOutcome::NoData { .. } => None,
-            })
-            .collect();
+        let ran: Vec<&RoundResult> = self.ran().collect();
         bundle.add_csv("shares.csv", |w| {
             let mut w = csv::Writer::from_writer(w);
             w.write_record([
@@ -217,15 +206,12 @@ impl DomainsResult {
             Ok(())
         })?;
         bundle.add_csv("claims.csv", |w| {
-            let mut w = csv::Writer::from_writer(w);
-            let mut header = vec!["round"];
-            header.extend(CSV_COLUMNS);
-            w.write_record(&header)?;
-            for (r, round_claims) in self.claims() {
-                claims::write_csv_rows(&mut w, &[&r.round.name], &round_claims)?;
-            }
-            w.flush()?;
-            Ok(())
+            claims::write_csv(
+                w,
+                &["round"],
+                ran.iter()
+                    .map(|r| (vec![r.round.name.clone()], r.claims.as_slice())),
+            )
         })?;
         let splits: Vec<Value> = ran
             .iter()

@@ -5,12 +5,14 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
+use super::claims::round_claims;
 use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, SliceCounts};
 use super::sequences::{rows_of, SequenceRow, SequenceSink};
 use super::share::{share_of, ShareRun};
 use crate::gssm::GssmConfig;
 use crate::train::{Progress, TrainConfig};
 use crate::transfer::{self, Split, TransferError, TransferOptions};
+use riskscore_eval::claims::Claim;
 use riskscore_eval::domain_share::DomainShare;
 use riskscore_eval::{self as eval, CvReport, EventCounts, FoldResult};
 
@@ -78,7 +80,7 @@ pub struct RoundFoldSplit {
     pub real_test_safe: usize,
 }
 
-/// One round's result: the metrics row group, the real-safe shares, the sets.
+/// One round's result: the metrics row group, the real-safe shares, the sets, the claims.
 #[derive(Clone, Debug)]
 pub struct RoundResult {
     pub round: Round,
@@ -92,6 +94,8 @@ pub struct RoundResult {
     pub domain: Vec<DomainShare>,
     /// Every fold's warnings for the user, in fold order, prefixed with the round.
     pub warnings: Vec<String>,
+    /// The acceptance claims on the round's means, each with its run tally ([`round_claims`]).
+    pub claims: Vec<Claim>,
 }
 
 /// Hands each job's rows to the sink in job order, as soon as every earlier job has handed its
@@ -222,15 +226,18 @@ pub fn run_round(
         folds.push(fold.result);
         splits.push(fold.split);
     }
+    let report = eval::aggregate(slice_event_counts(round, data), &folds);
+    let claims = round_claims(&report, &folds, &shares, &config.msra.input_names());
     Ok(RoundResult {
         round: round.clone(),
         counts,
-        report: eval::aggregate(slice_event_counts(round, data), &folds),
+        report,
         folds,
         shares,
         splits,
         domain,
         warnings,
+        claims,
     })
 }
 
