@@ -209,10 +209,6 @@ pub fn acceptance_claims(
     claims
 }
 
-fn cell(v: Option<f64>) -> String {
-    format_value(v, 2)
-}
-
 /// `holds in k of n runs`, or `no run to compare` when the baseline never had a value.
 pub fn tally_text(t: RunTally) -> String {
     if t.compared == 0 {
@@ -232,9 +228,9 @@ pub fn to_text(title: &str, claims: &[Claim]) -> String {
             verdict(c),
             c.method,
             c.label(),
-            cell(c.method_mean),
+            format_value(c.method_mean, 2),
             c.baseline,
-            cell(c.baseline_mean),
+            format_value(c.baseline_mean, 2),
             tally_text(c.runs)
         ));
     }
@@ -259,8 +255,8 @@ pub fn to_markdown(claims: &[Claim]) -> String {
             c.rule.symbol(),
             c.baseline,
             c.metric,
-            cell(c.method_mean),
-            cell(c.baseline_mean),
+            format_value(c.method_mean, 2),
+            format_value(c.baseline_mean, 2),
             verdict(c),
             runs
         ));

@@ -24,4 +24,6 @@ pub use dir::OutputDir;
 pub use file::{AtomicFile, AtomicSet};
 pub use folders::NewFolders;
 pub use lock::OutputLock;
-pub use overlap::{is_special_file, refuse_overlaps, NamedPath, Overlap, SamePathError};
+pub use overlap::{
+    is_special_file, lies_within, refuse_overlaps, NamedPath, Overlap, SamePathError,
+};

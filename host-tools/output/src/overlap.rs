@@ -104,6 +104,36 @@ fn overlap(output: &Path, input: &Path) -> Option<Overlap> {
     None
 }
 
+/// `p` absolute, with its existing part made canonical (links and `..` resolved) and the rest
+/// appended as written (`.` and `..` there taken lexically: nothing below exists to link).
+fn resolved(p: &Path) -> PathBuf {
+    let absolute = std::env::current_dir().map_or_else(|_| p.to_path_buf(), |d| d.join(p));
+    let existing = absolute
+        .ancestors()
+        .find(|a| a.exists())
+        .unwrap_or(Path::new("/"));
+    let mut out = existing
+        .canonicalize()
+        .unwrap_or_else(|_| existing.to_path_buf());
+    for part in absolute.strip_prefix(existing).unwrap_or(Path::new("")) {
+        match part.to_str() {
+            Some(".") => {}
+            Some("..") => {
+                out.pop();
+            }
+            _ => out.push(part),
+        }
+    }
+    out
+}
+
+/// True when `path` is `folder` or lies below it, whether or not either exists yet: for an output
+/// inside a folder the run will create whole, which the inode comparison of [`refuse_overlaps`]
+/// cannot see before the folder exists.
+pub fn lies_within(path: &Path, folder: &Path) -> bool {
+    resolved(path).starts_with(resolved(folder))
+}
+
 /// True when `path` exists and is neither a regular file nor a directory (a device, FIFO or
 /// socket: written directly, never renamed over).
 pub fn is_special_file(path: &Path) -> bool {
@@ -155,6 +185,22 @@ pub fn refuse_overlaps(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lies_within_sees_folders_that_do_not_exist_yet_through_links_and_dots() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("out");
+        let report = out.join("report");
+        // Neither exists: compared as written, `.` and `..` taken lexically.
+        assert!(lies_within(&report.join("rows.csv"), &report));
+        assert!(lies_within(&out.join("x/../report/./rows.csv"), &report));
+        assert!(!lies_within(&out.join("rows.csv"), &report));
+        assert!(!lies_within(&out.join("report-2/rows.csv"), &report));
+        // A link to the parent leads into the folder to be created.
+        std::fs::create_dir(&out).unwrap();
+        std::os::unix::fs::symlink(&out, d.path().join("link")).unwrap();
+        assert!(lies_within(&d.path().join("link/report/rows.csv"), &report));
+    }
 
     #[test]
     fn the_same_file_through_links_and_dots_is_refused() {

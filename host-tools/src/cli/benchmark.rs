@@ -403,29 +403,6 @@ fn written_folders(a: &DomainsArgs) -> Vec<PathBuf> {
     folders
 }
 
-/// `p` absolute, with its existing part made canonical (links and `..` resolved) and the rest
-/// appended as written (`.` and `..` there taken lexically: nothing below exists to link).
-fn resolved(p: &Path) -> PathBuf {
-    let absolute = std::env::current_dir().map_or_else(|_| p.to_path_buf(), |d| d.join(p));
-    let existing = absolute
-        .ancestors()
-        .find(|a| a.exists())
-        .unwrap_or(Path::new("/"));
-    let mut out = existing
-        .canonicalize()
-        .unwrap_or_else(|_| existing.to_path_buf());
-    for part in absolute.strip_prefix(existing).unwrap_or(Path::new("")) {
-        match part.to_str() {
-            Some(".") => {}
-            Some("..") => {
-                out.pop();
-            }
-            _ => out.push(part),
-        }
-    }
-    out
-}
-
 /// `--sequences-out` must name a file of its own: not standard output (the report goes there),
 /// not Parquet (CSV only), and not inside a folder the run replaces whole.
 fn refuse_sequences_out(path: &Path, a: &DomainsArgs) -> anyhow::Result<()> {
@@ -442,9 +419,8 @@ fn refuse_sequences_out(path: &Path, a: &DomainsArgs) -> anyhow::Result<()> {
             super::output::left_alone(path)
         );
     }
-    let file = resolved(path);
     for folder in written_folders(a) {
-        if file.starts_with(resolved(&folder)) {
+        if riskscore_output::lies_within(path, &folder) {
             anyhow::bail!(
                 "--sequences-out {shown} lies inside {}, which this run writes whole: refusing to \
                  write into it ({}); put it beside, e.g. {}",
