@@ -436,8 +436,8 @@ pub fn policy_text(policy: OutsidePolicy) -> String {
 /// kinematic terms of `fallback_terms` (the MSRA trained beside it) aligned to the model's scores
 /// on the frames of `train` inside the measured domain ([`crate::fallback::fit`]); under `blend`
 /// also the blend record with `guard.blend_weight` (a DRL's alone: a GSSM gets `fallback`). An
-/// MSRA blob is itself a kinematic score and gets a `flag-only` record. A GSSM's domain is measured on the safe sequences of `train` alone
-/// ([`domain_sequences`]).
+/// MSRA blob is itself a kinematic score and gets a `flag-only` record. A GSSM's domain is
+/// measured on the safe sequences of `train` alone ([`domain_sequences`]).
 ///
 /// A DRL whose fallback cannot be fitted on its data (its scores fall as the kinematic score
 /// rises, too few frames inside, ...) gets a `flag-only` record instead, and the reason comes
