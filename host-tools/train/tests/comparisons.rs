@@ -205,10 +205,14 @@ fn augmentation_pairs_come_from_the_second_folder_and_are_tagged() {
         .collect();
     assert!(sim.len() >= 290, "{}", sim.len());
     for p in &sim {
-        let o = set.table.origins[p.loser as usize];
-        match o {
-            RowOrigin::Frame { augmentation, .. } => assert!(augmentation),
-            other => panic!("unexpected loser origin {other:?}"),
+        // Every recorded frame of a pair (both rows, or the one a counterfactual is made of).
+        for row in [p.winner, p.loser] {
+            match set.table.origins[row as usize] {
+                RowOrigin::Frame { augmentation, .. } => assert!(augmentation),
+                RowOrigin::Counterfactual { of } => assert!(of == p.winner || of == p.loser),
+
+                other => panic!("unexpected origin {other:?}"),
+            }
         }
     }
     // No augmentation folder: no simulation pairs even with a non-zero target.
@@ -216,43 +220,76 @@ fn augmentation_pairs_come_from_the_second_folder_and_are_tagged() {
     assert_eq!(none.pairs_of(Source::Simulation), 0);
 }
 
-#[test]
-fn physics_counterfactuals_are_riskier_per_the_core() {
-    let seqs = dataset();
-    let cfg = small_config();
-    let set = comparisons::build(&seqs, None, &cfg, 9);
+/// Checks every physics pair of `set` against the core and returns how many are lane shifts.
+fn check_physics_pairs(set: &comparisons::ComparisonSet) -> usize {
     let phys: Vec<_> = set
         .pairs
         .iter()
         .filter(|p| p.source == Source::Physics)
         .collect();
     assert_eq!(phys.len(), 400);
-    let mut strictly_closer = 0;
+    let mut strictly_ordered = 0;
+    let mut lane_shifts = 0;
     for p in &phys {
-        assert_eq!(
-            set.table.origins[p.winner as usize],
-            RowOrigin::Counterfactual { of: p.loser }
-        );
+        let counterfactual = if set.table.origins[p.winner as usize]
+            == (RowOrigin::Counterfactual { of: p.loser })
+        {
+            p.winner
+        } else {
+            // A lane shift: the recorded frame wins over its partner moved a lane aside.
+            assert_eq!(
+                set.table.origins[p.loser as usize],
+                RowOrigin::Counterfactual { of: p.winner }
+            );
+            lane_shifts += 1;
+            p.loser
+        };
+        let c = set.table.surrogates[counterfactual as usize];
+        assert!(c.box_distance > 0.0, "counterfactual in contact");
         let w = set.table.surrogates[p.winner as usize];
         let l = set.table.surrogates[p.loser as usize];
-        assert!(w.box_distance > 0.0, "counterfactual in contact");
         assert!(w.box_distance <= l.box_distance + 1e-5);
         assert!(w.ttc2d <= l.ttc2d * (1.0 + 1e-4) + 1e-4 || w.ttc2d <= l.ttc2d);
         assert!(w.tadv <= l.tadv * (1.0 + 1e-4) + 1e-4 || w.tadv <= l.tadv);
         assert!(w.ei >= l.ei - 1e-4 * (1.0 + l.ei.abs()) || w.ei >= l.ei);
         if w.box_distance < l.box_distance {
-            strictly_closer += 1;
+            strictly_ordered += 1;
         }
     }
-    // Gap and size perturbations (half of all) shrink the box distance strictly.
-    assert!(strictly_closer >= phys.len() / 2, "{strictly_closer}");
+    // Gap and size pairs (and lane shifts) order the box distance strictly; the kinds take turns.
+    let (strict, kinds) = if lane_shifts > 0 { (3, 5) } else { (2, 4) };
+    assert!(
+        strictly_ordered >= phys.len() * strict / kinds,
+        "{strictly_ordered}"
+    );
     let mean = phys.iter().map(|p| p.weight as f64).sum::<f64>() / phys.len() as f64;
     assert!((mean - 1.0).abs() < 1e-3, "{mean}");
+    lane_shifts
+}
+
+#[test]
+fn physics_counterfactuals_are_riskier_per_the_core() {
+    let seqs = dataset();
+    let cfg = small_config();
+    assert_eq!(cfg.physics.lane_shift, None, "lane shifts are opt-in");
+    let set = comparisons::build(&seqs, None, &cfg, 9);
+    assert_eq!(check_physics_pairs(&set), 0);
+}
+
+#[test]
+fn lane_shift_pairs_put_the_recorded_frame_over_the_partner_a_lane_aside() {
+    let seqs = dataset();
+    let mut cfg = small_config();
+    cfg.physics.lane_shift = Some([2.5, 4.0]);
+    let set = comparisons::build(&seqs, None, &cfg, 9);
+    // The kinds take turns: a fifth of the pairs are lane shifts.
+    assert_eq!(check_physics_pairs(&set), 400 / 5);
 }
 
 #[test]
 fn each_perturbation_changes_its_variable_in_the_risky_direction() {
-    let cfg = ComparisonConfig::default().physics;
+    let mut cfg = ComparisonConfig::default().physics;
+    cfg.lane_shift = Some([2.5, 4.0]);
     let ego = car(0.0, 0.0, 15.0);
     let partner = car(20.0, 1.0, 10.0);
     let before = scorer_core::surrogates(&ego, &partner);
@@ -261,7 +298,7 @@ fn each_perturbation_changes_its_variable_in_the_risky_direction() {
         let after = scorer_core::surrogates(&ego, &cf.partner);
         assert!(cf.magnitude > 0.0);
         assert!(
-            physics::is_riskier(&ego, &partner, &cf, &before, &after, &cfg),
+            physics::order_holds(&ego, &partner, &cf, &before, &after, &cfg),
             "{kind:?}"
         );
         match kind {
@@ -277,11 +314,60 @@ fn each_perturbation_changes_its_variable_in_the_risky_direction() {
                 assert!(cf.partner.length > partner.length && cf.partner.width > partner.width);
                 assert!(after.box_distance < before.box_distance);
             }
+            physics::Perturbation::LaneShift => {
+                // Away from the ego's axis on the partner's own side (left here), by a lane width.
+                let moved = cf.partner.y - partner.y;
+                assert!((2.5..=4.0).contains(&moved), "{moved}");
+                assert!(after.box_distance > before.box_distance);
+                assert!(after.tadv >= before.tadv && after.ei <= before.ei);
+            }
         }
     }
     // A state in contact admits no gap counterfactual.
     let touching = car(4.5, 0.0, 10.0);
     assert!(physics::perturb(&ego, &touching, physics::Perturbation::Gap, 0.5, &cfg).is_none());
+}
+
+#[test]
+fn a_partner_on_the_ego_axis_is_shifted_to_either_side_across_the_range() {
+    let mut cfg = ComparisonConfig::default().physics;
+    let ego = car(0.0, 0.0, 15.0);
+    let ahead = car(20.0, 0.0, 10.0);
+    let kind = physics::Perturbation::LaneShift;
+    assert!(
+        physics::perturb(&ego, &ahead, kind, 0.3, &cfg).is_none(),
+        "opt-in"
+    );
+    cfg.lane_shift = Some([2.5, 4.0]);
+    let shift = |u: f32| {
+        let cf = physics::perturb(&ego, &ahead, physics::Perturbation::LaneShift, u, &cfg)
+            .expect("admissible");
+        assert!((cf.partner.y.abs() - cf.magnitude).abs() < 1e-5);
+        cf.partner.y
+    };
+    let [lo, hi] = [2.5, 4.0];
+    assert!((shift(0.0) - lo).abs() < 1e-5 && (shift(0.4999) - hi).abs() < 1e-3);
+    assert!((shift(0.5) + lo).abs() < 1e-5 && (shift(0.9999) + hi).abs() < 1e-3);
+    // The shifted state is safer by every surrogate, so the recorded one wins the pair.
+    let cf = physics::perturb(&ego, &ahead, physics::Perturbation::LaneShift, 0.3, &cfg).unwrap();
+    let before = scorer_core::surrogates(&ego, &ahead);
+    let after = scorer_core::surrogates(&ego, &cf.partner);
+    assert!(physics::order_holds(
+        &ego, &ahead, &cf, &before, &after, &cfg
+    ));
+    // The same move read as "riskier" (a kind whose counterfactual wins) does not hold.
+    let as_riskier = physics::Counterfactual {
+        kind: physics::Perturbation::LateralClearance,
+        ..cf
+    };
+    assert!(!physics::order_holds(
+        &ego,
+        &ahead,
+        &as_riskier,
+        &before,
+        &after,
+        &cfg
+    ));
 }
 
 #[test]

@@ -74,6 +74,9 @@ pub struct PhysicsConfig {
     pub lateral_fraction: [f32; 2],
     /// Partner size growth factor minus one (length and width scaled by `1 + x`).
     pub size_growth: [f32; 2],
+    /// Opt-in lane-shift counterfactuals: the partner moved this far (m, ego frame) away from the
+    /// ego's axis, the safer state of its pair. `None` (the default): the four kinds only.
+    pub lane_shift: Option<[f32; 2]>,
     /// Horizon (s) over which a closing-speed counterfactual must bring the boxes closer.
     pub closing_horizon: f32,
     /// Also require that no surrogate (TTC2D, TAdv, EI) calls the counterfactual safer.
@@ -89,6 +92,7 @@ impl Default for PhysicsConfig {
             closing_speed: [0.5, 3.0],
             lateral_fraction: [0.1, 0.5],
             size_growth: [0.1, 0.5],
+            lane_shift: None,
             closing_horizon: 1.0,
             require_surrogate_agreement: true,
         }
@@ -251,7 +255,10 @@ impl ComparisonConfig {
             ("closing_speed", p.closing_speed),
             ("lateral_fraction", p.lateral_fraction),
             ("size_growth", p.size_growth),
-        ] {
+        ]
+        .into_iter()
+        .chain(p.lane_shift.map(|r| ("lane_shift", r)))
+        {
             if !(r[0] > 0.0 && r[1] >= r[0] && r[1].is_finite()) {
                 return Err(ComparisonConfigError(format!(
                     "comparisons.physics.{name}: need 0 < lo <= hi, got [{}, {}]",

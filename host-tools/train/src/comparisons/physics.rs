@@ -1,4 +1,5 @@
-//! Physics counterfactuals: a recorded state is less risky than the same state made physically worse.
+//! Physics counterfactuals: a recorded state is less risky than the same state made physically
+//! worse, and riskier than the same state with the partner a lane further aside.
 //!
 //! Each candidate takes one frame (sequences drawn uniformly, then frames uniformly; conflict frames
 //! at or before the endpoint) and perturbs ONE physical variable of the underlying vehicle states:
@@ -8,16 +9,22 @@
 //!   line of sight (heading unchanged: a small side slip, as trackers report);
 //! - [`Perturbation::LateralClearance`]: the partner moves towards the ego's longitudinal axis, in the
 //!   ego frame, by a fraction of its lateral offset;
-//! - [`Perturbation::Size`]: the partner's length and width grow by a factor (centre unchanged).
+//! - [`Perturbation::Size`]: the partner's length and width grow by a factor (centre unchanged);
+//! - [`Perturbation::LaneShift`] (opt-in, `lane_shift`): the partner moves AWAY from the ego's
+//!   longitudinal axis, in the ego frame, by about a lane width. This one counterfactual is the
+//!   safer state, so its pair is (recorded over counterfactual). The other four only ever bring a
+//!   partner closer; this one shows the network the next-lane pass an in-lane approach becomes, at
+//!   the same gap and speeds.
 //!
 //! The counterfactual observation is recomputed through `scorer_core::{features, surrogates}` and kept
-//! only if it is verifiably riskier, measured by the core: the boxes must not overlap, the box
-//! distance must shrink (gap, size), not grow (lateral clearance), or the box distance after a
-//! constant-velocity horizon must shrink (closing speed); and, unless disabled, no surrogate may call
-//! it safer (TTC2D and TAdv not larger, EI not smaller). Rejections are counted.
+//! only if the pair's order is verified by the core: the counterfactual's boxes must not overlap;
+//! the box distance must shrink (gap, size), not grow (lateral clearance), not shrink (lane shift),
+//! or the box distance after a constant-velocity horizon must shrink (closing speed); and, unless
+//! disabled, no surrogate may call the winner safer than the loser (TTC2D and TAdv not larger, EI
+//! not smaller). Rejections are counted.
 //!
 //! `a_i` is the perturbation magnitude (m, m/s, m, growth factor) normalised by its mean over the
-//! source's pairs of the same kind, so the four kinds are commensurable and average 1.
+//! source's pairs of the same kind, so the kinds are commensurable and average 1.
 use rand::Rng;
 use scorer_core::{box_distance, Surrogates, VehicleState};
 
@@ -32,15 +39,31 @@ pub enum Perturbation {
     ClosingSpeed,
     LateralClearance,
     Size,
+    LaneShift,
 }
 
 impl Perturbation {
-    pub const ALL: [Perturbation; 4] = [
+    pub const ALL: [Perturbation; 5] = [
         Perturbation::Gap,
         Perturbation::ClosingSpeed,
         Perturbation::LateralClearance,
         Perturbation::Size,
+        Perturbation::LaneShift,
     ];
+
+    /// The kinds a configuration draws, in turn: the four, and the lane shift when configured.
+    pub fn enabled(config: &PhysicsConfig) -> &'static [Perturbation] {
+        if config.lane_shift.is_some() {
+            &Self::ALL
+        } else {
+            &Self::ALL[..4]
+        }
+    }
+
+    /// Whether this kind's counterfactual is the safer state of its pair (the recorded frame wins).
+    pub fn counterfactual_is_safer(self) -> bool {
+        self == Perturbation::LaneShift
+    }
 }
 
 /// Smallest box distance (m) a frame needs for a gap/size counterfactual to stay contact-free.
@@ -58,6 +81,10 @@ pub struct Counterfactual {
     pub magnitude: f32,
 }
 
+fn lerp_at(range: [f32; 2], u: f32) -> f32 {
+    range[0] + (range[1] - range[0]) * u
+}
+
 fn advance(s: &VehicleState, horizon: f32) -> VehicleState {
     VehicleState {
         x: s.x + s.vx * horizon,
@@ -68,7 +95,7 @@ fn advance(s: &VehicleState, horizon: f32) -> VehicleState {
 
 /// Apply perturbation `kind` with a uniform draw `u` in [0, 1) over its configured range. Returns
 /// `None` when the state does not admit this perturbation (coincident centres, too small a gap or
-/// lateral offset).
+/// lateral offset) or the kind is not configured (a lane shift without `lane_shift`).
 // `!(x > y)` on purpose: NaN must fail every check.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub fn perturb(
@@ -78,7 +105,7 @@ pub fn perturb(
     u: f32,
     config: &PhysicsConfig,
 ) -> Option<Counterfactual> {
-    let lerp = |r: [f32; 2]| r[0] + (r[1] - r[0]) * u;
+    let lerp = |r: [f32; 2]| lerp_at(r, u);
     let (dx, dy) = (partner.x - ego.x, partner.y - ego.y);
     let dist = dx.hypot(dy);
     if !(dist > 1e-3) {
@@ -117,6 +144,23 @@ pub fn perturb(
             p.y -= sign * ny * delta;
             delta
         }
+        Perturbation::LaneShift => {
+            // Away from the ego's axis on the partner's side; a partner on the axis goes left for
+            // the first half of the draw, right for the second, each half spanning the range.
+            let (nx, ny) = (-ego.hy, ego.hx);
+            let lateral = dx * nx + dy * ny;
+            let side = if lateral.abs() > MIN_LATERAL {
+                lateral.signum()
+            } else if u < 0.5 {
+                1.0
+            } else {
+                -1.0
+            };
+            let delta = lerp_at(config.lane_shift?, (2.0 * u).fract());
+            p.x += side * nx * delta;
+            p.y += side * ny * delta;
+            delta
+        }
         Perturbation::Size => {
             if !(box_distance(ego, partner) > MIN_GAP) {
                 return None;
@@ -138,10 +182,11 @@ fn not_larger(new: f32, old: f32) -> bool {
     new <= old || (old.is_finite() && new <= old + SURROGATE_TOL * (1.0 + old.abs()))
 }
 
-/// Whether the counterfactual is physically riskier than the original, measured by scorer-core.
+/// Whether the pair this counterfactual makes is ordered as its kind says, measured by scorer-core:
+/// the counterfactual riskier than the original, or (lane shift) safer.
 // `!(x > y)` on purpose: NaN must fail every check.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-pub fn is_riskier(
+pub fn order_holds(
     ego: &VehicleState,
     original: &VehicleState,
     cf: &Counterfactual,
@@ -157,6 +202,7 @@ pub fn is_riskier(
     let physical = match cf.kind {
         Perturbation::Gap | Perturbation::Size => d_new < d_old,
         Perturbation::LateralClearance => d_new <= d_old,
+        Perturbation::LaneShift => d_new >= d_old,
         Perturbation::ClosingSpeed => {
             let h = config.closing_horizon;
             let e = advance(ego, h);
@@ -167,9 +213,14 @@ pub fn is_riskier(
         return false;
     }
     if config.require_surrogate_agreement {
-        let o = original_surrogates;
-        let c = cf_surrogates;
-        not_larger(c.ttc2d, o.ttc2d) && not_larger(c.tadv, o.tadv) && not_larger(-c.ei, -o.ei)
+        let (riskier, safer) = if cf.kind.counterfactual_is_safer() {
+            (original_surrogates, cf_surrogates)
+        } else {
+            (cf_surrogates, original_surrogates)
+        };
+        not_larger(riskier.ttc2d, safer.ttc2d)
+            && not_larger(riskier.tadv, safer.tadv)
+            && not_larger(-riskier.ei, -safer.ei)
     } else {
         true
     }
@@ -188,6 +239,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, Sourc
             stats.rejected = d.target;
             return Vec::new();
         }
+        let enabled = Perturbation::enabled(config);
         let mut pairs = Vec::with_capacity(d.target);
         let mut kinds = Vec::with_capacity(d.target);
         let mut magnitudes = Vec::with_capacity(d.target);
@@ -195,7 +247,7 @@ pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, Sourc
         let mut attempts = 0usize;
         while pairs.len() < d.target && attempts < max_attempts {
             attempts += 1;
-            let kind = Perturbation::ALL[pairs.len() % Perturbation::ALL.len()];
+            let kind = enabled[pairs.len() % enabled.len()];
             let (si, n) = usable[d.rng.random_range(0..usable.len())];
             let fi = d.rng.random_range(0..n);
             let u: f32 = d.rng.random();
@@ -207,12 +259,17 @@ pub(crate) fn build(draw: Draw<'_>, config: &PhysicsConfig) -> (Vec<Pair>, Sourc
             };
             let original_surr = scorer_core::surrogates(ego, partner);
             let cf_surr = scorer_core::surrogates(ego, &cf.partner);
-            if !is_riskier(ego, partner, &cf, &original_surr, &cf_surr, config) {
+            if !order_holds(ego, partner, &cf, &original_surr, &cf_surr, config) {
                 stats.rejected += 1;
                 continue;
             }
-            let loser = d.tb.frame(d.origin, d.seqs, si, fi);
-            let winner = d.tb.counterfactual(ego, &cf.partner, loser);
+            let recorded = d.tb.frame(d.origin, d.seqs, si, fi);
+            let counterfactual = d.tb.counterfactual(ego, &cf.partner, recorded);
+            let (winner, loser) = if kind.counterfactual_is_safer() {
+                (recorded, counterfactual)
+            } else {
+                (counterfactual, recorded)
+            };
             pairs.push(Pair {
                 winner,
                 loser,

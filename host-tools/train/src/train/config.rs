@@ -589,6 +589,13 @@ mod tests {
         assert!(
             invalid("[comparisons.anchors]\nimpact_tolerance = inf").contains("impact_tolerance")
         );
+        assert!(invalid("[comparisons.physics]\nlane_shift = [0.0, 3.0]")
+            .contains("comparisons.physics.lane_shift: need 0 < lo <= hi, got [0, 3]"));
+        assert!(invalid("[comparisons.physics]\nlane_shift = [3.0, 2.0]").contains("lane_shift"));
+        let lane = "[comparisons.physics]\nlane_shift = [2.5, 4.0]";
+        let config = TrainConfig::from_toml(lane, "t.toml").unwrap();
+        assert_eq!(config.comparisons.physics.lane_shift, Some([2.5, 4.0]));
+        assert_eq!(TrainConfig::default().comparisons.physics.lane_shift, None);
     }
 
     #[test]
