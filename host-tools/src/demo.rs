@@ -29,7 +29,7 @@ use serde_json::json;
 
 use riskscore_data::events::{self, PrepareConfig, Sequence};
 use riskscore_data::sim::{self, SimConfig};
-use riskscore_eval::claims::{self, acceptance_claims, verdict, Claim};
+use riskscore_eval::claims::{self, acceptance_claims, Claim};
 use riskscore_eval::metrics::Metric;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
 use riskscore_train::export;
@@ -897,8 +897,8 @@ pub const WITHOUT_REAL_FIGURES: &str =
 /// One short paragraph: what was shown on which data, and the caveats that were measured.
 pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
     let count = |claims: &[Claim]| {
-        let ok = claims.iter().filter(|c| verdict(c) == "ok").count();
-        let na = claims.iter().filter(|c| verdict(c) == "n/a").count();
+        let ok = claims.iter().filter(|c| c.verdict == "ok").count();
+        let na = claims.iter().filter(|c| c.verdict == "n/a").count();
         let na = if na > 0 {
             format!(", {na} n/a")
         } else {

@@ -171,7 +171,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     for (row, claim) in rows.iter().zip(&summary.transfer_claims) {
         let cells: Vec<&str> = row.split(',').collect();
         assert_eq!(cells[0], claim.method);
-        assert_eq!(cells[6], riskscore_eval::claims::verdict(claim));
+        assert_eq!(cells[6], claim.verdict);
         let (holding, compared): (usize, usize) =
             (cells[7].parse().unwrap(), cells[8].parse().unwrap());
         assert!(holding <= compared && compared <= 3, "{row}");
@@ -295,11 +295,7 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     assert!(text.contains("5-fold event-level CV x 1 seeds"), "{text}");
     assert!(text.contains("held out by file"), "transfer caveat: {text}");
     assert!(text.contains(demo::WITHOUT_REAL_FIGURES), "{text}");
-    let ok = summary
-        .claims
-        .iter()
-        .filter(|c| riskscore_eval::claims::verdict(c) == "ok")
-        .count();
+    let ok = summary.claims.iter().filter(|c| c.verdict == "ok").count();
     assert!(
         text.contains(&format!("{ok} of {} claims hold", summary.claims.len())),
         "{text}"

@@ -49,7 +49,7 @@ impl Rule {
 }
 
 /// Whether `m` satisfies `rule` against `b`: a baseline without a value has nothing to beat (the
-/// claim holds, and [`verdict`] says `n/a`); a method without a value loses to one with.
+/// claim holds, and [`Claim::verdict`] says `n/a`); a method without a value loses to one with.
 fn holds(rule: Rule, m: Option<f64>, b: Option<f64>) -> bool {
     match (m, b) {
         (Some(m), Some(b)) => rule.holds(m, b),
@@ -93,7 +93,8 @@ pub struct Claim {
     pub baseline_mean: Option<f64>,
     /// The claim on the fold means (also where the baseline has no mean: nothing to beat).
     pub holds: bool,
-    /// `ok`, `FAIL` or `n/a` ([`verdict`]).
+    /// `ok`, `FAIL`, or `n/a` where the baseline has no value on the means (e.g. a baseline that
+    /// never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
     pub verdict: &'static str,
     pub runs: RunTally,
 }
@@ -160,12 +161,6 @@ impl Claim {
     }
 }
 
-/// `ok`, `FAIL`, or `n/a` where the baseline has no value on the means (e.g. a baseline that
-/// never reaches 90 % precision has no mTTI_90, so there is nothing to beat).
-pub fn verdict(c: &Claim) -> &'static str {
-    c.verdict
-}
-
 /// The standard claims (module doc) of a CV report; `msra_inputs` are the display names of the
 /// surrogates MSRA combines. DRL's and MSRA's claims are always made (a report without the method
 /// fails them); SSRA's and GSSM's only where the report has both rows (the transfer and domain
@@ -225,7 +220,7 @@ pub fn to_text(title: &str, claims: &[Claim]) -> String {
     for c in claims {
         out.push_str(&format!(
             "  [{}] {} {} {} vs {} {} ({})\n",
-            verdict(c),
+            c.verdict,
             c.method,
             c.label(),
             format_value(c.method_mean, 2),
@@ -257,7 +252,7 @@ pub fn to_markdown(claims: &[Claim]) -> String {
             c.metric,
             format_value(c.method_mean, 2),
             format_value(c.baseline_mean, 2),
-            verdict(c),
+            c.verdict,
             runs
         ));
     }
@@ -299,7 +294,7 @@ pub fn write_csv<'c, W: Write>(
                 c.rule.symbol().to_string(),
                 csv_cell(c.method_mean),
                 csv_cell(c.baseline_mean),
-                verdict(c).to_string(),
+                c.verdict.to_string(),
                 c.runs.holding.to_string(),
                 c.runs.compared.to_string(),
             ]);
@@ -331,7 +326,7 @@ mod tests {
             (Some(3.4), None),
             [(Some(3.0), None), (Some(3.5), Some(0.7)), (None, Some(0.7))],
         );
-        assert_eq!(verdict(&c), "n/a");
+        assert_eq!(c.verdict, "n/a");
         assert_eq!(
             c.runs,
             RunTally {
@@ -345,9 +340,9 @@ mod tests {
     #[test]
     fn each_rule_decides_ties_its_own_way() {
         let tie = |rule| Claim::new("A", "B", "m".into(), rule, (Some(1.0), Some(1.0)), []);
-        assert_eq!(verdict(&tie(Rule::Greater)), "FAIL");
-        assert_eq!(verdict(&tie(Rule::AtLeast)), "ok");
-        assert_eq!(verdict(&tie(Rule::AtMost)), "ok");
+        assert_eq!(tie(Rule::Greater).verdict, "FAIL");
+        assert_eq!(tie(Rule::AtLeast).verdict, "ok");
+        assert_eq!(tie(Rule::AtMost).verdict, "ok");
         let below = Claim::new(
             "A",
             "B",
@@ -356,7 +351,7 @@ mod tests {
             (Some(2.0), Some(1.0)),
             [],
         );
-        assert_eq!(verdict(&below), "FAIL");
+        assert_eq!(below.verdict, "FAIL");
         assert_eq!(tally_text(below.runs), "no run to compare");
     }
 }

@@ -84,10 +84,7 @@ impl DomainsResult {
 
     /// Every run round's warnings for the user, in round order ([`RoundResult::warnings`]).
     pub fn warnings(&self) -> impl Iterator<Item = &String> {
-        self.rounds.iter().flat_map(|outcome| match outcome {
-            RoundOutcome::Ran(result) => result.warnings.as_slice(),
-            RoundOutcome::NoData { .. } => &[],
-        })
+        self.ran().flat_map(|result| &result.warnings)
     }
 
     /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
