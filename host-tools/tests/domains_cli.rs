@@ -333,7 +333,11 @@ fn claims_are_the_runs_paired(report: &Path, json: &Value) {
             }
         };
         let (mine, theirs) = (runs(&c["method"]), runs(&c["baseline"]));
-        assert_eq!(mine.len(), 2, "{c:?}: 1 seed x 2 folds");
+        assert_eq!(
+            mine.len() as u64,
+            r["runs"].as_u64().unwrap(),
+            "{c:?}: a value per run (draws x seeds x folds)"
+        );
         let (mut holding, mut compared) = (0, 0);
         for (run, b) in &theirs {
             let Some(b) = b else { continue };
@@ -789,4 +793,155 @@ fn sequences_out_refuses_an_input_a_folder_the_run_writes_parquet_and_stdout() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("lies inside out/train-data"), "{err}");
     assert!(!p.join("out").exists());
+}
+
+/// The two-round run on data simulated by the run itself (`--draws` needs it), into `out`.
+fn simulated_two_rounds(dir: &Path, out: &str, config: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "benchmark",
+        "domains",
+        "--real",
+        "freeway",
+        "--real-city",
+        "city",
+        "--config",
+        config,
+        "--gssm-config",
+        "g.toml",
+        "--quiet",
+        "--json",
+        "--events",
+        "90",
+        "--train-mix",
+        "30,30,30",
+        "--test-mix",
+        "30,20,40",
+        "--rounds",
+        "speed-5-15,city-lankershim",
+        "--folds",
+        "2",
+        "--seeds",
+        "1",
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    serde_json::from_str(&ok(dir, &args)).unwrap()
+}
+
+fn without(mut v: Value, keys: &[&str]) -> Value {
+    for key in keys {
+        v.as_object_mut().unwrap().remove(*key);
+    }
+    v
+}
+
+#[test]
+fn draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() {
+    let d = scratch();
+    let p = d.path();
+    // Draw 2 trains with the seeds after draw 1's (1 seed from 0), so its single-draw twin sets
+    // the training seed to 1.
+    let config = std::fs::read_to_string(p.join("t.toml")).unwrap();
+    std::fs::write(p.join("t1.toml"), format!("seed = 1\n{config}")).unwrap();
+    let pooled = simulated_two_rounds(p, "pooled", "t.toml", &["--draws", "2"]);
+    let first = simulated_two_rounds(p, "first", "t.toml", &[]);
+    let second = simulated_two_rounds(
+        p,
+        "second",
+        "t1.toml",
+        &["--train-seed", "101", "--test-seed", "102"],
+    );
+    for k in 1..=2 {
+        assert!(p
+            .join(format!(
+                "pooled/draw-2/{}",
+                ["train-data", "test-data"][k - 1]
+            ))
+            .is_dir());
+    }
+    for (i, name) in ["speed-5-15", "city-lankershim"].into_iter().enumerate() {
+        let (r, one, two) = (
+            &pooled["rounds"][i],
+            &first["rounds"][i],
+            &second["rounds"][i],
+        );
+        assert_eq!(r["status"], "ok", "{name}");
+        assert_eq!(r["runs"], 4, "{name}: 2 draws x 1 seed x 2 folds");
+        let draws = r["slice"]["draws"].as_array().unwrap();
+        assert_eq!(draws.len(), 2);
+        for (draw, (single, label, first_seed)) in draws
+            .iter()
+            .zip([(one, "sim seeds 1/2", 0), (two, "sim seeds 101/102", 1)])
+        {
+            assert_eq!(draw["label"], label);
+            assert_eq!(draw["first_seed"], first_seed);
+            assert_eq!(
+                without(draw.clone(), &["draw", "label", "first_seed"]),
+                single["slice"],
+                "{name}: a draw's counts are its single run's"
+            );
+        }
+        for key in ["test_conflicts", "test_safe", "real_safe"] {
+            let sum = one["slice"][key].as_u64().unwrap() + two["slice"][key].as_u64().unwrap();
+            assert_eq!(r["slice"][key], sum, "{name}: {key}");
+        }
+        let per_draw = r["claims_per_draw"].as_array().unwrap();
+        assert_eq!(per_draw[0]["claims"], one["claims"], "{name}");
+        assert_eq!(per_draw[1]["claims"], two["claims"], "{name}");
+        assert!(one.get("claims_per_draw").is_none() && one["slice"].get("draws").is_none());
+        // The pooled runs are the two single runs' runs, row for row.
+        let folds = |dir: &str| {
+            std::fs::read_to_string(p.join(format!("{dir}/report/{name}.folds.csv"))).unwrap()
+        };
+        let (a, b) = (folds("first"), folds("second"));
+        let mut expected: Vec<&str> = a.lines().collect();
+        expected.extend(b.lines().skip(1));
+        assert_eq!(
+            folds("pooled").lines().collect::<Vec<_>>(),
+            expected,
+            "{name}"
+        );
+    }
+    let splits: Value =
+        serde_json::from_slice(&std::fs::read(p.join("pooled/report/splits.json")).unwrap())
+            .unwrap();
+    let draws: Vec<u64> = splits[0]["folds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["draw"].as_u64().unwrap())
+        .collect();
+    assert_eq!(draws, [1, 1, 2, 2]);
+    // The pooled claims are the pooled runs paired (recomputed from the report files).
+    claims_are_the_runs_paired(&p.join("pooled/report"), &pooled);
+    let (header, rows) = csv_rows(&p.join("pooled/report/claims-per-draw.csv"));
+    assert_eq!(&header[..2], ["round", "draw"]);
+    let claims = |v: &Value| v["claims"].as_array().unwrap().len();
+    assert_eq!(
+        rows.len(),
+        (0..2)
+            .map(|i| claims(&first["rounds"][i]) + claims(&second["rounds"][i]))
+            .sum::<usize>()
+    );
+    assert!(!p.join("first/report/claims-per-draw.csv").exists());
+    let md = std::fs::read_to_string(p.join("pooled/report/domains.md")).unwrap();
+    assert!(md.contains("Slice, over 2 simulator draws"), "{md}");
+    assert!(md.contains("| Claim | draw 1 | draw 2 |"), "{md}");
+}
+
+#[test]
+fn draws_refuse_given_event_folders_and_zero() {
+    let d = scratch();
+    let o = two_rounds(d.path(), "out", &["--draws", "2"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--draws 2") && err.contains("--train-events sim-train"),
+        "{err}"
+    );
+    assert!(!d.path().join("out").exists());
+    let o = two_rounds(d.path(), "out", &["--draws", "0"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--draws"));
 }

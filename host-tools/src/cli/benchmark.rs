@@ -8,7 +8,7 @@ use host_tools::demo::{
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
 use riskscore_eval::claims::acceptance_claims;
-use riskscore_train::domains::{self, DomainData, Round, SequenceSink, SequencesCsv};
+use riskscore_train::domains::{self, DomainData, Draw, Round, SequenceSink, SequencesCsv};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
 use riskscore_train::transfer::{self, TransferData, TransferOptions};
@@ -123,6 +123,51 @@ impl SimArgs {
     }
 }
 
+/// The simulator-seed step between two draws of `benchmark domains --draws`.
+const DRAW_SEED_STEP: u64 = 100;
+
+impl SimArgs {
+    /// The (training, test) simulation of draw `k` of `--draws`: draw 0 is [`SimArgs::load`],
+    /// draw k moves both seeds by `k` x [`DRAW_SEED_STEP`] and simulates into `draw-<k+1>/`.
+    fn load_draw(
+        &self,
+        out: &Path,
+        default_families: FamilyMix,
+        k: u32,
+    ) -> anyhow::Result<(String, Vec<Sequence>, Vec<Sequence>)> {
+        let step = u64::from(k) * DRAW_SEED_STEP;
+        let (train_seed, test_seed) = (
+            self.train_seed.wrapping_add(step),
+            self.test_seed.wrapping_add(step),
+        );
+        let label = match (&self.train_events, &self.test_events) {
+            (None, None) => format!("sim seeds {train_seed}/{test_seed}"),
+            _ => "the given event folders".to_owned(),
+        };
+        if k == 0 {
+            let (train, test) = self.load(out, default_families)?;
+            return Ok((label, train, test));
+        }
+        let draw = SimArgs {
+            train_events: None,
+            test_events: None,
+            train_seed,
+            test_seed,
+            train_mix: self.train_mix,
+            test_mix: self.test_mix,
+            events: self.events,
+            families: self.families.clone(),
+        };
+        let (train, test) = draw.load(&draw_folder(out, k), default_families)?;
+        Ok((label, train, test))
+    }
+}
+
+/// Where draw `k` (k >= 1) of `--draws` simulates its folders.
+fn draw_folder(out: &Path, k: u32) -> PathBuf {
+    out.join(format!("draw-{}", k + 1))
+}
+
 /// Folds, seeds and the training configurations.
 #[derive(clap::Args, Debug)]
 pub struct TrainingArgs {
@@ -203,6 +248,16 @@ pub struct DomainsArgs {
     pub sim: SimArgs,
     #[command(flatten)]
     pub training: TrainingArgs,
+    /// Simulator draws: run every round on N (training, test) simulation pairs and pool the runs,
+    /// so claims are judged over draws x seeds x folds, not on one test simulation.
+    ///
+    /// Draw k (from 0) simulates with --train-seed + 100k and --test-seed + 100k (mixes and
+    /// families as given) into --out (draw 0: train-data/, test-data/; draw k: draw-<k+1>/...),
+    /// and trains with the seeds after the previous draw's. The report gives the pooled figures,
+    /// each draw's counts and each claim's verdict on each draw (claims-per-draw.csv). Cannot be
+    /// combined with --train-events / --test-events (a given folder is one draw).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub draws: u32,
     /// Rounds to run, comma-separated (see --list-rounds), or `all` for every one. A named round
     /// whose slice is empty is an error; under `all` and of the default rounds, such a round is
     /// reported as "no data".
@@ -227,7 +282,8 @@ pub struct DomainsArgs {
     /// real-safe share reads it; empty without one), above_t90 (1/0); then at the peak frame:
     /// in_domain (1/0 for a model with a training domain, else empty), network and fallback (a
     /// guarded model's own score and its kinematic fallback's; empty otherwise), ttc2d, tadv, ei
-    /// and the speeds v_ego, v_partner (m/s). Written under a temporary name and renamed into
+    /// and the speeds v_ego, v_partner (m/s). Over several --draws, each draw's runs have training
+    /// seeds of their own, so (seed, fold) still names one run. Written under a temporary name and renamed into
     /// place when the run succeeds; the report is unchanged by it. See docs/evaluation.md.
     #[arg(long = "sequences-out", value_name = "FILE")]
     pub sequences_out: Option<PathBuf>,
@@ -325,6 +381,18 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     }
     let (rounds, empty) =
         Round::selection(a.rounds.as_deref()).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?;
+    if a.draws > 1 {
+        if let Some((flag, Some(dir))) =
+            a.sim.event_folders().into_iter().find(|(_, d)| d.is_some())
+        {
+            anyhow::bail!(
+                "--draws {}: each draw simulates its own training and test folders, but {flag} {} \
+                 gives one; drop --draws, or drop {flag} to simulate every draw",
+                a.draws,
+                dir.display()
+            );
+        }
+    }
     let mut event_folders = vec![("--real", a.real.as_deref())];
     event_folders.extend(
         a.real_city
@@ -357,13 +425,21 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         real_city.len(),
         city_dirs.len()
     );
-    let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::domain())?;
-    let data = DomainData::new(train_sim, test_sim, real_freeway, real_city);
+    let mut draw_data = Vec::new();
+    for k in 0..a.draws {
+        let (label, train_sim, test_sim) = a.sim.load_draw(&a.out, FamilyMix::domain(), k)?;
+        let data = DomainData::new(train_sim, test_sim, real_freeway.clone(), real_city.clone());
+        draw_data.push((label, data));
+    }
+    let draws: Vec<Draw> = draw_data
+        .iter()
+        .map(|(label, data)| Draw { label, data })
+        .collect();
     let options = a.training.options(a.quiet);
     let run = |sequences: Option<&mut dyn SequenceSink>| {
-        domains::run(
+        domains::run_draws(
             &rounds,
-            &data,
+            &draws,
             &config,
             &gssm_config,
             &options,
@@ -399,6 +475,9 @@ fn written_folders(a: &DomainsArgs) -> Vec<PathBuf> {
         if given.is_none() {
             folders.push(a.out.join(name));
         }
+    }
+    for k in 1..a.draws {
+        folders.extend(["train-data", "test-data"].map(|name| draw_folder(&a.out, k).join(name)));
     }
     folders
 }

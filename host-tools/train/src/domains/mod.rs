@@ -7,10 +7,12 @@
 //! - [`rounds`]: the rounds, what each holds out, and the train/test split of a fold.
 //! - [`share`]: real safe sequences above a method's 90 %-recall threshold.
 //! - [`run`]: one round over folds x seeds.
+//! - [`draws`]: a round over several simulator draws, its runs pooled.
 //! - [`claims`]: a round's acceptance claims, on the means and run by run.
 //! - [`report`]: the tables, JSON and report folder.
 //! - [`sequences`]: the per-sequence rows of every run (`--sequences-out`).
 pub mod claims;
+pub mod draws;
 pub mod report;
 pub mod rounds;
 pub mod run;
@@ -19,6 +21,7 @@ pub mod share;
 pub mod slice;
 pub mod source;
 
+pub use draws::{Draw, DrawResult};
 pub use report::{DomainsResult, RoundOutcome};
 pub use rounds::{DomainData, EmptyRound, Round};
 pub use run::{run_round, DomainsError, RoundResult};
@@ -27,11 +30,9 @@ pub use sequences::{SequenceRow, SequenceSink, SequencesCsv};
 use crate::gssm::GssmConfig;
 use crate::train::TrainConfig;
 use crate::transfer::TransferOptions;
-use rounds::slice_counts;
+use draws::{draw_counts, run_round_over_draws, sum_counts};
 
-/// Run `rounds` in order. Every round's slice is checked before any training starts, so an empty
-/// round named on the command line fails at once. With `sequences`, every run's per-sequence rows
-/// go there as the runs finish, in round, seed and fold order ([`sequences`]).
+/// Run `rounds` in order on one draw's data ([`run_draws`] with a single draw).
 pub fn run(
     rounds: &[Round],
     data: &DomainData,
@@ -39,22 +40,59 @@ pub fn run(
     gssm_config: &GssmConfig,
     options: &TransferOptions,
     empty: EmptyRound,
+    sequences: Option<&mut dyn SequenceSink>,
+) -> Result<DomainsResult, DomainsError> {
+    let draws = [Draw {
+        label: "the simulator draw",
+        data,
+    }];
+    run_draws(
+        rounds,
+        &draws,
+        config,
+        gssm_config,
+        options,
+        empty,
+        sequences,
+    )
+}
+
+/// Run `rounds` in order, each on every draw, its runs pooled ([`draws`]). Every round's slice is
+/// checked on every draw before any training starts, so an empty round named on the command line
+/// fails at once; a round runs only where each draw can run it. With `sequences`, every run's
+/// per-sequence rows go there as the runs finish, in round, draw, seed and fold order
+/// ([`sequences`]).
+pub fn run_draws(
+    rounds: &[Round],
+    draws: &[Draw<'_>],
+    config: &TrainConfig,
+    gssm_config: &GssmConfig,
+    options: &TransferOptions,
+    empty: EmptyRound,
     mut sequences: Option<&mut dyn SequenceSink>,
 ) -> Result<DomainsResult, DomainsError> {
+    if draws.is_empty() {
+        return Err(DomainsError::NoDraws);
+    }
     let mut plan = Vec::new();
     for round in rounds {
-        let counts = slice_counts(round, data);
-        if !counts.is_runnable() && empty == EmptyRound::Fail {
-            return Err(run::empty_slice(round, &counts));
+        let counts = draw_counts(round, draws);
+        let blocked = counts.iter().zip(draws).find(|(c, _)| !c.is_runnable());
+        if let (Some((c, draw)), EmptyRound::Fail) = (blocked, empty) {
+            return Err(run::empty_slice(
+                round,
+                c,
+                (draws.len() > 1).then_some(draw.label),
+            ));
         }
-        plan.push((round, counts));
+        plan.push((round, blocked.is_none(), sum_counts(&counts)));
     }
     let mut outcomes = Vec::new();
-    for (round, counts) in plan {
-        outcomes.push(if counts.is_runnable() {
-            RoundOutcome::Ran(Box::new(run_round(
+    for (round, runnable, counts) in plan {
+        outcomes.push(if runnable {
+            RoundOutcome::Ran(Box::new(run_round_over_draws(
                 round,
-                data,
+                draws,
                 config,
                 gssm_config,
                 options,

@@ -4,11 +4,12 @@
 //! their run tallies ([`super::claims`]); rounds without data say so.
 use serde_json::{json, Value};
 
+use super::draws::DrawResult;
 use super::rounds::{Round, SliceCounts, SMALL_SLICE};
 use super::run::RoundResult;
 use super::share::{summarise, ShareSummary, SHARE_KEY, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
-use riskscore_eval::claims;
+use riskscore_eval::claims::{self, Claim};
 use riskscore_eval::report::write_folds_csv;
 
 /// What became of one round.
@@ -30,10 +31,27 @@ impl RoundOutcome {
         }
     }
 
+    /// Added up over the draws in a run of several ([`super::draws::sum_counts`]).
     pub fn counts(&self) -> &SliceCounts {
         match self {
             RoundOutcome::Ran(r) => &r.counts,
             RoundOutcome::NoData { counts, .. } => counts,
+        }
+    }
+
+    /// True when the slice is small on any draw ([`RoundResult::is_small`]).
+    pub fn is_small(&self) -> bool {
+        match self {
+            RoundOutcome::Ran(r) => r.is_small(),
+            RoundOutcome::NoData { counts, .. } => counts.is_small(),
+        }
+    }
+
+    /// The draws of a round pooled over several; empty for a single draw or a round not run.
+    pub fn pooled_draws(&self) -> &[DrawResult] {
+        match self {
+            RoundOutcome::Ran(r) if r.draws.len() > 1 => &r.draws,
+            _ => &[],
         }
     }
 }
@@ -44,15 +62,79 @@ pub struct DomainsResult {
     pub rounds: Vec<RoundOutcome>,
 }
 
-fn slice_json(counts: &SliceCounts) -> Value {
+fn counts_json(counts: &SliceCounts) -> Value {
     json!({
         "test_conflicts": counts.test.conflicts,
         "test_safe": counts.test.safe,
         "real_safe": counts.real_safe,
         "train_conflicts": counts.train.conflicts,
         "train_safe": counts.train.safe,
-        "small": counts.is_small(),
     })
+}
+
+/// The round's counts and small flag; pooled over several draws, also each draw's counts.
+fn slice_json(outcome: &RoundOutcome) -> Value {
+    let mut slice = counts_json(outcome.counts());
+    slice["small"] = outcome.is_small().into();
+    let draws = outcome.pooled_draws();
+    if !draws.is_empty() {
+        slice["draws"] = draws
+            .iter()
+            .map(|d| {
+                let mut v = counts_json(&d.counts);
+                v["draw"] = d.draw.into();
+                v["label"] = d.label.clone().into();
+                v["first_seed"] = d.first_seed.into();
+                v["small"] = d.counts.is_small().into();
+                v
+            })
+            .collect();
+    }
+    slice
+}
+
+fn counts_sentence(c: &SliceCounts) -> String {
+    format!(
+        "{} conflicts and {} safe sequences to test on ({} real safe); training keeps {} conflicts and {} safe",
+        c.test.conflicts, c.test.safe, c.real_safe, c.train.conflicts, c.train.safe
+    )
+}
+
+/// Each pooled claim's verdict on each draw's own means, with that draw's run tally.
+fn per_draw_markdown(pooled: &[Claim], draws: &[DrawResult]) -> String {
+    let mut out = String::from("| Claim |");
+    let mut rule = String::from("|---|");
+    for d in draws {
+        out.push_str(&format!(" draw {} |", d.draw));
+        rule.push_str("---|");
+    }
+    out.push('\n');
+    out.push_str(&rule);
+    out.push('\n');
+    for c in pooled {
+        out.push_str(&format!(
+            "| {} {} {} on {} |",
+            c.method,
+            c.rule.symbol(),
+            c.baseline,
+            c.metric
+        ));
+        for d in draws {
+            let same = d.claims.iter().find(|x| {
+                (&x.method, &x.baseline, &x.metric, x.rule)
+                    == (&c.method, &c.baseline, &c.metric, c.rule)
+            });
+            match same {
+                Some(x) => out.push_str(&format!(
+                    " {} ({}/{}) |",
+                    x.verdict, x.runs.holding, x.runs.compared
+                )),
+                None => out.push_str(" not checked |"),
+            }
+        }
+        out.push('\n');
+    }
+    out
 }
 
 fn share_json(s: &ShareSummary) -> Value {
@@ -90,6 +172,8 @@ impl DomainsResult {
     /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
     /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice`, `claims` and, in each method
     /// row, [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.
+    /// Pooled over several simulator draws, `slice.draws` holds each draw's counts and
+    /// `claims_per_draw` each draw's claims; a single draw's JSON has neither.
     pub fn to_json(&self) -> Value {
         let rounds: Vec<Value> = self
             .rounds
@@ -114,7 +198,14 @@ impl DomainsResult {
                 };
                 object["round"] = round.name.clone().into();
                 object["held_out"] = round.to_string().into();
-                object["slice"] = slice_json(outcome.counts());
+                object["slice"] = slice_json(outcome);
+                let draws = outcome.pooled_draws();
+                if !draws.is_empty() {
+                    object["claims_per_draw"] = draws
+                        .iter()
+                        .map(|d| json!({"draw": d.draw, "label": d.label, "claims": d.claims}))
+                        .collect();
+                }
                 object
             })
             .collect();
@@ -126,15 +217,32 @@ impl DomainsResult {
         let mut out = String::new();
         for outcome in &self.rounds {
             let round = outcome.round();
-            let c = outcome.counts();
             out.push_str(&format!("### Held out: {round} (`{}`)\n\n", round.name));
-            out.push_str(&format!(
-                "Slice: {} conflicts and {} safe sequences to test on ({} real safe); training keeps {} conflicts and {} safe.",
-                c.test.conflicts, c.test.safe, c.real_safe, c.train.conflicts, c.train.safe
-            ));
-            if c.is_small() {
+            let draws = outcome.pooled_draws();
+            if draws.is_empty() {
+                out.push_str(&format!("Slice: {}.", counts_sentence(outcome.counts())));
+            } else {
                 out.push_str(&format!(
-                    " **Small slice (< {SMALL_SLICE} conflicts or safe sequences): read with care.**"
+                    "Slice, over {} simulator draws: {}.",
+                    draws.len(),
+                    counts_sentence(outcome.counts())
+                ));
+                for d in draws {
+                    out.push_str(&format!(
+                        "\n- draw {} ({}, training seeds from {}): {}",
+                        d.draw,
+                        d.label,
+                        d.first_seed,
+                        counts_sentence(&d.counts)
+                    ));
+                }
+                out.push_str("\n\n");
+            }
+            if outcome.is_small() {
+                out.push_str(&format!(
+                    "{}**Small slice (< {SMALL_SLICE} conflicts or safe sequences{}): read with care.**",
+                    if draws.is_empty() { " " } else { "" },
+                    if draws.is_empty() { "" } else { " on a draw" }
                 ));
             }
             out.push_str("\n\n");
@@ -161,6 +269,14 @@ impl DomainsResult {
                     ));
                     out.push_str(&claims::to_markdown(&r.claims));
                     out.push('\n');
+                    let draws = outcome.pooled_draws();
+                    if !draws.is_empty() {
+                        out.push_str(
+                            "Per draw (the verdict on that draw's own means; in brackets, the runs of that draw where it holds):\n\n",
+                        );
+                        out.push_str(&per_draw_markdown(&r.claims, draws));
+                        out.push('\n');
+                    }
                 }
             }
         }
@@ -168,8 +284,9 @@ impl DomainsResult {
     }
 
     /// The report folder: `domains.md`, `domains.json`, `shares.csv` (every method, fold and
-    /// seed), `claims.csv` (every round's claims), `splits.json` (the sets of every fold) and
-    /// `<round>.folds.csv` per run round.
+    /// seed), `claims.csv` (every round's claims), `splits.json` (the sets of every fold, each
+    /// with its draw) and `<round>.folds.csv` per run round; over several simulator draws also
+    /// `claims-per-draw.csv` (each round's claims on each draw's own means and runs).
     pub fn bundle(&self) -> Result<ReportBundle, BundleError> {
         let mut bundle = ReportBundle::default();
         bundle.add("domains.md", self.to_markdown());
@@ -210,6 +327,22 @@ impl DomainsResult {
                     .map(|r| (vec![r.round.name.clone()], r.claims.as_slice())),
             )
         })?;
+        if self.rounds.iter().any(|o| !o.pooled_draws().is_empty()) {
+            bundle.add_csv("claims-per-draw.csv", |w| {
+                claims::write_csv(
+                    w,
+                    &["round", "draw"],
+                    self.rounds.iter().flat_map(|o| {
+                        o.pooled_draws().iter().map(|d| {
+                            (
+                                vec![o.round().name.clone(), d.draw.to_string()],
+                                d.claims.as_slice(),
+                            )
+                        })
+                    }),
+                )
+            })?;
+        }
         let splits: Vec<Value> = ran
             .iter()
             .map(|r| json!({"round": r.round.name, "folds": r.splits}))

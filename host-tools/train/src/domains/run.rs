@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 
 use super::claims::round_claims;
+use super::draws::DrawResult;
 use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, SliceCounts};
 use super::sequences::{rows_of, SequenceRow, SequenceSink};
 use super::share::{share_of, ShareRun};
@@ -45,12 +46,15 @@ pub enum DomainsError {
         #[source]
         source: Box<TransferError>,
     },
+    #[error("domain benchmark: no simulator draw to run on")]
+    NoDraws,
     #[error("domain benchmark: writing the per-sequence rows: {0}")]
     Sequences(#[source] std::io::Error),
 }
 
-/// The error for a round whose slice (or whose training remainder) cannot be run.
-pub fn empty_slice(round: &Round, counts: &SliceCounts) -> DomainsError {
+/// The error for a round whose slice (or whose training remainder) cannot be run; `draw` names
+/// the simulator draw where it cannot, in a run of several.
+pub fn empty_slice(round: &Round, counts: &SliceCounts, draw: Option<&str>) -> DomainsError {
     let what = if counts.test.conflicts == 0 || counts.test.safe == 0 {
         "test"
     } else {
@@ -58,7 +62,10 @@ pub fn empty_slice(round: &Round, counts: &SliceCounts) -> DomainsError {
     };
     DomainsError::EmptySlice {
         round: round.name.clone(),
-        slice: round.to_string(),
+        slice: match draw {
+            Some(draw) => format!("{round}, {draw}"),
+            None => round.to_string(),
+        },
         what,
         test_conflicts: counts.test.conflicts,
         test_safe: counts.test.safe,
@@ -71,6 +78,8 @@ pub fn empty_slice(round: &Round, counts: &SliceCounts) -> DomainsError {
 /// The sets of one fold of one round.
 #[derive(Clone, Debug, Serialize)]
 pub struct RoundFoldSplit {
+    /// The simulator draw (1-based; 1 in a single-draw run).
+    pub draw: usize,
     pub seed: u64,
     pub fold: usize,
     /// Real scenario files kept out of training in this fold.
@@ -96,6 +105,21 @@ pub struct RoundResult {
     pub warnings: Vec<String>,
     /// The acceptance claims on the round's means, each with its run tally ([`round_claims`]).
     pub claims: Vec<Claim>,
+    /// Each simulator draw's counts and claims ([`super::draws`]); empty until the round is
+    /// pooled over its draws.
+    pub draws: Vec<DrawResult>,
+}
+
+impl RoundResult {
+    /// True when the slice is small ([`SliceCounts::is_small`]) on any draw: a pooled round is
+    /// judged per test simulation, as a single draw is.
+    pub fn is_small(&self) -> bool {
+        if self.draws.is_empty() {
+            self.counts.is_small()
+        } else {
+            self.draws.iter().any(|d| d.counts.is_small())
+        }
+    }
 }
 
 /// Hands each job's rows to the sink in job order, as soon as every earlier job has handed its
@@ -130,7 +154,7 @@ pub fn run_round(
 ) -> Result<RoundResult, DomainsError> {
     let counts = slice_counts(round, data);
     if !counts.is_runnable() {
-        return Err(empty_slice(round, &counts));
+        return Err(empty_slice(round, &counts, None));
     }
     let real: Vec<_> = data.real.iter().map(|l| l.sequence.clone()).collect();
     let scenarios = transfer::sequences_per_scenario(&real).len();
@@ -187,6 +211,7 @@ pub fn run_round(
         }
         let real_test = KindCounts::of(&split.test[split.real_from..]);
         let fold_split = RoundFoldSplit {
+            draw: 1,
             seed: *seed,
             fold: *fold,
             held_scenarios: held.clone(),
@@ -238,6 +263,7 @@ pub fn run_round(
         domain,
         warnings,
         claims,
+        draws: Vec::new(),
     })
 }
 
@@ -256,7 +282,7 @@ struct RoundFold {
 }
 
 /// Adds each of `fold`'s shares to the entry of the same model in `total` (new models appended).
-fn merge_shares(total: &mut Vec<DomainShare>, fold: &[DomainShare]) {
+pub(super) fn merge_shares(total: &mut Vec<DomainShare>, fold: &[DomainShare]) {
     for share in fold {
         match total.iter_mut().find(|t| t.name == share.name) {
             Some(t) => t.merge(share),
