@@ -470,18 +470,20 @@ fn list_rounds_marks_the_defaults() {
     );
 }
 
+/// The rounds, folds and seeds of the tiny two-round run.
+const TWO_ROUNDS: [&str; 6] = [
+    "--rounds",
+    "speed-5-15,city-lankershim",
+    "--folds",
+    "2",
+    "--seeds",
+    "1",
+];
+
 /// The tiny two-round run of these tests into `out`, with `extra` arguments.
 fn two_rounds(dir: &Path, out: &str, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "--rounds",
-        "speed-5-15,city-lankershim",
-        "--folds",
-        "2",
-        "--seeds",
-        "1",
-        "--out",
-        out,
-    ];
+    let mut args = TWO_ROUNDS.to_vec();
+    args.extend_from_slice(&["--out", out]);
     args.extend_from_slice(extra);
     domains(dir, &args)
 }
@@ -795,36 +797,34 @@ fn sequences_out_refuses_an_input_a_folder_the_run_writes_parquet_and_stdout() {
     assert!(!p.join("out").exists());
 }
 
-/// The two-round run on data simulated by the run itself (`--draws` needs it), into `out`.
+/// The two-round run on data simulated by the run itself (`--draws` needs it), into `out`:
+/// [`COMMON`] without the given simulation folders, with `config` for `--config`.
 fn simulated_two_rounds(dir: &Path, out: &str, config: &str, extra: &[&str]) -> Value {
-    let mut args = vec![
-        "benchmark",
-        "domains",
-        "--real",
-        "freeway",
-        "--real-city",
-        "city",
-        "--config",
-        config,
-        "--gssm-config",
-        "g.toml",
-        "--quiet",
-        "--json",
+    let mut args: Vec<&str> = Vec::new();
+    let mut common = COMMON.into_iter();
+    while let Some(arg) = common.next() {
+        match arg {
+            "--train-events" | "--test-events" => {
+                common.next();
+            }
+            "--config" => {
+                common.next();
+                args.extend(["--config", config]);
+            }
+            _ => args.push(arg),
+        }
+    }
+    args.extend([
         "--events",
         "90",
         "--train-mix",
         "30,30,30",
         "--test-mix",
         "30,20,40",
-        "--rounds",
-        "speed-5-15,city-lankershim",
-        "--folds",
-        "2",
-        "--seeds",
-        "1",
         "--out",
         out,
-    ];
+    ]);
+    args.extend_from_slice(&TWO_ROUNDS);
     args.extend_from_slice(extra);
     serde_json::from_str(&ok(dir, &args)).unwrap()
 }
