@@ -9,16 +9,13 @@
 //! Draw `k` (0-based) trains with the training seeds `config.seed + k * seeds` onwards, so every
 //! run of a pooled round has a seed of its own and stays keyed by `(seed, fold)` in every report
 //! file, as in a single draw. Each draw keeps its own counts and its claims on its own means.
-use serde::Serialize;
-
 use super::claims::round_claims;
 use super::rounds::{slice_counts, DomainData, KindCounts, Round, SliceCounts};
-use super::run::{merge_shares, run_round, DomainsError, RoundResult};
+use super::run::{merge_shares, run_round, DomainsError, DrawResult, RoundResult};
 use super::sequences::SequenceSink;
 use crate::gssm::GssmConfig;
 use crate::train::TrainConfig;
 use crate::transfer::TransferOptions;
-use riskscore_eval::claims::Claim;
 use riskscore_eval::{self as eval, EventCounts};
 
 /// One simulator draw: the benchmark's data with one (training, test) simulation pair.
@@ -27,20 +24,6 @@ pub struct Draw<'d> {
     /// How the report names the draw, e.g. `sim seeds 101/102`.
     pub label: &'d str,
     pub data: &'d DomainData,
-}
-
-/// What one draw gave a pooled round.
-#[derive(Clone, Debug, Serialize)]
-pub struct DrawResult {
-    /// 1-based, as the report numbers draws.
-    pub draw: usize,
-    pub label: String,
-    /// The round's counts on this draw's data.
-    pub counts: SliceCounts,
-    /// The first training seed of this draw's runs (its runs use `seeds` seeds from here).
-    pub first_seed: u64,
-    /// The round's claims on this draw's own means and runs.
-    pub claims: Vec<Claim>,
 }
 
 /// The training configuration of draw `k`: its seeds follow the previous draws' seeds.

@@ -21,10 +21,10 @@ pub mod share;
 pub mod slice;
 pub mod source;
 
-pub use draws::{Draw, DrawResult};
+pub use draws::Draw;
 pub use report::{DomainsResult, RoundOutcome};
 pub use rounds::{DomainData, EmptyRound, Round};
-pub use run::{run_round, DomainsError, RoundResult};
+pub use run::{run_round, DomainsError, DrawResult, RoundResult};
 pub use sequences::{SequenceRow, SequenceSink, SequencesCsv};
 
 use crate::gssm::GssmConfig;

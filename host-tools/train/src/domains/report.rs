@@ -4,9 +4,8 @@
 //! their run tallies ([`super::claims`]); rounds without data say so.
 use serde_json::{json, Value};
 
-use super::draws::DrawResult;
 use super::rounds::{Round, SliceCounts, SMALL_SLICE};
-use super::run::RoundResult;
+use super::run::{DrawResult, RoundResult};
 use super::share::{summarise, ShareSummary, SHARE_KEY, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
 use riskscore_eval::claims::{self, Claim};

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 
 use super::claims::round_claims;
-use super::draws::DrawResult;
 use super::rounds::{slice_counts, split_round, DomainData, KindCounts, Round, SliceCounts};
 use super::sequences::{rows_of, SequenceRow, SequenceSink};
 use super::share::{share_of, ShareRun};
@@ -87,6 +86,20 @@ pub struct RoundFoldSplit {
     pub train: KindCounts,
     pub test: KindCounts,
     pub real_test_safe: usize,
+}
+
+/// What one draw gave a pooled round.
+#[derive(Clone, Debug, Serialize)]
+pub struct DrawResult {
+    /// 1-based, as the report numbers draws.
+    pub draw: usize,
+    pub label: String,
+    /// The round's counts on this draw's data.
+    pub counts: SliceCounts,
+    /// The first training seed of this draw's runs (its runs use `seeds` seeds from here).
+    pub first_seed: u64,
+    /// The round's claims on this draw's own means and runs.
+    pub claims: Vec<Claim>,
 }
 
 /// One round's result: the metrics row group, the real-safe shares, the sets, the claims.
