@@ -283,8 +283,9 @@ pub struct DomainsArgs {
     /// in_domain (1/0 for a model with a training domain, else empty), network and fallback (a
     /// guarded model's own score and its kinematic fallback's; empty otherwise), ttc2d, tadv, ei
     /// and the speeds v_ego, v_partner (m/s). Over several --draws, each draw's runs have training
-    /// seeds of their own, so (seed, fold) still names one run. Written under a temporary name and renamed into
-    /// place when the run succeeds; the report is unchanged by it. See docs/evaluation.md.
+    /// seeds of their own, so (seed, fold) still names one run. Written under a temporary name
+    /// and renamed into place when the run succeeds; the report is unchanged by it. See
+    /// docs/evaluation.md.
     #[arg(long = "sequences-out", value_name = "FILE")]
     pub sequences_out: Option<PathBuf>,
     /// No progress output.

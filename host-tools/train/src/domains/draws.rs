@@ -26,12 +26,17 @@ pub struct Draw<'d> {
     pub data: &'d DomainData,
 }
 
-/// The training configuration of draw `k`: its seeds follow the previous draws' seeds.
+/// The first training seed of draw `k`: its seeds follow the previous draws' seeds.
+pub fn first_seed(config: &TrainConfig, k: usize, options: &TransferOptions) -> u64 {
+    config.seed.wrapping_add((k * options.seeds.max(1)) as u64)
+}
+
+/// The training configuration of draw `k` ([`first_seed`]).
 pub fn draw_config(config: &TrainConfig, k: usize, options: &TransferOptions) -> TrainConfig {
-    let mut config = config.clone();
-    let offset = (k * options.seeds.max(1)) as u64;
-    config.seed = config.seed.wrapping_add(offset);
-    config
+    TrainConfig {
+        seed: first_seed(config, k, options),
+        ..config.clone()
+    }
 }
 
 /// The round's counts on every draw, in draw order.
@@ -103,7 +108,7 @@ fn pool(
             draw: k + 1,
             label: draw.label.to_owned(),
             counts: result.counts,
-            first_seed: draw_config(config, k, options).seed,
+            first_seed: first_seed(config, k, options),
             claims: result.claims.clone(),
         });
         for split in &mut result.splits {

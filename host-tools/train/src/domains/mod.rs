@@ -85,11 +85,12 @@ pub fn run_draws(
                 (draws.len() > 1).then_some(draw.label),
             ));
         }
-        plan.push((round, blocked.is_none(), sum_counts(&counts)));
+        let blocked_by = blocked.map(|(_, draw)| draw.label.to_owned());
+        plan.push((round, blocked_by, sum_counts(&counts)));
     }
     let mut outcomes = Vec::new();
-    for (round, runnable, counts) in plan {
-        outcomes.push(if runnable {
+    for (round, blocked_by, counts) in plan {
+        outcomes.push(if blocked_by.is_none() {
             RoundOutcome::Ran(Box::new(run_round_over_draws(
                 round,
                 draws,
@@ -104,6 +105,7 @@ pub fn run_draws(
             RoundOutcome::NoData {
                 round: round.clone(),
                 counts,
+                blocked_by: blocked_by.filter(|_| draws.len() > 1),
             }
         });
     }
@@ -114,6 +116,7 @@ pub fn run_draws(
 mod tests {
     use super::*;
     use crate::train::Progress;
+    use rounds::slice_counts;
 
     fn run_city(empty: EmptyRound) -> Result<DomainsResult, DomainsError> {
         let rounds = Round::parse_list("city-peachtree").unwrap();
@@ -145,5 +148,63 @@ mod tests {
         assert_eq!(json["rounds"][0]["status"], "no data");
         assert_eq!(json["rounds"][0]["slice"]["real_safe"], 0);
         assert!(result.to_markdown().contains("**No data**"));
+    }
+
+    #[test]
+    fn a_round_runs_only_where_every_draw_has_data_and_names_the_draw_without() {
+        let rounds = Round::parse_list("speed-35-50").unwrap();
+        let (full, empty_data) = (rounds::tests::data(), DomainData::default());
+        assert!(slice_counts(&rounds[0], &full).is_runnable());
+        let draws = [
+            Draw {
+                label: "sim seeds 1/2",
+                data: &full,
+            },
+            Draw {
+                label: "sim seeds 101/102",
+                data: &empty_data,
+            },
+        ];
+        let options = TransferOptions {
+            folds: 2,
+            seeds: 1,
+            progress: Progress::Hidden,
+        };
+        let run = |empty| {
+            run_draws(
+                &rounds,
+                &draws,
+                &TrainConfig::default(),
+                &GssmConfig::default(),
+                &options,
+                empty,
+                None,
+            )
+        };
+        let err = run(EmptyRound::Fail).unwrap_err().to_string();
+        assert!(
+            err.contains("ego speed 35-50 m/s, sim seeds 101/102"),
+            "{err}"
+        );
+        let result = run(EmptyRound::ReportNoData).unwrap();
+        let [RoundOutcome::NoData {
+            counts, blocked_by, ..
+        }] = &result.rounds[..]
+        else {
+            panic!("{:?}", result.rounds);
+        };
+        assert_eq!(blocked_by.as_deref(), Some("sim seeds 101/102"));
+        assert_eq!(
+            *counts,
+            slice_counts(&rounds[0], &full),
+            "the empty draw adds nothing"
+        );
+        assert_eq!(
+            result.to_json()["rounds"][0]["blocked_by"],
+            "sim seeds 101/102"
+        );
+        assert!(result
+            .to_markdown()
+            .contains("to train with, on the draw sim seeds 101/102)."));
     }
 }

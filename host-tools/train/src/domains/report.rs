@@ -19,6 +19,9 @@ pub enum RoundOutcome {
     NoData {
         round: Round,
         counts: SliceCounts,
+        /// In a run of several simulator draws, the first draw that cannot run the round (the
+        /// others may have data for it).
+        blocked_by: Option<String>,
     },
 }
 
@@ -170,8 +173,8 @@ impl DomainsResult {
 
     /// `{"rounds": [...]}`: a run round is `riskctl evaluate --json`'s CV object (`events`, `runs`,
     /// `methods`) plus `round`, `held_out`, `status: "ok"`, `slice`, `claims` and, in each method
-    /// row, [`SHARE_KEY`]; a round without data has `status: "no data"` and its `slice` counts.
-    /// Pooled over several simulator draws, `slice.draws` holds each draw's counts and
+    /// row, [`SHARE_KEY`]; a round without data has `status: "no data"`, its `slice` counts and,
+    /// over several draws, `blocked_by` (the draw without data). Pooled over several draws, `slice.draws` holds each draw's counts and
     /// `claims_per_draw` each draw's claims; a single draw's JSON has neither.
     pub fn to_json(&self) -> Value {
         let rounds: Vec<Value> = self
@@ -193,7 +196,13 @@ impl DomainsResult {
                         v["status"] = "ok".into();
                         v
                     }
-                    RoundOutcome::NoData { .. } => json!({"status": "no data"}),
+                    RoundOutcome::NoData { blocked_by, .. } => {
+                        let mut v = json!({"status": "no data"});
+                        if let Some(draw) = blocked_by {
+                            v["blocked_by"] = draw.clone().into();
+                        }
+                        v
+                    }
                 };
                 object["round"] = round.name.clone().into();
                 object["held_out"] = round.to_string().into();
@@ -238,16 +247,25 @@ impl DomainsResult {
                 out.push_str("\n\n");
             }
             if outcome.is_small() {
+                // After the list of draws it is a paragraph of its own.
+                let (lead, on) = if draws.is_empty() {
+                    (" ", "")
+                } else {
+                    ("", " on a draw")
+                };
                 out.push_str(&format!(
-                    "{}**Small slice (< {SMALL_SLICE} conflicts or safe sequences{}): read with care.**",
-                    if draws.is_empty() { " " } else { "" },
-                    if draws.is_empty() { "" } else { " on a draw" }
+                    "{lead}**Small slice (< {SMALL_SLICE} conflicts or safe sequences{on}): read with care.**"
                 ));
             }
             out.push_str("\n\n");
             match outcome {
-                RoundOutcome::NoData { .. } => {
-                    out.push_str("**No data**: not run (nothing to test on or to train with).\n\n");
+                RoundOutcome::NoData { blocked_by, .. } => {
+                    let which = blocked_by
+                        .as_ref()
+                        .map_or(String::new(), |draw| format!(", on the draw {draw}"));
+                    out.push_str(&format!(
+                        "**No data**: not run (nothing to test on or to train with{which}).\n\n"
+                    ));
                 }
                 RoundOutcome::Ran(r) => {
                     out.push_str(&r.report.to_markdown());

@@ -360,7 +360,7 @@ pub fn split_round(round: &Round, data: &DomainData, held_scenarios: &[String]) 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use riskscore_data::events::{EventKind, Frame};
     use scorer_core::VehicleState;
@@ -389,7 +389,8 @@ mod tests {
         s
     }
 
-    fn data() -> DomainData {
+    /// Every slice kind in a few one-frame sequences (also the other domain modules' test data).
+    pub(in crate::domains) fn data() -> DomainData {
         use EventKind::{Crash, Safe};
         let sim = |tag: &str| {
             vec![
