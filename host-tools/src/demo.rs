@@ -480,7 +480,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     eprintln!("[3/6] writing the reports");
     let report_dir = opts.out.join("report");
     let mut bundle = eval::bundle::cv_report_bundle(&report, &results)?;
-    claims::add_to(&mut bundle, &claims)?;
+    claims::add_to(&mut bundle, &claims, &[])?;
     // Pooled out-of-fold scores of the first seed: every event exactly once.
     let pooled = pooled_runs(&folds[..first_seed_folds]);
     let (_, pooled_runs) = eval::evaluate_scored(pooled.clone())?;
@@ -548,7 +548,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             &opts.config.msra.input_names(),
         );
         let tdir = report_dir.join("transfer");
-        files.extend(write_transfer_report(&tdir, &result, &transfer_claims)?);
+        files.extend(write_transfer_report(
+            &tdir,
+            &result,
+            &transfer_claims,
+            &[],
+        )?);
         println!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
@@ -845,15 +850,17 @@ fn domain_benchmark(
 }
 
 /// Write the transfer benchmark's report files into `dir`, its `claims` as `claims.md` and
-/// `claims.csv` among them; returns the paths.
+/// `claims.csv` among them, and over several simulator draws each draw's own claims (`per_draw`,
+/// [`claims::add_to`]). Returns the paths.
 pub fn write_transfer_report(
     dir: &Path,
     result: &riskscore_train::transfer::TransferResult,
     claims: &[Claim],
+    per_draw: &[&[Claim]],
 ) -> Result<Vec<PathBuf>, DemoError> {
     let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
     bundle.add_json("splits.json", &result.splits)?;
-    claims::add_to(&mut bundle, claims)?;
+    claims::add_to(&mut bundle, claims, per_draw)?;
     Ok(bundle.write_to(dir)?)
 }
 

@@ -2,7 +2,8 @@
 //! row group per round, the real-safe share per method), the report folder, a real-city round,
 //! the errors for an empty round and an output that is an input, and `--sequences-out` (its rows
 //! give back every run's report; the report is the same without it) and the claims (each run
-//! tally recomputed from the fold and share files).
+//! tally recomputed from the fold and share files); `--draws` for it and for `benchmark transfer`
+//! (the pooled runs are the single draws' runs, each draw judged as its single run).
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::{Command, Output};
@@ -797,34 +798,45 @@ fn sequences_out_refuses_an_input_a_folder_the_run_writes_parquet_and_stdout() {
     assert!(!p.join("out").exists());
 }
 
-/// The two-round run on data simulated by the run itself (`--draws` needs it), into `out`:
-/// [`COMMON`] without the given simulation folders, with `config` for `--config`.
-fn simulated_two_rounds(dir: &Path, out: &str, config: &str, extra: &[&str]) -> Value {
-    let mut args: Vec<&str> = Vec::new();
-    let mut common = COMMON.into_iter();
-    while let Some(arg) = common.next() {
-        match arg {
-            "--train-events" | "--test-events" => {
-                common.next();
-            }
-            "--config" => {
-                common.next();
-                args.extend(["--config", config]);
-            }
-            _ => args.push(arg),
-        }
-    }
-    args.extend([
+/// The arguments of a tiny benchmark run on data it simulates itself (`--draws` needs that):
+/// the fixtures' configurations (`config` for `--config`), 90 events per simulated folder, 2 folds
+/// x 1 seed, into `out`.
+fn simulated<'a>(config: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "--config",
+        config,
+        "--gssm-config",
+        "g.toml",
+        "--quiet",
         "--events",
         "90",
         "--train-mix",
         "30,30,30",
         "--test-mix",
         "30,20,40",
+        "--folds",
+        "2",
+        "--seeds",
+        "1",
         "--out",
         out,
-    ]);
-    args.extend_from_slice(&TWO_ROUNDS);
+    ]
+}
+
+/// The two-round domain run on data it simulates itself, into `out`.
+fn simulated_two_rounds(dir: &Path, out: &str, config: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "benchmark",
+        "domains",
+        "--real",
+        "freeway",
+        "--real-city",
+        "city",
+        "--json",
+        "--rounds",
+        "speed-5-15,city-lankershim",
+    ];
+    args.extend(simulated(config, out));
     args.extend_from_slice(extra);
     serde_json::from_str(&ok(dir, &args)).unwrap()
 }
@@ -836,14 +848,18 @@ fn without(mut v: Value, keys: &[&str]) -> Value {
     v
 }
 
+/// `t1.toml`: `t.toml` with the training seed 1. Draw 2 of a run with one seed trains with the
+/// seeds after draw 1's (one seed from 0), so its single-draw twin reads this.
+fn write_seed_one_config(dir: &Path) {
+    let config = std::fs::read_to_string(dir.join("t.toml")).unwrap();
+    std::fs::write(dir.join("t1.toml"), format!("seed = 1\n{config}")).unwrap();
+}
+
 #[test]
 fn draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() {
     let d = scratch();
     let p = d.path();
-    // Draw 2 trains with the seeds after draw 1's (1 seed from 0), so its single-draw twin sets
-    // the training seed to 1.
-    let config = std::fs::read_to_string(p.join("t.toml")).unwrap();
-    std::fs::write(p.join("t1.toml"), format!("seed = 1\n{config}")).unwrap();
+    write_seed_one_config(p);
     let pooled = simulated_two_rounds(p, "pooled", "t.toml", &["--draws", "2"]);
     let first = simulated_two_rounds(p, "first", "t.toml", &[]);
     let second = simulated_two_rounds(
@@ -944,4 +960,98 @@ fn draws_refuse_given_event_folders_and_zero() {
     let o = two_rounds(d.path(), "out", &["--draws", "0"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--draws"));
+}
+
+/// `benchmark transfer` on data it simulates itself, into `out`; its standard output.
+fn transfer(dir: &Path, out: &str, config: &str, extra: &[&str]) -> String {
+    let mut args = vec!["benchmark", "transfer", "--real", "freeway"];
+    args.extend(simulated(config, out));
+    args.extend_from_slice(extra);
+    ok(dir, &args)
+}
+
+#[test]
+fn transfer_draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() {
+    let d = scratch();
+    let p = d.path();
+    write_seed_one_config(p);
+    let stdout = transfer(p, "pooled", "t.toml", &["--draws", "2"]);
+    transfer(p, "first", "t.toml", &[]);
+    transfer(
+        p,
+        "second",
+        "t1.toml",
+        &["--train-seed", "101", "--test-seed", "102"],
+    );
+    let file = |dir: &str, name: &str| {
+        std::fs::read_to_string(p.join(format!("{dir}/report/{name}"))).unwrap()
+    };
+    // The pooled runs are the two single runs' runs, row for row.
+    let mut expected: Vec<String> = file("first", "folds.csv")
+        .lines()
+        .map(String::from)
+        .collect();
+    expected.extend(
+        file("second", "folds.csv")
+            .lines()
+            .skip(1)
+            .map(String::from),
+    );
+    let pooled: Vec<String> = file("pooled", "folds.csv")
+        .lines()
+        .map(String::from)
+        .collect();
+    assert_eq!(pooled, expected);
+    let results: Value = serde_json::from_str(&file("pooled", "results.json")).unwrap();
+    assert_eq!(results["runs"], 4, "2 draws x 1 seed x 2 folds");
+    let splits: Value = serde_json::from_str(&file("pooled", "splits.json")).unwrap();
+    let draws: Vec<u64> = splits
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["draw"].as_u64().unwrap())
+        .collect();
+    assert_eq!(draws, [1, 1, 2, 2]);
+    // Each draw's claims are its single run's, row for row.
+    let (header, per_draw) = csv_rows(&p.join("pooled/report/claims-per-draw.csv"));
+    assert_eq!(header[0], "draw");
+    for (draw, single) in [("1", "first"), ("2", "second")] {
+        let (_, rows) = csv_rows(&p.join(format!("{single}/report/claims.csv")));
+        let mine: Vec<Row> = per_draw
+            .iter()
+            .filter(|r| r["draw"] == draw)
+            .map(|r| {
+                let mut r = r.clone();
+                r.remove("draw");
+                r
+            })
+            .collect();
+        assert_eq!(mine, rows, "draw {draw}");
+    }
+    // The pooled claims read the pooled means.
+    let (_, claims) = csv_rows(&p.join("pooled/report/claims.csv"));
+    let mean = |name: &str, metric: &str| {
+        results["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == name)
+            .unwrap()[metric]
+            .as_f64()
+    };
+    for c in &claims {
+        let written: Option<f64> = c["method_mean"].parse().ok();
+        match (written, mean(&c["method"], &c["metric"])) {
+            (Some(w), Some(m)) => assert!((w - m).abs() <= 1e-9 * m.abs().max(1.0), "{c:?}"),
+            (w, m) => assert_eq!(w, m, "{c:?}"),
+        }
+    }
+    assert!(file("pooled", "claims.md").contains("| Claim | draw 1 | draw 2 |"));
+    assert!(stdout.contains("Draw 2: sim seeds 101/102"), "{stdout}");
+    assert!(!p.join("first/report/claims-per-draw.csv").exists());
+    // A given folder is one draw.
+    let args = "benchmark transfer --real freeway --train-events sim-train --draws 3 --out x";
+    let o = riskctl(p, &args.split(' ').collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--draws 3"), "{err}");
 }

@@ -259,6 +259,45 @@ pub fn to_markdown(claims: &[Claim]) -> String {
     out
 }
 
+/// A Markdown table of each claim of `pooled` (a run pooled over several simulator draws) on each
+/// draw's own claims (`draws`, in draw order, numbered from 1): the verdict on that draw's means,
+/// with its run tally; "not checked" where a draw has no such claim.
+pub fn per_draw_markdown(pooled: &[Claim], draws: &[&[Claim]]) -> String {
+    let mut out = String::from("| Claim |");
+    let mut rule = String::from("|---|");
+    for k in 1..=draws.len() {
+        out.push_str(&format!(" draw {k} |"));
+        rule.push_str("---|");
+    }
+    out.push('\n');
+    out.push_str(&rule);
+    out.push('\n');
+    for c in pooled {
+        out.push_str(&format!(
+            "| {} {} {} on {} |",
+            c.method,
+            c.rule.symbol(),
+            c.baseline,
+            c.metric
+        ));
+        for claims in draws {
+            let same = claims.iter().find(|x| {
+                (&x.method, &x.baseline, &x.metric, x.rule)
+                    == (&c.method, &c.baseline, &c.metric, c.rule)
+            });
+            match same {
+                Some(x) => out.push_str(&format!(
+                    " {} ({}/{}) |",
+                    x.verdict, x.runs.holding, x.runs.compared
+                )),
+                None => out.push_str(" not checked |"),
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// The columns of `claims.csv`, after the caller's leading ones ([`write_csv`]).
 pub const CSV_COLUMNS: [&str; 9] = [
     "method",
@@ -307,8 +346,30 @@ pub fn write_csv<'c, W: Write>(
 
 /// Adds `claims.md` ([`to_markdown`]) and `claims.csv` ([`CSV_COLUMNS`], one row per claim) to
 /// a report folder.
-pub fn add_to(bundle: &mut ReportBundle, claims: &[Claim]) -> Result<(), BundleError> {
-    bundle.add("claims.md", to_markdown(claims));
+///
+/// Pooled over several simulator draws (`per_draw`: each draw's own claims in draw order; empty or
+/// one for a single draw), `claims.md` also gets [`per_draw_markdown`] and the folder
+/// `claims-per-draw.csv` ([`CSV_COLUMNS`] after a `draw` column).
+pub fn add_to(
+    bundle: &mut ReportBundle,
+    claims: &[Claim],
+    per_draw: &[&[Claim]],
+) -> Result<(), BundleError> {
+    let mut md = to_markdown(claims);
+    if per_draw.len() > 1 {
+        md.push_str(
+            "\nPer draw (the verdict on that draw's own means; in brackets, its runs where the claim holds):\n\n",
+        );
+        md.push_str(&per_draw_markdown(claims, per_draw));
+        bundle.add_csv("claims-per-draw.csv", |w| {
+            let groups = per_draw
+                .iter()
+                .enumerate()
+                .map(|(k, c)| (vec![(k + 1).to_string()], *c));
+            write_csv(w, &["draw"], groups)
+        })?;
+    }
+    bundle.add("claims.md", md);
     bundle.add_csv("claims.csv", |w| write_csv(w, &[], [(Vec::new(), claims)]))
 }
 
@@ -353,5 +414,31 @@ mod tests {
         );
         assert_eq!(below.verdict, "FAIL");
         assert_eq!(tally_text(below.runs), "no run to compare");
+    }
+
+    #[test]
+    fn the_per_draw_table_reads_each_pooled_claim_off_each_draw() {
+        let claim = |metric: &str, m: f64, runs: &[(f64, f64)]| {
+            Claim::new(
+                "DRL",
+                "TAdv",
+                metric.into(),
+                Rule::Greater,
+                (Some(m), Some(1.0)),
+                runs.iter().map(|&(a, b)| (Some(a), Some(b))),
+            )
+        };
+        let pooled = [claim("A", 2.0, &[]), claim("P", 2.0, &[])];
+        // Draw 1 wins A in 1 of 2 runs; draw 2 loses A on its mean and has no P claim.
+        let first = [
+            claim("A", 2.0, &[(2.0, 1.0), (0.0, 1.0)]),
+            claim("P", 0.5, &[]),
+        ];
+        let second = [claim("A", 0.5, &[(0.0, 1.0)])];
+        let table = per_draw_markdown(&pooled, &[&first, &second]);
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines[0], "| Claim | draw 1 | draw 2 |");
+        assert_eq!(lines[2], "| DRL > TAdv on A | ok (1/2) | FAIL (0/1) |");
+        assert_eq!(lines[3], "| DRL > TAdv on P | FAIL (0/0) | not checked |");
     }
 }

@@ -19,6 +19,15 @@ pub struct EventCounts {
     pub safe: usize,
 }
 
+/// Counts of several data sets added up (e.g. the test sets of several simulator draws).
+impl std::ops::AddAssign for EventCounts {
+    fn add_assign(&mut self, other: EventCounts) {
+        self.crash += other.crash;
+        self.near_crash += other.near_crash;
+        self.safe += other.safe;
+    }
+}
+
 impl EventCounts {
     pub fn from_classes(classes: impl IntoIterator<Item = EventKind>) -> Self {
         let mut c = EventCounts::default();

@@ -7,7 +7,7 @@ use host_tools::demo::{
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
-use riskscore_eval::claims::acceptance_claims;
+use riskscore_eval::claims::{acceptance_claims, Claim};
 use riskscore_train::domains::{self, DomainData, Draw, Round, SequenceSink, SequencesCsv};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
@@ -78,9 +78,45 @@ pub struct SimArgs {
     /// `transfer`, `domain` for `domains` (the default set has nothing at 35-50 m/s).
     #[arg(long, value_name = "MIX")]
     pub families: Option<FamilyMix>,
+    /// Simulator draws: run the benchmark on N (training, test) simulation pairs and pool the
+    /// runs, so means and claims are judged over draws x seeds x folds, not on one test
+    /// simulation.
+    ///
+    /// Draw k (from 0) simulates with --train-seed + 100k and --test-seed + 100k (mixes and
+    /// families as given) into --out (draw 0: train-data/, test-data/; draw k: draw-<k+1>/...),
+    /// and trains with the seeds after the previous draw's. The report gives the pooled figures
+    /// and each claim's verdict on each draw (claims-per-draw.csv); `domains` also each draw's
+    /// counts. Cannot be combined with --train-events / --test-events (a given folder is one
+    /// draw).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub draws: u32,
 }
 
 impl SimArgs {
+    /// Refuses `--draws N` (N > 1) with a given event folder: a given folder is one draw.
+    fn check_draws(&self) -> anyhow::Result<()> {
+        if self.draws > 1 {
+            if let Some((flag, Some(dir))) =
+                self.event_folders().into_iter().find(|(_, d)| d.is_some())
+            {
+                anyhow::bail!(
+                    "--draws {}: each draw simulates its own training and test folders, but {flag} {} \
+                     gives one; drop --draws, or drop {flag} to simulate every draw",
+                    self.draws,
+                    dir.display()
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Every draw's label and (training, test) simulation, in draw order ([`SimArgs::load_draw`]).
+    fn load_draws(&self, out: &Path, default_families: FamilyMix) -> anyhow::Result<Vec<SimDraw>> {
+        (0..self.draws)
+            .map(|k| self.load_draw(out, default_families.clone(), k))
+            .collect()
+    }
+
     fn event_folders(&self) -> [(&'static str, Option<&Path>); 2] {
         [
             ("--train-events", self.train_events.as_deref()),
@@ -134,7 +170,7 @@ impl SimArgs {
         out: &Path,
         default_families: FamilyMix,
         k: u32,
-    ) -> anyhow::Result<(String, Vec<Sequence>, Vec<Sequence>)> {
+    ) -> anyhow::Result<SimDraw> {
         let step = u64::from(k) * DRAW_SEED_STEP;
         let (train_seed, test_seed) = (
             self.train_seed.wrapping_add(step),
@@ -146,7 +182,7 @@ impl SimArgs {
         };
         if k == 0 {
             let (train, test) = self.load(out, default_families)?;
-            return Ok((label, train, test));
+            return Ok(SimDraw { label, train, test });
         }
         let draw = SimArgs {
             train_events: None,
@@ -157,10 +193,18 @@ impl SimArgs {
             test_mix: self.test_mix,
             events: self.events,
             families: self.families.clone(),
+            draws: 1,
         };
         let (train, test) = draw.load(&draw_folder(out, k), default_families)?;
-        Ok((label, train, test))
+        Ok(SimDraw { label, train, test })
     }
+}
+
+/// One simulator draw of `--draws`: its label for the report and its two simulations.
+struct SimDraw {
+    label: String,
+    train: Vec<Sequence>,
+    test: Vec<Sequence>,
 }
 
 /// Where draw `k` (k >= 1) of `--draws` simulates its folders.
@@ -248,16 +292,6 @@ pub struct DomainsArgs {
     pub sim: SimArgs,
     #[command(flatten)]
     pub training: TrainingArgs,
-    /// Simulator draws: run every round on N (training, test) simulation pairs and pool the runs,
-    /// so claims are judged over draws x seeds x folds, not on one test simulation.
-    ///
-    /// Draw k (from 0) simulates with --train-seed + 100k and --test-seed + 100k (mixes and
-    /// families as given) into --out (draw 0: train-data/, test-data/; draw k: draw-<k+1>/...),
-    /// and trains with the seeds after the previous draw's. The report gives the pooled figures,
-    /// each draw's counts and each claim's verdict on each draw (claims-per-draw.csv). Cannot be
-    /// combined with --train-events / --test-events (a given folder is one draw).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    pub draws: u32,
     /// Rounds to run, comma-separated (see --list-rounds), or `all` for every one. A named round
     /// whose slice is empty is an error; under `all` and of the default rounds, such a round is
     /// reported as "no data".
@@ -335,25 +369,45 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         &a.training.files(),
         &[("--out", &a.out)],
     )?;
+    a.sim.check_draws()?;
     let (config, gssm_config) = a.training.configs()?;
     let real_dir = real_freeway_dir(a.real.as_deref())?;
-    let (train_sim, test_sim) = a.sim.load(&a.out, FamilyMix::default())?;
-    let data = TransferData {
-        train_sim,
-        train_drl_only: Vec::new(),
-        test_sim,
-        real: super::load_prepared(&real_dir)?.sequences,
-    };
+    let real = super::load_prepared(&real_dir)?.sequences;
     eprintln!(
         "riskctl: real recordings from {} ({} sequences, split into folds by scenario file)",
         real_dir.display(),
-        data.real.len()
+        real.len()
     );
     let options = a.training.options(a.quiet);
-    let result = transfer::run(&data, &config, &gssm_config, &options)?;
+    let inputs = config.msra.input_names();
+    // Each draw runs with the seeds after the previous draw's ([`transfer::draw_config`]).
+    let mut results = Vec::new();
+    let mut per_draw = Vec::new();
+    let mut labels = Vec::new();
+    for (k, draw) in a
+        .sim
+        .load_draws(&a.out, FamilyMix::default())?
+        .into_iter()
+        .enumerate()
+    {
+        let data = TransferData {
+            train_sim: draw.train,
+            train_drl_only: Vec::new(),
+            test_sim: draw.test,
+            real: real.clone(),
+        };
+        let draw_config = transfer::draw_config(&config, k, &options);
+        let result = transfer::run(&data, &draw_config, &gssm_config, &options)?;
+        per_draw.push(acceptance_claims(&result.report, &result.folds, &inputs));
+        results.push(result);
+        labels.push(draw.label);
+    }
+    let result = transfer::pool_draws(results)
+        .ok_or_else(|| anyhow::anyhow!("--draws: no simulator draw to run on"))?;
     host_tools::warnings::print(&result.warnings);
-    let claims = acceptance_claims(&result.report, &result.folds, &config.msra.input_names());
-    write_transfer_report(&a.out.join("report"), &result, &claims)?;
+    let claims = acceptance_claims(&result.report, &result.folds, &inputs);
+    let draw_claims: Vec<&[Claim]> = per_draw.iter().map(Vec::as_slice).collect();
+    write_transfer_report(&a.out.join("report"), &result, &claims, &draw_claims)?;
     if a.json {
         println!(
             "{}",
@@ -367,6 +421,17 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         "Claims (fold means, strictly better unless marked >=; a run = one fold x seed, both methods on its test set):",
         &claims,
     );
+    if draw_claims.len() > 1 {
+        println!();
+        for (k, label) in labels.iter().enumerate() {
+            println!("Draw {}: {label}", k + 1);
+        }
+        println!();
+        print!(
+            "{}",
+            riskscore_eval::claims::per_draw_markdown(&claims, &draw_claims)
+        );
+    }
     eprintln!("riskctl: report in {}", a.out.join("report").display());
     Ok(())
 }
@@ -382,18 +447,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     }
     let (rounds, empty) =
         Round::selection(a.rounds.as_deref()).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?;
-    if a.draws > 1 {
-        if let Some((flag, Some(dir))) =
-            a.sim.event_folders().into_iter().find(|(_, d)| d.is_some())
-        {
-            anyhow::bail!(
-                "--draws {}: each draw simulates its own training and test folders, but {flag} {} \
-                 gives one; drop --draws, or drop {flag} to simulate every draw",
-                a.draws,
-                dir.display()
-            );
-        }
-    }
+    a.sim.check_draws()?;
     let mut event_folders = vec![("--real", a.real.as_deref())];
     event_folders.extend(
         a.real_city
@@ -426,12 +480,20 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         real_city.len(),
         city_dirs.len()
     );
-    let mut draw_data = Vec::new();
-    for k in 0..a.draws {
-        let (label, train_sim, test_sim) = a.sim.load_draw(&a.out, FamilyMix::domain(), k)?;
-        let data = DomainData::new(train_sim, test_sim, real_freeway.clone(), real_city.clone());
-        draw_data.push((label, data));
-    }
+    let draw_data: Vec<(String, DomainData)> = a
+        .sim
+        .load_draws(&a.out, FamilyMix::domain())?
+        .into_iter()
+        .map(|draw| {
+            let data = DomainData::new(
+                draw.train,
+                draw.test,
+                real_freeway.clone(),
+                real_city.clone(),
+            );
+            (draw.label, data)
+        })
+        .collect();
     let draws: Vec<Draw> = draw_data
         .iter()
         .map(|(label, data)| Draw { label, data })
@@ -477,7 +539,7 @@ fn written_folders(a: &DomainsArgs) -> Vec<PathBuf> {
             folders.push(a.out.join(name));
         }
     }
-    for k in 1..a.draws {
+    for k in 1..a.sim.draws {
         folders.extend(["train-data", "test-data"].map(|name| draw_folder(&a.out, k).join(name)));
     }
     folders

@@ -99,6 +99,8 @@ pub enum TransferError {
 /// Where the held-out real data of one fold came from.
 #[derive(Clone, Debug, Serialize)]
 pub struct FoldSplit {
+    /// The simulator draw (1-based; 1 unless several draws are pooled, [`pool_draws`]).
+    pub draw: usize,
     pub seed: u64,
     pub fold: usize,
     pub test_scenarios: Vec<String>,
@@ -186,6 +188,7 @@ pub fn run(
             &fold_options,
         )?;
         let split = FoldSplit {
+            draw: 1,
             seed: *seed,
             fold: *fold,
             test_scenarios: held_out.clone(),
@@ -218,6 +221,59 @@ pub fn run(
         splits,
         warnings,
     })
+}
+
+/// The first training seed of simulator draw `k` (from 0) when several draws are pooled: its
+/// seeds follow the previous draws' (`config.seed + k x seeds`), so every pooled run has a seed
+/// of its own and stays keyed by `(seed, fold)`.
+pub fn draw_first_seed(config: &TrainConfig, k: usize, options: &TransferOptions) -> u64 {
+    config.seed.wrapping_add((k * options.seeds.max(1)) as u64)
+}
+
+/// The training configuration of draw `k` ([`draw_first_seed`]).
+pub fn draw_config(config: &TrainConfig, k: usize, options: &TransferOptions) -> TrainConfig {
+    TrainConfig {
+        seed: draw_first_seed(config, k, options),
+        ..config.clone()
+    }
+}
+
+/// Puts `draw: ` in front of every warning of a draw pooled with others.
+pub fn prefix_warnings(warnings: &mut [String], draw: &str) {
+    for w in warnings {
+        *w = format!("{draw}: {w}");
+    }
+}
+
+/// Several simulator draws' results (in draw order, each run with [`draw_config`]) as one: the
+/// folds, splits and warnings of every draw, the report over all of them (the table header
+/// counting every draw's test set); `None` without a draw. Each split names its draw.
+pub fn pool_draws(results: Vec<TransferResult>) -> Option<TransferResult> {
+    let single = results.len() == 1;
+    let mut events = EventCounts::default();
+    let mut pooled: Option<TransferResult> = None;
+    for (k, mut result) in results.into_iter().enumerate() {
+        events += result.report.events;
+        for split in &mut result.splits {
+            split.draw = k + 1;
+        }
+        if !single {
+            prefix_warnings(&mut result.warnings, &format!("draw {}", k + 1));
+        }
+        match &mut pooled {
+            None => pooled = Some(result),
+            Some(p) => {
+                p.folds.extend(result.folds);
+                p.splits.extend(result.splits);
+                p.warnings.extend(result.warnings);
+            }
+        }
+    }
+    let mut pooled = pooled?;
+    if !single {
+        pooled.report = eval::aggregate(events, &pooled.folds);
+    }
+    Some(pooled)
 }
 
 /// One training/test split of a benchmark: what one fold runner call trains and scores.

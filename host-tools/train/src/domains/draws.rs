@@ -15,7 +15,7 @@ use super::run::{merge_shares, run_round, DomainsError, DrawResult, RoundResult}
 use super::sequences::SequenceSink;
 use crate::gssm::GssmConfig;
 use crate::train::TrainConfig;
-use crate::transfer::TransferOptions;
+use crate::transfer::{draw_config, draw_first_seed, prefix_warnings, TransferOptions};
 use riskscore_eval::{self as eval, EventCounts};
 
 /// One simulator draw: the benchmark's data with one (training, test) simulation pair.
@@ -24,19 +24,6 @@ pub struct Draw<'d> {
     /// How the report names the draw, e.g. `sim seeds 101/102`.
     pub label: &'d str,
     pub data: &'d DomainData,
-}
-
-/// The first training seed of draw `k`: its seeds follow the previous draws' seeds.
-pub fn first_seed(config: &TrainConfig, k: usize, options: &TransferOptions) -> u64 {
-    config.seed.wrapping_add((k * options.seeds.max(1)) as u64)
-}
-
-/// The training configuration of draw `k` ([`first_seed`]).
-pub fn draw_config(config: &TrainConfig, k: usize, options: &TransferOptions) -> TrainConfig {
-    TrainConfig {
-        seed: first_seed(config, k, options),
-        ..config.clone()
-    }
 }
 
 /// The round's counts on every draw, in draw order.
@@ -101,23 +88,22 @@ fn pool(
     let mut pooled: Option<RoundResult> = None;
     let mut summaries = Vec::new();
     for (k, (mut result, draw)) in per_draw.into_iter().zip(draws).enumerate() {
-        events.crash += result.report.events.crash;
-        events.near_crash += result.report.events.near_crash;
-        events.safe += result.report.events.safe;
+        events += result.report.events;
         summaries.push(DrawResult {
             draw: k + 1,
             label: draw.label.to_owned(),
             counts: result.counts,
-            first_seed: first_seed(config, k, options),
+            first_seed: draw_first_seed(config, k, options),
             claims: result.claims.clone(),
         });
         for split in &mut result.splits {
             split.draw = k + 1;
         }
         if !single {
-            for w in &mut result.warnings {
-                *w = format!("draw {} ({}): {w}", k + 1, draw.label);
-            }
+            prefix_warnings(
+                &mut result.warnings,
+                &format!("draw {} ({})", k + 1, draw.label),
+            );
         }
         match &mut pooled {
             None => pooled = Some(result),

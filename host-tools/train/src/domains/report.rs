@@ -102,43 +102,6 @@ fn counts_sentence(c: &SliceCounts) -> String {
     )
 }
 
-/// Each pooled claim's verdict on each draw's own means, with that draw's run tally.
-fn per_draw_markdown(pooled: &[Claim], draws: &[DrawResult]) -> String {
-    let mut out = String::from("| Claim |");
-    let mut rule = String::from("|---|");
-    for d in draws {
-        out.push_str(&format!(" draw {} |", d.draw));
-        rule.push_str("---|");
-    }
-    out.push('\n');
-    out.push_str(&rule);
-    out.push('\n');
-    for c in pooled {
-        out.push_str(&format!(
-            "| {} {} {} on {} |",
-            c.method,
-            c.rule.symbol(),
-            c.baseline,
-            c.metric
-        ));
-        for d in draws {
-            let same = d.claims.iter().find(|x| {
-                (&x.method, &x.baseline, &x.metric, x.rule)
-                    == (&c.method, &c.baseline, &c.metric, c.rule)
-            });
-            match same {
-                Some(x) => out.push_str(&format!(
-                    " {} ({}/{}) |",
-                    x.verdict, x.runs.holding, x.runs.compared
-                )),
-                None => out.push_str(" not checked |"),
-            }
-        }
-        out.push('\n');
-    }
-    out
-}
-
 fn share_json(s: &ShareSummary) -> Value {
     json!({
         "mean": s.percent.map(|p| p.mean),
@@ -291,7 +254,9 @@ impl DomainsResult {
                         out.push_str(
                             "Per draw (the verdict on that draw's own means; in brackets, the runs of that draw where it holds):\n\n",
                         );
-                        out.push_str(&per_draw_markdown(&r.claims, draws));
+                        let per_draw: Vec<&[Claim]> =
+                            draws.iter().map(|d| d.claims.as_slice()).collect();
+                        out.push_str(&claims::per_draw_markdown(&r.claims, &per_draw));
                         out.push('\n');
                     }
                 }
