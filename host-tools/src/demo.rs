@@ -850,13 +850,13 @@ fn domain_benchmark(
 }
 
 /// Write the transfer benchmark's report files into `dir`, its `claims` as `claims.md` and
-/// `claims.csv` among them, and over several simulator draws each draw's own claims (`per_draw`,
-/// [`claims::add_to`]). Returns the paths.
+/// `claims.csv` among them, and over several simulator draws each draw's label and own claims
+/// (`per_draw`, [`claims::add_to`]). Returns the paths.
 pub fn write_transfer_report(
     dir: &Path,
     result: &riskscore_train::transfer::TransferResult,
     claims: &[Claim],
-    per_draw: &[&[Claim]],
+    per_draw: &[(&str, &[Claim])],
 ) -> Result<Vec<PathBuf>, DemoError> {
     let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
     bundle.add_json("splits.json", &result.splits)?;

@@ -932,7 +932,7 @@ fn draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() {
     // The pooled claims are the pooled runs paired (recomputed from the report files).
     claims_are_the_runs_paired(&p.join("pooled/report"), &pooled);
     let (header, rows) = csv_rows(&p.join("pooled/report/claims-per-draw.csv"));
-    assert_eq!(&header[..2], ["round", "draw"]);
+    assert_eq!(&header[..3], ["round", "draw", "label"]);
     let claims = |v: &Value| v["claims"].as_array().unwrap().len();
     assert_eq!(
         rows.len(),
@@ -1014,15 +1014,20 @@ fn transfer_draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() 
     assert_eq!(draws, [1, 1, 2, 2]);
     // Each draw's claims are its single run's, row for row.
     let (header, per_draw) = csv_rows(&p.join("pooled/report/claims-per-draw.csv"));
-    assert_eq!(header[0], "draw");
-    for (draw, single) in [("1", "first"), ("2", "second")] {
+    assert_eq!(header[..2], ["draw", "label"]);
+    for (draw, label, single) in [
+        ("1", "sim seeds 1/2", "first"),
+        ("2", "sim seeds 101/102", "second"),
+    ] {
         let (_, rows) = csv_rows(&p.join(format!("{single}/report/claims.csv")));
         let mine: Vec<Row> = per_draw
             .iter()
             .filter(|r| r["draw"] == draw)
             .map(|r| {
+                assert_eq!(r["label"], label);
                 let mut r = r.clone();
                 r.remove("draw");
+                r.remove("label");
                 r
             })
             .collect();
@@ -1046,7 +1051,9 @@ fn transfer_draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() 
             (w, m) => assert_eq!(w, m, "{c:?}"),
         }
     }
-    assert!(file("pooled", "claims.md").contains("| Claim | draw 1 | draw 2 |"));
+    let md = file("pooled", "claims.md");
+    assert!(md.contains("- draw 2: sim seeds 101/102"), "{md}");
+    assert!(md.contains("| Claim | draw 1 | draw 2 |"), "{md}");
     assert!(stdout.contains("Draw 2: sim seeds 101/102"), "{stdout}");
     assert!(!p.join("first/report/claims-per-draw.csv").exists());
     // A given folder is one draw.

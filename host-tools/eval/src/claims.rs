@@ -347,26 +347,30 @@ pub fn write_csv<'c, W: Write>(
 /// Adds `claims.md` ([`to_markdown`]) and `claims.csv` ([`CSV_COLUMNS`], one row per claim) to
 /// a report folder.
 ///
-/// Pooled over several simulator draws (`per_draw`: each draw's own claims in draw order; empty or
-/// one for a single draw), `claims.md` also gets [`per_draw_markdown`] and the folder
-/// `claims-per-draw.csv` ([`CSV_COLUMNS`] after a `draw` column).
+/// Pooled over several simulator draws (`per_draw`: each draw's label and own claims in draw
+/// order; empty or one for a single draw), `claims.md` also names the draws and gets
+/// [`per_draw_markdown`], and the folder `claims-per-draw.csv` ([`CSV_COLUMNS`] after `draw` and
+/// `label` columns).
 pub fn add_to(
     bundle: &mut ReportBundle,
     claims: &[Claim],
-    per_draw: &[&[Claim]],
+    per_draw: &[(&str, &[Claim])],
 ) -> Result<(), BundleError> {
     let mut md = to_markdown(claims);
     if per_draw.len() > 1 {
-        md.push_str(
-            "\nPer draw (the verdict on that draw's own means; in brackets, its runs where the claim holds):\n\n",
-        );
-        md.push_str(&per_draw_markdown(claims, per_draw));
+        md.push_str("\nPer draw (the verdict on that draw's own means; in brackets, its runs where the claim holds):\n\n");
+        for (k, (label, _)) in per_draw.iter().enumerate() {
+            md.push_str(&format!("- draw {}: {label}\n", k + 1));
+        }
+        md.push('\n');
+        let tables: Vec<&[Claim]> = per_draw.iter().map(|(_, c)| *c).collect();
+        md.push_str(&per_draw_markdown(claims, &tables));
         bundle.add_csv("claims-per-draw.csv", |w| {
             let groups = per_draw
                 .iter()
                 .enumerate()
-                .map(|(k, c)| (vec![(k + 1).to_string()], *c));
-            write_csv(w, &["draw"], groups)
+                .map(|(k, (label, c))| (vec![(k + 1).to_string(), label.to_string()], *c));
+            write_csv(w, &["draw", "label"], groups)
         })?;
     }
     bundle.add("claims.md", md);

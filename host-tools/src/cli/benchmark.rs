@@ -407,7 +407,12 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     host_tools::warnings::print(&result.warnings);
     let claims = acceptance_claims(&result.report, &result.folds, &inputs);
     let draw_claims: Vec<&[Claim]> = per_draw.iter().map(Vec::as_slice).collect();
-    write_transfer_report(&a.out.join("report"), &result, &claims, &draw_claims)?;
+    let labelled: Vec<(&str, &[Claim])> = labels
+        .iter()
+        .map(String::as_str)
+        .zip(draw_claims.iter().copied())
+        .collect();
+    write_transfer_report(&a.out.join("report"), &result, &claims, &labelled)?;
     if a.json {
         println!(
             "{}",

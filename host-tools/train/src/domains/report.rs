@@ -268,7 +268,8 @@ impl DomainsResult {
     /// The report folder: `domains.md`, `domains.json`, `shares.csv` (every method, fold and
     /// seed), `claims.csv` (every round's claims), `splits.json` (the sets of every fold, each
     /// with its draw) and `<round>.folds.csv` per run round; over several simulator draws also
-    /// `claims-per-draw.csv` (each round's claims on each draw's own means and runs).
+    /// `claims-per-draw.csv` (each round's claims on each draw's own means and runs, with the
+    /// draw's number and label).
     pub fn bundle(&self) -> Result<ReportBundle, BundleError> {
         let mut bundle = ReportBundle::default();
         bundle.add("domains.md", self.to_markdown());
@@ -313,11 +314,11 @@ impl DomainsResult {
             bundle.add_csv("claims-per-draw.csv", |w| {
                 claims::write_csv(
                     w,
-                    &["round", "draw"],
+                    &["round", "draw", "label"],
                     self.rounds.iter().flat_map(|o| {
                         o.pooled_draws().iter().map(|d| {
                             (
-                                vec![o.round().name.clone(), d.draw.to_string()],
+                                vec![o.round().name.clone(), d.draw.to_string(), d.label.clone()],
                                 d.claims.as_slice(),
                             )
                         })
