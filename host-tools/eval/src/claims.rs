@@ -100,6 +100,24 @@ pub struct Claim {
 }
 
 impl Claim {
+    /// The comparison as tables print it: `DRL > TAdv on A_ROC_90`.
+    pub fn comparison(&self) -> String {
+        format!(
+            "{} {} {} on {}",
+            self.method,
+            self.rule.symbol(),
+            self.baseline,
+            self.metric
+        )
+    }
+
+    /// True when `other` makes the same comparison (methods, metric and rule), e.g. the same
+    /// claim on another draw.
+    pub fn same_comparison(&self, other: &Claim) -> bool {
+        (&self.method, &self.baseline, &self.metric, self.rule)
+            == (&other.method, &other.baseline, &other.metric, other.rule)
+    }
+
     /// The metric as printed: marked ` (>=)` / ` (<=)` when the rule is not strict improvement.
     pub fn label(&self) -> String {
         match self.rule {
@@ -245,11 +263,8 @@ pub fn to_markdown(claims: &[Claim]) -> String {
             format!("{} of {}", c.runs.holding, c.runs.compared)
         };
         out.push_str(&format!(
-            "| {} {} {} on {} | {} | {} | {} | {} |\n",
-            c.method,
-            c.rule.symbol(),
-            c.baseline,
-            c.metric,
+            "| {} | {} | {} | {} | {} |\n",
+            c.comparison(),
             format_value(c.method_mean, 2),
             format_value(c.baseline_mean, 2),
             c.verdict,
@@ -273,19 +288,9 @@ pub fn per_draw_markdown(pooled: &[Claim], draws: &[&[Claim]]) -> String {
     out.push_str(&rule);
     out.push('\n');
     for c in pooled {
-        out.push_str(&format!(
-            "| {} {} {} on {} |",
-            c.method,
-            c.rule.symbol(),
-            c.baseline,
-            c.metric
-        ));
+        out.push_str(&format!("| {} |", c.comparison()));
         for claims in draws {
-            let same = claims.iter().find(|x| {
-                (&x.method, &x.baseline, &x.metric, x.rule)
-                    == (&c.method, &c.baseline, &c.metric, c.rule)
-            });
-            match same {
+            match claims.iter().find(|x| x.same_comparison(c)) {
                 Some(x) => out.push_str(&format!(
                     " {} ({}/{}) |",
                     x.verdict, x.runs.holding, x.runs.compared

@@ -124,47 +124,10 @@ impl SimArgs {
         ]
     }
 
-    /// The training and test sequences: the folders given, or simulated into `out` with
-    /// `--families`, else `default_families`.
-    fn load(
-        &self,
-        out: &Path,
-        default_families: FamilyMix,
-    ) -> anyhow::Result<(Vec<Sequence>, Vec<Sequence>)> {
-        let families = self.families.clone().unwrap_or(default_families);
-        let sim = |given: Option<&Path>, folder: &str, seed: u64, mix: Mix| {
-            let cfg = SimConfig {
-                seed,
-                events: self.events,
-                mix,
-                families: families.clone(),
-                ..SimConfig::default()
-            };
-            folder_or_simulate(given, &out.join(folder), &cfg)
-        };
-        Ok((
-            sim(
-                self.train_events.as_deref(),
-                "train-data",
-                self.train_seed,
-                self.train_mix,
-            )?,
-            sim(
-                self.test_events.as_deref(),
-                "test-data",
-                self.test_seed,
-                self.test_mix,
-            )?,
-        ))
-    }
-}
-
-/// The simulator-seed step between two draws of `benchmark domains --draws`.
-const DRAW_SEED_STEP: u64 = 100;
-
-impl SimArgs {
-    /// The (training, test) simulation of draw `k` of `--draws`: draw 0 is [`SimArgs::load`],
-    /// draw k moves both seeds by `k` x [`DRAW_SEED_STEP`] and simulates into `draw-<k+1>/`.
+    /// The (training, test) sequences of draw `k` of `--draws`: the folders given (draw 0 only,
+    /// [`SimArgs::check_draws`]), or simulated with `--families`, else `default_families`. Draw 0
+    /// simulates into `out`; draw k moves both seeds by `k` x [`DRAW_SEED_STEP`] and simulates
+    /// into `draw-<k+1>/`.
     fn load_draw(
         &self,
         out: &Path,
@@ -180,25 +143,42 @@ impl SimArgs {
             (None, None) => format!("sim seeds {train_seed}/{test_seed}"),
             _ => "the given event folders".to_owned(),
         };
-        if k == 0 {
-            let (train, test) = self.load(out, default_families)?;
-            return Ok(SimDraw { label, train, test });
-        }
-        let draw = SimArgs {
-            train_events: None,
-            test_events: None,
-            train_seed,
-            test_seed,
-            train_mix: self.train_mix,
-            test_mix: self.test_mix,
-            events: self.events,
-            families: self.families.clone(),
-            draws: 1,
+        let dir = if k == 0 {
+            out.to_path_buf()
+        } else {
+            draw_folder(out, k)
         };
-        let (train, test) = draw.load(&draw_folder(out, k), default_families)?;
-        Ok(SimDraw { label, train, test })
+        let families = self.families.clone().unwrap_or(default_families);
+        let sim = |given: Option<&Path>, folder: &str, seed: u64, mix: Mix| {
+            let cfg = SimConfig {
+                seed,
+                events: self.events,
+                mix,
+                families: families.clone(),
+                ..SimConfig::default()
+            };
+            folder_or_simulate(given, &dir.join(folder), &cfg)
+        };
+        Ok(SimDraw {
+            label,
+            train: sim(
+                self.train_events.as_deref(),
+                "train-data",
+                train_seed,
+                self.train_mix,
+            )?,
+            test: sim(
+                self.test_events.as_deref(),
+                "test-data",
+                test_seed,
+                self.test_mix,
+            )?,
+        })
     }
 }
+
+/// The simulator-seed step between two draws of `--draws`.
+const DRAW_SEED_STEP: u64 = 100;
 
 /// One simulator draw of `--draws`: its label for the report and its two simulations.
 struct SimDraw {

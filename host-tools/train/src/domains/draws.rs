@@ -10,7 +10,7 @@
 //! run of a pooled round has a seed of its own and stays keyed by `(seed, fold)` in every report
 //! file, as in a single draw. Each draw keeps its own counts and its claims on its own means.
 use super::claims::round_claims;
-use super::rounds::{slice_counts, DomainData, KindCounts, Round, SliceCounts};
+use super::rounds::{slice_counts, DomainData, Round, SliceCounts};
 use super::run::{merge_shares, run_round, DomainsError, DrawResult, RoundResult};
 use super::sequences::SequenceSink;
 use crate::gssm::GssmConfig;
@@ -34,17 +34,11 @@ pub fn draw_counts(round: &Round, draws: &[Draw<'_>]) -> Vec<SliceCounts> {
 /// Counts added up over draws (every draw tests the real sequences again, so they count once per
 /// draw).
 pub fn sum_counts(counts: &[SliceCounts]) -> SliceCounts {
-    let add = |a: KindCounts, b: KindCounts| KindCounts {
-        conflicts: a.conflicts + b.conflicts,
-        safe: a.safe + b.safe,
-    };
-    counts
-        .iter()
-        .fold(SliceCounts::default(), |total, c| SliceCounts {
-            test: add(total.test, c.test),
-            real_safe: total.real_safe + c.real_safe,
-            train: add(total.train, c.train),
-        })
+    let mut total = SliceCounts::default();
+    for c in counts {
+        total += *c;
+    }
+    total
 }
 
 /// Run `round` on every draw and pool the runs: the report and the claims over every draw's
@@ -129,6 +123,7 @@ fn pool(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::domains::rounds::KindCounts;
     use crate::train::Progress;
 
     fn counts(test: (usize, usize), real_safe: usize, train: (usize, usize)) -> SliceCounts {

@@ -118,20 +118,24 @@ mod tests {
     use crate::train::Progress;
     use rounds::slice_counts;
 
-    fn run_city(empty: EmptyRound) -> Result<DomainsResult, DomainsError> {
-        let rounds = Round::parse_list("city-peachtree").unwrap();
-        let options = TransferOptions {
+    /// Two folds x one seed, quiet: the rounds here are refused or reported before any training.
+    fn two_folds() -> TransferOptions {
+        TransferOptions {
             folds: 2,
             seeds: 1,
             progress: Progress::Hidden,
-        };
+        }
+    }
+
+    fn run_city(empty: EmptyRound) -> Result<DomainsResult, DomainsError> {
+        let rounds = Round::parse_list("city-peachtree").unwrap();
         let data = DomainData::default();
         run(
             &rounds,
             &data,
             &TrainConfig::default(),
             &GssmConfig::default(),
-            &options,
+            &two_folds(),
             empty,
             None,
         )
@@ -165,18 +169,13 @@ mod tests {
                 data: &empty_data,
             },
         ];
-        let options = TransferOptions {
-            folds: 2,
-            seeds: 1,
-            progress: Progress::Hidden,
-        };
         let run = |empty| {
             run_draws(
                 &rounds,
                 &draws,
                 &TrainConfig::default(),
                 &GssmConfig::default(),
-                &options,
+                &two_folds(),
                 empty,
                 None,
             )

@@ -240,6 +240,14 @@ pub struct KindCounts {
     pub safe: usize,
 }
 
+/// Counts of several sets added up (e.g. a slice over several simulator draws).
+impl std::ops::AddAssign for KindCounts {
+    fn add_assign(&mut self, other: KindCounts) {
+        self.conflicts += other.conflicts;
+        self.safe += other.safe;
+    }
+}
+
 impl KindCounts {
     pub fn of<'a>(sequences: impl IntoIterator<Item = &'a Sequence>) -> KindCounts {
         let mut c = KindCounts::default();
@@ -267,6 +275,15 @@ pub struct SliceCounts {
 
 /// Fewer conflicts or safe sequences than this in a slice, and its figures are flagged.
 pub const SMALL_SLICE: usize = 30;
+
+/// Counts of several simulator draws added up ([`super::draws::sum_counts`]).
+impl std::ops::AddAssign for SliceCounts {
+    fn add_assign(&mut self, other: SliceCounts) {
+        self.test += other.test;
+        self.real_safe += other.real_safe;
+        self.train += other.train;
+    }
+}
 
 impl SliceCounts {
     /// True when the slice has fewer than [`SMALL_SLICE`] conflicts or safe sequences.
