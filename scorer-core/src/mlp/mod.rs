@@ -73,7 +73,8 @@ pub struct FloatLayer<'a> {
 /// The f32 network: standardisation then dense layers.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FloatMlp<'a> {
-    /// Feature indices (into the 13 features) feeding the input, in input order.
+    /// Indices into the input vector (the 13 features for GSSM, the 13 DRL inputs for DRL) feeding
+    /// the network, in input order.
     pub inputs: BoundedVec<u8, MAX_INPUTS>,
     /// Per input: `1 / std` of the feature (must be > 0).
     pub input_scale: BoundedVec<f32, MAX_INPUTS>,
@@ -110,7 +111,8 @@ pub struct QuantLayer<'a> {
 /// The deployed int8 network.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct QuantMlp<'a> {
-    /// Feature indices (into the 13 features) feeding the input, in input order.
+    /// Indices into the input vector (the 13 features for GSSM, the 13 DRL inputs for DRL) feeding
+    /// the network, in input order.
     pub inputs: BoundedVec<u8, MAX_INPUTS>,
     /// Per input: folded standardisation + quantisation multiplier (see
     /// [`crate::quant::fold_standardisation`]); must be > 0.
