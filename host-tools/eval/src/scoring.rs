@@ -208,6 +208,40 @@ pub fn row_names(models: &[(Option<String>, &str, String)]) -> Vec<String> {
     names
 }
 
+/// The columns of the `riskctl score` table that are not model columns: the frame's identity and
+/// the surrogates (model columns and their `<model>_in_domain` flags go between and after).
+pub const FIXED_SCORE_COLUMNS: [&str; 6] = ["event_id", "time", "class", "ttc2d", "tadv", "ei"];
+
+/// Suffix of a guarded model's flag column in the score table.
+const IN_DOMAIN_SUFFIX: &str = "_in_domain";
+
+/// Why a model may not take the row (and column) name `name`, if it may not: it equals,
+/// case-insensitively, a baseline row (TTC2D, TAdv, EI, which the evaluation reports next to the
+/// models) or a fixed column of the score table ([`FIXED_SCORE_COLUMNS`]), or it ends in
+/// `_in_domain` (a guarded model's flag column). Otherwise the report would hold two rows, or the
+/// table two columns, of one name.
+pub fn reserved_name_clash(name: &str) -> Option<String> {
+    if let Some(b) = Baseline::ALL
+        .into_iter()
+        .find(|b| b.name().eq_ignore_ascii_case(name))
+    {
+        return Some(format!("the baseline row {}", b.name()));
+    }
+    if let Some(c) = FIXED_SCORE_COLUMNS
+        .iter()
+        .find(|c| c.eq_ignore_ascii_case(name))
+    {
+        return Some(format!("the score table's column `{c}`"));
+    }
+    let lower = name.to_ascii_lowercase();
+    if lower.ends_with(IN_DOMAIN_SUFFIX) {
+        return Some(format!(
+            "the score table's `<model>{IN_DOMAIN_SUFFIX}` flag columns"
+        ));
+    }
+    None
+}
+
 /// One method's scored sequences and curve.
 #[derive(Clone, Debug)]
 pub struct MethodRun {
@@ -296,6 +330,19 @@ mod tests {
             .map(|(e, d, s)| (e.map(str::to_owned), *d, (*s).to_owned()))
             .collect();
         row_names(&owned)
+    }
+
+    #[test]
+    fn baseline_and_fixed_column_names_are_reserved() {
+        for name in [
+            "TTC2D", "ttc2d", "TAdv", "tadv", "EI", "event_id", "Time", "CLASS",
+        ] {
+            assert!(reserved_name_clash(name).is_some(), "{name}");
+        }
+        assert!(reserved_name_clash("DRL_in_domain").is_some());
+        for name in ["DRL", "MSRA", "mine", "ttc", "events"] {
+            assert_eq!(reserved_name_clash(name), None, "{name}");
+        }
     }
 
     #[test]

@@ -113,7 +113,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if sources.contains(&Source::Simulation) && args.augment.is_none() {
         bail!("--sources simulation needs --augment DIR");
     }
-    std::fs::create_dir_all(&args.out)
+    // Removed again (while still empty) when the run fails, like every command's new folders.
+    let folders = riskscore_output::NewFolders::create(&args.out)
         .with_context(|| format!("{}: cannot create", args.out.display()))?;
     let events_dir = match &args.events {
         Some(d) => d.clone(),
@@ -166,10 +167,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ablation::run(&seqs, aug.as_deref(), &config, &opts, |cell| {
         host_tools::warnings::print(&cell.warnings);
         for line in tables.add(cell) {
-            println!("{line}");
+            outln!("{line}");
         }
     })?;
     let (csv_path, md_path) = tables.finish().context("writing the ablation tables")?;
-    println!("wrote {} and {}", csv_path.display(), md_path.display());
+    folders.keep();
+    outln!("wrote {} and {}", csv_path.display(), md_path.display());
     Ok(())
 }

@@ -394,25 +394,25 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         .collect();
     write_transfer_report(&a.out.join("report"), &result, &claims, &labelled)?;
     if a.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&result.report.to_json())?
         );
         return Ok(());
     }
-    print!("{}", result.report.to_markdown());
-    println!();
+    out!("{}", result.report.to_markdown());
+    outln!();
     print_claims(
         "Claims (fold means, strictly better unless marked >=; a run = one fold x seed, both methods on its test set):",
         &claims,
     );
     if draw_claims.len() > 1 {
-        println!();
+        outln!();
         for (k, label) in labels.iter().enumerate() {
-            println!("Draw {}: {label}", k + 1);
+            outln!("Draw {}: {label}", k + 1);
         }
-        println!();
-        print!(
+        outln!();
+        out!(
             "{}",
             riskscore_eval::claims::per_draw_markdown(&claims, &draw_claims)
         );
@@ -426,7 +426,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         let defaults = Round::defaults();
         for round in Round::all() {
             let mark = if defaults.contains(&round) { "*" } else { " " };
-            println!("{mark} {:<20} {round}", round.name);
+            outln!("{mark} {:<20} {round}", round.name);
         }
         return Ok(());
     }
@@ -503,10 +503,10 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     let report_dir = a.out.join("report");
     result.bundle()?.write_to(&report_dir)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&result.to_json())?);
+        outln!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
         // Each round's section ends with its claims table.
-        print!("{}", result.to_markdown());
+        out!("{}", result.to_markdown());
     }
     eprintln!("riskctl: report in {}", report_dir.display());
     Ok(())

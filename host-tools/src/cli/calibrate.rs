@@ -98,7 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         calibration.measured = warned as f64 / maxima.len() as f64;
     }
     if !args.never_warn.is_empty() {
-        println!(
+        outln!(
             "--never-warn: the highest score of its {never_warn_sequences} safe sequences is \
              {never_warn_max}; the false-alarm rule gives {by_rule}, {}",
             if calibration.threshold > by_rule {
@@ -134,7 +134,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the calibrated blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
-    println!(
+    outln!(
         "{} -> {}: default threshold {} ({:.1} % of {} normal-driving sequences warn; target {} %)",
         args.model.display(),
         args.out.display(),
@@ -143,7 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         calibration.sequences,
         args.false_alarm_rate
     );
-    print!("{summary}");
+    out!("{summary}");
     Ok(())
 }
 

@@ -145,13 +145,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("{reason}");
     }
     if let Some(fitted) = &guarded.fallback {
-        println!(
+        outln!(
             "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
             fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
         );
     }
     if let Some(b) = &blend {
-        println!(
+        outln!(
             "blend: inside the domain {}",
             riskscore_train::export::blend_text(b)
         );
@@ -169,7 +169,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         String::new()
     };
-    println!(
+    outln!(
         "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), {}",
         args.model.display(),
         args.out.display(),
@@ -178,7 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.sequence_percent,
         riskscore_train::export::policy_text(args.policy)
     );
-    print!("{summary}");
+    out!("{summary}");
     // The blend moves every score inside the domain: a threshold chosen on the old scores no
     // longer has the false-alarm rate its record states.
     if blend.is_some() && blend != blob.meta.blend && blob.meta.default_threshold.is_some() {

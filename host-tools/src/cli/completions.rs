@@ -43,6 +43,6 @@ pub fn man(args: ManArgs, command: clap::Command) -> anyhow::Result<()> {
     clap_mangen::generate_to(command, dir.path())
         .with_context(|| format!("{}: cannot write the man pages", args.out_dir.display()))?;
     dir.commit()?;
-    println!("man pages written to {}", args.out_dir.display());
+    outln!("man pages written to {}", args.out_dir.display());
     Ok(())
 }

@@ -7,6 +7,7 @@ use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
 use riskscore_eval::outputs::{result_files, RESULT_FILES};
 use riskscore_eval::plots::FIGURE_FILES;
+use riskscore_eval::scoring::reserved_name_clash;
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
     evaluate_folder_gathering, FolderEvaluation, FolderRefusal, Gather, TrajectoryEvents,
@@ -114,7 +115,7 @@ pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
     let files = ModelFile::read_all(&args.models)?;
-    let mut methods = named_models(&files)?;
+    let mut methods = checked_models(&files)?;
     methods.extend(Method::baselines());
     let thresholds = operating_thresholds(&args.thresholds, &files, &methods)?;
 
@@ -146,12 +147,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let folder = evaluate_checked(dir, &methods, gather, args.skip_bad_events)?;
     if args.json {
-        println!("{}", folder.to_json_text()?);
+        outln!("{}", folder.to_json_text()?);
     } else {
-        print!("{}", folder.report.to_markdown());
-        print!("{}", riskscore_eval::domain_share::markdown(&folder.domain));
+        out!("{}", folder.report.to_markdown());
+        out!("{}", riskscore_eval::domain_share::markdown(&folder.domain));
         if !folder.thresholds.is_empty() {
-            print!(
+            out!(
                 "{}",
                 riskscore_eval::threshold::markdown(&folder.thresholds)
             );
@@ -170,6 +171,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("  {}", p.display());
     }
     Ok(())
+}
+
+/// The model rows of `files` ([`named_models`]), refusing a name that clashes with a baseline row
+/// or a fixed column of the score table ([`reserved_name_clash`]): the report would hold two rows,
+/// or the table two columns, of that name.
+pub(super) fn checked_models(files: &[ModelFile]) -> anyhow::Result<Vec<Method<'_>>> {
+    let methods = named_models(files)?;
+    for (file, method) in files.iter().zip(&methods) {
+        for name in file.name.iter().chain([&method.name]) {
+            if let Some(clash) = reserved_name_clash(name) {
+                let spec = match &file.name {
+                    Some(n) => format!("{n}={}", file.path.display()),
+                    None => file.path.display().to_string(),
+                };
+                bail!(
+                    "--model {spec}: the name {name:?} clashes with {clash}; give the model another name (--model NAME=FILE)"
+                );
+            }
+        }
+    }
+    Ok(methods)
 }
 
 /// Crash events drawn when no --trajectory-event is given.
@@ -269,8 +291,10 @@ fn evaluate_checked(
     Ok(folder)
 }
 
-/// The loader keeps the first problems of each kind (and counts the rest), so all are listed.
-fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
+/// The loader keeps the first problems of each kind (and counts the rest), so all are listed:
+/// the first of every kind (and so every kind of dropped event) is named, and the total is the
+/// number of problems, not of listed lines.
+pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
     if !issues.is_empty() {
         let total: u64 = issues.iter().map(|i| i.count()).sum();
         eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");

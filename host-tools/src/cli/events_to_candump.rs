@@ -140,7 +140,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     file.commit()
         .with_context(|| format!("writing {}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {}: {} events, {} cycles, {} CAN frames, {:.1} s of traffic{}",
         args.out.display(),
         summary.events,

@@ -43,13 +43,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
     export::write_blob(&args.out, &blob)?;
-    println!(
+    outln!(
         "{} ({}) -> {} ({} bytes)",
         checkpoint.display(),
         ck.kind_name(),
         args.out.display(),
         blob.len()
     );
-    print!("{summary}");
+    out!("{summary}");
     Ok(())
 }

@@ -261,7 +261,7 @@ fn write(path: &Path, blob: &[u8]) -> anyhow::Result<()> {
 }
 
 fn print_weights(name: &str, weights: &[TermWeight]) {
-    print!("{}", weights_table(name, weights));
+    out!("{}", weights_table(name, weights));
 }
 
 /// Refuses an output file that is, or lies inside, one of the inputs of `common` (event folders,
@@ -319,7 +319,7 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
         &gcfg.fit,
         progress(),
     )?;
-    println!(
+    outln!(
         "GSSM {}: {} safe observations ({} validation), {} epochs (best {}), NLL train {:.4} validation {}",
         g.params.shape(),
         g.report.observations,
@@ -343,7 +343,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
     let seqs = load_all(&a.common.events)?;
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let s = align_ssra(&gssm, &prepared, &cfg, &gcfg.ssra, progress())?;
-    println!(
+    outln!(
         "SSRA: {} pairs, {} epochs (best {}), validation objective {} -> {}{}",
         s.report.pairs,
         s.report.epochs,
@@ -473,23 +473,23 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         eprintln!("riskctl: warning: {warning}");
     }
     if a.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&result.report.to_json())?
         );
     } else {
-        print!("{}", result.report.to_markdown());
-        println!();
+        out!("{}", result.report.to_markdown());
+        outln!();
         for (name, ws) in mean_weights(&result.details) {
             print_weights(&format!("{name} (mean over runs)"), &ws);
-            println!();
+            outln!();
         }
         let kept = result
             .details
             .iter()
             .filter(|d| d.ssra_kept_initial)
             .count();
-        println!(
+        outln!(
             "SSRA kept the unaligned GSSM in {kept} of {} runs (no fine-tuned epoch beat it on validation).",
             result.details.len()
         );
@@ -509,12 +509,12 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
 
 fn run_nll(a: NllArgs) -> anyhow::Result<()> {
     let gssm = read_gssm(&a.gssm)?;
-    println!("| Folder | Ego speed (m/s) | Safe observations | NLL of ln s (nats) |");
-    println!("|---|---|---:|---:|");
+    outln!("| Folder | Ego speed (m/s) | Safe observations | NLL of ln s (nats) |");
+    outln!("|---|---|---:|---:|");
     for dir in &a.events {
         let seqs = load_sequences(dir)?;
         for b in nll_by_speed_band(&gssm, &seqs)? {
-            println!(
+            outln!(
                 "| {} | {}-{} | {} | {} |",
                 dir.display(),
                 b.band.0,
@@ -549,7 +549,7 @@ pub fn run_augmentation(a: AugmentationArgs) -> anyhow::Result<()> {
     };
     let report = augmentation_study(&real, &sim, &cfg, &gcfg, &options, progress())?;
     if a.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "model": report.model.name(),
@@ -558,7 +558,7 @@ pub fn run_augmentation(a: AugmentationArgs) -> anyhow::Result<()> {
             }))?
         );
     } else {
-        print!("{}", report.to_markdown());
+        out!("{}", report.to_markdown());
     }
     Ok(())
 }

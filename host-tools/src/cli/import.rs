@@ -196,7 +196,7 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
 
 fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
     let c = &s.counts;
-    println!(
+    outln!(
         "read {} scenario files, {} road users in {:.1} s",
         s.files,
         s.road_users,
@@ -204,15 +204,15 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
     );
     let ignored: Vec<String> = s.ignored.iter().map(|(k, v)| format!("{v} {k}")).collect();
     if !ignored.is_empty() {
-        println!("ignored road users: {}", ignored.join(", "));
+        outln!("ignored road users: {}", ignored.join(", "));
     }
     if !s.issues.is_empty() {
-        println!(
+        outln!(
             "skipped (listed on stderr with the reason): {}",
             s.issues.len()
         );
     }
-    println!(
+    outln!(
         "pairs recorded together: {}, interacting: {}; interactions: {} ({} frames, ego: {})",
         c.pairs_overlapping_in_time,
         c.pairs_interacting,
@@ -220,17 +220,17 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         c.interaction_frames,
         a.ego
     );
-    println!(
+    outln!(
         "overlapping boxes (recording artefacts) dropped: {} pair-frames",
         c.overlap_frames
     );
     if a.skip_repeats {
-        println!(
+        outln!(
             "repeats of an earlier file (--skip-repeats) dropped: {} pair-frames",
             c.repeated_frames
         );
     }
-    println!("by geometry (at each step: seen from the first road user of the pair; per sequence: at closest approach, from its ego):");
+    outln!("by geometry (at each step: seen from the first road user of the pair; per sequence: at closest approach, from its ego):");
     for g in Geometry::ALL {
         let i = geometry_index(g);
         let kept = if a.geometry.contains(g) {
@@ -238,7 +238,7 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         } else {
             " (not kept: --geometry)"
         };
-        println!(
+        outln!(
             "  {:<9} pair-steps within --max-gap {:>7}, near {:>7}; safe sequences {:>5} ({} frames){kept}",
             g.as_str(),
             c.within_gap_frames[i],
@@ -253,7 +253,7 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         format!(" to {}", a.out.display())
     };
     let verb = if c.sequences == 0 { "found" } else { "wrote" };
-    println!(
+    outln!(
         "{verb} {} safe sequences with {} frames{destination} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length)",
         c.sequences,
         c.frames,
@@ -272,7 +272,7 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         }
         v.sort_by(f32::total_cmp);
         let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
-        println!(
+        outln!(
             "{name} per sequence (m): min {:.2}, 10% {:.2}, median {:.2}, 90% {:.2}, max {:.2}",
             q(0.0),
             q(0.1),

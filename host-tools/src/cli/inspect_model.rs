@@ -17,7 +17,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot read", args.file.display()))?;
     let text = riskscore_train::export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("{}: integrity check failed: {e}", args.file.display()))?;
-    println!("{}", args.file.display());
-    print!("{text}");
+    outln!("{}", args.file.display());
+    out!("{text}");
     Ok(())
 }

@@ -4,6 +4,36 @@ use std::path::Path;
 
 use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
 
+/// `print!` for the subcommands' results on standard output, through [`print_out`]: a reader that
+/// closed it (`riskctl evaluate ... | head`) ends the printing, not the run.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::print_out(format_args!($($arg)*))
+    };
+}
+
+/// `println!` through [`print_out`] (see [`out!`]).
+macro_rules! outln {
+    () => {
+        $crate::cli::print_out(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::print_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// Writes to standard output. Unlike `print!`, which panics (exit 101 and a backtrace) when the
+/// reader has gone, a closed standard output is ignored: the run goes on and still writes its
+/// files and its exit status; any other write error is a warning on stderr.
+pub fn print_out(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("riskctl: warning: cannot write to standard output: {e}");
+        }
+    }
+}
+
 pub mod ablation;
 pub mod benchmark;
 pub mod calibrate;

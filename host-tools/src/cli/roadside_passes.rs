@@ -31,7 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         writer.write_event(event)?;
     }
     writer.finish()?;
-    println!(
+    outln!(
         "wrote {} roadside passes to {}",
         events.len(),
         args.out.display()

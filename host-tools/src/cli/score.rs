@@ -7,9 +7,9 @@ use riskscore_data::events::{load_events, EventsError, LoadIssue};
 use riskscore_eval::parquet_io::{is_parquet, BatchSink};
 use riskscore_eval::score_table::{score_streaming, score_whole, ScoreTableError, ScoredFolder};
 
-use riskscore_eval::model_files::{named_models, ModelFile};
+use riskscore_eval::model_files::ModelFile;
 
-use super::evaluate::report_issues;
+use super::evaluate::{report_issues, report_load_issues};
 use super::output::{is_dash, write_output};
 
 const AFTER_LONG_HELP: &str = "\
@@ -76,13 +76,6 @@ fn no_events_is_an_error(dir: &Path, events: usize, issues: &[LoadIssue]) -> any
     Ok(())
 }
 
-fn report_load_issues(issues: &[LoadIssue]) {
-    report_issues(
-        "problem(s) in the event folder (those events are skipped)",
-        issues,
-    );
-}
-
 fn sink<W: std::io::Write + Send>(out: W, parquet: bool) -> BatchSink<W> {
     if parquet {
         BatchSink::parquet(out)
@@ -101,7 +94,7 @@ fn restartable(out: &Path) -> bool {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
     let files = ModelFile::read_all(&args.models)?;
-    let methods = named_models(&files)?;
+    let methods = super::evaluate::checked_models(&files)?;
     let dir = &args.events;
     super::output::refuse_overwriting_inputs(&files, dir, &[("--out", &args.out)])?;
     let parquet = is_parquet(&args.out);

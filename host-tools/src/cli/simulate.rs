@@ -2,7 +2,7 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
 
 /// Simulate crash, near-crash and safe two-vehicle events at 10 Hz and write an event folder.
@@ -26,8 +26,8 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Number of events (default 310: 70 crash, 110 near-crash, 130 safe, like the 100-Car set).
-    /// At most 10,000,000; a count whose folder (about 15 KB an event) would not fit in the free
-    /// space of the output's file system is refused before anything is written.
+    /// At least 1 and at most 10,000,000; a count whose folder (about 15 KB an event) would not
+    /// fit in the free space of the output's file system is refused before anything is written.
     #[arg(long, default_value_t = 310)]
     pub events: usize,
     /// Relative weights crash,near_crash,safe of the mix.
@@ -49,6 +49,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // A run with nothing to write never touches the output (docs/outputs.md): an existing
+    // folder would otherwise be replaced by header-only files.
+    if args.events == 0 {
+        bail!(
+            "--events 0: nothing to simulate (at least 1 event); {} is left untouched",
+            args.out.display()
+        );
+    }
     let cfg = SimConfig {
         seed: args.seed,
         events: args.events,
@@ -61,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.check_size(Some(&args.out))?;
     let s = simulate_to_dir(&args.out, &cfg)
         .with_context(|| format!("simulating into {}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {} events ({}) with {} frames to {} (families: {})",
         s.counts.total(),
         s.counts,
@@ -69,7 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.display(),
         cfg.families
     );
-    println!(
+    outln!(
         "{:.1} s, {:.0} events/s; {} scenarios drawn",
         s.elapsed.as_secs_f64(),
         s.events_per_second(),
@@ -81,10 +89,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(|(k, v)| format!("{k} {v}"))
         .collect();
     if !rej.is_empty() {
-        println!("not kept: {}", rej.join(", "));
+        outln!("not kept: {}", rej.join(", "));
     }
     for (family, c) in &s.families {
-        println!("  {family:<17} {c}");
+        outln!("  {family:<17} {c}");
     }
     Ok(())
 }

@@ -89,11 +89,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     host_tools::warnings::print(&finals.warnings);
     let d = &finals.drl.report;
     let m = &finals.msra.report;
-    println!(
+    outln!(
         "comparisons: {} fit pairs, {} validation pairs, {:.0} pairs/s",
-        d.pairs, d.validation_pairs, finals.pairs_per_second
+        d.pairs,
+        d.validation_pairs,
+        finals.pairs_per_second
     );
-    println!(
+    outln!(
         "DRL : {} epochs (best {}), {:.1} epochs/s, final validation loss {}",
         d.epochs,
         d.best_epoch,
@@ -103,23 +105,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .and_then(|e| e.validation)
             .map_or("n/a".into(), |v| format!("{:.4}", v.total))
     );
-    println!(
+    outln!(
         "MSRA: {} epochs (best {}), {:.1} epochs/s",
-        m.epochs, m.best_epoch, m.epochs_per_second
+        m.epochs,
+        m.best_epoch,
+        m.epochs_per_second
     );
     for t in &finals.msra.params.terms {
-        println!(
+        outln!(
             "      {:<6} w = {:+.3}  a = {:+.4}  b = {:+.3}  clip [{}, {}]",
-            t.surrogate, t.w, t.a, t.b, t.lo, t.hi
+            t.surrogate,
+            t.w,
+            t.a,
+            t.b,
+            t.lo,
+            t.hi
         );
     }
-    println!(
+    outln!(
         "int8 vs f32 DRL on the training observations: corr {:.5}, mean |diff| {:.4}, max |diff| {:.4}",
         finals.agreement.correlation, finals.agreement.mean_abs_error, finals.agreement.max_abs_error
     );
-    println!("wrote ({:.1} s):", started.elapsed().as_secs_f64());
+    outln!("wrote ({:.1} s):", started.elapsed().as_secs_f64());
     for f in files {
-        println!("  {}", f.display());
+        outln!("  {}", f.display());
     }
     Ok(())
 }

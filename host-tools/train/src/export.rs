@@ -112,9 +112,27 @@ impl Checkpoint {
 
     pub fn load(path: &Path) -> Result<Checkpoint, ExportError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ExportError::Io {
+        let bytes = std::fs::read(path).map_err(|source| ExportError::Io {
             path: p.clone(),
             source,
+        })?;
+        if bytes.starts_with(&model::MAGIC) {
+            return Err(ExportError::BadCheckpoint {
+                path: p,
+                message: format!(
+                    "it looks like a model blob (it starts with the blob magic {:?}), which is \
+                     what export writes; a checkpoint is the JSON file `riskctl train` writes \
+                     (`riskctl inspect-model` reads a blob)",
+                    String::from_utf8_lossy(&model::MAGIC)
+                ),
+            });
+        }
+        let text = String::from_utf8(bytes).map_err(|e| ExportError::BadCheckpoint {
+            path: p.clone(),
+            message: format!(
+                "not a JSON text file (byte {} is not valid UTF-8)",
+                e.utf8_error().valid_up_to()
+            ),
         })?;
         let c: Checkpoint =
             serde_json::from_str(&text).map_err(|e| ExportError::BadCheckpoint {
