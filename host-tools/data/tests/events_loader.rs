@@ -8,8 +8,8 @@
 )]
 use riskscore_data::events::{
     cut_safe_sequences, kfold_by_event, load_events, prepare_event, prepare_sequences,
-    write_events, Dims, Event, EventKind, EventSet, EventsError, Frame, IssueProblem, LoadIssue,
-    PrepareConfig, PrepareIssue,
+    stream_events, write_events, Dims, Event, EventKind, EventSet, EventsError, Frame,
+    IssueProblem, LoadIssue, PrepareConfig, PrepareIssue,
 };
 use scorer_core::VehicleState;
 
@@ -738,7 +738,8 @@ fn invalid_utf8_and_short_frame_rows_drop_their_event() {
         ),
         (6, Some("y_ego"), Some("c1"))
     );
-    assert!(matches!(issues[0].problem, IssueProblem::BadNumber(_)));
+    // The invalid byte is shown escaped, not as U+FFFD.
+    assert_eq!(issues[0].problem, IssueProblem::BadNumber(r"\xff".into()));
     assert_eq!(
         (
             issues[1].line,
@@ -755,4 +756,105 @@ fn invalid_utf8_and_short_frame_rows_drop_their_event() {
         }
     );
     assert!(set.is_empty());
+}
+
+/// [`load`], checking that [`stream_events`] keeps the same events and reports the same issues.
+fn load_and_stream(ev: &str, fr: &str) -> (EventSet, Vec<LoadIssue>, tempfile::TempDir) {
+    let (set, issues, dir) = load(ev, fr);
+    let mut streamed = Vec::new();
+    let stream_issues = stream_events(dir.path(), true, |_, e| {
+        streamed.push(e.id);
+        Ok::<_, EventsError>(())
+    })
+    .unwrap();
+    assert_eq!(stream_issues, issues);
+    assert_eq!(streamed, ids(&set));
+    (set, issues, dir)
+}
+
+#[test]
+fn unmatched_quote_drops_its_events_and_reading_resumes() {
+    // Three events, frames in runs: c1 on lines 2-22, s1 on 23-43, n1 on 44-64.
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\nn1,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        rows("c1", 21),
+        rows("s1", 21),
+        rows("n1", 21)
+    );
+    // A stray `"` at the start of s1's frame at t = 0.8 (line 31): the CSV reader takes the rest
+    // of the file as one field.
+    let broken = fr.replacen("s1,0.8,", "\"s1,0.8,", 1);
+    assert_ne!(broken, fr);
+    let (set, issues, _d) = load_and_stream(&ev, &broken);
+    let problem = only_issue(&issues, "frames.csv", 31, None);
+    assert!(
+        matches!(problem, IssueProblem::BadRow(m) if m.contains("unmatched `\"`")),
+        "{problem}"
+    );
+    assert_eq!(issues[0].event_id.as_deref(), Some("s1"));
+    // s1 is dropped whole, not kept with its frames before t = 0.8; n1 (after the broken line)
+    // loads completely.
+    assert_eq!(ids(&set), ["c1", "n1"]);
+    assert_eq!(set.get("n1").unwrap().frames.len(), 21);
+
+    // On the boundary of two events (s1's first frame, line 23) the row may belong to either:
+    // both neighbours are dropped, each named by an issue on that line.
+    let broken = fr.replacen("s1,0,", "\"s1,0,", 1);
+    let (set, issues, _d) = load_and_stream(&ev, &broken);
+    let got: Vec<_> = issues
+        .iter()
+        .map(|i| (i.line, i.event_id.as_deref(), i.problem.kind()))
+        .collect();
+    assert_eq!(
+        got,
+        [(23, Some("c1"), "BadRow"), (23, Some("s1"), "BadRow")],
+        "{issues:#?}"
+    );
+    assert_eq!(ids(&set), ["n1"]);
+
+    // A quote that closes three lines later: the swallowed lines are read again (the closing
+    // line's id `s1"` is not an event's).
+    let broken = fr
+        .replacen("s1,0.8,", "\"s1,0.8,", 1)
+        .replacen("s1,1.1,", "s1\",1.1,", 1);
+    let (set, issues, _d) = load_and_stream(&ev, &broken);
+    let got: Vec<_> = issues
+        .iter()
+        .map(|i| (i.line, i.event_id.as_deref(), i.problem.kind()))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (31, Some("s1"), "BadRow"),
+            (34, Some("s1\""), "UnknownEvent")
+        ],
+        "{issues:#?}"
+    );
+    assert_eq!(ids(&set), ["c1", "n1"]);
+
+    // A whole frame row quoted as one field: its "event id" is the row's text, no event's, so the
+    // event around it is dropped and named instead.
+    let row = "s1,0.8,8,0,10,0,1,0,-0.5,36.4,0,8,0,1,0";
+    let broken = fr.replacen(row, &format!("\"{row}\""), 1);
+    assert!(broken != fr);
+    let (set, issues, _d) = load_and_stream(&ev, &broken);
+    let problem = only_issue(&issues, "frames.csv", 31, None);
+    assert!(matches!(problem, IssueProblem::RowLength { found: 1, .. }));
+    assert_eq!(issues[0].event_id.as_deref(), Some("s1"));
+    assert_eq!(ids(&set), ["c1", "n1"]);
+
+    // An event id in a message is at most 40 characters long.
+    let issue = LoadIssue {
+        event_id: Some(format!("{}\n{}", "x".repeat(39), "y".repeat(1000))),
+        ..issues[0].clone()
+    };
+    assert!(
+        issue
+            .to_string()
+            .contains(&format!("event `{}\\n…`:", "x".repeat(39))),
+        "{issue}"
+    );
 }

@@ -1,7 +1,8 @@
 //! Reading the CSV tables: opening a file, finding the required columns, one record at a time, and
 //! parsing its fields into numbers and headings with one issue per bad field.
+use std::borrow::Cow;
 use std::fs::File;
-use std::io::BufReader;
+use std::io::{BufRead, BufReader, Seek, SeekFrom};
 use std::path::Path;
 
 use super::issues::{EventsError, IssueProblem, LoadIssue, HEADING_TOLERANCE};
@@ -58,6 +59,33 @@ pub(super) fn next_record(
         Ok(false) => Ok(None),
         Ok(true) => {
             let line = rec.position().map_or(line, |p| p.line());
+            // No field of an event folder spans lines: one that does was opened by a stray `"` and
+            // swallowed the following lines (up to the next `"` or the end of the file).
+            if let Some(broken) = rec.iter().position(|f| memchr::memchr(b'\n', f).is_some()) {
+                let start = rec.position().cloned().unwrap_or_else(csv::Position::new);
+                let (line, resume) = line_after(path, &start)?;
+                rdr.seek(resume).map_err(|source| EventsError::Csv {
+                    path: path.to_path_buf(),
+                    line,
+                    source,
+                })?;
+                // Fields before the broken one were read normally; the others cannot be trusted.
+                let event_id = rec
+                    .get(id_col)
+                    .filter(|s| id_col < broken && !s.is_empty())
+                    .map(|s| String::from_utf8_lossy(s).into_owned());
+                return Ok(Some(Err(LoadIssue {
+                    file: path.to_path_buf(),
+                    line,
+                    column: None,
+                    event_id,
+                    problem: IssueProblem::BadRow(
+                        "unmatched `\"`: a quoted field starts on this line and does not end on it; \
+                         the row is skipped and reading resumes on the next line"
+                            .into(),
+                    ),
+                })));
+            }
             if rec.len() != expected {
                 Ok(Some(Err(LoadIssue {
                     file: path.to_path_buf(),
@@ -94,8 +122,48 @@ pub(super) fn next_record(
     }
 }
 
-pub(super) fn field_str(b: &[u8]) -> &str {
-    std::str::from_utf8(b).unwrap_or("\u{fffd}")
+/// The line of the record that starts at `start` and the position just after that line, read
+/// from the file itself (the CSV reader has already consumed the lines after it).
+fn line_after(path: &Path, start: &csv::Position) -> Result<(u64, csv::Position), EventsError> {
+    let io = |source| EventsError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = BufReader::new(File::open(path).map_err(io)?);
+    file.seek(SeekFrom::Start(start.byte())).map_err(io)?;
+    // The record may start with the end of the previous line (`\n` of a CRLF) or blank lines.
+    let (mut byte, mut line) = (start.byte(), start.line());
+    loop {
+        let buf = file.fill_buf().map_err(io)?;
+        let skip = buf
+            .iter()
+            .take_while(|&&b| b == b'\r' || b == b'\n')
+            .count();
+        line += buf[..skip].iter().filter(|&&b| b == b'\n').count() as u64;
+        byte += skip as u64;
+        let more = skip == buf.len() && skip > 0;
+        file.consume(skip);
+        if !more {
+            break;
+        }
+    }
+    let mut text = Vec::new();
+    let len = file.read_until(b'\n', &mut text).map_err(io)?;
+    let mut resume = csv::Position::new();
+    resume
+        .set_byte(byte + len as u64)
+        .set_line(line + u64::from(text.last() == Some(&b'\n')))
+        .set_record(start.record() + 1);
+    Ok((line, resume))
+}
+
+/// A field as text; invalid UTF-8 is shown with its bytes escaped (`\xff`), so it still names what
+/// was in the file, and then fails to parse as a number.
+pub(super) fn field_str(b: &[u8]) -> Cow<'_, str> {
+    match std::str::from_utf8(b) {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(b.escape_ascii().to_string()),
+    }
 }
 
 /// Field parser that records an issue per bad field.
@@ -110,8 +178,8 @@ pub(super) struct Fields<'a> {
 }
 
 impl Fields<'_> {
-    /// The field as text; invalid UTF-8 becomes U+FFFD and then fails to parse as a number.
-    pub(super) fn raw(&self, i: usize) -> &str {
+    /// The field as text; invalid UTF-8 is escaped (`\xff`) and then fails to parse as a number.
+    pub(super) fn raw(&self, i: usize) -> Cow<'_, str> {
         field_str(self.rec.get(self.cols[i]).unwrap_or(b""))
     }
     pub(super) fn push(&mut self, i: usize, problem: IssueProblem) {
@@ -134,12 +202,12 @@ impl Fields<'_> {
         match s.parse::<T>() {
             Ok(v) if is_finite(v) => v,
             Ok(_) => {
-                let s = s.to_owned();
+                let s = s.into_owned();
                 self.push(i, IssueProblem::NonFinite(s));
                 nan
             }
             Err(_) => {
-                let s = s.to_owned();
+                let s = s.into_owned();
                 self.push(i, IssueProblem::BadNumber(s));
                 nan
             }

@@ -38,7 +38,7 @@ pub enum EventsError {
     MissingColumn { path: PathBuf, column: &'static str },
     /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
     /// caller reads it whole with [`load_events`] instead.
-    #[error("{}: line {line}: event `{event_id}`: {reason}; it cannot be streamed event by event", path.display())]
+    #[error("{}: line {line}: event `{}`: {reason}; it cannot be streamed event by event", path.display(), ShortId(event_id))]
     NotStreamable {
         path: PathBuf,
         line: u64,
@@ -48,6 +48,29 @@ pub enum EventsError {
     /// [`load_prepared`](super::load_prepared) only: no event of the folder yields a sequence.
     #[error("{}: contains no usable sequences", path.display())]
     NoSequences { path: PathBuf },
+}
+
+/// Longest event id shown in a message, in characters; longer ones end in `…`.
+const SHOWN_ID_CHARS: usize = 40;
+
+/// An event id as shown in a message: at most [`SHOWN_ID_CHARS`] characters, control characters
+/// escaped (an id read from a broken row can be any text).
+struct ShortId<'a>(&'a str);
+
+impl std::fmt::Display for ShortId<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (n, c) in self.0.chars().enumerate() {
+            if n == SHOWN_ID_CHARS {
+                return f.write_str("…");
+            }
+            if c.is_control() {
+                write!(f, "{}", c.escape_default())?;
+            } else {
+                write!(f, "{c}")?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// One validation problem. Display: `file:line: column `c`: event `id`: problem`.
@@ -70,7 +93,7 @@ impl std::fmt::Display for LoadIssue {
             write!(f, " column `{c}`:")?;
         }
         if let Some(id) = &self.event_id {
-            write!(f, " event `{id}`:")?;
+            write!(f, " event `{}`:", ShortId(id))?;
         }
         write!(f, " {}", self.problem)
     }

@@ -295,9 +295,9 @@ fn read_events(
         if id.is_empty() {
             f.push(0, IssueProblem::EmptyEventId);
         }
-        let kind = EventKind::parse(f.raw(1));
+        let kind = EventKind::parse(&f.raw(1));
         if kind.is_none() {
-            let k = f.raw(1).to_owned();
+            let k = f.raw(1).into_owned();
             f.push(1, IssueProblem::UnknownKind(k));
         }
         let t_start = f.f64(2);
@@ -423,19 +423,28 @@ fn read_frames<E: From<EventsError>>(
     // Unknown ids: first line and frame count, reported once each.
     let mut unknown: HashMap<String, (u64, usize)> = HashMap::new();
     let mut current: Option<(String, usize)> = None;
+    // The event of the last good row (`None` when not a loadable event).
+    let mut previous_row: Option<usize> = None;
+    // A row whose event id cannot be read: its issue, repeated for the event of the next good row.
+    let mut unattributed: Option<LoadIssue> = None;
     while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0])? {
         let line = match r {
             Ok(line) => line,
-            Err(issue) => {
-                if let Some((id, &i)) = issue
-                    .event_id
-                    .as_deref()
-                    .and_then(|id| Some((id, index.get(id)?)))
-                {
+            Err(mut issue) => {
+                let id = issue.event_id.as_deref();
+                if let Some((id, &i)) = id.and_then(|id| Some((id, index.get(id)?))) {
                     if let Some(s) = stream.as_deref_mut() {
                         s.check_open(path, issue.line, i, id, false)?;
                     }
                     pending[i].ok = false;
+                } else if !id.is_some_and(|id| rejected.contains_key(id)) {
+                    // The row's id is unreadable (broken quoting) or no event's: the row may be a
+                    // frame of the event before or after it, so both are dropped, never kept partial.
+                    issue.event_id = previous_row.map(|i| {
+                        pending[i].ok = false;
+                        pending[i].event.id.clone()
+                    });
+                    unattributed = Some(issue.clone());
                 }
                 issues.push(issue);
                 continue;
@@ -464,6 +473,14 @@ fn read_frames<E: From<EventsError>>(
                 slot
             }
         };
+        if let Some(mut issue) = unattributed.take() {
+            if let Some(s) = slot.filter(|&s| Some(s) != previous_row) {
+                pending[s].ok = false;
+                issue.event_id = Some(pending[s].event.id.clone());
+                issues.push(issue);
+            }
+        }
+        previous_row = slot;
         let Some(slot) = slot else {
             if !rejected.contains_key(id) {
                 unknown
@@ -524,14 +541,14 @@ fn read_frames<E: From<EventsError>>(
                     line,
                     column: Some("acc_sur".into()),
                     event_id: Some(p.event.id.clone()),
-                    problem: IssueProblem::NonFinite(s.to_owned()),
+                    problem: IssueProblem::NonFinite(s.into_owned()),
                 }),
                 Err(_) => f.issues.push(LoadIssue {
                     file: path.to_path_buf(),
                     line,
                     column: Some("acc_sur".into()),
                     event_id: Some(p.event.id.clone()),
-                    problem: IssueProblem::BadNumber(s.to_owned()),
+                    problem: IssueProblem::BadNumber(s.into_owned()),
                 }),
             }
         }
