@@ -56,7 +56,8 @@ enum Command {
     /// The main job: simulate, train under 5-fold CV, evaluate, quantise, export, plot.
     Demo(cli::demo::Args),
     /// Benchmarks on data the models were not trained on: `transfer` (another simulator seed and
-    /// mix, real recordings held out by scenario file).
+    /// mix, real recordings held out by scenario file) and `domains` (a whole slice held out: a
+    /// speed band, a geometry, a city).
     Benchmark(cli::benchmark::Args),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to standard output.
     Completions(cli::completions::Args),

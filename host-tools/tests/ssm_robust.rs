@@ -341,3 +341,16 @@ fn parquet_paths_give_the_same_bytes_and_messages_on_one_and_four_threads() {
         39_998
     );
 }
+
+#[test]
+fn a_zero_line_limit_is_refused_with_the_flag_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("pairs.csv");
+    std::fs::write(&input, format!("{HEADER}\n{PAIR},\n")).unwrap();
+    let out = dir.path().join("out.csv");
+    let o = ssm(&input, &out, &["--max-line-bytes", "0"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--max-line-bytes 0"), "{err}");
+    assert!(!out.exists(), "nothing written");
+}

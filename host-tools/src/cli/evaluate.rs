@@ -42,7 +42,9 @@ Output: the Markdown tables, or with --json one JSON object (stable schema):
        \"crash\" and \"near_crash\": {\"sequences\", \"warned\", \"not_warned\", \"driving_hours\",
                                    \"recall\", \"mean_lead_time\"},
        \"safe\": {\"sequences\", \"warned\", \"not_warned\", \"driving_hours\",
-                \"false_alarm_rate\", \"false_alarms_per_hour\"}}, ...]}
+                \"false_alarm_rate\", \"false_alarms_per_hour\"}}, ...],
+   \"domain\": [{\"name\", \"frames\", \"outside\", \"outside_share\",
+               \"first_outside\": {\"<input>\": frames}}, ...]}
 percentages 0-100, lead time in seconds, null where undefined. Problems in the event folder are
 listed on stderr (file:line, the first of each kind and a count) and fail the run: the metrics
 would silently leave those events out. With --skip-bad-events the valid events are evaluated.
@@ -87,8 +89,8 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     thresholds: Vec<String>,
-    /// Crash event whose risk trajectory is plotted (repeatable; default: the first three crash
-    /// events of the folder).
+    /// Event (a crash, a near crash or a safe one) whose risk trajectory is plotted (repeatable;
+    /// default: the first three crash events of the folder).
     #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
     trajectory_events: Vec<String>,
 }

@@ -95,7 +95,7 @@ pub struct Args {
     /// Stop with an error (exit status 1) at the first bad row instead of skipping it.
     #[arg(long)]
     pub strict: bool,
-    /// Longest accepted line (bytes, at most 1 GiB); longer lines are reported and skipped.
+    /// Longest accepted line (bytes, 1 to 1 GiB); longer lines are reported and skipped.
     #[arg(long, value_name = "BYTES", default_value_t = DEFAULT_MAX_RECORD_BYTES)]
     pub max_line_bytes: usize,
     /// Messages printed per kind of bad row; the rest are counted in the summary.
@@ -196,6 +196,9 @@ const MAX_LINE_BYTES_CAP: usize = 1 << 30;
 fn check_sizes(args: &Args) -> anyhow::Result<()> {
     use riskscore_data::limits::{check_cap, check_memory, check_threads};
     check_threads("--threads", args.threads)?;
+    if args.max_line_bytes == 0 {
+        anyhow::bail!("--max-line-bytes 0: every line would be too long (at least 1 byte)");
+    }
     let line = args.max_line_bytes as u128;
     check_cap(
         "--max-line-bytes",
