@@ -214,14 +214,18 @@ fn export_model_says_a_blob_is_not_a_checkpoint() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.rsk");
     let blob = model("drl-default.rsk");
-    let o = riskctl(&[
-        "export-model",
-        blob.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let export = |input: &Path| {
+        let o = riskctl(&[
+            "export-model",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        err
+    };
+    let err = export(&blob);
     assert!(err.contains("not a riskscore checkpoint"), "{err}");
     assert!(err.contains("model blob"), "{err}");
     assert!(!err.contains("UTF-8"), "{err}");
@@ -229,14 +233,7 @@ fn export_model_says_a_blob_is_not_a_checkpoint() {
     // Other binary input: still not a checkpoint, said so without the blob hint.
     let junk = dir.path().join("junk.bin");
     std::fs::write(&junk, [0xff_u8, 0xfe, 0x00, 0x01]).unwrap();
-    let o = riskctl(&[
-        "export-model",
-        junk.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = export(&junk);
     assert!(err.contains("not a riskscore checkpoint"), "{err}");
     assert!(!err.contains("model blob"), "{err}");
 }

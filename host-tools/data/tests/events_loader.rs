@@ -772,6 +772,14 @@ fn load_and_stream(ev: &str, fr: &str) -> (EventSet, Vec<LoadIssue>, tempfile::T
     (set, issues, dir)
 }
 
+/// Each issue as (line, event, problem kind), the shape the quote tests compare.
+fn line_event_kind(issues: &[LoadIssue]) -> Vec<(u64, Option<&str>, &'static str)> {
+    issues
+        .iter()
+        .map(|i| (i.line, i.event_id.as_deref(), i.problem.kind()))
+        .collect()
+}
+
 #[test]
 fn unmatched_quote_drops_its_events_and_reading_resumes() {
     // Three events, frames in runs: c1 on lines 2-22, s1 on 23-43, n1 on 44-64.
@@ -804,10 +812,7 @@ fn unmatched_quote_drops_its_events_and_reading_resumes() {
     // both neighbours are dropped, each named by an issue on that line.
     let broken = fr.replacen("s1,0,", "\"s1,0,", 1);
     let (set, issues, _d) = load_and_stream(&ev, &broken);
-    let got: Vec<_> = issues
-        .iter()
-        .map(|i| (i.line, i.event_id.as_deref(), i.problem.kind()))
-        .collect();
+    let got = line_event_kind(&issues);
     assert_eq!(
         got,
         [(23, Some("c1"), "BadRow"), (23, Some("s1"), "BadRow")],
@@ -821,10 +826,7 @@ fn unmatched_quote_drops_its_events_and_reading_resumes() {
         .replacen("s1,0.8,", "\"s1,0.8,", 1)
         .replacen("s1,1.1,", "s1\",1.1,", 1);
     let (set, issues, _d) = load_and_stream(&ev, &broken);
-    let got: Vec<_> = issues
-        .iter()
-        .map(|i| (i.line, i.event_id.as_deref(), i.problem.kind()))
-        .collect();
+    let got = line_event_kind(&issues);
     assert_eq!(
         got,
         [

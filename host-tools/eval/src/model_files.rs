@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use scorer_core::model::ModelError;
 
-use crate::scoring::{model_row_name, row_names, Method, Scorer};
+use crate::scoring::{model_row_name, reserved_name_clash, row_names, Method, Scorer};
 
 /// A model file read into memory, so that decoded models can borrow from its bytes.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +29,14 @@ pub enum ModelFileError {
         path: PathBuf,
         #[source]
         source: ModelError,
+    },
+    /// A model row named like a baseline row or a fixed column of the score table
+    /// ([`reserved_name_clash`]): the report would hold two rows, or the table two columns, of it.
+    #[error("--model {spec}: the name {name:?} clashes with {clash}; give the model another name (--model NAME=FILE)")]
+    ReservedName {
+        spec: String,
+        name: String,
+        clash: String,
     },
 }
 
@@ -72,7 +80,8 @@ impl ModelFile {
 }
 
 /// Decodes model files and names each: its `NAME=`, else its family (`DRL`, `MSRA`, ...), with the
-/// file stem added only where two rows would share a name.
+/// file stem added only where two rows would share a name. A name that clashes with a baseline row
+/// or a score-table column, given or derived, is refused.
 pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileError> {
     let mut decoded = Vec::with_capacity(files.len());
     for f in files {
@@ -89,6 +98,21 @@ pub fn named_models(files: &[ModelFile]) -> Result<Vec<Method<'_>>, ModelFileErr
             .map(|(n, b, stem)| (n.clone(), model_row_name(&b.model), stem.clone()))
             .collect::<Vec<_>>(),
     );
+    for (file, name) in files.iter().zip(&names) {
+        for name in file.name.iter().chain([name]) {
+            if let Some(clash) = reserved_name_clash(name) {
+                let spec = match &file.name {
+                    Some(n) => format!("{n}={}", file.path.display()),
+                    None => file.path.display().to_string(),
+                };
+                return Err(ModelFileError::ReservedName {
+                    spec,
+                    name: name.clone(),
+                    clash,
+                });
+            }
+        }
+    }
     Ok(decoded
         .into_iter()
         .zip(names)

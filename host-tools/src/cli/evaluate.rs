@@ -7,7 +7,6 @@ use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
 use riskscore_eval::outputs::{result_files, RESULT_FILES};
 use riskscore_eval::plots::FIGURE_FILES;
-use riskscore_eval::scoring::reserved_name_clash;
 use riskscore_eval::sketch::DEFAULT_CAPACITY;
 use riskscore_eval::streaming::{
     evaluate_folder_gathering, FolderEvaluation, FolderRefusal, Gather, TrajectoryEvents,
@@ -117,7 +116,7 @@ pub fn report_issues<T: std::fmt::Display>(what: &str, issues: &[T]) {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
     let files = ModelFile::read_all(&args.models)?;
-    let mut methods = checked_models(&files)?;
+    let mut methods = named_models(&files)?;
     methods.extend(Method::baselines());
     let thresholds = operating_thresholds(&args.thresholds, &files, &methods)?;
 
@@ -173,27 +172,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("  {}", p.display());
     }
     Ok(())
-}
-
-/// The model rows of `files` ([`named_models`]), refusing a name that clashes with a baseline row
-/// or a fixed column of the score table ([`reserved_name_clash`]): the report would hold two rows,
-/// or the table two columns, of that name.
-pub(super) fn checked_models(files: &[ModelFile]) -> anyhow::Result<Vec<Method<'_>>> {
-    let methods = named_models(files)?;
-    for (file, method) in files.iter().zip(&methods) {
-        for name in file.name.iter().chain([&method.name]) {
-            if let Some(clash) = reserved_name_clash(name) {
-                let spec = match &file.name {
-                    Some(n) => format!("{n}={}", file.path.display()),
-                    None => file.path.display().to_string(),
-                };
-                bail!(
-                    "--model {spec}: the name {name:?} clashes with {clash}; give the model another name (--model NAME=FILE)"
-                );
-            }
-        }
-    }
-    Ok(methods)
 }
 
 /// Crash events drawn when no --trajectory-event is given.

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_data::events::{stream_events, Event, EventsError};
 use riskscore_eval::event_figure::EventPicture;
-use riskscore_eval::model_files::ModelFile;
+use riskscore_eval::model_files::{named_models, ModelFile};
 use riskscore_eval::plots::ImageFormat;
 use riskscore_eval::Method;
 
@@ -67,7 +67,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let files = ModelFile::read_all(&args.models)?;
     super::output::refuse_overwriting_inputs(&files, &args.events, &[("--out", &args.out)])?;
-    let mut methods: Vec<Method<'_>> = super::evaluate::checked_models(&files)?;
+    let mut methods: Vec<Method<'_>> = named_models(&files)?;
     methods.extend(Method::baselines());
     let thresholds = super::evaluate::operating_thresholds(&args.thresholds, &files, &methods)?;
     let event = find_event(&args.events, &args.event)?;

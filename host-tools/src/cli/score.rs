@@ -7,7 +7,7 @@ use riskscore_data::events::{load_events, EventsError, LoadIssue};
 use riskscore_eval::parquet_io::{is_parquet, BatchSink};
 use riskscore_eval::score_table::{score_streaming, score_whole, ScoreTableError, ScoredFolder};
 
-use riskscore_eval::model_files::ModelFile;
+use riskscore_eval::model_files::{named_models, ModelFile};
 
 use super::evaluate::{report_issues, report_load_issues};
 use super::output::{is_dash, write_output};
@@ -94,7 +94,7 @@ fn restartable(out: &Path) -> bool {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
     let files = ModelFile::read_all(&args.models)?;
-    let methods = super::evaluate::checked_models(&files)?;
+    let methods = named_models(&files)?;
     let dir = &args.events;
     super::output::refuse_overwriting_inputs(&files, dir, &[("--out", &args.out)])?;
     let parquet = is_parquet(&args.out);
