@@ -93,7 +93,7 @@ pub fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
     }
     let mut out: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(std::io::BufWriter::new(
-            std::fs::File::create(p).map_err(creating(p))?,
+            riskscore_output::create_live_file(p).map_err(creating(p))?,
         )),
         None => Box::new(std::io::sink()),
     };

@@ -233,7 +233,7 @@ pub fn open_events(
     let out = match path {
         Some(p) if atomic => Sink::Atomic(AtomicFile::create(p).map_err(creating(p))?),
         Some(p) => Sink::Streaming(std::io::BufWriter::new(
-            std::fs::File::create(p).map_err(creating(p))?,
+            riskscore_output::create_live_file(p).map_err(creating(p))?,
         )),
         None => Sink::Stdout(std::io::stdout()),
     };

@@ -42,7 +42,8 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
 
 impl OutputDir {
     /// Locks `target` and creates the new temporary folder beside it (creating missing parent
-    /// folders). Refuses a target that exists and is not a folder.
+    /// folders, removed again if the run does not commit). Refuses a target that exists and is
+    /// not a folder.
     pub fn create(target: &Path) -> io::Result<Self> {
         if target.exists() && !target.is_dir() {
             return Err(io::Error::new(
@@ -51,8 +52,9 @@ impl OutputDir {
             ));
         }
         let parent = parent_of(target);
-        std::fs::create_dir_all(parent).map_err(|e| err(parent, "cannot create", e))?;
-        let lock = OutputLock::acquire(target).map_err(|e| err(target, "cannot lock", e))?;
+        // The lock creates the missing parent folders (removed again if the run fails).
+        let lock = OutputLock::acquire(target)
+            .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", target.display())))?;
         let prefix = hidden_name(target, ".")?;
         let tmp = tempfile::Builder::new()
             .prefix(prefix.file_name().unwrap_or_default())
@@ -126,6 +128,7 @@ impl OutputDir {
             self.done(&tmp);
         }
         sync_dir(parent_of(&target));
+        self._lock.keep_folders();
         Ok(())
     }
 
@@ -197,6 +200,28 @@ mod tests {
             "mine"
         );
         assert_eq!(names(d.path()), ["report"], "temporaries left");
+    }
+
+    #[test]
+    fn a_missing_parent_is_made_and_removed_again_unless_committed() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("x/y/report");
+        {
+            let o = OutputDir::create(&out).unwrap();
+            std::fs::write(o.path().join("a.md"), "one").unwrap();
+        }
+        assert_eq!(names(d.path()), Vec::<String>::new(), "new folders left");
+        let o = OutputDir::create(&out).unwrap();
+        std::fs::write(o.path().join("a.md"), "one").unwrap();
+        o.commit().unwrap();
+        assert_eq!(names(&d.path().join("x/y")), ["report"]);
+        // Locked for the run first (evaluate): the run's lock made the folders.
+        let run = d.path().join("r/s/report");
+        {
+            let _lock = OutputLock::acquire_for_run(&run).unwrap();
+            let _o = OutputDir::create(&run).unwrap();
+        }
+        assert_eq!(names(d.path()), ["x"], "new folders left");
     }
 
     #[test]

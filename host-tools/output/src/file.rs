@@ -34,7 +34,8 @@ pub struct AtomicFile {
     sink: Sink,
     tmp: Option<PathBuf>,
     dest: PathBuf,
-    _lock: Option<OutputLock>,
+    // Boxed: an `AtomicFile` is held in enums beside small writers (`can-bridge`'s sinks).
+    _lock: Option<Box<OutputLock>>,
 }
 
 /// A unique temporary file beside `dest`, registered for removal on a signal.
@@ -57,7 +58,8 @@ pub(crate) fn temp_beside(dest: &Path) -> io::Result<NamedTempFile> {
 
 impl AtomicFile {
     /// Locks `dest` and creates its temporary file (or opens `dest` itself when it is a device or
-    /// pipe).
+    /// pipe). Missing parent folders are created, and removed again (when still empty) if the
+    /// file is not committed.
     pub fn create(dest: &Path) -> io::Result<Self> {
         if is_special_file(dest) {
             let file = std::fs::OpenOptions::new().write(true).open(dest)?;
@@ -83,7 +85,7 @@ impl AtomicFile {
                 tmp,
             ),
             dest: dest.to_path_buf(),
-            _lock: Some(lock),
+            _lock: Some(Box::new(lock)),
         })
     }
 
@@ -116,6 +118,9 @@ impl AtomicFile {
             }
             if let Ok(dir) = File::open(parent_of(&self.dest)) {
                 let _ = dir.sync_all();
+            }
+            if let Some(lock) = &mut self._lock {
+                lock.keep_folders();
             }
         }
         Ok(())
@@ -208,6 +213,16 @@ impl AtomicSet {
     }
 }
 
+impl Drop for AtomicSet {
+    fn drop(&mut self) {
+        // Newest first: a folder the first file had to create (for all of them) is empty, and
+        // removed, only once the temporaries and locks of the later files are gone.
+        while let Some(f) = self.files.pop() {
+            drop(f);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -277,6 +292,34 @@ mod tests {
         assert!(AtomicFile::create(d.path()).is_err());
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn missing_parent_folders_are_made_and_removed_again_unless_committed() {
+        let d = tempfile::tempdir().unwrap();
+        let dest = d.path().join("a/b/out.csv");
+        {
+            let mut f = AtomicFile::create(&dest).unwrap();
+            f.write_all(b"half").unwrap();
+            assert!(d.path().join("a/b").is_dir());
+        }
+        assert_eq!(names(d.path()), Vec::<String>::new(), "new folders left");
+        // A set into a new folder: the folder goes with the last temporary.
+        {
+            let mut set = AtomicSet::default();
+            set.create(&d.path().join("s/one")).unwrap();
+            set.create(&d.path().join("s/two")).unwrap();
+        }
+        assert_eq!(names(d.path()), Vec::<String>::new(), "new folders left");
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"whole").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "whole");
+        assert_eq!(names(&d.path().join("a/b")), ["out.csv"]);
+        // A file where a folder is needed: refused, naming the folder; nothing made.
+        let e = AtomicFile::create(&dest.join("x/y.csv")).err().unwrap();
+        assert!(e.to_string().contains("a/b/out.csv/x"), "{e}");
+        assert_eq!(names(&d.path().join("a/b")), ["out.csv"]);
     }
 
     #[test]

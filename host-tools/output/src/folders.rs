@@ -44,6 +44,31 @@ impl Drop for NewFolders {
     }
 }
 
+/// Creates (or truncates) `path` for a live capture written as it goes (`can-bridge monitor
+/// --out`, `live --events-out`): not through a temporary, so it can be followed while it grows.
+/// Its missing parent folders are made like every other output's (and removed again if the file
+/// cannot be created); the error names the folder or the file.
+pub fn create_live_file(path: &Path) -> io::Result<std::fs::File> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() && !p.is_dir() => Some(p),
+        _ => None,
+    };
+    let folders = match parent {
+        Some(p) => Some(NewFolders::create(p).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!("cannot create the folder {}: {e}", p.display()),
+            )
+        })?),
+        None => None,
+    };
+    let file = std::fs::File::create(path)?;
+    if let Some(f) = folders {
+        f.keep();
+    }
+    Ok(file)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -65,5 +90,19 @@ mod tests {
         assert!(d.path().join("a/b/mine").exists());
         NewFolders::create(&d.path().join("k/l")).unwrap().keep();
         assert!(d.path().join("k/l").is_dir());
+    }
+
+    #[test]
+    fn a_live_capture_gets_its_folders_and_a_failed_one_leaves_none() {
+        let d = tempfile::tempdir().unwrap();
+        create_live_file(&d.path().join("m/n/cap.log")).unwrap();
+        assert!(d.path().join("m/n/cap.log").is_file());
+        // A file in the way of a folder: refused, naming the folder.
+        let e = create_live_file(&d.path().join("m/n/cap.log/x/y.log")).unwrap_err();
+        assert!(e.to_string().contains("cap.log/x"), "{e}");
+        // The folders are made but the file cannot be (its name is too long): they go again.
+        let long = "z".repeat(300);
+        assert!(create_live_file(&d.path().join("r/s").join(long)).is_err());
+        assert!(!d.path().join("r").exists(), "new folders left");
     }
 }

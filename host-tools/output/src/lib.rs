@@ -6,7 +6,8 @@
 //!   target, synced, and renamed into place only on commit; removed when dropped.
 //! - [`OutputDir`]: a folder built complete beside the target, then swapped in as a whole.
 //! - [`OutputLock`]: a second process writing the same target is refused.
-//! - [`NewFolders`]: folders made for an output are removed again if the run fails.
+//! - [`NewFolders`]: folders made for an output are removed again if the run fails; every
+//!   output's missing parent folders are made that way ([`OutputLock`], [`create_live_file`]).
 //! - [`remove_temporaries_on_signals`]: Ctrl-C and SIGTERM remove the temporaries (exit 130/143).
 //! - Devices and pipes (`/dev/null`) are written directly.
 //!
@@ -22,7 +23,7 @@ mod writeback;
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::OutputDir;
 pub use file::{AtomicFile, AtomicSet};
-pub use folders::NewFolders;
+pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;
 pub use overlap::{
     is_special_file, lies_within, refuse_overlaps, NamedPath, Overlap, SamePathError,

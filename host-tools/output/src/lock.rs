@@ -17,6 +17,10 @@ pub struct OutputLock {
     nested: bool,
     /// Taken with [`OutputLock::acquire_for_run`].
     for_run: bool,
+    /// The folders this lock had to create for its target (`--out a/b/c.csv` with no `a/b`):
+    /// removed again, when still empty, once the lock file is gone, unless the output was
+    /// committed ([`OutputLock::keep_folders`]). Declared last: dropped after the lock file.
+    folders: Option<crate::NewFolders>,
 }
 
 /// The lock files this process holds for a whole run ([`OutputLock::acquire_for_run`]): asking
@@ -49,6 +53,10 @@ pub(crate) fn hidden_name(target: &Path, suffix: &str) -> io::Result<PathBuf> {
 
 impl OutputLock {
     /// Locks `target` for this process, or fails with `WouldBlock` when another process writes it.
+    ///
+    /// A missing parent folder of `target` is created (with its missing parents): every output
+    /// of the layer is written that way, like `mkdir -p`. The folders made are removed again when
+    /// still empty if the output is not committed (an error, Ctrl-C: see [`crate::NewFolders`]).
     pub fn acquire(target: &Path) -> io::Result<Self> {
         use std::os::unix::fs::MetadataExt;
         let path = hidden_name(target, ".lock")?;
@@ -59,8 +67,10 @@ impl OutputLock {
                 file: None,
                 nested: true,
                 for_run: false,
+                folders: None,
             });
         }
+        let folders = create_parent(target)?;
         for _ in 0..8 {
             let file = OpenOptions::new()
                 .create(true)
@@ -93,6 +103,7 @@ impl OutputLock {
                         file: Some(file),
                         nested: false,
                         for_run: false,
+                        folders,
                     });
                 }
                 _ => continue,
@@ -115,6 +126,28 @@ impl OutputLock {
         }
         Ok(lock)
     }
+
+    /// The output was committed: the folders made for it stay.
+    pub(crate) fn keep_folders(&mut self) {
+        if let Some(f) = self.folders.take() {
+            f.keep();
+        }
+    }
+}
+
+/// Creates the missing parent folders of `target` for one run (see [`crate::NewFolders`]);
+/// `None` when there was nothing to create. The error names the folder.
+fn create_parent(target: &Path) -> io::Result<Option<crate::NewFolders>> {
+    let parent = parent_of(target);
+    if parent.is_dir() {
+        return Ok(None);
+    }
+    crate::NewFolders::create(parent).map(Some).map_err(|e| {
+        io::Error::new(
+            e.kind(),
+            format!("cannot create the folder {}: {e}", parent.display()),
+        )
+    })
 }
 
 impl Drop for OutputLock {

@@ -135,9 +135,40 @@ pub fn lies_within(path: &Path, folder: &Path) -> bool {
 }
 
 /// True when `path` exists and is neither a regular file nor a directory (a device, FIFO or
-/// socket: written directly, never renamed over).
+/// socket: written directly, never renamed over), or names an open file descriptor
+/// (`/dev/stdout`, `/dev/fd/N`, `/proc/self/fd/N`) whatever it is open on: with standard output
+/// redirected to a file, renaming over `/dev/stdout` would replace the link in `/dev` itself.
 pub fn is_special_file(path: &Path) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) || names_a_descriptor(path)
+}
+
+/// True when `path`, or a symbolic link on its way, is a descriptor link of `/proc` or `/dev/fd`.
+fn names_a_descriptor(path: &Path) -> bool {
+    let is_fd_link = |p: &Path| {
+        let parts: Vec<&str> = p
+            .components()
+            .map(|c| c.as_os_str().to_str().unwrap_or(""))
+            .collect();
+        matches!(
+            parts.as_slice(),
+            ["/", "dev", "fd", _] | ["/", "proc", _, "fd", _]
+        )
+    };
+    let mut p = path.to_path_buf();
+    // A chain of links, as far as the kernel follows one.
+    for _ in 0..40 {
+        if is_fd_link(&p) {
+            return true;
+        }
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => match std::fs::read_link(&p) {
+                Ok(next) => p = p.parent().unwrap_or(Path::new("/")).join(next),
+                Err(_) => return false,
+            },
+            _ => return false,
+        }
+    }
+    false
 }
 
 /// Refuses, before anything is read or written, an output that is, contains or lies inside an
@@ -261,6 +292,29 @@ mod tests {
         // `..` is resolved, not read lexically: events/../other is beside events, not in it.
         let beside = events.join("..").join("other");
         assert!(refuse_overlaps(&[("--events", &events)], &[("--out", &beside)]).is_ok());
+    }
+
+    #[test]
+    fn descriptor_paths_are_written_directly_whatever_they_are_open_on() {
+        // This process's stdout may be a pipe or a file (under `cargo test`): either way the
+        // path is never renamed over.
+        for p in [
+            "/dev/stdout",
+            "/dev/fd/1",
+            "/proc/self/fd/1",
+            "/proc/self/fd/2",
+        ] {
+            if std::fs::metadata(p).is_ok() {
+                assert!(is_special_file(Path::new(p)), "{p}");
+            }
+        }
+        let d = tempfile::tempdir().unwrap();
+        let link = d.path().join("out");
+        std::os::unix::fs::symlink("/proc/self/fd/1", &link).unwrap();
+        assert!(is_special_file(&link));
+        std::fs::write(d.path().join("plain"), "x").unwrap();
+        assert!(!is_special_file(&d.path().join("plain")));
+        assert!(!is_special_file(&d.path().join("missing")));
     }
 
     #[test]

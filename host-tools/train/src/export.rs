@@ -220,17 +220,10 @@ pub fn export(checkpoint: &Checkpoint, drl_format: DrlFormat) -> Result<Vec<u8>,
     }
 }
 
-/// Write `blob` to `path` (creating parent folders).
+/// Write `blob` to `path` (creating missing parent folders, removed again if the write fails).
 pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ExportError> {
-    if let Some(parent) = path.parent() {
-        if !parent.as_os_str().is_empty() {
-            std::fs::create_dir_all(parent).map_err(|source| ExportError::Io {
-                path: parent.display().to_string(),
-                source,
-            })?;
-        }
-    }
-    // Through the output layer: a unique temporary beside `path`, renamed over it when complete.
+    // Through the output layer: a unique temporary beside `path`, renamed over it when complete;
+    // the layer makes the missing parent folders.
     let io = |source| ExportError::Io {
         path: path.display().to_string(),
         source,
