@@ -374,11 +374,14 @@ fn event_figures(
     Ok(bundle.write_to(plot_dir)?)
 }
 
-/// Run the demo. Prints progress and the table on stdout/stderr as it goes.
+/// Run the demo. Prints progress on stderr and the tables on stdout as it goes; stdout through
+/// [`crate::print_out`], so a reader that closed it (`riskctl demo | head -1`) ends the printing,
+/// not the run.
 pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let mut stages: Vec<(String, f64)> = Vec::new();
     let mut files: Vec<PathBuf> = Vec::new();
-    fs::create_dir_all(&opts.out).map_err(io_err(&opts.out))?;
+    // Removed again (when still empty) if the run fails before writing anything into it.
+    let out_folders = riskscore_output::NewFolders::create(&opts.out).map_err(io_err(&opts.out))?;
 
     // 1. Data.
     let t0 = Instant::now();
@@ -494,15 +497,15 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     bundle.add_csv("curves.csv", |w| eval::report::write_curves_csv(&curves, w))?;
     files.extend(bundle.write_to(&report_dir)?);
     stages.push(("report".into(), t0.elapsed().as_secs_f64()));
-    println!();
-    println!(
+    outln!();
+    outln!(
         "Results: {}-fold event-level CV x {} seeds on {} (mean ± std over folds and seeds; DRL = deployed int8 network)",
         opts.folds,
         opts.seeds.max(1),
         data_dir.display()
     );
-    println!();
-    println!("{}", report.to_markdown());
+    outln!();
+    outln!("{}", report.to_markdown());
 
     // Transfer benchmark: another simulator seed and mix, real scenario files held out.
     let mut transfer_claims = Vec::new();
@@ -554,15 +557,15 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             &transfer_claims,
             &[],
         )?);
-        println!(
+        outln!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
             settings.test_seed,
             opts.folds,
             opts.seeds.max(1)
         );
-        println!();
-        println!("{}", result.report.to_markdown());
+        outln!();
+        outln!("{}", result.report.to_markdown());
         stages.push(("transfer benchmark".into(), t0.elapsed().as_secs_f64()));
     }
 
@@ -701,6 +704,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         files,
     };
     print_summary(&summary, opts, &data_dir);
+    out_folders.keep();
     Ok(summary)
 }
 
@@ -839,13 +843,14 @@ fn domain_benchmark(
         None,
     )?;
     crate::warnings::print(result.warnings());
-    println!(
+    outln!(
         "Domain benchmark (short: {} folds x {} seed(s); `riskctl benchmark domains` runs 5 x 3): \
          each round trains without one slice of the operating domain and tests on it",
-        settings.folds, settings.seeds
+        settings.folds,
+        settings.seeds
     );
-    println!();
-    println!("{}", result.to_markdown());
+    outln!();
+    outln!("{}", result.to_markdown());
     Ok(result.bundle()?.write_to(&report_dir.join("domains"))?)
 }
 
@@ -879,7 +884,7 @@ fn fmt_opt(v: Option<f64>) -> String {
 
 /// Print claims as `[ok]` / `[FAIL]` / `[n/a]` lines under a title, each with its run tally.
 pub fn print_claims(title: &str, claims: &[Claim]) {
-    print!("{}", claims::to_text(title, claims));
+    out!("{}", claims::to_text(title, claims));
 }
 
 /// What the metric names in the tables and claims mean.
@@ -984,27 +989,31 @@ fn wrap(text: &str, width: usize) -> String {
 
 fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
     if let Some(cv) = &s.cv {
-        println!("Float vs int8 DRL (fold means; DRL-f32 = same network before quantisation):");
+        outln!("Float vs int8 DRL (fold means; DRL-f32 = same network before quantisation):");
         for name in ["DRL-f32", "DRL"] {
             let m: Vec<String> = Metric::ALL
                 .iter()
                 .map(|&metric| fmt_opt(cv.mean(name, metric)))
                 .collect();
-            println!(
+            outln!(
                 "  {name:<8} A_ROC_90 {}  A_ROC_80 {}  P_PRC_90 {}  P_PRC_80 {}  mTTI_90 {} s",
-                m[0], m[1], m[2], m[3], m[4]
+                m[0],
+                m[1],
+                m[2],
+                m[3],
+                m[4]
             );
         }
-        println!(
+        outln!(
             "  final model on all observations: corr {:.5}, mean |int8 - f32| {:.4} (score std {:.3})",
             s.final_agreement.correlation,
             s.final_agreement.mean_abs_error,
             s.final_agreement.float_std
         );
     }
-    println!();
-    println!("{METRIC_LEGEND}");
-    println!();
+    outln!();
+    outln!("{METRIC_LEGEND}");
+    outln!();
     print_claims(
         "Acceptance, in distribution (fold means, strictly better; n/a: the baseline has no value to beat):",
         &s.claims,
@@ -1015,26 +1024,28 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
             &s.transfer_claims,
         );
     }
-    println!(
+    outln!(
         "Throughput: {:.0} comparison pairs/s, DRL {:.1} epochs/s, MSRA {:.1} epochs/s",
-        s.pairs_per_second, s.drl_epochs_per_second, s.msra_epochs_per_second
+        s.pairs_per_second,
+        s.drl_epochs_per_second,
+        s.msra_epochs_per_second
     );
-    println!("Stage times:");
+    outln!("Stage times:");
     for (name, secs) in &s.stages {
-        println!("  {name:<24} {secs:>7.1} s");
+        outln!("  {name:<24} {secs:>7.1} s");
     }
-    println!("  {:<24} {:>7.1} s", "total", s.total_seconds());
-    println!();
-    println!("Where everything went:");
-    println!("  event data     {}", data_dir.display());
-    println!("  reports        {}", opts.out.join("report").display());
-    println!("  models         {}", opts.out.join("models").display());
-    println!("  plots          {}", opts.out.join("plots").display());
-    println!(
+    outln!("  {:<24} {:>7.1} s", "total", s.total_seconds());
+    outln!();
+    outln!("Where everything went:");
+    outln!("  event data     {}", data_dir.display());
+    outln!("  reports        {}", opts.out.join("report").display());
+    outln!("  models         {}", opts.out.join("models").display());
+    outln!("  plots          {}", opts.out.join("plots").display());
+    outln!(
         "  next: riskctl inspect-model {}   |   riskctl evaluate --model {} --events DIR",
         opts.out.join("models/drl.rsk").display(),
         opts.out.join("models/drl.rsk").display()
     );
-    println!();
-    println!("{}", wrap(&conclusion(s, opts), 100));
+    outln!();
+    outln!("{}", wrap(&conclusion(s, opts), 100));
 }

@@ -49,7 +49,9 @@ pub struct Args {
     /// above its highest score when the false-alarm rule would put it lower.
     #[arg(long = "never-warn", value_name = "DIR")]
     never_warn: Vec<PathBuf>,
-    /// Output blob; must not be the input (write to a new file, then move it).
+    /// Output blob; must not be the input (write to a new file, then move it). `-` writes the
+    /// blob to standard output (the summary then goes to stderr). Missing parent folders are
+    /// created.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
 }
@@ -98,7 +100,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         calibration.measured = warned as f64 / maxima.len() as f64;
     }
     if !args.never_warn.is_empty() {
-        outln!(
+        summaryln!(
+            &args.out,
             "--never-warn: the highest score of its {never_warn_sequences} safe sequences is \
              {never_warn_max}; the false-alarm rule gives {by_rule}, {}",
             if calibration.threshold > by_rule {
@@ -134,16 +137,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let summary = riskscore_train::export::inspect(&bytes)
         .map_err(|e| anyhow::anyhow!("the calibrated blob does not decode: {e}"))?;
     super::output::write_file_atomically(&args.out, &bytes)?;
-    outln!(
+    summaryln!(
+        &args.out,
         "{} -> {}: default threshold {} ({:.1} % of {} normal-driving sequences warn; target {} %)",
         args.model.display(),
-        args.out.display(),
+        super::output::output_name(&args.out),
         calibration.threshold,
         100.0 * calibration.measured,
         calibration.sequences,
         args.false_alarm_rate
     );
-    out!("{summary}");
+    super::output::summary(&args.out, format_args!("{summary}"));
     Ok(())
 }
 

@@ -79,7 +79,8 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = DEFAULT_TAILS.cell_sequences,
           value_parser = parse_cell_sequences)]
     cell_sequences: usize,
-    /// Output blob; must not be the input (write to a new file, then move it).
+    /// Output blob; must not be the input (write to a new file, then move it). `-` writes the
+    /// blob to standard output (the summary then goes to stderr).
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
 }
@@ -145,13 +146,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("{reason}");
     }
     if let Some(fitted) = &guarded.fallback {
-        outln!(
+        summaryln!(
+            &args.out,
             "fallback: {} * MSRA + {} (mean and spread of the model on {} frames inside, r^2 {:.3})",
             fitted.scale, fitted.offset, fitted.frames, fitted.r_squared
         );
     }
     if let Some(b) = &blend {
-        outln!(
+        summaryln!(
+            &args.out,
             "blend: inside the domain {}",
             riskscore_train::export::blend_text(b)
         );
@@ -169,16 +172,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         String::new()
     };
-    outln!(
+    summaryln!(
+        &args.out,
         "{} -> {}: training domain of {frames} frames in {} sequences ({} % tails, widened to what {} % of the sequences reached{cells}), {}",
         args.model.display(),
-        args.out.display(),
+        super::output::output_name(&args.out),
         measured_on.len(),
         args.tail_percent,
         args.sequence_percent,
         riskscore_train::export::policy_text(args.policy)
     );
-    out!("{summary}");
+    super::output::summary(&args.out, format_args!("{summary}"));
     // The blend moves every score inside the domain: a threshold chosen on the old scores no
     // longer has the false-alarm rate its record states.
     if blend.is_some() && blend != blob.meta.blend && blob.meta.default_threshold.is_some() {

@@ -3,7 +3,7 @@ use anyhow::{bail, Context};
 use riskscore_data::candump_export::{
     write_candump, ExportOptions, DEFAULT_GAP_US, DEFAULT_START_US,
 };
-use riskscore_output::AtomicFile;
+use std::io::Write as _;
 use std::path::PathBuf;
 
 /// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format.
@@ -21,8 +21,9 @@ pub struct Args {
     /// Event folder (events.csv + frames.csv).
     #[arg(long)]
     pub events: PathBuf,
-    /// Output log file (candump -L format).
-    #[arg(long)]
+    /// Output log file (candump -L format); `-` writes the log to standard output (this
+    /// command's other messages then go to stderr). Missing parent folders are created.
+    #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
     /// Interface name written into each line.
     #[arg(long, default_value = "vcan0")]
@@ -93,56 +94,67 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start_us: (args.start * 1e6).round() as u64,
         gap_us: (args.gap * 1e6).round() as u64,
     };
-    // Written under a temporary name and renamed at the end: a failed run leaves no half log.
-    let mut file = AtomicFile::create(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let summary = write_candump(&set, &opts, &mut file)
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    // A file is written under a temporary name and renamed at the end: a failed run leaves no
+    // half log. `-` (or /dev/stdout) streams the log to standard output, and everything else
+    // this command says goes to stderr.
     let frames_csv = args.events.join(riskscore_data::events::FRAMES_FILE);
-    let skipped = summary.skipped.len();
-    for s in summary.skipped.iter().take(LISTED_SKIPS) {
-        eprintln!(
-            "{}: event {} at t={}: cycle not encoded: {}",
-            frames_csv.display(),
-            s.event_id,
-            s.time,
-            s.reason
-        );
-    }
-    if skipped > LISTED_SKIPS {
-        eprintln!(
-            "{}: ... {} more cycles not encoded",
-            frames_csv.display(),
-            skipped - LISTED_SKIPS
-        );
-    }
-    if skipped > 0 {
-        let all = summary.cycles + skipped;
-        let share = skipped as f64 / all as f64;
-        let what = format!(
-            "{}: {skipped} of {all} cycles ({:.3}%) not encoded (a value outside its signal's DBC range), in {} event(s)",
-            frames_csv.display(),
-            share * 100.0,
-            summary.events_with_skips()
-        );
-        if share > args.max_skipped {
-            // `file` is dropped without commit: no log is written.
-            bail!(
-                "{what}; more than --max-skipped {}: {} not written",
-                args.max_skipped,
-                args.out.display()
+    let out = args.out.as_path();
+    let written = super::output::write_output(out, |mut w| {
+        let summary = write_candump(&set, &opts, &mut w)
+            .with_context(|| format!("writing {}", out.display()))?;
+        let skipped = summary.skipped.len();
+        for s in summary.skipped.iter().take(LISTED_SKIPS) {
+            eprintln!(
+                "{}: event {} at t={}: cycle not encoded: {}",
+                frames_csv.display(),
+                s.event_id,
+                s.time,
+                s.reason
             );
         }
-        eprintln!(
-            "warning: {what} (within --max-skipped {})",
-            args.max_skipped
-        );
-    }
-    file.commit()
-        .with_context(|| format!("writing {}", args.out.display()))?;
-    outln!(
+        if skipped > LISTED_SKIPS {
+            eprintln!(
+                "{}: ... {} more cycles not encoded",
+                frames_csv.display(),
+                skipped - LISTED_SKIPS
+            );
+        }
+        if skipped > 0 {
+            let all = summary.cycles + skipped;
+            let share = skipped as f64 / all as f64;
+            let what = format!(
+                "{}: {skipped} of {all} cycles ({:.3}%) not encoded (a value outside its signal's DBC range), in {} event(s)",
+                frames_csv.display(),
+                share * 100.0,
+                summary.events_with_skips()
+            );
+            if share > args.max_skipped {
+                // The file is dropped without commit: no log is written (on standard output
+                // the lines are gone already; the exit status says the log is incomplete).
+                bail!(
+                    "{what}; more than --max-skipped {}: {} not written",
+                    args.max_skipped,
+                    out.display()
+                );
+            }
+            eprintln!(
+                "warning: {what} (within --max-skipped {})",
+                args.max_skipped
+            );
+        }
+        w.flush()
+            .with_context(|| format!("writing {}", out.display()))?;
+        Ok(summary)
+    })?;
+    // `None`: the reader of standard output went away (`| head`), a normal end for a filter.
+    let Some(summary) = written else {
+        return Ok(());
+    };
+    let skipped = summary.skipped.len();
+    summaryln!(
+        out,
         "wrote {}: {} events, {} cycles, {} CAN frames, {:.1} s of traffic{}",
-        args.out.display(),
+        super::output::output_name(out),
         summary.events,
         summary.cycles,
         summary.can_frames,

@@ -22,17 +22,18 @@ macro_rules! outln {
     };
 }
 
-/// Writes to standard output. Unlike `print!`, which panics (exit 101 and a backtrace) when the
-/// reader has gone, a closed standard output is ignored: the run goes on and still writes its
-/// files and its exit status; any other write error is a warning on stderr.
-pub fn print_out(args: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
-        if e.kind() != std::io::ErrorKind::BrokenPipe {
-            eprintln!("riskctl: warning: cannot write to standard output: {e}");
-        }
-    }
+/// `println!` for a command's summary of an output `$out` it wrote: on standard output, or on
+/// stderr when `$out` is standard output itself (`--out -`), so that stream holds only the data
+/// (see [`output::summary`]).
+macro_rules! summaryln {
+    ($out:expr, $($arg:tt)*) => {
+        $crate::cli::output::summary($out, format_args!("{}\n", format_args!($($arg)*)))
+    };
 }
+
+/// Writes to standard output, ignoring a closed one (see [`host_tools::print_out`], which the
+/// demo prints through too).
+pub use host_tools::print_out;
 
 pub mod ablation;
 pub mod benchmark;

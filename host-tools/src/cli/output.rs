@@ -1,6 +1,7 @@
 //! Where a subcommand's output goes: a file (through riskscore-output: a unique temporary beside
-//! it, renamed when complete, removed on error or Ctrl-C), a device or pipe (written directly), or
-//! standard output for `-`.
+//! it, renamed when complete, removed on error or Ctrl-C; missing parent folders made, and removed
+//! again if the run fails), a device or pipe (written directly), or standard output for `-` (the
+//! command's summary then goes to stderr: [`summary`]).
 use anyhow::Context;
 use riskscore_output::is_special_file;
 use std::io::{BufWriter, Write};
@@ -12,13 +13,18 @@ pub fn is_dash(p: &Path) -> bool {
     p.as_os_str() == "-"
 }
 
-/// Run `write` on the output named by `path`. `Ok(None)`: standard output was closed by its
-/// reader (`| head`), which a filter treats as a normal end.
+/// Run `write` on the output named by `path`: standard output for `-` (or another name of it,
+/// [`is_stdout`]), a device or pipe directly, a file through a temporary renamed into place when
+/// `write` succeeded (missing parent folders are made, and removed again if the run fails).
+/// `Ok(None)`: standard output was closed by its reader (`| head`), which a filter treats as a
+/// normal end.
 pub fn write_output<T>(
     path: &Path,
     write: impl FnOnce(Box<dyn Write + Send>) -> anyhow::Result<T>,
 ) -> anyhow::Result<Option<T>> {
-    if is_dash(path) {
+    // `-`, `/dev/stdout` or any other name of this process's standard output: written through
+    // the standard output handle (its offset is the shell's: `>>` appends).
+    if is_stdout(path) {
         return match write(Box::new(BufWriter::with_capacity(
             1 << 16,
             std::io::stdout(),
@@ -88,18 +94,63 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// Writes `bytes` to `path` through a temporary file renamed into place when complete: a failed
-/// run leaves the old file as it was.
+/// Writes `bytes` to `path` through [`write_output`]: a file through a temporary renamed into
+/// place when complete (a failed run leaves the old file as it was; missing parent folders are
+/// made, and removed again if the run fails), a device or pipe directly, `-` to standard output.
 pub fn write_file_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("{}: cannot create", parent.display()))?;
+    // The errors name the file already (`cannot create output X: ...`, `X: No space left`).
+    write_output(path, |mut out| {
+        out.write_all(bytes)?;
+        out.flush()?;
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// How a summary names the output `path`: `standard output` for `-`, else the path.
+pub fn output_name(path: &Path) -> String {
+    if is_dash(path) {
+        "standard output".to_owned()
+    } else {
+        path.display().to_string()
     }
-    let mut out = riskscore_output::AtomicFile::create(path)
-        .with_context(|| format!("{}: cannot create", path.display()))?;
-    out.write_all(bytes)
-        .and_then(|()| out.commit())
-        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// True when the output `path` is this process's standard output: `-`, or a path to the same
+/// file (`/dev/stdout`, `/proc/self/fd/1`, the terminal or pipe standard output is). The data
+/// then owns standard output, and a command's human-readable summary goes to stderr.
+pub fn is_stdout(path: &Path) -> bool {
+    use std::os::fd::AsFd;
+    use std::os::unix::fs::MetadataExt;
+    if is_dash(path) {
+        return true;
+    }
+    let Ok(target) = std::fs::metadata(path) else {
+        return false;
+    };
+    // Data thrown away is not a stream a summary could spoil (`--out /dev/null >/dev/null`).
+    if std::fs::metadata("/dev/null")
+        .is_ok_and(|n| n.dev() == target.dev() && n.ino() == target.ino())
+    {
+        return false;
+    }
+    let Ok(fd) = std::io::stdout().as_fd().try_clone_to_owned() else {
+        return false;
+    };
+    std::fs::File::from(fd)
+        .metadata()
+        .is_ok_and(|m| m.dev() == target.dev() && m.ino() == target.ino())
+}
+
+/// Prints a command's human-readable summary: on standard output (through
+/// [`crate::cli::print_out`]), or on stderr when the data itself goes to standard output
+/// ([`is_stdout`]`(out)`), so the stream there is exactly the data.
+pub fn summary(out: &Path, args: std::fmt::Arguments<'_>) {
+    if is_stdout(out) {
+        eprint!("{args}");
+    } else {
+        crate::cli::print_out(args);
+    }
 }
 
 /// Refuses `outputs` that are, or overwrite, a `--model` file or the `--events` folder's files.
