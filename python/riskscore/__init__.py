@@ -196,7 +196,18 @@ def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Tabl
         import warnings
 
         warnings.warn(message + "\n(those events are left out)", BadRowWarning, stacklevel=2)
+    elif issues:
+        _warn_notes(issues, directory)
     return events, frames
+
+
+def _warn_notes(notes, directory: PathLike) -> None:
+    """Notes leave nothing out (a file without a final newline: its last row is read as it
+    stands), so they warn instead of raising."""
+    import warnings
+
+    listing = "\n  ".join(notes)
+    warnings.warn(f"event folder {os.fspath(directory)}:\n  {listing}", UserWarning, stacklevel=3)
 
 
 _EVENT_TYPES = [
@@ -316,4 +327,6 @@ def evaluate(
             BadRowWarning,
             stacklevel=2,
         )
+    elif issues:
+        _warn_notes(issues, events)
     return json.loads(text)

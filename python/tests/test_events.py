@@ -73,3 +73,16 @@ def test_a_folder_with_bad_rows_is_refused_unless_skipped(tmp_path):
     assert events.num_rows == 375
     with pytest.raises(riskscore.EventsError, match="events.csv"):
         riskscore.read_events(tmp_path / "nowhere")
+
+
+def test_a_last_line_without_newline_is_read_and_noted(tmp_path):
+    folder = tmp_path / "cut"
+    shutil.copytree(NGSIM_SAFE, folder)
+    text = (folder / "frames.csv").read_text()
+    assert text.endswith("\n")
+    (folder / "frames.csv").write_text(text[:-1])
+    lines = text.count("\n")
+    with pytest.warns(UserWarning, match=rf"frames.csv:{lines}: no newline at the end of the file"):
+        events, frames = riskscore.read_events(folder)
+    assert events.num_rows == 376
+    assert frames.num_rows == lines - 1

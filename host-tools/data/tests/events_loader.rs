@@ -860,3 +860,61 @@ fn unmatched_quote_drops_its_events_and_reading_resumes() {
         "{issue}"
     );
 }
+
+/// A file that ends without a newline is read as it stands (its last row kept: many writers leave
+/// the last line end out), with a note on its last line: a copy cut inside the last number still
+/// parses (`...,8.37` read as `...,8.3`), and nothing else would say the file may be truncated.
+#[test]
+fn a_last_line_without_newline_is_noted_on_that_line_and_kept() {
+    let (ev, fr) = good();
+    // frames.csv: header + 42 rows; the last row's last number (`hy_sur` 0.0001) cut short to
+    // `0.0`, no newline.
+    let full = format!("{},1,0.0001\n", fr.trim_end_matches(",1,0\n"));
+    assert!(load(&ev, &full).1.is_empty());
+    let cut = &full[..full.len() - 4];
+    assert!(cut.ends_with(",1,0.0"), "{cut}");
+    let (set, issues, _d) = load_and_stream(&ev, cut);
+    let problem = only_issue(&issues, "frames.csv", 43, None);
+    assert_eq!(problem, &IssueProblem::NoFinalNewline);
+    assert!(problem.is_note());
+    assert_eq!(issues[0].event_id, None);
+    assert!(
+        issues[0].to_string().contains("frames.csv:43: no newline"),
+        "{}",
+        issues[0]
+    );
+    assert!(issues[0].to_string().contains("cut short"), "{}", issues[0]);
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    assert_eq!(set.get("s1").unwrap().frames.len(), 21);
+
+    // events.csv: the note is on its last line (3), both events kept.
+    let (set, issues, _d) = load_and_stream(ev.trim_end_matches('\n'), &fr);
+    assert_eq!(
+        only_issue(&issues, "events.csv", 3, None),
+        &IssueProblem::NoFinalNewline
+    );
+    assert_eq!(ids(&set), ["c1", "s1"]);
+
+    // Cut between fields: the row is short (RowLength, its event dropped), and the note says why.
+    let short = &fr[..fr.trim_end_matches('\n').rfind(",8,0,").unwrap()];
+    let (set, issues, _d) = load_and_stream(&ev, short);
+    assert_eq!(
+        line_event_kind(&issues),
+        [(43, Some("s1"), "RowLength"), (43, None, "NoFinalNewline")],
+        "{issues:#?}"
+    );
+    assert_eq!(ids(&set), ["c1"]);
+
+    // A line end of either kind is a line end: no note.
+    for end in ["\n", "\r\n"] {
+        let fr = format!("{}{end}", fr.trim_end_matches('\n'));
+        let (_, issues, _d) = load_and_stream(&ev, &fr);
+        assert!(issues.is_empty(), "{end:?}: {issues:#?}");
+    }
+    // The only note: every other kind drops an event (or, UnknownEvent, names rows left out).
+    assert!(!IssueProblem::RowLength {
+        found: 1,
+        expected: 2
+    }
+    .is_note());
+}

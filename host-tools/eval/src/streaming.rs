@@ -481,7 +481,7 @@ impl FolderEvaluation {
     pub fn check(&self, skip_bad_events: bool) -> Result<(), FolderRefusal> {
         if self.events == 0 {
             Err(FolderRefusal::NoValidEvents)
-        } else if !self.load_issues.is_empty() && !skip_bad_events {
+        } else if !skip_bad_events && self.load_issues.iter().any(|i| !i.problem.is_note()) {
             Err(FolderRefusal::BadRows {
                 valid_events: self.events,
             })

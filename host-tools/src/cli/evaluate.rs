@@ -274,11 +274,17 @@ fn evaluate_checked(
 /// The loader keeps the first problems of each kind (and counts the rest), so all are listed:
 /// the first of every kind (and so every kind of dropped event) is named, and the total is the
 /// number of problems, not of listed lines.
+///
+/// Notes (a file without a final newline) skip nothing: each is a warning line of its own.
 pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
-    if !issues.is_empty() {
-        let total: u64 = issues.iter().map(|i| i.count()).sum();
+    let (notes, problems): (Vec<_>, Vec<_>) = issues.iter().partition(|i| i.problem.is_note());
+    for note in notes {
+        eprintln!("riskctl: warning: {note}");
+    }
+    if !problems.is_empty() {
+        let total: u64 = problems.iter().map(|i| i.count()).sum();
         eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
-        for issue in issues {
+        for issue in problems {
             eprintln!("  {issue}");
         }
     }

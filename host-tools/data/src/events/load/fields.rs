@@ -122,6 +122,36 @@ pub(super) fn next_record(
     }
 }
 
+/// [`IssueProblem::NoFinalNewline`] for a file that does not end with a line end, on its last
+/// line (where `rdr`, at the end of the file, stopped). An empty file has no last line.
+pub(super) fn no_final_newline(
+    path: &Path,
+    rdr: &csv::Reader<BufReader<File>>,
+) -> Result<Option<LoadIssue>, EventsError> {
+    let io = |source| EventsError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = File::open(path).map_err(io)?;
+    let len = file.seek(SeekFrom::End(0)).map_err(io)?;
+    if len == 0 {
+        return Ok(None);
+    }
+    file.seek(SeekFrom::End(-1)).map_err(io)?;
+    let mut last = [0u8; 1];
+    std::io::Read::read_exact(&mut file, &mut last).map_err(io)?;
+    if matches!(last[0], b'\n' | b'\r') {
+        return Ok(None);
+    }
+    Ok(Some(LoadIssue {
+        file: path.to_path_buf(),
+        line: rdr.position().line(),
+        column: None,
+        event_id: None,
+        problem: IssueProblem::NoFinalNewline,
+    }))
+}
+
 /// The line of the record that starts at `start` and the position just after that line, read
 /// from the file itself (the CSV reader has already consumed the lines after it).
 fn line_after(path: &Path, start: &csv::Position) -> Result<(u64, csv::Position), EventsError> {

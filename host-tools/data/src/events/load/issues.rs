@@ -99,7 +99,8 @@ impl std::fmt::Display for LoadIssue {
     }
 }
 
-/// What is wrong. Every variant except [`IssueProblem::UnknownEvent`] drops the named event.
+/// What is wrong. Every variant except [`IssueProblem::UnknownEvent`] and the notes
+/// ([`IssueProblem::is_note`]) drops the named event.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum IssueProblem {
     #[error("row has {found} fields, the header has {expected}")]
@@ -154,6 +155,11 @@ pub enum IssueProblem {
     NoFrames,
     #[error("t_impact {t_impact} is before the first frame ({first})")]
     ImpactBeforeFrames { t_impact: f64, first: f64 },
+    /// A note, not an error: the file's last line has no line end. Many writers leave it out, but
+    /// so does a copy cut short, whose last number may have lost digits and still parse
+    /// (`12.3456` read as `12.3`). The row is kept.
+    #[error("no newline at the end of the file: this last row may have been cut short (a truncated copy?); it is read as it stands, check its last values")]
+    NoFinalNewline,
 }
 
 impl IssueProblem {
@@ -182,7 +188,14 @@ impl IssueProblem {
             Self::FrameOutsideEvent { .. } => "FrameOutsideEvent",
             Self::NoFrames => "NoFrames",
             Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
+            Self::NoFinalNewline => "NoFinalNewline",
         }
+    }
+
+    /// A note: worth telling the user, but no row or event is left out because of it (so it does
+    /// not count among the problems that make `evaluate` refuse a folder).
+    pub fn is_note(&self) -> bool {
+        matches!(self, Self::NoFinalNewline)
     }
 }
 

@@ -17,7 +17,7 @@ pub use issues::{
 
 use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
 use super::{Dims, Event, EventKind, EventSet, Frame, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE};
-use fields::{column_map, field_str, next_record, open, Fields};
+use fields::{column_map, field_str, next_record, no_final_newline, open, Fields};
 use issues::Issues;
 use scorer_core::VehicleState;
 
@@ -405,6 +405,7 @@ fn read_events(
         }
     }
     // Events removed from the index as duplicates stay in `pending` with ok = false.
+    issues.extend(no_final_newline(path, &rdr)?);
     Ok(())
 }
 
@@ -596,6 +597,7 @@ fn read_frames<E: From<EventsError>>(
             issues.extend(f.issues.drain(..));
         }
     }
+    issues.extend(no_final_newline(path, &rdr)?);
     if let (Some(stream), Some((_, last))) = (stream, current) {
         stream.close(last, &mut pending[last], acc_partner_col.is_none())?;
     }
