@@ -307,3 +307,223 @@ fn a_closed_standard_output_does_not_panic_or_lose_the_run() {
         assert!(Path::new(&ablation).join(name).is_file(), "{name}");
     }
 }
+
+/// A tiny training configuration (TOML) for runs that only need to reach their outputs.
+fn tiny_config(dir: &Path) -> PathBuf {
+    let path = dir.join("tiny.toml");
+    std::fs::write(
+        &path,
+        "[comparisons.temporal]\npairs = 200\n[comparisons.cross_sequence]\npairs = 200\n\
+         [comparisons.physics]\npairs = 100\n[optimiser]\nmax_epochs = 2\n[drl]\nhidden = [8]\n",
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn demo_with_a_closed_standard_output_finishes_its_run() {
+    // The shortest demo there is: a given 9-event folder, 2 folds x 1 seed, no real data, no
+    // training-only data, no benchmarks, a tiny configuration (under a second). Its first print
+    // (the results table) and the later ones (legend, summary) all meet the closed pipe.
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let config = tiny_config(dir.path());
+    let out = dir.path().join("out");
+    let o = riskctl_closed_stdout(&[
+        "demo",
+        "--out",
+        out.to_str().unwrap(),
+        "--data",
+        events.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--folds",
+        "2",
+        "--seeds",
+        "1",
+        "--no-real",
+        "--no-extra",
+        "--no-transfer",
+        "--no-domains",
+        "--quiet",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    // Every stage ran after the first print failed, and wrote its files.
+    assert!(err.contains("[6/6] summary"), "{err}");
+    for f in ["report/results.md", "models/msra.rsk", "plots/roc.svg"] {
+        assert!(out.join(f).is_file(), "{f}: {err}");
+    }
+}
+
+#[test]
+fn export_model_f32_of_an_msra_checkpoint_says_it_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let config = tiny_config(dir.path());
+    let train = dir.path().join("train");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        events.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        train.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let export = |checkpoint: &str, f32: bool| {
+        let out = dir.path().join(format!("{checkpoint}-{f32}.rsk"));
+        let ck = train.join(format!("{checkpoint}.json"));
+        let mut args = vec![
+            "export-model",
+            ck.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if f32 {
+            args.push("--f32");
+        }
+        let o = riskctl(&args);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {err}");
+        (std::fs::read(&out).unwrap(), err)
+    };
+    // MSRA: a one-line note naming the flag and the kind; the blob is the one without --f32
+    // (an MSRA blob is always f32).
+    let (with, err) = export("msra", true);
+    let (without, plain) = export("msra", false);
+    assert_eq!(with, without);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--f32") && err.contains("MSRA checkpoint"),
+        "{err}"
+    );
+    assert!(err.contains("msra.json") && err.contains("f32"), "{err}");
+    assert!(plain.is_empty(), "{plain}");
+    // DRL: the flag means something, no note.
+    let (int8, _) = export("drl", false);
+    let (float, err) = export("drl", true);
+    assert_ne!(int8, float);
+    assert!(err.is_empty(), "{err}");
+}
+
+#[test]
+fn train_without_a_conflict_warns_and_refuses_when_nothing_can_be_learnt() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = dir.path().join("safe");
+    let o = riskctl(&[
+        "simulate",
+        "--out",
+        events.to_str().unwrap(),
+        "--seed",
+        "3",
+        "--events",
+        "12",
+        "--mix",
+        "0,0,1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ev = events.to_str().unwrap();
+    let config = tiny_config(dir.path());
+    // Physics pairs are still learnt: the models are written, with a warning that names the
+    // folder and its counts and says what is missing.
+    let out = dir.path().join("train");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        ev,
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let warning = err
+        .lines()
+        .find(|l| l.starts_with("riskctl: warning:"))
+        .unwrap_or_else(|| panic!("no warning: {err}"));
+    for part in [ev, "12 safe sequences, 0 conflicts", "physics", "threshold"] {
+        assert!(warning.contains(part), "{part}: {warning}");
+    }
+    assert!(out.join("msra.rsk").is_file());
+    // Physics pairs off too: nothing can be learnt, so it fails with the counts and writes
+    // nothing (a new folder is not created, an existing one is left as it was).
+    let no_physics = dir.path().join("no-physics.toml");
+    std::fs::write(&no_physics, "[comparisons.physics]\npairs = 0\n").unwrap();
+    let existing = dir.path().join("existing");
+    std::fs::create_dir(&existing).unwrap();
+    std::fs::write(existing.join("keep.txt"), "old").unwrap();
+    for (target, existed) in [(dir.path().join("fresh"), false), (existing, true)] {
+        let o = riskctl(&[
+            "train",
+            "--events",
+            ev,
+            "--config",
+            no_physics.to_str().unwrap(),
+            "--out",
+            target.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains(&format!("--events {ev}: 12 safe sequences, 0 conflicts")),
+            "{err}"
+        );
+        assert!(err.contains("no comparison can be built"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        if existed {
+            let names: Vec<_> = std::fs::read_dir(&target)
+                .unwrap()
+                .map(|e| e.unwrap().file_name())
+                .collect();
+            assert_eq!(names, ["keep.txt"]);
+        } else {
+            assert!(!target.exists());
+        }
+    }
+}
+
+#[test]
+fn a_frames_file_without_final_newline_is_a_warning_not_a_refusal() {
+    // A copy cut inside the last row's last number still parses: the loader says the file ends
+    // without a newline (file and line), keeps the row, and evaluate and score run.
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let frames = events.join("frames.csv");
+    let text = std::fs::read_to_string(&frames).unwrap();
+    let lines = text.lines().count();
+    std::fs::write(&frames, &text[..text.len() - 2]).unwrap();
+    let drl = model("drl-default.rsk");
+    let scores = dir.path().join("s.csv");
+    for command in ["evaluate", "score"] {
+        let mut args = vec![
+            command,
+            "--model",
+            drl.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+        ];
+        if command == "score" {
+            args.extend(["--out", scores.to_str().unwrap()]);
+        }
+        let o = riskctl(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(0), "{command}: {err}");
+        let expected = format!(
+            "riskctl: warning: {}:{lines}: no newline at the end of the file",
+            frames.display()
+        );
+        assert!(err.contains(&expected), "{command}: {err}");
+        assert!(err.contains("cut short"), "{command}: {err}");
+        assert!(!err.contains("problem(s)"), "{command}: {err}");
+    }
+    // The row is kept: every frame is scored.
+    let rows = std::fs::read_to_string(&scores).unwrap().lines().count();
+    assert_eq!(rows, lines, "header + one row per frame");
+}

@@ -2,14 +2,15 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use riskscore_train::export::{self, Checkpoint, DrlFormat};
+use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
 
 /// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob.
 ///
 /// DRL is quantised to int8 with the activation calibration stored in the checkpoint (measured on
 /// the training observations), using scorer-core's own requantisation; `--f32` writes the float
-/// network instead. MSRA is written as is. The blob is decoded again (header, CRC, validation)
-/// before the command succeeds.
+/// network instead. MSRA is written as is: its blob always holds its parameters as f32 (there is
+/// no int8 MSRA), so `--f32` changes nothing for it and says so in a note on stderr. The blob is
+/// decoded again (header, CRC, validation) before the command succeeds.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Checkpoint written by `riskctl train` (JSON), as `inspect-model` takes its file.
@@ -21,7 +22,8 @@ pub struct Args {
     /// Output blob (conventionally `*.rsk`).
     #[arg(long)]
     pub out: PathBuf,
-    /// Export DRL as the f32 network instead of int8.
+    /// Export DRL as the f32 network instead of int8. An MSRA blob is always f32: for an MSRA
+    /// checkpoint the flag changes nothing (a note on stderr says so).
     #[arg(long)]
     pub f32: bool,
 }
@@ -33,6 +35,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("no checkpoint given")?;
     super::output::refuse(&[("CHECKPOINT", &checkpoint)], &[("--out", &args.out)])?;
     let ck = Checkpoint::load(&checkpoint)?;
+    if args.f32 && matches!(ck.model, CheckpointModel::Msra { .. }) {
+        eprintln!(
+            "riskctl: note: --f32 changes nothing for {}, an MSRA checkpoint: an MSRA blob always holds its parameters as f32 (only DRL has an int8 form)",
+            checkpoint.display()
+        );
+    }
     let format = if args.f32 {
         DrlFormat::F32
     } else {

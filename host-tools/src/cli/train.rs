@@ -1,9 +1,9 @@
 //! `riskctl train`: build comparisons and train DRL and MSRA on an event folder.
 use std::path::PathBuf;
 
-use anyhow::Context;
-use riskscore_train::final_models::train_and_export;
-use riskscore_train::train::{Progress, TrainConfig};
+use riskscore_data::events::Sequence;
+use riskscore_train::final_models::{train_and_export, FinalModelsError};
+use riskscore_train::train::{Progress, TrainConfig, TrainError};
 use serde_json::json;
 
 /// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs.
@@ -12,6 +12,13 @@ use serde_json::json;
 /// built from the fit part only. Writes into --out: drl.json and msra.json (float checkpoints, see
 /// docs/training.md), drl.rsk (int8, calibrated on the training observations), drl-f32.rsk and
 /// msra.rsk (model blobs for scorer-core, the bridge and the firmware).
+///
+/// Without a conflict (crash or near-crash) sequence, in the folder or in --augment, only physics
+/// counterfactual pairs can be built: the models still learn which of two states is physically
+/// riskier, but nothing ties their scale to a conflict (no temporal or cross-sequence pair, no
+/// impact anchor), so the run warns on stderr; calibrate a threshold on normal driving
+/// (`riskctl calibrate`) before using them. When no comparison at all can be built (physics pairs
+/// off in the configuration too), it fails, naming the folder and its counts, and writes nothing.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Event folder (events.csv + frames.csv).
@@ -75,6 +82,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "events": counts,
         "config": config,
     });
+    // No conflict sequence anywhere: say so with the folder's counts (an error when nothing at
+    // all can be learnt, a warning when physics pairs are all there is).
+    let conflicts = |s: &[Sequence]| s.iter().filter(|s| s.kind.is_conflict()).count();
+    let no_conflict = (conflicts(&seqs) == 0
+        && augmentation.as_deref().is_none_or(|a| conflicts(a) == 0))
+    .then(|| {
+        let augment = match (&args.augment, &augmentation) {
+            (Some(dir), Some(aug)) => format!(
+                " (and --augment {}: {} safe sequences, 0 conflicts)",
+                dir.display(),
+                aug.len()
+            ),
+            _ => String::new(),
+        };
+        format!(
+            "--events {}: {} safe sequences, 0 conflicts (crash / near-crash sequences){augment}",
+            args.events.display(),
+            seqs.len()
+        )
+    });
     let started = std::time::Instant::now();
     let (finals, files) = train_and_export(
         &seqs,
@@ -85,7 +112,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         meta,
         progress,
     )
-    .context("training failed")?;
+    .map_err(|e| match (&e, &no_conflict) {
+        (FinalModelsError::Train(TrainError::NoPairs), Some(what)) => anyhow::anyhow!(
+            "{what}: no comparison can be built (temporal and cross-sequence pairs need conflict sequences, and the configuration builds no physics pairs); nothing written to {}",
+            args.out.display()
+        ),
+        _ => anyhow::Error::new(e).context("training failed"),
+    })?;
+    if let Some(what) = &no_conflict {
+        eprintln!(
+            "riskctl: warning: {what}: the models learnt from physics counterfactual pairs alone ({} fit pairs): no temporal or cross-sequence comparison and no impact anchor, so they rank states by physics but their scale is tied to no conflict and the default warning threshold means nothing; calibrate one on normal driving (riskctl calibrate) or train with conflict events (in the folder or with --augment DIR)",
+            finals.drl.report.pairs
+        );
+    }
     host_tools::warnings::print(&finals.warnings);
     let d = &finals.drl.report;
     let m = &finals.msra.report;
