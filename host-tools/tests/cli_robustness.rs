@@ -2,21 +2,8 @@
 //! messages and a closed standard output. Each test reproduces one reviewer finding.
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
-
-fn model(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../models")
-        .join(name)
-}
+mod common;
+use common::{riskctl, shipped_model as model, RISKCTL};
 
 fn simulate(dir: &Path) -> PathBuf {
     let events = dir.join("events");

@@ -3,6 +3,7 @@
 use host_tools::demo::{self, DemoOptions};
 use riskscore_train::export;
 use riskscore_train::train::{Progress, TrainConfig};
+mod common;
 
 fn tiny_config() -> TrainConfig {
     let mut c = TrainConfig::default();
@@ -17,45 +18,17 @@ fn tiny_config() -> TrainConfig {
 /// A small "real recordings" folder: calm following in three scenario files, named the way
 /// `riskctl import commonroad` names its events.
 fn write_real(dir: &std::path::Path) {
-    use riskscore_data::events::{Dims, Event, EventKind, EventWriter, Frame};
+    use riskscore_data::events::EventWriter;
     let mut w = EventWriter::create(dir).unwrap();
     for sc in 0..3 {
         for k in 0..4 {
             let v = 10.0 + k as f32;
             let gap = 8.0 + 3.0 * k as f32;
-            let state = |x: f32| scorer_core::VehicleState {
-                x,
-                vx: v,
-                hx: 1.0,
-                length: 4.5,
-                width: 1.8,
-                ..Default::default()
-            };
-            let frames: Vec<Frame> = (0..30)
-                .map(|i| {
-                    let t = i as f64 * 0.1;
-                    let x = v * t as f32;
-                    Frame {
-                        time: t,
-                        ego: state(x),
-                        partner: state(x + 4.5 + gap),
-                    }
-                })
-                .collect();
-            w.write_event(&Event {
-                id: format!("REC-{sc}/{k}-{}@0#0", 50 + k),
-                kind: EventKind::Safe,
-                t_start: 0.0,
-                t_end: 2.9,
-                t_impact: None,
-                dims: Dims {
-                    length_ego: 4.5,
-                    width_ego: 1.8,
-                    length_partner: 4.5,
-                    width_partner: 1.8,
-                },
-                frames,
-            })
+            w.write_event(&common::calm_following(
+                format!("REC-{sc}/{k}-{}@0#0", 50 + k),
+                v,
+                gap,
+            ))
             .unwrap();
         }
     }

@@ -3,28 +3,15 @@
 //! `<model>_in_domain` column, `riskctl evaluate --json` reports the share of frames outside, and
 //! the two count the same frames.
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use scorer_core::model::{self, OutsidePolicy};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
+mod common;
+use common::{riskctl, shipped_model as shipped};
 
 fn ok(o: Output) -> String {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn shipped(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../models")
-        .join(name)
 }
 
 fn simulate(dir: &Path, seed: &str) -> PathBuf {

@@ -6,20 +6,12 @@
 //! (the pooled runs are the single draws' runs, each draw judged as its single run).
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-use riskscore_data::events::{Dims, Event, EventKind, EventWriter, Frame};
+use riskscore_data::events::EventWriter;
 use serde_json::Value;
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::riskctl_in as riskctl;
 
 #[track_caller]
 fn ok(dir: &Path, args: &[&str]) -> String {
@@ -40,39 +32,11 @@ fn write_real(dir: &Path, scenarios: &[&str], per_scenario: usize) {
         for k in 0..per_scenario {
             let v = if k % 2 == 0 { 10.0 } else { 20.0 };
             let gap = 10.0 + 2.0 * k as f32;
-            let state = |x: f32| scorer_core::VehicleState {
-                x,
-                vx: v,
-                hx: 1.0,
-                length: 4.5,
-                width: 1.8,
-                ..Default::default()
-            };
-            let frames: Vec<Frame> = (0..30)
-                .map(|i| {
-                    let t = i as f64 * 0.1;
-                    let x = v * t as f32;
-                    Frame {
-                        time: t,
-                        ego: state(x),
-                        partner: state(x + 4.5 + gap),
-                    }
-                })
-                .collect();
-            w.write_event(&Event {
-                id: format!("{sc}/{k}-{}", 50 + k),
-                kind: EventKind::Safe,
-                t_start: 0.0,
-                t_end: 2.9,
-                t_impact: None,
-                dims: Dims {
-                    length_ego: 4.5,
-                    width_ego: 1.8,
-                    length_partner: 4.5,
-                    width_partner: 1.8,
-                },
-                frames,
-            })
+            w.write_event(&common::calm_following(
+                format!("{sc}/{k}-{}", 50 + k),
+                v,
+                gap,
+            ))
             .unwrap();
         }
     }

@@ -3,7 +3,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::float_cmp)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use riskscore_data::events::{
     load_events, prepare_sequences, write_events, Dims, Event, EventKind, EventSet, Frame,
@@ -13,6 +12,8 @@ use riskscore_eval::{evaluate_methods, observe, Method, Scorer};
 use scorer_core::model::{encode, encoded_len, BoundedVec, Model};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use scorer_core::{SurrogateKind, VehicleState};
+mod common;
+use common::riskctl;
 
 const DIMS: Dims = Dims {
     length_ego: 4.5,
@@ -161,13 +162,6 @@ fn fixture() -> Fixture {
         events,
         model,
     }
-}
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_riskctl"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// The folder's evaluation sequences with the core's observations, as `evaluate` sees them.

@@ -4,22 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
+mod common;
+use common::{riskctl, stderr};
 
 const PAIR_HEADER: &str = "x_i,y_i,vx_i,vy_i,hx_i,hy_i,acc_i,length_i,width_i,x_j,y_j,vx_j,vy_j,hx_j,hy_j,acc_j,length_j,width_j";
 const PAIR: &str = "0,0,10,0,1,0,0,4.5,1.8,20,0,5,0,1,0,0,4.5,1.8";
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()

@@ -2,28 +2,14 @@
 //! library's evaluation scoring path; CSV and Parquet carry the same values.
 #![cfg(feature = "parquet")]
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float32Type, Float64Type, UInt8Type};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use riskscore_data::events::{load_events, Sequence};
 use riskscore_eval::{observe, Scorer};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
-
-fn model(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../models")
-        .join(name)
-}
+mod common;
+use common::{riskctl, shipped_model as model};
 
 fn simulate(dir: &Path) -> PathBuf {
     let events = dir.join("events");

@@ -2,16 +2,9 @@
 //! of every event is in scenarios.csv, the default is the original data set, and a bad list is
 //! refused before anything is written.
 use std::path::Path;
-use std::process::{Command, Output};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
+use std::process::Output;
+mod common;
+use common::riskctl;
 
 fn simulate(out: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["simulate", "--out", out.to_str().unwrap()];

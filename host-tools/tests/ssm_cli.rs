@@ -4,20 +4,9 @@
 use scorer_core::{features, surrogates, VehicleState, FEATURE_NAMES};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::{Command, Stdio};
+mod common;
+use common::{riskctl, stderr, RISKCTL};
 
 /// A small input: mixed-case header, pass-through columns before, between and after the pair
 /// columns (including a quoted one with a comma), good rows and one bad row of each kind.

@@ -2,20 +2,9 @@
 //! replaced, order kept across parallel chunks, over-long lines, unterminated quotes, non-UTF-8
 //! pass-through bytes, blank lines in line numbers, capped bad-row messages, Parquet round trips.
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::Output;
+mod common;
+use common::{riskctl, stderr};
 
 fn data(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -8,16 +8,8 @@
 //!   no folder it created behind.
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-
-const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
-
-fn riskctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(RISKCTL)
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run riskctl")
-}
+mod common;
+use common::{riskctl_in as riskctl, RISKCTL};
 
 #[track_caller]
 fn ok(dir: &Path, args: &[&str]) -> Output {

@@ -1,0 +1,74 @@
+//! What the `riskctl` command-line tests share: running the binary and reading what it printed,
+//! and the shipped models. Each test file uses a part of it.
+#![allow(dead_code)]
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
+
+/// Runs `riskctl` with `args` in the test's working directory.
+pub fn riskctl(args: &[&str]) -> Output {
+    Command::new(RISKCTL)
+        .args(args)
+        .output()
+        .expect("run riskctl")
+}
+
+/// Runs `riskctl` with `args` in `dir` (relative paths in `args` are `dir`'s).
+pub fn riskctl_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(RISKCTL)
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("run riskctl")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A model blob shipped under `models/`.
+pub fn shipped_model(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../models")
+        .join(name)
+}
+
+/// A safe sequence of calm following (3 s at 10 Hz, as `riskctl import commonroad` writes real
+/// recordings): two cars at `v` m/s, `gap` m between the boxes.
+pub fn calm_following(id: String, v: f32, gap: f32) -> riskscore_data::events::Event {
+    use riskscore_data::events::{Dims, Event, EventKind, Frame};
+    let state = |x: f32| scorer_core::VehicleState {
+        x,
+        vx: v,
+        hx: 1.0,
+        length: 4.5,
+        width: 1.8,
+        ..Default::default()
+    };
+    let frames: Vec<Frame> = (0..30)
+        .map(|i| {
+            let t = i as f64 * 0.1;
+            let x = v * t as f32;
+            Frame {
+                time: t,
+                ego: state(x),
+                partner: state(x + 4.5 + gap),
+            }
+        })
+        .collect();
+    Event {
+        id,
+        kind: EventKind::Safe,
+        t_start: 0.0,
+        t_end: 2.9,
+        t_impact: None,
+        dims: Dims {
+            length_ego: 4.5,
+            width_ego: 1.8,
+            length_partner: 4.5,
+            width_partner: 1.8,
+        },
+        frames,
+    }
+}
