@@ -12,7 +12,8 @@
 //!
 //! Table ([`TrackTable`]): tracks keyed by partner id (`u32`), at most `N`, stored in a
 //! `heapless::Vec` in insertion order (so every operation is deterministic).
-//! - Staleness: a track whose last update is more than `stale_after_us` before `now` is stale. Stale
+//! - Staleness: a track whose last update is more than `stale_after_us` away from `now` is stale:
+//!   before `now` (not updated for too long), or after it (the time base was reset). Stale
 //!   tracks are dropped by [`TrackTable::expire`] (also run by every [`TrackTable::update`]) and are
 //!   never reported as warning by the query functions, even before they are dropped.
 //! - Id reuse: an id whose track was dropped (stale, [`TrackTable::remove`], eviction) starts a fresh
@@ -21,8 +22,8 @@
 //!   [`WarningError::TableFull`]; [`FullPolicy::EvictLeastRecent`] evicts the least recently updated
 //!   track that is *not* warning (lowest slot on ties) and returns `TableFull` only when every track
 //!   is warning. An active warning is never evicted.
-//! - An update older than its track's last update is rejected ([`WarningError::OutOfOrder`]) and
-//!   changes nothing; a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
+//! - An update older than its track's last update (by at most `stale_after_us`) is rejected
+//!   ([`WarningError::OutOfOrder`]) and changes nothing; a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
 //!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score.
 
 use core::fmt;
@@ -164,7 +165,8 @@ impl WarningConfig {
 pub enum WarningError {
     /// The score was NaN.
     NonFiniteScore { id: u32 },
-    /// `now` is earlier than the track's last update.
+    /// `now` is earlier than the track's last update, by at most the stale window (further back,
+    /// the track is stale: see [`Track::is_stale`]).
     OutOfOrder {
         id: u32,
         last_us: Micros,
@@ -265,8 +267,14 @@ impl Track {
         (self.onsets > 0).then_some(self.first_warning)
     }
 
-    fn is_stale(&self, now: Micros, stale_after: Micros) -> bool {
-        now.saturating_sub(self.last_update_us) > stale_after
+    /// Whether the track is stale at `now`: its last update lies more than `stale_after` away from
+    /// `now`, in either direction. A `now` more than the window *before* the last update means the
+    /// time base was reset (ECU timer re-init, a wrapped counter): the track is stale, so the next
+    /// update drops it and starts a new track instead of returning
+    /// [`WarningError::OutOfOrder`] until the clock catches up. A step back within the window is
+    /// an out-of-order update (the track stays fresh and the update is refused).
+    pub fn is_stale(&self, now: Micros, stale_after: Micros) -> bool {
+        now.abs_diff(self.last_update_us) > stale_after
     }
 
     fn apply(&mut self, cfg: &WarningConfig, now: Micros, r: f32) -> WarningEvent {
@@ -399,6 +407,11 @@ impl<const N: usize> TrackTable<N> {
 
     /// Feeds the score `r` of partner `id` at time `now`: drops stale tracks, finds or creates the
     /// partner's track, applies the rule. Errors change nothing but the stale-track drop.
+    ///
+    /// Time runs forward: `now` earlier than the track's last update by at most
+    /// `stale_after_us` is refused with [`WarningError::OutOfOrder`]; earlier by more means the
+    /// time base was reset, so the track is stale ([`Track::is_stale`]), dropped, and the update
+    /// starts a new track (a warning that was on is not carried over the reset).
     pub fn update(&mut self, id: u32, now: Micros, r: f32) -> Result<TrackStatus, WarningError> {
         if r.is_nan() {
             return Err(WarningError::NonFiniteScore { id });

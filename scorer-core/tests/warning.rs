@@ -203,6 +203,29 @@ fn rejected_updates_change_nothing() {
 }
 
 #[test]
+fn time_base_reset_makes_the_track_stale_and_restarts_it() {
+    // Live mode, stale after 1 s: a warning on at t = 5000 s, then the clock restarts near 0.
+    let mut t = TrackTable::<2>::new(WarningConfig::live(2.0, 0.05, 500 * MS, S)).unwrap();
+    assert!(t.update(7, 5_000 * S, 9.0).unwrap().warning);
+    // A step back within the stale window is out of order and the track stays fresh.
+    assert!(matches!(
+        t.update(7, 5_000 * S - S, 0.0),
+        Err(WarningError::OutOfOrder { .. })
+    ));
+    assert!(t.is_warning(7, 5_000 * S - S));
+    // Further back: the time base was reset. The track is stale (no warning reported, evictable)...
+    assert!(!t.is_warning(7, 1_000));
+    assert!(!t.any_warning(1_000));
+    assert!(t.get(7).unwrap().is_stale(1_000, S));
+    // ...and the next update drops it and starts a new track instead of OUT_OF_ORDER forever.
+    let s = t.update(7, 1_000, 0.0).unwrap();
+    assert!(s.new_track && !s.warning);
+    assert_eq!(t.get(7).unwrap().created_us, 1_000);
+    assert_eq!(t.len(), 1);
+    assert!(t.update(7, 2_000, 0.0).is_ok());
+}
+
+#[test]
 fn invalid_configs_are_rejected() {
     assert!(matches!(
         TrackTable::<2>::new(WarningConfig::first_threshold(f32::NAN, S)),
