@@ -3,7 +3,8 @@
 //! the model kinds and metadata records would instantiate one postcard deserialiser per type,
 //! which costs the C ABI firmware image kilobytes of its 32 KiB flash. Each read refuses exactly
 //! what postcard 1.x refuses, with the same [`postcard::Error`], so a blob decodes (or fails) as it
-//! would through serde; the types keep their `Serialize`/`Deserialize` derives for the encoder and
+//! would through serde (on the 32-bit ECU: lengths are read as `u32` varints on every target, so
+//! the 64-bit host refuses a 6-byte length varint as the ECU does); the types keep their `Serialize`/`Deserialize` derives for the encoder and
 //! for the tests that pin this equivalence (`tests/record_reader.rs`, `tests/payload_reader.rs`).
 use postcard::Error;
 
@@ -97,9 +98,11 @@ impl<'a> WireReader<'a> {
             .map(|v| u32::try_from(v).unwrap_or(u32::MAX))
     }
 
-    /// A length: postcard writes `usize` as a varint of the target's pointer width.
+    /// A length: postcard writes `usize` as a varint of the target's pointer width; read as a
+    /// `u32` varint (at most 5 bytes, at most 32 bits) on every target, so the 64-bit host refuses
+    /// exactly what the 32-bit ECU refuses (no blob length needs more).
     fn length(&mut self) -> Result<usize, Error> {
-        self.varint(usize::BITS)
+        self.varint(u32::BITS)
             .map(|v| usize::try_from(v).unwrap_or(usize::MAX))
     }
 

@@ -1,7 +1,8 @@
 //! The metadata records are read by hand (no serde deserialiser in the firmware image); this pins
 //! that `ModelMeta::decode` accepts and refuses exactly what reading each record body with
 //! postcard through the types' serde `Deserialize` impls does, error for error: on valid record
-//! streams, on every truncation and byte flip of them, and on random bytes.
+//! streams, on every truncation and byte flip of them, and on random bytes; except that a length
+//! varint is read `u32`-wide on every target (tests/payload_reader.rs).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -65,11 +66,15 @@ fn decode_with_serde(mut bytes: &[u8]) -> Result<ModelMeta<'_>, ModelError> {
 }
 
 fn assert_same(bytes: &[u8]) {
-    assert_eq!(
-        ModelMeta::decode(bytes),
-        decode_with_serde(bytes),
-        "records {bytes:02x?}"
-    );
+    let ours = ModelMeta::decode(bytes);
+    let serde = decode_with_serde(bytes);
+    // The one deliberate difference: a length varint inside a body (`&[u8]`, sequences) wider
+    // than a u32 is a bad varint here, as on the 32-bit ECU; the 64-bit host's postcard reads it
+    // as a usize (tests/payload_reader.rs pins it).
+    if ours == Err(ModelError::Payload(postcard::Error::DeserializeBadVarint)) && serde != ours {
+        return;
+    }
+    assert_eq!(ours, serde, "records {bytes:02x?}");
 }
 
 fn record(tag: u8, body: &[u8]) -> Vec<u8> {
