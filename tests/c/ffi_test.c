@@ -6,7 +6,8 @@
  * (UNGUARDED_DRL_BLOB: the DRL blob with its metadata records stripped.)
  *
  * 1. Error paths: every status code the API can return for bad arguments, bad contexts, bad blobs,
- *    bad states, NaN scores, out-of-order updates, full tables and unknown tracks.
+ *    bad states (non-finite, zero heading, negative size), bad track ids, NaN scores, out-of-order
+ *    updates, a reset time base, full tables and unknown tracks.
  * 2. Golden parity: scores every row of the golden CSV through riskscore_score_pair and checks
  *    the features and surrogates against the reference columns (tolerances below).
  * 3. Prints every result as exact float bits with the DRL and MSRA training-domain flags ("P ..."
@@ -78,6 +79,31 @@ static uint32_t bits(float x) {
     uint32_t u;
     memcpy(&u, &x, sizeof u);
     return u;
+}
+
+/* CRC-32 (IEEE, reflected, as zlib and the blob header use), bit by bit. */
+static uint32_t crc32_ieee(const uint8_t *p, size_t n) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++) {
+            c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+        }
+    }
+    return ~c;
+}
+
+static void put_le32(uint8_t *p, uint32_t v) {
+    for (int k = 0; k < 4; k++) {
+        p[k] = (uint8_t)(v >> (8 * k));
+    }
+}
+
+/* Rewrites the header of the blob in scratch for a payload of `payload_len` bytes: its length and
+ * CRC, so the load gets past the CRC check to the payload decoder. */
+static void reseal(size_t payload_len) {
+    put_le32(scratch + 12, (uint32_t)payload_len);
+    put_le32(scratch + 16, crc32_ieee(scratch + 20, payload_len));
 }
 
 static RiskscoreWarningConfig live_config(float threshold) {
@@ -170,6 +196,33 @@ static void test_error_paths(size_t drl_len) {
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_UNKNOWN_KIND);
     memcpy(scratch, drl_blob, drl_len);
+    scratch[7] = 1; /* reserved header byte; the kind byte was read: info.kind says it */
+    EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
+                  RISKSCORE_STATUS_MODEL_RESERVED_NOT_ZERO);
+    CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8, "reserved byte: kind %d", (int)info.kind);
+    memcpy(scratch, drl_blob, drl_len);
+    scratch[8] = 1; /* schema 1, a known schema but not the DRL's (3) */
+    EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
+                  RISKSCORE_STATUS_MODEL_UNSUPPORTED_FEATURE_SCHEMA);
+    CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8, "wrong schema: kind %d", (int)info.kind);
+    scratch[8] = 200; /* an unknown (newer) schema */
+    EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
+                  RISKSCORE_STATUS_MODEL_UNSUPPORTED_FEATURE_SCHEMA);
+    CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8 && info.found == 200,
+          "unknown schema: kind %d found %u", (int)info.kind, info.found);
+    CHECK(strstr(riskscore_status_str(RISKSCORE_STATUS_MODEL_UNSUPPORTED_FEATURE_SCHEMA), "DRL") == NULL,
+          "schema status string names one cause only");
+    memcpy(scratch, drl_blob, 20);
+    scratch[20] = 0x80; /* a one-byte payload with the right CRC: an unterminated varint */
+    reseal(1);
+    EXPECT_STATUS(riskscore_load_model(&ctx, scratch, 21, &info),
+                  RISKSCORE_STATUS_MODEL_MALFORMED_PAYLOAD);
+    memcpy(scratch, drl_blob, drl_len);
+    scratch[21] = 200; /* first input's feature index (after the count): no feature 200 */
+    reseal(drl_len - 20);
+    EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info), RISKSCORE_STATUS_MODEL_INVALID);
+    CHECK(strcmp(info.field, "inputs") == 0, "invalid model: field '%s'", info.field);
+    memcpy(scratch, drl_blob, drl_len);
     scratch[drl_len / 2] ^= 0x40; /* payload bit flip */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_CRC_MISMATCH);
@@ -192,6 +245,23 @@ static void test_error_paths(size_t drl_len) {
     RiskscoreVehicleState inf_state = EGO;
     inf_state.x = INFINITY;
     EXPECT_STATUS(riskscore_score_pair(&ctx, &inf_state, &LEAD, &r), RISKSCORE_STATUS_NON_FINITE_STATE);
+    /* No heading or no size: the box would be lost (a stopped car 3.45 m ahead would not warn). */
+    RiskscoreVehicleState stopped = {0.0f, 8.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 4.6f, 1.9f};
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &stopped, &r), RISKSCORE_STATUS_INVALID_INPUT);
+    RiskscoreVehicleState no_heading = EGO;
+    no_heading.hy = 0.0f;
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &no_heading, &LEAD, &r), RISKSCORE_STATUS_INVALID_INPUT);
+    RiskscoreVehicleState no_size = LEAD;
+    no_size.length = -4.6f;
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &no_size, &r), RISKSCORE_STATUS_INVALID_INPUT);
+    no_size.length = 0.0f; /* a point, as the host reads it */
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &no_size, &r), RISKSCORE_STATUS_OK);
+    no_size = LEAD;
+    no_size.width = -1.8f;
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &no_size, &r), RISKSCORE_STATUS_INVALID_INPUT);
+    stopped.hy = 1.0f;
+    EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &stopped, &r), RISKSCORE_STATUS_OK);
+    CHECK(fabsf(r.box_distance - 3.45f) < 1e-4f, "stopped car box distance %g", r.box_distance);
     EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &LEAD, &r), RISKSCORE_STATUS_OK);
     CHECK(r.has_drl == 1 && r.has_msra == 0 && r.has_gssm == 0, "model flags %d%d%d", r.has_drl,
           r.has_msra, r.has_gssm);
@@ -222,6 +292,25 @@ static void test_error_paths(size_t drl_len) {
     EXPECT_STATUS(riskscore_track_remove(&ctx, 1), RISKSCORE_STATUS_OK);
     EXPECT_STATUS(riskscore_track_remove(&ctx, 1), RISKSCORE_STATUS_UNKNOWN_TRACK);
     EXPECT_STATUS(riskscore_track_update(NULL, 1, 1, 0.1f, NULL), RISKSCORE_STATUS_NULL_POINTER);
+    /* RISKSCORE_NONE_U32 means "no track" in evicted_id: refused as a partner id. */
+    EXPECT_STATUS(riskscore_track_update(&ctx, RISKSCORE_NONE_U32, 3000, 0.1f, &ts),
+                  RISKSCORE_STATUS_INVALID_INPUT);
+    EXPECT_STATUS(riskscore_track_get(&ctx, RISKSCORE_NONE_U32, 3000, &tr),
+                  RISKSCORE_STATUS_UNKNOWN_TRACK);
+    /* The time base restarts: a warning at t = 5000 s, then t = 1 ms. A step back within the stale
+     * window is out of order; further back the track is stale and the update starts a new one. */
+    EXPECT_STATUS(riskscore_track_update(&ctx, 7, 5000000000ull, 0.9f, &ts), RISKSCORE_STATUS_OK);
+    EXPECT_STATUS(riskscore_track_update(&ctx, 7, 5000000000ull - 1000000, 0.1f, &ts),
+                  RISKSCORE_STATUS_OUT_OF_ORDER);
+    EXPECT_STATUS(riskscore_track_get(&ctx, 7, 1000, &tr), RISKSCORE_STATUS_OK);
+    CHECK(tr.stale == 1 && tr.warning == 0, "clock reset: track 7 stale %d warning %d", tr.stale,
+          tr.warning);
+    EXPECT_STATUS(riskscore_any_warning(&ctx, 1000, &warnings, &held), RISKSCORE_STATUS_OK);
+    CHECK(warnings == 0, "clock reset: %u warnings", warnings);
+    EXPECT_STATUS(riskscore_track_update(&ctx, 7, 1000, 0.1f, &ts), RISKSCORE_STATUS_OK);
+    CHECK(ts.new_track == 1 && ts.warning == 0, "clock reset: new %d warning %d", ts.new_track,
+          ts.warning);
+    EXPECT_STATUS(riskscore_track_remove(&ctx, 7), RISKSCORE_STATUS_OK);
 
     /* Full table with the reject policy, and eviction with the evict policy. */
     RiskscoreWarningConfig reject = live_config(0.5f);

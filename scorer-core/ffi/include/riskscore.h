@@ -2,7 +2,9 @@
  *
  * Usage (see docs/ecu.md):
  *   static RiskscoreContext ctx;                      // RISKSCORE_CONTEXT_SIZE bytes, caller-owned
- *   RiskscoreWarningConfig cfg = { .threshold = 0.8f, .stale_after_us = 1000000, .latch = 0,
+ *   float threshold;                                  // the blob's calibrated default
+ *   riskscore_model_default_threshold(drl_blob, sizeof drl_blob, &threshold);
+ *   RiskscoreWarningConfig cfg = { .threshold = threshold, .stale_after_us = 1000000, .latch = 0,
  *                                  .hysteresis = 0.05f, .min_on_us = 500000, .evict_when_full = 1 };
  *   riskscore_init(&ctx, sizeof ctx, &cfg);
  *   riskscore_load_model(&ctx, drl_blob, sizeof drl_blob, NULL);   // blob must outlive ctx
@@ -86,7 +88,8 @@ enum RiskscoreStatus
   RISKSCORE_STATUS_MODEL_UNKNOWN_KIND = 11,
   // Model blob: a reserved header byte is not zero.
   RISKSCORE_STATUS_MODEL_RESERVED_NOT_ZERO = 12,
-  // Model blob: feature schema not computed by this library.
+  // Model blob: input (feature) schema unknown to this library, or not the one its model kind
+  // reads (e.g. a DRL model of an older input encoding).
   RISKSCORE_STATUS_MODEL_UNSUPPORTED_FEATURE_SCHEMA = 13,
   // Model blob: bytes after the payload.
   RISKSCORE_STATUS_MODEL_TRAILING_BYTES = 14,
@@ -99,13 +102,20 @@ enum RiskscoreStatus
   RISKSCORE_STATUS_MODEL_INVALID = 17,
   // `riskscore_track_update`: the score is NaN.
   RISKSCORE_STATUS_NAN_SCORE = 18,
-  // `riskscore_track_update`: `now_us` is earlier than the track's last update.
+  // `riskscore_track_update`: `now_us` is earlier than the track's last update, by at most
+  // `stale_after_us` (earlier by more, the time base was reset: the track is stale, and the
+  // update drops it and starts a new one).
   RISKSCORE_STATUS_OUT_OF_ORDER = 19,
   // `riskscore_track_update`: no room for a new track (every track is warning, or the policy is
   // reject).
   RISKSCORE_STATUS_TABLE_FULL = 20,
   // The track id is not in the table.
   RISKSCORE_STATUS_UNKNOWN_TRACK = 21,
+  // A vehicle state has a zero heading vector (one `scorer_core::geometry::unit_heading`
+  // cannot normalise: the box and the box-based surrogates would be lost) or a negative length
+  // or width (0 is a point, as the host reads it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
+  // reserved for "no track" in `RiskscoreTrackStatus.evicted_id`.
+  RISKSCORE_STATUS_INVALID_INPUT = 22,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -170,7 +180,8 @@ typedef struct {
   float hysteresis;
   // Live mode: a warning stays on at least this long (microseconds).
   uint64_t min_on_us;
-  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never).
+  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never); so are
+  // tracks last updated more than this after `now_us` (the time base was reset).
   uint64_t stale_after_us;
   // 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
   uint8_t latch;
@@ -181,8 +192,9 @@ typedef struct {
 
 // Details of a `riskscore_load_model` call.
 typedef struct {
-  // Kind of the loaded model (`RiskscoreModelKind`); `RISKSCORE_MODEL_KIND_NONE` on failure
-  // before the header was read.
+  // Kind of the model (`RiskscoreModelKind`), also on failure once the header's magic, version
+  // and kind byte were read (e.g. reserved byte or schema errors); `RISKSCORE_MODEL_KIND_NONE`
+  // when the failure came before.
   RiskscoreModelKind kind;
   // On `RISKSCORE_STATUS_MODEL_INVALID` and friends: the offending field as spelled in
   // docs/model-format.md (NUL-terminated, truncated to fit); empty otherwise.
@@ -195,8 +207,12 @@ typedef struct {
   uint32_t found;
 } RiskscoreLoadInfo;
 
-// One road user at one instant: SI units, world frame, centre of its box, unit heading `(hx, hy)`,
-// longitudinal acceleration `acc` along the heading.
+// One road user at one instant: SI units, centre of its box, unit heading `(hx, hy)` (the box's
+// long axis, pointing forward), longitudinal acceleration `acc` along the heading. Coordinates:
+// one fixed right-handed Cartesian world frame (e.g. local ENU) for ego and partner; `(vx, vy)` is
+// the velocity over ground in that frame, not relative to the ego. Refused: a NaN/infinite field
+// (`RISKSCORE_STATUS_NON_FINITE_STATE`), a zero heading vector or a negative length/width
+// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point).
 typedef struct {
   float x;
   float y;
@@ -310,8 +326,8 @@ RiskscoreStatus riskscore_init(RiskscoreContext *context,
 // Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
 // replacing the previous model of that family. The model keeps the blob's metadata records: a
 // training-domain record guards its scores in `riskscore_score_pair`. On error the context is
-// unchanged. `info` may be NULL; otherwise it receives the kind and, on error, the offending
-// field.
+// unchanged. `info` may be NULL; otherwise it receives the kind (also on error once the header's
+// kind byte was read) and, on error, the offending field.
 //
 // # Safety
 // `context` must be NULL or a context initialised by `riskscore_init`; `blob` must be NULL or
@@ -337,6 +353,9 @@ RiskscoreStatus riskscore_model_default_threshold(const uint8_t *blob,
 // Scores one ego/partner pair: features, surrogates and, for every loaded model, its score
 // through the blob's training-domain guard (`ModelBlob::score_guarded`, the score `riskctl`, the
 // CAN bridge and the Rust ECU path give) with whether the pair was inside the model's domain.
+// A state with a NaN/infinite field is refused (`RISKSCORE_STATUS_NON_FINITE_STATE`), one with a
+// zero heading vector or a negative length/width too (`RISKSCORE_STATUS_INVALID_INPUT`): without a
+// heading the box is lost and a stopped car close ahead would not warn.
 //
 // # Safety
 // `context` must be NULL or initialised; `ego`, `partner` NULL or readable; `out` NULL or
@@ -348,7 +367,11 @@ RiskscoreStatus riskscore_score_pair(const RiskscoreContext *context,
 
 // Feeds the score `risk` of partner `track_id` at time `now_us` (monotonic microseconds) to the
 // track table: drops stale tracks, finds or creates the partner's track, applies the warning rule.
-// `out` may be NULL. On error nothing changes except the drop of stale tracks.
+// `out` may be NULL. On error nothing changes except the drop of stale tracks. `track_id`
+// `RISKSCORE_NONE_U32` is refused (`RISKSCORE_STATUS_INVALID_INPUT`): it means "no track" in
+// `evicted_id`. A `now_us` before the track's last update by at most `stale_after_us` is refused
+// (`RISKSCORE_STATUS_OUT_OF_ORDER`); before it by more, the time base was reset: the track is
+// stale, is dropped, and the update starts a new track.
 //
 // # Safety
 // `context` must be NULL or initialised; `out` NULL or writable.
@@ -358,7 +381,9 @@ RiskscoreStatus riskscore_track_update(RiskscoreContext *context,
                                        float risk,
                                        RiskscoreTrackStatus *out);
 
-// Reads the state of track `track_id` as of `now_us` (staleness is judged at `now_us`).
+// Reads the state of track `track_id` as of `now_us` (staleness is judged at `now_us`: not updated
+// for more than `stale_after_us`, or last updated more than that after `now_us`, a reset time
+// base).
 //
 // # Safety
 // `context` must be NULL or initialised; `out` NULL or writable.
@@ -373,9 +398,9 @@ RiskscoreStatus riskscore_track_get(const RiskscoreContext *context,
 // `context` must be NULL or initialised.
 RiskscoreStatus riskscore_track_remove(RiskscoreContext *context, uint32_t track_id);
 
-// Writes to `warning_count` the number of fresh (non-stale at `now_us`) tracks whose warning is
-// on, and to `track_count` the number of tracks held (stale ones included until the next update).
-// Either output may be NULL.
+// Writes to `warning_count` the number of fresh (non-stale at `now_us`, as `riskscore_track_get`
+// judges it) tracks whose warning is on, and to `track_count` the number of tracks held (stale
+// ones included until the next update). Either output may be NULL.
 //
 // # Safety
 // `context` must be NULL or initialised; the outputs NULL or writable.

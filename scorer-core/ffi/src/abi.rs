@@ -37,7 +37,9 @@ pub extern "C" fn riskscore_status_str(status: i32) -> *const c_char {
         Some(RiskscoreStatus::ModelUnsupportedVersion) => b"unsupported model format version\0",
         Some(RiskscoreStatus::ModelUnknownKind) => b"unknown model kind\0",
         Some(RiskscoreStatus::ModelReservedNotZero) => b"model header reserved byte not zero\0",
-        Some(RiskscoreStatus::ModelUnsupportedFeatureSchema) => b"unsupported input schema (a DRL model of an older input encoding: retrain or re-export it)\0",
+        Some(RiskscoreStatus::ModelUnsupportedFeatureSchema) => {
+            b"input schema unknown or wrong for the model kind\0"
+        }
         Some(RiskscoreStatus::ModelTrailingBytes) => b"trailing bytes after the model\0",
         Some(RiskscoreStatus::ModelCrcMismatch) => b"model payload CRC mismatch\0",
         Some(RiskscoreStatus::ModelMalformedPayload) => b"malformed model payload\0",
@@ -46,6 +48,7 @@ pub extern "C" fn riskscore_status_str(status: i32) -> *const c_char {
         Some(RiskscoreStatus::OutOfOrder) => b"update older than the track's last update\0",
         Some(RiskscoreStatus::TableFull) => b"track table full\0",
         Some(RiskscoreStatus::UnknownTrack) => b"unknown track id\0",
+        Some(RiskscoreStatus::InvalidInput) => b"zero heading, negative size or reserved id\0",
         None => b"unknown status code\0",
     };
     s.as_ptr().cast()

@@ -6,6 +6,7 @@ use crate::types::{
 };
 use crate::{RISKSCORE_FIELD_NAME_LEN, RISKSCORE_NONE_U64};
 use core::ffi::c_char;
+use scorer_core::geometry::unit_heading;
 use scorer_core::model::{ModelError, ModelKind};
 use scorer_core::warning::{FullPolicy, WarningConfig, WarningError, WarningEvent};
 use scorer_core::VehicleState;
@@ -22,11 +23,14 @@ pub(crate) fn vehicle(s: &RiskscoreVehicleState) -> Result<VehicleState, Risksco
         length: s.length,
         width: s.width,
     };
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(RiskscoreStatus::NonFiniteState)
+    if !v.is_finite() {
+        return Err(RiskscoreStatus::NonFiniteState);
     }
+    // The host loader's rules: a heading the core can normalise, a size >= 0 (0 is a point).
+    if unit_heading(&v).is_none() || v.length < 0.0 || v.width < 0.0 {
+        return Err(RiskscoreStatus::InvalidInput);
+    }
+    Ok(v)
 }
 
 pub(crate) fn flag(v: u8) -> Result<bool, RiskscoreStatus> {

@@ -17,7 +17,8 @@
 //! Errors: every function returns a [`RiskscoreStatus`]; outputs are written only on success.
 //! Null pointers, a context that was not initialised (or is misaligned or too small), malformed
 //! model blobs, non-finite vehicle states, NaN scores, out-of-order updates and a full track table
-//! each have their own code; [`riskscore_status_str`] names them.
+//! each have their own code, as have states without a usable heading or size and the reserved track
+//! id `RISKSCORE_NONE_U32` (`RISKSCORE_STATUS_INVALID_INPUT`); [`riskscore_status_str`] names them.
 //!
 //! Panics: `scorer-core` has no panic paths (it denies unwrap/expect/panic/indexing). As a
 //! backstop, the static library is built with `panic = abort`, and an `extern "C"` function that

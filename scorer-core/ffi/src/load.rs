@@ -6,7 +6,7 @@ use crate::types::{
     RiskscoreWarningConfig,
 };
 use crate::{RISKSCORE_FIELD_NAME_LEN, RISKSCORE_NONE_U32};
-use scorer_core::model::{self, ModelKind};
+use scorer_core::model::{self, ModelError, ModelKind};
 use scorer_core::warning::TrackTable;
 
 /// Initialises `context` (`context_size` bytes, pass `sizeof(RiskscoreContext)`): no model, empty
@@ -35,8 +35,8 @@ pub unsafe extern "C" fn riskscore_init(
 /// Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
 /// replacing the previous model of that family. The model keeps the blob's metadata records: a
 /// training-domain record guards its scores in `riskscore_score_pair`. On error the context is
-/// unchanged. `info` may be NULL; otherwise it receives the kind and, on error, the offending
-/// field.
+/// unchanged. `info` may be NULL; otherwise it receives the kind (also on error once the header's
+/// kind byte was read) and, on error, the offending field.
 ///
 /// # Safety
 /// `context` must be NULL or a context initialised by `riskscore_init`; `blob` must be NULL or
@@ -55,8 +55,20 @@ pub unsafe extern "C" fn riskscore_load_model(
         let ctx = unsafe { context_mut(context) }?;
         // SAFETY: caller contract above: the blob outlives every use of the context.
         let bytes: &'static [u8] = unsafe { blob_slice(blob, len) }?;
-        if let Ok(header) = model::decode_header(bytes) {
-            details.kind = kind_code(header.kind);
+        // The kind byte (offset 6) is checked right after the magic and version: an error after it
+        // (reserved byte, input schema) leaves a valid kind to report.
+        match model::decode_header(bytes) {
+            Ok(header) => details.kind = kind_code(header.kind),
+            Err(
+                ModelError::ReservedNotZero { .. }
+                | ModelError::UnsupportedFeatureSchema(_)
+                | ModelError::WrongInputSchema { .. },
+            ) => {
+                if let Some(Ok(kind)) = bytes.get(6).map(|&b| ModelKind::from_u8(b)) {
+                    details.kind = kind_code(kind);
+                }
+            }
+            Err(_) => {}
         }
         let m = model::decode_blob(bytes).map_err(|e| model_error(&e, &mut details))?;
         let slot = match m.model.kind() {

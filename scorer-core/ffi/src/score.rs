@@ -8,6 +8,9 @@ use scorer_core::{Guarded, Observation};
 /// Scores one ego/partner pair: features, surrogates and, for every loaded model, its score
 /// through the blob's training-domain guard (`ModelBlob::score_guarded`, the score `riskctl`, the
 /// CAN bridge and the Rust ECU path give) with whether the pair was inside the model's domain.
+/// A state with a NaN/infinite field is refused (`RISKSCORE_STATUS_NON_FINITE_STATE`), one with a
+/// zero heading vector or a negative length/width too (`RISKSCORE_STATUS_INVALID_INPUT`): without a
+/// heading the box is lost and a stopped car close ahead would not warn.
 ///
 /// # Safety
 /// `context` must be NULL or initialised; `ego`, `partner` NULL or readable; `out` NULL or

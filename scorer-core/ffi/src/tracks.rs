@@ -6,7 +6,11 @@ use crate::RISKSCORE_NONE_U32;
 
 /// Feeds the score `risk` of partner `track_id` at time `now_us` (monotonic microseconds) to the
 /// track table: drops stale tracks, finds or creates the partner's track, applies the warning rule.
-/// `out` may be NULL. On error nothing changes except the drop of stale tracks.
+/// `out` may be NULL. On error nothing changes except the drop of stale tracks. `track_id`
+/// `RISKSCORE_NONE_U32` is refused (`RISKSCORE_STATUS_INVALID_INPUT`): it means "no track" in
+/// `evicted_id`. A `now_us` before the track's last update by at most `stale_after_us` is refused
+/// (`RISKSCORE_STATUS_OUT_OF_ORDER`); before it by more, the time base was reset: the track is
+/// stale, is dropped, and the update starts a new track.
 ///
 /// # Safety
 /// `context` must be NULL or initialised; `out` NULL or writable.
@@ -21,6 +25,9 @@ pub unsafe extern "C" fn riskscore_track_update(
     let run = || {
         // SAFETY: caller contract above.
         let ctx = unsafe { context_mut(context) }?;
+        if track_id == RISKSCORE_NONE_U32 {
+            return Err(RiskscoreStatus::InvalidInput);
+        }
         let st = ctx
             .tracks
             .update(track_id, now_us, risk)
@@ -38,7 +45,9 @@ pub unsafe extern "C" fn riskscore_track_update(
     status(run())
 }
 
-/// Reads the state of track `track_id` as of `now_us` (staleness is judged at `now_us`).
+/// Reads the state of track `track_id` as of `now_us` (staleness is judged at `now_us`: not updated
+/// for more than `stale_after_us`, or last updated more than that after `now_us`, a reset time
+/// base).
 ///
 /// # Safety
 /// `context` must be NULL or initialised; `out` NULL or writable.
@@ -59,7 +68,7 @@ pub unsafe extern "C" fn riskscore_track_get(
             .tracks
             .get(track_id)
             .ok_or(RiskscoreStatus::UnknownTrack)?;
-        let stale = now_us.saturating_sub(t.last_update_us) > ctx.tracks.config().stale_after_us;
+        let stale = t.is_stale(now_us, ctx.tracks.config().stale_after_us);
         let result = RiskscoreTrack {
             id: t.id,
             warning: u8::from(ctx.tracks.is_warning(track_id, now_us)),
@@ -95,9 +104,9 @@ pub unsafe extern "C" fn riskscore_track_remove(
     status(run())
 }
 
-/// Writes to `warning_count` the number of fresh (non-stale at `now_us`) tracks whose warning is
-/// on, and to `track_count` the number of tracks held (stale ones included until the next update).
-/// Either output may be NULL.
+/// Writes to `warning_count` the number of fresh (non-stale at `now_us`, as `riskscore_track_get`
+/// judges it) tracks whose warning is on, and to `track_count` the number of tracks held (stale
+/// ones included until the next update). Either output may be NULL.
 ///
 /// # Safety
 /// `context` must be NULL or initialised; the outputs NULL or writable.

@@ -35,7 +35,8 @@ pub enum RiskscoreStatus {
     ModelUnknownKind = 11,
     /// Model blob: a reserved header byte is not zero.
     ModelReservedNotZero = 12,
-    /// Model blob: feature schema not computed by this library.
+    /// Model blob: input (feature) schema unknown to this library, or not the one its model kind
+    /// reads (e.g. a DRL model of an older input encoding).
     ModelUnsupportedFeatureSchema = 13,
     /// Model blob: bytes after the payload.
     ModelTrailingBytes = 14,
@@ -48,17 +49,24 @@ pub enum RiskscoreStatus {
     ModelInvalid = 17,
     /// `riskscore_track_update`: the score is NaN.
     NanScore = 18,
-    /// `riskscore_track_update`: `now_us` is earlier than the track's last update.
+    /// `riskscore_track_update`: `now_us` is earlier than the track's last update, by at most
+    /// `stale_after_us` (earlier by more, the time base was reset: the track is stale, and the
+    /// update drops it and starts a new one).
     OutOfOrder = 19,
     /// `riskscore_track_update`: no room for a new track (every track is warning, or the policy is
     /// reject).
     TableFull = 20,
     /// The track id is not in the table.
     UnknownTrack = 21,
+    /// A vehicle state has a zero heading vector (one `scorer_core::geometry::unit_heading`
+    /// cannot normalise: the box and the box-based surrogates would be lost) or a negative length
+    /// or width (0 is a point, as the host reads it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
+    /// reserved for "no track" in `RiskscoreTrackStatus.evicted_id`.
+    InvalidInput = 22,
 }
 
 /// Every status, in code order.
-const STATUS_ALL: [RiskscoreStatus; 22] = {
+const STATUS_ALL: [RiskscoreStatus; 23] = {
     use RiskscoreStatus as S;
     [
         S::Ok,
@@ -83,6 +91,7 @@ const STATUS_ALL: [RiskscoreStatus; 22] = {
         S::OutOfOrder,
         S::TableFull,
         S::UnknownTrack,
+        S::InvalidInput,
     ]
 };
 
@@ -123,8 +132,12 @@ pub struct RiskscoreContext {
     pub opaque: [u64; RISKSCORE_CONTEXT_WORDS],
 }
 
-/// One road user at one instant: SI units, world frame, centre of its box, unit heading `(hx, hy)`,
-/// longitudinal acceleration `acc` along the heading.
+/// One road user at one instant: SI units, centre of its box, unit heading `(hx, hy)` (the box's
+/// long axis, pointing forward), longitudinal acceleration `acc` along the heading. Coordinates:
+/// one fixed right-handed Cartesian world frame (e.g. local ENU) for ego and partner; `(vx, vy)` is
+/// the velocity over ground in that frame, not relative to the ego. Refused: a NaN/infinite field
+/// (`RISKSCORE_STATUS_NON_FINITE_STATE`), a zero heading vector or a negative length/width
+/// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RiskscoreVehicleState {
@@ -149,7 +162,8 @@ pub struct RiskscoreWarningConfig {
     pub hysteresis: f32,
     /// Live mode: a warning stays on at least this long (microseconds).
     pub min_on_us: u64,
-    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never).
+    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never); so are
+    /// tracks last updated more than this after `now_us` (the time base was reset).
     pub stale_after_us: u64,
     /// 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
     pub latch: u8,
@@ -242,8 +256,9 @@ pub struct RiskscoreTrack {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RiskscoreLoadInfo {
-    /// Kind of the loaded model (`RiskscoreModelKind`); `RISKSCORE_MODEL_KIND_NONE` on failure
-    /// before the header was read.
+    /// Kind of the model (`RiskscoreModelKind`), also on failure once the header's magic, version
+    /// and kind byte were read (e.g. reserved byte or schema errors); `RISKSCORE_MODEL_KIND_NONE`
+    /// when the failure came before.
     pub kind: RiskscoreModelKind,
     /// On `RISKSCORE_STATUS_MODEL_INVALID` and friends: the offending field as spelled in
     /// docs/model-format.md (NUL-terminated, truncated to fit); empty otherwise.

@@ -12,8 +12,8 @@ mod test_models;
 fn every_status_code_round_trips_and_is_described() {
     let unknown = unsafe { std::ffi::CStr::from_ptr(riskscore_status_str(-1)) };
     let mut seen = std::collections::HashSet::new();
-    for code in 0..=21 {
-        let status = RiskscoreStatus::from_code(code).expect("codes 0..=21 are all defined");
+    for code in 0..=22 {
+        let status = RiskscoreStatus::from_code(code).expect("codes 0..=22 are all defined");
         assert_eq!(status as i32, code);
         let text = unsafe { std::ffi::CStr::from_ptr(riskscore_status_str(code)) };
         assert_ne!(text, unknown, "code {code} has no description");
@@ -22,7 +22,76 @@ fn every_status_code_round_trips_and_is_described() {
             "code {code} shares its description"
         );
     }
-    assert_eq!(RiskscoreStatus::from_code(22), None);
+    assert_eq!(RiskscoreStatus::from_code(23), None);
+}
+
+#[test]
+fn states_without_heading_or_with_a_negative_size_and_the_reserved_id_are_refused() {
+    let blob: &'static [u8] = Box::leak(test_models::drl_int8().into_boxed_slice());
+    let mut ctx = context();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
+    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    unsafe {
+        assert_eq!(
+            riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_load_model(ctx, blob.as_ptr(), blob.len(), std::ptr::null_mut()),
+            RiskscoreStatus::Ok
+        );
+        let bad = [
+            RiskscoreVehicleState { hy: 0.0, ..LEAD },
+            RiskscoreVehicleState {
+                length: -0.5,
+                ..LEAD
+            },
+            RiskscoreVehicleState {
+                width: -1.0,
+                ..LEAD
+            },
+        ];
+        for s in &bad {
+            assert_eq!(
+                riskscore_score_pair(ctx, &EGO, s, r.as_mut_ptr()),
+                RiskscoreStatus::InvalidInput
+            );
+            assert_eq!(
+                riskscore_score_pair(ctx, s, &EGO, r.as_mut_ptr()),
+                RiskscoreStatus::InvalidInput
+            );
+        }
+        // A size of 0 is a point, as the host's loader reads it: scored.
+        let point = RiskscoreVehicleState {
+            length: 0.0,
+            width: 0.0,
+            ..LEAD
+        };
+        assert_eq!(
+            riskscore_score_pair(ctx, &EGO, &point, r.as_mut_ptr()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_track_update(ctx, RISKSCORE_NONE_U32, 1, 0.1, std::ptr::null_mut()),
+            RiskscoreStatus::InvalidInput
+        );
+        // Header errors after the kind byte still report the kind.
+        let mut reserved = blob.to_vec();
+        reserved[7] = 1;
+        assert_eq!(
+            riskscore_load_model(ctx, reserved.as_ptr(), reserved.len(), info.as_mut_ptr()),
+            RiskscoreStatus::ModelReservedNotZero
+        );
+        assert_eq!(info.assume_init().kind, RiskscoreModelKind::DrlInt8);
+        let mut schema = blob.to_vec();
+        schema[8] = 200;
+        assert_eq!(
+            riskscore_load_model(ctx, schema.as_ptr(), schema.len(), info.as_mut_ptr()),
+            RiskscoreStatus::ModelUnsupportedFeatureSchema
+        );
+        assert_eq!(info.assume_init().kind, RiskscoreModelKind::DrlInt8);
+    }
 }
 
 #[test]
