@@ -260,6 +260,37 @@ fn parse_hex_bytes(text: &str, max: usize) -> Result<HexBytes, LineError> {
     Ok(out)
 }
 
+/// Longest interface name in bytes: Linux's `IFNAMSIZ` (16) less the terminating NUL.
+pub const MAX_IFACE_BYTES: usize = 15;
+
+/// Checks that `name` can be an interface name of a `candump -L` line that reads back: not empty,
+/// at most [`MAX_IFACE_BYTES`] bytes, no whitespace, `#`, `(` or `)`. The error says why.
+pub fn check_iface_name(name: &str) -> Result<(), String> {
+    if name.is_empty() {
+        return Err("an interface name cannot be empty".into());
+    }
+    if name.len() > MAX_IFACE_BYTES {
+        return Err(format!(
+            "interface name `{name}` is {} bytes long; at most {MAX_IFACE_BYTES} (IFNAMSIZ - 1)",
+            name.len()
+        ));
+    }
+    if let Some(c) = name
+        .chars()
+        .find(|c| c.is_whitespace() || matches!(c, '#' | '(' | ')'))
+    {
+        return Err(format!(
+            "interface name `{name}` contains {}: a candump -L line with it cannot be read back",
+            if c.is_whitespace() {
+                "whitespace".to_string()
+            } else {
+                format!("`{c}`")
+            }
+        ));
+    }
+    Ok(())
+}
+
 /// Writes one `candump -L` line (no newline) into `out`.
 pub fn format_line(out: &mut String, timestamp_us: u64, iface: &str, frame: &Frame) {
     let _ = write!(

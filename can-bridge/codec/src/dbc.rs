@@ -13,10 +13,12 @@ use std::collections::HashMap;
 /// A DBC file that could not be used: the file, the line (when known) and why.
 #[derive(Debug, thiserror::Error)]
 pub enum DbcFileError {
-    #[error("DBC {}: {source}", path.display())]
+    // `cause`, not `source`: the OS error is part of this message and must not be printed again
+    // as its cause.
+    #[error("DBC {}: {cause}", path.display())]
     Read {
         path: std::path::PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("DBC {}{}: {error}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
@@ -197,6 +199,10 @@ impl SourceLines {
 }
 
 /// Payload sizes a CAN or CAN FD frame can have.
+/// The pseudo-message CANdb++ exports hold unplaced signals in (id 0xC0000000, often with
+/// signals): skipped whole, it is no frame.
+const INDEPENDENT_SIGNALS_MESSAGE: &str = "VECTOR__INDEPENDENT_SIG_MSG";
+
 fn is_frame_size(size: u64) -> bool {
     size <= 8 || matches!(size, 12 | 16 | 20 | 24 | 32 | 48 | 64)
 }
@@ -205,9 +211,9 @@ impl Database {
     /// Reads and parses the DBC file at `path` (see [`dbc_text`] for encodings); errors name the
     /// file and line.
     pub fn load(path: &std::path::Path) -> Result<Self, DbcFileError> {
-        let bytes = std::fs::read(path).map_err(|source| DbcFileError::Read {
+        let bytes = std::fs::read(path).map_err(|cause| DbcFileError::Read {
             path: path.to_path_buf(),
-            source,
+            cause,
         })?;
         let text = dbc_text(&bytes);
         Self::parse(&text).map_err(|error| DbcFileError::Invalid {
@@ -230,7 +236,7 @@ impl Database {
             } else {
                 raw <= 0x7FF
             };
-            if !ok && name != "VECTOR__INDEPENDENT_SIG_MSG" {
+            if !ok && name != INDEPENDENT_SIGNALS_MESSAGE {
                 return Err(DbcError::BadMessage {
                     message: name,
                     reason: format!(
@@ -241,6 +247,10 @@ impl Database {
         }
         let mut messages = Vec::with_capacity(dbc.messages.len());
         for m in &dbc.messages {
+            // CANdb++'s pseudo-message for signals not placed in any frame: no bus carries it.
+            if m.name == INDEPENDENT_SIGNALS_MESSAGE {
+                continue;
+            }
             let id = match m.id {
                 can_dbc::MessageId::Standard(id) => CanId::standard(id),
                 can_dbc::MessageId::Extended(id) => CanId::extended(id),

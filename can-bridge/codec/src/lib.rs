@@ -15,7 +15,9 @@ pub mod frame;
 pub mod project;
 pub mod signal;
 
-pub use candump::{format_line, parse_line, Direction, LineError, LogRecord};
+pub use candump::{
+    check_iface_name, format_line, parse_line, Direction, LineError, LogRecord, MAX_IFACE_BYTES,
+};
 pub use dbc::{Database, DbcError, DbcFileError, MessageSpec};
 pub use e2e::{crc8_sae_j1850, E2eChecker, E2eConfig, E2eProtector, E2eStatus};
 pub use frame::{CanId, Frame, FrameKind};

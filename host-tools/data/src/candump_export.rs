@@ -150,6 +150,9 @@ pub enum ExportError {
     Dbc(#[from] can_codec::DbcError),
     #[error("writing the log: {0}")]
     Io(#[from] std::io::Error),
+    /// [`ExportOptions::iface`] cannot be read back from a candump line.
+    #[error("--iface: {0}")]
+    Iface(String),
 }
 
 /// The project's messages, resolved once.
@@ -226,9 +229,36 @@ impl Encoder {
         Frame::data_frame(m.id, &data).ok_or(EncodeError::PayloadTooLong(name))
     }
 
+    /// The value the receiver decodes when `value` is sent in `signal` of `message` (rounded to
+    /// the signal's resolution); `value` itself when it cannot be encoded (the cycle then fails
+    /// on that signal).
+    fn as_decoded(&self, message: &str, signal: &str, value: f64) -> f64 {
+        let Some(m) = self.db.message_by_name(message) else {
+            return value;
+        };
+        let Some(sig) = m.signal_index(signal).map(|i| &m.signals[i]) else {
+            return value;
+        };
+        let mut data = vec![0u8; m.size];
+        sig.encode(value, &mut data)
+            .and_then(|()| sig.decode(&data))
+            .unwrap_or(value)
+    }
+
     /// The five frames of one cycle, in send order (trigger last).
+    ///
+    /// The receiver adds the ego velocity *as decoded* to the relative velocity, so the relative
+    /// velocity is taken against the ego velocity rounded to its signal's resolution: decoded
+    /// ego + decoded relative is the partner's velocity to the relative signal's resolution, and
+    /// a partner at rest decodes as exactly 0 (not +-0.001 m/s, which a surrogate such as TAdv
+    /// reads as moving, possibly against the ego's direction).
     pub fn cycle(&self, ev: &Event, f: &EventFrame, track: u32) -> Result<[Frame; 5], EncodeError> {
-        let s = to_ego_frame(f);
+        let mut s = to_ego_frame(f);
+        let partner_vx = s.vel_rel_x + s.ego_vel_long;
+        let partner_vy = s.vel_rel_y + s.ego_vel_lat;
+        s.vel_rel_x =
+            partner_vx - self.as_decoded(project::EGO_MOTION, "EgoVelLong", s.ego_vel_long);
+        s.vel_rel_y = partner_vy - self.as_decoded(project::EGO_MOTION, "EgoVelLat", s.ego_vel_lat);
         let id = f64::from(track);
         Ok([
             self.message(
@@ -285,6 +315,7 @@ pub fn write_candump<W: Write>(
     opts: &ExportOptions,
     out: W,
 ) -> Result<ExportSummary, ExportError> {
+    can_codec::check_iface_name(&opts.iface).map_err(ExportError::Iface)?;
     let encoder = Encoder::new()?;
     let layout = Layout::new(set, opts);
     let mut out = std::io::BufWriter::new(out);

@@ -25,8 +25,8 @@ pub struct Args {
     /// command's other messages then go to stderr). Missing parent folders are created.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// Interface name written into each line.
-    #[arg(long, default_value = "vcan0")]
+    /// Interface name written into each line (at most 15 bytes; no whitespace, `#`, `(`, `)`).
+    #[arg(long, default_value = "vcan0", value_parser = iface_name)]
     pub iface: String,
     /// Timestamp of the first frame, seconds since the epoch (0 to 1e10).
     #[arg(long, default_value_t = DEFAULT_START_US as f64 / 1e6, value_parser = start_seconds)]
@@ -47,6 +47,11 @@ fn fraction(s: &str) -> Result<f64, String> {
         Ok(_) => Err(format!("`{s}` is not a fraction in [0, 1]")),
         Err(_) => Err(format!("`{s}` is not a number")),
     }
+}
+
+/// An interface name a candump -L line can carry and be read back with.
+fn iface_name(s: &str) -> Result<String, String> {
+    can_codec::check_iface_name(s).map(|()| s.to_string())
 }
 
 /// Cycles listed one by one; the rest are counted.
