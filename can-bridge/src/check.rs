@@ -15,6 +15,7 @@ use crate::engine::{Engine, Output};
 use crate::logfile::{for_each_frame, LogReport};
 use crate::losses::FrameLosses;
 use crate::map::{CompiledMap, PartnerField, PositionKind};
+use crate::offline::LogFeed;
 use can_codec::ValueKind;
 use riskscore_data::candump_export::{to_ego_frame, ExportOptions, Layout, TRIGGER_OFFSET_US};
 use riskscore_data::events::{
@@ -71,8 +72,8 @@ pub struct CheckReport {
 pub enum CheckError {
     #[error("reading the log: {0}")]
     Io(#[from] std::io::Error),
-    #[error("the log has no frames")]
-    EmptyLog,
+    #[error("the log has no frames{}", if *unreadable > 0 { format!(": {unreadable} unreadable lines (listed above)") } else { String::new() })]
+    EmptyLog { unreadable: usize },
     #[error("the bridge scored no track update in the log, so it cannot be matched to the event folder (is this a log written by `riskctl events-to-candump`?)")]
     NothingScored,
     #[error("the log and the event folder do not belong together: {0}")]
@@ -203,10 +204,48 @@ fn align(
     Some((best.1, hits(best.1, scored)))
 }
 
+/// The exporter's `--gap` that places the scored updates `keys` (track, trigger time) on the
+/// folder's timeline, if one does: event `k` starts `k` gaps later than with no gap, so the first
+/// update of each of the first tracks proposes a gap (the median is taken, to the millisecond),
+/// which is then checked by aligning the whole log.
+fn infer_gap(keys: &[(u32, u64)], set: &EventSet) -> Option<u64> {
+    let opts = |gap_us| ExportOptions {
+        iface: String::new(),
+        start_us: 0,
+        gap_us,
+    };
+    let tight = Layout::new(set, &opts(0));
+    let tracks = tight.placements.len().min(256);
+    let mut first: Vec<Option<u64>> = vec![None; tracks];
+    for &(track, t) in keys {
+        if let Some(slot) = first.get_mut(track as usize) {
+            slot.get_or_insert(t);
+        }
+    }
+    let start = |k: usize| tight.placements[k].cycle_us.first().copied();
+    let (t0, s0) = (first.first().copied()??, start(0)?);
+    let mut gaps: Vec<i64> = (1..tracks)
+        .filter_map(|k| {
+            let d = first[k]? as i64 - t0 as i64 - (start(k)? as i64 - s0 as i64);
+            Some(d / k as i64)
+        })
+        .filter(|g| *g >= 0)
+        .collect();
+    if gaps.is_empty() {
+        return None;
+    }
+    gaps.sort_unstable();
+    let gap = ((gaps[gaps.len() / 2] as f64 / 1000.0).round() * 1000.0) as u64;
+    let layout = Layout::new(set, &opts(gap));
+    let (_, traced) = align(keys, &layout, &layout.trigger_index())?;
+    (traced * 2 >= keys.len()).then_some(gap)
+}
+
 /// Runs the bridge over `log` and evaluates it against `set`. `gap_us` must be the exporter's
 /// pause between events; the log's timeline is aligned on its content ([`align`]). `row_name` is
 /// the model's row in the table (`riskscore_eval::scoring::model_row_name`, as `riskctl
 /// evaluate`). A log that does not trace to the folder is an error, not empty metrics.
+/// `reorder_ms`: the reorder window of a log with several interfaces ([`crate::offline`]).
 pub fn check(
     log: &Path,
     set: &EventSet,
@@ -214,6 +253,7 @@ pub fn check(
     row_name: &str,
     gap_us: u64,
     tolerance: Option<f64>,
+    reorder_ms: u64,
 ) -> Result<CheckReport, CheckError> {
     let tolerance = tolerance.map_or_else(
         || PositionTolerance::from_map(engine.map()),
@@ -240,28 +280,34 @@ pub fn check(
         Output::WarningOn { t_us, track, .. } => onsets.push((track, t_us)),
         other => losses.handle(&other),
     };
+    let mut feed = LogFeed::new(reorder_ms);
     let log_report = for_each_frame(log, |line_no, rec| {
-        let bus = engine.map().bus_of(rec.iface);
-        engine.process_on_bus(
-            rec.timestamp_us,
-            &rec.frame,
-            bus,
-            line_no as u64,
-            &mut collect,
-        );
+        feed.push(engine, line_no as u64, rec, &mut collect);
     })?;
-    engine.finish(&mut collect);
-    if log_report.frames == 0 {
-        return Err(CheckError::EmptyLog);
-    }
-    if scored_updates.is_empty() {
-        return Err(CheckError::NothingScored);
+    feed.finish(engine, &mut collect);
+    if log_report.frames == 0 || scored_updates.is_empty() {
+        // Why, line by line, before the verdict.
+        crate::losses::print_lost(log, &log_report, &losses);
+        return Err(if log_report.frames == 0 {
+            CheckError::EmptyLog {
+                unreadable: log_report.bad_lines(),
+            }
+        } else {
+            CheckError::NothingScored
+        });
     }
     let keys: Vec<(u32, u64)> = scored_updates.iter().map(|o| (o.track, o.t_us)).collect();
     let (offset, traced) = align(&keys, &layout, &index).unwrap_or((0, 0));
     if traced * 2 < scored_updates.len() {
+        let hint = match infer_gap(&keys, set) {
+            Some(g) if g != gap_us => format!(
+                "; the log fits the folder with --gap {}: pass the --gap events-to-candump was run with",
+                g as f64 / 1e6
+            ),
+            _ => "; if events-to-candump was run with another --gap, pass that --gap here".into(),
+        };
         return Err(CheckError::Mismatch(format!(
-            "at best {traced} of the {} scored track updates fall on an event frame of the folder's timeline (gap {} s)",
+            "at best {traced} of the {} scored track updates fall on an event frame of the folder's timeline (--gap {} s){hint}",
             scored_updates.len(),
             gap_us as f64 / 1e6
         )));

@@ -55,6 +55,11 @@ pub fn ms(s: &str) -> Result<u64, String> {
     }
 }
 
+/// An interface name: what a candump -L line can carry and read back (can_codec::check_iface_name).
+pub fn iface(s: &str) -> Result<String, String> {
+    can_codec::check_iface_name(s).map(|()| s.to_string())
+}
+
 /// Milliseconds in `0..=1000` (how long `live` lets a frame wait for the other interfaces).
 pub fn merge_wait_ms(s: &str) -> Result<u64, String> {
     let v: u64 = number(s)?;

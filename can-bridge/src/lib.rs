@@ -7,6 +7,7 @@
 //! - [`model_file`]: loading and checking a model blob.
 //! - [`timeline`]: late frames, timestamp glitches and new log segments.
 //! - [`logfile`]: reading candump -L logs with line-numbered problems.
+//! - [`offline`]: how a log's records reach the engine offline (bus routing, reorder window).
 //! - [`losses`]: what a run lost, by log line, and the `--max-lost` verdict.
 //! - [`events_out`]: JSON Lines warning events and the status line.
 //! - [`sanity`]: the run-end report on decoded states that look like a map mistake.
@@ -28,6 +29,7 @@ pub mod losses;
 pub mod map;
 pub mod model_file;
 pub mod monitor;
+pub mod offline;
 pub mod replay;
 pub mod sanity;
 pub mod socket;

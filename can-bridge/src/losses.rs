@@ -118,8 +118,24 @@ pub fn account(
     frames: &FrameLosses,
     max_lost: f64,
 ) -> Result<(), TooMuchLost> {
+    print_lost(path, report, frames);
+    verdict(path, report, frames, max_lost)
+}
+
+/// Prints every loss by line (unreadable lines, then lost frames) on stderr.
+pub fn print_lost(path: &Path, report: &LogReport, frames: &FrameLosses) {
     report.print_bad_lines(path);
     frames.print(path);
+}
+
+/// The summary and the `--max-lost` verdict of [`account`], without the lines (printed before
+/// with [`print_lost`]).
+pub fn verdict(
+    path: &Path,
+    report: &LogReport,
+    frames: &FrameLosses,
+    max_lost: f64,
+) -> Result<(), TooMuchLost> {
     let Some((summary, share)) = summary(path, report, frames) else {
         return Ok(());
     };

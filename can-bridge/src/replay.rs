@@ -172,7 +172,7 @@ impl Pacer {
                 line: *line,
                 kind: LossKind::OffTimeline,
                 reason: format!(
-                    "frame {} at {t} us is far outside the log's timeline (newest frame {newest} us) and no frame follows it: not sent",
+                    "frame {} at {t} us is far outside the log's timeline (newest frame {newest} us) and fewer than 3 frames after it continue from it (no new log segment): not sent",
                     f.id
                 ),
             });

@@ -18,7 +18,7 @@ fn run_check(log_text: &str, set: &EventSet) -> Result<CheckReport, CheckError> 
     let model_file = ModelFile::from_bytes(Path::new("msra.rsk"), common::msra_blob()).unwrap();
     let (_db, map) = CompiledMap::project_default().unwrap();
     let mut engine = Engine::new(model_file.model().unwrap(), map, EngineConfig::new(1.5)).unwrap();
-    check(&log, set, &mut engine, "MSRA", DEFAULT_GAP_US, None)
+    check(&log, set, &mut engine, "MSRA", DEFAULT_GAP_US, None, 20)
 }
 
 fn exported(set: &EventSet) -> String {

@@ -31,7 +31,7 @@ fn check_metrics_equal_evaluate_on_the_decoded_events_exactly() {
     let model_file = ModelFile::from_bytes(Path::new("msra.rsk"), common::msra_blob()).unwrap();
     let (_db, map) = CompiledMap::project_default().unwrap();
     let mut engine = Engine::new(model_file.model().unwrap(), map, EngineConfig::new(1.5)).unwrap();
-    let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None).unwrap();
+    let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None, 20).unwrap();
     assert_eq!(report.untraced, 0);
     assert!(report.log.bad.is_empty());
     for v in &report.verdicts {
@@ -146,7 +146,7 @@ fn a_coarser_radar_passes_check_with_the_tolerance_of_its_resolution() {
         )
         .unwrap()
     };
-    let report = check(&log, &set, &mut engine(), "MSRA", DEFAULT_GAP_US, None).unwrap();
+    let report = check(&log, &set, &mut engine(), "MSRA", DEFAULT_GAP_US, None, 20).unwrap();
     assert_eq!(report.untraced, 0);
     assert!(report.verdicts.iter().all(|v| v.not_reported == 0));
     // The bridge saw the radar's grid, more than 1 cm away from the tables on many frames.
@@ -186,6 +186,7 @@ fn a_coarser_radar_passes_check_with_the_tolerance_of_its_resolution() {
         "MSRA",
         DEFAULT_GAP_US,
         Some(0.01),
+        20,
     )
     .unwrap_err();
     let text = err.to_string();

@@ -48,7 +48,7 @@ fn out_of_domain_updates_are_counted_exactly() {
         let file = ModelFile::from_bytes(Path::new("msra.rsk"), bytes).unwrap();
         let (_db, map) = CompiledMap::project_default().unwrap();
         let mut engine = Engine::new(file.blob().unwrap(), map, EngineConfig::new(1.5)).unwrap();
-        let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None).unwrap();
+        let report = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None, 20).unwrap();
         assert_eq!(report.untraced, 0);
         drop(engine);
         (report, file)

@@ -5,26 +5,16 @@
 //! events-to-candump`'s encoding): the same events warn, at nearly the same time, wherever the
 //! radar sees the partner.
 mod common;
+#[path = "common/run.rs"]
+mod run;
+use run::bridge;
 #[path = "common/toyota.rs"]
 mod toyota;
 use riskscore_data::candump_export::{write_candump, ExportOptions, Layout};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn maps() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("maps")
-}
-
-fn bridge(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_can-bridge"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
 }
 
 /// First warning onset (s) per event, from `score-log`'s JSON events: an onset belongs to the

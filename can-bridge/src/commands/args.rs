@@ -11,10 +11,13 @@ pub struct ScoringArgs {
     /// built for another feature schema.
     #[arg(long)]
     pub model: PathBuf,
-    /// DBC file of the bus; repeat for several (e.g. the radar's, the chassis DBC for the ego
-    /// speed and `builtin:riskscore` for the warning message). An id defined in two files is an
-    /// error. Default: the project's riskscore.dbc (`builtin:riskscore`).
-    #[arg(long)]
+    /// DBC file, as `[BUS=]FILE`; repeat for several (e.g. the radar's, the chassis DBC for the
+    /// ego speed and `builtin:riskscore` for the warning message). `FILE` describes every bus;
+    /// `BUS=FILE` binds it to the interface BUS (`--dbc can1=radar.dbc`): a log line or live
+    /// frame of that interface reads its messages and the unbound ones. An id defined in two
+    /// files is an error only where they share a bus (same BUS, or one of them unbound). Default:
+    /// the map's `[bus]` table, else the project's riskscore.dbc (`builtin:riskscore`).
+    #[arg(long, value_name = "[BUS=]FILE")]
     pub dbc: Vec<PathBuf>,
     /// Map file naming the DBC signals of each input (default: the project's map; see
     /// docs/can-bridge.md, "Bring your own vehicle").
@@ -49,7 +52,7 @@ pub struct ScoringArgs {
 #[derive(Args, Debug)]
 pub struct LiveArgs {
     /// SocketCAN interface, e.g. can0 or vcan0; repeat for several buses (one timeline).
-    #[arg(long, required = true)]
+    #[arg(long, required = true, value_parser = cli_values::iface)]
     pub iface: Vec<String>,
     /// Several interfaces: how long (ms) a frame waits for the other interfaces to pass its
     /// timestamp before it is processed anyway (0..=1000).
@@ -83,7 +86,7 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub log: PathBuf,
     /// Interface to send on; repeat for several: each line goes to the interface it names.
-    #[arg(long, required = true)]
+    #[arg(long, required = true, value_parser = cli_values::iface)]
     pub iface: Vec<String>,
     /// Speed: 1.0 = original timing, 2.0 = twice as fast, `max` = as fast as possible.
     #[arg(long, default_value = "1.0")]
@@ -95,10 +98,10 @@ pub struct ReplayArgs {
 #[derive(Args, Debug)]
 pub struct MonitorArgs {
     /// Interface to listen on.
-    #[arg(long)]
+    #[arg(long, value_parser = cli_values::iface)]
     pub iface: String,
-    /// DBC file(s), as for the bridge (default: the project's).
-    #[arg(long)]
+    /// DBC file(s), as for the bridge: `[BUS=]FILE`, repeatable (default: the project's).
+    #[arg(long, value_name = "[BUS=]FILE")]
     pub dbc: Vec<PathBuf>,
     /// Map file naming the warning message and the trigger message (default: the project's).
     #[arg(long)]
@@ -133,14 +136,27 @@ pub struct ScoreLogArgs {
     /// Write the RISK_WARNING frames the bridge would send, as a candump -L log.
     #[arg(long)]
     pub warnings_out: Option<PathBuf>,
-    /// Interface name for --warnings-out lines.
-    #[arg(long, default_value = "vcan0")]
+    /// Interface name for --warnings-out lines (at most 15 bytes; no whitespace, `#`, `(`, `)`).
+    #[arg(long, default_value = "vcan0", value_parser = cli_values::iface)]
     pub warnings_iface: String,
     /// Print decode throughput (frames/s) with the summary.
     #[arg(long)]
     pub bench: bool,
     #[command(flatten)]
+    pub reorder: ReorderArgs,
+    #[command(flatten)]
     pub loss: LossArgs,
+}
+
+/// The reorder window of the offline commands (`score-log`, `check`, `decode`).
+#[derive(Args, Debug, Clone, Copy)]
+pub struct ReorderArgs {
+    /// A log with several interfaces (`candump -L can0 can1` interleaves them with inversions of
+    /// a few ms): frames are put in timestamp order within this window (ms, 0..=1000, 0 = off)
+    /// before scoring, like live's merge; a frame further behind the newest is late (dropped).
+    /// A log of one interface is read as it is.
+    #[arg(long, default_value_t = crate::offline::DEFAULT_REORDER_MS, value_parser = cli_values::merge_wait_ms)]
+    pub merge_wait_ms: u64,
 }
 
 /// How much of a log may be lost before the run fails.
@@ -166,7 +182,9 @@ pub struct CheckArgs {
     pub events: PathBuf,
     #[command(flatten)]
     pub scoring: ScoringArgs,
-    /// Print the metrics as the `riskctl evaluate --json` object (same schema).
+    /// Print the metrics as JSON: `{"events": {...}, "methods": [...]}` with the same keys and
+    /// values as those two members of `riskctl evaluate --json` (the model's row only); the
+    /// other members of that object (`operating_points`, `domain`) are not part of it.
     #[arg(long)]
     pub json: bool,
     /// Pause between events used by events-to-candump (s).
@@ -184,6 +202,8 @@ pub struct CheckArgs {
     #[arg(long, value_parser = cli_values::tolerance_m)]
     pub tolerance: Option<f64>,
     #[command(flatten)]
+    pub reorder: ReorderArgs,
+    #[command(flatten)]
     pub loss: LossArgs,
 }
 
@@ -200,6 +220,8 @@ pub struct DecodeArgs {
     #[command(flatten)]
     pub scoring: DecodeScoringArgs,
     #[command(flatten)]
+    pub reorder: ReorderArgs,
+    #[command(flatten)]
     pub loss: LossArgs,
 }
 
@@ -210,8 +232,9 @@ pub struct DecodeScoringArgs {
     /// Model blob: adds the `score` and `warning` columns (without it the states are the same).
     #[arg(long)]
     pub model: Option<PathBuf>,
-    /// DBC file of the bus, as for `score-log` (repeatable; default `builtin:riskscore`).
-    #[arg(long)]
+    /// DBC file, as for `score-log`: `[BUS=]FILE`, repeatable; an id clash is an error only on
+    /// the same bus (default: the map's `[bus]` table, else `builtin:riskscore`).
+    #[arg(long, value_name = "[BUS=]FILE")]
     pub dbc: Vec<PathBuf>,
     /// Map file, as for `score-log` (default: the project's map).
     #[arg(long)]

@@ -58,7 +58,7 @@ pub fn run_live(args: LiveArgs) -> Result<(), Failure> {
             }
             problems.sanity.print("can-bridge");
             if let Some(NothingScored::NothingMapped(m) | NothingScored::NoUpdate(m)) =
-                nothing_scored(&stats)
+                nothing_scored(&stats, 0)
             {
                 eprintln!("can-bridge: {m}");
             }

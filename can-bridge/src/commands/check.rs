@@ -61,6 +61,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         riskscore_eval::scoring::model_row_name(&model),
         (args.gap * 1e6).round() as u64,
         args.tolerance,
+        args.reorder.merge_wait_ms,
     )
     .map_err(|source| {
         Failure::Input(InputError::Check {

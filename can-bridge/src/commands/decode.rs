@@ -11,6 +11,7 @@ use crate::events_out::ProblemPrinter;
 use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
+use crate::offline::LogFeed;
 use crate::states_out::StatesWriter;
 use riskscore_output::{refuse_overlaps, AtomicFile};
 use scorer_core::model::{BoundedVec, Model};
@@ -69,14 +70,15 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         problems.handle(&o);
         losses.handle(&o);
     };
+    let mut feed = LogFeed::new(args.reorder.merge_wait_ms);
     let report = logfile::for_each_frame(&args.log, |line_no, rec| {
-        engine.process_from(rec.timestamp_us, &rec.frame, line_no as u64, &mut handle);
+        feed.push(&mut engine, line_no as u64, rec, &mut handle);
     })
     .map_err(|cause| InputError::Read {
         path: args.log.display().to_string(),
         cause,
     })?;
-    engine.finish(&mut handle);
+    feed.finish(&mut engine, &mut handle);
     let out_path = (!to_stdout).then_some(args.out.as_path());
     let columnar = |e: riskscore_eval::parquet_io::ColumnarError| {
         writing("--out", out_path)(std::io::Error::other(e.to_string()))
@@ -99,8 +101,10 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         );
     }
     problems.sanity.print("decode");
-    refuse_nothing_scored(engine.stats(), "decode")?;
-    losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
+    // The reasons first: a log nothing could be read from says why, line by line.
+    losses::print_lost(&args.log, &report, &losses);
+    refuse_nothing_scored(engine.stats(), "decode", report.bad_lines())?;
+    losses::verdict(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(f) = file {
         f.commit().map_err(writing("--out", out_path))?;
     }

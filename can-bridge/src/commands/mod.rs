@@ -15,7 +15,9 @@ mod setup;
 
 #[cfg(feature = "check")]
 pub use args::{CheckArgs, DecodeArgs, DecodeScoringArgs};
-pub use args::{LiveArgs, LossArgs, MonitorArgs, ReplayArgs, ScoreLogArgs, ScoringArgs};
+pub use args::{
+    LiveArgs, LossArgs, MonitorArgs, ReorderArgs, ReplayArgs, ScoreLogArgs, ScoringArgs,
+};
 pub use bus::{run_live, run_monitor, run_replay};
 #[cfg(feature = "check")]
 pub use check::run_check;

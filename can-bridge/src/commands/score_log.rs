@@ -10,6 +10,7 @@ use crate::events_out::ProblemPrinter;
 use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
+use crate::offline::LogFeed;
 use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
 use std::io::Write;
 use std::time::Instant;
@@ -65,23 +66,18 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
         problems.handle(&o);
         losses.handle(&o);
     };
+    let mut feed = LogFeed::new(args.reorder.merge_wait_ms);
     let report = logfile::for_each_frame(&args.log, |line_no, rec| {
         let frame_start = bench.then(Instant::now);
-        // Frames are routed to their bus by the log's interface name.
-        let bus = engine.map().bus_of(rec.iface);
-        engine.process_on_bus(
-            rec.timestamp_us,
-            &rec.frame,
-            bus,
-            line_no as u64,
-            &mut |o: Output| handle(o, frame_start),
-        );
+        feed.push(&mut engine, line_no as u64, rec, &mut |o: Output| {
+            handle(o, frame_start)
+        });
     })
     .map_err(|cause| InputError::Read {
         path: args.log.display().to_string(),
         cause,
     })?;
-    engine.finish(&mut |o: Output| handle(o, None));
+    feed.finish(&mut engine, &mut |o: Output| handle(o, None));
     let elapsed = started.elapsed().as_secs_f64();
     let warnings_out = args.warnings_out.as_deref();
     let events_out = args.events_out.as_deref();
@@ -103,7 +99,9 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
         );
     }
     problems.sanity.print("score-log");
-    refuse_nothing_scored(stats, "score-log")?;
+    // The reasons first: a log nothing could be read from says why, line by line.
+    losses::print_lost(&args.log, &report, &losses);
+    refuse_nothing_scored(stats, "score-log", report.bad_lines())?;
     if args.bench {
         eprintln!(
             "score-log: {:.0} frames/s ({} frames in {:.3} s, one thread, parse + decode + score)",
@@ -125,7 +123,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
             );
         }
     }
-    losses::account(&args.log, &report, &losses, args.loss.max_lost)?;
+    losses::verdict(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(w) = warnings {
         w.commit()
             .map_err(writing("--warnings-out", warnings_out))?;

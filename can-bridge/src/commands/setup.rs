@@ -17,6 +17,8 @@ pub const BUILTIN_DBC: &str = "builtin:riskscore";
 pub enum SetupError {
     #[error("project DBC")]
     ProjectDbc(#[source] DbcError),
+    #[error("--dbc {0}: no such built-in DBC (the one built in is `{BUILTIN_DBC}`)")]
+    UnknownBuiltin(String),
     #[error(transparent)]
     DbcFile(#[from] DbcFileError),
     #[error("{}", clash_text(.0))]
@@ -91,6 +93,8 @@ pub fn dbc_binding(arg: &Path) -> (Option<&str>, &Path) {
 fn load_one(path: &Path) -> Result<Database, SetupError> {
     if path.as_os_str() == BUILTIN_DBC {
         Database::parse(can_codec::project::PROJECT_DBC).map_err(SetupError::ProjectDbc)
+    } else if path.to_str().is_some_and(|p| p.starts_with("builtin:")) && !path.exists() {
+        Err(SetupError::UnknownBuiltin(path.display().to_string()))
     } else {
         Ok(Database::load(path)?)
     }
@@ -276,16 +280,24 @@ pub enum NothingScored {
     NoUpdate(String),
 }
 
-/// The run-end verdict when frames came in and nothing was scored (`None` otherwise).
-pub fn nothing_scored(s: &Stats) -> Option<NothingScored> {
+/// The run-end verdict when frames came in and nothing was scored (`None` otherwise);
+/// `unreadable`: lines of the log that were no frame.
+pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
     let data_frames = s.frames.saturating_sub(s.error_frames + s.remote_frames);
     if s.scored > 0 {
         return None;
     }
     if data_frames == 0 {
+        let what = match (s.frames, unreadable) {
+            (0, 0) => "the log has no frame line".to_string(),
+            (0, n) => format!("{n} unreadable lines (listed above) and no frame line"),
+            (f, 0) => format!("{f} frames, error and remote frames only"),
+            (f, n) => format!(
+                "{n} unreadable lines (listed above), {f} frames, error and remote frames only"
+            ),
+        };
         return Some(NothingScored::NothingMapped(format!(
-            "nothing was scored: no CAN data frame ({} frames in all, error and remote frames only)",
-            s.frames
+            "nothing was scored: no CAN data frame ({what})"
         )));
     }
     if s.decoded == 0 && s.decode_errors == 0 {
@@ -302,8 +314,13 @@ pub fn nothing_scored(s: &Stats) -> Option<NothingScored> {
 
 /// Offline commands: a log with no mapped message is an error (its outputs are not written); one
 /// whose mapped messages gave no update gets a note.
-pub fn refuse_nothing_scored(s: &Stats, who: &str) -> Result<(), super::Failure> {
-    match nothing_scored(s) {
+/// `unreadable`: the log's lines that were no frame (listed before this is called).
+pub fn refuse_nothing_scored(
+    s: &Stats,
+    who: &str,
+    unreadable: usize,
+) -> Result<(), super::Failure> {
+    match nothing_scored(s, unreadable) {
         Some(NothingScored::NothingMapped(m)) => {
             Err(super::Failure::Input(super::InputError::NothingMapped(m)))
         }
@@ -338,7 +355,7 @@ mod tests {
             ..Stats::default()
         };
         assert!(matches!(
-            nothing_scored(&foreign),
+            nothing_scored(&foreign, 0),
             Some(NothingScored::NothingMapped(m)) if m.contains("5 have ids no --dbc")
         ));
         let ego_only = Stats {
@@ -347,7 +364,7 @@ mod tests {
             ..Stats::default()
         };
         assert!(matches!(
-            nothing_scored(&ego_only),
+            nothing_scored(&ego_only, 0),
             Some(NothingScored::NoUpdate(m)) if m.contains("5 mapped messages decoded")
         ));
         let scored = Stats {
@@ -356,10 +373,14 @@ mod tests {
             scored: 1,
             ..Stats::default()
         };
-        assert_eq!(nothing_scored(&scored), None);
+        assert_eq!(nothing_scored(&scored, 0), None);
         assert!(matches!(
-            nothing_scored(&Stats::default()),
+            nothing_scored(&Stats::default(), 0),
             Some(NothingScored::NothingMapped(m)) if m.contains("no CAN data frame")
+        ));
+        assert!(matches!(
+            nothing_scored(&Stats::default(), 3),
+            Some(NothingScored::NothingMapped(m)) if m.contains("(3 unreadable lines (listed above)")
         ));
     }
 }

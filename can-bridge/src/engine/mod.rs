@@ -134,6 +134,11 @@ impl<'m> Engine<'m> {
         &self.config
     }
 
+    /// The newest timestamp processed on the current timeline ([`crate::timeline`]).
+    pub fn newest_us(&self) -> Option<u64> {
+        self.timeline.newest_us()
+    }
+
     /// Tracks currently held (fresh or not yet expired).
     pub fn track_count(&self) -> usize {
         self.table.len()
@@ -441,7 +446,7 @@ impl<'m> Engine<'m> {
         }
         let mut dropped = 0u64;
         for t in self.table.iter() {
-            if now_us.saturating_sub(t.last_update_us) > stale {
+            if t.is_stale(now_us, stale) {
                 dropped += 1;
                 if t.warning {
                     out(Output::WarningOff {

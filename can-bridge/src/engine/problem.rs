@@ -16,7 +16,7 @@ pub enum Problem {
     },
     /// Far off the timeline and not confirmed as a new segment ([`crate::timeline`]).
     #[error(
-        "frame {id} at {t_us} us is far outside the log's timeline (newest frame {newest_us} us) and no frame follows it: dropped"
+        "frame {id} at {t_us} us is far outside the log's timeline (newest frame {newest_us} us) and fewer than 3 frames after it continue from it (no new log segment): dropped"
     )]
     OffTimeline {
         id: CanId,
@@ -139,7 +139,7 @@ mod tests {
                     t_us: 7,
                     newest_us: 3,
                 },
-                "frame 18FF0001 at 7 us is far outside the log's timeline (newest frame 3 us) and no frame follows it: dropped",
+                "frame 18FF0001 at 7 us is far outside the log's timeline (newest frame 3 us) and fewer than 3 frames after it continue from it (no new log segment): dropped",
             ),
             (
                 Problem::NewSegment { t_us: 42 },

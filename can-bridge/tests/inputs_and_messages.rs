@@ -1,0 +1,255 @@
+#![cfg(feature = "check")]
+//! What the bridge and `riskctl events-to-candump` accept and what they say: CANdb++'s
+//! independent-signals message, logs of unreadable lines, interface names, a log exported with
+//! another `--gap`, help and error wording, and the exporter's relative velocities.
+mod common;
+#[path = "common/run.rs"]
+mod run;
+use can_bridge::check::{check, CheckError};
+use can_bridge::engine::{Engine, EngineConfig, Problem};
+use can_bridge::map::CompiledMap;
+use can_bridge::ModelFile;
+use can_codec::{CanId, Database, DbcFileError};
+use riskscore_data::candump_export::{write_candump, ExportError, ExportOptions, DEFAULT_GAP_US};
+use riskscore_data::events::EventSet;
+use run::bridge;
+use std::path::Path;
+
+fn model(dir: &Path) -> String {
+    let p = dir.join("msra.rsk");
+    std::fs::write(&p, common::msra_blob()).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn export(set: &EventSet, opts: &ExportOptions) -> Result<String, ExportError> {
+    let mut buf = Vec::new();
+    write_candump(set, opts, &mut buf)?;
+    Ok(String::from_utf8(buf).unwrap())
+}
+
+/// A CANdb++ export: unplaced signals in `VECTOR__INDEPENDENT_SIG_MSG` (id 0xC0000000, size 0).
+const CANDB_EXPORT: &str = r#"VERSION ""
+
+NS_ :
+
+BS_:
+
+BU_: XXX
+
+BO_ 291 STATUS_MSG: 8 XXX
+ SG_ RADAR_AVAILABLE : 0|1@1+ (1,0) [0|1] "" XXX
+
+BO_ 3221225472 VECTOR__INDEPENDENT_SIG_MSG: 0 Vector__XXX
+ SG_ OldSignal : 0|8@1+ (1,0) [0|0] "" Vector__XXX
+ SG_ OtherOld : 8|16@1- (0.1,0) [0|0] "" Vector__XXX
+"#;
+
+#[test]
+fn the_candb_independent_signals_message_is_skipped() {
+    let db = Database::parse(CANDB_EXPORT).unwrap();
+    assert!(db.message_by_name("VECTOR__INDEPENDENT_SIG_MSG").is_none());
+    assert_eq!(
+        db.message_by_name("STATUS_MSG").unwrap().id,
+        CanId::standard(291).unwrap()
+    );
+}
+
+#[test]
+fn a_log_of_unreadable_lines_lists_each_line_before_refusing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let log = tmp.path().join("junk.log");
+    std::fs::write(&log, "garbage\n(1.0) can0\n").unwrap();
+    let log = log.to_str().unwrap();
+    for args in [
+        vec!["score-log", "--log", log, "--model", &m],
+        vec!["decode", "--log", log, "--out", "-"],
+    ] {
+        let (code, _, stderr) = bridge(&args);
+        assert_eq!(code, Some(1), "{stderr}");
+        let first = stderr.find("junk.log:1: not a candump -L frame line");
+        let second = stderr.find("junk.log:2: not a candump -L frame line");
+        let verdict = stderr
+            .find("nothing was scored: no CAN data frame (2 unreadable lines")
+            .unwrap_or_else(|| panic!("{stderr}"));
+        assert!(
+            first.unwrap() < verdict && second.unwrap() < verdict,
+            "{stderr}"
+        );
+        assert!(!stderr.contains("error and remote frames only"), "{stderr}");
+    }
+    let events = tmp.path().join("events");
+    riskscore_data::events::write_events(&events, &common::simulated_events(1, 1)).unwrap();
+    let (code, _, stderr) = bridge(&[
+        "check",
+        "--log",
+        log,
+        "--events",
+        events.to_str().unwrap(),
+        "--model",
+        &m,
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("junk.log:1: not a candump"), "{stderr}");
+    assert!(
+        stderr.contains("the log has no frames: 2 unreadable lines"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn interface_names_no_candump_line_can_carry_are_refused_naming_the_flag() {
+    let set = common::simulated_events(1, 2);
+    for bad in ["can 0", "", "can#0", "can(0)", "a_very_long_name"] {
+        let opts = ExportOptions {
+            iface: bad.into(),
+            ..ExportOptions::default()
+        };
+        let err = export(&set, &opts).unwrap_err();
+        assert!(err.to_string().starts_with("--iface: "), "{bad:?}: {err}");
+    }
+    let ok = ExportOptions {
+        iface: "fifteen_bytes_x".into(),
+        ..ExportOptions::default()
+    };
+    assert!(export(&set, &ok).is_ok());
+
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let log = tmp.path().join("d.log");
+    std::fs::write(&log, export(&set, &ExportOptions::default()).unwrap()).unwrap();
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log.to_str().unwrap(),
+        "--model",
+        &m,
+        "--warnings-iface",
+        "can 0",
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--warnings-iface") && stderr.contains("whitespace"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn check_of_a_log_exported_with_another_gap_names_the_gap_to_pass() {
+    let set = common::simulated_events(12, 4);
+    let opts = ExportOptions {
+        gap_us: 10_000_000,
+        ..ExportOptions::default()
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("gap10.log");
+    std::fs::write(&log, export(&set, &opts).unwrap()).unwrap();
+    let model_file = ModelFile::from_bytes(Path::new("msra.rsk"), common::msra_blob()).unwrap();
+    let (_db, map) = CompiledMap::project_default().unwrap();
+    let mut engine = Engine::new(model_file.model().unwrap(), map, EngineConfig::new(1.5)).unwrap();
+    let err = check(&log, &set, &mut engine, "MSRA", DEFAULT_GAP_US, None, 20).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, CheckError::Mismatch(_)), "{text}");
+    assert!(
+        text.contains(
+            "the log fits the folder with --gap 10: pass the --gap events-to-candump was run with"
+        ),
+        "{text}"
+    );
+}
+
+#[test]
+fn help_and_errors_say_what_is_true() {
+    // A DBC that cannot be read names the OS error once, as part of the message only.
+    let err = Database::load(Path::new("/nonexistent/x.dbc")).unwrap_err();
+    assert!(matches!(err, DbcFileError::Read { .. }));
+    assert!(std::error::Error::source(&err).is_none());
+    assert_eq!(err.to_string().matches("os error").count(), 1, "{err}");
+
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let log = tmp.path().join("d.log");
+    std::fs::write(
+        &log,
+        export(&common::simulated_events(1, 2), &ExportOptions::default()).unwrap(),
+    )
+    .unwrap();
+    let log = log.to_str().unwrap();
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log,
+        "--model",
+        &m,
+        "--dbc",
+        "builtin:nope",
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--dbc builtin:nope: no such built-in DBC"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log,
+        "--model",
+        &m,
+        "--dbc",
+        "/nonexistent/x.dbc",
+    ]);
+    assert_eq!(code, Some(1));
+    assert_eq!(stderr.matches("os error 2").count(), 1, "{stderr}");
+
+    let (_, help, _) = bridge(&["score-log", "--help"]);
+    assert!(help.contains("--dbc <[BUS=]FILE>"), "{help}");
+    assert!(help.contains("only where they share a bus"), "{help}");
+    let (_, help, _) = bridge(&["check", "--help"]);
+    assert!(
+        help.contains("`operating_points`, `domain`") && help.contains("not part of it"),
+        "{help}"
+    );
+
+    let off = Problem::OffTimeline {
+        id: CanId::standard(0x100).unwrap(),
+        t_us: 7,
+        newest_us: 3,
+    }
+    .to_string();
+    assert!(!off.contains("no frame follows it"), "{off}");
+    assert!(
+        off.contains("fewer than 3 frames after it continue from it"),
+        "{off}"
+    );
+}
+
+#[test]
+fn a_partner_at_rest_decodes_at_rest_whatever_the_ego_speed() {
+    let mut set = common::simulated_events(1, 6);
+    // Ego speeds that the 0.002 m/s EgoVelLong does not carry exactly, world heading +x.
+    for (i, f) in set.events[0].frames.iter_mut().enumerate() {
+        f.ego.vx = 13.4567 + 0.0013 * i as f32;
+        f.ego.vy = 0.0;
+        f.ego.hx = 1.0;
+        f.ego.hy = 0.0;
+        f.partner.vx = 0.0;
+        f.partner.vy = 0.0;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("rest.log");
+    std::fs::write(&log, export(&set, &ExportOptions::default()).unwrap()).unwrap();
+    let (code, table, stderr) = bridge(&["decode", "--log", log.to_str().unwrap(), "--out", "-"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (vx, vy) = (col("vx"), col("vy"));
+    let mut rows = 0;
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let v: (f64, f64) = (cells[vx].parse().unwrap(), cells[vy].parse().unwrap());
+        assert_eq!(v, (0.0, 0.0), "{line}");
+        rows += 1;
+    }
+    assert_eq!(rows, set.events[0].frames.len(), "{stderr}");
+}
