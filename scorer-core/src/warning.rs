@@ -13,17 +13,22 @@
 //! Table ([`TrackTable`]): tracks keyed by partner id (`u32`), at most `N`, stored in a
 //! `heapless::Vec` in insertion order (so every operation is deterministic).
 //! - Staleness: a track whose last update is more than `stale_after_us` away from `now` is stale:
-//!   before `now` (not updated for too long), or after it (the time base was reset). Stale
-//!   tracks are dropped by [`TrackTable::expire`] (also run by every [`TrackTable::update`]) and are
-//!   never reported as warning by the query functions, even before they are dropped.
+//!   before `now` (not updated for too long), or after it (the time base was reset). Stale tracks
+//!   are never reported as warning by the query functions. [`TrackTable::expire`] (also run by
+//!   every [`TrackTable::update`]) drops the tracks not updated for too long
+//!   ([`Track::is_expired`]); a track whose last update lies ahead of `now` is dropped only by an
+//!   update of its own id (the time base was reset: it starts afresh) or by eviction, so one
+//!   update with a bogus early time cannot clear the other tracks.
 //! - Id reuse: an id whose track was dropped (stale, [`TrackTable::remove`], eviction) starts a fresh
 //!   track: no latched warning, no history.
 //! - Table full (after dropping stale tracks): [`FullPolicy::Reject`] returns
 //!   [`WarningError::TableFull`]; [`FullPolicy::EvictLeastRecent`] evicts the least recently updated
-//!   track that is *not* warning (lowest slot on ties) and returns `TableFull` only when every track
-//!   is warning. An active warning is never evicted.
-//! - An update older than its track's last update (by at most `stale_after_us`) is rejected
-//!   ([`WarningError::OutOfOrder`]) and changes nothing; a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
+//!   track that is *not* warning (lowest slot on ties; a warning track that is stale because its
+//!   last update lies ahead of `now` counts as not warning) and returns `TableFull` only when every
+//!   track is warning. An active warning is never evicted.
+//! - An update older than its track's last update by at most `stale_after_us` is rejected
+//!   ([`WarningError::OutOfOrder`]) and changes nothing; older by more, it restarts that track
+//!   (above); a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
 //!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score.
 
 use core::fmt;
@@ -277,6 +282,13 @@ impl Track {
         now.abs_diff(self.last_update_us) > stale_after
     }
 
+    /// Whether the track was not updated for more than `stale_after` before `now`: what
+    /// [`TrackTable::expire`] drops. The stale tracks whose last update lies ahead of `now` are
+    /// not expired (see the module's staleness rule).
+    pub fn is_expired(&self, now: Micros, stale_after: Micros) -> bool {
+        now.saturating_sub(self.last_update_us) > stale_after
+    }
+
     fn apply(&mut self, cfg: &WarningConfig, now: Micros, r: f32) -> WarningEvent {
         self.last_update_us = now;
         self.last_score = r;
@@ -366,11 +378,12 @@ impl<const N: usize> TrackTable<N> {
         self.tracks.iter().find(|t| t.id == id)
     }
 
-    /// Drops tracks stale at `now`; returns how many.
+    /// Drops the tracks not updated for more than the stale window before `now`
+    /// ([`Track::is_expired`]); returns how many.
     pub fn expire(&mut self, now: Micros) -> usize {
         let before = self.tracks.len();
         let stale_after = self.config.stale_after_us;
-        self.tracks.retain(|t| !t.is_stale(now, stale_after));
+        self.tracks.retain(|t| !t.is_expired(now, stale_after));
         before - self.tracks.len()
     }
 
@@ -411,13 +424,20 @@ impl<const N: usize> TrackTable<N> {
     /// Time runs forward: `now` earlier than the track's last update by at most
     /// `stale_after_us` is refused with [`WarningError::OutOfOrder`]; earlier by more means the
     /// time base was reset, so the track is stale ([`Track::is_stale`]), dropped, and the update
-    /// starts a new track (a warning that was on is not carried over the reset).
+    /// starts a new track (a warning that was on is not carried over the reset). The other tracks
+    /// are left as they are: an update of one id never drops another for lying ahead of `now`.
     pub fn update(&mut self, id: u32, now: Micros, r: f32) -> Result<TrackStatus, WarningError> {
         if r.is_nan() {
             return Err(WarningError::NonFiniteScore { id });
         }
         self.expire(now);
         let cfg = self.config;
+        let reset = self
+            .get(id)
+            .is_some_and(|t| now < t.last_update_us && t.is_stale(now, cfg.stale_after_us));
+        if reset {
+            self.remove(id);
+        }
         if let Some(track) = self.tracks.iter_mut().find(|t| t.id == id) {
             if now < track.last_update_us {
                 return Err(WarningError::OutOfOrder {
@@ -442,7 +462,7 @@ impl<const N: usize> TrackTable<N> {
             let victim = self
                 .tracks
                 .iter()
-                .filter(|t| !t.warning)
+                .filter(|t| !t.warning || t.is_stale(now, cfg.stale_after_us))
                 .fold(None::<&Track>, |best, t| match best {
                     Some(b) if b.last_update_us <= t.last_update_us => Some(b),
                     _ => Some(t),

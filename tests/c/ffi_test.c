@@ -254,7 +254,7 @@ static void test_error_paths(size_t drl_len) {
     RiskscoreVehicleState no_size = LEAD;
     no_size.length = -4.6f;
     EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &no_size, &r), RISKSCORE_STATUS_INVALID_INPUT);
-    no_size.length = 0.0f; /* a point, as the host reads it */
+    no_size.length = 0.0f; /* a point, as riskctl ssm scores it */
     EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &no_size, &r), RISKSCORE_STATUS_OK);
     no_size = LEAD;
     no_size.width = -1.8f;

@@ -446,7 +446,7 @@ impl<'m> Engine<'m> {
         }
         let mut dropped = 0u64;
         for t in self.table.iter() {
-            if t.is_stale(now_us, stale) {
+            if t.is_expired(now_us, stale) {
                 dropped += 1;
                 if t.warning {
                     out(Output::WarningOff {

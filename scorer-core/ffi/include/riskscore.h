@@ -113,7 +113,8 @@ enum RiskscoreStatus
   RISKSCORE_STATUS_UNKNOWN_TRACK = 21,
   // A vehicle state has a zero heading vector (one `scorer_core::geometry::unit_heading`
   // cannot normalise: the box and the box-based surrogates would be lost) or a negative length
-  // or width (0 is a point, as the host reads it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
+  // or width (a size of 0 is scored as a point, as `riskctl ssm` scores it; the event loader
+  // refuses it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
   // reserved for "no track" in `RiskscoreTrackStatus.evicted_id`.
   RISKSCORE_STATUS_INVALID_INPUT = 22,
 };
@@ -180,8 +181,10 @@ typedef struct {
   float hysteresis;
   // Live mode: a warning stays on at least this long (microseconds).
   uint64_t min_on_us;
-  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never); so are
-  // tracks last updated more than this after `now_us` (the time base was reset).
+  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
+  // last updated more than this after `now_us` (the time base was reset) is stale: not reported
+  // as warning, evictable, and restarted by the next update of its own id; other ids' updates
+  // leave it in place.
   uint64_t stale_after_us;
   // 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
   uint8_t latch;
@@ -212,7 +215,7 @@ typedef struct {
 // one fixed right-handed Cartesian world frame (e.g. local ENU) for ego and partner; `(vx, vy)` is
 // the velocity over ground in that frame, not relative to the ego. Refused: a NaN/infinite field
 // (`RISKSCORE_STATUS_NON_FINITE_STATE`), a zero heading vector or a negative length/width
-// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point).
+// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point, as `riskctl ssm` scores it).
 typedef struct {
   float x;
   float y;
@@ -371,7 +374,7 @@ RiskscoreStatus riskscore_score_pair(const RiskscoreContext *context,
 // `RISKSCORE_NONE_U32` is refused (`RISKSCORE_STATUS_INVALID_INPUT`): it means "no track" in
 // `evicted_id`. A `now_us` before the track's last update by at most `stale_after_us` is refused
 // (`RISKSCORE_STATUS_OUT_OF_ORDER`); before it by more, the time base was reset: the track is
-// stale, is dropped, and the update starts a new track.
+// stale, is dropped, and the update starts a new track (the other tracks stay as they are).
 //
 // # Safety
 // `context` must be NULL or initialised; `out` NULL or writable.

@@ -26,7 +26,7 @@ pub(crate) fn vehicle(s: &RiskscoreVehicleState) -> Result<VehicleState, Risksco
     if !v.is_finite() {
         return Err(RiskscoreStatus::NonFiniteState);
     }
-    // The host loader's rules: a heading the core can normalise, a size >= 0 (0 is a point).
+    // `riskctl ssm`'s row rules: a heading the core can normalise, a size >= 0 (0 is a point).
     if unit_heading(&v).is_none() || v.length < 0.0 || v.width < 0.0 {
         return Err(RiskscoreStatus::InvalidInput);
     }

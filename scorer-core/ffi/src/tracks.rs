@@ -10,7 +10,7 @@ use crate::RISKSCORE_NONE_U32;
 /// `RISKSCORE_NONE_U32` is refused (`RISKSCORE_STATUS_INVALID_INPUT`): it means "no track" in
 /// `evicted_id`. A `now_us` before the track's last update by at most `stale_after_us` is refused
 /// (`RISKSCORE_STATUS_OUT_OF_ORDER`); before it by more, the time base was reset: the track is
-/// stale, is dropped, and the update starts a new track.
+/// stale, is dropped, and the update starts a new track (the other tracks stay as they are).
 ///
 /// # Safety
 /// `context` must be NULL or initialised; `out` NULL or writable.

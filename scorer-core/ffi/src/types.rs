@@ -60,7 +60,8 @@ pub enum RiskscoreStatus {
     UnknownTrack = 21,
     /// A vehicle state has a zero heading vector (one `scorer_core::geometry::unit_heading`
     /// cannot normalise: the box and the box-based surrogates would be lost) or a negative length
-    /// or width (0 is a point, as the host reads it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
+    /// or width (a size of 0 is scored as a point, as `riskctl ssm` scores it; the event loader
+    /// refuses it); or `riskscore_track_update` got the track id `RISKSCORE_NONE_U32`, which is
     /// reserved for "no track" in `RiskscoreTrackStatus.evicted_id`.
     InvalidInput = 22,
 }
@@ -137,7 +138,7 @@ pub struct RiskscoreContext {
 /// one fixed right-handed Cartesian world frame (e.g. local ENU) for ego and partner; `(vx, vy)` is
 /// the velocity over ground in that frame, not relative to the ego. Refused: a NaN/infinite field
 /// (`RISKSCORE_STATUS_NON_FINITE_STATE`), a zero heading vector or a negative length/width
-/// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point).
+/// (`RISKSCORE_STATUS_INVALID_INPUT`; a size of 0 is a point, as `riskctl ssm` scores it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RiskscoreVehicleState {
@@ -162,8 +163,10 @@ pub struct RiskscoreWarningConfig {
     pub hysteresis: f32,
     /// Live mode: a warning stays on at least this long (microseconds).
     pub min_on_us: u64,
-    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never); so are
-    /// tracks last updated more than this after `now_us` (the time base was reset).
+    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
+    /// last updated more than this after `now_us` (the time base was reset) is stale: not reported
+    /// as warning, evictable, and restarted by the next update of its own id; other ids' updates
+    /// leave it in place.
     pub stale_after_us: u64,
     /// 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
     pub latch: u8,

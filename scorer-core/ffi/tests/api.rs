@@ -62,7 +62,7 @@ fn states_without_heading_or_with_a_negative_size_and_the_reserved_id_are_refuse
                 RiskscoreStatus::InvalidInput
             );
         }
-        // A size of 0 is a point, as the host's loader reads it: scored.
+        // A size of 0 is a point, as `riskctl ssm` scores it: scored.
         let point = RiskscoreVehicleState {
             length: 0.0,
             width: 0.0,
