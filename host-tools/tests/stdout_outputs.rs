@@ -256,33 +256,9 @@ fn a_failed_run_leaves_no_folder_it_created() {
     let d = scratch();
     let p = d.path();
     let before = tree(p);
-    // File outputs: nothing to write (no event) and a file where a folder is needed.
-    let e = fails(
-        p,
-        &[
-            "events-to-candump",
-            "--events",
-            "empty",
-            "--out",
-            "n/a/d.log",
-        ],
-    );
-    assert!(e.contains("n/a/d.log"), "{e}");
-    let e = fails(
-        p,
-        &[
-            "calibrate",
-            "--model",
-            "m.rsk",
-            "--normal",
-            "empty",
-            "--false-alarm-rate",
-            "5",
-            "--out",
-            "n/a/c.rsk",
-        ],
-    );
-    assert!(e.contains("empty"), "{e}");
+    // A file output that fails after it was opened is the output layer's unit test
+    // (`file::tests::missing_parent_folders_are_made_and_removed_again_unless_committed`): the
+    // commands that write one file refuse an empty folder before they open it.
     // A folder output, locked (so its parents made) before the events are read.
     let e = fails(
         p,
@@ -371,4 +347,72 @@ fn an_interrupted_run_leaves_no_folder_it_created() {
     assert!(writing, "never saw its temporaries: {}", text(&o.stderr));
     assert_eq!(o.status.code(), Some(130), "{}", text(&o.stderr));
     assert_eq!(tree(p), before, "an interrupted run left something");
+}
+
+#[test]
+fn score_into_dev_stdout_redirected_to_a_file_writes_the_table_once() {
+    // A folder that cannot be streamed: the second event's frames moved to the end, after more
+    // than one batch of rows (64 Ki) of the others. `score` streams into a restartable output,
+    // meets the moved event, and reads the folder whole. Standard output under another name
+    // (`/dev/stdout` redirected to a file is a regular file) must not be restarted, or the batch
+    // already written would stand there twice.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    ok(
+        p,
+        &["simulate", "--out", "sim", "--events", "700", "--seed", "3"],
+    );
+    let model = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/msra-default.rsk");
+    std::fs::copy(model, p.join("m.rsk")).unwrap();
+    std::fs::create_dir(p.join("moved")).unwrap();
+    std::fs::copy(p.join("sim/events.csv"), p.join("moved/events.csv")).unwrap();
+    let frames = std::fs::read_to_string(p.join("sim/frames.csv")).unwrap();
+    let mut lines = frames.lines();
+    let header = lines.next().unwrap();
+    let rows: Vec<&str> = lines.collect();
+    assert!(
+        rows.len() > 70_000,
+        "{} rows: not more than one batch",
+        rows.len()
+    );
+    let mut ids: Vec<&str> = rows.iter().map(|r| r.split(',').next().unwrap()).collect();
+    ids.dedup();
+    let second = ids[1];
+    let (own, rest): (Vec<&str>, Vec<&str>) = rows
+        .iter()
+        .partition(|r| r.split(',').next() == Some(second));
+    let moved = [vec![header], rest, own].concat().join("\n") + "\n";
+    std::fs::write(p.join("moved/frames.csv"), moved).unwrap();
+
+    let file = ok(
+        p,
+        &[
+            "score", "--model", "m.rsk", "--events", "moved", "--out", "t.csv",
+        ],
+    );
+    assert!(text(&file.stderr).contains("reading the folder whole instead"));
+    let table = std::fs::read(p.join("t.csv")).unwrap();
+    let redirect = std::fs::File::create(p.join("r.csv")).unwrap();
+    let o = Command::new(RISKCTL)
+        .current_dir(p)
+        .args([
+            "score",
+            "--model",
+            "m.rsk",
+            "--events",
+            "moved",
+            "--out",
+            "/dev/stdout",
+        ])
+        .stdout(Stdio::from(redirect))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let redirected = std::fs::read(p.join("r.csv")).unwrap();
+    assert!(
+        redirected == table,
+        "the table on redirected standard output differs from --out FILE's: {} bytes, not {}",
+        redirected.len(),
+        table.len()
+    );
 }

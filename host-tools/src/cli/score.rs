@@ -10,7 +10,7 @@ use riskscore_eval::score_table::{score_streaming, score_whole, ScoreTableError,
 use riskscore_eval::model_files::{named_models, ModelFile};
 
 use super::evaluate::{report_issues, report_load_issues};
-use super::output::{is_dash, write_output};
+use super::output::{is_stdout, write_output};
 
 const AFTER_LONG_HELP: &str = "\
 OUTPUT COLUMNS (one row per frame, events in folder order, frames in time order):
@@ -85,10 +85,13 @@ fn sink<W: std::io::Write + Send>(out: W, parquet: bool) -> BatchSink<W> {
 }
 
 /// True for an output that can be written twice: a regular file (written to a temporary and
-/// renamed), not standard output, a pipe or a device, where a discarded first attempt would
-/// already have been read.
+/// renamed), not standard output under any of its names (`/dev/stdout` redirected to a file is
+/// a regular file too), a descriptor path, a pipe or a device, where a discarded first attempt
+/// would already have been read.
 fn restartable(out: &Path) -> bool {
-    !is_dash(out) && std::fs::metadata(out).map_or(true, |m| m.is_file())
+    !is_stdout(out)
+        && !riskscore_output::is_special_file(out)
+        && std::fs::metadata(out).map_or(true, |m| m.is_file())
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
