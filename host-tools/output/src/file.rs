@@ -38,6 +38,13 @@ pub struct AtomicFile {
     _lock: Option<Box<OutputLock>>,
 }
 
+/// Opens a device, pipe or descriptor path ([`is_special_file`]) to write into it directly.
+/// In append mode: a descriptor path (`/dev/fd/3` with the shell's `3>>log`) opens the file
+/// again, and without it the writing would start at byte 0 of `log`, over what was there.
+pub fn open_special(dest: &Path) -> io::Result<File> {
+    std::fs::OpenOptions::new().append(true).open(dest)
+}
+
 /// A unique temporary file beside `dest`, registered for removal on a signal.
 pub(crate) fn temp_beside(dest: &Path) -> io::Result<NamedTempFile> {
     let prefix = hidden_name(dest, ".")?;
@@ -62,7 +69,7 @@ impl AtomicFile {
     /// file is not committed.
     pub fn create(dest: &Path) -> io::Result<Self> {
         if is_special_file(dest) {
-            let file = std::fs::OpenOptions::new().write(true).open(dest)?;
+            let file = open_special(dest)?;
             return Ok(Self {
                 sink: Sink::Direct(BufWriter::with_capacity(1 << 16, file)),
                 tmp: None,
@@ -292,6 +299,22 @@ mod tests {
         assert!(AtomicFile::create(d.path()).is_err());
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_descriptor_path_appends_to_the_file_it_is_open_on() {
+        use std::os::fd::AsRawFd;
+        let d = tempfile::tempdir().unwrap();
+        let log = d.path().join("log");
+        std::fs::write(&log, "old\n").unwrap();
+        // As the shell's `3>>log`: a descriptor open on the file, named by its /proc path.
+        let held = std::fs::OpenOptions::new().append(true).open(&log).unwrap();
+        let path = PathBuf::from(format!("/proc/self/fd/{}", held.as_raw_fd()));
+        let mut f = AtomicFile::create(&path).unwrap();
+        f.write_all(b"new").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&log).unwrap(), "old\nnew");
+        assert_eq!(names(d.path()), ["log"]);
     }
 
     #[test]

@@ -36,9 +36,7 @@ pub fn write_output<T>(
     }
     if is_special_file(path) {
         // A device or pipe (e.g. /dev/null): write straight into it, nothing to rename.
-        let file = std::fs::OpenOptions::new()
-            .write(true)
-            .open(path)
+        let file = riskscore_output::open_special(path)
             .with_context(|| format!("cannot open output {}", path.display()))?;
         return write(Box::new(BufWriter::with_capacity(1 << 16, file))).map(Some);
     }
