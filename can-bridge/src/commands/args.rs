@@ -56,7 +56,7 @@ pub struct LiveArgs {
     pub iface: Vec<String>,
     /// Several interfaces: how long (ms) a frame waits for the other interfaces to pass its
     /// timestamp before it is processed anyway (0..=1000).
-    #[arg(long, default_value_t = 20, value_parser = cli_values::merge_wait_ms)]
+    #[arg(long, default_value_t = crate::offline::DEFAULT_REORDER_MS, value_parser = cli_values::merge_wait_ms)]
     pub merge_wait_ms: u64,
     #[command(flatten)]
     pub scoring: ScoringArgs,
