@@ -23,9 +23,9 @@
 //!   track: no latched warning, no history.
 //! - Table full (after dropping stale tracks): [`FullPolicy::Reject`] returns
 //!   [`WarningError::TableFull`]; [`FullPolicy::EvictLeastRecent`] evicts the least recently updated
-//!   track that is *not* warning (lowest slot on ties; a warning track that is stale because its
-//!   last update lies ahead of `now` counts as not warning) and returns `TableFull` only when every
-//!   track is warning. An active warning is never evicted.
+//!   track that is *not* warning (lowest slot on ties) and returns `TableFull` only when every track
+//!   is warning. An active warning is never evicted (nor a warning track left ahead of `now` by a
+//!   clock reset: it is restarted by its own id's next update, or removed).
 //! - An update older than its track's last update by at most `stale_after_us` is rejected
 //!   ([`WarningError::OutOfOrder`]) and changes nothing; older by more, it restarts that track
 //!   (above); a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
@@ -423,8 +423,8 @@ impl<const N: usize> TrackTable<N> {
     ///
     /// Time runs forward: `now` earlier than the track's last update by at most
     /// `stale_after_us` is refused with [`WarningError::OutOfOrder`]; earlier by more means the
-    /// time base was reset, so the track is stale ([`Track::is_stale`]), dropped, and the update
-    /// starts a new track (a warning that was on is not carried over the reset). The other tracks
+    /// time base was reset, so the track is stale ([`Track::is_stale`]) and the update restarts it
+    /// in its slot as a new track (a warning that was on is not carried over the reset). The other tracks
     /// are left as they are: an update of one id never drops another for lying ahead of `now`.
     pub fn update(&mut self, id: u32, now: Micros, r: f32) -> Result<TrackStatus, WarningError> {
         if r.is_nan() {
@@ -432,25 +432,25 @@ impl<const N: usize> TrackTable<N> {
         }
         self.expire(now);
         let cfg = self.config;
-        let reset = self
-            .get(id)
-            .is_some_and(|t| now < t.last_update_us && t.is_stale(now, cfg.stale_after_us));
-        if reset {
-            self.remove(id);
-        }
         if let Some(track) = self.tracks.iter_mut().find(|t| t.id == id) {
+            let mut new_track = false;
             if now < track.last_update_us {
-                return Err(WarningError::OutOfOrder {
-                    id,
-                    last_us: track.last_update_us,
-                    now_us: now,
-                });
+                if !track.is_stale(now, cfg.stale_after_us) {
+                    return Err(WarningError::OutOfOrder {
+                        id,
+                        last_us: track.last_update_us,
+                        now_us: now,
+                    });
+                }
+                // The time base was reset: the track starts afresh, in its slot.
+                *track = Track::new(id, now);
+                new_track = true;
             }
             let event = track.apply(&cfg, now, r);
             return Ok(TrackStatus {
                 warning: track.warning,
                 event,
-                new_track: false,
+                new_track,
                 evicted: None,
             });
         }
@@ -462,7 +462,7 @@ impl<const N: usize> TrackTable<N> {
             let victim = self
                 .tracks
                 .iter()
-                .filter(|t| !t.warning || t.is_stale(now, cfg.stale_after_us))
+                .filter(|t| !t.warning)
                 .fold(None::<&Track>, |best, t| match best {
                     Some(b) if b.last_update_us <= t.last_update_us => Some(b),
                     _ => Some(t),

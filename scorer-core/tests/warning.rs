@@ -245,21 +245,6 @@ fn an_early_time_for_one_id_leaves_the_other_tracks_as_they_are() {
 }
 
 #[test]
-fn a_full_table_evicts_a_warning_track_left_ahead_by_a_clock_reset() {
-    let mut t = TrackTable::<2>::new(WarningConfig::live(2.0, 0.05, 500 * MS, S)).unwrap();
-    assert!(t.update(1, 5_000 * S, 9.0).unwrap().warning);
-    assert!(t.update(2, 5_000 * S, 9.0).unwrap().warning);
-    // Within the stale window both are active warnings: a third partner does not fit.
-    assert!(matches!(
-        t.update(3, 5_000 * S + MS, 0.0),
-        Err(WarningError::TableFull { .. })
-    ));
-    // After a clock restart they are stale, so the new partner takes a slot.
-    let s = t.update(3, 1_000, 0.0).unwrap();
-    assert!(s.new_track && s.evicted.is_some());
-}
-
-#[test]
 fn invalid_configs_are_rejected() {
     assert!(matches!(
         TrackTable::<2>::new(WarningConfig::first_threshold(f32::NAN, S)),

@@ -48,7 +48,7 @@ pub extern "C" fn riskscore_status_str(status: i32) -> *const c_char {
         Some(RiskscoreStatus::OutOfOrder) => b"update older than the track's last update\0",
         Some(RiskscoreStatus::TableFull) => b"track table full\0",
         Some(RiskscoreStatus::UnknownTrack) => b"unknown track id\0",
-        Some(RiskscoreStatus::InvalidInput) => b"zero heading, negative size or reserved id\0",
+        Some(RiskscoreStatus::InvalidInput) => b"bad heading, size or track id\0",
         None => b"unknown status code\0",
     };
     s.as_ptr().cast()
