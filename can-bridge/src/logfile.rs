@@ -259,11 +259,16 @@ pub fn for_each_frame_in<R: BufRead>(
     Ok(report)
 }
 
-/// Calls `f(line_number, record)` for every frame line of the log at `path`.
+/// Calls `f(line_number, record)` for every frame line of the log at `path` (`-`: standard
+/// input, so `riskctl events-to-candump --out - | can-bridge score-log --log -` works).
 pub fn for_each_frame(
     path: &Path,
     f: impl FnMut(usize, &LogRecord<'_>),
 ) -> std::io::Result<LogReport> {
+    if path.as_os_str() == "-" {
+        let stdin = std::io::stdin().lock();
+        return for_each_frame_in(std::io::BufReader::with_capacity(1 << 20, stdin), f);
+    }
     let file = std::fs::File::open(path)?;
     for_each_frame_in(std::io::BufReader::with_capacity(1 << 20, file), f)
 }

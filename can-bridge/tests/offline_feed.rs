@@ -195,3 +195,42 @@ fn a_log_of_one_interface_is_read_as_without_the_window_inversions_and_all() {
     assert!(stderr.contains("late frames"), "{stderr}");
     assert_eq!((events, stderr, warnings), run("0"));
 }
+
+#[test]
+fn a_log_on_standard_input_scores_like_the_file() {
+    // `riskctl events-to-candump --out - | can-bridge score-log --log -`.
+    let tmp = tempfile::tempdir().unwrap();
+    let set = common::simulated_events(3, 8);
+    let log = tmp.path().join("sim.log");
+    let file = std::fs::File::create(&log).unwrap();
+    riskscore_data::candump_export::write_candump(
+        &set,
+        &riskscore_data::candump_export::ExportOptions::default(),
+        file,
+    )
+    .unwrap();
+    let model = tmp.path().join("msra.rsk");
+    std::fs::write(&model, common::msra_blob()).unwrap();
+    let (code, from_file, stderr) = score_log(&log, &model, &[]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!from_file.is_empty());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+        .args([
+            "score-log",
+            "--log",
+            "-",
+            "--model",
+            model.to_str().unwrap(),
+            "--threshold",
+            "1.5",
+            "--all-scores",
+            "--max-lost",
+            "0",
+        ])
+        .stdin(std::fs::File::open(&log).unwrap())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert_eq!(String::from_utf8_lossy(&out.stdout), from_file);
+}

@@ -122,7 +122,7 @@ pub struct MonitorArgs {
 
 #[derive(Args, Debug)]
 pub struct ScoreLogArgs {
-    /// candump -L log to score.
+    /// candump -L log to score (`-`: standard input).
     #[arg(long)]
     pub log: PathBuf,
     #[command(flatten)]
@@ -174,7 +174,8 @@ pub struct LossArgs {
 #[cfg(feature = "check")]
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// candump -L log written by `riskctl events-to-candump` (or a recording of its replay).
+    /// candump -L log written by `riskctl events-to-candump` (or a recording of its replay);
+    /// `-`: standard input.
     #[arg(long)]
     pub log: PathBuf,
     /// The event folder the log was made from.
@@ -211,7 +212,7 @@ pub struct CheckArgs {
 #[cfg(feature = "check")]
 #[derive(Args, Debug)]
 pub struct DecodeArgs {
-    /// candump -L log to decode.
+    /// candump -L log to decode (`-`: standard input).
     #[arg(long)]
     pub log: PathBuf,
     /// The state table: `.parquet` for Parquet, `-` for CSV on stdout, any other name CSV.
