@@ -92,10 +92,27 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err((code, e)) => {
-            eprintln!("can-bridge: error: {e:#}");
+            eprintln!("can-bridge: error: {}", chain_text(&e));
             ExitCode::from(code)
         }
     }
+}
+
+/// The error and its causes joined by ": ", like `{:#}`, but a cause is left out when the text
+/// before it already ends with it (an error that prints its source, then the source itself).
+fn chain_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let cause = cause.to_string();
+        if text.ends_with(&cause) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&cause);
+    }
+    text
 }
 
 #[cfg(feature = "check")]

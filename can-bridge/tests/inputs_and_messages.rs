@@ -200,6 +200,25 @@ fn help_and_errors_say_what_is_true() {
     ]);
     assert_eq!(code, Some(1));
     assert_eq!(stderr.matches("os error 2").count(), 1, "{stderr}");
+    // An error that prints its cause, then the cause itself: the cause once.
+    let set = common::simulated_events(1, 2);
+    let events = tmp.path().join("events");
+    riskscore_data::events::write_events(&events, &set).unwrap();
+    std::fs::write(tmp.path().join("plain"), "mine").unwrap();
+    let decoded = tmp.path().join("plain/x/dec");
+    let (code, _, stderr) = bridge(&[
+        "check",
+        "--log",
+        log,
+        "--events",
+        events.to_str().unwrap(),
+        "--model",
+        &m,
+        "--decoded-events-out",
+        decoded.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(stderr.matches("Not a directory").count(), 1, "{stderr}");
 
     let (_, help, _) = bridge(&["score-log", "--help"]);
     assert!(help.contains("--dbc <[BUS=]FILE>"), "{help}");
