@@ -5,7 +5,8 @@
 //! training, GSSM, quantisation, export, transfer benchmark).
 
 /// `print!` through [`print_out`]: a reader that closed standard output ends the printing, not
-/// the run.
+/// the run (`riskctl evaluate ... | head`). Exported: `riskctl`'s subcommands print with it too.
+#[macro_export]
 macro_rules! out {
     ($($arg:tt)*) => {
         $crate::print_out(format_args!($($arg)*))
@@ -13,6 +14,7 @@ macro_rules! out {
 }
 
 /// `println!` through [`print_out`] (see [`out!`]).
+#[macro_export]
 macro_rules! outln {
     () => {
         $crate::print_out(format_args!("\n"))

@@ -2,6 +2,10 @@
 //! `cli/<name>.rs`, which parses its arguments and calls the libraries.
 use clap::{CommandFactory, Parser, Subcommand};
 
+// The `out!`/`outln!` printing macros (a closed standard output ends the printing, not the run).
+#[macro_use]
+extern crate host_tools;
+
 mod cli;
 
 /// Learn, evaluate and export collision-risk scores for ego/partner interactions.

@@ -4,24 +4,6 @@ use std::path::Path;
 
 use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
 
-/// `print!` for the subcommands' results on standard output, through [`print_out`]: a reader that
-/// closed it (`riskctl evaluate ... | head`) ends the printing, not the run.
-macro_rules! out {
-    ($($arg:tt)*) => {
-        $crate::cli::print_out(format_args!($($arg)*))
-    };
-}
-
-/// `println!` through [`print_out`] (see [`out!`]).
-macro_rules! outln {
-    () => {
-        $crate::cli::print_out(format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        $crate::cli::print_out(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
 /// `println!` for a command's summary of an output `$out` it wrote: on standard output, or on
 /// stderr when `$out` is standard output itself (`--out -`), so that stream holds only the data
 /// (see [`output::summary`]).
