@@ -53,11 +53,12 @@ fn decode(log: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
     bridge(&args)
 }
 
-fn score_log(log: &Path, model: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
-    let mut args = vec![
+/// `score-log` of `log` (`-`: standard input) with every score printed and no line to lose.
+fn score_log_args<'a>(log: &'a str, model: &'a Path) -> Vec<&'a str> {
+    vec![
         "score-log",
         "--log",
-        log.to_str().unwrap(),
+        log,
         "--model",
         model.to_str().unwrap(),
         "--threshold",
@@ -65,7 +66,11 @@ fn score_log(log: &Path, model: &Path, extra: &[&str]) -> (Option<i32>, String, 
         "--all-scores",
         "--max-lost",
         "0",
-    ];
+    ]
+}
+
+fn score_log(log: &Path, model: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
+    let mut args = score_log_args(log.to_str().unwrap(), model);
     args.extend_from_slice(extra);
     bridge(&args)
 }
@@ -215,18 +220,7 @@ fn a_log_on_standard_input_scores_like_the_file() {
     assert_eq!(code, Some(0), "{stderr}");
     assert!(!from_file.is_empty());
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_can-bridge"))
-        .args([
-            "score-log",
-            "--log",
-            "-",
-            "--model",
-            model.to_str().unwrap(),
-            "--threshold",
-            "1.5",
-            "--all-scores",
-            "--max-lost",
-            "0",
-        ])
+        .args(score_log_args("-", &model))
         .stdin(std::fs::File::open(&log).unwrap())
         .output()
         .unwrap();

@@ -3,24 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 mod common;
-use common::{riskctl, shipped_model as model, RISKCTL};
-
-fn simulate(dir: &Path) -> PathBuf {
-    let events = dir.join("events");
-    let o = riskctl(&[
-        "simulate",
-        "--out",
-        events.to_str().unwrap(),
-        "--seed",
-        "3",
-        "--events",
-        "9",
-        "--mix",
-        "3,3,3",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    events
-}
+use common::{riskctl, shipped_model as model, simulate, RISKCTL};
 
 /// 25 NaN frames of the first event (20 listed by the loader, 5 counted) and an unknown kind on
 /// the last events.csv line: 26 problems in all.

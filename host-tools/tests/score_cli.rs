@@ -1,7 +1,7 @@
 //! `riskctl score`: one row per frame with each model's score and the surrogates, equal to the
 //! library's evaluation scoring path; CSV and Parquet carry the same values.
 #![cfg(feature = "parquet")]
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float32Type, Float64Type, UInt8Type};
@@ -9,24 +9,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use riskscore_data::events::{load_events, Sequence};
 use riskscore_eval::{observe, Scorer};
 mod common;
-use common::{riskctl, shipped_model as model};
-
-fn simulate(dir: &Path) -> PathBuf {
-    let events = dir.join("events");
-    let o = riskctl(&[
-        "simulate",
-        "--out",
-        events.to_str().unwrap(),
-        "--seed",
-        "3",
-        "--events",
-        "9",
-        "--mix",
-        "3,3,3",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    events
-}
+use common::{riskctl, shipped_model as model, simulate};
 
 fn parse_out(v: &str) -> f32 {
     v.parse()

@@ -44,24 +44,27 @@ impl Drop for NewFolders {
     }
 }
 
+/// Creates the missing parent folders of the output `target` for one run (see [`NewFolders`]);
+/// `None` when there was nothing to create. The error names the folder.
+pub(crate) fn parent_folders(target: &Path) -> io::Result<Option<NewFolders>> {
+    let parent = crate::lock::parent_of(target);
+    if parent.is_dir() {
+        return Ok(None);
+    }
+    NewFolders::create(parent).map(Some).map_err(|e| {
+        io::Error::new(
+            e.kind(),
+            format!("cannot create the folder {}: {e}", parent.display()),
+        )
+    })
+}
+
 /// Creates (or truncates) `path` for a live capture written as it goes (`can-bridge monitor
 /// --out`, `live --events-out`): not through a temporary, so it can be followed while it grows.
 /// Its missing parent folders are made like every other output's (and removed again if the file
 /// cannot be created); the error names the folder or the file.
 pub fn create_live_file(path: &Path) -> io::Result<std::fs::File> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() && !p.is_dir() => Some(p),
-        _ => None,
-    };
-    let folders = match parent {
-        Some(p) => Some(NewFolders::create(p).map_err(|e| {
-            io::Error::new(
-                e.kind(),
-                format!("cannot create the folder {}: {e}", p.display()),
-            )
-        })?),
-        None => None,
-    };
+    let folders = parent_folders(path)?;
     let file = std::fs::File::create(path)?;
     if let Some(f) = folders {
         f.keep();

@@ -70,7 +70,7 @@ impl OutputLock {
                 folders: None,
             });
         }
-        let folders = create_parent(target)?;
+        let folders = crate::folders::parent_folders(target)?;
         for _ in 0..8 {
             let file = OpenOptions::new()
                 .create(true)
@@ -133,21 +133,6 @@ impl OutputLock {
             f.keep();
         }
     }
-}
-
-/// Creates the missing parent folders of `target` for one run (see [`crate::NewFolders`]);
-/// `None` when there was nothing to create. The error names the folder.
-fn create_parent(target: &Path) -> io::Result<Option<crate::NewFolders>> {
-    let parent = parent_of(target);
-    if parent.is_dir() {
-        return Ok(None);
-    }
-    crate::NewFolders::create(parent).map(Some).map_err(|e| {
-        io::Error::new(
-            e.kind(),
-            format!("cannot create the folder {}: {e}", parent.display()),
-        )
-    })
 }
 
 impl Drop for OutputLock {

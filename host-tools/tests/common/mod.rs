@@ -72,3 +72,21 @@ pub fn calm_following(id: String, v: f32, gap: f32) -> riskscore_data::events::E
         frames,
     }
 }
+
+/// A small simulated event folder `dir/events` (seed 3, 9 events, 3 of each kind).
+pub fn simulate(dir: &Path) -> PathBuf {
+    let events = dir.join("events");
+    let o = riskctl(&[
+        "simulate",
+        "--out",
+        events.to_str().unwrap(),
+        "--seed",
+        "3",
+        "--events",
+        "9",
+        "--mix",
+        "3,3,3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    events
+}

@@ -8,6 +8,24 @@ use common::{config, context, core_state, EGO, LEAD};
 #[allow(dead_code)]
 mod test_models;
 
+/// A context initialised with `config()` and the test DRL loaded; the blob outlives it.
+fn context_with_drl() -> (Box<RiskscoreContext>, &'static [u8]) {
+    let blob: &'static [u8] = Box::leak(test_models::drl_int8().into_boxed_slice());
+    let mut ctx = context();
+    let raw: *mut RiskscoreContext = &mut *ctx;
+    unsafe {
+        assert_eq!(
+            riskscore_init(raw, RISKSCORE_CONTEXT_SIZE, &config()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(
+            riskscore_load_model(raw, blob.as_ptr(), blob.len(), std::ptr::null_mut()),
+            RiskscoreStatus::Ok
+        );
+    }
+    (ctx, blob)
+}
+
 #[test]
 fn every_status_code_round_trips_and_is_described() {
     let unknown = unsafe { std::ffi::CStr::from_ptr(riskscore_status_str(-1)) };
@@ -27,20 +45,11 @@ fn every_status_code_round_trips_and_is_described() {
 
 #[test]
 fn states_without_heading_or_with_a_negative_size_and_the_reserved_id_are_refused() {
-    let blob: &'static [u8] = Box::leak(test_models::drl_int8().into_boxed_slice());
-    let mut ctx = context();
+    let (mut ctx, blob) = context_with_drl();
     let ctx: *mut RiskscoreContext = &mut *ctx;
     let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
     let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
     unsafe {
-        assert_eq!(
-            riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
-            RiskscoreStatus::Ok
-        );
-        assert_eq!(
-            riskscore_load_model(ctx, blob.as_ptr(), blob.len(), std::ptr::null_mut()),
-            RiskscoreStatus::Ok
-        );
         let bad = [
             RiskscoreVehicleState { hy: 0.0, ..LEAD },
             RiskscoreVehicleState {
@@ -96,19 +105,10 @@ fn states_without_heading_or_with_a_negative_size_and_the_reserved_id_are_refuse
 
 #[test]
 fn failed_load_keeps_the_previous_model_and_scores_match_the_core() {
-    let blob: &'static [u8] = Box::leak(test_models::drl_int8().into_boxed_slice());
-    let mut ctx = context();
+    let (mut ctx, blob) = context_with_drl();
     let ctx: *mut RiskscoreContext = &mut *ctx;
     let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
     unsafe {
-        assert_eq!(
-            riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
-            RiskscoreStatus::Ok
-        );
-        assert_eq!(
-            riskscore_load_model(ctx, blob.as_ptr(), blob.len(), std::ptr::null_mut()),
-            RiskscoreStatus::Ok
-        );
         assert_eq!(
             riskscore_score_pair(ctx, &EGO, &LEAD, r.as_mut_ptr()),
             RiskscoreStatus::Ok
