@@ -918,3 +918,46 @@ fn a_last_line_without_newline_is_noted_on_that_line_and_kept() {
     }
     .is_note());
 }
+
+#[test]
+fn line_numbers_hold_for_windows_line_ends_and_blank_lines() {
+    // Bad rows: events.csv line 3 (kind `Safe`), frames.csv line 5 (NaN), line 25 (time repeats
+    // line 24), in LF and CRLF files, and with a blank line before each.
+    let (ev, fr) = good();
+    let ev = ev.replacen("s1,safe", "s1,Safe", 1);
+    let fr = fr
+        .replacen("c1,0.3,3,0,10,", "c1,0.3,3,0,NaN,", 1)
+        .replacen("s1,0.2,", "s1,0.1,", 1);
+    let expected = |blank: u64| {
+        vec![
+            (3 + blank, Some("s1"), "UnknownKind"),
+            (5 + blank, Some("c1"), "NonFinite"),
+        ]
+    };
+    for end in ["\n", "\r\n"] {
+        let crlf = |s: &str| s.replace('\n', end);
+        let (_, issues, _d) = load_and_stream(&crlf(&ev), &crlf(&fr));
+        assert_eq!(
+            line_event_kind(&issues),
+            expected(0),
+            "{end:?}: {issues:#?}"
+        );
+        // A blank line after the first row moves the rows after it one line down.
+        let blank = |s: &str, next: &str| crlf(&s.replacen(next, &format!("\n{next}"), 1));
+        let (ev, fr) = (blank(&ev, "\ns1,"), blank(&fr, "\nc1,0.1,"));
+        let (_, issues, _d) = load_and_stream(&ev, &fr);
+        assert_eq!(
+            line_event_kind(&issues),
+            expected(1),
+            "{end:?}: {issues:#?}"
+        );
+    }
+    // The duplicate time of s1 (dropped already by its kind) names both lines: 25 and 24.
+    let ev_ok = format!("{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\n");
+    let (_, issues, _d) = load_and_stream(&ev_ok.replace('\n', "\r\n"), &fr.replace('\n', "\r\n"));
+    let dup = issues.iter().find(|i| i.problem.kind() == "DuplicateTime");
+    assert!(
+        dup.is_some_and(|i| i.line == 25 && i.to_string().contains("line 24")),
+        "{issues:#?}"
+    );
+}

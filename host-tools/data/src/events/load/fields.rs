@@ -7,15 +7,41 @@ use std::path::Path;
 
 use super::issues::{EventsError, IssueProblem, LoadIssue, HEADING_TOLERANCE};
 
-pub(super) fn open(path: &Path) -> Result<csv::Reader<BufReader<File>>, EventsError> {
-    let file = File::open(path).map_err(|source| EventsError::Io {
+/// How a file ends its lines, which the record line numbers depend on (see [`record_line`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LineEnds {
+    /// The first line ends with `\r\n` (a Windows file).
+    crlf: bool,
+}
+
+pub(super) fn open(path: &Path) -> Result<(csv::Reader<BufReader<File>>, LineEnds), EventsError> {
+    let io = |source| EventsError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    Ok(csv::ReaderBuilder::new()
+    };
+    let file = File::open(path).map_err(io)?;
+    let mut buf = BufReader::with_capacity(1 << 20, file);
+    let head = buf.fill_buf().map_err(io)?;
+    let crlf = memchr::memchr(b'\n', head).is_some_and(|i| i > 0 && head[i - 1] == b'\r');
+    let rdr = csv::ReaderBuilder::new()
         .flexible(true)
         .trim(csv::Trim::All)
-        .from_reader(BufReader::with_capacity(1 << 20, file)))
+        .from_reader(buf);
+    Ok((rdr, LineEnds { crlf }))
+}
+
+/// The 1-based line of a record the CSV reader read from `start` to `end`. The reader's own
+/// record position is taken before it skips the line end left by the previous record (the `\n`
+/// of a `\r\n`, where it stopped at the `\r`) and blank lines, so it was short on every row of
+/// a Windows file and on a row right after blank lines. At `end` the reader has counted every line
+/// end up to the record's own: on a `\r\n` line that is the `\r` (the `\n` is not counted yet),
+/// on a `\n` line the `\n` (one line further), at the end of a file without a final newline none.
+fn record_line(start: &csv::Position, end: &csv::Position, ends: LineEnds) -> u64 {
+    if ends.crlf {
+        end.line()
+    } else {
+        start.line().max(end.line().saturating_sub(1))
+    }
 }
 
 pub(super) fn column_map(
@@ -53,12 +79,15 @@ pub(super) fn next_record(
     rec: &mut csv::ByteRecord,
     expected: usize,
     id_col: usize,
+    ends: LineEnds,
 ) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
     let line = rdr.position().line();
     match rdr.read_byte_record(rec) {
         Ok(false) => Ok(None),
         Ok(true) => {
-            let line = rec.position().map_or(line, |p| p.line());
+            let line = rec
+                .position()
+                .map_or(line, |p| record_line(p, rdr.position(), ends));
             // No field of an event folder spans lines: one that does was opened by a stray `"` and
             // swallowed the following lines (up to the next `"` or the end of the file).
             if let Some(broken) = rec.iter().position(|f| memchr::memchr(b'\n', f).is_some()) {

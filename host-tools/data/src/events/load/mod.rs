@@ -267,11 +267,11 @@ fn read_events(
     rejected: &mut HashMap<String, ()>,
     issues: &mut Issues,
 ) -> Result<(), EventsError> {
-    let mut rdr = open(path)?;
+    let (mut rdr, ends) = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &EVENT_COLUMNS)?;
     let mut rec = csv::ByteRecord::new();
     let mut first_line: HashMap<String, u64> = HashMap::new();
-    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0])? {
+    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0], ends)? {
         let line = match r {
             Ok(line) => line,
             Err(issue) => {
@@ -417,7 +417,7 @@ fn read_frames<E: From<EventsError>>(
     issues: &mut Issues,
     mut stream: Option<&mut Stream<'_, E>>,
 ) -> Result<(), E> {
-    let mut rdr = open(path)?;
+    let (mut rdr, ends) = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
     let acc_partner_col = headers.iter().position(|h| h == "acc_sur");
     let mut rec = csv::ByteRecord::new();
@@ -428,7 +428,7 @@ fn read_frames<E: From<EventsError>>(
     let mut previous_row: Option<usize> = None;
     // A row whose event id cannot be read: its issue, repeated for the event of the next good row.
     let mut unattributed: Option<LoadIssue> = None;
-    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0])? {
+    while let Some(r) = next_record(path, &mut rdr, &mut rec, headers.len(), cols[0], ends)? {
         let line = match r {
             Ok(line) => line,
             Err(mut issue) => {
