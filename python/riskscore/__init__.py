@@ -258,7 +258,11 @@ def write_events(
     Both files are written under temporary names and renamed into place, so a failure leaves the
     folder as it was. Existing ``events.csv``/``frames.csv`` raise ``FileExistsError`` unless
     ``overwrite=True``. A missing or non-finite value raises ``EventsError`` naming the table, row
-    and column; an unknown kind or an event_id missing from the events table too.
+    and column; an unknown kind or an event_id missing from the events table too. The tables are
+    also checked as :func:`read_events` checks a folder (frames in time order within the event's
+    interval, event_ids unique, every event with frames, t_impact on crash/near_crash events
+    only, plausible sizes and speeds): a problem raises ``EventsError`` listing them by table row
+    and nothing is written.
     """
     ev = _select(as_table(events), "events", _EVENT_TYPES)
     fr = _select(as_table(frames), "frames", _FRAME_TYPES)

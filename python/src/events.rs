@@ -2,7 +2,7 @@
 //! and written by riskscore-data. Frames carry the pair column names (`x_i ... width_j`), so a
 //! frames table goes straight into `ssm` and `Model.score`.
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use arrow_array::cast::AsArray;
@@ -12,7 +12,8 @@ use arrow_pyarrow::{PyArrowType, Table};
 use arrow_schema::{DataType, Field, Schema};
 use pyo3::prelude::*;
 use riskscore_data::events::{
-    load_events, Dims, Event, EventKind, EventSet, EventWriter, Frame, EVENTS_FILE, FRAMES_FILE,
+    load_events, Dims, Event, EventKind, EventSet, EventWriter, Frame, IssueProblem, EVENTS_FILE,
+    FRAMES_FILE,
 };
 use riskscore_data::ssm_csv::STATE_FIELDS;
 use scorer_core::VehicleState;
@@ -262,13 +263,18 @@ fn events_of(batches: &[RecordBatch]) -> Result<Vec<Event>, Failure> {
 }
 
 /// Adds the frames (columns `event_id`, `time`, `x_i ... acc_i`, `x_j ... acc_j`) to their
-/// events, in table order; the box sizes are the event's.
-fn attach_frames(events: &mut [Event], batches: &[RecordBatch]) -> Result<(), Failure> {
+/// events, in table order; the box sizes are the event's. Returns, per event, the table rows of
+/// its frames.
+fn attach_frames(
+    events: &mut [Event],
+    batches: &[RecordBatch],
+) -> Result<Vec<Vec<usize>>, Failure> {
     let index: HashMap<String, usize> = events
         .iter()
         .enumerate()
         .map(|(k, e)| (e.id.clone(), k))
         .collect();
+    let mut rows: Vec<Vec<usize>> = vec![Vec::new(); events.len()];
     for_each_row("frames", batches, |c, row| {
         let id = c.text(0, row)?;
         let &k = index.get(id).ok_or_else(|| {
@@ -295,8 +301,93 @@ fn attach_frames(events: &mut [Event], batches: &[RecordBatch]) -> Result<(), Fa
             partner: state(9, d.length_partner, d.width_partner)?,
         };
         events[k].frames.push(frame);
+        rows[k].push(c.first_row + row);
         Ok(())
-    })
+    })?;
+    Ok(rows)
+}
+
+/// Writes `list` as an event folder in `dir` (the partner acceleration included, so the folder
+/// reads back with exactly these values).
+fn write_folder(dir: &Path, list: &[Event]) -> Result<(), Failure> {
+    let mut writer = EventWriter::create_with_partner_acceleration(dir)
+        .map_err(|e| Failure::Events(e.to_string()))?;
+    for event in list {
+        writer
+            .write_event(event)
+            .map_err(|e| Failure::Events(e.to_string()))?;
+    }
+    writer.finish().map_err(|e| Failure::Events(e.to_string()))
+}
+
+/// Refuses tables that would make a folder `read_events` and `riskctl` refuse (frames out of
+/// time order, a repeated event_id, an event without frames, a crash without t_impact, ...): the
+/// folder is written to a scratch folder and read back by riskscore-data's loader, whose
+/// problems are named by table row. `frame_rows` are the table rows of each event's frames.
+fn check_readable(list: &[Event], frame_rows: &[Vec<usize>]) -> Result<(), Failure> {
+    let scratch = tempfile::Builder::new()
+        .prefix("riskscore-write-check-")
+        .tempdir()
+        .map_err(|e| Failure::Events(format!("scratch folder to check the tables: {e}")))?;
+    write_folder(scratch.path(), list)?;
+    let (_, issues) = load_events(scratch.path()).map_err(|e| Failure::Events(e.to_string()))?;
+    let problems: Vec<_> = issues.iter().filter(|i| !i.problem.is_note()).collect();
+    if problems.is_empty() {
+        return Ok(());
+    }
+    // Lines of the written files (header = line 1) back to table rows: events in table order,
+    // each event's frames in table order.
+    let written_frames: Vec<usize> = frame_rows.iter().flatten().copied().collect();
+    let event_rows: Vec<usize> = (0..list.len()).collect();
+    let row_of = |rows: &[usize], line: u64| {
+        (line as usize)
+            .checked_sub(2)
+            .and_then(|k| rows.get(k).copied())
+    };
+    let count: u64 = problems.iter().map(|i| i.count()).sum();
+    let lines: Vec<String> = problems
+        .iter()
+        .map(|i| {
+            let (table, rows) = if i.file.file_name() == Some(FRAMES_FILE.as_ref()) {
+                ("frames", &written_frames)
+            } else {
+                ("events", &event_rows)
+            };
+            let mut line = table.to_owned();
+            if let Some(r) = row_of(rows, i.line) {
+                line.push_str(&format!(" row {r}"));
+            }
+            if let Some(c) = &i.column {
+                line.push_str(&format!(" column {c}"));
+            }
+            if let Some(id) = &i.event_id {
+                line.push_str(&format!(": event {id:?}"));
+            }
+            // A problem that points at another line of the same file points at its row.
+            let mut problem = i.problem.to_string();
+            if let IssueProblem::DuplicateEventId { first_line: other }
+            | IssueProblem::DuplicateTime {
+                previous_line: other,
+                ..
+            }
+            | IssueProblem::UnsortedTime {
+                previous_line: other,
+                ..
+            } = i.problem
+            {
+                if let Some(r) = row_of(rows, other) {
+                    problem = problem.replace(&format!("line {other}"), &format!("row {r}"));
+                }
+            }
+            line.push_str(&format!(": {problem}"));
+            line
+        })
+        .collect();
+    Err(Failure::Events(format!(
+        "{count} problem(s): the tables would make an event folder that read_events refuses \
+         (nothing was written):\n  {}",
+        lines.join("\n  ")
+    )))
 }
 
 /// Writes an event folder from the (events, frames) tables (see `riskscore.write_events`).
@@ -322,17 +413,11 @@ pub fn write_events(
             }
         }
         let mut list = events_of(events.0.record_batches())?;
-        attach_frames(&mut list, frames.0.record_batches())?;
+        let frame_rows = attach_frames(&mut list, frames.0.record_batches())?;
+        check_readable(&list, &frame_rows)?;
         // The partner acceleration is always known here (recorded or derived when read), so it
         // is written: the folder reads back with exactly these values.
-        let mut writer = EventWriter::create_with_partner_acceleration(&dir)
-            .map_err(|e| Failure::Events(e.to_string()))?;
-        for event in &list {
-            writer
-                .write_event(event)
-                .map_err(|e| Failure::Events(e.to_string()))?;
-        }
-        writer.finish().map_err(|e| Failure::Events(e.to_string()))
+        write_folder(&dir, &list)
     });
     written.map_err(|f| f.into_py(py))
 }

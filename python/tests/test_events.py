@@ -86,3 +86,28 @@ def test_a_last_line_without_newline_is_read_and_noted(tmp_path):
         events, frames = riskscore.read_events(folder)
     assert events.num_rows == 376
     assert frames.num_rows == lines - 1
+
+
+def test_tables_the_loader_would_refuse_are_not_written(tmp_path):
+    """Frames out of time order, a repeated event_id, an event without frames: write_events
+    refuses them, naming the table row, instead of writing a folder read_events refuses (over
+    a good one with overwrite=True)."""
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    target = tmp_path / "folder"
+    riskscore.write_events(target, events, frames)
+    before = {name: (target / name).read_bytes() for name in ("events.csv", "frames.csv")}
+    first = events.column("event_id")[0].as_py()
+    rows = pc.indices_nonzero(pc.equal(frames.column("event_id"), first)).to_pylist()
+    order = list(range(frames.num_rows))
+    order[rows[1]], order[rows[2]] = order[rows[2]], order[rows[1]]
+    swapped = frames.take(order)
+    with pytest.raises(riskscore.EventsError, match=rf"frames row {rows[2]} column time: event .*is before the previous frame's .* \(row {rows[1]}\)"):
+        riskscore.write_events(target, events, swapped, overwrite=True)
+    with pytest.raises(riskscore.EventsError, match=r"events row 376 column event_id: .*already used on row 0;"):
+        riskscore.write_events(target, pa.concat_tables([events, events.slice(0, 1)]), frames, overwrite=True)
+    with pytest.raises(riskscore.EventsError, match=r"events row 0: event .*: event has no frames"):
+        riskscore.write_events(target, events, frames.filter(pc.not_equal(frames.column("event_id"), first)), overwrite=True)
+    assert {name: (target / name).read_bytes() for name in before} == before
+    with pytest.raises(riskscore.EventsError, match="has no frames"):
+        riskscore.write_events(tmp_path / "new", events, frames.slice(0, 0))
+    assert not (tmp_path / "new").exists()
