@@ -288,10 +288,13 @@ def _model_specs(models: Union[ModelSpec, Sequence[ModelSpec], Mapping[str, Mode
     return [path_of(m) for m in models]
 
 
-def _choice(value: Threshold) -> Union[float, str]:
+def _choice(value: Threshold, row: Optional[str] = None) -> Union[float, str]:
     if value is None:
         return "none"
     if isinstance(value, str):
+        if value not in ("default", "none"):
+            where = f"thresholds[{row!r}]" if row is not None else "thresholds"
+            raise ModelError(f'{where}: {value!r} is not a number, "default", "none" or None')
         return value
     return float(value)
 
@@ -315,7 +318,7 @@ def evaluate(
     """
     specs = _model_specs(models)
     if isinstance(thresholds, Mapping):
-        every, by_name = None, {name: _choice(t) for name, t in thresholds.items()}
+        every, by_name = None, {name: _choice(t, name) for name, t in thresholds.items()}
     else:
         every, by_name = _choice(thresholds), {}
     text, issues, count = _riskscore.evaluate(

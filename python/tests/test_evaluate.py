@@ -49,3 +49,11 @@ def test_errors_name_the_problem(simulated, tmp_path):
         riskscore.evaluate(simulated, [tmp_path / "missing.rsk"])
     with pytest.raises(riskscore.EventsError, match="event folder"):
         riskscore.evaluate(tmp_path, [DRL])
+
+
+def test_a_threshold_word_that_is_not_one_is_named(simulated):
+    """Not a pyo3 TypeError listing enum variants: a ModelError naming the value (and row)."""
+    with pytest.raises(riskscore.ModelError, match="""thresholds: 'Default' is not a number, "default", "none" or None"""):
+        riskscore.evaluate(simulated, [DRL], thresholds="Default")
+    with pytest.raises(riskscore.ModelError, match="""thresholds\\['TTC2D'\\]: '1.5' is not a number"""):
+        riskscore.evaluate(simulated, [DRL], thresholds={"TTC2D": "1.5"})
