@@ -47,6 +47,9 @@ def read_file(path: str) -> pa.Table:
         import pyarrow.csv as pcsv
 
         return pcsv.read_csv(path)
+    except FileNotFoundError as e:
+        # pyarrow's message for a missing Parquet file is the bare path.
+        raise InputFileError(f"{path}: cannot read: no such file") from e
     except (OSError, pa.ArrowException) as e:
         raise InputFileError(f"{path}: cannot read: {e}") from e
 

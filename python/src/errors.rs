@@ -52,3 +52,18 @@ pub fn bad_rows(errors: impl IntoIterator<Item = RowError>) -> Vec<BadRow> {
         .map(|e| (e.line.saturating_sub(1), e.column, e.problem.to_string()))
         .collect()
 }
+
+/// `e` and its causes, `: `-separated (a cause its message already shows is not repeated), as
+/// `riskctl` prints them: `model file m.rsk: cannot read: No such file or directory (os error 2)`.
+pub fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let shown = c.to_string();
+        if !text.contains(&shown) {
+            text = format!("{text}: {shown}");
+        }
+        cause = c.source();
+    }
+    text
+}

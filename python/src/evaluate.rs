@@ -8,7 +8,7 @@ use riskscore_eval::model_files::{named_models, ModelFile};
 use riskscore_eval::streaming::{evaluate_folder_gathering, Gather};
 use riskscore_eval::Method;
 
-use crate::errors::Failure;
+use crate::errors::{with_causes, Failure};
 
 /// What one row's threshold is set to (from the Python `thresholds` argument).
 #[derive(Clone, Copy, Debug, FromPyObject)]
@@ -100,7 +100,7 @@ pub fn evaluate(
     skip_bad_events: bool,
 ) -> PyResult<(String, Vec<String>, u64)> {
     let evaluated = py.detach(|| -> Result<_, Failure> {
-        let files = ModelFile::read_all(&models).map_err(|e| Failure::Model(e.to_string()))?;
+        let files = ModelFile::read_all(&models).map_err(|e| Failure::Model(with_causes(&e)))?;
         let mut methods = named_models(&files).map_err(|e| Failure::Model(e.to_string()))?;
         methods.extend(Method::baselines());
         let chosen = thresholds(&files, &methods, threshold_all, &thresholds_by_name)?;
@@ -112,7 +112,7 @@ pub fn evaluate(
         let where_ = || format!("event folder {}", events.display());
         let folder =
             evaluate_folder_gathering(&events, &methods, PrepareConfig::default(), workers, gather)
-                .map_err(|e| Failure::Events(format!("{}: {e}", where_())))?;
+                .map_err(|e| Failure::Events(format!("{}: {}", where_(), with_causes(&e))))?;
         let issues: Vec<String> = folder.load_issues.iter().map(|i| i.to_string()).collect();
         // Notes (a file without a final newline) leave nothing out: not counted as problems.
         let count = folder

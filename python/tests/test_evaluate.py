@@ -45,7 +45,7 @@ def test_real_safe_driving_matches_the_cli(riskctl):
 def test_errors_name_the_problem(simulated, tmp_path):
     with pytest.raises(riskscore.ModelError, match='no row named "NOPE"'):
         riskscore.evaluate(simulated, [DRL], thresholds={"NOPE": 1.0})
-    with pytest.raises(riskscore.ModelError, match="missing.rsk"):
+    with pytest.raises(riskscore.ModelError, match="missing.rsk: cannot read: No such file"):
         riskscore.evaluate(simulated, [tmp_path / "missing.rsk"])
     with pytest.raises(riskscore.EventsError, match="event folder"):
         riskscore.evaluate(tmp_path, [DRL])

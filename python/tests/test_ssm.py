@@ -137,6 +137,12 @@ def test_truncated_parquet_names_the_file(tmp_path, golden_pairs):
         riskscore.ssm(path)
 
 
+def test_a_missing_file_is_named_with_the_reason(tmp_path):
+    for name in ("gone.parquet", "gone.csv"):
+        with pytest.raises(riskscore.InputFileError, match=rf"{name}: cannot read: .*no such file"):
+            riskscore.ssm(tmp_path / name)
+
+
 def test_zero_copy_round_trip(golden_pairs):
     table = golden_pairs.combine_chunks()
     out = riskscore.ssm(table, keep_input=True)
