@@ -101,7 +101,12 @@ fn partner_acceleration_is_derived_or_read() {
     let mut fr = String::from(FR_HEADER);
     for k in 0..11 {
         let t = k as f64 / 10.0;
-        fr += &format!("e,{t},0,0,10,0,1,0,0,30,0,{},0,1,0\n", 8.0 - 2.0 * t);
+        fr += &format!(
+            "e,{t},{},0,10,0,1,0,0,{},0,{},0,1,0\n",
+            10.0 * t,
+            30.0 + 8.0 * t - t * t,
+            8.0 - 2.0 * t
+        );
     }
     let ev = format!("{EV_HEADER}e,safe,0,1,,4,2,4,2\n");
     let (set, issues, _d) = load(&ev, &fr);
@@ -960,4 +965,84 @@ fn line_numbers_hold_for_windows_line_ends_and_blank_lines() {
         dup.is_some_and(|i| i.line == 25 && i.to_string().contains("line 24")),
         "{issues:#?}"
     );
+}
+
+#[test]
+fn speeds_in_km_h_are_noted_and_the_event_kept() {
+    // s1's ego speeds in km/h (36 for 10 m/s: its positions cover 20 m, its speeds 72 m); n1's
+    // partner speeds in km/h (28.8 for 8 m/s); c1 in m/s.
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\nn1,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        rows("c1", 21),
+        rows("s1", 21).replace(",10,0,1,0,-0.5,", ",36,0,1,0,-0.5,"),
+        rows("n1", 21).replace(",8,0,1,0\n", ",28.8,0,1,0\n")
+    );
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1", "n1"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (3, Some("s1"), "SpeedsExceedPath"),
+            (4, Some("n1"), "SpeedsExceedPath")
+        ],
+        "{issues:#?}"
+    );
+    assert!(issues.iter().all(|i| i.problem.is_note()));
+    let (ego, sur) = (issues[0].to_string(), issues[1].to_string());
+    assert!(
+        ego.contains("`vx_ego`") && ego.contains("3.6 times"),
+        "{ego}"
+    );
+    assert!(
+        sur.contains("`vx_sur`") && sur.contains("3.6 times"),
+        "{sur}"
+    );
+    // The notes beyond the first 20 are counted in a note too.
+    let many: String = (0..25)
+        .map(|k| format!("k{k},safe,0,2,,4.5,1.8,5,2\n"))
+        .collect();
+    let frames: String = (0..25)
+        .map(|k| rows(&format!("k{k}"), 21).replace(",10,0,1,0,-0.5,", ",36,0,1,0,-0.5,"))
+        .collect();
+    let (set, issues, _d) = load_and_stream(
+        &format!("{EV_HEADER}{many}"),
+        &format!("{FR_HEADER}{frames}"),
+    );
+    assert_eq!(set.len(), 25);
+    assert_eq!(issues.len(), 21, "{issues:#?}");
+    assert!(issues.iter().all(|i| i.problem.is_note()), "{issues:#?}");
+    // A standing partner (no path) and speeds that match their path get no note.
+    let fr = format!(
+        "{FR_HEADER}{}",
+        rows("s1", 21).replace(",8,0,1,0\n", ",0.5,0,1,0\n")
+    );
+    let ev = format!("{EV_HEADER}s1,safe,0,2,,4.5,1.8,5,2\n");
+    let standing = fr
+        .lines()
+        .map(|l| {
+            let mut f: Vec<&str> = l.split(',').collect();
+            if f[0] == "s1" {
+                f[9] = "30";
+            }
+            f.join(",") + "\n"
+        })
+        .collect::<String>();
+    let (set, issues, _d) = load_and_stream(&ev, &standing);
+    assert_eq!((set.len(), issues.len()), (1, 0), "{issues:#?}");
+    // An ego-centred folder (ego at the origin, as can-bridge check writes) is not checked.
+    let centred = fr
+        .lines()
+        .map(|l| {
+            let mut f: Vec<&str> = l.split(',').collect();
+            if f[0] == "s1" {
+                f[2] = "0";
+            }
+            f.join(",") + "\n"
+        })
+        .collect::<String>();
+    let (set, issues, _d) = load_and_stream(&ev, &centred);
+    assert_eq!((set.len(), issues.len()), (1, 0), "{issues:#?}");
 }

@@ -17,6 +17,11 @@ pub const WIDTH_RANGE_M: (f32, f32) = (0.3, 5.0);
 pub const MAX_SPEED_M_S: f32 = 100.0;
 /// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
 pub const KEPT_PER_KIND: usize = 20;
+/// Largest ratio of a road user's speeds integrated over time to the path its positions cover
+/// before the event gets an [`IssueProblem::SpeedsExceedPath`] note (km/h read as m/s: 3.6).
+pub const SPEED_PATH_RATIO_MAX: f64 = 1.5;
+/// Shortest distance (m) the speeds must cover for that check (a standing road user is skipped).
+pub const SPEED_CHECK_MIN_PATH_M: f64 = 10.0;
 
 /// A problem that stops a folder from being read at all.
 #[derive(Debug, thiserror::Error)]
@@ -160,6 +165,12 @@ pub enum IssueProblem {
     /// (`12.3456` read as `12.3`). The row is kept.
     #[error("no newline at the end of the file: this last row may have been cut short (a truncated copy?); it is read as it stands, check its last values")]
     NoFinalNewline,
+    #[error("frames.csv `vx_{vehicle}`, `vy_{vehicle}`: the speeds add up to {speed_path:.1} m over the event, {:.1} times the {path:.1} m its positions `x_{vehicle}`, `y_{vehicle}` cover: speeds in km/h (3.6 times) or mph (2.24 times), or positions that do not follow the road user? Speeds must be m/s, positions in one fixed world frame. The event is kept; check its units", speed_path / path.max(1e-9))]
+    SpeedsExceedPath {
+        vehicle: &'static str,
+        speed_path: f64,
+        path: f64,
+    },
 }
 
 impl IssueProblem {
@@ -189,13 +200,19 @@ impl IssueProblem {
             Self::NoFrames => "NoFrames",
             Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
             Self::NoFinalNewline => "NoFinalNewline",
+            Self::SpeedsExceedPath { .. } => "SpeedsExceedPath",
         }
     }
 
     /// A note: worth telling the user, but no row or event is left out because of it (so it does
     /// not count among the problems that make `evaluate` refuse a folder).
     pub fn is_note(&self) -> bool {
-        matches!(self, Self::NoFinalNewline)
+        match self {
+            Self::NoFinalNewline | Self::SpeedsExceedPath { .. } => true,
+            // The notes beyond the first of their kind are notes too.
+            Self::MoreOfKind { kind, .. } => matches!(*kind, "NoFinalNewline" | "SpeedsExceedPath"),
+            _ => false,
+        }
     }
 }
 
