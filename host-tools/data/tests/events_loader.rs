@@ -387,9 +387,10 @@ fn missing_columns_and_files_are_errors() {
     let no_kind = ev.replace("kind,", "type,");
     let dir = folder(&no_kind, &fr);
     match load_events(dir.path()) {
-        Err(EventsError::MissingColumn { column, path }) => {
+        Err(EventsError::MissingColumn { column, path, hint }) => {
             assert_eq!(column, "kind");
             assert!(path.ends_with("events.csv"));
+            assert_eq!(hint, "", "nothing explains a missing column");
         }
         other => panic!("{other:?}"),
     }
@@ -1045,4 +1046,30 @@ fn speeds_in_km_h_are_noted_and_the_event_kept() {
         .collect::<String>();
     let (set, issues, _d) = load_and_stream(&ev, &centred);
     assert_eq!((set.len(), issues.len()), (1, 0), "{issues:#?}");
+}
+
+#[test]
+fn a_missing_column_names_another_separator_or_case() {
+    let (ev, fr) = good();
+    // Semicolons (a spreadsheet in a comma-decimal locale): the header is one column.
+    let dir = folder(&ev.replace(',', ";"), &fr);
+    let e = load_events(dir.path()).unwrap_err().to_string();
+    assert!(
+        e.contains("events.csv: line 1: missing required column `event_id`")
+            && e.contains("the file is separated by semicolons"),
+        "{e}"
+    );
+    let dir = folder(&ev, &fr.replace(',', "\t"));
+    let e = load_events(dir.path()).unwrap_err().to_string();
+    assert!(
+        e.contains("frames.csv") && e.contains("separated by tabs"),
+        "{e}"
+    );
+    // Upper-case names.
+    let dir = folder(&ev.replacen("kind", "Kind", 1), &fr);
+    let e = load_events(dir.path()).unwrap_err().to_string();
+    assert!(
+        e.contains("missing required column `kind` (there is `Kind`: column names are lower case"),
+        "{e}"
+    );
 }

@@ -63,13 +63,37 @@ pub(super) fn column_map(
             headers
                 .iter()
                 .position(|h| h == name)
-                .ok_or(EventsError::MissingColumn {
+                .ok_or_else(|| EventsError::MissingColumn {
                     path: path.to_path_buf(),
                     column: name,
+                    hint: missing_column_hint(&headers, name),
                 })
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok((cols, headers))
+}
+
+/// Why a header may lack `name`: a file separated by something else than commas (the header
+/// is then one column), or the name in other case.
+fn missing_column_hint(headers: &csv::StringRecord, name: &str) -> String {
+    if let [one] = headers.iter().collect::<Vec<_>>()[..] {
+        for (sep, what) in [(';', "semicolons"), ('\t', "tabs"), ('|', "`|`")] {
+            if one.contains(sep) {
+                let mut shown: String = one.chars().take(60).collect();
+                if shown.len() < one.len() {
+                    shown.push('…');
+                }
+                return format!(
+                    " (the header is one column, `{shown}`: the file is separated by {what}; \
+                     event folders are comma separated)"
+                );
+            }
+        }
+    }
+    match headers.iter().find(|h| h.eq_ignore_ascii_case(name)) {
+        Some(h) => format!(" (there is `{h}`: column names are lower case, spelled exactly)"),
+        None => String::new(),
+    }
 }
 
 /// Reads one record; `Ok(None)` at end of file, `Err(issue)` for a malformed row.

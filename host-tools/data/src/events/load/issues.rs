@@ -39,8 +39,14 @@ pub enum EventsError {
         #[source]
         source: csv::Error,
     },
-    #[error("{}: line 1: missing required column `{column}`", path.display())]
-    MissingColumn { path: PathBuf, column: &'static str },
+    /// `hint` (empty or starting with a space) says what the header holds instead when that
+    /// explains it: another separator, the name in other case.
+    #[error("{}: line 1: missing required column `{column}`{hint}", path.display())]
+    MissingColumn {
+        path: PathBuf,
+        column: &'static str,
+        hint: String,
+    },
     /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
     /// caller reads it whole with [`load_events`] instead.
     #[error("{}: line {line}: event `{}`: {reason}; it cannot be streamed event by event", path.display(), ShortId(event_id))]
