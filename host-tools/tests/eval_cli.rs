@@ -901,3 +901,39 @@ fn out_files_are_replaced_together_or_not_at_all() {
     assert!(stderr.contains("same file as --model"), "{stderr}");
     assert_eq!(snapshot(), after);
 }
+
+#[test]
+fn calibrate_lists_the_problems_of_a_normal_folder_it_refuses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let events = common::simulate(tmp.path());
+    // A repeated frame (line 3 repeats line 2) drops the first event; the refusal used to say
+    // "the problems listed above" without listing any, and advise a flag calibrate lacks.
+    let frames = events.join("frames.csv");
+    let text = std::fs::read_to_string(&frames).unwrap();
+    let second = text.lines().nth(1).unwrap();
+    let text = text.replacen(second, &format!("{second}\n{second}"), 1);
+    std::fs::write(&frames, text).unwrap();
+    let out = tmp.path().join("c.rsk");
+    let o = common::riskctl(&[
+        "calibrate",
+        "--model",
+        common::shipped_model("drl-default.rsk").to_str().unwrap(),
+        "--normal",
+        events.to_str().unwrap(),
+        "--false-alarm-rate",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("frames.csv:3: column `time`") && err.contains("repeats the frame on line 2"),
+        "{err}"
+    );
+    assert!(
+        err.contains("out of the calibration") && !err.contains("--skip-bad-events"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

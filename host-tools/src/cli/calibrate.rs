@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
-use riskscore_eval::streaming::evaluate_folder;
+use riskscore_eval::streaming::{evaluate_folder, FolderRefusal};
 use riskscore_eval::threshold::{calibrate_safe_share, safe_maxima};
 use scorer_core::model::{self, DefaultThreshold, ModelBlob, ThresholdRule};
 
@@ -158,9 +158,16 @@ fn curve_of(
 ) -> anyhow::Result<riskscore_eval::WarningCurve> {
     let folder = evaluate_folder(dir, methods, PrepareConfig::default(), workers())
         .with_context(|| format!("event folder {}", dir.display()))?;
-    folder
-        .check(false)
-        .with_context(|| format!("event folder {}", dir.display()))?;
+    super::evaluate::report_load_issues(&folder.load_issues);
+    match folder.check(false) {
+        Err(FolderRefusal::BadRows { valid_events }) => bail!(
+            "event folder {}: the problems listed above would leave their events out of the \
+             calibration; fix those rows (or write the {valid_events} valid events to a folder \
+             of their own)",
+            dir.display()
+        ),
+        refusal => refusal.with_context(|| format!("event folder {}", dir.display()))?,
+    }
     Ok(folder
         .curves
         .into_iter()
