@@ -140,7 +140,7 @@ class Model:
 
     @property
     def info(self) -> Dict[str, Any]:
-        """What ``riskctl inspect-model`` reports: ``kind`` (e.g. "DRL (int8)"), ``int8``,
+        """What ``riskctl inspect-model`` reports: ``kind`` (e.g. "drl-int8"), ``int8``,
         ``format_version``, ``input_schema``, ``encoding``, ``inputs`` (names of the network's
         inputs), ``payload_bytes``, ``payload_crc32``, ``total_bytes``, ``default_threshold``,
         ``threshold_rule`` (how the default threshold was chosen), ``domain_policy`` (what scoring

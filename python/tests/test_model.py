@@ -91,3 +91,9 @@ def test_bad_rows_score_nan_and_strict_raises(ngsim_frames):
         model.score(pairs, strict=True)
     with pytest.raises(riskscore.ColumnError, match="hy_i"):
         model.score(pairs.drop(columns=["hy_i"]))
+
+
+def test_info_docstring_shows_a_kind_info_returns():
+    """help(Model.info) gives an example of ``kind``: it is a value ``info`` really returns."""
+    kind = riskscore.Model.load(MODELS / "drl-default.rsk").info["kind"]
+    assert f'``kind`` (e.g. "{kind}")' in riskscore.Model.info.__doc__
