@@ -51,7 +51,7 @@ import numpy as np
 import pyarrow as pa
 
 from . import _riskscore
-from ._inputs import as_table, report_bad
+from ._inputs import as_table, columns_of, report_bad
 from .errors import (
     BadRowError,
     BadRowWarning,
@@ -100,7 +100,8 @@ def ssm(data: Any, *, keep_input: bool = False, strict: bool = False) -> pa.Tabl
     bad row when ``strict`` (otherwise a ``BadRowWarning``), ``InputFileError`` for an unreadable
     file.
     """
-    table, listed, count = _riskscore.ssm(as_table(data), keep_input)
+    with columns_of(data):
+        table, listed, count = _riskscore.ssm(as_table(data), keep_input)
     report_bad(listed, count, strict)
     return table
 
@@ -154,7 +155,8 @@ class Model:
         ``strict``). Input as for :func:`ssm`. Higher is riskier. A blob with a training-domain
         record is scored through its guard, as ``riskctl score`` and the ECU score it: outside
         the domain the blob's policy decides (the shipped DRL falls back to a kinematic score)."""
-        scores, listed, count = self._native._score(as_table(data))
+        with columns_of(data):
+            scores, listed, count = self._native._score(as_table(data))
         report_bad(listed, count, strict)
         return scores.to_numpy(zero_copy_only=True)
 
@@ -166,7 +168,8 @@ class Model:
         the domain :meth:`score` follows the blob's policy (``model.info["domain_policy"]``:
         ``"blend"``, ``"fallback"``, ``"clamp"``, ``"flag-only"``, or ``None`` without a record);
         under ``"blend"`` (the shipped DRL's) the score inside mixes in the kinematic fallback."""
-        flags, listed, count = self._native._in_domain(as_table(data))
+        with columns_of(data):
+            flags, listed, count = self._native._in_domain(as_table(data))
         report_bad(listed, count, strict)
         return flags.to_numpy(zero_copy_only=False)
 

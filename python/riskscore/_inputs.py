@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any, List, Optional, Tuple
+from contextlib import contextmanager
+from typing import Any, Iterator, List, Optional, Tuple
 
 import pyarrow as pa
 
-from .errors import BadRowError, BadRowWarning, InputFileError
+from .errors import BadRowError, BadRowWarning, ColumnError, InputFileError
 
 
 def as_table(data: Any) -> pa.Table:
@@ -35,6 +36,17 @@ def as_table(data: Any) -> pa.Table:
         f"expected a pyarrow Table or RecordBatch, a pandas or polars DataFrame, a dict of arrays "
         f"or a path to a .parquet/.csv file, not {type(data).__name__}"
     )
+
+
+@contextmanager
+def columns_of(data: Any) -> Iterator[None]:
+    """A ``ColumnError`` about ``data`` names the file when ``data`` is a path."""
+    try:
+        yield
+    except ColumnError as e:
+        if isinstance(data, (str, os.PathLike)):
+            raise ColumnError(f"{os.fspath(data)}: {e}") from None
+        raise
 
 
 def read_file(path: str) -> pa.Table:

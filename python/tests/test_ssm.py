@@ -1,14 +1,16 @@
 """riskscore.ssm: parity with `riskctl ssm`, input kinds, bad rows, errors, zero copy."""
+import re
 import time
 import warnings
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.csv as pcsv
 import pyarrow.parquet as pq
 import pytest
 
 import riskscore
-from conftest import PAIR_COLUMNS, rows_equal_bitwise
+from conftest import MODELS, PAIR_COLUMNS, rows_equal_bitwise
 
 
 def riskctl_ssm(riskctl, tmp_path, table):
@@ -205,3 +207,12 @@ def test_the_gil_is_released_while_the_kernel_runs(ngsim_frames):
         counter.join()
     # A held GIL would let the counter run only at the interpreter's switch interval (5 ms).
     assert during > 1000 * max(seconds, 0.01), (during, seconds)
+
+
+def test_a_file_without_a_pair_column_is_named(tmp_path, golden_pairs):
+    path = tmp_path / "pairs.csv"
+    pcsv.write_csv(golden_pairs.drop_columns(["acc_j"]), path)
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    for call in (riskscore.ssm, model.score, model.in_domain):
+        with pytest.raises(riskscore.ColumnError, match=rf"^{re.escape(str(path))}: .*acc_j"):
+            call(path)
