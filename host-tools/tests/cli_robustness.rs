@@ -497,3 +497,49 @@ fn a_frames_file_without_final_newline_is_a_warning_not_a_refusal() {
     let rows = std::fs::read_to_string(&scores).unwrap().lines().count();
     assert_eq!(rows, lines, "header + one row per frame");
 }
+
+#[test]
+fn train_lists_why_no_sequence_is_left() {
+    // Kinds spelled `Crash`, `Safe`: every event is dropped. The error used to be only
+    // "contains no usable sequences", without the problems that caused it.
+    let tmp = tempfile::tempdir().unwrap();
+    let events = simulate(tmp.path());
+    let path = events.join("events.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let text = text
+        .replace(",crash,", ",Crash,")
+        .replace(",near_crash,", ",Near_crash,")
+        .replace(",safe,", ",Safe,");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("run");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("events.csv:2: column `kind`") && err.contains("unknown kind `"),
+        "{err}"
+    );
+    assert!(err.contains("contains no usable sequences"), "{err}");
+    assert!(!out.exists());
+    // calibrate-domain reads its folders the same way.
+    let blob = tmp.path().join("guarded.rsk");
+    let o = riskctl(&[
+        "calibrate-domain",
+        "--model",
+        model("drl-default.rsk").to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        blob.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("events.csv:2: column `kind`"), "{err}");
+    assert!(!blob.exists());
+}

@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
 use scorer_core::model::{Blend, Model, ModelBlob, OutsidePolicy};
@@ -120,11 +119,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     refuse_overlaps(&args)?;
     let mut sequences = Vec::new();
     for dir in &args.events {
-        let folder = load_prepared(dir, &PrepareConfig::default())
-            .with_context(|| format!("event folder {}", dir.display()))?;
-        for note in folder.problem_notes() {
-            eprintln!("riskctl: {}: {note}", dir.display());
-        }
+        // Its problems are listed (also when they leave no sequence: they are why).
+        let folder =
+            super::load_prepared(dir).with_context(|| format!("event folder {}", dir.display()))?;
         sequences.extend(folder.sequences);
     }
     let measured_on = riskscore_train::export::domain_sequences(model, &sequences);

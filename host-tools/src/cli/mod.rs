@@ -39,11 +39,26 @@ pub mod ssm;
 pub mod train;
 
 /// The prepared sequences of an event folder ([`events::load_prepared`] under the default
-/// preparation rules); its problems are printed on stderr and those events left out.
+/// preparation rules); its problems are printed on stderr and those events left out. They are
+/// printed also when no sequence is left (then an error): they are why.
 pub fn load_prepared(dir: &Path) -> anyhow::Result<PreparedFolder> {
-    let folder = events::load_prepared(dir, &PrepareConfig::default())?;
+    let (set, load_issues) = events::load_events(dir)?;
+    let (sequences, prepare_issues) = events::prepare_sequences(&set, &PrepareConfig::default());
+    let folder = PreparedFolder {
+        dir: dir.to_path_buf(),
+        sequences,
+        counts: set.counts(),
+        load_issues,
+        prepare_issues,
+    };
     for note in folder.problem_notes() {
         eprintln!("{note}");
+    }
+    if folder.sequences.is_empty() {
+        return Err(events::EventsError::NoSequences {
+            path: dir.to_path_buf(),
+        }
+        .into());
     }
     Ok(folder)
 }
