@@ -1073,3 +1073,19 @@ fn a_missing_column_names_another_separator_or_case() {
         "{e}"
     );
 }
+
+#[test]
+fn problem_notes_count_the_problems_left_unlisted() {
+    // 25 unknown kinds: the loader keeps 20 and counts 5 in one MoreOfKind issue; the notes list
+    // 20 and must say 5 more problems (they said "1 more", the issues left).
+    let bad: String = (0..25)
+        .map(|k| format!("b{k},Safe,0,2,,4.5,1.8,5,2\n"))
+        .collect();
+    let ev = format!("{EV_HEADER}{bad}ok,safe,0,2,,4.5,1.8,5,2\n");
+    let dir = folder(&ev, &format!("{FR_HEADER}{}", rows("ok", 21)));
+    let folder =
+        riskscore_data::events::load_prepared(dir.path(), &PrepareConfig::default()).unwrap();
+    let notes = folder.problem_notes();
+    assert_eq!(notes.len(), 21, "{notes:#?}");
+    assert_eq!(notes[20], "warning: ... and 5 more problems", "{notes:#?}");
+}

@@ -53,8 +53,15 @@ impl PreparedFolder {
     /// without a sequence), the first few listed and the rest counted.
     pub fn problem_notes(&self) -> Vec<String> {
         let skipped = self.prepare_issues.len();
-        let mut notes = listed("warning", &self.load_issues, LISTED_LOAD_ISSUES, |more| {
-            format!("... and {more} more problems")
+        // The unlisted issues may stand for many problems each (`MoreOfKind`): count problems.
+        let unlisted: u64 = self
+            .load_issues
+            .iter()
+            .skip(LISTED_LOAD_ISSUES)
+            .map(LoadIssue::count)
+            .sum();
+        let mut notes = listed("warning", &self.load_issues, LISTED_LOAD_ISSUES, |_| {
+            format!("... and {unlisted} more problems")
         });
         notes.extend(listed(
             "note",
