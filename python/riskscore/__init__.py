@@ -10,8 +10,8 @@ QUICK START
     riskscore.ssm(frames)                            # frames carry the pair columns
     report = riskscore.evaluate("data/ngsim-us101-safe", models=["models/drl-default.rsk"])
 
-INPUT (``pairs``): a pyarrow Table or RecordBatch, a pandas or polars DataFrame, a dict of numpy
-arrays, anything with ``__arrow_c_stream__``, or a path to a ``.parquet``/``.csv`` file. It needs
+INPUT (``pairs``): a pyarrow Table or RecordBatch, a pandas or polars DataFrame (a polars
+LazyFrame is collected), a dict of numpy arrays, anything with ``__arrow_c_stream__``, or a path to a ``.parquet``/``.csv`` file. It needs
 the 18 pair columns of ``riskctl ssm`` (names matched case-insensitively, any order, other
 columns ignored); each Float64, Float32, Int64 or Int32:
     x_i, y_i            ego box centre (m, world frame)

@@ -25,9 +25,19 @@ def as_table(data: Any) -> pa.Table:
         return read_file(os.fspath(data))
     module = type(data).__module__.split(".")[0]
     if module == "pandas":
-        return pa.Table.from_pandas(data, preserve_index=False)
+        import pandas as pd
+
+        if isinstance(data, pd.DataFrame):
+            return pa.Table.from_pandas(data, preserve_index=False)
+        raise TypeError(f"expected a pandas DataFrame, not a pandas {type(data).__name__}")
     if module == "polars":
-        return data.to_arrow()
+        import polars as pl
+
+        if isinstance(data, pl.LazyFrame):
+            data = data.collect()
+        if isinstance(data, pl.DataFrame):
+            return data.to_arrow()
+        raise TypeError(f"expected a polars DataFrame or LazyFrame, not a polars {type(data).__name__}")
     if isinstance(data, dict):
         return pa.table(data)
     if hasattr(data, "__arrow_c_stream__"):

@@ -48,6 +48,7 @@ def test_every_input_kind_gives_the_same_table(golden_pairs):
         "pandas": frame,
         "pandas, upper case, reversed": upper,
         "polars": pl.from_arrow(golden_pairs),
+        "polars lazy": pl.from_arrow(golden_pairs).lazy(),
         "dict of numpy": {c: golden_pairs.column(c).to_numpy() for c in PAIR_COLUMNS},
     }
     assert isinstance(frame, pd.DataFrame)
@@ -128,6 +129,16 @@ def test_missing_and_non_numeric_columns_are_named(golden_pairs):
         riskscore.ssm(text)
     with pytest.raises(TypeError, match="pyarrow Table"):
         riskscore.ssm([1, 2, 3])
+
+
+def test_a_column_instead_of_a_frame_is_a_clear_type_error(golden_pairs):
+    """A pandas or polars Series (one column, not a frame) is named, not an AttributeError."""
+    import polars as pl
+
+    with pytest.raises(TypeError, match="expected a pandas DataFrame, not a pandas Series"):
+        riskscore.ssm(golden_pairs.to_pandas()["x_i"])
+    with pytest.raises(TypeError, match="expected a polars DataFrame or LazyFrame, not a polars Series"):
+        riskscore.ssm(pl.from_arrow(golden_pairs)["x_i"])
 
 
 def test_truncated_parquet_names_the_file(tmp_path, golden_pairs):
