@@ -543,3 +543,34 @@ fn train_lists_why_no_sequence_is_left() {
     assert!(err.contains("events.csv:2: column `kind`"), "{err}");
     assert!(!blob.exists());
 }
+
+#[test]
+fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
+    // `--out` naming an existing model file: it was "training failed: export: FILE: File exists
+    // (os error 17)", after the events had been read.
+    let tmp = tempfile::tempdir().unwrap();
+    let events = simulate(tmp.path());
+    let file = tmp.path().join("drl.rsk");
+    std::fs::write(&file, b"mine").unwrap();
+    let f = file.to_str().unwrap();
+    let e = events.to_str().unwrap();
+    for args in [
+        vec!["train", "--events", e, "--out", f],
+        vec!["ablation", "--events", e, "--out", f, "--singles-only"],
+        vec!["gssm", "ship", "--events", e, "--normal", e, "--out-dir", f],
+    ] {
+        let o = riskctl(&args);
+        let err = common::stderr(&o);
+        assert!(!o.status.success(), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("{f}: it is a file, not a folder"))
+                && err.contains("left as it was"),
+            "{args:?}: {err}"
+        );
+        assert!(
+            !err.contains("events"),
+            "{args:?}: refused before reading: {err}"
+        );
+        assert_eq!(std::fs::read(&file).unwrap(), b"mine");
+    }
+}

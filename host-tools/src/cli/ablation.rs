@@ -77,6 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &[("--config", args.config.as_deref())],
         &[("--out", &args.out)],
     )?;
+    super::output::refuse_file_as_folder("--out", &args.out, "ablation.csv and ablation.md")?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), None)?;
     for f in &args.fractions {
         if !(*f > 0.0 && *f <= 1.0) {

@@ -387,6 +387,11 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
     refuse_inputs(&a.common, &fallback_input(&a.fallback_from), &a.out_dir)?;
+    super::output::refuse_file_as_folder(
+        "--out-dir",
+        &a.out_dir,
+        "gssm-default.rsk, ssra-default.rsk, msra-gssm.rsk and gssm-ship.json",
+    )?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),

@@ -183,6 +183,21 @@ pub fn left_alone(out: &Path) -> String {
     }
 }
 
+/// Refuses an output folder `out` (given with `flag`) that exists as a file, before any work:
+/// the folder's files cannot be written into it (it was `File exists (os error 17)` after the
+/// data had been read).
+pub fn refuse_file_as_folder(flag: &str, out: &Path, writes: &str) -> anyhow::Result<()> {
+    if out.exists() && !out.is_dir() {
+        anyhow::bail!(
+            "{flag} {}: it is a file, not a folder: {writes} are written into a folder there; \
+             {}",
+            out.display(),
+            left_alone(out)
+        );
+    }
+    Ok(())
+}
+
 /// Refuses `outputs` that are, contain or lie inside one of `inputs` (`-` is skipped).
 pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
     riskscore_output::refuse_overlaps(inputs, outputs)?;

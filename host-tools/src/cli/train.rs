@@ -50,6 +50,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &[("--config", args.config.as_deref())],
         &[("--out", &args.out)],
     )?;
+    super::output::refuse_file_as_folder(
+        "--out",
+        &args.out,
+        "drl.json, msra.json, drl.rsk, drl-f32.rsk and msra.rsk",
+    )?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
     let folder = super::load_prepared(&args.events)?;
     let (seqs, counts) = (folder.sequences, folder.counts.to_string());
