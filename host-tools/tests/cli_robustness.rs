@@ -574,3 +574,34 @@ fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
         assert_eq!(std::fs::read(&file).unwrap(), b"mine");
     }
 }
+
+#[test]
+fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let config = tiny_config(dir.path());
+    let run = dir.path().join("run");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    for name in ["drl.json", "msra.json"] {
+        let checkpoint = run.join(name);
+        let o = riskctl(&["inspect-model", checkpoint.to_str().unwrap()]);
+        let err = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        // It was "integrity check failed: not a model blob: magic [7b, 0a, 20, 20]".
+        assert!(err.contains("it is a training checkpoint"), "{err}");
+        assert!(err.contains("riskctl export-model"), "{err}");
+    }
+    // A blob is still inspected.
+    let o = riskctl(&["inspect-model", run.join("drl.rsk").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+}

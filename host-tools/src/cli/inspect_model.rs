@@ -15,6 +15,17 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let blob = std::fs::read(&args.file)
         .with_context(|| format!("{}: cannot read", args.file.display()))?;
+    // A training checkpoint (JSON) is not a blob: say what it is and how to get the blob.
+    if blob.trim_ascii_start().starts_with(b"{")
+        && riskscore_train::export::Checkpoint::load(&args.file).is_ok()
+    {
+        anyhow::bail!(
+            "{}: not a model blob: it is a training checkpoint (the JSON `riskctl train` writes); \
+             export it first: riskctl export-model {} --out MODEL.rsk",
+            args.file.display(),
+            args.file.display()
+        );
+    }
     let text = riskscore_train::export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("{}: integrity check failed: {e}", args.file.display()))?;
     outln!("{}", args.file.display());
