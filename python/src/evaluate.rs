@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
-use riskscore_eval::streaming::{evaluate_folder_gathering, Gather};
+use riskscore_eval::streaming::{evaluate_folder_gathering, FolderRefusal, Gather};
 use riskscore_eval::Method;
 
 use crate::errors::{with_causes, Failure};
@@ -122,13 +122,20 @@ pub fn evaluate(
             .map(|i| i.count())
             .sum();
         if let Err(refusal) = folder.check(skip_bad_events) {
-            let mut message = format!("{}: {refusal}", where_());
+            // riskctl prints the problems first; here they follow the message.
+            let why = match refusal {
+                FolderRefusal::BadRows { valid_events } => format!(
+                    "the problems listed below would leave their events out of the metrics; fix \
+                     those rows, or pass skip_bad_events=True to evaluate the {valid_events} \
+                     valid events"
+                ),
+                other => other.to_string(),
+            };
+            let mut message = format!("{}: {why}", where_());
             if !issues.is_empty() {
                 message = format!("{message}\n  {}", issues.join("\n  "));
             }
-            return Err(Failure::Events(
-                message.replace("--skip-bad-events", "skip_bad_events=True"),
-            ));
+            return Err(Failure::Events(message));
         }
         let json = folder
             .to_json_text()

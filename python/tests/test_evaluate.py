@@ -57,3 +57,20 @@ def test_a_threshold_word_that_is_not_one_is_named(simulated):
         riskscore.evaluate(simulated, [DRL], thresholds="Default")
     with pytest.raises(riskscore.ModelError, match="""thresholds\\['TTC2D'\\]: '1.5' is not a number"""):
         riskscore.evaluate(simulated, [DRL], thresholds={"TTC2D": "1.5"})
+
+
+def test_a_folder_with_bad_rows_is_refused_pointing_at_the_problems_below(tmp_path):
+    """The problems follow the message (riskctl prints them before it: "listed above")."""
+    import shutil
+
+    folder = tmp_path / "bad"
+    shutil.copytree(NGSIM_SAFE, folder)
+    lines = (folder / "frames.csv").read_text().splitlines(keepends=True)
+    fields = lines[5].split(",")
+    fields[2] = "oops"
+    lines[5] = ",".join(fields)
+    (folder / "frames.csv").write_text("".join(lines))
+    with pytest.raises(riskscore.EventsError, match=r"problems listed below .*skip_bad_events=True[^\n]*\n  .*frames.csv:6:"):
+        riskscore.evaluate(folder, [DRL])
+    with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):
+        assert riskscore.evaluate(folder, [DRL], skip_bad_events=True)["events"]["safe"] == 375
