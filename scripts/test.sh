@@ -29,7 +29,7 @@ tests/firmware/run-tests.sh --lint-only
 step "cargo test: building the test binaries (cold about 6 min)"
 cargo test --workspace --no-run
 
-step "cargo test: running the workspace tests (about 3-5 min)"
+step "cargo test: running the workspace tests (about 1-3 min)"
 cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
 
 step "Python package: maturin wheel (dev profile), fresh venv, pytest (cold about 7 min with downloads, warm about 3 min)"
