@@ -900,11 +900,11 @@ metric exists in 14 of 15 folds (the mean is over those); n/a = it exists in non
 /// (`scripts/demo.sh` and `scripts/demo.sh --no-real` at commit time; docs/benchmarks.md has the
 /// full tables). Quoted, not computed: the other mode is not run.
 pub const WITH_REAL_FIGURES: &str =
-    "with the 376 real US-101 sequences (the default; the city ones train too): DRL A_ROC_90 91.1 vs \
-     TAdv 85.8, transfer 79.9 vs 75.1";
+    "with the 376 real US-101 sequences (the default; the city ones train too): DRL A_ROC_90 93.6 vs \
+     TAdv 85.8, transfer 82.1 vs 75.1";
 pub const WITHOUT_REAL_FIGURES: &str =
-    "without any real driving (--no-real), in distribution: DRL A_ROC_90 64.6 vs TAdv 64.7 (a tie \
-     within the fold std of 10.5) and P_PRC_90 83.9 vs 83.2 (MSRA: 73.6 and 87.4)";
+    "without any real driving (--no-real), in distribution: DRL A_ROC_90 72.3 vs TAdv 64.7 (fold std \
+     8.1; 93.6 vs 85.8 with it) and P_PRC_90 88.6 vs 83.2 (MSRA: 73.6 and 87.4)";
 
 /// One short paragraph: what was shown on which data, and the caveats that were measured.
 pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
