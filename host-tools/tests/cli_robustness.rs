@@ -605,3 +605,47 @@ fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
     let o = riskctl(&["inspect-model", run.join("drl.rsk").to_str().unwrap()]);
     assert!(o.status.success(), "{}", common::stderr(&o));
 }
+
+#[test]
+fn train_warns_when_no_event_can_be_held_out_for_validation() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = tiny_config(dir.path());
+    let train = |events: &Path, out: &str| {
+        let o = riskctl(&[
+            "train",
+            "--events",
+            events.to_str().unwrap(),
+            "--out",
+            dir.path().join(out).to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let err = common::stderr(&o);
+        assert!(o.status.success(), "{err}");
+        err
+    };
+    // One crash: nothing to hold out, early stopping watched the training loss.
+    let one = dir.path().join("one");
+    let o = riskctl(&[
+        "simulate",
+        "--out",
+        one.to_str().unwrap(),
+        "--seed",
+        "3",
+        "--events",
+        "1",
+        "--mix",
+        "1,0,0",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let err = train(&one, "run-one");
+    assert!(
+        err.contains("1 sequences are too few to hold out validation events")
+            && err.contains("early stopping followed the training loss"),
+        "{err}"
+    );
+    // Nine events: some are held out, no warning.
+    let err = train(&simulate(dir.path()), "run-nine");
+    assert!(!err.contains("too few to hold out"), "{err}");
+}

@@ -132,6 +132,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     host_tools::warnings::print(&finals.warnings);
     let d = &finals.drl.report;
+    if d.validation_pairs == 0 && config.optimiser.validation_fraction > 0.0 {
+        eprintln!(
+            "riskctl: warning: --events {}: {} sequences are too few to hold out validation events \
+             (optimiser.validation_fraction {}): early stopping followed the training loss itself \
+             (DRL kept epoch {} of {}), so over-fitting goes unseen; train on more events",
+            args.events.display(),
+            seqs.len(),
+            config.optimiser.validation_fraction,
+            d.best_epoch,
+            d.epochs
+        );
+    }
     let m = &finals.msra.report;
     outln!(
         "comparisons: {} fit pairs, {} validation pairs, {:.0} pairs/s",
