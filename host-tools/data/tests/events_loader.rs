@@ -1046,6 +1046,23 @@ fn speeds_in_km_h_are_noted_and_the_event_kept() {
         .collect::<String>();
     let (set, issues, _d) = load_and_stream(&ev, &centred);
     assert_eq!((set.len(), issues.len()), (1, 0), "{issues:#?}");
+    // Times in milliseconds in both files: the speeds cover 1000 times the path.
+    let ms = |t: &str| format!("{}", t.parse::<f64>().unwrap() * 1000.0);
+    let ev_ms = format!("{EV_HEADER}s1,safe,0,2000,,4.5,1.8,5,2\n");
+    let fr_ms: String = rows("s1", 21)
+        .lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split(',').map(str::to_owned).collect();
+            f[1] = ms(&f[1]);
+            f.join(",") + "\n"
+        })
+        .collect();
+    let (_, issues, _d) = load_and_stream(&ev_ms, &format!("{FR_HEADER}{fr_ms}"));
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("1000.0 times") && text.contains("times in ms"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -171,7 +171,7 @@ pub enum IssueProblem {
     /// (`12.3456` read as `12.3`). The row is kept.
     #[error("no newline at the end of the file: this last row may have been cut short (a truncated copy?); it is read as it stands, check its last values")]
     NoFinalNewline,
-    #[error("frames.csv `vx_{vehicle}`, `vy_{vehicle}`: the speeds add up to {speed_path:.1} m over the event, {:.1} times the {path:.1} m its positions `x_{vehicle}`, `y_{vehicle}` cover: speeds in km/h (3.6 times) or mph (2.24 times), or positions that do not follow the road user? Speeds must be m/s, positions in one fixed world frame. The event is kept; check its units", speed_path / path.max(1e-9))]
+    #[error("frames.csv `vx_{vehicle}`, `vy_{vehicle}`: the speeds add up to {speed_path:.1} m over the event, {:.1} times the {path:.1} m its positions `x_{vehicle}`, `y_{vehicle}` cover: speeds in km/h (3.6 times) or mph (2.24 times), times in ms (1000 times), or positions that do not follow the road user? Speeds must be m/s, times s, positions in one fixed world frame. The event is kept; check its units", speed_path / path.max(1e-9))]
     SpeedsExceedPath {
         vehicle: &'static str,
         speed_path: f64,
