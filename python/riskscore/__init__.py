@@ -173,6 +173,11 @@ class Model:
         report_bad(listed, count, strict)
         return flags.to_numpy(zero_copy_only=False)
 
+    def __reduce__(self) -> Tuple[Any, Tuple[bytes]]:
+        """Pickled as its blob (for multiprocessing, joblib or a Spark UDF's closure); the copy
+        is made with :meth:`from_bytes`, so its ``path`` is None."""
+        return (Model.from_bytes, (self.to_bytes(),))
+
     def __repr__(self) -> str:
         return repr(self._native)
 

@@ -97,3 +97,16 @@ def test_info_docstring_shows_a_kind_info_returns():
     """help(Model.info) gives an example of ``kind``: it is a value ``info`` really returns."""
     kind = riskscore.Model.load(MODELS / "drl-default.rsk").info["kind"]
     assert f'``kind`` (e.g. "{kind}")' in riskscore.Model.info.__doc__
+
+
+def test_a_model_pickles_as_its_blob(ngsim_frames):
+    """multiprocessing, joblib and Spark UDF closures pickle the Model they use."""
+    import copy
+    import pickle
+
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    again = pickle.loads(pickle.dumps(model))
+    assert again.to_bytes() == model.to_bytes() and again.path is None
+    pairs = ngsim_frames.slice(0, 500)
+    assert np.array_equal(again.score(pairs), model.score(pairs))
+    assert copy.deepcopy(model).to_bytes() == model.to_bytes()
