@@ -49,6 +49,20 @@ pub enum GssmScore {
     Logit,
 }
 
+impl GssmScore {
+    /// The middle of the score's range, the threshold rule of thumb for a blob without a calibrated
+    /// one: every mode's midpoint is a different survival probability (0.5 for `Cdf` and `Logit`,
+    /// `n` ~ 830 for `Intensity`), so a fixed 0.5 would mean a different risk level per mode.
+    pub fn range_midpoint(self) -> f32 {
+        match self {
+            // Half of `intensity(1.0)` (~5.836, see the tests).
+            Self::Intensity => 2.918,
+            Self::Cdf => 0.5,
+            Self::Logit => 0.0,
+        }
+    }
+}
+
 /// A GSSM network plus the score it reports.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GssmModel<'a> {
@@ -227,6 +241,7 @@ mod tests {
         let top = intensity(1.0);
         assert!(top > 5.8 && top < 5.85, "{top}");
         assert_eq!(intensity(f32::NAN), 0.0);
+        assert!((GssmScore::Intensity.range_midpoint() - 0.5 * top).abs() < 1e-3);
         // Monotone.
         let mut prev = -1.0;
         for i in 0..=1000 {

@@ -191,6 +191,29 @@ fn score_equals_score_observation_bit_for_bit() {
     }
 }
 
+/// A GSSM blob without a calibrated threshold warns at the middle of its own score mode's range
+/// (the rule MSRA follows too), not at a fixed 0.5 that is near the top of a CDF's range but near
+/// the bottom of an intensity's.
+#[test]
+fn a_gssm_kind_threshold_is_the_middle_of_its_score_modes_range() {
+    use scorer_core::gssm::{intensity, logit};
+    let fx = Fixtures::new();
+    for (mode, lowest, highest) in [
+        (GssmScore::Intensity, intensity(0.0), intensity(1.0)),
+        (GssmScore::Logit, logit(0.0), logit(1.0)),
+        (GssmScore::Cdf, 0.0, 1.0),
+    ] {
+        let threshold = Model::Gssm(fx.gssm_model(mode)).kind_default_threshold();
+        // f32 clipping makes the logit's range asymmetric by 0.01 in 27.6: within 0.1 % of it.
+        let middle = 0.5 * (lowest + highest);
+        let tolerance = 1e-3 * (highest - lowest);
+        assert!(
+            (threshold - middle).abs() < tolerance,
+            "{mode:?}: {threshold} vs {middle}"
+        );
+    }
+}
+
 #[test]
 fn decoding_borrows_weights_from_the_blob() {
     let fx = Fixtures::new();

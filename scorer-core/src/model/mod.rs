@@ -213,7 +213,8 @@ impl<'a> Model<'a> {
 
     /// The warning threshold used when the user gives none, by model kind: DRL is trained to put
     /// impact states at r* = 4 and earlier conflict states under u, so half of r* is a neutral
-    /// start; MSRA scores lie in [0, sum |w_k|] and GSSM in [0, 1], so half of the range.
+    /// start; MSRA scores lie in [0, sum |w_k|] and a GSSM's in its score mode's range, so half
+    /// of the range ([`crate::gssm::GssmScore::range_midpoint`]).
     pub fn kind_default_threshold(&self) -> f32 {
         match self {
             Self::DrlInt8(_) | Self::DrlF32(_) => 2.0,
@@ -225,7 +226,7 @@ impl<'a> Model<'a> {
                     .map(|t| libm::fabsf(t.weight))
                     .sum::<f32>()
             }
-            Self::Gssm(_) => 0.5,
+            Self::Gssm(m) => m.score.range_midpoint(),
         }
     }
 
