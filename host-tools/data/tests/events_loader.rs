@@ -1106,3 +1106,41 @@ fn problem_notes_count_the_problems_left_unlisted() {
     assert_eq!(notes.len(), 21, "{notes:#?}");
     assert_eq!(notes[20], "warning: ... and 5 more problems", "{notes:#?}");
 }
+
+#[test]
+fn headings_across_the_direction_of_travel_are_noted_and_the_event_kept() {
+    // s1's ego heading as from north (0, 1) while it drives along +x; n1's partner heading from
+    // 90 taken as radians (cos 90, sin 90 = -0.448, 0.894); r1's ego reverses (heading against
+    // the velocity): no note; c1 is fine.
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\nn1,safe,0,2,,4.5,1.8,5,2\nr1,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let (c, s, n) = (90f64.cos(), 90f64.sin(), "\n");
+    let fr = format!(
+        "{FR_HEADER}{}{}{}{}",
+        rows("c1", 21),
+        rows("s1", 21).replace(",10,0,1,0,-0.5,", ",10,0,0,1,-0.5,"),
+        rows("n1", 21).replace(&format!(",8,0,1,0{n}"), &format!(",8,0,{c},{s}{n}")),
+        rows("r1", 21).replace(",10,0,1,0,-0.5,", ",10,0,-1,0,-0.5,")
+    );
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1", "n1", "r1"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (3, Some("s1"), "HeadingAcrossVelocity"),
+            (4, Some("n1"), "HeadingAcrossVelocity")
+        ],
+        "{issues:#?}"
+    );
+    assert!(issues.iter().all(|i| i.problem.is_note()));
+    let (ego, sur) = (issues[0].to_string(), issues[1].to_string());
+    assert!(
+        ego.contains("`hx_ego`") && ego.contains("on 21 of the 21 frames"),
+        "{ego}"
+    );
+    assert!(
+        sur.contains("`hx_sur`") && sur.contains("degrees taken as radians"),
+        "{sur}"
+    );
+}

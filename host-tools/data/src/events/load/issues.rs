@@ -22,6 +22,9 @@ pub const KEPT_PER_KIND: usize = 20;
 pub const SPEED_PATH_RATIO_MAX: f64 = 1.5;
 /// Shortest distance (m) the speeds must cover for that check (a standing road user is skipped).
 pub const SPEED_CHECK_MIN_PATH_M: f64 = 10.0;
+/// Frames where a road user moves at least this fast (m/s) are those whose heading is compared
+/// with the velocity ([`IssueProblem::HeadingAcrossVelocity`]).
+pub const HEADING_CHECK_MIN_SPEED_M_S: f32 = 3.0;
 
 /// A problem that stops a folder from being read at all.
 #[derive(Debug, thiserror::Error)]
@@ -177,6 +180,12 @@ pub enum IssueProblem {
         speed_path: f64,
         path: f64,
     },
+    #[error("frames.csv `hx_{vehicle}`, `hy_{vehicle}`: the heading is more than 45° off the direction of travel (`vx_{vehicle}`, `vy_{vehicle}`) on {off} of the {moving} frames moving at 3 m/s or more: an angle in degrees taken as radians, measured from north, or hx and hy swapped? The heading must be the unit vector of the box's forward axis in the world frame. The event is kept; check its headings")]
+    HeadingAcrossVelocity {
+        vehicle: &'static str,
+        off: usize,
+        moving: usize,
+    },
 }
 
 impl IssueProblem {
@@ -207,6 +216,7 @@ impl IssueProblem {
             Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
             Self::NoFinalNewline => "NoFinalNewline",
             Self::SpeedsExceedPath { .. } => "SpeedsExceedPath",
+            Self::HeadingAcrossVelocity { .. } => "HeadingAcrossVelocity",
         }
     }
 
@@ -214,9 +224,14 @@ impl IssueProblem {
     /// not count among the problems that make `evaluate` refuse a folder).
     pub fn is_note(&self) -> bool {
         match self {
-            Self::NoFinalNewline | Self::SpeedsExceedPath { .. } => true,
+            Self::NoFinalNewline
+            | Self::SpeedsExceedPath { .. }
+            | Self::HeadingAcrossVelocity { .. } => true,
             // The notes beyond the first of their kind are notes too.
-            Self::MoreOfKind { kind, .. } => matches!(*kind, "NoFinalNewline" | "SpeedsExceedPath"),
+            Self::MoreOfKind { kind, .. } => matches!(
+                *kind,
+                "NoFinalNewline" | "SpeedsExceedPath" | "HeadingAcrossVelocity"
+            ),
             _ => false,
         }
     }

@@ -11,8 +11,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 pub use issues::{
-    EventsError, IssueProblem, LoadIssue, KEPT_PER_KIND, LENGTH_RANGE_M, MAX_SPEED_M_S,
-    SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
+    EventsError, IssueProblem, LoadIssue, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND,
+    LENGTH_RANGE_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
 };
 
 use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
@@ -54,6 +54,7 @@ pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError
             Some(issue) => folder.issues.push(issue),
             None => {
                 folder.issues.extend(speed_note(&p, &folder.events_path));
+                folder.issues.extend(heading_note(&p, &folder.events_path));
                 events.push(p.event);
             }
         }
@@ -221,6 +222,40 @@ fn speed_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
     })
 }
 
+/// A moving road user's heading points along its velocity (or against it, reversing) on nearly
+/// every frame: one whose heading is more than 45° off that axis on more than half of the frames
+/// where it moves at [`HEADING_CHECK_MIN_SPEED_M_S`] or faster (at least 5 of them) has its
+/// heading in degrees read as radians, measured from north, or its components swapped. A note on
+/// the event's `events.csv` line (the event is kept), for the ego first; the simulator and the
+/// real data shipped are within 45° on every such frame.
+fn heading_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+    let check = |vehicle: &'static str, state: fn(&Frame) -> &VehicleState| {
+        let (mut moving, mut off) = (0usize, 0usize);
+        for f in &p.event.frames {
+            let s = state(f);
+            let speed = s.vx.hypot(s.vy);
+            if speed >= HEADING_CHECK_MIN_SPEED_M_S {
+                moving += 1;
+                let cos = (s.vx * s.hx + s.vy * s.hy) / speed;
+                off += usize::from(cos.abs() < std::f32::consts::FRAC_1_SQRT_2);
+            }
+        }
+        (moving >= 5 && 2 * off > moving).then_some(IssueProblem::HeadingAcrossVelocity {
+            vehicle,
+            off,
+            moving,
+        })
+    };
+    let problem = check("ego", |f| &f.ego).or_else(|| check("sur", |f| &f.partner))?;
+    Some(LoadIssue {
+        file: events_path.to_path_buf(),
+        line: p.line,
+        column: None,
+        event_id: Some(p.event.id.clone()),
+        problem,
+    })
+}
+
 fn empty_event() -> Event {
     Event {
         id: String::new(),
@@ -303,9 +338,9 @@ impl<E: From<EventsError>> Stream<'_, E> {
                 Ok(())
             }
             None => {
-                if let Some(note) = speed_note(&finished, self.events_path) {
-                    self.deferred.push((slot, note));
-                }
+                let notes = [speed_note, heading_note].map(|f| f(&finished, self.events_path));
+                self.deferred
+                    .extend(notes.into_iter().flatten().map(|note| (slot, note)));
                 (self.on_event)(p.position, finished.event)
             }
         }
