@@ -649,3 +649,29 @@ fn train_warns_when_no_event_can_be_held_out_for_validation() {
     let err = train(&simulate(dir.path()), "run-nine");
     assert!(!err.contains("too few to hold out"), "{err}");
 }
+
+#[test]
+fn augmenting_a_folder_with_itself_is_refused() {
+    // It trained, repeating the events as a "simulation" source and carrying the validation
+    // events into training.
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let link = dir.path().join("link");
+    std::os::unix::fs::symlink(&events, &link).unwrap();
+    let e = events.to_str().unwrap();
+    let out = dir.path().join("run");
+    let o = out.to_str().unwrap();
+    let slash = format!("{e}/");
+    for augment in [e, slash.as_str(), link.to_str().unwrap()] {
+        for args in [
+            vec!["train", "--events", e, "--augment", augment, "--out", o],
+            vec!["ablation", "--events", e, "--augment", augment, "--out", o],
+        ] {
+            let r = riskctl(&args);
+            let err = common::stderr(&r);
+            assert!(!r.status.success(), "{args:?}: {err}");
+            assert!(err.contains("is the --events folder"), "{args:?}: {err}");
+            assert!(!out.exists(), "{args:?}");
+        }
+    }
+}

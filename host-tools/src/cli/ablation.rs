@@ -130,6 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             dir
         }
     };
+    super::refuse_augmenting_with_itself(&events_dir, args.augment.as_deref())?;
     let folder = super::load_prepared(&events_dir)?;
     let (seqs, counts) = (folder.sequences, folder.counts);
     eprintln!(

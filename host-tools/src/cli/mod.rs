@@ -38,6 +38,29 @@ pub mod simulate;
 pub mod ssm;
 pub mod train;
 
+/// Refuses `--augment` naming the `--events` folder itself (any spelling or link): its
+/// comparisons would repeat the training events' as a "simulation" source and carry the events
+/// held out for validation into training, so early stopping would watch data it learns from.
+pub fn refuse_augmenting_with_itself(events: &Path, augment: Option<&Path>) -> anyhow::Result<()> {
+    let Some(augment) = augment else {
+        return Ok(());
+    };
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same(events, augment) || same(&events.join("events.csv"), &augment.join("events.csv")) {
+        anyhow::bail!(
+            "--augment {} is the --events folder {}: its comparisons would repeat the training \
+             events' and leak the validation events into training; give --augment a second \
+             folder (e.g. simulated events) or leave it out",
+            augment.display(),
+            events.display()
+        );
+    }
+    Ok(())
+}
+
 /// The prepared sequences of an event folder ([`events::load_prepared`] under the default
 /// preparation rules); its problems are printed on stderr and those events left out. They are
 /// printed also when no sequence is left (then an error): they are why.

@@ -55,6 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.out,
         "drl.json, msra.json, drl.rsk, drl-f32.rsk and msra.rsk",
     )?;
+    super::refuse_augmenting_with_itself(&args.events, args.augment.as_deref())?;
     let config = TrainConfig::load_or_default(args.config.as_deref(), args.seed)?;
     let folder = super::load_prepared(&args.events)?;
     let (seqs, counts) = (folder.sequences, folder.counts.to_string());
