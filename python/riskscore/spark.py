@@ -13,7 +13,8 @@ without a per-row Python step; the model blob is broadcast once. Needs pyspark >
     rs.score(pairs, "models/drl-default.rsk").write.parquet("pairs_risk/")   # + risk
 
 Bad rows are null in the computed columns (as :func:`riskscore.ssm`; executors' warnings are not
-shown on the driver, so count the nulls). A missing or non-numeric column raises on the driver
+shown on the driver, so count the nulls). A missing or non-numeric column, or an input that
+already has a column the call appends (``ssm`` run twice), raises ``ColumnError`` on the driver
 before any job runs.
 """
 from __future__ import annotations
@@ -51,7 +52,17 @@ def _check_columns(df: Any) -> None:
 
 
 def _with_float_columns(df: Any, names: list) -> Any:
+    """``df``'s schema with the FloatType columns ``names`` appended; a name ``df`` already has
+    is refused on the driver (Spark would fail inside the job, or on writing)."""
     from pyspark.sql import types as T
+
+    taken = {f.name.lower(): f.name for f in df.schema.fields}
+    clash = [taken[n.lower()] for n in names if n.lower() in taken]
+    if clash:
+        raise riskscore.ColumnError(
+            f"the input already has column(s) {', '.join(clash)} that this call appends "
+            "(drop or rename them first)"
+        )
 
     fields = list(df.schema.fields) + [T.StructField(n, T.FloatType(), True) for n in names]
     return T.StructType(fields)

@@ -96,3 +96,16 @@ def test_spark_refuses_a_missing_column_on_the_driver(spark, million_pairs):
     folder, _table = million_pairs
     with pytest.raises(riskscore.ColumnError, match="hx_j"):
         rs.ssm(spark.read.parquet(str(folder)).drop("hx_j"))
+
+
+def test_spark_refuses_an_input_that_has_the_output_columns(spark, million_pairs):
+    """ssm over its own output (or score into an existing column) fails on the driver, naming
+    the column, not inside the job with an Arrow stack trace."""
+    import riskscore.spark as rs
+
+    folder, _table = million_pairs
+    df = spark.read.parquet(str(folder))
+    with pytest.raises(riskscore.ColumnError, match="already has column.*box_distance"):
+        rs.ssm(rs.ssm(df))
+    with pytest.raises(riskscore.ColumnError, match="already has column.*RISK"):
+        rs.score(df.withColumn("RISK", df.x_i), str(MODELS / "drl-default.rsk"))
