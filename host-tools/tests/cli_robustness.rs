@@ -675,3 +675,19 @@ fn augmenting_a_folder_with_itself_is_refused() {
         }
     }
 }
+
+#[test]
+fn train_help_says_what_it_writes_and_when_it_warns() {
+    // The doc comment of train's arguments was never shown: --help had the options only.
+    let o = riskctl(&["train", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    for said in [
+        "drl.json and msra.json",
+        "drl-f32.rsk",
+        "a failed\nor interrupted run leaves the old ones",
+        "Without a conflict",
+    ] {
+        assert!(help.contains(said), "{said}: {help}");
+    }
+}

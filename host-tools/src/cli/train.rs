@@ -6,20 +6,29 @@ use riskscore_train::final_models::{train_and_export, FinalModelsError};
 use riskscore_train::train::{Progress, TrainConfig, TrainError};
 use serde_json::json;
 
-/// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs.
-///
-/// The events are split by event into fit and validation parts (early stopping); comparisons are
-/// built from the fit part only. Writes into --out: drl.json and msra.json (float checkpoints, see
-/// docs/training.md), drl.rsk (int8, calibrated on the training observations), drl-f32.rsk and
-/// msra.rsk (model blobs for scorer-core, the bridge and the firmware).
-///
-/// Without a conflict (crash or near-crash) sequence, in the folder or in --augment, only physics
-/// counterfactual pairs can be built: the models still learn which of two states is physically
-/// riskier, but nothing ties their scale to a conflict (no temporal or cross-sequence pair, no
-/// impact anchor), so the run warns on stderr; calibrate a threshold on normal driving
-/// (`riskctl calibrate`) before using them. When no comparison at all can be built (physics pairs
-/// off in the configuration too), it fails, naming the folder and its counts, and writes nothing.
+/// What `riskctl train --help` says after the options (the doc comment of [`Args`] is not
+/// shown: the subcommand's one-line description in `main.rs` takes its place).
+const ABOUT_TRAIN: &str = "\
+Trains DRL and MSRA on every event of the folder. The events are split by event into fit and
+validation parts (early stopping); comparisons are built from the fit part only. Writes into
+--out: drl.json and msra.json (float checkpoints, see docs/training.md), drl.rsk (int8, calibrated
+on the training observations), drl-f32.rsk and msra.rsk (model blobs for scorer-core, the bridge
+and the firmware). The five files are replaced together at the end of a successful run; a failed
+or interrupted run leaves the old ones, and other files in the folder are never touched. --out
+must not be, hold or lie inside --events or --augment, and must not be a file.
+
+Without a conflict (crash or near-crash) sequence, in the folder or in --augment, only physics
+counterfactual pairs can be built: the models still learn which of two states is physically
+riskier, but nothing ties their scale to a conflict, so the run warns on stderr; calibrate a
+threshold on normal driving (`riskctl calibrate`) before using them. When no comparison at all
+can be built (physics pairs off in the configuration too), it fails and writes nothing. A folder
+too small to hold out validation events trains with a warning. Problems in the folder are listed
+on stderr and their events left out.";
+
+/// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs (see
+/// [`ABOUT_TRAIN`]).
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_TRAIN)]
 pub struct Args {
     /// Event folder (events.csv + frames.csv).
     #[arg(long)]
