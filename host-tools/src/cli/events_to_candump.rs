@@ -6,17 +6,22 @@ use riskscore_data::candump_export::{
 use std::io::Write as _;
 use std::path::PathBuf;
 
-/// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format.
-///
-/// Each event frame becomes one 10 Hz cycle of five frames: EGO_MOTION, EGO_SIZE, OBJECT_POSITION,
-/// OBJECT_SIZE, OBJECT_MOTION (see can-bridge/dbc/riskscore.dbc), in the ego frame. Events follow
-/// each other with a pause; event k is object track k % 256. Replay the log with
-/// `can-bridge replay`, score it with `can-bridge score-log`, compare with `can-bridge check`.
-///
-/// A cycle with a value outside its signal's DBC range is never clamped: it is left out of the log
-/// and listed (event id, time, signal). Any left-out cycle fails the run (exit 1, no log written)
-/// unless `--max-skipped` allows that share of the cycles.
+/// What `--help` says after the options (a doc comment of [`Args`] is not shown: the
+/// subcommand's one-line description in `main.rs` takes its place).
+const ABOUT_CANDUMP: &str = "\
+Each event frame becomes one 10 Hz cycle of five frames: EGO_MOTION, EGO_SIZE, OBJECT_POSITION,
+OBJECT_SIZE, OBJECT_MOTION (see can-bridge/dbc/riskscore.dbc), in the ego frame. Events follow
+each other with a pause; event k is object track k % 256. Replay the log with
+`can-bridge replay`, score it with `can-bridge score-log`, compare with `can-bridge check`.
+
+A cycle with a value outside its signal's DBC range is never clamped: it is left out of the log
+and listed (event id, time, signal). Any left-out cycle fails the run (exit 1, no log written)
+unless `--max-skipped` allows that share of the cycles.";
+
+/// Encode an event folder as vehicle CAN traffic (project DBC) in candump -L format (see
+/// [`ABOUT_CANDUMP`]).
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_CANDUMP)]
 pub struct Args {
     /// Event folder (events.csv + frames.csv).
     #[arg(long)]

@@ -4,14 +4,19 @@ use std::path::PathBuf;
 use anyhow::Context;
 use riskscore_train::export::{self, Checkpoint, CheckpointModel, DrlFormat};
 
-/// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob.
-///
-/// DRL is quantised to int8 with the activation calibration stored in the checkpoint (measured on
-/// the training observations), using scorer-core's own requantisation; `--f32` writes the float
-/// network instead. MSRA is written as is: its blob always holds its parameters as f32 (there is
-/// no int8 MSRA), so `--f32` changes nothing for it and says so in a note on stderr. The blob is
-/// decoded again (header, CRC, validation) before the command succeeds.
+/// What `--help` says after the options (a doc comment of [`Args`] is not shown: the
+/// subcommand's one-line description in `main.rs` takes its place).
+const ABOUT_EXPORT: &str = "\
+DRL is quantised to int8 with the activation calibration stored in the checkpoint (measured on
+the training observations), using scorer-core's own requantisation; `--f32` writes the float
+network instead. MSRA is written as is: its blob always holds its parameters as f32 (there is
+no int8 MSRA), so `--f32` changes nothing for it and says so in a note on stderr. The blob is
+decoded again (header, CRC, validation) before the command succeeds.";
+
+/// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob (see
+/// [`ABOUT_EXPORT`]).
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_EXPORT)]
 pub struct Args {
     /// Checkpoint written by `riskctl train` (JSON), as `inspect-model` takes its file.
     #[arg(value_name = "CHECKPOINT", required_unless_present = "checkpoint")]
