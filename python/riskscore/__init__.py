@@ -94,14 +94,24 @@ def ssm(data: Any, *, keep_input: bool = False, strict: bool = False) -> pa.Tabl
     Returns a ``pyarrow.Table`` of 17 nullable Float32 columns (see ``computed_columns()``), row
     for row with the input; a row that cannot be scored is null in every column. With
     ``keep_input=True`` the input's columns come first (the same buffers, not copies), like the
-    output of ``riskctl ssm``. ``data`` is anything listed under INPUT in ``help(riskscore)``.
+    output of ``riskctl ssm``; an input that already has a computed column's name (names
+    case-insensitive) raises ``ColumnError`` rather than giving a table with that name twice. ``data`` is anything listed under INPUT in ``help(riskscore)``.
 
     Raises ``ColumnError`` for a missing or non-numeric pair column, ``BadRowError`` for the first
     bad row when ``strict`` (otherwise a ``BadRowWarning``), ``InputFileError`` for an unreadable
     file.
     """
     with columns_of(data):
-        table, listed, count = _riskscore.ssm(as_table(data), keep_input)
+        table = as_table(data)
+        if keep_input:
+            taken = {name.lower(): name for name in table.column_names}
+            clash = [taken[n] for n in _riskscore.computed_columns() if n in taken]
+            if clash:
+                raise ColumnError(
+                    f"keep_input=True: the input already has column(s) {', '.join(clash)} that "
+                    "ssm appends (drop or rename them first)"
+                )
+        table, listed, count = _riskscore.ssm(table, keep_input)
     report_bad(listed, count, strict)
     return table
 

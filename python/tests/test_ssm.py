@@ -227,3 +227,14 @@ def test_a_file_without_a_pair_column_is_named(tmp_path, golden_pairs):
     for call in (riskscore.ssm, model.score, model.in_domain):
         with pytest.raises(riskscore.ColumnError, match=rf"^{re.escape(str(path))}: .*acc_j"):
             call(path)
+
+
+def test_keep_input_refuses_an_input_that_has_a_computed_column(golden_pairs):
+    """ssm(ssm(t, keep_input=True), keep_input=True) would name every computed column twice."""
+    once = riskscore.ssm(golden_pairs, keep_input=True)
+    with pytest.raises(riskscore.ColumnError, match="already has column.*box_distance, ttc2d"):
+        riskscore.ssm(once, keep_input=True)
+    renamed = golden_pairs.append_column("TTC2D", golden_pairs.column("x_i"))
+    with pytest.raises(riskscore.ColumnError, match="already has column.*TTC2D"):
+        riskscore.ssm(renamed, keep_input=True)
+    rows_equal_bitwise(riskscore.ssm(once), riskscore.ssm(golden_pairs))
