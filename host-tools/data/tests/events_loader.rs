@@ -1144,3 +1144,26 @@ fn headings_across_the_direction_of_travel_are_noted_and_the_event_kept() {
         "{sur}"
     );
 }
+
+#[test]
+fn an_impact_after_the_last_frame_is_noted_and_the_event_kept() {
+    // c1: frames to 0.5 s, t_impact 1.0 (0.5 s without frames); c2: t_impact 2.05, half an
+    // interval after its last frame (2.0): no note.
+    let ev =
+        format!("{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\nc2,near_crash,0,2.1,2.05,4.5,1.8,5,2\n");
+    let fr = format!("{FR_HEADER}{}{}", rows("c1", 6), rows("c2", 21));
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "c2"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [(2, Some("c1"), "ImpactAfterFrames")],
+        "{issues:#?}"
+    );
+    assert!(issues[0].problem.is_note());
+    assert_eq!(issues[0].column.as_deref(), Some("t_impact"));
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("0.500 s after the last frame (0.5)"),
+        "{text}"
+    );
+}

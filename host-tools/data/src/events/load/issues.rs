@@ -186,6 +186,8 @@ pub enum IssueProblem {
         off: usize,
         moving: usize,
     },
+    #[error("t_impact {t_impact} is {:.3} s after the last frame ({last}): lead times are measured to t_impact, so each warning would count that stretch without frames; is t_impact on the frames' clock, or are the last frames missing? The event is kept", t_impact - last)]
+    ImpactAfterFrames { t_impact: f64, last: f64 },
 }
 
 impl IssueProblem {
@@ -217,6 +219,7 @@ impl IssueProblem {
             Self::NoFinalNewline => "NoFinalNewline",
             Self::SpeedsExceedPath { .. } => "SpeedsExceedPath",
             Self::HeadingAcrossVelocity { .. } => "HeadingAcrossVelocity",
+            Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
         }
     }
 
@@ -226,11 +229,15 @@ impl IssueProblem {
         match self {
             Self::NoFinalNewline
             | Self::SpeedsExceedPath { .. }
-            | Self::HeadingAcrossVelocity { .. } => true,
+            | Self::HeadingAcrossVelocity { .. }
+            | Self::ImpactAfterFrames { .. } => true,
             // The notes beyond the first of their kind are notes too.
             Self::MoreOfKind { kind, .. } => matches!(
                 *kind,
-                "NoFinalNewline" | "SpeedsExceedPath" | "HeadingAcrossVelocity"
+                "NoFinalNewline"
+                    | "SpeedsExceedPath"
+                    | "HeadingAcrossVelocity"
+                    | "ImpactAfterFrames"
             ),
             _ => false,
         }

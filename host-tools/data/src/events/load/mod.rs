@@ -55,6 +55,7 @@ pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError
             None => {
                 folder.issues.extend(speed_note(&p, &folder.events_path));
                 folder.issues.extend(heading_note(&p, &folder.events_path));
+                folder.issues.extend(impact_note(&p, &folder.events_path));
                 events.push(p.event);
             }
         }
@@ -256,6 +257,28 @@ fn heading_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
     })
 }
 
+/// A conflict's `t_impact` more than one sampling interval (the last one, plus
+/// [`TIME_TOLERANCE_S`]) after its last frame: lead times are measured to `t_impact`, so every
+/// warning would count the stretch without frames as warning time. A note on the `t_impact`
+/// field (the event is kept). The simulator ends a crash at its impact frame.
+fn impact_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+    let t_impact = p.event.t_impact?;
+    let [.., before, last] = p.event.frames.as_slice() else {
+        return None;
+    };
+    let interval = last.time - before.time;
+    (t_impact > last.time + interval + TIME_TOLERANCE_S).then(|| LoadIssue {
+        file: events_path.to_path_buf(),
+        line: p.line,
+        column: Some("t_impact".into()),
+        event_id: Some(p.event.id.clone()),
+        problem: IssueProblem::ImpactAfterFrames {
+            t_impact,
+            last: last.time,
+        },
+    })
+}
+
 fn empty_event() -> Event {
     Event {
         id: String::new(),
@@ -338,7 +361,8 @@ impl<E: From<EventsError>> Stream<'_, E> {
                 Ok(())
             }
             None => {
-                let notes = [speed_note, heading_note].map(|f| f(&finished, self.events_path));
+                let notes =
+                    [speed_note, heading_note, impact_note].map(|f| f(&finished, self.events_path));
                 self.deferred
                     .extend(notes.into_iter().flatten().map(|note| (slot, note)));
                 (self.on_event)(p.position, finished.event)
