@@ -161,7 +161,8 @@ class Model:
 
     def score(self, data: Any, *, strict: bool = False) -> np.ndarray:
         """The model's risk score of every row of ``data`` as a float32 numpy array, row for
-        row; NaN where a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when
+        row (read-only: it views the scores' Arrow buffer without a copy; ``.copy()`` it to
+        change values); NaN where a row cannot be scored (``BadRowWarning``, or ``BadRowError`` when
         ``strict``). Input as for :func:`ssm`. Higher is riskier. A blob with a training-domain
         record is scored through its guard, as ``riskctl score`` and the ECU score it: outside
         the domain the blob's policy decides (the shipped DRL falls back to a kinematic score)."""

@@ -110,3 +110,11 @@ def test_a_model_pickles_as_its_blob(ngsim_frames):
     pairs = ngsim_frames.slice(0, 500)
     assert np.array_equal(again.score(pairs), model.score(pairs))
     assert copy.deepcopy(model).to_bytes() == model.to_bytes()
+
+
+def test_scores_are_a_read_only_view_as_the_docstring_says(ngsim_frames):
+    """`risk[mask] = 0` on the zero-copy scores fails: help(Model.score) must say so."""
+    scores = riskscore.Model.load(MODELS / "drl-default.rsk").score(ngsim_frames.slice(0, 10))
+    assert not scores.flags.writeable
+    assert "read-only" in " ".join(riskscore.Model.score.__doc__.split())
+    scores.copy()[0] = 0.0
