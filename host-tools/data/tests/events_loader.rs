@@ -317,10 +317,40 @@ fn frames_for_unknown_event_are_reported_once() {
     let (set, issues, _d) = load(&ev, &fr);
     assert_eq!(
         only_issue(&issues, "frames.csv", 44, Some("event_id")),
-        &IssueProblem::UnknownEvent { frames: 4 }
+        &IssueProblem::UnknownEvent {
+            frames: 4,
+            similar: None
+        }
     );
     assert_eq!(issues[0].event_id.as_deref(), Some("ghost"));
     assert_eq!(ids(&set), ["c1", "s1"]);
+}
+
+#[test]
+fn frames_whose_ids_lost_leading_zeros_or_case_name_the_event_they_mean() {
+    // A spreadsheet turned `0007` into `7` (and `S1` is `s1`): the frames are unknown, the
+    // events have none; the message names the id events.csv has.
+    let ev = format!("{EV_HEADER}0007,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\n");
+    let fr = format!("{FR_HEADER}{}{}", rows("7", 21), rows("S1", 21));
+    let (set, issues, _d) = load(&ev, &fr);
+    assert!(set.is_empty());
+    let similar: Vec<_> = issues
+        .iter()
+        .filter_map(|i| match &i.problem {
+            IssueProblem::UnknownEvent { similar, .. } => Some(similar.as_deref()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(similar, [Some("0007"), Some("s1")], "{issues:#?}");
+    let text = issues
+        .iter()
+        .map(|i| i.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        text.contains("(events.csv has `0007`: leading zeros or case lost"),
+        "{text}"
+    );
 }
 
 #[test]

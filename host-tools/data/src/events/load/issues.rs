@@ -151,8 +151,12 @@ pub enum IssueProblem {
     ImplausibleSpeed { speed: f32 },
     #[error("... and {more} more `{kind}` problems in this file (not listed)")]
     MoreOfKind { kind: &'static str, more: u64 },
-    #[error("{frames} frame(s) for an event that is not in events.csv")]
-    UnknownEvent { frames: usize },
+    /// `similar`: an id of events.csv that differs from this one only in leading zeros or case.
+    #[error("{frames} frame(s) for an event that is not in events.csv{}", similar.as_ref().map(|s| format!(" (events.csv has `{s}`: leading zeros or case lost, e.g. by a spreadsheet?)")).unwrap_or_default())]
+    UnknownEvent {
+        frames: usize,
+        similar: Option<String>,
+    },
     #[error("time {time} repeats the frame on line {previous_line}")]
     DuplicateTime { time: f64, previous_line: u64 },
     #[error("time {time} is before the previous frame's {previous} (line {previous_line})")]

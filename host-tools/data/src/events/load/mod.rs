@@ -714,13 +714,29 @@ fn read_frames<E: From<EventsError>>(
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();
     unknown.sort_by_key(|(_, (line, _))| *line);
+    // Ids that differ only in leading zeros or case (a spreadsheet's `000123` -> `123`).
+    let loose = |id: &str| {
+        let id = id.to_ascii_lowercase();
+        let trimmed = id.trim_start_matches('0');
+        if trimmed.is_empty() && !id.is_empty() {
+            "0".to_owned()
+        } else {
+            trimmed.to_owned()
+        }
+    };
+    let known: HashMap<String, &str> = if unknown.is_empty() {
+        HashMap::new()
+    } else {
+        index.keys().map(|id| (loose(id), id.as_str())).collect()
+    };
     for (id, (line, frames)) in unknown {
+        let similar = known.get(&loose(&id)).map(|s| (*s).to_owned());
         issues.push(LoadIssue {
             file: path.to_path_buf(),
             line,
             column: Some("event_id".into()),
             event_id: Some(id),
-            problem: IssueProblem::UnknownEvent { frames },
+            problem: IssueProblem::UnknownEvent { frames, similar },
         });
     }
     if acc_partner_col.is_none() {
