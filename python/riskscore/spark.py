@@ -46,8 +46,8 @@ def _check_columns(df: Any) -> None:
     for c in _PAIR_COLUMNS:
         if not isinstance(by_name[c].dataType, numeric):
             raise riskscore.ColumnError(
-                f"column {by_name[c].name}: type {by_name[c].dataType.simpleString()} is not numeric "
-                "(expected double, float, bigint or int)"
+                f"column {by_name[c].name}: type {by_name[c].dataType.simpleString()} is not "
+                "supported: a pair column must be double, float, bigint or int (cast it)"
             )
 
 

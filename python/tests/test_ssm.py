@@ -125,7 +125,7 @@ def test_missing_and_non_numeric_columns_are_named(golden_pairs):
     text = golden_pairs.set_column(
         PAIR_COLUMNS.index("x_j"), "x_j", golden_pairs.column("x_j").cast(pa.string())
     )
-    with pytest.raises(riskscore.ColumnError, match="x_j.*not numeric"):
+    with pytest.raises(riskscore.ColumnError, match="x_j: type .* is not supported: a pair column must be Float64"):
         riskscore.ssm(text)
     with pytest.raises(TypeError, match="pyarrow Table"):
         riskscore.ssm([1, 2, 3])
@@ -238,3 +238,14 @@ def test_keep_input_refuses_an_input_that_has_a_computed_column(golden_pairs):
     with pytest.raises(riskscore.ColumnError, match="already has column.*TTC2D"):
         riskscore.ssm(renamed, keep_input=True)
     rows_equal_bitwise(riskscore.ssm(once), riskscore.ssm(golden_pairs))
+
+
+def test_a_numeric_type_the_kernel_does_not_take_is_not_called_non_numeric(golden_pairs):
+    """Int16, UInt32, Float16 or Decimal are numbers: the message says which types to cast to."""
+    at = PAIR_COLUMNS.index("length_i")
+    for kind in (pa.int16(), pa.uint32(), pa.decimal128(12, 3)):
+        small = golden_pairs.set_column(at, "length_i", golden_pairs.column("length_i").cast(kind, safe=False))
+        with pytest.raises(riskscore.ColumnError) as refused:
+            riskscore.ssm(small)
+        assert "not numeric" not in str(refused.value)
+        assert "length_i: type" in str(refused.value) and "Float64, Float32, Int64 or Int32 (cast it)" in str(refused.value)

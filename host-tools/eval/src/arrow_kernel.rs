@@ -34,7 +34,7 @@ pub enum KernelError {
     #[error(transparent)]
     Columns(#[from] SsmError),
     #[error(
-        "column {name}: type {found} is not numeric (expected Float64, Float32, Int64 or Int32)"
+        "column {name}: type {found} is not supported: a pair column must be Float64, Float32, Int64 or Int32 (cast it)"
     )]
     ColumnType { name: String, found: DataType },
     #[error(transparent)]
