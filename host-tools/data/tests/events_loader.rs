@@ -1197,3 +1197,22 @@ fn an_impact_after_the_last_frame_is_noted_and_the_event_kept() {
         "{text}"
     );
 }
+
+#[test]
+fn a_file_given_as_the_folder_is_named_as_such() {
+    // It was "DIR/events.csv/events.csv: Not a directory (os error 20)".
+    let (ev, fr) = good();
+    let dir = folder(&ev, &fr);
+    let file = dir.path().join("events.csv");
+    let e = load_events(&file).unwrap_err().to_string();
+    assert!(
+        e.contains("events.csv: a file, not an event folder")
+            && e.contains(&format!("({})", dir.path().display()))
+            && !e.contains("os error"),
+        "{e}"
+    );
+    let e = stream_events(&file, true, |_, _| Ok::<_, EventsError>(()))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("a file, not an event folder"), "{e}");
+}

@@ -62,6 +62,9 @@ pub enum EventsError {
     /// [`load_prepared`](super::load_prepared) only: no event of the folder yields a sequence.
     #[error("{}: contains no usable sequences", path.display())]
     NoSequences { path: PathBuf },
+    /// The folder given is a file (often its own `events.csv` or `frames.csv`).
+    #[error("{}: a file, not an event folder: give the folder that holds events.csv and frames.csv{}", path.display(), path.parent().filter(|p| !p.as_os_str().is_empty()).map(|p| format!(" ({})", p.display())).unwrap_or_default())]
+    NotAFolder { path: PathBuf },
 }
 
 /// Longest event id shown in a message, in characters; longer ones end in `…`.

@@ -130,6 +130,11 @@ struct Folder {
 
 impl Folder {
     fn read_events(dir: &Path) -> Result<Self, EventsError> {
+        if dir.is_file() {
+            return Err(EventsError::NotAFolder {
+                path: dir.to_path_buf(),
+            });
+        }
         let mut folder = Folder {
             events_path: dir.join(EVENTS_FILE),
             frames_path: dir.join(FRAMES_FILE),
