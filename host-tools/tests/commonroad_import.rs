@@ -13,6 +13,7 @@ use riskscore_data::import::commonroad::{
     scenario_of_event_id, vehicle_state, EgoChoice, Ignored, InteractionRules, Problem,
 };
 
+mod common;
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
 
 fn data(name: &str) -> PathBuf {
@@ -553,4 +554,26 @@ fn the_shipped_ngsim_extract_loads_clean_and_prepares_whole() {
         let scenario = scenario_of_event_id(&e.id).unwrap();
         assert!(scenario.starts_with("USA_US101-"), "{}", e.id);
     }
+}
+
+#[test]
+fn a_folder_without_scenario_files_is_named() {
+    // An event folder given as the input: it was only "no scenario file could be read".
+    let tmp = tempfile::tempdir().unwrap();
+    let events = common::simulate(tmp.path());
+    let out = tmp.path().join("imported");
+    let o = common::riskctl(&[
+        "import",
+        "commonroad",
+        "--out",
+        out.to_str().unwrap(),
+        events.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("{} holds no .xml file", events.display())),
+        "{err}"
+    );
+    assert!(!out.exists());
 }

@@ -180,6 +180,16 @@ fn commonroad(a: CommonRoadArgs) -> anyhow::Result<()> {
         eprintln!("riskctl: skipped: {issue}");
     }
     let untouched = super::output::left_alone(&a.out);
+    if s.files == 0 && s.issues.is_empty() {
+        // Nothing was even tried: the inputs hold no scenario file (an event folder, say).
+        let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
+        bail!(
+            "no scenario file could be read: {} {} no .xml file (CommonRoad scenario XML): \
+             nothing written, {untouched}",
+            inputs.join(", "),
+            if inputs.len() == 1 { "holds" } else { "hold" }
+        );
+    }
     if s.files == 0 {
         bail!("no scenario file could be read: nothing written, {untouched}");
     }
