@@ -111,3 +111,16 @@ def test_tables_the_loader_would_refuse_are_not_written(tmp_path):
     with pytest.raises(riskscore.EventsError, match="has no frames"):
         riskscore.write_events(tmp_path / "new", events, frames.slice(0, 0))
     assert not (tmp_path / "new").exists()
+
+
+def test_a_changed_box_size_in_frames_is_refused_not_dropped(tmp_path):
+    """The folder keeps sizes per event: a frame's edited length_j would vanish on writing."""
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    lengths = frames.column("length_j").to_numpy().copy()
+    lengths[40] *= 1.1
+    edited = frames.set_column(frames.column_names.index("length_j"), "length_j", pa.array(lengths))
+    with pytest.raises(riskscore.EventsError, match=r"frames row 40 column length_j: .* differs from the event's length_sur"):
+        riskscore.write_events(tmp_path / "out", events, edited)
+    assert not (tmp_path / "out").exists()
+    riskscore.write_events(tmp_path / "plain", events, frames.drop_columns(["length_j"]))
+    assert riskscore.read_events(tmp_path / "plain")[1].equals(frames)
