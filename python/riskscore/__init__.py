@@ -246,8 +246,6 @@ _FRAME_TYPES = (
     + [(f"{f}_i", pa.float32()) for f in _STATE]
     + [(f"{f}_j", pa.float32()) for f in _STATE]
 )
-# Optional in frames (read_events gives them): checked against the events table's sizes.
-_FRAME_SIZES = [(f"{f}_{side}", pa.float32()) for side in ("i", "j") for f in ("length", "width")]
 
 
 def _select(table: pa.Table, what: str, wanted: Sequence[Tuple[str, pa.DataType]]) -> pa.Table:
@@ -274,10 +272,9 @@ def write_events(
 ) -> None:
     """Write an event folder from an events table and a frames table (as :func:`read_events`
     returns them; names case-insensitive, numeric types cast). The box sizes come from the events
-    table; frames need event_id, time, x_i ... acc_i and x_j ... acc_j, in time order per event.
-    Frames' own length_i, width_i, length_j, width_j (as ``read_events`` gives them) must equal
-    their event's sizes: a frame whose size was changed raises ``EventsError`` naming the row
-    and column (the folder stores sizes per event, so it would be lost).
+    table (a folder stores them per event; frames' own length_i ... width_j are not read, so
+    change sizes in the events table); frames need event_id, time, x_i ... acc_i and x_j ...
+    acc_j, in time order per event.
 
     Both files are written under temporary names and renamed into place, so a failure leaves the
     folder as it was. Existing ``events.csv``/``frames.csv`` raise ``FileExistsError`` unless
@@ -289,10 +286,7 @@ def write_events(
     and nothing is written.
     """
     ev = _select(as_table(events), "events", _EVENT_TYPES)
-    frames = as_table(frames)
-    present = {name.lower() for name in frames.column_names}
-    sizes = _FRAME_SIZES if all(name in present for name, _ in _FRAME_SIZES) else []
-    fr = _select(frames, "frames", _FRAME_TYPES + sizes)
+    fr = _select(as_table(frames), "frames", _FRAME_TYPES)
     _riskscore.write_events(os.fspath(directory), ev, fr, overwrite)
 
 

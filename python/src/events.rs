@@ -262,9 +262,8 @@ fn events_of(batches: &[RecordBatch]) -> Result<Vec<Event>, Failure> {
     Ok(events)
 }
 
-/// Adds the frames (columns `event_id`, `time`, `x_i ... acc_i`, `x_j ... acc_j`, then optionally
-/// `length_i`, `width_i`, `length_j`, `width_j`) to their events, in table order; the box sizes
-/// are the event's, and optional size columns must equal them. Returns, per event, the table rows of
+/// Adds the frames (columns `event_id`, `time`, `x_i ... acc_i`, `x_j ... acc_j`) to their
+/// events, in table order; the box sizes are the event's. Returns, per event, the table rows of
 /// its frames.
 fn attach_frames(
     events: &mut [Event],
@@ -296,31 +295,6 @@ fn attach_frames(
             })
         };
         let d = events[k].dims;
-        // The optional box-size columns (as read_events gives them) must agree with the event's:
-        // the folder stores sizes per event, so a changed value would be dropped unseen.
-        if c.batch.num_columns() == 20 {
-            let sizes = [
-                (16, d.length_ego, "length_ego"),
-                (17, d.width_ego, "width_ego"),
-                (18, d.length_partner, "length_sur"),
-                (19, d.width_partner, "width_sur"),
-            ];
-            for (column, of_event, event_column) in sizes {
-                let given = c.batch.column(column).as_primitive::<Float32Type>();
-                if given.is_valid(row) && given.value(row) != of_event {
-                    return Err(c.problem(
-                        column,
-                        row,
-                        &format!(
-                            "{} differs from the event's {event_column} {of_event}: an event \
-                             folder stores box sizes per event (set them in the events table, \
-                             or drop the frames' size columns)",
-                            given.value(row)
-                        ),
-                    ));
-                }
-            }
-        }
         let frame = Frame {
             time: c.required_f64(1, row)?,
             ego: state(2, d.length_ego, d.width_ego)?,

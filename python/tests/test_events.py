@@ -113,14 +113,15 @@ def test_tables_the_loader_would_refuse_are_not_written(tmp_path):
     assert not (tmp_path / "new").exists()
 
 
-def test_a_changed_box_size_in_frames_is_refused_not_dropped(tmp_path):
-    """The folder keeps sizes per event: a frame's edited length_j would vanish on writing."""
+def test_sizes_edited_in_the_events_table_are_written_with_frames_as_read(tmp_path):
+    """The documented way to change a box size: edit the events table, pass the frames as
+    read_events gave them (their stale length columns are not read)."""
     events, frames = riskscore.read_events(NGSIM_SAFE)
-    lengths = frames.column("length_j").to_numpy().copy()
-    lengths[40] *= 1.1
-    edited = frames.set_column(frames.column_names.index("length_j"), "length_j", pa.array(lengths))
-    with pytest.raises(riskscore.EventsError, match=r"frames row 40 column length_j: .* differs from the event's length_sur"):
-        riskscore.write_events(tmp_path / "out", events, edited)
-    assert not (tmp_path / "out").exists()
-    riskscore.write_events(tmp_path / "plain", events, frames.drop_columns(["length_j"]))
-    assert riskscore.read_events(tmp_path / "plain")[1].equals(frames)
+    lengths = events.column("length_sur").to_numpy().copy()
+    lengths[0] = 5.5
+    edited = events.set_column(events.column_names.index("length_sur"), "length_sur", pa.array(lengths))
+    riskscore.write_events(tmp_path / "out", edited, frames)
+    again_events, again_frames = riskscore.read_events(tmp_path / "out")
+    assert again_events.column("length_sur")[0].as_py() == 5.5
+    first = pc.equal(again_frames.column("event_id"), events.column("event_id")[0])
+    assert set(again_frames.filter(first).column("length_j").to_pylist()) == {5.5}
