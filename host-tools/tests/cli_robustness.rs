@@ -704,3 +704,42 @@ fn export_model_and_events_to_candump_help_say_what_they_do() {
         assert!(help.contains(said), "{command}: {help}");
     }
 }
+
+#[test]
+fn export_model_over_a_guarded_blob_says_what_the_new_one_lacks() {
+    // `export-model run/drl.json --out run/drl.rsk` replaced the trained blob, which carries the
+    // training domain and its guard, with a bare one, silently.
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let config = tiny_config(dir.path());
+    let run = dir.path().join("run");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let export = |out: &Path| {
+        let o = riskctl(&[
+            "export-model",
+            run.join("drl.json").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        common::stderr(&o)
+    };
+    let err = export(&run.join("drl.rsk"));
+    assert!(
+        err.contains("held a training domain (its guard)") && err.contains("calibrate-domain"),
+        "{err}"
+    );
+    // Now bare: exporting over it again, or to a new file, warns of nothing.
+    assert!(!export(&run.join("drl.rsk")).contains("warning"));
+    assert!(!export(&dir.path().join("new.rsk")).contains("warning"));
+}

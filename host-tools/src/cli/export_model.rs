@@ -55,7 +55,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot export", checkpoint.display()))?;
     let summary = export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
+    // What the blob replaced carried that a checkpoint cannot give (it holds no data): say so.
+    let lost = std::fs::read(&args.out)
+        .ok()
+        .and_then(|old| lost_records(&old));
     export::write_blob(&args.out, &blob)?;
+    if let Some((lost, how)) = lost {
+        eprintln!(
+            "riskctl: warning: {} held {lost}, which a checkpoint cannot give (it holds no data); \
+             the new blob has none: attach it again with {how}, or export to another file",
+            args.out.display()
+        );
+    }
     outln!(
         "{} ({}) -> {} ({} bytes)",
         checkpoint.display(),
@@ -65,4 +76,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     out!("{summary}");
     Ok(())
+}
+
+/// The metadata records of the blob `old` that an export from a checkpoint does not write (a
+/// training domain with its guard, a calibrated default threshold), as words, and the commands
+/// that attach them; `None` when it holds none or is no blob.
+fn lost_records(old: &[u8]) -> Option<(String, String)> {
+    let meta = scorer_core::model::decode_blob(old).ok()?.meta;
+    let mut lost = Vec::new();
+    let mut how = Vec::new();
+    if meta.training_domain.is_some() {
+        lost.push("a training domain (its guard)");
+        how.push("`riskctl calibrate-domain`");
+    }
+    if meta.default_threshold.is_some() {
+        lost.push("a calibrated default threshold");
+        how.push("`riskctl calibrate`");
+    }
+    (!lost.is_empty()).then(|| (lost.join(" and "), how.join(" and ")))
 }
