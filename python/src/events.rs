@@ -320,6 +320,22 @@ fn write_folder(dir: &Path, list: &[Event]) -> Result<(), Failure> {
     writer.finish().map_err(|e| Failure::Events(e.to_string()))
 }
 
+/// The frames table's name of a `frames.csv` column: `x_ego`/`acc_sur` are `x_i`/`acc_j`;
+/// `event_id` and `time` are the same.
+fn frames_column(file_column: &str) -> String {
+    if let Some(base) = file_column.strip_suffix("_ego") {
+        if STATE_FIELDS.contains(&base) {
+            return format!("{base}_i");
+        }
+    }
+    if let Some(base) = file_column.strip_suffix("_sur") {
+        if STATE_FIELDS.contains(&base) {
+            return format!("{base}_j");
+        }
+    }
+    file_column.to_owned()
+}
+
 /// Refuses tables that would make a folder `read_events` and `riskctl` refuse (frames out of
 /// time order, a repeated event_id, an event without frames, a crash without t_impact, ...): the
 /// folder is written to a scratch folder and read back by riskscore-data's loader, whose
@@ -358,6 +374,11 @@ fn check_readable(list: &[Event], frame_rows: &[Vec<usize>]) -> Result<(), Failu
                 line.push_str(&format!(" row {r}"));
             }
             if let Some(c) = &i.column {
+                let c = if table == "frames" {
+                    frames_column(c)
+                } else {
+                    c.clone()
+                };
                 line.push_str(&format!(" column {c}"));
             }
             if let Some(id) = &i.event_id {

@@ -125,3 +125,18 @@ def test_sizes_edited_in_the_events_table_are_written_with_frames_as_read(tmp_pa
     assert again_events.column("length_sur")[0].as_py() == 5.5
     first = pc.equal(again_frames.column("event_id"), events.column("event_id")[0])
     assert set(again_frames.filter(first).column("length_j").to_pylist()) == {5.5}
+
+
+def test_a_refused_frame_is_named_by_the_frames_table_column(tmp_path):
+    """The loader's check names frames.csv's hx_ego; the message names the table's hx_i."""
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    hx = frames.column("hx_i").to_numpy().copy()
+    hx[30] = 2.0
+    odd = frames.set_column(frames.column_names.index("hx_i"), "hx_i", pa.array(hx))
+    with pytest.raises(riskscore.EventsError, match=r"frames row 30 column hx_i: event .*: heading norm"):
+        riskscore.write_events(tmp_path / "out", events, odd)
+    widths = events.column("width_sur").to_numpy().copy()
+    widths[2] = 9.0
+    wide = events.set_column(events.column_names.index("width_sur"), "width_sur", pa.array(widths))
+    with pytest.raises(riskscore.EventsError, match=r"events row 2 column width_sur: event .*: dimension 9 m is outside"):
+        riskscore.write_events(tmp_path / "out", wide, frames)
