@@ -1216,3 +1216,38 @@ fn a_file_given_as_the_folder_is_named_as_such() {
         .to_string();
     assert!(e.contains("a file, not an event folder"), "{e}");
 }
+
+#[test]
+fn a_hole_in_the_frames_is_noted_and_the_event_kept() {
+    // s1 at 10 Hz without its frames from 0.5 to 1.5 s (one hole of 1 s); n1 has one frame
+    // dropped (0.2 s: two intervals, not a hole).
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\nn1,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let keep = |id: &str, drop: &dyn Fn(f64) -> bool| -> String {
+        (0..21)
+            .map(|k| k as f64 / 10.0)
+            .filter(|&t| !drop(t))
+            .map(|t| row(id, t))
+            .collect()
+    };
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        rows("c1", 21),
+        keep("s1", &|t| t > 0.45 && t < 1.45),
+        keep("n1", &|t| (t - 0.7).abs() < 0.01)
+    );
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1", "n1"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [(3, Some("s1"), "FrameGap")],
+        "{issues:#?}"
+    );
+    assert!(issues[0].problem.is_note());
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("jump from 0.4 to 1.5 s, where they are 0.100 s apart"),
+        "{text}"
+    );
+}

@@ -25,9 +25,9 @@ mod write;
 pub use folder::{load_prepared, PreparedFolder, LISTED_LOAD_ISSUES, LISTED_PREPARE_ISSUES};
 pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{
-    load_events, stream_events, EventsError, IssueProblem, LoadIssue, HEADING_CHECK_MIN_SPEED_M_S,
-    KEPT_PER_KIND, LENGTH_RANGE_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX,
-    WIDTH_RANGE_M,
+    load_events, stream_events, EventsError, IssueProblem, LoadIssue, GAP_FACTOR,
+    HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND, LENGTH_RANGE_M, MAX_SPEED_M_S,
+    SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
 };
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_owned_event, prepare_sequences, safe_rules_hold,

@@ -25,6 +25,9 @@ pub const SPEED_CHECK_MIN_PATH_M: f64 = 10.0;
 /// Frames where a road user moves at least this fast (m/s) are those whose heading is compared
 /// with the velocity ([`IssueProblem::HeadingAcrossVelocity`]).
 pub const HEADING_CHECK_MIN_SPEED_M_S: f32 = 3.0;
+/// An interval between frames longer than this many times the event's median interval is a hole
+/// ([`IssueProblem::FrameGap`]).
+pub const GAP_FACTOR: f64 = 3.0;
 
 /// A problem that stops a folder from being read at all.
 #[derive(Debug, thiserror::Error)]
@@ -195,6 +198,13 @@ pub enum IssueProblem {
     },
     #[error("t_impact {t_impact} is {:.3} s after the last frame ({last}): lead times are measured to t_impact, so each warning would count that stretch without frames; is t_impact on the frames' clock, or are the last frames missing? The event is kept", t_impact - last)]
     ImpactAfterFrames { t_impact: f64, last: f64 },
+    #[error("frames.csv `time`: the frames jump from {from} to {to} s, where they are {typical:.3} s apart ({holes} such hole(s)): frames missing? Sequence lengths, derived accelerations and lead times span a hole as if it were data. The event is kept")]
+    FrameGap {
+        from: f64,
+        to: f64,
+        typical: f64,
+        holes: usize,
+    },
 }
 
 impl IssueProblem {
@@ -227,6 +237,7 @@ impl IssueProblem {
             Self::SpeedsExceedPath { .. } => "SpeedsExceedPath",
             Self::HeadingAcrossVelocity { .. } => "HeadingAcrossVelocity",
             Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
+            Self::FrameGap { .. } => "FrameGap",
         }
     }
 
@@ -237,7 +248,8 @@ impl IssueProblem {
             Self::NoFinalNewline
             | Self::SpeedsExceedPath { .. }
             | Self::HeadingAcrossVelocity { .. }
-            | Self::ImpactAfterFrames { .. } => true,
+            | Self::ImpactAfterFrames { .. }
+            | Self::FrameGap { .. } => true,
             // The notes beyond the first of their kind are notes too.
             Self::MoreOfKind { kind, .. } => matches!(
                 *kind,
@@ -245,6 +257,7 @@ impl IssueProblem {
                     | "SpeedsExceedPath"
                     | "HeadingAcrossVelocity"
                     | "ImpactAfterFrames"
+                    | "FrameGap"
             ),
             _ => false,
         }

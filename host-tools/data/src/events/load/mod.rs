@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 pub use issues::{
-    EventsError, IssueProblem, LoadIssue, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND,
+    EventsError, IssueProblem, LoadIssue, GAP_FACTOR, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND,
     LENGTH_RANGE_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
 };
 
@@ -56,6 +56,7 @@ pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError
                 folder.issues.extend(speed_note(&p, &folder.events_path));
                 folder.issues.extend(heading_note(&p, &folder.events_path));
                 folder.issues.extend(impact_note(&p, &folder.events_path));
+                folder.issues.extend(gap_note(&p, &folder.events_path));
                 events.push(p.event);
             }
         }
@@ -284,6 +285,38 @@ fn impact_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
     })
 }
 
+/// Frames are sampled at a constant rate: an interval more than [`GAP_FACTOR`] times the
+/// event's median interval is a hole (frames missing), which the preparation and the metrics
+/// would span as if it were data (a 2-frame "safe sequence" across 3 s, a derived acceleration
+/// across the hole). A note with the largest hole on the event's `events.csv` line (the event
+/// is kept); the simulator and the real data shipped have none.
+fn gap_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+    let frames = &p.event.frames;
+    let mut intervals: Vec<f64> = frames.windows(2).map(|w| w[1].time - w[0].time).collect();
+    if intervals.len() < 2 {
+        return None;
+    }
+    intervals.sort_by(f64::total_cmp);
+    let typical = intervals[intervals.len() / 2];
+    let limit = GAP_FACTOR * typical + TIME_TOLERANCE_S;
+    let holes = intervals.iter().filter(|&&d| d > limit).count();
+    let at = frames
+        .windows(2)
+        .max_by(|a, b| (a[1].time - a[0].time).total_cmp(&(b[1].time - b[0].time)))?;
+    (holes > 0).then(|| LoadIssue {
+        file: events_path.to_path_buf(),
+        line: p.line,
+        column: None,
+        event_id: Some(p.event.id.clone()),
+        problem: IssueProblem::FrameGap {
+            from: at[0].time,
+            to: at[1].time,
+            typical,
+            holes,
+        },
+    })
+}
+
 fn empty_event() -> Event {
     Event {
         id: String::new(),
@@ -366,8 +399,8 @@ impl<E: From<EventsError>> Stream<'_, E> {
                 Ok(())
             }
             None => {
-                let notes =
-                    [speed_note, heading_note, impact_note].map(|f| f(&finished, self.events_path));
+                let notes = [speed_note, heading_note, impact_note, gap_note]
+                    .map(|f| f(&finished, self.events_path));
                 self.deferred
                     .extend(notes.into_iter().flatten().map(|note| (slot, note)));
                 (self.on_event)(p.position, finished.event)
