@@ -131,7 +131,8 @@ class Model:
 
     @classmethod
     def load(cls, path: PathLike) -> "Model":
-        """Read and validate a model file. Raises ``OSError`` if it cannot be read and
+        """Read and validate a model file. Raises ``OSError`` if it cannot be read (its errno's
+        subclass: ``FileNotFoundError`` for a missing file) and
         ``ModelError`` (naming the file and the failed check) if it is not a valid blob."""
         return cls(_riskscore.Model.load(os.fspath(path)))
 

@@ -70,7 +70,12 @@ impl Model {
     fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Self> {
         let shown = path.display().to_string();
         let bytes = std::fs::read(&path).map_err(|e| {
-            pyo3::exceptions::PyOSError::new_err(format!("model file {shown}: cannot read: {e}"))
+            let message = format!("model file {shown}: cannot read: {e}");
+            // OSError(errno, text) is the errno's subclass: FileNotFoundError, PermissionError...
+            match e.raw_os_error() {
+                Some(errno) => pyo3::exceptions::PyOSError::new_err((errno, message)),
+                None => pyo3::exceptions::PyOSError::new_err(message),
+            }
         })?;
         Model::checked(bytes, Some(shown)).map_err(|f| f.into_py(py))
     }

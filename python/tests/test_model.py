@@ -76,8 +76,10 @@ def test_bad_blobs_are_refused_naming_the_file(tmp_path):
     flipped[-1] ^= 0xFF
     with pytest.raises(riskscore.ModelError, match="model bytes"):
         riskscore.Model.from_bytes(bytes(flipped))
-    with pytest.raises(OSError, match="missing.rsk"):
+    with pytest.raises(FileNotFoundError, match="missing.rsk: cannot read"):
         riskscore.Model.load(tmp_path / "missing.rsk")
+    with pytest.raises(IsADirectoryError, match="cannot read"):
+        riskscore.Model.load(tmp_path)
 
 
 def test_bad_rows_score_nan_and_strict_raises(ngsim_frames):
