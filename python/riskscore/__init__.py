@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -295,12 +296,21 @@ ModelSpec = Union[PathLike, Model]
 Threshold = Union[float, str, None]
 
 
-def _model_specs(models: Union[ModelSpec, Sequence[ModelSpec], Mapping[str, ModelSpec]]) -> List[str]:
+def _model_specs(
+    models: Union[ModelSpec, Sequence[ModelSpec], Mapping[str, ModelSpec]], scratch: str
+) -> List[str]:
+    """``[NAME=]FILE`` specs. A loaded ``Model`` is evaluated from the blob it holds (written to a
+    folder of its own in ``scratch`` under its file's name, so rows are named as for the file),
+    not re-read from a path that may since have changed, be relative to another folder, or be
+    none (``from_bytes``, unpickled)."""
+
     def path_of(m: ModelSpec) -> str:
         if isinstance(m, Model):
-            if m.path is None:
-                raise ModelError("evaluate needs model files: this Model was made from bytes")
-            return m.path
+            folder = tempfile.mkdtemp(dir=scratch)
+            blob = os.path.join(folder, os.path.basename(m.path) if m.path else "model.rsk")
+            with open(blob, "wb") as out:
+                out.write(m.to_bytes())
+            return blob
         return os.fspath(m)
 
     if isinstance(models, Mapping):
@@ -332,20 +342,22 @@ def evaluate(
     ``{"events": {...}, "methods": [{"name", "A_ROC_90", ...}], "operating_points": [...]}``.
 
     ``models``: model files (paths or loaded ``Model``s; a ``{name: path}`` dict names the rows
-    like ``--model NAME=FILE``). The TTC2D, TAdv and EI baselines follow. ``thresholds`` sets the
+    like ``--model NAME=FILE``). A ``Model`` is evaluated from the blob it holds (also one made
+    with ``from_bytes`` or unpickled), not re-read from its file. The TTC2D, TAdv and EI baselines follow. ``thresholds`` sets the
     operating points like ``--threshold``: ``"default"`` (each model at its own default
     threshold), a number (every model at it), ``"none"``/None (no operating points), or a dict
     ``{row name: number | "default" | "none"/None}`` (baselines too; other rows keep defaults).
     A folder with bad rows raises ``EventsError`` listing them unless ``skip_bad_events=True``.
     """
-    specs = _model_specs(models)
     if isinstance(thresholds, Mapping):
         every, by_name = None, {name: _choice(t, name) for name, t in thresholds.items()}
     else:
         every, by_name = _choice(thresholds), {}
-    text, issues, count = _riskscore.evaluate(
-        os.fspath(events), specs, every, by_name, skip_bad_events
-    )
+    with tempfile.TemporaryDirectory(prefix="riskscore-models-") as scratch:
+        specs = _model_specs(models, scratch)
+        text, issues, count = _riskscore.evaluate(
+            os.fspath(events), specs, every, by_name, skip_bad_events
+        )
     if count:
         import warnings
 

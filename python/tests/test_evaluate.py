@@ -74,3 +74,18 @@ def test_a_folder_with_bad_rows_is_refused_pointing_at_the_problems_below(tmp_pa
         riskscore.evaluate(folder, [DRL])
     with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):
         assert riskscore.evaluate(folder, [DRL], skip_bad_events=True)["events"]["safe"] == 375
+
+
+def test_a_loaded_model_is_evaluated_as_loaded(simulated, tmp_path):
+    """Not re-read from its path: the file replaced since (a retrained model written over it),
+    or a Model made from bytes, still evaluates the blob the Model holds."""
+    copy = tmp_path / "drl-default.rsk"
+    copy.write_bytes(DRL.read_bytes())
+    model = riskscore.Model.load(copy)
+    copy.write_bytes(MSRA.read_bytes())
+    expected = riskscore.evaluate(simulated, [DRL])
+    assert riskscore.evaluate(simulated, [model]) == expected
+    from_bytes = riskscore.Model.from_bytes(DRL.read_bytes())
+    assert riskscore.evaluate(simulated, {"DRL": from_bytes}) == expected
+    both = riskscore.evaluate(simulated, [model, DRL], thresholds="none")
+    assert [m["name"] for m in both["methods"]][:2] == ["drl-default#1", "drl-default#2"]
