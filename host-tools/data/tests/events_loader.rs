@@ -1251,3 +1251,22 @@ fn a_hole_in_the_frames_is_noted_and_the_event_kept() {
         "{text}"
     );
 }
+
+#[test]
+fn a_repeated_header_line_is_noted_and_skipped() {
+    // Two files joined with their headers (`cat a.csv b.csv`): the second header was a row of
+    // eight "not a number" problems (events.csv) or frames of an unknown event `event_id`.
+    let (ev, fr) = good();
+    let ev = ev.replacen("\ns1,", &format!("\n{EV_HEADER}s1,"), 1);
+    // In the middle of c1's frames too: its run goes on after it.
+    let fr = fr.replacen("\nc1,0.5,", &format!("\n{FR_HEADER}c1,0.5,"), 1);
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    assert_eq!(set.events[0].frames.len(), 21);
+    assert_eq!(
+        line_event_kind(&issues),
+        [(3, None, "RepeatedHeader"), (7, None, "RepeatedHeader")],
+        "{issues:#?}"
+    );
+    assert!(issues.iter().all(|i| i.problem.is_note()));
+}

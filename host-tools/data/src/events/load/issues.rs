@@ -205,6 +205,8 @@ pub enum IssueProblem {
         typical: f64,
         holes: usize,
     },
+    #[error("the header line again (two files joined, each with its header?): the row is skipped, nothing else is dropped")]
+    RepeatedHeader,
 }
 
 impl IssueProblem {
@@ -238,6 +240,7 @@ impl IssueProblem {
             Self::HeadingAcrossVelocity { .. } => "HeadingAcrossVelocity",
             Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
             Self::FrameGap { .. } => "FrameGap",
+            Self::RepeatedHeader => "RepeatedHeader",
         }
     }
 
@@ -249,7 +252,8 @@ impl IssueProblem {
             | Self::SpeedsExceedPath { .. }
             | Self::HeadingAcrossVelocity { .. }
             | Self::ImpactAfterFrames { .. }
-            | Self::FrameGap { .. } => true,
+            | Self::FrameGap { .. }
+            | Self::RepeatedHeader => true,
             // The notes beyond the first of their kind are notes too.
             Self::MoreOfKind { kind, .. } => matches!(
                 *kind,
@@ -258,6 +262,7 @@ impl IssueProblem {
                     | "HeadingAcrossVelocity"
                     | "ImpactAfterFrames"
                     | "FrameGap"
+                    | "RepeatedHeader"
             ),
             _ => false,
         }

@@ -317,6 +317,28 @@ fn gap_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
     })
 }
 
+/// A row that repeats the header (two files joined with `cat`, each with its header): a note,
+/// the row skipped and nothing else touched (it is no frame of the events around it).
+fn repeated_header(
+    path: &Path,
+    line: u64,
+    rec: &csv::ByteRecord,
+    headers: &csv::StringRecord,
+) -> Option<LoadIssue> {
+    let same = rec.len() == headers.len()
+        && rec
+            .iter()
+            .zip(headers.iter())
+            .all(|(r, h)| r == h.as_bytes());
+    same.then(|| LoadIssue {
+        file: path.to_path_buf(),
+        line,
+        column: None,
+        event_id: None,
+        problem: IssueProblem::RepeatedHeader,
+    })
+}
+
 fn empty_event() -> Event {
     Event {
         id: String::new(),
@@ -431,6 +453,10 @@ fn read_events(
                 continue;
             }
         };
+        if let Some(note) = repeated_header(path, line, &rec, &headers) {
+            issues.push(note);
+            continue;
+        }
         let id = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b"")).into_owned();
         let mut f = Fields {
             path,
@@ -600,6 +626,10 @@ fn read_frames<E: From<EventsError>>(
                 continue;
             }
         };
+        if let Some(note) = repeated_header(path, line, &rec, &headers) {
+            issues.push(note);
+            continue;
+        }
         let id_text = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b""));
         let id: &str = &id_text;
         // Frames usually come grouped by event: remember the last lookup.
