@@ -323,11 +323,14 @@ def _model_specs(
 def _choice(value: Threshold, row: Optional[str] = None) -> Union[float, str]:
     if value is None:
         return "none"
+    where = f"thresholds[{row!r}]" if row is not None else "thresholds"
     if isinstance(value, str):
         if value not in ("default", "none"):
-            where = f"thresholds[{row!r}]" if row is not None else "thresholds"
             raise ModelError(f'{where}: {value!r} is not a number, "default", "none" or None')
         return value
+    if isinstance(value, (bool, np.bool_)):
+        # float(True) would put every model at threshold 1.0 without a word.
+        raise ModelError(f'{where}: {value!r} is not a number, "default", "none" or None')
     return float(value)
 
 

@@ -59,6 +59,14 @@ def test_a_threshold_word_that_is_not_one_is_named(simulated):
         riskscore.evaluate(simulated, [DRL], thresholds={"TTC2D": "1.5"})
 
 
+def test_a_bool_threshold_is_not_taken_as_one(simulated):
+    """thresholds=True (meant as "use the defaults"?) would silently evaluate every model at 1.0."""
+    with pytest.raises(riskscore.ModelError, match="thresholds: True is not a number"):
+        riskscore.evaluate(simulated, [DRL], thresholds=True)
+    with pytest.raises(riskscore.ModelError, match=r"thresholds\['DRL'\]: False is not a number"):
+        riskscore.evaluate(simulated, [DRL], thresholds={"DRL": False})
+
+
 def test_a_folder_with_bad_rows_is_refused_pointing_at_the_problems_below(tmp_path):
     """The problems follow the message (riskctl prints them before it: "listed above")."""
     import shutil
