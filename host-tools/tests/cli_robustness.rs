@@ -693,11 +693,13 @@ fn train_help_says_what_it_writes_and_when_it_warns() {
 }
 
 #[test]
-fn export_model_and_events_to_candump_help_say_what_they_do() {
+fn export_model_events_to_candump_demo_and_completions_help_say_what_they_do() {
     // Their argument doc comments were never shown by --help either.
     for (command, said) in [
         ("export-model", "so `--f32` changes nothing for it"),
         ("events-to-candump", "Any left-out cycle fails the run"),
+        ("demo", "Everything goes under --out"),
+        ("completions", "riskctl completions bash >"),
     ] {
         let o = riskctl(&[command, "--help"]);
         let help = String::from_utf8_lossy(&o.stdout);

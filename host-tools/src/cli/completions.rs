@@ -4,13 +4,19 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
+/// What `--help` says after the options (a doc comment of [`Args`] is not shown: the
+/// subcommand's one-line description in `main.rs` takes its place).
+const ABOUT_COMPLETIONS: &str = "\
+Install, for example:
+  riskctl completions bash > ~/.local/share/bash-completion/completions/riskctl
+  riskctl completions zsh  > ~/.zfunc/_riskctl        (with fpath+=~/.zfunc)
+  riskctl completions fish > ~/.config/fish/completions/riskctl.fish";
+
 /// Print a completion script for SHELL to standard output.
 ///
-/// Install, for example:
-///   riskctl completions bash > ~/.local/share/bash-completion/completions/riskctl
-///   riskctl completions zsh  > ~/.zfunc/_riskctl        (with fpath+=~/.zfunc)
-///   riskctl completions fish > ~/.config/fish/completions/riskctl.fish
+/// The rest: [`ABOUT_COMPLETIONS`].
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_COMPLETIONS)]
 pub struct Args {
     /// The shell to complete for.
     pub shell: clap_complete::Shell,

@@ -8,6 +8,30 @@ use host_tools::demo::{
 use riskscore_data::sim::{FamilyMix, Mix};
 use riskscore_train::train::{Progress, TrainConfig};
 
+/// What `--help` says after the options (a doc comment of [`Args`] is not shown: the
+/// subcommand's one-line description in `main.rs` takes its place).
+const ABOUT_DEMO: &str = "\
+Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
+(data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the
+results table against TTC2D, TAdv and EI, run the transfer benchmark (train on this simulator
+seed + part of the real scenario files, test on another seed and event mix + the held-out real
+files), run a short domain benchmark (train without the 35-50 m/s band, one city's real traffic,
+or crossing/oncoming encounters, test on it; 2 folds x 1 seed of `riskctl benchmark domains`),
+quantise and export the final models, and write plots.
+
+The recipe (docs/training.md \"Training on the operating domain\"): the sets the benchmarks test
+on (the simulated default set and the real freeway extract) plus training-only data that joins
+every training fold, the transfer benchmark's training side and the final models but never a
+test fold: a simulated folder of the operating-domain families (motorway, signalised junctions,
+roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--no-extra` runs
+the recipe before issue #18.
+
+Everything goes under --out (default ./out): data/ (the simulated events), extra-data/ (the
+training-only simulated folder), transfer-data/ (the
+transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
+(results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
+risk trajectories as SVG and PNG).";
+
 /// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
 /// (data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the
 /// results table against TTC2D, TAdv and EI, run the transfer benchmark (train on this simulator
@@ -16,19 +40,9 @@ use riskscore_train::train::{Progress, TrainConfig};
 /// or crossing/oncoming encounters, test on it; 2 folds x 1 seed of `riskctl benchmark domains`),
 /// quantise and export the final models, and write plots.
 ///
-/// The recipe (docs/training.md "Training on the operating domain"): the sets the benchmarks test
-/// on (the simulated default set and the real freeway extract) plus training-only data that joins
-/// every training fold, the transfer benchmark's training side and the final models but never a
-/// test fold: a simulated folder of the operating-domain families (motorway, signalised junctions,
-/// roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--no-extra` runs
-/// the recipe before issue #18.
-///
-/// Everything goes under --out (default ./out): data/ (the simulated events), extra-data/ (the
-/// training-only simulated folder), transfer-data/ (the
-/// transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
-/// (results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
-/// risk trajectories as SVG and PNG).
+/// The rest: [`ABOUT_DEMO`].
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = ABOUT_DEMO)]
 pub struct Args {
     /// Output folder.
     #[arg(long, default_value = "out")]
