@@ -1045,6 +1045,8 @@ fn speeds_in_km_h_are_noted_and_the_event_kept() {
     assert_eq!(set.len(), 25);
     assert_eq!(issues.len(), 21, "{issues:#?}");
     assert!(issues.iter().all(|i| i.problem.is_note()), "{issues:#?}");
+    let count = issues[20].to_string();
+    assert!(count.contains("5 more `SpeedsExceedPath` notes"), "{count}");
     // A standing partner (no path) and speeds that match their path get no note.
     let fr = format!(
         "{FR_HEADER}{}",

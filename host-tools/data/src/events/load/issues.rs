@@ -155,7 +155,7 @@ pub enum IssueProblem {
     ImplausibleDimension { value: f32, min: f32, max: f32 },
     #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
     ImplausibleSpeed { speed: f32 },
-    #[error("... and {more} more `{kind}` problems in this file (not listed)")]
+    #[error("... and {more} more `{kind}` {} in this file (not listed)", if is_note_kind(kind) { "notes" } else { "problems" })]
     MoreOfKind { kind: &'static str, more: u64 },
     /// `similar`: an id of events.csv that differs from this one only in leading zeros or case.
     #[error("{frames} frame(s) for an event that is not in events.csv{}", similar.as_ref().map(|s| format!(" (events.csv has `{s}`: leading zeros or case lost, e.g. by a spreadsheet?)")).unwrap_or_default())]
@@ -255,18 +255,23 @@ impl IssueProblem {
             | Self::FrameGap { .. }
             | Self::RepeatedHeader => true,
             // The notes beyond the first of their kind are notes too.
-            Self::MoreOfKind { kind, .. } => matches!(
-                *kind,
-                "NoFinalNewline"
-                    | "SpeedsExceedPath"
-                    | "HeadingAcrossVelocity"
-                    | "ImpactAfterFrames"
-                    | "FrameGap"
-                    | "RepeatedHeader"
-            ),
+            Self::MoreOfKind { kind, .. } => is_note_kind(kind),
             _ => false,
         }
     }
+}
+
+/// True for the [`IssueProblem::kind`] of a note ([`IssueProblem::is_note`]).
+fn is_note_kind(kind: &str) -> bool {
+    matches!(
+        kind,
+        "NoFinalNewline"
+            | "SpeedsExceedPath"
+            | "HeadingAcrossVelocity"
+            | "ImpactAfterFrames"
+            | "FrameGap"
+            | "RepeatedHeader"
+    )
 }
 
 impl LoadIssue {
