@@ -223,8 +223,9 @@ def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Tabl
 
 
 def _warn_notes(notes, directory: PathLike) -> None:
-    """Notes leave nothing out (a file without a final newline: its last row is read as it
-    stands), so they warn instead of raising."""
+    """Notes leave nothing out (a file without a final newline, speeds that outrun the positions,
+    a hole in the frames, a repeated header line: docs/event-format.md lists them), so they warn
+    instead of raising."""
     import warnings
 
     listing = "\n  ".join(notes)

@@ -597,7 +597,7 @@ pub fn with_training_domain(
 pub fn threshold_rule_text(blob: &model::ModelBlob<'_>) -> String {
     let Some(op) = blob.meta.default_threshold else {
         return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half its weight sum, \
-                GSSM 0.5)"
+                GSSM the middle of its score mode's range)"
             .to_owned();
     };
     let data = if op.data.is_empty() {
