@@ -758,22 +758,35 @@ fn load_extra(opts: &DemoOptions) -> Result<(Vec<Sequence>, Option<String>), Dem
 /// Event-id prefix of the DRL-only training sequences (`drl-only/<folder index>/<id>`).
 pub const DRL_ONLY_PREFIX: &str = "drl-only/";
 
+/// Event-id prefix of `riskctl benchmark transfer --train-only` sequences
+/// (`train-only/<folder index>/<id>`).
+pub const TRAIN_ONLY_PREFIX: &str = "train-only/";
+
 /// The training-only folders DRL alone trains on ([`ExtraTraining::drl_only`]), with their
 /// counts (`None`: none).
 fn load_drl_only(dirs: &[PathBuf]) -> Result<(Vec<Sequence>, Option<String>), DemoError> {
+    load_training_only(dirs, DRL_ONLY_PREFIX, "training only, DRL only")
+}
+
+/// Training-only folders, each sequence's event id prefixed with `<prefix><folder index>/`, with
+/// their counts (`None`: none). As the extra simulated folder's: ids of their own (a simulated
+/// folder's restart at 000001 and training groups sequences by event id).
+pub fn load_training_only(
+    dirs: &[PathBuf],
+    prefix: &str,
+    what: &str,
+) -> Result<(Vec<Sequence>, Option<String>), DemoError> {
     let mut seqs = Vec::new();
     let mut counts = Vec::new();
     for (i, dir) in dirs.iter().enumerate() {
         let (mut s, c) = load_sequences(dir)?;
         eprintln!(
-            "      training only, DRL only: {}: {c}; {} sequences",
+            "      {what}: {}: {c}; {} sequences",
             dir.display(),
             s.len()
         );
-        // As the extra simulated folder's: ids of their own (a simulated folder's restart at
-        // 000001 and training groups sequences by event id).
         for seq in &mut s {
-            seq.event_id = format!("{DRL_ONLY_PREFIX}{i}/{}", seq.event_id);
+            seq.event_id = format!("{prefix}{i}/{}", seq.event_id);
         }
         counts.push(format!("{c} ({})", dir.display()));
         seqs.extend(s);

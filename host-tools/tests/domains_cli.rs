@@ -1026,3 +1026,55 @@ fn transfer_draws_pool_each_draws_runs_and_judge_every_claim_on_each_draw_too() 
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--draws 3"), "{err}");
 }
+
+/// `benchmark transfer --train-only` joins every model's training side and `--drl-only` DRL's
+/// alone (the demo's transfer stage and `--extra-drl-only`): the test folds stay the same, the
+/// fold models change where they trained on the folder and only there. An output inside such a
+/// folder is refused before anything runs.
+#[test]
+fn transfer_trains_on_training_only_folders_and_never_writes_into_them() {
+    let d = scratch();
+    let p = d.path();
+    transfer(p, "base", "t.toml", &[]);
+    transfer(p, "all", "t.toml", &["--train-only", "city"]);
+    transfer(p, "drl", "t.toml", &["--drl-only", "city"]);
+    // The rows of one method in a run's folds.csv (seed, fold and the metrics).
+    let rows = |out: &str, method: &str| -> Vec<String> {
+        std::fs::read_to_string(p.join(format!("{out}/report/folds.csv")))
+            .unwrap()
+            .lines()
+            .filter(|l| l.split(',').nth(2) == Some(method))
+            .map(String::from)
+            .collect()
+    };
+    for method in ["TTC2D", "TAdv", "EI"] {
+        assert_eq!(
+            rows("all", method),
+            rows("base", method),
+            "{method}: same test folds"
+        );
+    }
+    assert_ne!(rows("all", "DRL"), rows("base", "DRL"));
+    assert_ne!(rows("all", "MSRA"), rows("base", "MSRA"));
+    assert_ne!(rows("drl", "DRL"), rows("base", "DRL"));
+    assert_eq!(
+        rows("drl", "MSRA"),
+        rows("base", "MSRA"),
+        "MSRA never sees --drl-only"
+    );
+
+    let events = std::fs::read(p.join("city/events.csv")).unwrap();
+    for flag in ["--train-only", "--drl-only"] {
+        let mut args = vec!["benchmark", "transfer", "--real", "freeway", flag, "city"];
+        args.extend(simulated("t.toml", "city/run"));
+        let o = riskctl(p, &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{flag}");
+        assert!(
+            err.contains(&format!("lies inside {flag} city")),
+            "{flag}: {err}"
+        );
+    }
+    assert_eq!(std::fs::read(p.join("city/events.csv")).unwrap(), events);
+    assert!(!p.join("city/run").exists());
+}

@@ -3,7 +3,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    default_real_city_data, default_real_data, print_claims, write_transfer_report, REAL_DATA,
+    default_real_city_data, default_real_data, load_training_only, print_claims,
+    write_transfer_report, DRL_ONLY_PREFIX, REAL_DATA, TRAIN_ONLY_PREFIX,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
@@ -245,6 +246,16 @@ pub struct TransferArgs {
     pub real: Option<PathBuf>,
     #[command(flatten)]
     pub sim: SimArgs,
+    /// Training-only event folder (repeatable): joins the training side of every fold, for every
+    /// model (the GSSM fit's normal driving too), never a test fold. Its event ids get the prefix
+    /// `train-only/<k>/` so they cannot collide with the training folder's. `riskctl demo`'s
+    /// transfer stage trains on its `extra-data/` and data/ngsim-urban-safe this way.
+    #[arg(long = "train-only", value_name = "DIR")]
+    pub train_only: Vec<PathBuf>,
+    /// Training-only event folder for DRL alone (repeatable), as `riskctl demo --extra-drl-only`
+    /// (scripts/ship-models.sh gives it the roadside passes); ids prefixed `drl-only/<k>/`.
+    #[arg(long = "drl-only", value_name = "DIR")]
+    pub drl_only: Vec<PathBuf>,
     #[command(flatten)]
     pub training: TrainingArgs,
     /// Output folder: simulated data (train-data/, test-data/) and the report (report/).
@@ -340,10 +351,15 @@ fn real_freeway_dir(given: Option<&Path>) -> anyhow::Result<PathBuf> {
 }
 
 fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
+    let training_only: Vec<(&str, Option<&Path>)> = (a.train_only.iter())
+        .map(|d| ("--train-only", Some(d.as_path())))
+        .chain(a.drl_only.iter().map(|d| ("--drl-only", Some(d.as_path()))))
+        .collect();
     super::output::refuse_inputs_of(
         &[
             [("--real", a.real.as_deref())].as_slice(),
             &a.sim.event_folders(),
+            &training_only,
         ]
         .concat(),
         &a.training.files(),
@@ -358,6 +374,9 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         real_dir.display(),
         real.len()
     );
+    let (train_only, _) = load_training_only(&a.train_only, TRAIN_ONLY_PREFIX, "training only")?;
+    let (drl_only, _) =
+        load_training_only(&a.drl_only, DRL_ONLY_PREFIX, "training only, DRL only")?;
     let options = a.training.options(a.quiet);
     let inputs = config.msra.input_names();
     // Each draw runs with the seeds after the previous draw's ([`transfer::draw_config`]).
@@ -370,9 +389,11 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         .into_iter()
         .enumerate()
     {
+        let mut train_sim = draw.train;
+        train_sim.extend(train_only.iter().cloned());
         let data = TransferData {
-            train_sim: draw.train,
-            train_drl_only: Vec::new(),
+            train_sim,
+            train_drl_only: drl_only.clone(),
             test_sim: draw.test,
             real: real.clone(),
         };
