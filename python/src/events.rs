@@ -12,8 +12,8 @@ use arrow_pyarrow::{PyArrowType, Table};
 use arrow_schema::{DataType, Field, Schema};
 use pyo3::prelude::*;
 use riskscore_data::events::{
-    load_events, Dims, Event, EventKind, EventSet, EventWriter, Frame, IssueProblem, EVENTS_FILE,
-    FRAMES_FILE,
+    load_events, stream_events, Dims, Event, EventKind, EventSet, EventWriter, EventsError, Frame,
+    IssueProblem, EVENTS_FILE, FRAMES_FILE,
 };
 use riskscore_data::ssm_csv::STATE_FIELDS;
 use scorer_core::VehicleState;
@@ -336,17 +336,37 @@ fn frames_column(file_column: &str) -> String {
     file_column.to_owned()
 }
 
+/// Where `write_events` puts its scratch folder for `dir`: inside `dir` when it exists, else
+/// beside it (its nearest existing ancestor: the writer creates the missing folders; the current
+/// folder for a bare name). Not the system temp folder: that may be missing, small or read-only
+/// (containers, Spark executors) while the destination has room, and the check would fail a
+/// write that can succeed.
+fn scratch_parent(dir: &Path) -> PathBuf {
+    dir.ancestors()
+        .find(|a| !a.as_os_str().is_empty() && a.is_dir())
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
 /// Refuses tables that would make a folder `read_events` and `riskctl` refuse (frames out of
 /// time order, a repeated event_id, an event without frames, a crash without t_impact, ...): the
-/// folder is written to a scratch folder and read back by riskscore-data's loader, whose
-/// problems are named by table row. `frame_rows` are the table rows of each event's frames.
-fn check_readable(list: &[Event], frame_rows: &[Vec<usize>]) -> Result<(), Failure> {
+/// folder is written to a scratch folder beside the destination `dir` ([`scratch_parent`];
+/// removed when this returns, whatever the outcome) and read back by riskscore-data's streaming
+/// loader, which keeps no event (no second copy of the events in memory), and whose problems
+/// are named by table row. `frame_rows` are the table rows of each event's frames.
+fn check_readable(dir: &Path, list: &[Event], frame_rows: &[Vec<usize>]) -> Result<(), Failure> {
     let scratch = tempfile::Builder::new()
-        .prefix("riskscore-write-check-")
-        .tempdir()
+        .prefix(".riskscore-check-")
+        .tempdir_in(scratch_parent(dir))
         .map_err(|e| Failure::Events(format!("scratch folder to check the tables: {e}")))?;
     write_folder(scratch.path(), list)?;
-    let (_, issues) = load_events(scratch.path()).map_err(|e| Failure::Events(e.to_string()))?;
+    // Written by EventWriter, each event's frames are one run in events.csv order, so the
+    // folder streams; only tables that repeat an event_id (two runs of one id) do not, and are
+    // read whole for the same problems as before.
+    let issues = match stream_events::<EventsError>(scratch.path(), true, |_, _| Ok(())) {
+        Err(EventsError::NotStreamable { .. }) => load_events(scratch.path()).map(|(_, i)| i),
+        streamed => streamed,
+    }
+    .map_err(|e| Failure::Events(e.to_string()))?;
     let problems: Vec<_> = issues.iter().filter(|i| !i.problem.is_note()).collect();
     if problems.is_empty() {
         return Ok(());
@@ -435,7 +455,7 @@ pub fn write_events(
         }
         let mut list = events_of(events.0.record_batches())?;
         let frame_rows = attach_frames(&mut list, frames.0.record_batches())?;
-        check_readable(&list, &frame_rows)?;
+        check_readable(&dir, &list, &frame_rows)?;
         // The partner acceleration is always known here (recorded or derived when read), so it
         // is written: the folder reads back with exactly these values.
         write_folder(&dir, &list)

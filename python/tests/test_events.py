@@ -140,3 +140,22 @@ def test_a_refused_frame_is_named_by_the_frames_table_column(tmp_path):
     wide = events.set_column(events.column_names.index("width_sur"), "width_sur", pa.array(widths))
     with pytest.raises(riskscore.EventsError, match=r"events row 2 column width_sur: event .*: dimension 9 m is outside"):
         riskscore.write_events(tmp_path / "out", wide, frames)
+
+
+def test_write_events_needs_no_system_temp_folder(tmp_path, monkeypatch):
+    """The check that the tables read back is made in a scratch folder beside the destination,
+    not in $TMPDIR (missing, small or read-only in containers and on Spark executors); the
+    scratch folder is gone afterwards, whether the tables were written or refused."""
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "nonexistent"))
+    target = tmp_path / "out" / "folder"
+    riskscore.write_events(target, events, frames)
+    riskscore.write_events(target, events, frames, overwrite=True)
+    kinds = events.column("kind").to_pylist()
+    kinds[0] = "crash"  # without t_impact: the loader refuses it
+    with pytest.raises(riskscore.EventsError, match="events row 0"):
+        riskscore.write_events(target, events.set_column(1, "kind", pa.array(kinds)), frames, overwrite=True)
+    monkeypatch.delenv("TMPDIR")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["folder"]
+    assert sorted(p.name for p in target.iterdir()) == ["events.csv", "frames.csv"]
+    assert riskscore.read_events(target)[0].num_rows == 376
