@@ -206,19 +206,21 @@ def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Tabl
 
     Every row is validated as ``riskctl`` does. A folder with problems raises ``EventsError``
     listing them (file:line: column: event: problem); with ``skip_bad=True`` the events with
-    problems are left out and a ``BadRowWarning`` lists them instead.
+    problems are left out and a ``BadRowWarning`` lists them instead. Notes, which leave no event
+    out (a file without a final newline, a hole in the frames, ...), warn with a ``UserWarning``
+    of their own and are not counted as problems.
     """
-    events, frames, issues, count = _riskscore.read_events(os.fspath(directory))
+    events, frames, problems, notes, count = _riskscore.read_events(os.fspath(directory))
+    if notes:
+        _warn_notes(notes, directory)
     if count:
-        listing = "\n  ".join(issues)
+        listing = "\n  ".join(problems)
         message = f"{count} problem(s) in event folder {os.fspath(directory)}:\n  {listing}"
         if not skip_bad:
             raise EventsError(message + "\n(skip_bad=True reads the valid events)")
         import warnings
 
         warnings.warn(message + "\n(those events are left out)", BadRowWarning, stacklevel=2)
-    elif issues:
-        _warn_notes(issues, directory)
     return events, frames
 
 
@@ -351,7 +353,9 @@ def evaluate(
     operating points like ``--threshold``: ``"default"`` (each model at its own default
     threshold), a number (every model at it), ``"none"``/None (no operating points), or a dict
     ``{row name: number | "default" | "none"/None}`` (baselines too; other rows keep defaults).
-    A folder with bad rows raises ``EventsError`` listing them unless ``skip_bad_events=True``.
+    A folder with bad rows raises ``EventsError`` listing them unless ``skip_bad_events=True``
+    (then a ``BadRowWarning`` lists them); notes, which leave no event out, warn with a
+    ``UserWarning`` of their own.
     """
     if isinstance(thresholds, Mapping):
         every, by_name = None, {name: _choice(t, name) for name, t in thresholds.items()}
@@ -359,19 +363,19 @@ def evaluate(
         every, by_name = _choice(thresholds), {}
     with tempfile.TemporaryDirectory(prefix="riskscore-models-") as scratch:
         specs = _model_specs(models, scratch)
-        text, issues, count = _riskscore.evaluate(
+        text, problems, notes, count = _riskscore.evaluate(
             os.fspath(events), specs, every, by_name, skip_bad_events
         )
+    if notes:
+        _warn_notes(notes, events)
     if count:
         import warnings
 
-        listing = "\n  ".join(issues)
+        listing = "\n  ".join(problems)
         warnings.warn(
             f"{count} problem(s) in event folder {os.fspath(events)} (those events are left "
             f"out of the metrics):\n  {listing}",
             BadRowWarning,
             stacklevel=2,
         )
-    elif issues:
-        _warn_notes(issues, events)
     return json.loads(text)

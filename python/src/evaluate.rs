@@ -9,6 +9,7 @@ use riskscore_eval::streaming::{evaluate_folder_gathering, FolderRefusal, Gather
 use riskscore_eval::Method;
 
 use crate::errors::{with_causes, Failure};
+use crate::events::split_issues;
 
 /// What one row's threshold is set to (from the Python `thresholds` argument).
 #[derive(Clone, Copy, Debug, FromPyObject)]
@@ -87,8 +88,8 @@ fn thresholds(
     Ok(chosen)
 }
 
-/// The `riskctl evaluate --json` object as JSON text, and the folder's problems (one line each)
-/// and how many there are. `models` are `[NAME=]FILE` specs as on the command line.
+/// The `riskctl evaluate --json` object as JSON text, the folder's problems and notes (one line
+/// each) and how many problems there are. `models` are `[NAME=]FILE` specs as on the command line.
 #[pyfunction]
 #[pyo3(signature = (events, models, threshold_all = None, thresholds_by_name = HashMap::new(), skip_bad_events = false))]
 pub fn evaluate(
@@ -98,7 +99,7 @@ pub fn evaluate(
     threshold_all: Option<Choice>,
     thresholds_by_name: HashMap<String, Choice>,
     skip_bad_events: bool,
-) -> PyResult<(String, Vec<String>, u64)> {
+) -> PyResult<(String, Vec<String>, Vec<String>, u64)> {
     let evaluated = py.detach(|| -> Result<_, Failure> {
         let files = ModelFile::read_all(&models).map_err(|e| Failure::Model(with_causes(&e)))?;
         let mut methods = named_models(&files).map_err(|e| Failure::Model(e.to_string()))?;
@@ -113,14 +114,7 @@ pub fn evaluate(
         let folder =
             evaluate_folder_gathering(&events, &methods, PrepareConfig::default(), workers, gather)
                 .map_err(|e| Failure::Events(format!("{}: {}", where_(), with_causes(&e))))?;
-        let issues: Vec<String> = folder.load_issues.iter().map(|i| i.to_string()).collect();
-        // Notes (a file without a final newline) leave nothing out: not counted as problems.
-        let count = folder
-            .load_issues
-            .iter()
-            .filter(|i| !i.problem.is_note())
-            .map(|i| i.count())
-            .sum();
+        let (problems, notes, count) = split_issues(&folder.load_issues);
         if let Err(refusal) = folder.check(skip_bad_events) {
             // riskctl prints the problems first; here they follow the message.
             let why = match refusal {
@@ -132,15 +126,21 @@ pub fn evaluate(
                 other => other.to_string(),
             };
             let mut message = format!("{}: {why}", where_());
-            if !issues.is_empty() {
-                message = format!("{message}\n  {}", issues.join("\n  "));
+            if !problems.is_empty() {
+                message = format!("{message}\n  {}", problems.join("\n  "));
+            }
+            if !notes.is_empty() {
+                message = format!(
+                    "{message}\nnotes (they leave nothing out):\n  {}",
+                    notes.join("\n  ")
+                );
             }
             return Err(Failure::Events(message));
         }
         let json = folder
             .to_json_text()
             .map_err(|e| Failure::Events(e.to_string()))?;
-        Ok((json, issues, count))
+        Ok((json, problems, notes, count))
     });
     evaluated.map_err(|f| f.into_py(py))
 }

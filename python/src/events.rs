@@ -13,7 +13,7 @@ use arrow_schema::{DataType, Field, Schema};
 use pyo3::prelude::*;
 use riskscore_data::events::{
     load_events, stream_events, Dims, Event, EventKind, EventSet, EventWriter, EventsError, Frame,
-    IssueProblem, EVENTS_FILE, FRAMES_FILE,
+    IssueProblem, LoadIssue, EVENTS_FILE, FRAMES_FILE,
 };
 use riskscore_data::ssm_csv::STATE_FIELDS;
 use scorer_core::VehicleState;
@@ -130,26 +130,40 @@ fn table(batch: RecordBatch) -> Result<PyArrowType<Table>, Failure> {
         .map_err(|e| Failure::Events(e.to_string()))
 }
 
-/// (events, frames, the first problems one line each, the number of problems).
-type ReadFolder = (PyArrowType<Table>, PyArrowType<Table>, Vec<String>, u64);
+/// (events, frames, the first problems one line each, the notes one line each, the number of
+/// problems).
+type ReadFolder = (
+    PyArrowType<Table>,
+    PyArrowType<Table>,
+    Vec<String>,
+    Vec<String>,
+    u64,
+);
 
-/// The valid events of folder `dir` as (events, frames) tables, the folder's problems (one line
-/// each, `file:line: column: event: problem`) and how many problems there are in all.
+/// A folder's load issues split into (problems, notes), one line each
+/// (`file:line: column: event: problem`), and the number of problems in all. Notes
+/// ([`IssueProblem::is_note`]: a file without a final newline, a hole in the frames, ...) leave
+/// nothing out: they are neither listed nor counted as problems.
+pub fn split_issues(issues: &[LoadIssue]) -> (Vec<String>, Vec<String>, u64) {
+    let (notes, problems): (Vec<&LoadIssue>, Vec<&LoadIssue>) =
+        issues.iter().partition(|i| i.problem.is_note());
+    let count = problems.iter().map(|i| i.count()).sum();
+    let lines = |list: Vec<&LoadIssue>| list.iter().map(|i| i.to_string()).collect();
+    (lines(problems), lines(notes), count)
+}
+
+/// The valid events of folder `dir` as (events, frames) tables, the folder's problems and notes
+/// (one line each, `file:line: column: event: problem`) and how many problems there are in all.
 #[pyfunction]
 pub fn read_events(py: Python<'_>, dir: PathBuf) -> PyResult<ReadFolder> {
     let read = py.detach(|| -> Result<_, Failure> {
         let (set, issues) = load_events(&dir).map_err(|e| Failure::Events(e.to_string()))?;
-        let listed = issues.iter().map(|i| i.to_string()).collect();
-        // Notes (a file without a final newline) leave nothing out: not counted as problems.
-        let count = issues
-            .iter()
-            .filter(|i| !i.problem.is_note())
-            .map(|i| i.count())
-            .sum();
+        let (problems, notes, count) = split_issues(&issues);
         Ok((
             table(events_batch(&set)?)?,
             table(frames_batch(&set)?)?,
-            listed,
+            problems,
+            notes,
             count,
         ))
     });

@@ -64,3 +64,21 @@ def rows_equal_bitwise(a: pa.Table, b: pa.Table) -> None:
         yv = y.fill_null(0).to_numpy().astype(np.float32).view(np.uint32)
         diff = np.nonzero(xv != yv)[0]
         assert diff.size == 0, f"{name}: first difference at row {diff[:1]}"
+
+
+def folder_with_a_problem_and_a_note(folder: pathlib.Path) -> pathlib.Path:
+    """Two real events written to `folder`: the first with a hole in its frames (a FrameGap
+    note: the event is kept), the second with kind `Safe` (a problem: the event is left out)."""
+    import pyarrow.compute as pc
+
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    two = events.slice(0, 2)
+    first, second = two.column("event_id").to_pylist()
+    rows = pc.indices_nonzero(pc.equal(frames.column("event_id"), first)).to_pylist()
+    others = pc.indices_nonzero(pc.equal(frames.column("event_id"), second)).to_pylist()
+    riskscore.write_events(folder, two, frames.take(rows[:5] + rows[15:] + others))
+    text = (folder / "events.csv").read_text().splitlines(keepends=True)
+    assert text[2].startswith(f"{second},safe,")
+    text[2] = text[2].replace(",safe,", ",Safe,", 1)
+    (folder / "events.csv").write_text("".join(text))
+    return folder

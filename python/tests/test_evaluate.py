@@ -97,3 +97,28 @@ def test_a_loaded_model_is_evaluated_as_loaded(simulated, tmp_path):
     assert riskscore.evaluate(simulated, {"DRL": from_bytes}) == expected
     both = riskscore.evaluate(simulated, [model, DRL], thresholds="none")
     assert [m["name"] for m in both["methods"]][:2] == ["drl-default#1", "drl-default#2"]
+
+
+def test_notes_are_neither_listed_nor_counted_as_problems(tmp_path):
+    """evaluate: a note (a hole in the frames) warns on its own, not as a problem whose event is
+    left out of the metrics; a refusal lists it apart from the problems."""
+    import warnings
+
+    from conftest import folder_with_a_problem_and_a_note
+
+    folder = folder_with_a_problem_and_a_note(tmp_path / "folder")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = riskscore.evaluate(folder, [DRL], skip_bad_events=True)
+    assert report["events"]["safe"] == 1
+    bad = [str(w.message) for w in caught if w.category is riskscore.BadRowWarning]
+    notes = [str(w.message) for w in caught if w.category is UserWarning]
+    assert len(bad) == 1 and len(notes) == 1, caught
+    assert bad[0].startswith("1 problem(s)") and bad[0].count("\n  ") == 1
+    assert "Safe" in bad[0] and "frames jump" not in bad[0]
+    assert "frames jump" in notes[0]
+    with pytest.raises(riskscore.EventsError) as refused:
+        riskscore.evaluate(folder, [DRL])
+    problems, _, notes_part = str(refused.value).partition("\nnotes (they leave nothing out):\n")
+    assert "Safe" in problems and "frames jump" not in problems
+    assert "frames jump" in notes_part

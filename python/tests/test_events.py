@@ -159,3 +159,28 @@ def test_write_events_needs_no_system_temp_folder(tmp_path, monkeypatch):
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["folder"]
     assert sorted(p.name for p in target.iterdir()) == ["events.csv", "frames.csv"]
     assert riskscore.read_events(target)[0].num_rows == 376
+
+
+def test_notes_are_neither_listed_nor_counted_as_problems(tmp_path):
+    """A note (here a hole in the frames) leaves nothing out: it warns on its own, not among the
+    problems whose events are left out."""
+    import warnings
+
+    from conftest import folder_with_a_problem_and_a_note
+
+    folder = folder_with_a_problem_and_a_note(tmp_path / "folder")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        events, _frames = riskscore.read_events(folder, skip_bad=True)
+    assert events.num_rows == 1
+    bad = [str(w.message) for w in caught if w.category is riskscore.BadRowWarning]
+    notes = [str(w.message) for w in caught if w.category is UserWarning]
+    assert len(bad) == 1 and len(notes) == 1, caught
+    assert bad[0].startswith("1 problem(s)") and bad[0].count("\n  ") == 1
+    assert "Safe" in bad[0] and "frames jump" not in bad[0]
+    assert "frames jump" in notes[0] and "Safe" not in notes[0]
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        with pytest.raises(riskscore.EventsError) as refused:
+            riskscore.read_events(folder)
+    assert str(refused.value).startswith("1 problem(s)") and "frames jump" not in str(refused.value)
