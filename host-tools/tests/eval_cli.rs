@@ -635,6 +635,46 @@ fn plot_draws_any_event_and_names_what_is_wrong() {
     assert_eq!(std::fs::read(&frames).unwrap(), before);
 }
 
+/// An event with a note (here a hole of dropped frames) is kept by the loader, so it can be
+/// drawn: the note is printed as a warning. It was refused as "cannot be drawn".
+#[test]
+fn plot_draws_an_event_with_a_note_and_prints_the_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = common::simulate(dir.path());
+    let frames = events.join("frames.csv");
+    let text = std::fs::read_to_string(&frames).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            let mut cells = l.split(',');
+            let (id, time) = (
+                cells.next(),
+                cells.next().and_then(|t| t.parse::<f64>().ok()),
+            );
+            !(id == Some("000001") && time.is_some_and(|t| (1.0..3.0).contains(&t)))
+        })
+        .collect();
+    assert!(kept.len() + 10 < text.lines().count(), "no frames dropped");
+    std::fs::write(&frames, kept.join("\n") + "\n").unwrap();
+    let image = dir.path().join("gap.svg");
+    let out = riskctl(&[
+        "plot",
+        "--events",
+        p(&events),
+        "--event",
+        "000001",
+        "--out",
+        p(&image),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning") && stderr.contains("the frames jump from 0.9 to 3 s"),
+        "{stderr}"
+    );
+    assert!(std::fs::read_to_string(&image).unwrap().contains("<svg"));
+}
+
 #[test]
 fn completions_and_man_pages_come_from_the_cli_definition() {
     let out = riskctl(&["completions", "bash"]);

@@ -122,10 +122,15 @@ fn find_event(dir: &Path, id: &str) -> anyhow::Result<Event> {
         e => Err(e),
     })
     .with_context(|| format!("event folder {}", dir.display()))?;
-    let own: Vec<_> = issues
+    let (notes, own): (Vec<_>, Vec<_>) = issues
         .iter()
         .filter(|i| i.event_id.as_deref() == Some(id))
-        .collect();
+        .partition(|i| i.problem.is_note());
+    // A note keeps its event (a hole in the frames, speeds in other units): drawing it is how one
+    // looks at what the note says.
+    for note in notes {
+        eprintln!("riskctl: warning: {note}");
+    }
     if let Some(issue) = own.first() {
         bail!(
             "event {id:?} cannot be drawn: {issue}{}",
