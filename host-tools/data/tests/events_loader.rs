@@ -342,6 +342,17 @@ fn frames_whose_ids_lost_leading_zeros_or_case_name_the_event_they_mean() {
         })
         .collect();
     assert_eq!(similar, [Some("0007"), Some("s1")], "{issues:#?}");
+    // Two ids alike (`07` and `0007`): the hint is the smallest, the same on every run (it was
+    // whichever a hash map gave first).
+    let ev = format!("{EV_HEADER}0007,crash,0,2,1.0,4.5,1.8,5,2\n07,safe,0,2,,4.5,1.8,5,2\n");
+    for _ in 0..8 {
+        let (_, issues, _d) = load(&ev, &format!("{FR_HEADER}{}", rows("7", 21)));
+        let hint = issues.iter().find_map(|i| match &i.problem {
+            IssueProblem::UnknownEvent { similar, .. } => similar.clone(),
+            _ => None,
+        });
+        assert_eq!(hint.as_deref(), Some("0007"), "{issues:#?}");
+    }
     let text = issues
         .iter()
         .map(|i| i.to_string())
@@ -1132,11 +1143,30 @@ fn problem_notes_count_the_problems_left_unlisted() {
         .collect();
     let ev = format!("{EV_HEADER}{bad}ok,safe,0,2,,4.5,1.8,5,2\n");
     let dir = folder(&ev, &format!("{FR_HEADER}{}", rows("ok", 21)));
-    let folder =
+    let unknown_kinds =
         riskscore_data::events::load_prepared(dir.path(), &PrepareConfig::default()).unwrap();
-    let notes = folder.problem_notes();
+    let notes = unknown_kinds.problem_notes();
     assert_eq!(notes.len(), 21, "{notes:#?}");
     assert_eq!(notes[20], "warning: ... and 5 more problems", "{notes:#?}");
+
+    // 25 events with a hole in their frames: notes, which leave nothing out, are not counted as
+    // problems (they were "... and 5 more problems").
+    let ev: String = (0..25)
+        .map(|k| format!("g{k},safe,0,2,,4.5,1.8,5,2\n"))
+        .collect();
+    let holed: String = (0..25)
+        .flat_map(|k| {
+            (0..21)
+                .filter(|i| !(5..15).contains(i))
+                .map(move |i| row(&format!("g{k}"), f64::from(i) / 10.0))
+        })
+        .collect();
+    let dir = folder(&format!("{EV_HEADER}{ev}"), &format!("{FR_HEADER}{holed}"));
+    let holes =
+        riskscore_data::events::load_prepared(dir.path(), &PrepareConfig::default()).unwrap();
+    let notes = holes.problem_notes();
+    assert_eq!(notes.len(), 21, "{notes:#?}");
+    assert_eq!(notes[20], "warning: ... and 5 more notes", "{notes:#?}");
 }
 
 #[test]
@@ -1180,12 +1210,22 @@ fn headings_across_the_direction_of_travel_are_noted_and_the_event_kept() {
 #[test]
 fn an_impact_after_the_last_frame_is_noted_and_the_event_kept() {
     // c1: frames to 0.5 s, t_impact 1.0 (0.5 s without frames); c2: t_impact 2.05, half an
-    // interval after its last frame (2.0): no note.
-    let ev =
-        format!("{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\nc2,near_crash,0,2.1,2.05,4.5,1.8,5,2\n");
-    let fr = format!("{FR_HEADER}{}{}", rows("c1", 6), rows("c2", 21));
+    // interval after its last frame (2.0): no note; c3: a last frame 10 ms after the one before
+    // and t_impact 0.56, within one 0.1 s sampling interval of it: no note (the limit was the
+    // last interval, 10 ms).
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\nc2,near_crash,0,2.1,2.05,4.5,1.8,5,2\n\
+         c3,crash,0,0.6,0.56,4.5,1.8,5,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}{}",
+        rows("c1", 6),
+        rows("c2", 21),
+        rows("c3", 6),
+        row("c3", 0.51)
+    );
     let (set, issues, _d) = load_and_stream(&ev, &fr);
-    assert_eq!(ids(&set), ["c1", "c2"], "notes drop nothing");
+    assert_eq!(ids(&set), ["c1", "c2", "c3"], "notes drop nothing");
     assert_eq!(
         line_event_kind(&issues),
         [(2, Some("c1"), "ImpactAfterFrames")],

@@ -32,13 +32,14 @@ pub struct PreparedFolder {
 /// issues, not errors; a folder from which no sequence at all comes is
 /// [`EventsError::NoSequences`].
 pub fn load_prepared(dir: &Path, config: &PrepareConfig) -> Result<PreparedFolder, EventsError> {
+    load_and_prepare(dir, config)?.require_sequences()
+}
+
+/// [`load_prepared`], also when no sequence comes from the folder: its problems say why, so a
+/// caller can show them before [`PreparedFolder::require_sequences`] refuses it.
+pub fn load_and_prepare(dir: &Path, config: &PrepareConfig) -> Result<PreparedFolder, EventsError> {
     let (set, load_issues) = load_events(dir)?;
     let (sequences, prepare_issues) = prepare_sequences(&set, config);
-    if sequences.is_empty() {
-        return Err(EventsError::NoSequences {
-            path: dir.to_path_buf(),
-        });
-    }
     Ok(PreparedFolder {
         dir: dir.to_path_buf(),
         sequences,
@@ -49,20 +50,39 @@ pub fn load_prepared(dir: &Path, config: &PrepareConfig) -> Result<PreparedFolde
 }
 
 impl PreparedFolder {
+    /// The folder itself, or [`EventsError::NoSequences`] when none of its events yields one.
+    pub fn require_sequences(self) -> Result<Self, EventsError> {
+        if self.sequences.is_empty() {
+            return Err(EventsError::NoSequences { path: self.dir });
+        }
+        Ok(self)
+    }
+
     /// The problems as lines for the user (`warning: ...` for rejected rows, `note: ...` for events
     /// without a sequence), the first few listed and the rest counted.
     pub fn problem_notes(&self) -> Vec<String> {
         let skipped = self.prepare_issues.len();
-        // The unlisted issues may stand for many problems each (`MoreOfKind`): count problems.
-        let unlisted: u64 = self
-            .load_issues
-            .iter()
-            .skip(LISTED_LOAD_ISSUES)
-            .map(LoadIssue::count)
-            .sum();
-        let mut notes = listed("warning", &self.load_issues, LISTED_LOAD_ISSUES, |_| {
-            format!("... and {unlisted} more problems")
-        });
+        // The unlisted issues may stand for many problems each (`MoreOfKind`): count problems,
+        // and the notes (which leave nothing out) apart.
+        let (mut problems, mut notes_left) = (0u64, 0u64);
+        for issue in self.load_issues.iter().skip(LISTED_LOAD_ISSUES) {
+            let count = if issue.problem.is_note() {
+                &mut notes_left
+            } else {
+                &mut problems
+            };
+            *count += issue.count();
+        }
+        let mut notes = listed(
+            "warning",
+            &self.load_issues,
+            LISTED_LOAD_ISSUES,
+            |_| match (problems, notes_left) {
+                (p, 0) => format!("... and {p} more problems"),
+                (0, n) => format!("... and {n} more notes"),
+                (p, n) => format!("... and {p} more problems and {n} notes"),
+            },
+        );
         notes.extend(listed(
             "note",
             &self.prepare_issues,

@@ -22,7 +22,9 @@ mod load;
 mod prepare;
 mod write;
 
-pub use folder::{load_prepared, PreparedFolder, LISTED_LOAD_ISSUES, LISTED_PREPARE_ISSUES};
+pub use folder::{
+    load_and_prepare, load_prepared, PreparedFolder, LISTED_LOAD_ISSUES, LISTED_PREPARE_ISSUES,
+};
 pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{
     load_events, stream_events, EventsError, IssueProblem, LoadIssue, GAP_FACTOR,

@@ -248,20 +248,15 @@ impl IssueProblem {
     /// not count among the problems that make `evaluate` refuse a folder).
     pub fn is_note(&self) -> bool {
         match self {
-            Self::NoFinalNewline
-            | Self::SpeedsExceedPath { .. }
-            | Self::HeadingAcrossVelocity { .. }
-            | Self::ImpactAfterFrames { .. }
-            | Self::FrameGap { .. }
-            | Self::RepeatedHeader => true,
             // The notes beyond the first of their kind are notes too.
             Self::MoreOfKind { kind, .. } => is_note_kind(kind),
-            _ => false,
+            other => is_note_kind(other.kind()),
         }
     }
 }
 
-/// True for the [`IssueProblem::kind`] of a note ([`IssueProblem::is_note`]).
+/// True for the [`IssueProblem::kind`] of a note ([`IssueProblem::is_note`]): the one list of
+/// the note kinds.
 fn is_note_kind(kind: &str) -> bool {
     matches!(
         kind,

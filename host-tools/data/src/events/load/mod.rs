@@ -7,7 +7,7 @@
 mod fields;
 mod issues;
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 pub use issues::{
@@ -53,10 +53,7 @@ pub fn load_events(dir: &Path) -> Result<(EventSet, Vec<LoadIssue>), EventsError
         match finish_event(&mut p, &folder.events_path) {
             Some(issue) => folder.issues.push(issue),
             None => {
-                folder.issues.extend(speed_note(&p, &folder.events_path));
-                folder.issues.extend(heading_note(&p, &folder.events_path));
-                folder.issues.extend(impact_note(&p, &folder.events_path));
-                folder.issues.extend(gap_note(&p, &folder.events_path));
+                folder.issues.extend(event_notes(&p, &folder.events_path));
                 events.push(p.event);
             }
         }
@@ -185,6 +182,27 @@ fn finish_event(p: &mut Pending, events_path: &Path) -> Option<LoadIssue> {
     Some(problem)
 }
 
+/// The notes a complete event can get (each keeps it), on its `events.csv` line.
+fn event_notes<'a>(p: &'a Pending, events_path: &'a Path) -> impl Iterator<Item = LoadIssue> + 'a {
+    let intervals = sorted_intervals(&p.event.frames);
+    let found = [
+        speed_note(p).map(|problem| (None, problem)),
+        heading_note(p).map(|problem| (None, problem)),
+        impact_note(p, &intervals).map(|problem| (Some("t_impact"), problem)),
+        gap_note(p, &intervals).map(|problem| (None, problem)),
+    ];
+    found
+        .into_iter()
+        .flatten()
+        .map(move |(column, problem)| LoadIssue {
+            file: events_path.to_path_buf(),
+            line: p.line,
+            column: column.map(Into::into),
+            event_id: Some(p.event.id.clone()),
+            problem,
+        })
+}
+
 /// Speeds integrated over time must cover about the distance the positions do: a road user whose
 /// speeds add up to more than [`SPEED_PATH_RATIO_MAX`] times its path (of at least
 /// [`SPEED_CHECK_MIN_PATH_M`]) has speeds in another unit (km/h: 3.6, mph: 2.24) or positions
@@ -192,7 +210,7 @@ fn finish_event(p: &mut Pending, events_path: &Path) -> Option<LoadIssue> {
 /// ego first; the simulator and the real data shipped stay within 1 % (4 % on city tracks). An
 /// ego that never moves is an ego-centred folder (`can-bridge check --decoded-events-out`
 /// writes the partner relative to an ego at the origin): no check.
-fn speed_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+fn speed_note(p: &Pending) -> Option<IssueProblem> {
     let frames = &p.event.frames;
     let paths = |state: fn(&Frame) -> &VehicleState| {
         let (mut speed_path, mut path) = (0.0f64, 0.0f64);
@@ -219,14 +237,7 @@ fn speed_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
             },
         )
     };
-    let problem = check("ego", ego).or_else(|| check("sur", paths(|f| &f.partner)))?;
-    Some(LoadIssue {
-        file: events_path.to_path_buf(),
-        line: p.line,
-        column: None,
-        event_id: Some(p.event.id.clone()),
-        problem,
-    })
+    check("ego", ego).or_else(|| check("sur", paths(|f| &f.partner)))
 }
 
 /// A moving road user's heading points along its velocity (or against it, reversing) on nearly
@@ -235,7 +246,7 @@ fn speed_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
 /// heading in degrees read as radians, measured from north, or its components swapped. A note on
 /// the event's `events.csv` line (the event is kept), for the ego first; the simulator and the
 /// real data shipped are within 45° on every such frame.
-fn heading_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+fn heading_note(p: &Pending) -> Option<IssueProblem> {
     let check = |vehicle: &'static str, state: fn(&Frame) -> &VehicleState| {
         let (mut moving, mut off) = (0usize, 0usize);
         for f in &p.event.frames {
@@ -253,36 +264,31 @@ fn heading_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
             moving,
         })
     };
-    let problem = check("ego", |f| &f.ego).or_else(|| check("sur", |f| &f.partner))?;
-    Some(LoadIssue {
-        file: events_path.to_path_buf(),
-        line: p.line,
-        column: None,
-        event_id: Some(p.event.id.clone()),
-        problem,
-    })
+    check("ego", |f| &f.ego).or_else(|| check("sur", |f| &f.partner))
 }
 
-/// A conflict's `t_impact` more than one sampling interval (the last one, plus
+/// The intervals between an event's frames, sorted: the median is its sampling interval.
+fn sorted_intervals(frames: &[Frame]) -> Vec<f64> {
+    let mut intervals: Vec<f64> = frames.windows(2).map(|w| w[1].time - w[0].time).collect();
+    intervals.sort_by(f64::total_cmp);
+    intervals
+}
+
+/// A conflict's `t_impact` more than one sampling interval (the event's median, plus
 /// [`TIME_TOLERANCE_S`]) after its last frame: lead times are measured to `t_impact`, so every
 /// warning would count the stretch without frames as warning time. A note on the `t_impact`
-/// field (the event is kept). The simulator ends a crash at its impact frame.
-fn impact_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+/// field (the event is kept). The simulator ends a crash at its impact frame. The median, not the
+/// last interval: a final sample inserted just before the impact must not shrink the limit.
+fn impact_note(p: &Pending, sorted_intervals: &[f64]) -> Option<IssueProblem> {
     let t_impact = p.event.t_impact?;
-    let [.., before, last] = p.event.frames.as_slice() else {
-        return None;
-    };
-    let interval = last.time - before.time;
-    (t_impact > last.time + interval + TIME_TOLERANCE_S).then(|| LoadIssue {
-        file: events_path.to_path_buf(),
-        line: p.line,
-        column: Some("t_impact".into()),
-        event_id: Some(p.event.id.clone()),
-        problem: IssueProblem::ImpactAfterFrames {
+    let last = p.event.frames.last()?;
+    let interval = *sorted_intervals.get(sorted_intervals.len() / 2)?;
+    (t_impact > last.time + interval + TIME_TOLERANCE_S).then_some(
+        IssueProblem::ImpactAfterFrames {
             t_impact,
             last: last.time,
         },
-    })
+    )
 }
 
 /// Frames are sampled at a constant rate: an interval more than [`GAP_FACTOR`] times the
@@ -290,30 +296,22 @@ fn impact_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
 /// would span as if it were data (a 2-frame "safe sequence" across 3 s, a derived acceleration
 /// across the hole). A note with the largest hole on the event's `events.csv` line (the event
 /// is kept); the simulator and the real data shipped have none.
-fn gap_note(p: &Pending, events_path: &Path) -> Option<LoadIssue> {
+fn gap_note(p: &Pending, intervals: &[f64]) -> Option<IssueProblem> {
     let frames = &p.event.frames;
-    let mut intervals: Vec<f64> = frames.windows(2).map(|w| w[1].time - w[0].time).collect();
     if intervals.len() < 2 {
         return None;
     }
-    intervals.sort_by(f64::total_cmp);
     let typical = intervals[intervals.len() / 2];
     let limit = GAP_FACTOR * typical + TIME_TOLERANCE_S;
     let holes = intervals.iter().filter(|&&d| d > limit).count();
     let at = frames
         .windows(2)
         .max_by(|a, b| (a[1].time - a[0].time).total_cmp(&(b[1].time - b[0].time)))?;
-    (holes > 0).then(|| LoadIssue {
-        file: events_path.to_path_buf(),
-        line: p.line,
-        column: None,
-        event_id: Some(p.event.id.clone()),
-        problem: IssueProblem::FrameGap {
-            from: at[0].time,
-            to: at[1].time,
-            typical,
-            holes,
-        },
+    (holes > 0).then_some(IssueProblem::FrameGap {
+        from: at[0].time,
+        to: at[1].time,
+        typical,
+        holes,
     })
 }
 
@@ -421,10 +419,8 @@ impl<E: From<EventsError>> Stream<'_, E> {
                 Ok(())
             }
             None => {
-                let notes = [speed_note, heading_note, impact_note, gap_note]
-                    .map(|f| f(&finished, self.events_path));
-                self.deferred
-                    .extend(notes.into_iter().flatten().map(|note| (slot, note)));
+                let notes = event_notes(&finished, self.events_path);
+                self.deferred.extend(notes.map(|note| (slot, note)));
                 (self.on_event)(p.position, finished.event)
             }
         }
@@ -792,11 +788,15 @@ fn read_frames<E: From<EventsError>>(
             trimmed.to_owned()
         }
     };
-    let known: HashMap<String, &str> = if unknown.is_empty() {
-        HashMap::new()
-    } else {
-        index.keys().map(|id| (loose(id), id.as_str())).collect()
-    };
+    // The smallest of the ids that look alike, so the hint is the same on every run.
+    let mut known: BTreeMap<String, &str> = BTreeMap::new();
+    if !unknown.is_empty() {
+        let mut ids: Vec<&str> = index.keys().map(String::as_str).collect();
+        ids.sort_unstable();
+        for id in ids {
+            known.entry(loose(id)).or_insert(id);
+        }
+    }
     for (id, (line, frames)) in unknown {
         let similar = known.get(&loose(&id)).map(|s| (*s).to_owned());
         issues.push(LoadIssue {
