@@ -27,7 +27,7 @@ use std::time::Instant;
 use serde::Serialize;
 use serde_json::json;
 
-use riskscore_data::events::{self, PrepareConfig, Sequence};
+use riskscore_data::events::{self, Sequence};
 use riskscore_data::sim::{self, SimConfig};
 use riskscore_eval::claims::{self, acceptance_claims, Claim};
 use riskscore_eval::metrics::Metric;
@@ -307,10 +307,7 @@ impl DemoSummary {
 /// The folder's prepared sequences ([`events::load_prepared`]) and its event counts; problems are
 /// reported on stderr, valid events are kept.
 fn load_sequences(dir: &Path) -> Result<(Vec<Sequence>, String), DemoError> {
-    let folder = events::load_prepared(dir, &PrepareConfig::default())?;
-    for note in folder.problem_notes() {
-        eprintln!("{note}");
-    }
+    let folder = crate::warnings::load_prepared(dir)?;
     Ok((folder.sequences, folder.counts.to_string()))
 }
 

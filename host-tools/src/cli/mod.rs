@@ -1,8 +1,7 @@
 //! One module per `riskctl` subcommand: argument struct (clap) + `run`, which parses and calls the
-//! library crates; plus the one step several commands share, [`load_prepared`].
+//! library crates; plus the one step several commands share, [`load_prepared`] (the demo's too,
+//! so it lives in `host_tools::warnings`).
 use std::path::Path;
-
-use riskscore_data::events::{self, PrepareConfig, PreparedFolder};
 
 /// `println!` for a command's summary of an output `$out` it wrote: on standard output, or on
 /// stderr when `$out` is standard output itself (`--out -`), so that stream holds only the data
@@ -61,27 +60,4 @@ pub fn refuse_augmenting_with_itself(events: &Path, augment: Option<&Path>) -> a
     Ok(())
 }
 
-/// The prepared sequences of an event folder ([`events::load_prepared`] under the default
-/// preparation rules); its problems are printed on stderr and those events left out. They are
-/// printed also when no sequence is left (then an error): they are why.
-pub fn load_prepared(dir: &Path) -> anyhow::Result<PreparedFolder> {
-    let (set, load_issues) = events::load_events(dir)?;
-    let (sequences, prepare_issues) = events::prepare_sequences(&set, &PrepareConfig::default());
-    let folder = PreparedFolder {
-        dir: dir.to_path_buf(),
-        sequences,
-        counts: set.counts(),
-        load_issues,
-        prepare_issues,
-    };
-    for note in folder.problem_notes() {
-        eprintln!("{note}");
-    }
-    if folder.sequences.is_empty() {
-        return Err(events::EventsError::NoSequences {
-            path: dir.to_path_buf(),
-        }
-        .into());
-    }
-    Ok(folder)
-}
+pub use host_tools::warnings::load_prepared;
