@@ -526,6 +526,9 @@ fn train_lists_why_no_sequence_is_left() {
         "{err}"
     );
     assert!(err.contains("contains no usable sequences"), "{err}");
+    // Each line names the folder it is about (several --events folders: which one?).
+    let prefix = format!("riskctl: {}: warning: ", events.display());
+    assert!(err.lines().any(|l| l.starts_with(&prefix)), "{err}");
     assert!(!out.exists());
     // calibrate-domain reads its folders the same way.
     let blob = tmp.path().join("guarded.rsk");
@@ -575,12 +578,11 @@ fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
     }
 }
 
-#[test]
-fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
-    let dir = tempfile::tempdir().unwrap();
-    let events = simulate(dir.path());
-    let config = tiny_config(dir.path());
-    let run = dir.path().join("run");
+/// `riskctl train` of a small simulated folder with the tiny configuration into `dir/run`.
+fn trained_run(dir: &Path) -> PathBuf {
+    let events = simulate(dir);
+    let config = tiny_config(dir);
+    let run = dir.join("run");
     let o = riskctl(&[
         "train",
         "--events",
@@ -592,6 +594,13 @@ fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", common::stderr(&o));
+    run
+}
+
+#[test]
+fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = trained_run(dir.path());
     for name in ["drl.json", "msra.json"] {
         let checkpoint = run.join(name);
         let o = riskctl(&["inspect-model", checkpoint.to_str().unwrap()]);
@@ -708,40 +717,45 @@ fn export_model_events_to_candump_demo_and_completions_help_say_what_they_do() {
 }
 
 #[test]
-fn export_model_over_a_guarded_blob_says_what_the_new_one_lacks() {
+fn export_model_over_a_guarded_blob_is_refused_unless_told_to_replace_it() {
     // `export-model run/drl.json --out run/drl.rsk` replaced the trained blob, which carries the
     // training domain and its guard, with a bare one, silently.
     let dir = tempfile::tempdir().unwrap();
-    let events = simulate(dir.path());
-    let config = tiny_config(dir.path());
-    let run = dir.path().join("run");
-    let o = riskctl(&[
-        "train",
-        "--events",
-        events.to_str().unwrap(),
-        "--out",
-        run.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    let export = |out: &Path| {
-        let o = riskctl(&[
+    let run = trained_run(dir.path());
+    let checkpoint = run.join("drl.json");
+    let export = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
             "export-model",
-            run.join("drl.json").to_str().unwrap(),
+            checkpoint.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", common::stderr(&o));
-        common::stderr(&o)
+        ];
+        args.extend_from_slice(extra);
+        riskctl(&args)
     };
-    let err = export(&run.join("drl.rsk"));
+    let trained = run.join("drl.rsk");
+    let before = std::fs::read(&trained).unwrap();
+    let o = export(&trained, &[]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("held a training domain (its guard)") && err.contains("calibrate-domain"),
+        err.contains("holds a training domain (its guard)")
+            && err.contains("calibrate-domain")
+            && err.contains("--replace-calibrated"),
         "{err}"
     );
-    // Now bare: exporting over it again, or to a new file, warns of nothing.
-    assert!(!export(&run.join("drl.rsk")).contains("warning"));
-    assert!(!export(&dir.path().join("new.rsk")).contains("warning"));
+    assert_eq!(std::fs::read(&trained).unwrap(), before, "left as it was");
+    let o = export(&trained, &["--replace-calibrated"]);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning") && err.contains("held a training domain"),
+        "{err}"
+    );
+    assert_ne!(std::fs::read(&trained).unwrap(), before);
+    // Now bare: exporting over it again, or to a new file, needs no flag and warns of nothing.
+    for out in [trained, dir.path().join("new.rsk")] {
+        let o = export(&out, &[]);
+        assert!(o.status.success() && !common::stderr(&o).contains("warning"));
+    }
 }

@@ -11,7 +11,12 @@ DRL is quantised to int8 with the activation calibration stored in the checkpoin
 the training observations), using scorer-core's own requantisation; `--f32` writes the float
 network instead. MSRA is written as is: its blob always holds its parameters as f32 (there is
 no int8 MSRA), so `--f32` changes nothing for it and says so in a note on stderr. The blob is
-decoded again (header, CRC, validation) before the command succeeds.";
+decoded again (header, CRC, validation) before the command succeeds.
+
+A checkpoint holds no data, so the blob carries no training domain (guard) and no calibrated
+threshold. An --out blob that carries either (the drl.rsk of a training run, a calibrated blob) is
+therefore not replaced: the run is refused and the blob left as it is, unless
+--replace-calibrated says to replace it with the bare export (a warning names what was dropped).";
 
 /// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob (see
 /// [`ABOUT_EXPORT`]).
@@ -31,6 +36,10 @@ pub struct Args {
     /// checkpoint the flag changes nothing (a note on stderr says so).
     #[arg(long)]
     pub f32: bool,
+    /// Replace an --out blob that carries a training domain or a calibrated threshold with the
+    /// bare export (without it, such a blob is left as it is and the run refused).
+    #[arg(long)]
+    pub replace_calibrated: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -39,6 +48,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .or(args.checkpoint)
         .context("no checkpoint given")?;
     super::output::refuse(&[("CHECKPOINT", &checkpoint)], &[("--out", &args.out)])?;
+    // What the old blob carries that a checkpoint cannot give (it holds no data).
+    let lost = std::fs::read(&args.out)
+        .ok()
+        .and_then(|old| lost_records(&old));
+    if let (Some((lost, how)), false) = (&lost, args.replace_calibrated) {
+        anyhow::bail!(
+            "--out {} holds {lost}, which an export from a checkpoint cannot give (it holds no \
+             data); it is left as it is. Export to another file (and attach them with {how}), or \
+             pass --replace-calibrated to replace it with the bare blob",
+            args.out.display()
+        );
+    }
     let ck = Checkpoint::load(&checkpoint)?;
     if args.f32 && matches!(ck.model, CheckpointModel::Msra { .. }) {
         eprintln!(
@@ -55,15 +76,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot export", checkpoint.display()))?;
     let summary = export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
-    // What the blob replaced carried that a checkpoint cannot give (it holds no data): say so.
-    let lost = std::fs::read(&args.out)
-        .ok()
-        .and_then(|old| lost_records(&old));
     export::write_blob(&args.out, &blob)?;
     if let Some((lost, how)) = lost {
         eprintln!(
-            "riskctl: warning: {} held {lost}, which a checkpoint cannot give (it holds no data); \
-             the new blob has none: attach it again with {how}, or export to another file",
+            "riskctl: warning: --replace-calibrated: {} held {lost}; the new blob has none: \
+             attach it again with {how}",
             args.out.display()
         );
     }
