@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
-use riskscore_eval::streaming::{evaluate_folder_gathering, FolderRefusal, Gather};
+use riskscore_eval::streaming::{evaluate_folder_gathering, BadRowsWording, FolderRefusal, Gather};
 use riskscore_eval::Method;
 
 use crate::errors::{with_causes, Failure};
@@ -118,10 +118,13 @@ pub fn evaluate(
         if let Err(refusal) = folder.check(skip_bad_events) {
             // riskctl prints the problems first; here they follow the message.
             let why = match refusal {
-                FolderRefusal::BadRows { valid_events } => format!(
-                    "the problems listed below would leave their events out of the metrics; fix \
-                     those rows, or pass skip_bad_events=True to evaluate the {valid_events} \
-                     valid events"
+                FolderRefusal::BadRows { valid_events } => FolderRefusal::bad_rows_message(
+                    valid_events,
+                    BadRowsWording {
+                        listed: "below",
+                        left_out_of: "metrics",
+                        skip: Some("skip_bad_events=True"),
+                    },
                 ),
                 other => other.to_string(),
             };

@@ -450,11 +450,56 @@ pub struct FolderEvaluation {
 pub enum FolderRefusal {
     #[error("no valid events to evaluate")]
     NoValidEvents,
-    /// Bad rows leave their events out of the metrics (allowed with `skip_bad_events`).
-    #[error("the problems listed above would leave their events out of the metrics; fix those rows, or pass --skip-bad-events to evaluate the {valid_events} valid events")]
+    /// Bad rows leave their events out of the metrics (allowed with `skip_bad_events`). Its
+    /// message is `riskctl evaluate`'s ([`BadRowsWording::RISKCTL_EVALUATE`]); elsewhere
+    /// [`FolderRefusal::bad_rows_message`] words it for the caller.
+    #[error("{}", FolderRefusal::bad_rows_message(*.valid_events, BadRowsWording::RISKCTL_EVALUATE))]
     BadRows { valid_events: usize },
     #[error("none of its {events} events yields a sequence to evaluate")]
     NoSequences { events: usize },
+}
+
+/// The parts of a [`FolderRefusal::BadRows`] message that depend on where it is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BadRowsWording<'a> {
+    /// Where the problems are listed relative to the message: `"above"` (riskctl prints them
+    /// first) or `"below"` (they follow the message).
+    pub listed: &'a str,
+    /// What the events would be left out of: `"metrics"`, `"calibration"`.
+    pub left_out_of: &'a str,
+    /// The flag or argument that evaluates the valid events anyway (`--skip-bad-events`,
+    /// `skip_bad_events=True`), or `None` where there is none: the valid events can then be
+    /// written to a folder of their own.
+    pub skip: Option<&'a str>,
+}
+
+impl BadRowsWording<'static> {
+    /// `riskctl evaluate`: problems printed before the message, `--skip-bad-events`.
+    pub const RISKCTL_EVALUATE: Self = BadRowsWording {
+        listed: "above",
+        left_out_of: "metrics",
+        skip: Some("--skip-bad-events"),
+    };
+}
+
+impl FolderRefusal {
+    /// The one text of the [`FolderRefusal::BadRows`] refusal of a folder with `valid_events`
+    /// valid events, worded for where it is shown.
+    pub fn bad_rows_message(valid_events: usize, wording: BadRowsWording<'_>) -> String {
+        let BadRowsWording {
+            listed,
+            left_out_of,
+            skip,
+        } = wording;
+        let instead = match skip {
+            Some(skip) => format!(", or pass {skip} to evaluate the {valid_events} valid events"),
+            None => format!(" (or write the {valid_events} valid events to a folder of their own)"),
+        };
+        format!(
+            "the problems listed {listed} would leave their events out of the {left_out_of}; fix \
+             those rows{instead}"
+        )
+    }
 }
 
 impl FolderEvaluation {
@@ -617,5 +662,39 @@ pub fn evaluate_folder_gathering(
             })
         }
         Err(e) => Err(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BadRowsWording, FolderRefusal};
+
+    #[test]
+    fn the_bad_rows_refusal_is_one_text_worded_for_where_it_is_shown() {
+        assert_eq!(
+            FolderRefusal::BadRows { valid_events: 17 }.to_string(),
+            "the problems listed above would leave their events out of the metrics; fix those \
+             rows, or pass --skip-bad-events to evaluate the 17 valid events"
+        );
+        let python = BadRowsWording {
+            listed: "below",
+            left_out_of: "metrics",
+            skip: Some("skip_bad_events=True"),
+        };
+        assert_eq!(
+            FolderRefusal::bad_rows_message(3, python),
+            "the problems listed below would leave their events out of the metrics; fix those \
+             rows, or pass skip_bad_events=True to evaluate the 3 valid events"
+        );
+        let calibrate = BadRowsWording {
+            listed: "above",
+            left_out_of: "calibration",
+            skip: None,
+        };
+        assert_eq!(
+            FolderRefusal::bad_rows_message(3, calibrate),
+            "the problems listed above would leave their events out of the calibration; fix \
+             those rows (or write the 3 valid events to a folder of their own)"
+        );
     }
 }

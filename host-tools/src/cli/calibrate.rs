@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_data::events::PrepareConfig;
 use riskscore_eval::model_files::{named_models, ModelFile};
-use riskscore_eval::streaming::{evaluate_folder, FolderRefusal};
+use riskscore_eval::streaming::{evaluate_folder, BadRowsWording, FolderRefusal};
 use riskscore_eval::threshold::{calibrate_safe_share, safe_maxima};
 use scorer_core::model::{self, DefaultThreshold, ModelBlob, ThresholdRule};
 
@@ -161,10 +161,16 @@ fn curve_of(
     super::evaluate::report_load_issues(&folder.load_issues);
     match folder.check(false) {
         Err(FolderRefusal::BadRows { valid_events }) => bail!(
-            "event folder {}: the problems listed above would leave their events out of the \
-             calibration; fix those rows (or write the {valid_events} valid events to a folder \
-             of their own)",
-            dir.display()
+            "event folder {}: {}",
+            dir.display(),
+            FolderRefusal::bad_rows_message(
+                valid_events,
+                BadRowsWording {
+                    listed: "above",
+                    left_out_of: "calibration",
+                    skip: None,
+                }
+            )
         ),
         refusal => refusal.with_context(|| format!("event folder {}", dir.display()))?,
     }
