@@ -66,6 +66,20 @@ def rows_equal_bitwise(a: pa.Table, b: pa.Table) -> None:
         assert diff.size == 0, f"{name}: first difference at row {diff[:1]}"
 
 
+def ngsim_with_a_bad_frame(folder: pathlib.Path) -> pathlib.Path:
+    """The real US-101 extract copied to `folder`, with `oops` for a number on frames.csv line 6
+    (a problem: its event is left out)."""
+    import shutil
+
+    shutil.copytree(NGSIM_SAFE, folder)
+    lines = (folder / "frames.csv").read_text().splitlines(keepends=True)
+    fields = lines[5].split(",")
+    fields[2] = "oops"
+    lines[5] = ",".join(fields)
+    (folder / "frames.csv").write_text("".join(lines))
+    return folder
+
+
 def folder_with_a_problem_and_a_note(folder: pathlib.Path) -> pathlib.Path:
     """Two real events written to `folder`: the first with a hole in its frames (a FrameGap
     note: the event is kept), the second with kind `Safe` (a problem: the event is left out)."""

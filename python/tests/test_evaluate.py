@@ -4,7 +4,7 @@ import json
 import pytest
 
 import riskscore
-from conftest import MODELS, NGSIM_SAFE
+from conftest import MODELS, NGSIM_SAFE, ngsim_with_a_bad_frame
 
 DRL, MSRA = MODELS / "drl-default.rsk", MODELS / "msra-default.rsk"
 
@@ -69,15 +69,7 @@ def test_a_bool_threshold_is_not_taken_as_one(simulated):
 
 def test_a_folder_with_bad_rows_is_refused_pointing_at_the_problems_below(tmp_path):
     """The problems follow the message (riskctl prints them before it: "listed above")."""
-    import shutil
-
-    folder = tmp_path / "bad"
-    shutil.copytree(NGSIM_SAFE, folder)
-    lines = (folder / "frames.csv").read_text().splitlines(keepends=True)
-    fields = lines[5].split(",")
-    fields[2] = "oops"
-    lines[5] = ",".join(fields)
-    (folder / "frames.csv").write_text("".join(lines))
+    folder = ngsim_with_a_bad_frame(tmp_path / "bad")
     with pytest.raises(riskscore.EventsError, match=r"problems listed below .*skip_bad_events=True[^\n]*\n  .*frames.csv:6:"):
         riskscore.evaluate(folder, [DRL])
     with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):

@@ -6,7 +6,7 @@ import pyarrow.compute as pc
 import pytest
 
 import riskscore
-from conftest import NGSIM_SAFE, PAIR_COLUMNS
+from conftest import NGSIM_SAFE, PAIR_COLUMNS, ngsim_with_a_bad_frame
 
 
 def test_real_folder_reads_with_every_frame():
@@ -59,13 +59,7 @@ def test_bad_frames_are_refused_naming_row_and_column(tmp_path):
 
 
 def test_a_folder_with_bad_rows_is_refused_unless_skipped(tmp_path):
-    folder = tmp_path / "bad"
-    shutil.copytree(NGSIM_SAFE, folder)
-    lines = (folder / "frames.csv").read_text().splitlines(keepends=True)
-    fields = lines[5].split(",")
-    fields[2] = "oops"
-    lines[5] = ",".join(fields)
-    (folder / "frames.csv").write_text("".join(lines))
+    folder = ngsim_with_a_bad_frame(tmp_path / "bad")
     with pytest.raises(riskscore.EventsError, match=r"frames.csv:6:"):
         riskscore.read_events(folder)
     with pytest.warns(riskscore.BadRowWarning, match="frames.csv:6:"):
