@@ -759,3 +759,42 @@ fn export_model_over_a_guarded_blob_is_refused_unless_told_to_replace_it() {
         assert!(o.status.success() && !common::stderr(&o).contains("warning"));
     }
 }
+
+/// train writes five named files into --out and leaves the rest of the folder alone, so a
+/// configuration kept in the run folder is no overlap (it was refused: "--out runs/x contains
+/// --config runs/x/cfg.toml: refusing to replace it"); a configuration at one of those five
+/// paths still is.
+#[test]
+fn train_keeps_a_configuration_that_lives_in_its_output_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let run = dir.path().join("run");
+    std::fs::create_dir(&run).unwrap();
+    let config = run.join("cfg.toml");
+    std::fs::copy(tiny_config(dir.path()), &config).unwrap();
+    let before = std::fs::read(&config).unwrap();
+    let train = |config: &Path| {
+        riskctl(&[
+            "train",
+            "--events",
+            events.to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+            "--quiet",
+        ])
+    };
+    let o = train(&config);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert_eq!(std::fs::read(&config).unwrap(), before);
+    assert!(run.join("drl.rsk").exists() && run.join("msra.json").exists());
+    // A configuration where train writes a model is still refused, and left as it is.
+    let at_a_model = run.join("drl.json");
+    std::fs::copy(&config, &at_a_model).unwrap();
+    let o = train(&at_a_model);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("is the same file as --config"), "{err}");
+    assert_eq!(std::fs::read(&at_a_model).unwrap(), before);
+}

@@ -1,8 +1,8 @@
 //! `riskctl train`: build comparisons and train DRL and MSRA on an event folder.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use riskscore_data::events::Sequence;
-use riskscore_train::final_models::{train_and_export, FinalModelsError};
+use riskscore_train::final_models::{train_and_export, FinalModelsError, FINAL_MODEL_FILES};
 use riskscore_train::train::{Progress, TrainConfig, TrainError};
 use serde_json::json;
 
@@ -14,8 +14,9 @@ validation parts (early stopping); comparisons are built from the fit part only.
 --out: drl.json and msra.json (float checkpoints, see docs/training.md), drl.rsk (int8, calibrated
 on the training observations), drl-f32.rsk and msra.rsk (model blobs for scorer-core, the bridge
 and the firmware). The five files are replaced together at the end of a successful run; a failed
-or interrupted run leaves the old ones, and other files in the folder are never touched. --out
-must not be, hold or lie inside --events or --augment, and must not be a file.
+or interrupted run leaves the old ones, and other files in the folder are never touched (a
+--config kept there is fine). None of the five may be an input or lie inside --events or
+--augment, and --out must not be a file.
 
 Without a conflict (crash or near-crash) sequence, in the folder or in --augment, only physics
 counterfactual pairs can be built: the models still learn which of two states is physically
@@ -51,13 +52,17 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // The files train writes, not the folder: it leaves every other file in --out alone, so a
+    // configuration kept beside the models (`--config runs/x/cfg.toml --out runs/x`) is no overlap.
+    let written: Vec<PathBuf> = FINAL_MODEL_FILES.iter().map(|f| args.out.join(f)).collect();
+    let outputs: Vec<(&str, &Path)> = written.iter().map(|p| ("--out", p.as_path())).collect();
     super::output::refuse_inputs_of(
         &[
             ("--events", Some(&args.events)),
             ("--augment", args.augment.as_deref()),
         ],
         &[("--config", args.config.as_deref())],
-        &[("--out", &args.out)],
+        &outputs,
     )?;
     super::output::refuse_file_as_folder(
         "--out",

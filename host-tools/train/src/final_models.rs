@@ -30,6 +30,16 @@ pub struct FinalModels {
     pub warnings: Vec<String>,
 }
 
+/// The files [`train_and_export`] writes into its folder (and only these: other files there are
+/// left alone): the DRL and MSRA checkpoints, then the int8 DRL, f32 DRL and MSRA blobs.
+pub const FINAL_MODEL_FILES: [&str; 5] = [
+    "drl.json",
+    "msra.json",
+    "drl.rsk",
+    "drl-f32.rsk",
+    "msra.rsk",
+];
+
 /// Train DRL and MSRA on all of `train` (DRL also on `drl_only`), write checkpoints and blobs into `dir`: `drl.json`,
 /// `msra.json`, `drl.rsk` (int8), `drl-f32.rsk` and `msra.rsk` (each with its training domain under
 /// `config.guard`). `meta` goes into both checkpoints.
@@ -77,26 +87,23 @@ pub fn train_and_export(
     let msra_terms = export::msra_terms(&msra.params)?;
     let mut contents = Vec::new();
     let mut warnings = Vec::new();
-    for (name, ck) in [("drl.json", &drl_ck), ("msra.json", &msra_ck)] {
+    let [drl_json, msra_json, drl_rsk, drl_f32_rsk, msra_rsk] = FINAL_MODEL_FILES;
+    for (name, ck) in [(drl_json, &drl_ck), (msra_json, &msra_ck)] {
         let p = dir.join(name);
         contents.push((p.clone(), ck.to_json(&p)?));
     }
     for (name, blob, trained_on) in [
         (
-            "drl.rsk",
+            drl_rsk,
             export::export(&drl_ck, DrlFormat::Int8)?,
             drl_train,
         ),
         (
-            "drl-f32.rsk",
+            drl_f32_rsk,
             export::export(&drl_ck, DrlFormat::F32)?,
             drl_train,
         ),
-        (
-            "msra.rsk",
-            export::export(&msra_ck, DrlFormat::Int8)?,
-            train,
-        ),
+        (msra_rsk, export::export(&msra_ck, DrlFormat::Int8)?, train),
     ] {
         let guarded = export::with_measured_domain(
             &blob,
