@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 mod common;
-use common::{riskctl, shipped_model as model, simulate, RISKCTL};
+use common::{riskctl, shipped_model as model, simulate, simulate_mix, RISKCTL};
 
 /// 25 NaN frames of the first event (20 listed by the loader, 5 counted) and an unknown kind on
 /// the last events.csv line: 26 problems in all.
@@ -383,19 +383,7 @@ fn export_model_f32_of_an_msra_checkpoint_says_it_changes_nothing() {
 #[test]
 fn train_without_a_conflict_warns_and_refuses_when_nothing_can_be_learnt() {
     let dir = tempfile::tempdir().unwrap();
-    let events = dir.path().join("safe");
-    let o = riskctl(&[
-        "simulate",
-        "--out",
-        events.to_str().unwrap(),
-        "--seed",
-        "3",
-        "--events",
-        "12",
-        "--mix",
-        "0,0,1",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let events = simulate_mix(dir.path(), "safe", "12", "0,0,1");
     let ev = events.to_str().unwrap();
     let config = tiny_config(dir.path());
     // Physics pairs are still learnt: the models are written, with a warning that names the
@@ -635,19 +623,7 @@ fn train_warns_when_no_event_can_be_held_out_for_validation() {
         err
     };
     // One crash: nothing to hold out, early stopping watched the training loss.
-    let one = dir.path().join("one");
-    let o = riskctl(&[
-        "simulate",
-        "--out",
-        one.to_str().unwrap(),
-        "--seed",
-        "3",
-        "--events",
-        "1",
-        "--mix",
-        "1,0,0",
-    ]);
-    assert!(o.status.success(), "{}", common::stderr(&o));
+    let one = simulate_mix(dir.path(), "one", "1", "1,0,0");
     let err = train(&one, "run-one");
     assert!(
         err.contains("1 sequences are too few to hold out validation events")

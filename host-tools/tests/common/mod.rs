@@ -75,18 +75,24 @@ pub fn calm_following(id: String, v: f32, gap: f32) -> riskscore_data::events::E
 
 /// A small simulated event folder `dir/events` (seed 3, 9 events, 3 of each kind).
 pub fn simulate(dir: &Path) -> PathBuf {
-    let events = dir.join("events");
+    simulate_mix(dir, "events", "9", "3,3,3")
+}
+
+/// A simulated event folder `dir/name` of `events` events in the crash,near-crash,safe `mix`
+/// (seed 3).
+pub fn simulate_mix(dir: &Path, name: &str, events: &str, mix: &str) -> PathBuf {
+    let out = dir.join(name);
     let o = riskctl(&[
         "simulate",
         "--out",
-        events.to_str().unwrap(),
+        out.to_str().unwrap(),
         "--seed",
         "3",
         "--events",
-        "9",
+        events,
         "--mix",
-        "3,3,3",
+        mix,
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    events
+    out
 }
