@@ -121,6 +121,21 @@ fn a_bad_geometry_row_is_named_by_file_line_and_column() {
     let err = read_event_geometries(tmp.path()).unwrap_err().to_string();
     assert!(err.contains("scenarios.csv:3:"), "{err}");
     assert!(err.contains("column `geometry`: `sideways`"), "{err}");
+    // The same line in a Windows file, and after a blank line: the file's own line numbers.
+    for (text, line) in [
+        (
+            "event_id,scenario,geometry\r\na/1-2@0#0,a,crossing\r\na/2-1@0#0,a,sideways\r\n",
+            3,
+        ),
+        (
+            "event_id,scenario,geometry\na/1-2@0#0,a,crossing\n\na/2-1@0#0,a,sideways\n",
+            4,
+        ),
+    ] {
+        std::fs::write(tmp.path().join(PROVENANCE_FILE), text).unwrap();
+        let err = read_event_geometries(tmp.path()).unwrap_err().to_string();
+        assert!(err.contains(&format!("scenarios.csv:{line}:")), "{err}");
+    }
     // A simulator folder's scenarios.csv has no geometry column: nothing to read, no error.
     std::fs::write(
         tmp.path().join(PROVENANCE_FILE),

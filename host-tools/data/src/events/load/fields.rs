@@ -9,12 +9,12 @@ use super::issues::{EventsError, IssueProblem, LoadIssue, HEADING_TOLERANCE};
 
 /// How a file ends its lines, which the record line numbers depend on (see [`record_line`]).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct LineEnds {
+pub(crate) struct LineEnds {
     /// The first line ends with `\r\n` (a Windows file).
     crlf: bool,
 }
 
-pub(super) fn open(path: &Path) -> Result<(csv::Reader<BufReader<File>>, LineEnds), EventsError> {
+pub(crate) fn open(path: &Path) -> Result<(csv::Reader<BufReader<File>>, LineEnds), EventsError> {
     let io = |source| EventsError::Io {
         path: path.to_path_buf(),
         source,
@@ -94,6 +94,24 @@ fn missing_column_hint(headers: &csv::StringRecord, name: &str) -> String {
         Some(h) => format!(" (there is `{h}`: column names are lower case, spelled exactly)"),
         None => String::new(),
     }
+}
+
+/// Reads one record into `rec` and returns its 1-based line (the file's own numbering, on Windows
+/// files and after blank lines too); `Ok(None)` at the end of the file. For CSV files beside the
+/// event tables (an import's `scenarios.csv`) that report errors by line.
+pub(crate) fn read_numbered_record<R: std::io::Read>(
+    rdr: &mut csv::Reader<R>,
+    rec: &mut csv::StringRecord,
+    ends: LineEnds,
+) -> csv::Result<Option<u64>> {
+    let line = rdr.position().line();
+    if !rdr.read_record(rec)? {
+        return Ok(None);
+    }
+    Ok(Some(
+        rec.position()
+            .map_or(line, |p| record_line(p, rdr.position(), ends)),
+    ))
 }
 
 /// Reads one record; `Ok(None)` at end of file, `Err(issue)` for a malformed row.

@@ -18,6 +18,7 @@ pub use issues::{
 use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
 use super::{Dims, Event, EventKind, EventSet, Frame, EVENTS_FILE, EVENT_COLUMNS, FRAMES_FILE};
 use fields::{column_map, field_str, next_record, no_final_newline, open, Fields};
+pub(crate) use fields::{open as open_csv, read_numbered_record};
 use issues::Issues;
 use scorer_core::VehicleState;
 

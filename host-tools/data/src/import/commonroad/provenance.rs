@@ -11,7 +11,7 @@ use scorer_core::interaction::Geometry;
 use scorer_core::VehicleState;
 
 use super::pairs::SafeInteraction;
-use crate::events::EventsError;
+use crate::events::{open_csv, read_numbered_record, EventsError};
 
 /// The per-event file of an imported folder (the simulator writes its own per-event file of the
 /// same name with other columns).
@@ -118,9 +118,12 @@ pub fn read_event_geometries(
         line,
         problem,
     };
-    let mut reader = csv::Reader::from_path(&path).map_err(|e| ProvenanceError::Io {
-        path: path.clone(),
-        source: std::io::Error::other(e.to_string()),
+    let (mut reader, ends) = open_csv(&path).map_err(|e| match e {
+        EventsError::Io { path, source } => ProvenanceError::Io { path, source },
+        other => ProvenanceError::Io {
+            path: path.clone(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })?;
     let headers = reader
         .headers()
@@ -131,12 +134,16 @@ pub fn read_event_geometries(
         return Ok(None);
     };
     let mut out = HashMap::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            row_error(line, e.to_string())
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
+    let mut record = csv::StringRecord::new();
+    loop {
+        let line = match read_numbered_record(&mut reader, &mut record, ends) {
+            Ok(Some(line)) => line,
+            Ok(None) => break,
+            Err(e) => {
+                let line = e.position().map_or(reader.position().line(), |p| p.line());
+                return Err(row_error(line, e.to_string()));
+            }
+        };
         let (Some(id), Some(name)) = (record.get(id_col), record.get(geometry_col)) else {
             return Err(row_error(line, "missing a field".into()));
         };
