@@ -253,8 +253,25 @@ _FRAME_TYPES = (
 )
 
 
+def _is_number(kind: pa.DataType) -> bool:
+    """Whether a column of type ``kind`` is read as numbers: integers, floats, decimals (or
+    dictionary-encoded ones), and the all-null type (``pa.array([])``: nothing to misread)."""
+    if pa.types.is_dictionary(kind):
+        kind = kind.value_type
+    return (
+        pa.types.is_integer(kind)
+        or pa.types.is_floating(kind)
+        or pa.types.is_decimal(kind)
+        or pa.types.is_null(kind)
+    )
+
+
 def _select(table: pa.Table, what: str, wanted: Sequence[Tuple[str, pa.DataType]]) -> pa.Table:
-    """The ``wanted`` columns of ``table`` (names case-insensitive), cast to their types."""
+    """The ``wanted`` columns of ``table`` (names case-insensitive), cast to their types.
+
+    Where a number is wanted, a column that is not numeric (text, bool, dates, ...) is refused
+    from the table's schema, not by whether its values happen to cast: a zero-row table has no
+    value to fail on, and must be refused like one with rows."""
     by_name: Dict[str, int] = {}
     for k, name in enumerate(table.column_names):
         if name.lower() in by_name:
@@ -265,6 +282,11 @@ def _select(table: pa.Table, what: str, wanted: Sequence[Tuple[str, pa.DataType]
         if name not in by_name:
             raise ColumnError(f"{what}: missing column {name!r}")
         column = table.column(by_name[name])
+        if (pa.types.is_floating(kind) or pa.types.is_integer(kind)) and not _is_number(column.type):
+            raise ColumnError(
+                f"{what}: column {name!r} ({column.type}) is not {kind}: it must be numeric "
+                "(integer or float; cast it)"
+            )
         try:
             columns.append(column.cast(kind))
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as e:
@@ -276,7 +298,9 @@ def write_events(
     directory: PathLike, events: Any, frames: Any, *, overwrite: bool = False
 ) -> None:
     """Write an event folder from an events table and a frames table (as :func:`read_events`
-    returns them; names case-insensitive, numeric types cast). The box sizes come from the events
+    returns them; names case-insensitive, numeric types cast; a column that is not numeric where
+    a number belongs, text included, raises ``ColumnError`` naming it, whether or not the table
+    has rows). The box sizes come from the events
     table (a folder stores them per event; frames' own length_i ... width_j are not read, so
     change sizes in the events table); frames need event_id, time, x_i ... acc_i and x_j ...
     acc_j, in time order per event.

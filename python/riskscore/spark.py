@@ -11,6 +11,7 @@ without a per-row Python step; the model blob is broadcast once. Needs pyspark >
     pairs = spark.read.parquet("pairs/")                  # the 18 pair columns, any others kept
     rs.ssm(pairs).write.parquet("pairs_ssm/")             # + box_distance ... f_s (float, null = bad row)
     rs.score(pairs, "models/drl-default.rsk").write.parquet("pairs_risk/")   # + risk
+    rs.score(pairs, riskscore.Model.load("models/drl-default.rsk"))          # or a loaded Model
 
 Bad rows are null in the computed columns (as :func:`riskscore.ssm`; executors' warnings are not
 shown on the driver, so count the nulls). A missing or non-numeric column, or an input that
@@ -19,7 +20,8 @@ before any job runs.
 """
 from __future__ import annotations
 
-from typing import Any, Iterator, Optional
+import os
+from typing import Any, Iterator, Optional, Union
 
 import pyarrow as pa
 
@@ -88,13 +90,49 @@ def ssm(df: Any) -> Any:
     return df.mapInArrow(compute, _with_float_columns(df, names))
 
 
-def score(df: Any, model_path: str, column: str = "risk", spark: Optional[Any] = None) -> Any:
+def _model_blob(model: Any, argument: str = "model") -> bytes:
+    """What the executors receive for ``model``: the validated blob's bytes. A path is read and
+    validated here, on the driver (``OSError`` or ``ModelError`` naming the file); a loaded
+    :class:`riskscore.Model` gives the blob it holds (also one made with ``from_bytes`` or
+    unpickled), not a re-read of its file, as :func:`riskscore.evaluate` does."""
+    if isinstance(model, riskscore.Model):
+        return model.to_bytes()
+    if isinstance(model, (str, os.PathLike)):
+        return riskscore.Model.load(model).to_bytes()
+    raise TypeError(
+        f"{argument}: expected a path to a model blob (.rsk) or a riskscore.Model, not "
+        f"{type(model).__name__}"
+    )
+
+
+_NO_MODEL: Any = object()
+
+
+def score(
+    df: Any,
+    model: Union[str, "os.PathLike[str]", "riskscore.Model"] = _NO_MODEL,
+    column: str = "risk",
+    spark: Optional[Any] = None,
+    *,
+    model_path: Union[str, "os.PathLike[str]", "riskscore.Model"] = _NO_MODEL,
+) -> Any:
     """``df`` with one FloatType column (``column``) of the model's risk score per row, null where
-    the row cannot be scored. The blob is read on the driver, validated, and broadcast once."""
+    the row cannot be scored. ``model`` is a path to a model blob or a loaded
+    :class:`riskscore.Model` (its held blob is used, as by :func:`riskscore.evaluate`);
+    ``model_path=`` is the former name of the argument and still accepted. The blob is read
+    (or taken from the Model) on the driver, validated, and broadcast once as its bytes."""
+    if model_path is not _NO_MODEL:
+        if model is not _NO_MODEL:
+            raise TypeError("score: pass the model once, as model or as model_path, not both")
+        model, argument = model_path, "model_path"
+    else:
+        argument = "model"
+    if model is _NO_MODEL:
+        raise TypeError("score: missing the model (a path to a .rsk blob or a riskscore.Model)")
     _check_columns(df)
-    model = riskscore.Model.load(model_path)
+    blob_bytes = _model_blob(model, argument)
     session = spark or df.sparkSession
-    blob = session.sparkContext.broadcast(model.to_bytes())
+    blob = session.sparkContext.broadcast(blob_bytes)
 
     def compute(batches: Iterator[pa.RecordBatch]) -> Iterator[pa.RecordBatch]:
         import numpy as np

@@ -107,17 +107,9 @@ fn frames_batch(set: &EventSet) -> Result<RecordBatch, Failure> {
         pair.into_iter()
             .map(|v| Arc::new(Float32Array::from(v)) as ArrayRef),
     );
-    let fields: Vec<Field> = frame_names()
+    let fields: Vec<Field> = frame_fields()
         .into_iter()
-        .enumerate()
-        .map(|(k, name)| {
-            let kind = match k {
-                0 => DataType::Utf8,
-                1 => DataType::Float64,
-                _ => DataType::Float32,
-            };
-            Field::new(name, kind, false)
-        })
+        .map(|(name, kind)| Field::new(name, kind, false))
         .collect();
     RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
         .map_err(|e| Failure::Events(e.to_string()))
@@ -223,6 +215,53 @@ impl Columns<'_> {
         }
         Ok(v)
     }
+}
+
+/// The types the frames table's columns must have (names from [`frame_names`]): `event_id`
+/// text, `time` Float64, the pair columns Float32.
+fn frame_fields() -> Vec<(String, DataType)> {
+    frame_names()
+        .into_iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let kind = match k {
+                0 => DataType::Utf8,
+                1 => DataType::Float64,
+                _ => DataType::Float32,
+            };
+            (name, kind)
+        })
+        .collect()
+}
+
+/// Refuses a table whose schema does not start with the `wanted` columns (name and type, in
+/// order). Checked on the schema, before any row is read: a zero-row table (no batches, or
+/// only empty ones) with a text column where a number belongs is refused like one with rows,
+/// and a wrong type is a `ColumnError` naming the column, never a panic in a row accessor.
+fn check_schema<'a>(
+    what: &str,
+    schema: &Schema,
+    wanted: impl IntoIterator<Item = (&'a str, &'a DataType)>,
+) -> Result<(), Failure> {
+    for (k, (name, kind)) in wanted.into_iter().enumerate() {
+        let Some(field) = schema.fields().get(k) else {
+            return Err(Failure::Column(format!("{what}: missing column {name:?}")));
+        };
+        if field.name() != name {
+            return Err(Failure::Column(format!(
+                "{what}: column {} is {:?}; expected {name:?}",
+                k,
+                field.name()
+            )));
+        }
+        if field.data_type() != kind {
+            return Err(Failure::Column(format!(
+                "{what}: column {name:?} ({}) is not {kind}",
+                field.data_type()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Calls `each` with every row of `batches` (numbered across them), `what` naming the table.
@@ -467,6 +506,21 @@ pub fn write_events(
                 }
             }
         }
+        check_schema(
+            "events",
+            &events.0.schema(),
+            EVENT_FIELDS.iter().map(|(n, t, _)| (*n, t)),
+        )?;
+        let frame_fields = frame_fields();
+        // The frames table's box sizes are not read (the events table has them).
+        let read = frame_fields
+            .iter()
+            .filter(|(n, _)| !n.starts_with("length_") && !n.starts_with("width_"));
+        check_schema(
+            "frames",
+            &frames.0.schema(),
+            read.map(|(n, t)| (n.as_str(), t)),
+        )?;
         let mut list = events_of(events.0.record_batches())?;
         let frame_rows = attach_frames(&mut list, frames.0.record_batches())?;
         check_readable(&dir, &list, &frame_rows)?;

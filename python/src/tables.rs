@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use arrow_array::{Array, BooleanArray, Float32Array, RecordBatch};
 use arrow_pyarrow::{PyArrowType, Table};
-use arrow_schema::{Field, Schema};
+use arrow_schema::{DataType, Field, Schema};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use riskscore_data::ssm_csv::{PairColumns, RowError};
@@ -51,9 +51,27 @@ pub fn kernel_failure(e: KernelError) -> Failure {
     Failure::Column(e.to_string())
 }
 
-/// Where the pair columns are, or which are missing.
+/// Where the pair columns are, or which are missing; a pair column whose type the kernels do
+/// not read is refused here, from the table's schema, not by the kernels batch by batch: a
+/// zero-row table (no batches, or only empty ones) with a text pair column gets the same
+/// `ColumnError` as one with rows.
 pub fn locate(schema: &Schema) -> Result<PairColumns, Failure> {
-    pair_columns(schema).map_err(|e| Failure::Column(e.to_string()))
+    let columns = pair_columns(schema).map_err(|e| Failure::Column(e.to_string()))?;
+    for &k in columns.ego.iter().chain(&columns.partner) {
+        let field = schema.field(k);
+        let supported = matches!(
+            field.data_type(),
+            DataType::Float64 | DataType::Float32 | DataType::Int64 | DataType::Int32
+        );
+        if !supported {
+            // The kernels' own message, so a table with rows and one without read alike.
+            return Err(kernel_failure(KernelError::ColumnType {
+                name: field.name().clone(),
+                found: field.data_type().clone(),
+            }));
+        }
+    }
+    Ok(columns)
 }
 
 /// The first [`LISTED_BAD_ROWS`] bad rows of all slices, and how many there are.

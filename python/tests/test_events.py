@@ -1,4 +1,5 @@
 """riskscore.read_events / write_events: the folder format round trip and its errors."""
+import re
 import shutil
 
 import pyarrow as pa
@@ -56,6 +57,47 @@ def test_bad_frames_are_refused_naming_row_and_column(tmp_path):
     odd = events.set_column(1, "kind", pa.array(kinds))
     with pytest.raises(riskscore.EventsError, match="events row 0 column kind: unknown kind"):
         riskscore.write_events(tmp_path / "out", odd, frames)
+
+
+def test_a_text_column_where_a_number_belongs_is_refused_with_or_without_rows(tmp_path):
+    """The column types are checked on the tables' schemas: a zero-row events or frames table
+    with a text column where a number belongs is refused like one with rows (it used to cast,
+    with no value to fail on, and write an empty folder); text that would parse is refused too."""
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    first = events.slice(0, 1)
+    mask = pc.is_in(frames.column("event_id"), value_set=first.column("event_id"))
+    its_frames = frames.filter(mask)
+
+    def as_text(table, name):
+        at = table.column_names.index(name)
+        return table.set_column(at, name, table.column(name).cast(pa.string()))
+
+    cases = [
+        ("events", "t_start", "double", as_text(first, "t_start"), its_frames),
+        ("frames", "x_j", "float", first, as_text(its_frames, "x_j")),
+    ]
+    for what, name, kind, ev, fr in cases:
+        message = re.escape(f"{what}: column '{name}' (string) is not {kind}: it must be numeric")
+        # With rows: the text is the numbers' own digits, which would parse; refused by type.
+        with pytest.raises(riskscore.ColumnError, match=message):
+            riskscore.write_events(tmp_path / f"{what}-rows", ev, fr)
+        # Without rows there is no value for a cast to fail on: the same error all the same.
+        with pytest.raises(riskscore.ColumnError, match=message):
+            riskscore.write_events(tmp_path / f"{what}-empty", ev.slice(0, 0), fr.slice(0, 0))
+        assert not (tmp_path / f"{what}-rows").exists()
+        assert not (tmp_path / f"{what}-empty").exists()
+
+    # The extension itself checks the schema before reading a row: a wrong type is a
+    # ColumnError naming the column, not a panic in a row accessor, with or without rows.
+    from riskscore import _riskscore
+
+    text_events = as_text(first, "t_start")
+    for rows in (1, 0):
+        with pytest.raises(riskscore.ColumnError, match=r'events: column "t_start" \(Utf8\) is not Float64'):
+            _riskscore.write_events(
+                str(tmp_path / "raw"), text_events.slice(0, rows), its_frames.slice(0, 0), False
+            )
+    assert not (tmp_path / "raw").exists()
 
 
 def test_a_folder_with_bad_rows_is_refused_unless_skipped(tmp_path):

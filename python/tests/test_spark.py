@@ -6,7 +6,6 @@ written as a Parquet folder; Spark reads it, runs riskscore.spark.ssm / score an
 and every value is compared with riskctl's output for the same rows.
 """
 import os
-import os
 import sys
 import time
 
@@ -88,6 +87,53 @@ def test_spark_score_matches_the_model(spark, million_pairs, tmp_path):
     expected = riskscore.Model.load(MODELS / "drl-default.rsk").score(table.take(ids))
     got = scored.column("risk").to_numpy().astype(np.float32)
     assert np.array_equal(got.view(np.uint32), expected.view(np.uint32))
+
+
+def test_spark_score_takes_a_loaded_model(spark, million_pairs, tmp_path):
+    """A Model (here one with no file behind it, as unpickled or from_bytes) is scored from the
+    blob it holds, shipped to the executors as its bytes."""
+    import riskscore.spark as rs
+
+    folder, table = million_pairs
+    model = riskscore.Model.from_bytes((MODELS / "drl-default.rsk").read_bytes())
+    assert model.path is None
+    part = spark.read.parquet(str(folder)).limit(20_000)
+    rs.score(part, model).write.parquet(str(tmp_path / "risk"))
+    scored = pq.read_table(tmp_path / "risk").sort_by("row_id")
+    expected = model.score(table.take(scored.column("row_id").to_numpy()))
+    got = scored.column("risk").to_numpy().astype(np.float32)
+    assert np.array_equal(got.view(np.uint32), expected.view(np.uint32))
+
+
+def test_what_spark_score_ships_to_the_executors(tmp_path):
+    """No Spark needed: the model argument becomes the validated blob's bytes, from a path or
+    from a loaded Model (the blob it holds, not a re-read of its file, which may since have
+    changed); anything else, or a file that is not a blob, is refused naming it."""
+    from riskscore.spark import _model_blob, score
+
+    path = tmp_path / "model.rsk"
+    blob = (MODELS / "drl-default.rsk").read_bytes()
+    path.write_bytes(blob)
+    loaded = riskscore.Model.load(path)
+    assert _model_blob(path) == _model_blob(str(path)) == blob
+    path.write_bytes((MODELS / "msra-default.rsk").read_bytes())
+    assert _model_blob(loaded) == blob
+    assert _model_blob(riskscore.Model.from_bytes(blob)) == blob
+    assert riskscore.Model.from_bytes(_model_blob(loaded)).info == loaded.info
+    with pytest.raises(TypeError, match="model: expected a path to a model blob .* or a riskscore.Model, not bytes"):
+        _model_blob(blob)
+    with pytest.raises(TypeError, match="model_path: .* not int"):
+        _model_blob(3, "model_path")
+    with pytest.raises(FileNotFoundError, match="missing.rsk"):
+        _model_blob(tmp_path / "missing.rsk")
+    (tmp_path / "junk.rsk").write_bytes(b"not a model")
+    with pytest.raises(riskscore.ModelError, match="junk.rsk"):
+        _model_blob(tmp_path / "junk.rsk")
+    # The argument's former name still works as a keyword; the model is needed once.
+    with pytest.raises(TypeError, match="not both"):
+        score(None, path, model_path=path)
+    with pytest.raises(TypeError, match="missing the model"):
+        score(None)
 
 
 def test_spark_refuses_a_missing_column_on_the_driver(spark, million_pairs):

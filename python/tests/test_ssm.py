@@ -131,6 +131,27 @@ def test_missing_and_non_numeric_columns_are_named(golden_pairs):
         riskscore.ssm([1, 2, 3])
 
 
+def test_a_text_pair_column_is_refused_in_a_table_without_rows(golden_pairs):
+    """Types are checked on the schema, not batch by batch: a zero-row table (no batches, or one
+    empty batch) with a text pair column gets the error a table with rows gets, from ssm,
+    Model.score and Model.in_domain alike."""
+    at = PAIR_COLUMNS.index("x_j")
+    text = golden_pairs.set_column(at, "x_j", golden_pairs.column("x_j").cast(pa.string()))
+    no_batches = pa.Table.from_batches([], schema=text.schema)
+    empty_batch = pa.Table.from_batches([text.to_batches()[0].slice(0, 0)])
+    assert no_batches.num_rows == empty_batch.num_rows == 0
+    assert empty_batch.column("x_j").num_chunks == 1  # one empty batch (to_batches() drops it)
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    message = "column x_j: type Utf8 is not supported: a pair column must be Float64, Float32, Int64 or Int32"
+    for table in (text, no_batches, empty_batch):
+        for call in (riskscore.ssm, model.score, model.in_domain):
+            with pytest.raises(riskscore.ColumnError, match=re.escape(message)):
+                call(table)
+    # A zero-row table of numeric columns is still fine: zero rows out.
+    assert riskscore.ssm(golden_pairs.slice(0, 0)).num_rows == 0
+    assert model.score(golden_pairs.slice(0, 0)).shape == (0,)
+
+
 def test_a_column_instead_of_a_frame_is_a_clear_type_error(golden_pairs):
     """A pandas or polars Series (one column, not a frame) is named, not an AttributeError."""
     import polars as pl
