@@ -327,22 +327,27 @@ fn demo_with_a_closed_standard_output_finishes_its_run() {
     }
 }
 
-#[test]
-fn export_model_f32_of_an_msra_checkpoint_says_it_changes_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    let events = simulate(dir.path());
-    let config = tiny_config(dir.path());
-    let train = dir.path().join("train");
-    let o = riskctl(&[
+/// `riskctl train --events EVENTS --config CONFIG --out OUT --quiet`.
+fn train_quietly(events: &Path, config: &Path, out: &Path) -> Output {
+    riskctl(&[
         "train",
         "--events",
         events.to_str().unwrap(),
         "--config",
         config.to_str().unwrap(),
         "--out",
-        train.to_str().unwrap(),
+        out.to_str().unwrap(),
         "--quiet",
-    ]);
+    ])
+}
+
+#[test]
+fn export_model_f32_of_an_msra_checkpoint_says_it_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let config = tiny_config(dir.path());
+    let train = dir.path().join("train");
+    let o = train_quietly(&events, &config, &train);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let export = |checkpoint: &str, f32: bool| {
         let out = dir.path().join(format!("{checkpoint}-{f32}.rsk"));
@@ -389,16 +394,7 @@ fn train_without_a_conflict_warns_and_refuses_when_nothing_can_be_learnt() {
     // Physics pairs are still learnt: the models are written, with a warning that names the
     // folder and its counts and says what is missing.
     let out = dir.path().join("train");
-    let o = riskctl(&[
-        "train",
-        "--events",
-        ev,
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let o = train_quietly(&events, &config, &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     let warning = err
@@ -417,16 +413,7 @@ fn train_without_a_conflict_warns_and_refuses_when_nothing_can_be_learnt() {
     std::fs::create_dir(&existing).unwrap();
     std::fs::write(existing.join("keep.txt"), "old").unwrap();
     for (target, existed) in [(dir.path().join("fresh"), false), (existing, true)] {
-        let o = riskctl(&[
-            "train",
-            "--events",
-            ev,
-            "--config",
-            no_physics.to_str().unwrap(),
-            "--out",
-            target.to_str().unwrap(),
-            "--quiet",
-        ]);
+        let o = train_quietly(&events, &no_physics, &target);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{err}");
         assert!(
@@ -571,16 +558,7 @@ fn trained_run(dir: &Path) -> PathBuf {
     let events = simulate(dir);
     let config = tiny_config(dir);
     let run = dir.join("run");
-    let o = riskctl(&[
-        "train",
-        "--events",
-        events.to_str().unwrap(),
-        "--out",
-        run.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let o = train_quietly(&events, &config, &run);
     assert!(o.status.success(), "{}", common::stderr(&o));
     run
 }
@@ -608,16 +586,7 @@ fn train_warns_when_no_event_can_be_held_out_for_validation() {
     let dir = tempfile::tempdir().unwrap();
     let config = tiny_config(dir.path());
     let train = |events: &Path, out: &str| {
-        let o = riskctl(&[
-            "train",
-            "--events",
-            events.to_str().unwrap(),
-            "--out",
-            dir.path().join(out).to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-            "--quiet",
-        ]);
+        let o = train_quietly(events, &config, &dir.path().join(out));
         let err = common::stderr(&o);
         assert!(o.status.success(), "{err}");
         err
@@ -749,18 +718,7 @@ fn train_keeps_a_configuration_that_lives_in_its_output_folder() {
     let config = run.join("cfg.toml");
     std::fs::copy(tiny_config(dir.path()), &config).unwrap();
     let before = std::fs::read(&config).unwrap();
-    let train = |config: &Path| {
-        riskctl(&[
-            "train",
-            "--events",
-            events.to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-            "--quiet",
-        ])
-    };
+    let train = |config: &Path| train_quietly(&events, config, &run);
     let o = train(&config);
     assert!(o.status.success(), "{}", common::stderr(&o));
     assert_eq!(std::fs::read(&config).unwrap(), before);
