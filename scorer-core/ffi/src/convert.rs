@@ -73,14 +73,19 @@ pub(crate) fn sat_u32(v: usize) -> u32 {
     u32::try_from(v).unwrap_or(u32::MAX - 1)
 }
 
+/// Copies `name` into `field`, truncated to leave its terminating NUL. Not inlined: one copy
+/// serves every error arm of [`model_error`] (flash).
+#[inline(never)]
+fn copy_field(field: &mut [c_char; RISKSCORE_FIELD_NAME_LEN], name: &str) {
+    let room = RISKSCORE_FIELD_NAME_LEN - 1;
+    for (dst, &b) in field.iter_mut().take(room).zip(name.as_bytes()) {
+        *dst = b as c_char;
+    }
+}
+
 /// Status code and load details for a model error.
 pub(crate) fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> RiskscoreStatus {
-    let mut field = |name: &str| {
-        let room = RISKSCORE_FIELD_NAME_LEN - 1;
-        for (dst, &b) in info.field.iter_mut().take(room).zip(name.as_bytes()) {
-            *dst = b as c_char;
-        }
-    };
+    let mut field = |name: &str| copy_field(&mut info.field, name);
     match e {
         ModelError::Truncated { needed, available } => {
             info.expected = sat_u32(*needed);
@@ -174,6 +179,22 @@ pub(crate) fn model_error(e: &ModelError, info: &mut RiskscoreLoadInfo) -> Risks
         }
         ModelError::BadRecord { field: name, .. } => {
             field(name);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::BadDomainEntry { entry, input, .. } => {
+            field("training_domain.ranges");
+            info.index = sat_u32(*entry);
+            info.found = u32::from(*input);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::UnknownOutsidePolicy(policy) => {
+            field("training_domain.policy");
+            info.found = u32::from(*policy);
+            RiskscoreStatus::ModelInvalid
+        }
+        ModelError::BadFallbackTerm { term, .. } => {
+            field("kinematic_fallback.terms");
+            info.index = sat_u32(*term);
             RiskscoreStatus::ModelInvalid
         }
         // Encoding-only errors and variants added to the core later.

@@ -201,3 +201,76 @@ fn default_threshold_is_the_blobs_own_or_the_kinds_rule() {
     assert_eq!(status, RiskscoreStatus::ModelCrcMismatch);
     assert_eq!(t, 2.75);
 }
+
+/// A version-2 DRL-f32 blob around `payload` (the header of docs/model-format.md's examples).
+fn v2_blob(payload: &[u8]) -> Vec<u8> {
+    let mut blob = b"RSKM\x02\x00\x02\x00\x03\x00\x00\x00".to_vec();
+    blob.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    blob.extend_from_slice(&scorer_core::crc::crc32(payload).to_le_bytes());
+    blob.extend_from_slice(payload);
+    blob
+}
+
+#[test]
+fn every_record_error_names_its_field() {
+    // docs/model-format.md's worked example, then its training-domain record (policy `p`, input 3
+    // in [0, 40] and `second` in [-0.75, 5]) and, under policy 2, its kinematic fallback over one
+    // term of surrogate kind `kind`.
+    let payload = |p: u8, second: u8, kind: Option<u8>| {
+        let mut v = vec![
+            0x01, 0x08, 0x01, 0xcd, 0xcc, 0xcc, 0x3d, 0x01, 0x00, 0x00, 0x80, 0xbf, 0x01, 0x01,
+            0x00, 0x04, 0x00, 0x00, 0x80, 0xbf, 0x04, 0x00, 0x00, 0x00, 0x3f,
+        ];
+        v.extend_from_slice(&[
+            0x02, 0x14, p, 0x12, 0x03, 0, 0, 0, 0, 0, 0, 0x20, 0x42, second,
+        ]);
+        v.extend_from_slice(&[0x00, 0x00, 0x40, 0xbf, 0x00, 0x00, 0xa0, 0x40]);
+        if let Some(kind) = kind {
+            v.extend_from_slice(&[0x03, 0x1e, 0, 0, 0, 0x40, 0, 0, 0, 0xbf, 0x15, kind]);
+            v.extend_from_slice(&[0, 0, 0x80, 0x3f, 0, 0, 0x80, 0xbf, 0, 0, 0, 0x40]);
+            v.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0x20, 0x41]);
+        }
+        v2_blob(&v)
+    };
+    let load = |blob: &[u8]| {
+        let mut ctx = context();
+        let ctx: *mut RiskscoreContext = &mut *ctx;
+        let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+        // SAFETY: a fresh context, a live blob, a writable info.
+        unsafe {
+            assert_eq!(
+                riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
+                RiskscoreStatus::Ok
+            );
+            let status = riskscore_load_model(ctx, blob.as_ptr(), blob.len(), info.as_mut_ptr());
+            let info = info.assume_init();
+            let field = std::ffi::CStr::from_ptr(info.field.as_ptr());
+            (
+                status,
+                field.to_str().unwrap().to_owned(),
+                info.index,
+                info.found,
+            )
+        }
+    };
+    // The blobs as documented load.
+    assert_eq!(load(&payload(1, 8, None)).0, RiskscoreStatus::Ok);
+    assert_eq!(load(&payload(2, 8, Some(1))).0, RiskscoreStatus::Ok);
+    let invalid = RiskscoreStatus::ModelInvalid;
+    let none = RISKSCORE_NONE_U32;
+    // An outside policy this build does not know (a newer exporter's).
+    assert_eq!(
+        load(&payload(9, 8, None)),
+        (invalid, "training_domain.policy".into(), none, 9)
+    );
+    // Range 1 names input 3 again.
+    assert_eq!(
+        load(&payload(1, 3, None)),
+        (invalid, "training_domain.ranges".into(), 1, 3)
+    );
+    // A fallback term over GSSM (kind 3), which is refused.
+    assert_eq!(
+        load(&payload(2, 8, Some(3))),
+        (invalid, "kinematic_fallback.terms".into(), 0, none)
+    );
+}
