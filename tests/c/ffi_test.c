@@ -327,6 +327,21 @@ static void test_error_paths(size_t drl_len) {
     }
     EXPECT_STATUS(riskscore_track_update(&other, 1000, 100, 0.1f, &ts), RISKSCORE_STATUS_OK);
     CHECK(ts.evicted_id == 0 && ts.new_track == 1, "evicted %u", ts.evicted_id);
+    /* A reset time base with a table full of warning tracks: none is reported as warning, none is
+     * evicted (TABLE_FULL), until they are removed (the header's stale_after_us and TABLE_FULL). */
+    EXPECT_STATUS(riskscore_init(&other, sizeof other, &evict), RISKSCORE_STATUS_OK);
+    for (uint32_t id = 0; id < RISKSCORE_MAX_TRACKS; id++) {
+        EXPECT_STATUS(riskscore_track_update(&other, id, 5000000000ull, 0.9f, NULL),
+                      RISKSCORE_STATUS_OK);
+    }
+    EXPECT_STATUS(riskscore_any_warning(&other, 1000, &warnings, &held), RISKSCORE_STATUS_OK);
+    CHECK(warnings == 0 && held == RISKSCORE_MAX_TRACKS, "reset, full: %u warnings, %u held",
+          warnings, held);
+    EXPECT_STATUS(riskscore_track_update(&other, 1000, 1000, 0.1f, NULL), RISKSCORE_STATUS_TABLE_FULL);
+    EXPECT_STATUS(riskscore_track_remove(&other, 5), RISKSCORE_STATUS_OK);
+    EXPECT_STATUS(riskscore_track_update(&other, 1000, 1000, 0.1f, &ts), RISKSCORE_STATUS_OK);
+    CHECK(ts.new_track == 1 && ts.evicted_id == RISKSCORE_NONE_U32, "reset, removed: evicted %u",
+          ts.evicted_id);
 }
 
 /* Splits a CSV line in place. */

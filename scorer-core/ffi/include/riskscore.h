@@ -107,7 +107,8 @@ enum RiskscoreStatus
   // update drops it and starts a new one).
   RISKSCORE_STATUS_OUT_OF_ORDER = 19,
   // `riskscore_track_update`: no room for a new track (every track is warning, or the policy is
-  // reject).
+  // reject). A track left ahead of `now_us` by a reset time base counts with the warning it had,
+  // though no query reports it: after a reset, remove the tracks or re-initialise.
   RISKSCORE_STATUS_TABLE_FULL = 20,
   // The track id is not in the table.
   RISKSCORE_STATUS_UNKNOWN_TRACK = 21,
@@ -183,8 +184,9 @@ typedef struct {
   uint64_t min_on_us;
   // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
   // last updated more than this after `now_us` (the time base was reset) is stale: not reported
-  // as warning, evictable, and restarted by the next update of its own id; other ids' updates
-  // leave it in place.
+  // as warning, restarted by the next update of its own id, evictable only if its warning was
+  // off (a warning one is kept and can fill the table: `RISKSCORE_STATUS_TABLE_FULL`); other
+  // ids' updates leave it in place.
   uint64_t stale_after_us;
   // 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
   uint8_t latch;

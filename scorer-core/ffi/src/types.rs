@@ -54,7 +54,8 @@ pub enum RiskscoreStatus {
     /// update drops it and starts a new one).
     OutOfOrder = 19,
     /// `riskscore_track_update`: no room for a new track (every track is warning, or the policy is
-    /// reject).
+    /// reject). A track left ahead of `now_us` by a reset time base counts with the warning it had,
+    /// though no query reports it: after a reset, remove the tracks or re-initialise.
     TableFull = 20,
     /// The track id is not in the table.
     UnknownTrack = 21,
@@ -165,8 +166,9 @@ pub struct RiskscoreWarningConfig {
     pub min_on_us: u64,
     /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
     /// last updated more than this after `now_us` (the time base was reset) is stale: not reported
-    /// as warning, evictable, and restarted by the next update of its own id; other ids' updates
-    /// leave it in place.
+    /// as warning, restarted by the next update of its own id, evictable only if its warning was
+    /// off (a warning one is kept and can fill the table: `RISKSCORE_STATUS_TABLE_FULL`); other
+    /// ids' updates leave it in place.
     pub stale_after_us: u64,
     /// 1: latched (evaluation semantics: once on, stays on for the track's life); 0: live mode.
     pub latch: u8,
