@@ -191,15 +191,19 @@ static void test_error_paths(size_t drl_len) {
     scratch[4] = 99; /* version */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_UNSUPPORTED_VERSION);
+    CHECK(info.found == 99 && info.expected == RISKSCORE_NONE_U32, "version: found %u expected %u",
+          info.found, info.expected);
     memcpy(scratch, drl_blob, drl_len);
     scratch[6] = 77; /* kind */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_UNKNOWN_KIND);
+    CHECK(info.found == 77, "unknown kind: found %u", info.found);
     memcpy(scratch, drl_blob, drl_len);
     scratch[7] = 1; /* reserved header byte; the kind byte was read: info.kind says it */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_RESERVED_NOT_ZERO);
-    CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8, "reserved byte: kind %d", (int)info.kind);
+    CHECK(info.kind == RISKSCORE_MODEL_KIND_DRL_INT8 && info.index == 7,
+          "reserved byte: kind %d index %u", (int)info.kind, info.index);
     memcpy(scratch, drl_blob, drl_len);
     scratch[8] = 1; /* schema 1, a known schema but not the DRL's (3) */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
@@ -226,10 +230,15 @@ static void test_error_paths(size_t drl_len) {
     scratch[drl_len / 2] ^= 0x40; /* payload bit flip */
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len, &info),
                   RISKSCORE_STATUS_MODEL_CRC_MISMATCH);
+    /* expected: the CRC-32 the header stores; found: the payload's. */
+    CHECK(info.expected == crc32_ieee(drl_blob + 20, drl_len - 20) &&
+              info.found == crc32_ieee(scratch + 20, drl_len - 20),
+          "CRC mismatch: expected %08x found %08x", info.expected, info.found);
     memcpy(scratch, drl_blob, drl_len);
     scratch[drl_len] = 0;
     EXPECT_STATUS(riskscore_load_model(&ctx, scratch, drl_len + 1, &info),
                   RISKSCORE_STATUS_MODEL_TRAILING_BYTES);
+    CHECK(info.found == 1, "trailing bytes: found %u", info.found);
     EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &LEAD, &r), RISKSCORE_STATUS_NO_MODEL);
 
     EXPECT_STATUS(riskscore_load_model(&ctx, drl_blob, drl_len, &info), RISKSCORE_STATUS_OK);

@@ -268,10 +268,17 @@ pub struct RiskscoreLoadInfo {
     /// On `RISKSCORE_STATUS_MODEL_INVALID` and friends: the offending field as spelled in
     /// docs/model-format.md (NUL-terminated, truncated to fit); empty otherwise.
     pub field: [c_char; RISKSCORE_FIELD_NAME_LEN],
-    /// Element, layer or term index of the offending value, or `RISKSCORE_NONE_U32`.
+    /// Element, layer, term or training-domain range index of the offending value, the header
+    /// offset of a reserved byte that is not zero, or `RISKSCORE_NONE_U32`.
     pub index: u32,
-    /// Size errors: bytes (or elements) needed/expected, else `RISKSCORE_NONE_U32`.
+    /// Size errors: bytes (or elements) needed/expected; `RISKSCORE_STATUS_MODEL_CRC_MISMATCH`:
+    /// the CRC-32 the header stores; a known but wrong input schema: the one the kind reads; else
+    /// `RISKSCORE_NONE_U32`.
     pub expected: u32,
-    /// Size errors: bytes (or elements) found, else `RISKSCORE_NONE_U32`.
+    /// Size errors: bytes (or elements) found; otherwise the offending number where there is one:
+    /// the format version, kind byte or input schema of the header, the CRC-32 of the payload, the
+    /// count of trailing bytes, a feature index, a requantisation channel, an outside-policy byte,
+    /// the input of a bad training-domain range, the tag of a record given twice; else
+    /// `RISKSCORE_NONE_U32`.
     pub found: u32,
 }
