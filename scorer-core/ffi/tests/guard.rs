@@ -231,3 +231,30 @@ fn a_blob_without_records_scores_unguarded_and_inside() {
         );
     }
 }
+
+/// `model::decode` keeps the model alone (its rustdoc): for the shipped DRL, whose `blend` mixes
+/// in the kinematic fallback inside the domain too, `Model::score` of it is not the deployed score
+/// the C ABI gives, even for an everyday pair inside the domain; `decode_blob` + `score_guarded` is.
+#[test]
+fn decode_alone_is_not_the_deployed_score_of_the_shipped_drl() {
+    let drl = shipped("drl-default.rsk");
+    let r = score_pair(&context_with(&[drl]), &EGO, &LEAD);
+    assert_eq!(r.drl_in_domain, 1);
+    assert_same(
+        "inside: DRL",
+        r.drl_score,
+        r.drl_in_domain,
+        host(drl, &EGO, &LEAD),
+    );
+    let alone = model::decode(drl).expect("blob decodes");
+    let (ego, lead) = (core_state(&EGO), core_state(&LEAD));
+    assert_eq!(
+        alone.score(&ego, &lead).to_bits(),
+        unguarded(drl, &EGO, &LEAD).to_bits()
+    );
+    assert_ne!(
+        alone.score(&ego, &lead).to_bits(),
+        r.drl_score.to_bits(),
+        "decode + Model::score gave the deployed score: the rustdoc of decode says it does not"
+    );
+}

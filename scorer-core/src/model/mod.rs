@@ -195,10 +195,11 @@ impl<'a> Model<'a> {
         matches!(self, Self::Msra(_))
     }
 
-    /// The deployed risk score of one ego/partner pair (larger is riskier). Computes only what the
-    /// model reads: the DRL inputs for DRL, features and surrogates for MSRA, features for GSSM.
-    /// Bit for bit [`Model::score_observation`] of [`Observation::of`] the pair. Finite for every
-    /// input.
+    /// The model's own risk score of one ego/partner pair (larger is riskier), without the blob's
+    /// training-domain guard: for a blob with a training-domain record the deployed score is
+    /// [`ModelBlob::score_guarded`] (see [`decode`]). Computes only what the model reads: the DRL
+    /// inputs for DRL, features and surrogates for MSRA, features for GSSM. Bit for bit
+    /// [`Model::score_observation`] of [`Observation::of`] the pair. Finite for every input.
     pub fn score(&self, ego: &VehicleState, partner: &VehicleState) -> f32 {
         match self {
             Self::DrlInt8(m) => m.forward(&drl_inputs(ego, partner))[0],
@@ -350,6 +351,12 @@ fn take_model<'a>(kind: ModelKind, bytes: &'a [u8]) -> Result<(Model<'a>, &'a [u
 
 /// Decodes and validates a model blob. Borrows the weights from `blob`; allocates nothing; returns
 /// a typed error (never panics) for any malformed input.
+///
+/// The model alone: the blob's metadata records are validated and then dropped, so
+/// [`Model::score`] of the result is the unguarded score. For a blob with a training-domain record
+/// (every shipped blob) that is not the score `riskctl`, the CAN bridge and the C ABI give (the
+/// shipped DRL's `blend` mixes in its kinematic fallback even inside the domain): to score as
+/// deployed, use [`decode_blob`] and [`ModelBlob::score_guarded`].
 pub fn decode(blob: &[u8]) -> Result<Model<'_>, ModelError> {
     decode_blob(blob).map(|b| b.model)
 }
