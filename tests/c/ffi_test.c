@@ -351,6 +351,10 @@ static void test_error_paths(size_t drl_len) {
     EXPECT_STATUS(riskscore_track_update(&other, 1000, 1000, 0.1f, &ts), RISKSCORE_STATUS_OK);
     CHECK(ts.new_track == 1 && ts.evicted_id == RISKSCORE_NONE_U32, "reset, removed: evicted %u",
           ts.evicted_id);
+    /* The 31 tracks left ahead are still held after another id's update. */
+    EXPECT_STATUS(riskscore_any_warning(&other, 1000, &warnings, &held), RISKSCORE_STATUS_OK);
+    CHECK(warnings == 0 && held == RISKSCORE_MAX_TRACKS, "reset, after an update: %u warnings, %u held",
+          warnings, held);
 }
 
 /* Splits a CSV line in place. */

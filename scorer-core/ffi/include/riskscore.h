@@ -48,7 +48,7 @@
 // Length of RiskscoreLoadInfo.field including the terminating NUL.
 #define RISKSCORE_FIELD_NAME_LEN 32
 
-// "No value" for the optional `u64` times and `u32` indices in output structs.
+// "No value" for the optional `u64` times in output structs (`u32` outputs use `RISKSCORE_NONE_U32`).
 #define RISKSCORE_NONE_U64 UINT64_MAX
 
 // "No value" for optional `u32` outputs.
@@ -379,8 +379,10 @@ RiskscoreStatus riskscore_score_pair(const RiskscoreContext *context,
                                      RiskscorePairResult *out);
 
 // Feeds the score `risk` of partner `track_id` at time `now_us` (monotonic microseconds) to the
-// track table: drops stale tracks, finds or creates the partner's track, applies the warning rule.
-// `out` may be NULL. On error nothing changes except the drop of stale tracks. `track_id`
+// track table: drops the tracks not updated for more than `stale_after_us` (not those left ahead
+// of `now_us` by a reset time base: only an update of their own id or a remove drops them), finds
+// or creates the partner's track, applies the warning rule. `out` may be NULL. On error nothing
+// changes except that drop. `track_id`
 // `RISKSCORE_NONE_U32` is refused (`RISKSCORE_STATUS_INVALID_INPUT`): it means "no track" in
 // `evicted_id`. A `now_us` before the track's last update by at most `stale_after_us` is refused
 // (`RISKSCORE_STATUS_OUT_OF_ORDER`); before it by more, the time base was reset: the track is
@@ -413,7 +415,9 @@ RiskscoreStatus riskscore_track_remove(RiskscoreContext *context, uint32_t track
 
 // Writes to `warning_count` the number of fresh (non-stale at `now_us`, as `riskscore_track_get`
 // judges it) tracks whose warning is on, and to `track_count` the number of tracks held (stale
-// ones included until the next update). Either output may be NULL.
+// ones included: those not updated for too long until the next update, those left ahead of
+// `now_us` by a reset time base until their own id's update or a remove). Either output may be
+// NULL.
 //
 // # Safety
 // `context` must be NULL or initialised; the outputs NULL or writable.
