@@ -25,7 +25,10 @@ pub enum RiskscoreStatus {
     NonFiniteState = 6,
     /// `riskscore_score_pair` with no model loaded.
     NoModel = 7,
-    /// Model blob: shorter than its header or declared payload.
+    /// Model blob: shorter than its header or declared payload (`RiskscoreLoadInfo.expected` /
+    /// `found`: the blob's bytes), or a metadata record of a version-2 blob declares more bytes
+    /// than its payload has left (`expected` / `found`: the record's body length and the bytes
+    /// left after its length, both less than the blob's length).
     ModelTruncated = 8,
     /// Model blob: does not start with "RSKM".
     ModelBadMagic = 9,

@@ -253,6 +253,25 @@ fn every_record_error_names_its_field() {
             )
         }
     };
+    // A record declaring 22 body bytes where 20 are left: truncated, counted in the record.
+    let mut overrun = payload(1, 8, None);
+    let at = overrun.len() - 21;
+    assert_eq!(overrun[at], 0x14, "tag 2's length byte");
+    overrun[at] = 0x16;
+    let overrun = v2_blob(&overrun[20..]);
+    let mut ctx = context();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    // SAFETY: a fresh context, a live blob, a writable info.
+    unsafe {
+        riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config());
+        assert_eq!(
+            riskscore_load_model(ctx, overrun.as_ptr(), overrun.len(), info.as_mut_ptr()),
+            RiskscoreStatus::ModelTruncated
+        );
+        let info = info.assume_init();
+        assert_eq!((info.expected, info.found), (22, 20));
+    }
     // The blobs as documented load.
     assert_eq!(load(&payload(1, 8, None)).0, RiskscoreStatus::Ok);
     assert_eq!(load(&payload(2, 8, Some(1))).0, RiskscoreStatus::Ok);
