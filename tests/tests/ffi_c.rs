@@ -306,6 +306,10 @@ fn c_program_links_staticlib_and_matches_host() {
     );
     eprintln!("golden rows outside the DRL's training domain (host and C agree): {outside}");
     assert!(
+        outside > 0 && outside < rows,
+        "the golden rows must lie on both sides of the DRL's training domain ({outside} of {rows} outside)"
+    );
+    assert!(
         onsets > 0 && releases > 0,
         "warning sequence without onset/release"
     );
