@@ -130,7 +130,7 @@ fn a_log_the_map_reads_nothing_of_is_an_error_and_leaves_old_outputs_alone() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{command}: {stderr}");
         assert!(
-            stderr.contains("nothing was scored: none of the 2 data frames is a message the map reads (2 have ids no --dbc file defines)"),
+            stderr.contains("nothing was scored: none of the 2 data frames is a message the map reads (2 have ids the map does not read on their interface)"),
             "{command}: {stderr}"
         );
     }
@@ -139,6 +139,34 @@ fn a_log_the_map_reads_nothing_of_is_an_error_and_leaves_old_outputs_alone() {
         "old warnings\n"
     );
     assert_eq!(std::fs::read_to_string(&states).unwrap(), "old states\n");
+}
+
+#[test]
+fn a_log_on_the_wrong_interface_names_the_bus_mismatch_not_an_undefined_id() {
+    // The project DBC bound to can0, the log recorded on can1: every id is defined and mapped,
+    // only on another bus. "no --dbc file defines" would send the user hunting in the DBC.
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let log = tmp.path().join("can1.log");
+    std::fs::write(
+        &log,
+        "(0.000000) can1 100#A115000000000000\n(0.000200) can1 101#FC113507\n(0.010000) can1 7FF#01\n",
+    )
+    .unwrap();
+    let out = bridge()
+        .args(["score-log", "--dbc", "can0=builtin:riskscore", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("none of the 3 data frames is a message the map reads (3 have ids the map does not read on their interface; 2 of them are messages the map reads on another bus"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("no --dbc file defines"), "{stderr}");
 }
 
 #[test]

@@ -301,8 +301,16 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
         )));
     }
     if s.decoded == 0 && s.decode_errors == 0 {
+        let other_bus = if s.unknown_other_bus > 0 {
+            format!(
+                "; {} of them are messages the map reads on another bus: the log's interface names do not match the buses of --dbc BUS=FILE or the map's [bus]",
+                s.unknown_other_bus
+            )
+        } else {
+            String::new()
+        };
         return Some(NothingScored::NothingMapped(format!(
-            "nothing was scored: none of the {data_frames} data frames is a message the map reads ({} have ids no --dbc file defines); check --dbc, --map and the bus names (docs/can-bridge.md, \"Bring your own vehicle\")",
+            "nothing was scored: none of the {data_frames} data frames is a message the map reads ({} have ids the map does not read on their interface{other_bus}); check --dbc, --map and the bus names (docs/can-bridge.md, \"Bring your own vehicle\")",
             s.unknown_ids
         )));
     }
@@ -356,7 +364,7 @@ mod tests {
         };
         assert!(matches!(
             nothing_scored(&foreign, 0),
-            Some(NothingScored::NothingMapped(m)) if m.contains("5 have ids no --dbc")
+            Some(NothingScored::NothingMapped(m)) if m.contains("5 have ids the map does not read on their interface)")
         ));
         let ego_only = Stats {
             frames: 5,

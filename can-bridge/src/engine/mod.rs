@@ -304,6 +304,9 @@ impl<'m> Engine<'m> {
         }
         let Some(index) = self.map.input_index(frame.id, bus) else {
             self.stats.unknown_ids += 1;
+            if self.map.inputs.iter().any(|m| m.spec.id == frame.id) {
+                self.stats.unknown_other_bus += 1;
+            }
             return;
         };
         let msg = &self.map.inputs[index];

@@ -11,6 +11,9 @@ pub struct Stats {
     pub decoded: u64,
     pub scored: u64,
     pub unknown_ids: u64,
+    /// Of `unknown_ids`: frames whose id is a message the map reads on another bus (the log's
+    /// interface names do not match the bus bindings).
+    pub unknown_other_bus: u64,
     pub remote_frames: u64,
     pub decode_errors: u64,
     pub stale_drops: u64,
