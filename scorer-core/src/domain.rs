@@ -35,9 +35,12 @@ pub type DomainInputs = Features;
 pub struct Guarded {
     /// The score under the blob's policy (inside the domain the model's own, or its blend).
     pub score: f32,
-    /// True when every bounded input is inside its trained range (always for an unguarded blob).
+    /// True when every bounded input is inside its trained range and, when the blob carries a
+    /// geometry-coverage record, the observation's geometry cell is covered (always for an
+    /// unguarded blob).
     pub in_domain: bool,
-    /// The input index of the first range (record order) the observation is outside of.
+    /// The input index of the first range (record order) the observation is outside of, else
+    /// [`GEOMETRY_INPUT`] (13) when it is inside every range but its geometry cell is not covered.
     pub first_outside: Option<u8>,
 }
 

@@ -212,8 +212,11 @@ pub struct RiskscorePairResult {
     pub has_gssm: u8,
     /// 1 when the pair is inside the training domain the DRL blob records (or the blob has no
     /// training-domain record, or no DRL model is loaded); 0 when an input is outside its trained
-    /// range. Outside, `drl_score` follows the blob's policy: `flag-only` scores the model as is,
-    /// `clamp` scores it on inputs clamped into their ranges, `fallback` and `blend` score the
+    /// range, or when every input is inside but the blob's geometry-coverage record says training
+    /// never reached the pair's geometry cell (bearing, relative heading, gap band; e.g. an
+    /// oncoming car in the ego's lane 10 m ahead). Outside, `drl_score` follows the blob's policy:
+    /// `flag-only` scores the model as is, `clamp` scores it on inputs clamped into their ranges
+    /// (outside only by its cell: as is), `fallback` and `blend` score the
     /// blob's kinematic fallback instead of the model; inside, `blend` mixes the model's score
     /// with that fallback by the blob's weight (docs/domain-guard.md).
     pub drl_in_domain: u8,

@@ -258,3 +258,23 @@ fn decode_alone_is_not_the_deployed_score_of_the_shipped_drl() {
         "decode + Model::score gave the deployed score: the rustdoc of decode says it does not"
     );
 }
+
+/// Inside every trained range but in a geometry cell the shipped DRL's training never reached (an
+/// oncoming car in the ego's lane 10 m ahead): `drl_in_domain` is 0 (its header comment), and
+/// `blend` scores the fallback there, as the host's guard does.
+#[test]
+fn a_pair_outside_only_by_its_geometry_cell_is_flagged_outside() {
+    let drl = shipped("drl-default.rsk");
+    let oncoming = RiskscoreVehicleState {
+        y: 10.0,
+        vy: -15.0,
+        hy: -1.0,
+        ..EGO
+    };
+    let ego = RiskscoreVehicleState { vy: 0.0, ..EGO };
+    let on_host = host(drl, &ego, &oncoming);
+    assert_eq!(on_host.first_outside, Some(model::GEOMETRY_INPUT));
+    let r = score_pair(&context_with(&[drl]), &ego, &oncoming);
+    assert_eq!(r.drl_in_domain, 0);
+    assert_same("cell only: DRL", r.drl_score, r.drl_in_domain, on_host);
+}
