@@ -55,7 +55,7 @@
 #define RISKSCORE_NONE_U32 UINT32_MAX
 
 // Result of every call. `RISKSCORE_STATUS_OK` is 0; everything else is an error and leaves the
-// outputs untouched.
+// outputs untouched, except `riskscore_load_model`'s `info`, which describes the error.
 enum RiskscoreStatus
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
   : int32_t

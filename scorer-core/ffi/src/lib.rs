@@ -14,7 +14,8 @@
 //! score it warns on to [`riskscore_track_update`], which runs the warning rule of the partner's
 //! track; [`riskscore_track_get`] and [`riskscore_any_warning`] read the warning state.
 //!
-//! Errors: every function returns a [`RiskscoreStatus`]; outputs are written only on success.
+//! Errors: every function returns a [`RiskscoreStatus`]; outputs are written only on success
+//! (but [`riskscore_load_model`]'s `info`, which describes the error).
 //! Null pointers, a context that was not initialised (or is misaligned or too small), malformed
 //! model blobs, non-finite vehicle states, NaN scores, out-of-order updates and a full track table
 //! each have their own code, as have states without a usable heading or size and the reserved track

@@ -4,7 +4,7 @@ use crate::{RISKSCORE_CONTEXT_WORDS, RISKSCORE_FEATURE_COUNT, RISKSCORE_FIELD_NA
 use core::ffi::c_char;
 
 /// Result of every call. `RISKSCORE_STATUS_OK` is 0; everything else is an error and leaves the
-/// outputs untouched.
+/// outputs untouched, except `riskscore_load_model`'s `info`, which describes the error.
 #[repr(i32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RiskscoreStatus {
