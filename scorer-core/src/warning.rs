@@ -21,7 +21,7 @@
 //!   update with a bogus early time cannot clear the other tracks.
 //! - Id reuse: an id whose track was dropped (stale, [`TrackTable::remove`], eviction) starts a fresh
 //!   track: no latched warning, no history.
-//! - Table full (after dropping stale tracks): [`FullPolicy::Reject`] returns
+//! - Table full (after dropping the expired tracks): [`FullPolicy::Reject`] returns
 //!   [`WarningError::TableFull`]; [`FullPolicy::EvictLeastRecent`] evicts the least recently updated
 //!   track that is *not* warning (lowest slot on ties) and returns `TableFull` only when every track
 //!   is warning. An active warning is never evicted (nor a warning track left ahead of `now` by a
@@ -418,8 +418,9 @@ impl<const N: usize> TrackTable<N> {
         self.warnings(now).next().is_some()
     }
 
-    /// Feeds the score `r` of partner `id` at time `now`: drops stale tracks, finds or creates the
-    /// partner's track, applies the rule. Errors change nothing but the stale-track drop.
+    /// Feeds the score `r` of partner `id` at time `now`: drops the expired tracks
+    /// ([`TrackTable::expire`]; not the stale ones ahead of `now`), finds or creates the partner's
+    /// track, applies the rule. Errors change nothing but that drop.
     ///
     /// Time runs forward: `now` earlier than the track's last update by at most
     /// `stale_after_us` is refused with [`WarningError::OutOfOrder`]; earlier by more means the
