@@ -14,7 +14,7 @@ pub enum SocketError {
     Open {
         iface: String,
         cause: std::io::Error,
-        hint: &'static str,
+        hint: String,
     },
     #[error("interface {iface}: {what}: {cause}")]
     Setup {
@@ -41,11 +41,20 @@ pub fn is_interface_gone(e: &std::io::Error) -> bool {
     matches!(e.raw_os_error(), Some(19 | 6 | 100 | 9))
 }
 
-fn open_hint(e: &std::io::Error) -> &'static str {
+/// What to do about a failed open of `iface`: the hint names that interface, and suggests
+/// creating a virtual one only for a `vcan` name (a missing `can0` is hardware or a driver).
+fn open_hint(e: &std::io::Error, iface: &str) -> String {
     match e.raw_os_error() {
-        Some(97) => " (this kernel has no SocketCAN support: use a VM, see tests/vm/README.md)",
-        Some(19) => " (no such interface; create it with `ip link add dev vcan0 type vcan && ip link set up vcan0`)",
-        _ => "",
+        Some(97) => {
+            " (this kernel has no SocketCAN support: use a VM, see tests/vm/README.md)".to_string()
+        }
+        Some(19) if iface.starts_with("vcan") => format!(
+            " (no such interface; create it with `ip link add dev {iface} type vcan && ip link set up {iface}`)"
+        ),
+        Some(19) => format!(
+            " (no such interface; `ip link show` lists them: check the name and that the adapter and its driver are up; a virtual bus for testing: `ip link add dev {iface} type vcan && ip link set up {iface}`)"
+        ),
+        _ => String::new(),
     }
 }
 
@@ -53,7 +62,7 @@ fn open_hint(e: &std::io::Error) -> &'static str {
 pub fn open(iface: &str) -> Result<CanFdSocket, SocketError> {
     CanFdSocket::open(iface).map_err(|cause| SocketError::Open {
         iface: iface.to_string(),
-        hint: open_hint(&cause),
+        hint: open_hint(&cause, iface),
         cause,
     })
 }
@@ -171,5 +180,28 @@ pub fn send(sock: &CanFdSocket, iface: &str, frame: &CanAnyFrame) -> Result<(), 
                 })
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::open_hint;
+
+    #[test]
+    fn a_missing_interface_hint_names_that_interface() {
+        let enodev = std::io::Error::from_raw_os_error(19);
+        let hint = open_hint(&enodev, "vcan1");
+        assert!(
+            hint.contains("ip link add dev vcan1 type vcan && ip link set up vcan1"),
+            "{hint}"
+        );
+        let hint = open_hint(&enodev, "can1");
+        assert!(!hint.contains("vcan0"), "{hint}");
+        assert!(hint.contains("ip link show"), "{hint}");
+        assert!(hint.contains("ip link add dev can1 type vcan"), "{hint}");
+        assert_eq!(
+            open_hint(&std::io::Error::from_raw_os_error(13), "can0"),
+            ""
+        );
     }
 }
