@@ -48,7 +48,8 @@
 // Length of RiskscoreLoadInfo.field including the terminating NUL.
 #define RISKSCORE_FIELD_NAME_LEN 32
 
-// "No value" for the optional `u64` times in output structs (`u32` outputs use `RISKSCORE_NONE_U32`).
+// "No value" for the optional `u64` times in output structs (`u32` outputs use
+// `RISKSCORE_NONE_U32`).
 #define RISKSCORE_NONE_U64 UINT64_MAX
 
 // "No value" for optional `u32` outputs.
@@ -342,8 +343,10 @@ RiskscoreStatus riskscore_init(RiskscoreContext *context,
                                const RiskscoreWarningConfig *config);
 
 // Decodes and validates the model `blob` (`len` bytes) and installs it in the slot of its kind,
-// replacing the previous model of that family. The model keeps the blob's metadata records: a
-// training-domain record guards its scores in `riskscore_score_pair`. On error the context is
+// replacing the previous model of that family (DRL int8 or f32; MSRA, also one embedding a GSSM;
+// GSSM, also an SSRA, which is a fine-tuned GSSM: one context scores one of the two). The model
+// keeps the blob's metadata records: a training-domain record guards its scores in
+// `riskscore_score_pair`. On error the context is
 // unchanged. `info` may be NULL; otherwise it receives the kind (also on error once the header's
 // kind byte was read) and, on error, the offending field.
 //

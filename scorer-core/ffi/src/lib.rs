@@ -77,7 +77,8 @@ pub const RISKSCORE_MAX_TRACKS: usize = 32;
 pub const RISKSCORE_FEATURE_COUNT: usize = 13;
 /// Length of RiskscoreLoadInfo.field including the terminating NUL.
 pub const RISKSCORE_FIELD_NAME_LEN: usize = 32;
-/// "No value" for the optional `u64` times in output structs (`u32` outputs use `RISKSCORE_NONE_U32`).
+/// "No value" for the optional `u64` times in output structs (`u32` outputs use
+/// `RISKSCORE_NONE_U32`).
 pub const RISKSCORE_NONE_U64: u64 = u64::MAX;
 /// "No value" for optional `u32` outputs.
 pub const RISKSCORE_NONE_U32: u32 = u32::MAX;

@@ -278,3 +278,29 @@ fn a_pair_outside_only_by_its_geometry_cell_is_flagged_outside() {
     assert_eq!(r.drl_in_domain, 0);
     assert_same("cell only: DRL", r.drl_score, r.drl_in_domain, on_host);
 }
+
+/// An SSRA blob is a GSSM (its header comment): loaded after the GSSM it takes the GSSM slot, and
+/// `gssm_score` is then the SSRA's.
+#[test]
+fn an_ssra_blob_replaces_the_gssm() {
+    let (gssm, ssra) = (shipped("gssm-default.rsk"), shipped("ssra-default.rsk"));
+    let mut ctx = context_with(&[gssm]);
+    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    // SAFETY: an initialised context, a leaked blob, a writable info.
+    let status =
+        unsafe { riskscore_load_model(&mut *ctx, ssra.as_ptr(), ssra.len(), info.as_mut_ptr()) };
+    assert_eq!(status, RiskscoreStatus::Ok);
+    // SAFETY: written by the call.
+    assert_eq!(unsafe { info.assume_init() }.kind, RiskscoreModelKind::Gssm);
+    let r = score_pair(&ctx, &EGO, &LEAD);
+    assert_same(
+        "SSRA in the GSSM slot",
+        r.gssm_score,
+        r.gssm_in_domain,
+        host(ssra, &EGO, &LEAD),
+    );
+    assert_ne!(
+        r.gssm_score.to_bits(),
+        host(gssm, &EGO, &LEAD).score.to_bits()
+    );
+}
