@@ -170,6 +170,37 @@ fn a_log_on_the_wrong_interface_names_the_bus_mismatch_not_an_undefined_id() {
 }
 
 #[test]
+fn an_urgent_level_below_the_threshold_is_refused() {
+    // `--urgent 1` with a threshold of 2 made every warning level 2 (and scores in [1, 2) no
+    // warning at all), contrary to "level 2 when the score is >= this".
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, "(0.000000) can0 100#A115000000000000\n").unwrap();
+    let run = |extra: &[&str]| {
+        bridge()
+            .args(["score-log", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&["--threshold", "2", "--urgent", "1"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--urgent 1 is below the warning threshold 2 (--threshold)"),
+        "{stderr}"
+    );
+    // At the threshold is fine (every warning urgent, as asked).
+    let out = run(&["--threshold", "2", "--urgent", "2"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("--urgent"), "{stderr}");
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

@@ -28,7 +28,7 @@ pub struct ScoringArgs {
     /// MSRA/GSSM).
     #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
     pub threshold: Option<f32>,
-    /// Warning level 2 (urgent) when the score is >= this.
+    /// Warning level 2 (urgent) when the score is >= this (at or above the warning threshold).
     #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
     pub urgent: Option<f32>,
     /// Release a warning when the score falls below threshold - hysteresis (>= 0).

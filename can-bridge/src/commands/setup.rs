@@ -48,6 +48,12 @@ pub enum SetupError {
     Model(#[from] ModelFileError),
     #[error("--threshold must be finite")]
     Threshold,
+    #[error("--urgent {urgent} is below the warning threshold {threshold} ({source_of}): level 2 is only given to a warning, so every warning would be urgent; give --urgent at or above the threshold")]
+    UrgentBelowThreshold {
+        urgent: f32,
+        threshold: f32,
+        source_of: &'static str,
+    },
     #[error("creating {path}")]
     Create {
         path: String,
@@ -216,6 +222,17 @@ pub fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConf
     };
     if !threshold.is_finite() {
         return Err(SetupError::Threshold);
+    }
+    if let Some(urgent) = args.urgent.filter(|u| *u < threshold) {
+        return Err(SetupError::UrgentBelowThreshold {
+            urgent,
+            threshold,
+            source_of: if args.threshold.is_some() {
+                "--threshold"
+            } else {
+                "the model's default"
+            },
+        });
     }
     Ok(EngineConfig {
         threshold,
