@@ -263,6 +263,28 @@ fn decode_output_is_refused_over_its_input_and_goes_to_stdout_or_parquet() {
     assert!(bytes.starts_with(b"PAR1") && bytes.ends_with(b"PAR1"));
 }
 
+/// `--threshold` sets the `warning` column, which only `--model` adds: alone it was silently
+/// ignored (no score, no warning column), now it is refused naming `--model`.
+#[test]
+fn decode_threshold_without_a_model_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("queue.log");
+    std::fs::write(&log, scene(false)).unwrap();
+    let out = tmp.path().join("states.csv");
+    let run = Command::new(env!("CARGO_BIN_EXE_can-bridge"))
+        .arg("decode")
+        .arg("--log")
+        .arg(&log)
+        .args(["--threshold", "3", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--model"), "{stderr}");
+    assert!(!out.exists());
+}
+
 /// `score-log` runs the same report at its end.
 #[test]
 fn score_log_prints_the_same_sanity_report() {

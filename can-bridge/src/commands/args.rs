@@ -240,8 +240,13 @@ pub struct DecodeScoringArgs {
     /// Map file, as for `score-log` (default: the project's map).
     #[arg(long)]
     pub map: Option<PathBuf>,
-    /// Warning threshold for the `warning` column (default: the model's).
-    #[arg(long, value_parser = cli_values::finite_f32, allow_negative_numbers = true)]
+    /// Warning threshold for the `warning` column (default: the model's); needs --model.
+    #[arg(
+        long,
+        value_parser = cli_values::finite_f32,
+        allow_negative_numbers = true,
+        requires = "model"
+    )]
     pub threshold: Option<f32>,
     /// Inputs older than this are stale (ms), as for `score-log`.
     #[arg(long, default_value_t = 500, value_parser = cli_values::positive_ms)]
