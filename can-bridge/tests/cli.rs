@@ -201,6 +201,63 @@ fn an_urgent_level_below_the_threshold_is_refused() {
 }
 
 #[test]
+fn warnings_out_dash_is_stdout_not_a_file_named_dash() {
+    // `--log -` is stdin and `decode --out -` stdout; `score-log --warnings-out -` wrote a file
+    // named `-` in the working folder.
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let db = project_db();
+    let mut text = String::new();
+    let mut t = 1_700_000_000_000_000u64;
+    for k in 0..10 {
+        for f in Cycle::closing(7, 30.0 - 2.0 * k as f64).frames(&db) {
+            text.push_str(&line(t, &f));
+            t += 200;
+        }
+        t += 100_000;
+    }
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, text).unwrap();
+    let run = |extra: &[&str]| {
+        bridge()
+            .current_dir(tmp.path())
+            .args(["score-log", "--threshold", "1.5", "--log"])
+            .arg(&log)
+            .arg("--model")
+            .arg(&model)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&["--warnings-out", "-", "--events-out", "e.jsonl"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!tmp.path().join("-").exists());
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.lines().count() > 0, "{stderr}");
+    for l in stdout.lines() {
+        assert_eq!(
+            can_codec::parse_line(l).unwrap().frame.id,
+            can_codec::CanId::Standard(0x080)
+        );
+    }
+    assert!(std::fs::read_to_string(tmp.path().join("e.jsonl"))
+        .unwrap()
+        .contains("\"warning\":true"));
+    // Frames and JSON events both on stdout would be one mixed stream: refused.
+    for extra in [
+        &["--warnings-out", "-"][..],
+        &["--warnings-out", "-", "--events-out", "-"],
+    ] {
+        let out = run(extra);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("give --events-out FILE"), "{stderr}");
+        assert!(!tmp.path().join("-").exists());
+    }
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

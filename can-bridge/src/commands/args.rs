@@ -60,7 +60,7 @@ pub struct LiveArgs {
     pub merge_wait_ms: u64,
     #[command(flatten)]
     pub scoring: ScoringArgs,
-    /// Write JSON Lines warning events here instead of stdout.
+    /// Write JSON Lines warning events here instead of stdout (`-`: stdout).
     #[arg(long)]
     pub events_out: Option<PathBuf>,
     /// Also write one JSON line per scored track update.
@@ -127,13 +127,14 @@ pub struct ScoreLogArgs {
     pub log: PathBuf,
     #[command(flatten)]
     pub scoring: ScoringArgs,
-    /// Write JSON Lines warning events here instead of stdout.
+    /// Write JSON Lines warning events here instead of stdout (`-`: stdout).
     #[arg(long)]
     pub events_out: Option<PathBuf>,
     /// Also write one JSON line per scored track update.
     #[arg(long)]
     pub all_scores: bool,
-    /// Write the RISK_WARNING frames the bridge would send, as a candump -L log.
+    /// Write the RISK_WARNING frames the bridge would send, as a candump -L log (`-`: stdout,
+    /// then the events need --events-out FILE).
     #[arg(long)]
     pub warnings_out: Option<PathBuf>,
     /// Interface name for --warnings-out lines (at most 15 bytes; no whitespace, `#`, `(`, `)`).

@@ -4,9 +4,9 @@ use super::setup::{
     creating, engine_config, load_map, open_events, print_inputs, refuse_nothing_scored,
     scoring_inputs, summary, unsent_note,
 };
-use super::{writing, Failure, InputError, ScoreLogArgs};
+use super::{writing, Failure, InputError, ScoreLogArgs, SetupError};
 use crate::engine::{Engine, Output};
-use crate::events_out::ProblemPrinter;
+use crate::events_out::{ProblemPrinter, Sink};
 use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
@@ -36,8 +36,14 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     problems.skip_lost = true;
     let mut losses = FrameLosses::default();
-    let mut warnings: Option<AtomicFile> = match &args.warnings_out {
-        Some(p) => Some(AtomicFile::create(p).map_err(creating(p))?),
+    // `-`: the frames go to stdout (then the events must go to a file).
+    let is_dash = |p: &Option<std::path::PathBuf>| p.as_ref().is_some_and(|p| p.as_os_str() == "-");
+    if is_dash(&args.warnings_out) && (args.events_out.is_none() || is_dash(&args.events_out)) {
+        return Err(SetupError::BothToStdout.into());
+    }
+    let mut warnings: Option<Sink> = match &args.warnings_out {
+        Some(p) if p.as_os_str() == "-" => Some(Sink::Stdout(std::io::stdout())),
+        Some(p) => Some(Sink::Atomic(AtomicFile::create(p).map_err(creating(p))?)),
         None => None,
     };
     // The first write error of each output (each names its own file).
@@ -125,7 +131,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     }
     losses::verdict(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(w) = warnings {
-        w.commit()
+        w.finish()
             .map_err(writing("--warnings-out", warnings_out))?;
     }
     events

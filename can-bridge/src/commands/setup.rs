@@ -48,6 +48,8 @@ pub enum SetupError {
     Model(#[from] ModelFileError),
     #[error("--threshold must be finite")]
     Threshold,
+    #[error("--warnings-out - and the JSON events (--events-out, stdout by default) would both go to stdout: give --events-out FILE")]
+    BothToStdout,
     #[error("--urgent {urgent} is below the warning threshold {threshold} ({source_of}): level 2 is only given to a warning, so every warning would be urgent; give --urgent at or above the threshold")]
     UrgentBelowThreshold {
         urgent: f32,
@@ -252,6 +254,8 @@ pub fn open_events(
     atomic: bool,
 ) -> Result<EventWriter, SetupError> {
     let out = match path {
+        // `-`: standard output, as `--log -` is standard input (not a file named `-`).
+        Some(p) if p.as_os_str() == "-" => Sink::Stdout(std::io::stdout()),
         Some(p) if atomic => Sink::Atomic(AtomicFile::create(p).map_err(creating(p))?),
         Some(p) => Sink::Streaming(std::io::BufWriter::new(
             riskscore_output::create_live_file(p).map_err(creating(p))?,
