@@ -258,6 +258,35 @@ fn warnings_out_dash_is_stdout_not_a_file_named_dash() {
 }
 
 #[test]
+fn check_outputs_named_dash_are_refused_not_written_as_files_named_dash() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    for flag in ["--per-event-out", "--decoded-events-out"] {
+        let out = bridge()
+            .current_dir(tmp.path())
+            .args([
+                "check",
+                "--log",
+                "drive.log",
+                "--events",
+                "events",
+                "--model",
+            ])
+            .arg(&model)
+            .args([flag, "-"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!("{flag} -: stdout carries the report")),
+            "{stderr}"
+        );
+        assert!(!tmp.path().join("-").exists());
+    }
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

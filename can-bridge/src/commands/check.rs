@@ -7,13 +7,22 @@ use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
 
 use super::args::CheckArgs;
 use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
-use super::{writing, Failure, InputError};
+use super::{writing, Failure, InputError, SetupError};
 use crate::check::{self, CheckReport};
 use crate::engine::Engine;
 use crate::losses;
 use crate::model_file::ModelFile;
 
 pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
+    // `-` would be a file or folder named `-`, not stdout (which carries the report).
+    for (flag, p) in [
+        ("--per-event-out", &args.per_event_out),
+        ("--decoded-events-out", &args.decoded_events_out),
+    ] {
+        if p.as_ref().is_some_and(|p| p.as_os_str() == "-") {
+            return Err(SetupError::NotToStdout { flag }.into());
+        }
+    }
     let model_file = ModelFile::load(&args.scoring.model)?;
     let map = load_map(&args.scoring)?;
     print_inputs(&map);

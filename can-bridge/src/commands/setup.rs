@@ -48,6 +48,8 @@ pub enum SetupError {
     Model(#[from] ModelFileError),
     #[error("--threshold must be finite")]
     Threshold,
+    #[error("{flag} -: stdout carries the report; give a path (`-` is not an output here)")]
+    NotToStdout { flag: &'static str },
     #[error("--warnings-out - and the JSON events (--events-out, stdout by default) would both go to stdout: give --events-out FILE")]
     BothToStdout,
     #[error("--urgent {urgent} is below the warning threshold {threshold} ({source_of}): level 2 is only given to a warning, so every warning would be urgent; give --urgent at or above the threshold")]
