@@ -287,6 +287,43 @@ fn check_outputs_named_dash_are_refused_not_written_as_files_named_dash() {
 }
 
 #[test]
+fn a_late_frame_names_the_line_of_the_frame_stamped_ahead() {
+    // One frame stamped 0.6 s ahead (within the 5 s a log may jump) makes the frames after it
+    // late; each late frame named only the newest timestamp, so the culprit had to be searched.
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let db = project_db();
+    let mut lines = Vec::new();
+    let mut t = 1_700_000_000_000_000u64;
+    for k in 0..10 {
+        for f in Cycle::closing(7, 30.0 - 2.0 * k as f64).frames(&db) {
+            // The 12th line is stamped 0.6 s ahead.
+            let stamp = if lines.len() == 11 { t + 600_000 } else { t };
+            lines.push(line(stamp, &f));
+            t += 200;
+        }
+        t += 100_000;
+    }
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, lines.concat()).unwrap();
+    let out = bridge()
+        .args(["score-log", "--max-lost", "1", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("drive.log:13: frame ")
+            && stderr
+                .contains("is older than the newest frame (1700000000802200 us, line 12): dropped"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

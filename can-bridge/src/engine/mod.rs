@@ -78,6 +78,9 @@ pub struct Engine<'m> {
     heading_rate: Option<HeadingRate>,
     /// Source of the frame being processed.
     source: u64,
+    /// Source of the newest frame processed (0: unknown): a late frame names it, so the one
+    /// frame stamped ahead of the rest can be found in the log.
+    newest_source: u64,
     last_cleanup_us: u64,
     /// No track can be stale before this time (skips scanning the table on every update).
     next_expiry_us: u64,
@@ -115,6 +118,7 @@ impl<'m> Engine<'m> {
             protector,
             timeline: Timeline::default(),
             source: 0,
+            newest_source: 0,
             last_cleanup_us: 0,
             next_expiry_us: 0,
             ego_waiting: false,
@@ -181,6 +185,9 @@ impl<'m> Engine<'m> {
         match step.action {
             Action::Process => {
                 self.source = source;
+                if self.timeline.newest_us() == Some(t_us) {
+                    self.newest_source = source;
+                }
                 self.process_in_order(t_us, frame, bus, out);
             }
             Action::Late { newest_us } => {
@@ -195,6 +202,7 @@ impl<'m> Engine<'m> {
                         id: frame.id,
                         t_us,
                         newest_us,
+                        newest_source: self.newest_source,
                     },
                 });
             }
@@ -203,6 +211,9 @@ impl<'m> Engine<'m> {
                 self.start_segment(held[0].0, out);
                 for (t, (f, source, bus)) in &held {
                     self.source = *source;
+                    if self.timeline.newest_us() == Some(*t) {
+                        self.newest_source = *source;
+                    }
                     self.process_in_order(*t, f, *bus, out);
                 }
             }

@@ -8,11 +8,16 @@ use scorer_core::warning::WarningError;
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum Problem {
     /// Up to 1 s older than the newest frame ([`crate::timeline`]).
-    #[error("frame {id} at {t_us} us is older than the newest frame ({newest_us} us): dropped")]
+    #[error(
+        "frame {id} at {t_us} us is older than the newest frame ({newest_us} us{}): dropped",
+        source_note(*.newest_source)
+    )]
     Late {
         id: CanId,
         t_us: u64,
         newest_us: u64,
+        /// The newest frame's log line (0: unknown, e.g. live).
+        newest_source: u64,
     },
     /// Far off the timeline and not confirmed as a new segment ([`crate::timeline`]).
     #[error(
@@ -91,6 +96,15 @@ fn bus_off_note(bus_off: bool) -> &'static str {
     }
 }
 
+/// `, line N` for a known log line (0: unknown).
+fn source_note(source: u64) -> String {
+    if source == 0 {
+        String::new()
+    } else {
+        format!(", line {source}")
+    }
+}
+
 /// Why a frame of a mapped message does not decode.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DecodeError {
@@ -130,8 +144,18 @@ mod tests {
                     id,
                     t_us: 5,
                     newest_us: 9,
+                    newest_source: 0,
                 },
                 "frame 201 at 5 us is older than the newest frame (9 us): dropped",
+            ),
+            (
+                Problem::Late {
+                    id,
+                    t_us: 5,
+                    newest_us: 9,
+                    newest_source: 17,
+                },
+                "frame 201 at 5 us is older than the newest frame (9 us, line 17): dropped",
             ),
             (
                 Problem::OffTimeline {
