@@ -324,6 +324,45 @@ fn a_late_frame_names_the_line_of_the_frame_stamped_ahead() {
 }
 
 #[test]
+fn objects_logged_on_another_bus_than_their_binding_are_named() {
+    // Ego frames on can0 (bound) decode, the object frames were logged on can1: nothing is
+    // scored, and the closing line asked only whether the ego fields were on the log.
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let db = project_db();
+    let mut text = String::new();
+    let mut t = 1_700_000_000_000_000u64;
+    for k in 0..10 {
+        for (i, f) in Cycle::closing(7, 30.0 - 2.0 * k as f64)
+            .frames(&db)
+            .iter()
+            .enumerate()
+        {
+            let iface = if i < 2 { "can0" } else { "can1" };
+            can_codec::format_line(&mut text, t, iface, f);
+            text.push('\n');
+            t += 200;
+        }
+        t += 100_000;
+    }
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, text).unwrap();
+    let out = bridge()
+        .args(["score-log", "--dbc", "can0=builtin:riskscore", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("nothing was scored: 20 mapped messages decoded")
+            && stderr.contains("frames are messages the map reads on another bus"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

@@ -337,8 +337,16 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
             s.unknown_ids
         )));
     }
+    let other_bus = if s.unknown_other_bus > 0 {
+        format!(
+            "; {} frames are messages the map reads on another bus: are the log's interface names those of --dbc BUS=FILE or the map's [bus]?",
+            s.unknown_other_bus
+        )
+    } else {
+        String::new()
+    };
     Some(NothingScored::NoUpdate(format!(
-        "nothing was scored: {} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view); is every ego field the map needs on the log?",
+        "nothing was scored: {} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view); is every ego field the map needs on the log?{other_bus}",
         s.decoded, s.decode_errors, s.invalid_objects, s.stale_drops, s.motion_pending, s.outside_view
     )))
 }
@@ -397,6 +405,17 @@ mod tests {
         assert!(matches!(
             nothing_scored(&ego_only, 0),
             Some(NothingScored::NoUpdate(m)) if m.contains("5 mapped messages decoded")
+        ));
+        let objects_on_another_bus = Stats {
+            frames: 5,
+            decoded: 2,
+            unknown_ids: 3,
+            unknown_other_bus: 3,
+            ..Stats::default()
+        };
+        assert!(matches!(
+            nothing_scored(&objects_on_another_bus, 0),
+            Some(NothingScored::NoUpdate(m)) if m.contains("ego field the map needs on the log?; 3 frames are messages the map reads on another bus")
         ));
         let scored = Stats {
             frames: 5,
