@@ -90,6 +90,8 @@ pub struct Pacer {
     anchor: Option<(u64, Duration)>,
     /// Latest send time scheduled so far.
     last_at: Duration,
+    /// Log line of the newest frame sent (0: none yet): a late frame names it.
+    newest_line: u64,
 }
 
 impl Pacer {
@@ -99,6 +101,7 @@ impl Pacer {
             timeline: Timeline::default(),
             anchor: None,
             last_at: Duration::ZERO,
+            newest_line: 0,
         }
     }
 
@@ -121,6 +124,9 @@ impl Pacer {
         self.drop_off_timeline(&step.dropped, out);
         match step.action {
             Action::Process => {
+                if self.timeline.newest_us() == Some(t_us) {
+                    self.newest_line = line;
+                }
                 let at = self.schedule(t_us);
                 out(Paced::Send {
                     at,
@@ -133,8 +139,13 @@ impl Pacer {
                 line,
                 kind: LossKind::Late,
                 reason: format!(
-                    "frame {} at {t_us} us is older than the newest frame ({newest_us} us): not sent",
-                    frame.id
+                    "frame {} at {t_us} us is older than the newest frame ({newest_us} us{}): not sent",
+                    frame.id,
+                    if self.newest_line == 0 {
+                        String::new()
+                    } else {
+                        format!(", line {}", self.newest_line)
+                    }
                 ),
             }),
             Action::Held => {}
@@ -143,6 +154,9 @@ impl Pacer {
                 self.anchor = Some((held[0].0, self.last_at));
                 out(Paced::NewSegment { t_us: held[0].0 });
                 for (t, (f, l, port)) in held {
+                    if self.timeline.newest_us() == Some(t) {
+                        self.newest_line = l;
+                    }
                     let at = self.schedule(t);
                     out(Paced::Send {
                         at,
@@ -417,6 +431,28 @@ mod tests {
         assert!(s.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 <= w[1].1));
         assert_eq!(s[10], (11, ms(900)));
         assert_eq!(s[19], (20, ms(1800)));
+    }
+
+    #[test]
+    fn a_late_frame_names_the_line_of_the_frame_stamped_ahead() {
+        let mut stamps = cycle(T0);
+        // Line 3 is stamped 0.6 s ahead: lines 4..=8 (up to T0 + 0.6 s) are late.
+        stamps[2] = T0 + 800_000;
+        let out = pace(Rate::Max, &stamps);
+        let reasons: Vec<&str> = out
+            .iter()
+            .filter_map(|d| match d {
+                Paced::Drop { reason, .. } => Some(reason.as_str()),
+                _ => None,
+            })
+            .collect();
+        assert!(!reasons.is_empty());
+        for r in reasons {
+            assert!(
+                r.ends_with(&format!("({} us, line 3): not sent", T0 + 800_000)),
+                "{r}"
+            );
+        }
     }
 
     #[test]
