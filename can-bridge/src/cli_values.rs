@@ -9,6 +9,11 @@ pub const MAX_MS: u64 = 3_600_000;
 /// microsecond arithmetic lose meaning.
 pub const MAX_SECONDS: f64 = 1e9;
 
+/// `-` given as a path: standard input for `--log`, standard output for an output flag.
+pub fn is_std_stream(path: &std::path::Path) -> bool {
+    path.as_os_str() == "-"
+}
+
 fn number<T: std::str::FromStr>(s: &str) -> Result<T, String> {
     s.trim()
         .parse::<T>()

@@ -265,7 +265,7 @@ pub fn for_each_frame(
     path: &Path,
     f: impl FnMut(usize, &LogRecord<'_>),
 ) -> std::io::Result<LogReport> {
-    if path.as_os_str() == "-" {
+    if crate::cli_values::is_std_stream(path) {
         let stdin = std::io::stdin().lock();
         return for_each_frame_in(std::io::BufReader::with_capacity(1 << 20, stdin), f);
     }

@@ -9,6 +9,7 @@ use super::args::CheckArgs;
 use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
 use super::{writing, Failure, InputError, SetupError};
 use crate::check::{self, CheckReport};
+use crate::cli_values::is_std_stream;
 use crate::engine::Engine;
 use crate::losses;
 use crate::model_file::ModelFile;
@@ -19,7 +20,7 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         ("--per-event-out", &args.per_event_out),
         ("--decoded-events-out", &args.decoded_events_out),
     ] {
-        if p.as_ref().is_some_and(|p| p.as_os_str() == "-") {
+        if p.as_deref().is_some_and(is_std_stream) {
             return Err(SetupError::NotToStdout { flag }.into());
         }
     }

@@ -6,6 +6,7 @@ use super::setup::{
     engine_config, load_map, print_inputs, refuse_nothing_scored, scoring_inputs, summary,
 };
 use super::{writing, Failure, InputError};
+use crate::cli_values::is_std_stream;
 use crate::engine::{Engine, EngineConfig, Output};
 use crate::events_out::ProblemPrinter;
 use crate::logfile;
@@ -18,9 +19,6 @@ use scorer_core::model::{BoundedVec, Model};
 use scorer_core::msra::MsraModel;
 use std::io::Write;
 use std::path::Path;
-
-/// `--out -`: the table goes to stdout (CSV).
-const STDOUT: &str = "-";
 
 pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     let model_file = match &args.scoring.model {
@@ -40,7 +38,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         inputs.retain(|(flag, _)| *flag != "--model");
     }
     inputs.push(("--log", args.log.as_path()));
-    let to_stdout = args.out.as_os_str() == STDOUT;
+    let to_stdout = is_std_stream(&args.out);
     if !to_stdout {
         refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
     }
@@ -112,7 +110,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
 }
 
 fn display_out(out: &Path) -> String {
-    if out.as_os_str() == STDOUT {
+    if is_std_stream(out) {
         "stdout".into()
     } else {
         out.display().to_string()

@@ -5,6 +5,7 @@ use super::setup::{
     scoring_inputs, summary, unsent_note,
 };
 use super::{writing, Failure, InputError, ScoreLogArgs, SetupError};
+use crate::cli_values::is_std_stream;
 use crate::engine::{Engine, Output};
 use crate::events_out::{ProblemPrinter, Sink};
 use crate::logfile;
@@ -37,12 +38,12 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     problems.skip_lost = true;
     let mut losses = FrameLosses::default();
     // `-`: the frames go to stdout (then the events must go to a file).
-    let is_dash = |p: &Option<std::path::PathBuf>| p.as_ref().is_some_and(|p| p.as_os_str() == "-");
+    let is_dash = |p: &Option<std::path::PathBuf>| p.as_deref().is_some_and(is_std_stream);
     if is_dash(&args.warnings_out) && (args.events_out.is_none() || is_dash(&args.events_out)) {
         return Err(SetupError::BothToStdout.into());
     }
     let mut warnings: Option<Sink> = match &args.warnings_out {
-        Some(p) if p.as_os_str() == "-" => Some(Sink::Stdout(std::io::stdout())),
+        Some(p) if is_std_stream(p) => Some(Sink::Stdout(std::io::stdout())),
         Some(p) => Some(Sink::Atomic(AtomicFile::create(p).map_err(creating(p))?)),
         None => None,
     };

@@ -1,6 +1,7 @@
 //! From scoring options to an engine's parts: the DBC files as one database, the compiled map, the
 //! warning configuration, the files a run reads and writes, and the lines it prints about them.
 use super::ScoringArgs;
+use crate::cli_values::is_std_stream;
 use crate::engine::{EngineConfig, Stats};
 use crate::events_out::{EventWriter, Sink};
 use crate::map::{BusDatabase, BusPart, Clash, CompiledMap, MapError, MapFile, DEFAULT_MAP};
@@ -257,7 +258,7 @@ pub fn open_events(
 ) -> Result<EventWriter, SetupError> {
     let out = match path {
         // `-`: standard output, as `--log -` is standard input (not a file named `-`).
-        Some(p) if p.as_os_str() == "-" => Sink::Stdout(std::io::stdout()),
+        Some(p) if is_std_stream(p) => Sink::Stdout(std::io::stdout()),
         Some(p) if atomic => Sink::Atomic(AtomicFile::create(p).map_err(creating(p))?),
         Some(p) => Sink::Streaming(std::io::BufWriter::new(
             riskscore_output::create_live_file(p).map_err(creating(p))?,

@@ -184,10 +184,7 @@ impl<'m> Engine<'m> {
         }
         match step.action {
             Action::Process => {
-                self.source = source;
-                if self.timeline.newest_us() == Some(t_us) {
-                    self.newest_source = source;
-                }
+                self.set_source(t_us, source);
                 self.process_in_order(t_us, frame, bus, out);
             }
             Action::Late { newest_us } => {
@@ -210,10 +207,7 @@ impl<'m> Engine<'m> {
             Action::NewSegment(held) => {
                 self.start_segment(held[0].0, out);
                 for (t, (f, source, bus)) in &held {
-                    self.source = *source;
-                    if self.timeline.newest_us() == Some(*t) {
-                        self.newest_source = *source;
-                    }
+                    self.set_source(*t, *source);
                     self.process_in_order(*t, f, *bus, out);
                 }
             }
@@ -282,6 +276,14 @@ impl<'m> Engine<'m> {
             t_us,
             reason: Problem::NewSegment { t_us },
         });
+    }
+
+    /// The source of the frame about to be processed, and of the newest frame when it is that.
+    fn set_source(&mut self, t_us: u64, source: u64) {
+        self.source = source;
+        if self.timeline.newest_us() == Some(t_us) {
+            self.newest_source = source;
+        }
     }
 
     fn process_in_order(
