@@ -148,21 +148,25 @@ fn failed_load_keeps_the_previous_model_and_scores_match_the_core() {
 fn truncated_blob_reports_needed_and_available_bytes() {
     // Three bytes: not even a header, so the kind is unknown too.
     let blob = test_models::drl_int8();
+    let (status, info) = load_into_fresh_context(&blob[..3]);
+    assert_eq!(status, RiskscoreStatus::ModelTruncated);
+    assert_eq!((info.expected, info.found), (20, 3));
+    assert_eq!(info.kind, RiskscoreModelKind::None);
+}
+
+/// Loads `blob` into a freshly initialised context: the status and the load details.
+fn load_into_fresh_context(blob: &[u8]) -> (RiskscoreStatus, RiskscoreLoadInfo) {
     let mut ctx = context();
     let ctx: *mut RiskscoreContext = &mut *ctx;
     let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+    // SAFETY: a fresh context, a live blob, a writable info (written on every status).
     unsafe {
         assert_eq!(
             riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
             RiskscoreStatus::Ok
         );
-        assert_eq!(
-            riskscore_load_model(ctx, blob.as_ptr(), 3, info.as_mut_ptr()),
-            RiskscoreStatus::ModelTruncated
-        );
-        let info = info.assume_init();
-        assert_eq!((info.expected, info.found), (20, 3));
-        assert_eq!(info.kind, RiskscoreModelKind::None);
+        let status = riskscore_load_model(ctx, blob.as_ptr(), blob.len(), info.as_mut_ptr());
+        (status, info.assume_init())
     }
 }
 
@@ -233,25 +237,15 @@ fn every_record_error_names_its_field() {
         v2_blob(&v)
     };
     let load = |blob: &[u8]| {
-        let mut ctx = context();
-        let ctx: *mut RiskscoreContext = &mut *ctx;
-        let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
-        // SAFETY: a fresh context, a live blob, a writable info.
-        unsafe {
-            assert_eq!(
-                riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config()),
-                RiskscoreStatus::Ok
-            );
-            let status = riskscore_load_model(ctx, blob.as_ptr(), blob.len(), info.as_mut_ptr());
-            let info = info.assume_init();
-            let field = std::ffi::CStr::from_ptr(info.field.as_ptr());
-            (
-                status,
-                field.to_str().unwrap().to_owned(),
-                info.index,
-                info.found,
-            )
-        }
+        let (status, info) = load_into_fresh_context(blob);
+        // SAFETY: the field is NUL-terminated (the C ABI leaves its last byte 0).
+        let field = unsafe { std::ffi::CStr::from_ptr(info.field.as_ptr()) };
+        (
+            status,
+            field.to_str().unwrap().to_owned(),
+            info.index,
+            info.found,
+        )
     };
     // A record declaring 22 body bytes where 20 are left: truncated, counted in the record.
     let mut overrun = payload(1, 8, None);
@@ -259,19 +253,9 @@ fn every_record_error_names_its_field() {
     assert_eq!(overrun[at], 0x14, "tag 2's length byte");
     overrun[at] = 0x16;
     let overrun = v2_blob(&overrun[20..]);
-    let mut ctx = context();
-    let ctx: *mut RiskscoreContext = &mut *ctx;
-    let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
-    // SAFETY: a fresh context, a live blob, a writable info.
-    unsafe {
-        riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &config());
-        assert_eq!(
-            riskscore_load_model(ctx, overrun.as_ptr(), overrun.len(), info.as_mut_ptr()),
-            RiskscoreStatus::ModelTruncated
-        );
-        let info = info.assume_init();
-        assert_eq!((info.expected, info.found), (22, 20));
-    }
+    let (status, info) = load_into_fresh_context(&overrun);
+    assert_eq!(status, RiskscoreStatus::ModelTruncated);
+    assert_eq!((info.expected, info.found), (22, 20));
     // The blobs as documented load.
     assert_eq!(load(&payload(1, 8, None)).0, RiskscoreStatus::Ok);
     assert_eq!(load(&payload(2, 8, Some(1))).0, RiskscoreStatus::Ok);
