@@ -338,7 +338,16 @@ def _model_specs(
             with open(blob, "wb") as out:
                 out.write(m.to_bytes())
             return blob
-        return os.fspath(m)
+        path = os.fspath(m)
+        # The spec parser reads `NAME=FILE` when the text before the first "=" has no path
+        # separator: a relative path like "lr=0.01/drl.rsk" would become a row "lr" reading
+        # "0.01/drl.rsk". A path is never a name here (names come from a dict), so such a path
+        # is given with a leading "./", which the parser takes whole.
+        if isinstance(path, str) and "=" in path:
+            before = path.split("=", 1)[0]
+            if "/" not in before and "\\" not in before:
+                path = os.path.join(os.curdir, path)
+        return path
 
     if isinstance(models, Mapping):
         return [f"{name}={path_of(m)}" for name, m in models.items()]

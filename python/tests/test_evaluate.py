@@ -114,3 +114,18 @@ def test_notes_are_neither_listed_nor_counted_as_problems(tmp_path):
     problems, _, notes_part = str(refused.value).partition("\nnotes (they leave nothing out):\n")
     assert "Safe" in problems and "frames jump" not in problems
     assert "frames jump" in notes_part
+
+
+def test_a_model_path_with_an_equals_sign_is_a_path_not_a_name(riskctl, simulated, tmp_path,
+                                                                monkeypatch):
+    """`--model` reads `NAME=FILE` when no path separator comes before the first "="; a relative
+    path like a sweep's `lr=0.01/drl.rsk` given to evaluate is a file (names come from a dict),
+    as Model.load takes it."""
+    (tmp_path / "lr=0.01").mkdir()
+    (tmp_path / "lr=0.01" / "drl.rsk").write_bytes(DRL.read_bytes())
+    (tmp_path / "seed=3.rsk").write_bytes(MSRA.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    expected = cli(riskctl, simulated, "--model", DRL, "--model", MSRA)
+    assert riskscore.evaluate(simulated, ["lr=0.01/drl.rsk", "seed=3.rsk"]) == expected
+    named = riskscore.evaluate(simulated, {"MINE": "lr=0.01/drl.rsk"})
+    assert named == cli(riskctl, simulated, "--model", f"MINE={DRL}")
