@@ -350,6 +350,14 @@ def _model_specs(
         return path
 
     if isinstance(models, Mapping):
+        for name in models:
+            # The row name travels as NAME in NAME=FILE: the parser would split a name with "="
+            # elsewhere, and take one with a path separator (or an empty one) as part of the file.
+            text = str(name)
+            if not text or any(c in text for c in "=/\\"):
+                raise ModelError(
+                    f"models: row name {name!r} cannot be empty or contain '=', '/' or '\\'"
+                )
         return [f"{name}={path_of(m)}" for name, m in models.items()]
     if isinstance(models, (str, os.PathLike, Model)):
         return [path_of(models)]

@@ -129,3 +129,10 @@ def test_a_model_path_with_an_equals_sign_is_a_path_not_a_name(riskctl, simulate
     assert riskscore.evaluate(simulated, ["lr=0.01/drl.rsk", "seed=3.rsk"]) == expected
     named = riskscore.evaluate(simulated, {"MINE": "lr=0.01/drl.rsk"})
     assert named == cli(riskctl, simulated, "--model", f"MINE={DRL}")
+
+
+@pytest.mark.parametrize("name", ["a=b", "runs/a", "runs\\a", ""])
+def test_a_row_name_the_spec_cannot_carry_is_refused_naming_it(simulated, name):
+    """Not "cannot read b=/.../drl-default.rsk" about a file the caller never named."""
+    with pytest.raises(riskscore.ModelError, match=f"row name {name!r}".replace("\\", "\\\\")):
+        riskscore.evaluate(simulated, {name: DRL})
