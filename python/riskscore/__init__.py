@@ -128,6 +128,13 @@ class Model:
     __slots__ = ("_native",)
 
     def __init__(self, native: Any) -> None:
+        # Made by load/from_bytes; Model("m.rsk") would otherwise build a Model that fails on
+        # first use with "'str' object has no attribute '_score'".
+        if not isinstance(native, _riskscore.Model):
+            raise TypeError(
+                f"Model() takes no {type(native).__name__}: use riskscore.Model.load(path) for a "
+                "model file or riskscore.Model.from_bytes(blob) for its bytes"
+            )
         self._native = native
 
     @classmethod

@@ -120,3 +120,12 @@ def test_scores_are_a_read_only_view_as_the_docstring_says(ngsim_frames):
     assert not scores.flags.writeable
     assert "read-only" in " ".join(riskscore.Model.score.__doc__.split())
     scores.copy()[0] = 0.0
+
+
+@pytest.mark.parametrize("argument", [str(MODELS / "drl-default.rsk"), MODELS / "drl-default.rsk",
+                                      b"RSKM"])
+def test_the_constructor_points_at_load_instead_of_building_a_broken_model(argument):
+    """Model(path) is the natural guess; it used to return an object that failed on first use
+    with "'str' object has no attribute '_score'"."""
+    with pytest.raises(TypeError, match=r"Model\.load\(path\).*Model\.from_bytes\(blob\)"):
+        riskscore.Model(argument)
