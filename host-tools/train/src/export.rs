@@ -148,7 +148,119 @@ impl Checkpoint {
                 ),
             });
         }
+        c.check()
+            .map_err(|message| ExportError::BadCheckpoint { path: p, message })?;
         Ok(c)
+    }
+
+    /// The parameters' shapes fit together and every number is finite (a JSON number beyond
+    /// f32's range reads as infinity): a checkpoint edited by hand or cut by another tool is
+    /// refused here, naming the field, instead of panicking in the quantiser on a short array or
+    /// exporting an int8 network whose scales an infinite weight made meaningless.
+    pub fn check(&self) -> Result<(), String> {
+        fn finite(field: &str, values: &[f32]) -> Result<(), String> {
+            match values.iter().position(|v| !v.is_finite()) {
+                Some(i) => Err(format!(
+                    "`{field}[{i}]` is {} (not a finite f32 number)",
+                    values[i]
+                )),
+                None => Ok(()),
+            }
+        }
+        fn len(field: &str, values: &[f32], expected: usize, why: &str) -> Result<(), String> {
+            if values.len() == expected {
+                Ok(())
+            } else {
+                Err(format!(
+                    "`{field}` has {} values, expected {expected} ({why})",
+                    values.len()
+                ))
+            }
+        }
+        match &self.model {
+            CheckpointModel::Drl {
+                params,
+                calibration,
+            } => {
+                let n = scorer_core::DRL_INPUT_COUNT;
+                let scaler = &params.scaler;
+                let why = "one per DRL input";
+                len("model.params.scaler.mean", &scaler.mean, n, why)?;
+                len("model.params.scaler.std", &scaler.std, n, why)?;
+                finite("model.params.scaler.mean", &scaler.mean)?;
+                finite("model.params.scaler.std", &scaler.std)?;
+                if let Some(i) = scaler.std.iter().position(|&s| s <= 0.0) {
+                    return Err(format!(
+                        "`model.params.scaler.std[{i}]` is {} (a standard deviation must be > 0)",
+                        scaler.std[i]
+                    ));
+                }
+                if params.layers.is_empty() {
+                    return Err("`model.params.layers` is empty".into());
+                }
+                let mut inputs = n;
+                for (i, l) in params.layers.iter().enumerate() {
+                    let f = format!("model.params.layers[{i}]");
+                    if l.inputs != inputs {
+                        return Err(format!(
+                            "`{f}.inputs` is {}, expected {inputs} (the {} before it)",
+                            l.inputs,
+                            if i == 0 {
+                                "DRL inputs".to_string()
+                            } else {
+                                format!("outputs of layer {}", i - 1)
+                            }
+                        ));
+                    }
+                    let w = format!("{f}.weight");
+                    len(&w, &l.weight, l.inputs * l.outputs, "inputs x outputs")?;
+                    len(&format!("{f}.bias"), &l.bias, l.outputs, "one per output")?;
+                    finite(&w, &l.weight)?;
+                    finite(&format!("{f}.bias"), &l.bias)?;
+                    inputs = l.outputs;
+                }
+                if inputs != 1 {
+                    return Err(format!(
+                        "the last layer, `model.params.layers[{}]`, has {inputs} outputs, expected 1 (the risk score)",
+                        params.layers.len() - 1
+                    ));
+                }
+                let ranges =
+                    std::iter::once(("model.calibration.input".to_string(), calibration.input))
+                        .chain(
+                            calibration
+                                .hidden
+                                .iter()
+                                .enumerate()
+                                .map(|(i, r)| (format!("model.calibration.hidden[{i}]"), *r)),
+                        );
+                for (f, r) in ranges {
+                    if !(r.min.is_finite() && r.max.is_finite() && r.min <= r.max) {
+                        return Err(format!(
+                            "`{f}` is [{}, {}] (min and max finite, min <= max)",
+                            r.min, r.max
+                        ));
+                    }
+                }
+            }
+            CheckpointModel::Msra { params } => {
+                for (k, t) in params.terms.iter().enumerate() {
+                    let f = format!("model.params.terms[{k}]");
+                    for (name, v) in [
+                        ("lo", t.lo),
+                        ("hi", t.hi),
+                        ("w", t.w),
+                        ("a", t.a),
+                        ("b", t.b),
+                    ] {
+                        if !v.is_finite() {
+                            return Err(format!("`{f}.{name}` is {v} (not a finite f32 number)"));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 }
 

@@ -200,6 +200,95 @@ fn checkpoints_round_trip_and_bad_files_are_named() {
     assert!(err.contains("bad.json") && err.contains("line 2"), "{err}");
 }
 
+/// A checkpoint cut or edited by another tool: a short weight array used to panic in the
+/// quantiser (`range end index 416 out of range for slice of length 415`), and a weight beyond
+/// f32's range (JSON `1e39`, read as infinity) gave an int8 blob that passed every check. Both are
+/// refused at load, naming the field.
+#[test]
+fn malformed_checkpoint_parameters_are_refused_naming_the_field() {
+    let (_, drl, msra) = trained();
+    let dir = tempfile::tempdir().unwrap();
+    let ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    let mck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: msra.params.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    let json = |c: &Checkpoint| serde_json::to_value(c).unwrap();
+    let cases: Vec<(&str, serde_json::Value, &str)> = vec![
+        (
+            "short",
+            {
+                let mut v = json(&ck);
+                v["model"]["params"]["layers"][0]["weight"]
+                    .as_array_mut()
+                    .unwrap()
+                    .pop();
+                v
+            },
+            "`model.params.layers[0].weight` has",
+        ),
+        (
+            "inf-weight",
+            {
+                let mut v = json(&ck);
+                v["model"]["params"]["layers"][1]["weight"][3] = serde_json::json!(1e39);
+                v
+            },
+            "`model.params.layers[1].weight[3]` is inf",
+        ),
+        (
+            "scaler",
+            {
+                let mut v = json(&ck);
+                v["model"]["params"]["scaler"]["std"]
+                    .as_array_mut()
+                    .unwrap()
+                    .pop();
+                v
+            },
+            "`model.params.scaler.std` has",
+        ),
+        (
+            "calibration",
+            {
+                let mut v = json(&ck);
+                v["model"]["calibration"]["input"] = serde_json::json!({"min": 5.0, "max": -5.0});
+                v
+            },
+            "`model.calibration.input` is [5, -5]",
+        ),
+        (
+            "msra",
+            {
+                let mut v = json(&mck);
+                v["model"]["params"]["terms"][0]["a"] = serde_json::json!(-1e39);
+                v
+            },
+            "`model.params.terms[0].a` is -inf",
+        ),
+    ];
+    for (name, value, expected) in cases {
+        let path = dir.path().join(format!("{name}.json"));
+        std::fs::write(&path, serde_json::to_vec(&value).unwrap()).unwrap();
+        let err = Checkpoint::load(&path)
+            .map(|_| "loaded".to_string())
+            .unwrap_or_else(|e| e.to_string());
+        assert!(
+            err.contains(&format!("{name}.json: not a riskscore checkpoint"))
+                && err.contains(expected),
+            "{name}: {err}"
+        );
+    }
+}
+
 #[test]
 fn inspect_reports_structure_and_detects_corruption() {
     let (_, drl, msra) = trained();
