@@ -6,7 +6,7 @@ already catches ``ValueError`` for bad data keeps working.
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, Optional, Tuple
 
 
 class RiskscoreError(Exception):
@@ -29,6 +29,12 @@ class BadRowError(RiskscoreError, ValueError):
         where = f"row {row}" + (f" column {column}" if column else "")
         more = f" ({count - 1} more bad rows)" if count > 1 else ""
         super().__init__(f"{where}: {problem}{more}")
+
+    def __reduce__(self) -> Tuple[Any, Tuple[int, Optional[str], str, int]]:
+        """Pickled from its four attributes (``args`` holds only the message, which
+        ``__init__`` does not take): a worker of multiprocessing, concurrent.futures or joblib
+        that raises it hands it back to the parent instead of breaking the pool."""
+        return (type(self), (self.row, self.column, self.problem, self.count))
 
 
 class ModelError(RiskscoreError, ValueError):

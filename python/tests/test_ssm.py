@@ -270,3 +270,29 @@ def test_a_numeric_type_the_kernel_does_not_take_is_not_called_non_numeric(golde
             riskscore.ssm(small)
         assert "not numeric" not in str(refused.value)
         assert "length_i: type" in str(refused.value) and "Float64, Float32, Int64 or Int32 (cast it)" in str(refused.value)
+
+
+def _score_strictly(table):
+    return riskscore.ssm(table, strict=True)
+
+
+def test_bad_row_error_crosses_a_process_pool_with_its_attributes(golden_pairs):
+    """A worker's BadRowError reaches the parent: it used to fail to unpickle (its args hold only
+    the message), which broke the whole ProcessPoolExecutor (BrokenProcessPool) instead."""
+    import concurrent.futures
+    import multiprocessing
+    import pickle
+
+    copy = pickle.loads(pickle.dumps(riskscore.BadRowError(7, "vx_i", "value inf is not finite", 3)))
+    assert (copy.row, copy.column, copy.problem, copy.count) == (7, "vx_i", "value inf is not finite", 3)
+    assert str(copy) == "row 7 column vx_i: value inf is not finite (2 more bad rows)"
+
+    vx = golden_pairs.column("vx_i").to_pylist()
+    vx[4] = float("inf")
+    bad = golden_pairs.set_column(golden_pairs.column_names.index("vx_i"), "vx_i", pa.array(vx))
+    with concurrent.futures.ProcessPoolExecutor(
+        1, mp_context=multiprocessing.get_context("spawn")
+    ) as pool:
+        with pytest.raises(riskscore.BadRowError, match="row 4 column vx_i") as raised:
+            pool.submit(_score_strictly, bad).result(timeout=120)
+    assert (raised.value.row, raised.value.column, raised.value.count) == (4, "vx_i", 1)
