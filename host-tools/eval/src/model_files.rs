@@ -30,6 +30,16 @@ pub enum ModelFileError {
         #[source]
         source: ModelError,
     },
+    /// The file is a training checkpoint (`drl.json`, `msra.json`), which `riskctl train` writes
+    /// beside the blobs: say so and how to get the blob, as `riskctl inspect-model` does.
+    #[error(
+        "model file {}: not a model blob: it is a training checkpoint (the JSON `riskctl train` \
+         writes); give the blob written beside it (drl.rsk, msra.rsk) or export it first: \
+         riskctl export-model {} --out MODEL.rsk",
+        path.display(),
+        path.display()
+    )]
+    Checkpoint { path: PathBuf },
     /// A model row named like a baseline row or a fixed column of the score table
     /// ([`reserved_name_clash`]): the report would hold two rows, or the table two columns, of it.
     #[error("--model {spec}: the name {name:?} clashes with {clash}; give the model another name (--model NAME=FILE)")]
@@ -65,9 +75,17 @@ impl ModelFile {
 
     /// The decoded blob: the model and its metadata.
     pub fn blob(&self) -> Result<scorer_core::model::ModelBlob<'_>, ModelFileError> {
-        scorer_core::model::decode_blob(&self.bytes).map_err(|source| ModelFileError::Decode {
-            path: self.path.clone(),
-            source,
+        scorer_core::model::decode_blob(&self.bytes).map_err(|source| {
+            if looks_like_checkpoint(&self.bytes) {
+                ModelFileError::Checkpoint {
+                    path: self.path.clone(),
+                }
+            } else {
+                ModelFileError::Decode {
+                    path: self.path.clone(),
+                    source,
+                }
+            }
         })
     }
 
@@ -77,6 +95,17 @@ impl ModelFile {
     pub fn default_threshold(&self) -> Result<f32, ModelFileError> {
         Ok(self.blob()?.default_threshold())
     }
+}
+
+/// A JSON object that names the training checkpoint format (`"format": "riskscore-checkpoint"`,
+/// `riskscore_train::export::CHECKPOINT_FORMAT`) near its start: not a blob, but the file a blob
+/// is exported from.
+fn looks_like_checkpoint(bytes: &[u8]) -> bool {
+    let head = &bytes[..bytes.len().min(4096)];
+    head.trim_ascii_start().starts_with(b"{")
+        && head
+            .windows(b"\"riskscore-checkpoint\"".len())
+            .any(|w| w == b"\"riskscore-checkpoint\"")
 }
 
 /// Decodes model files and names each: its `NAME=`, else its family (`DRL`, `MSRA`, ...), with the
@@ -146,5 +175,33 @@ mod tests {
             Err(ModelFileError::Read { .. })
         ));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// `riskctl evaluate --model run/drl.json` (the checkpoint beside the blobs `train` wrote) was
+    /// refused as `not a model blob: magic [7b, 0a, 20, 20], expected "RSKM"`; it now says what
+    /// the file is and which command makes the blob, as `inspect-model` does.
+    #[test]
+    fn a_training_checkpoint_is_named_as_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("drl.json");
+        std::fs::write(
+            &file,
+            "{\n  \"format\": \"riskscore-checkpoint\",\n  \"version\": 3,\n  \"model\": {}\n}\n",
+        )
+        .unwrap();
+        let f = ModelFile::read(&file.display().to_string()).unwrap();
+        let err = named_models(std::slice::from_ref(&f))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("it is a training checkpoint")
+                && err.contains(&format!("riskctl export-model {} --out", file.display())),
+            "{err}"
+        );
+        // Other JSON is still a plain decode error.
+        std::fs::write(&file, "{\"format\": \"something else\"}").unwrap();
+        let f = ModelFile::read(&file.display().to_string()).unwrap();
+        let err = named_models(std::slice::from_ref(&f)).unwrap_err();
+        assert!(matches!(err, ModelFileError::Decode { .. }), "{err}");
     }
 }
