@@ -268,6 +268,37 @@ fn non_finite_and_unparsable_frame_values() {
     );
 }
 
+/// A position far beyond any world frame (`1e30` from a broken export) is finite, so it used to
+/// load and enter its frame's features (a TAdv of 4e28 s) and training; it is now a data error
+/// naming the row and column, its event dropped like one with a speed above 100 m/s. A position
+/// anywhere on Earth (UTM northings reach 1e7 m) still loads.
+#[test]
+fn a_position_beyond_any_world_frame_drops_its_event() {
+    let (ev, fr) = good();
+    // Line numbers: header 1, c1 frames 2..=22, s1 frames 23..=43.
+    let bad = fr
+        .replacen("c1,0.3,3,0,10,", "c1,0.3,1e30,0,10,", 1)
+        .replacen(
+            "s1,0.5,5,0,10,0,1,0,-0.5,34,0,",
+            "s1,0.5,5,0,10,0,1,0,-0.5,34,-2e9,",
+            1,
+        );
+    let (set, issues, _d) = load(&ev, &bad);
+    assert!(set.is_empty(), "{:?}", ids(&set));
+    assert_eq!(issues.len(), 2, "{issues:#?}");
+    for (issue, line, column) in [(&issues[0], 5, "x_ego"), (&issues[1], 28, "y_sur")] {
+        assert_eq!(issue.problem.kind(), "ImplausiblePosition", "{issue}");
+        assert!(!issue.problem.is_note(), "{issue}");
+        assert_eq!((issue.line, issue.column.as_deref()), (line, Some(column)));
+        let text = issue.to_string();
+        assert!(text.contains(&format!("frames.csv:{line}:")), "{text}");
+    }
+    // UTM-sized coordinates are places, not errors.
+    let utm = fr.replace(",0,10,0,1,0,-0.5,", ",9999999,10,0,1,0,-0.5,");
+    let (set, issues, _d) = load(&ev, &utm);
+    assert_eq!((set.len(), issues.len()), (2, 0), "{issues:#?}");
+}
+
 #[test]
 fn unsorted_and_duplicate_times() {
     let ev = format!(

@@ -15,6 +15,10 @@ pub const LENGTH_RANGE_M: (f32, f32) = (0.5, 30.0);
 pub const WIDTH_RANGE_M: (f32, f32) = (0.3, 5.0);
 /// Largest speed (m/s, magnitude of the velocity) of any road user: 360 km/h.
 pub const MAX_SPEED_M_S: f32 = 100.0;
+/// Largest magnitude of a position coordinate (m, `x_*`/`y_*`): 100,000 km, more than twice
+/// round the Earth, so no fixed world frame (local ENU, UTM, even Earth-centred) comes near it;
+/// beyond it a value is a broken export (`1e30`), not a place.
+pub const MAX_POSITION_M: f32 = 1.0e8;
 /// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
 pub const KEPT_PER_KIND: usize = 20;
 /// Largest ratio of a road user's speeds integrated over time to the path its positions cover
@@ -155,6 +159,8 @@ pub enum IssueProblem {
     ImplausibleDimension { value: f32, min: f32, max: f32 },
     #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
     ImplausibleSpeed { speed: f32 },
+    #[error("position {value} m is beyond {MAX_POSITION_M} m from the world frame's origin (more than twice round the Earth): a broken export or a wrong unit?")]
+    ImplausiblePosition { value: f32 },
     #[error("... and {more} more `{kind}` {} in this file (not listed)", if is_note_kind(kind) { "notes" } else { "problems" })]
     MoreOfKind { kind: &'static str, more: u64 },
     /// `similar`: an id of events.csv that differs from this one only in leading zeros or case.
@@ -227,6 +233,7 @@ impl IssueProblem {
             Self::NonPositiveDimension(_) => "NonPositiveDimension",
             Self::ImplausibleDimension { .. } => "ImplausibleDimension",
             Self::ImplausibleSpeed { .. } => "ImplausibleSpeed",
+            Self::ImplausiblePosition { .. } => "ImplausiblePosition",
             Self::MoreOfKind { .. } => "MoreOfKind",
             Self::UnknownEvent { .. } => "UnknownEvent",
             Self::DuplicateTime { .. } => "DuplicateTime",

@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 
 pub use issues::{
     EventsError, IssueProblem, LoadIssue, GAP_FACTOR, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND,
-    LENGTH_RANGE_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
+    LENGTH_RANGE_M, MAX_POSITION_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX,
+    WIDTH_RANGE_M,
 };
 
 use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
@@ -707,6 +708,13 @@ fn read_frames<E: From<EventsError>>(
             let speed = state.vx.hypot(state.vy);
             if speed.is_finite() && speed > MAX_SPEED_M_S {
                 f.push(col, IssueProblem::ImplausibleSpeed { speed });
+            }
+        }
+        // Finite is not enough: `1e30` (a broken export) read as a place would enter every
+        // feature of its frame (a TAdv of 4e28 s) and, in training, the scaler and the domain.
+        for (value, col) in [(ego.x, 2), (ego.y, 3), (partner.x, 9), (partner.y, 10)] {
+            if value.is_finite() && value.abs() > MAX_POSITION_M {
+                f.push(col, IssueProblem::ImplausiblePosition { value });
             }
         }
         if let Some(c) = acc_partner_col {
