@@ -34,6 +34,10 @@ echo "test-python: fresh venv with the wheel in $((SECONDS - step_start)) s"
 # pytest puts python/tests on sys.path, not python/: `import riskscore` is the installed wheel.
 # The Spark parity run takes 1,000,000 rows (the size; about 95 s on a loaded 2-core
 # machine: scorer-core is optimised in dev builds too); RISKSCORE_SPARK_ROWS sets another size.
+# riskctl is the one scripts/test.sh's `cargo test` built: under $CARGO_TARGET_DIR when that is
+# set (not a stale target/debug/riskctl), unless RISKCTL names one.
+cargo_target=${CARGO_TARGET_DIR:-target}
+case $cargo_target in /*) ;; *) cargo_target=$PWD/$cargo_target ;; esac
 RISKSCORE_SPARK_ROWS=${RISKSCORE_SPARK_ROWS:-1000000} \
-RISKCTL=${RISKCTL:-$PWD/target/debug/riskctl} "$fresh/bin/python" -m pytest -q -p no:cacheprovider \
+RISKCTL=${RISKCTL:-$cargo_target/debug/riskctl} "$fresh/bin/python" -m pytest -q -p no:cacheprovider \
   --rootdir python/tests python/tests "$@"

@@ -1,8 +1,9 @@
 """Shared fixtures: the repository, the `riskctl` binary the parity tests compare against, and
 small real tables of pairs.
 
-`riskctl` is taken from $RISKCTL, else target/debug/riskctl (scripts/test.sh builds it before this
-suite runs). Parity tests need it; a missing binary fails them rather than skipping them.
+`riskctl` is taken from $RISKCTL, else $CARGO_TARGET_DIR/debug/riskctl (target/debug/riskctl when
+unset; scripts/test.sh builds it before this suite runs). Parity tests need it; a missing binary
+fails them rather than skipping them.
 """
 import os
 import pathlib
@@ -23,7 +24,9 @@ PAIR_COLUMNS = [f"{f}_i" for f in STATE] + [f"{f}_j" for f in STATE]
 
 @pytest.fixture(scope="session")
 def riskctl():
-    path = pathlib.Path(os.environ.get("RISKCTL", REPO / "target" / "debug" / "riskctl"))
+    # Where cargo put it: $CARGO_TARGET_DIR (relative to the repository) when set.
+    target = REPO / os.environ.get("CARGO_TARGET_DIR", "target")
+    path = pathlib.Path(os.environ.get("RISKCTL", target / "debug" / "riskctl"))
     if not path.is_file():
         pytest.fail(f"riskctl not found at {path}: build it (cargo build -p host-tools) or set RISKCTL")
 
