@@ -705,6 +705,34 @@ fn export_model_over_a_guarded_blob_is_refused_unless_told_to_replace_it() {
     }
 }
 
+/// `export-model run/drl.json --out run/msra.json` (a slip of the other checkpoint's name)
+/// replaced the MSRA checkpoint, a training run's parameters, with the DRL blob; it is refused and
+/// the checkpoint left as it is, with --replace-calibrated too.
+#[test]
+fn export_model_over_a_checkpoint_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = trained_run(dir.path());
+    let (checkpoint, other) = (run.join("drl.json"), run.join("msra.json"));
+    let before = std::fs::read(&other).unwrap();
+    for extra in [None, Some("--replace-calibrated")] {
+        let mut args = vec![
+            "export-model",
+            checkpoint.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = riskctl(&args);
+        let err = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("is a training checkpoint") && err.contains("msra.json"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(&other).unwrap(), before, "left as it was");
+    }
+}
+
 /// train writes five named files into --out and leaves the rest of the folder alone, so a
 /// configuration kept in the run folder is no overlap (it was refused: "--out runs/x contains
 /// --config runs/x/cfg.toml: refusing to replace it"); a configuration at one of those five

@@ -16,7 +16,8 @@ decoded again (header, CRC, validation) before the command succeeds.
 A checkpoint holds no data, so the blob carries no training domain (guard) and no calibrated
 threshold. An --out blob that carries either (the drl.rsk of a training run, a calibrated blob) is
 therefore not replaced: the run is refused and the blob left as it is, unless
---replace-calibrated says to replace it with the bare export (a warning names what was dropped).";
+--replace-calibrated says to replace it with the bare export (a warning names what was dropped).
+An --out that is a training checkpoint (msra.json beside drl.json) is never replaced.";
 
 /// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob (see
 /// [`ABOUT_EXPORT`]).
@@ -48,6 +49,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .or(args.checkpoint)
         .context("no checkpoint given")?;
     super::output::refuse(&[("CHECKPOINT", &checkpoint)], &[("--out", &args.out)])?;
+    // A checkpoint at --out (the other model's, `export-model run/drl.json --out run/msra.json`)
+    // holds trained parameters no export can give back: a blob over it would lose a training run.
+    if std::fs::metadata(&args.out).is_ok_and(|m| m.is_file())
+        && Checkpoint::load(&args.out).is_ok()
+    {
+        anyhow::bail!(
+            "--out {} is a training checkpoint (the JSON `riskctl train` writes), not a model \
+             blob: a blob written over it would lose its trained parameters; it is left as it \
+             is. Give --out another name (conventionally *.rsk)",
+            args.out.display()
+        );
+    }
     // What the old blob carries that a checkpoint cannot give (it holds no data).
     let lost = std::fs::read(&args.out)
         .ok()
