@@ -59,10 +59,21 @@ def columns_of(data: Any) -> Iterator[None]:
         raise
 
 
-def read_file(path: str) -> pa.Table:
-    """A Parquet (``.parquet``) or CSV file of pairs, with the file named in any error."""
+def _starts_with(path: str, magic: bytes) -> bool:
+    """Whether the file at ``path`` begins with ``magic`` (False when it cannot be read: the
+    reader then names the problem)."""
     try:
-        if path.lower().endswith(".parquet"):
+        with open(path, "rb") as f:
+            return f.read(len(magic)) == magic
+    except OSError:
+        return False
+
+
+def read_file(path: str) -> pa.Table:
+    """A Parquet (``.parquet``, or any name whose file starts with Parquet's magic ``PAR1``, such
+    as ``.pq``) or CSV file of pairs, with the file named in any error."""
+    try:
+        if path.lower().endswith(".parquet") or _starts_with(path, b"PAR1"):
             import pyarrow.parquet as pq
 
             return pq.read_table(path)

@@ -296,3 +296,12 @@ def test_bad_row_error_crosses_a_process_pool_with_its_attributes(golden_pairs):
         with pytest.raises(riskscore.BadRowError, match="row 4 column vx_i") as raised:
             pool.submit(_score_strictly, bad).result(timeout=120)
     assert (raised.value.row, raised.value.column, raised.value.count) == (4, "vx_i", 1)
+
+
+def test_a_parquet_file_is_read_as_parquet_whatever_its_name(tmp_path, golden_pairs):
+    """`.pq` (and Spark's extension-less part files) used to be parsed as CSV: an InputFileError
+    quoting binary garbage ("CSV parse error: Expected 1 columns ...")."""
+    expected = riskscore.ssm(golden_pairs)
+    for name in ("pairs.pq", "part-00000"):
+        pq.write_table(golden_pairs, tmp_path / name)
+        rows_equal_bitwise(riskscore.ssm(tmp_path / name), expected)
