@@ -72,6 +72,11 @@ def _starts_with(path: str, magic: bytes) -> bool:
 def read_file(path: str) -> pa.Table:
     """A Parquet (``.parquet``, or any name whose file starts with Parquet's magic ``PAR1``, such
     as ``.pq``) or CSV file of pairs, with the file named in any error."""
+    if _starts_with(path, b"RSKM"):
+        # Parsed as CSV, a blob gives a parse error quoting its binary bytes.
+        raise InputFileError(
+            f"{path}: a riskscore model blob, not a table of pairs (riskscore.Model.load reads it)"
+        )
     try:
         if path.lower().endswith(".parquet") or _starts_with(path, b"PAR1"):
             import pyarrow.parquet as pq

@@ -305,3 +305,12 @@ def test_a_parquet_file_is_read_as_parquet_whatever_its_name(tmp_path, golden_pa
     for name in ("pairs.pq", "part-00000"):
         pq.write_table(golden_pairs, tmp_path / name)
         rows_equal_bitwise(riskscore.ssm(tmp_path / name), expected)
+
+
+def test_a_model_blob_given_as_pairs_is_named_as_one():
+    """Swapped arguments (model.score("drl-default.rsk")) used to be parsed as CSV: an
+    InputFileError quoting the blob's binary bytes."""
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    with pytest.raises(riskscore.InputFileError,
+                       match=r"drl-default\.rsk: a riskscore model blob, not a table of pairs"):
+        model.score(MODELS / "drl-default.rsk")
