@@ -286,12 +286,19 @@ fn a_position_beyond_any_world_frame_drops_its_event() {
     let (set, issues, _d) = load(&ev, &bad);
     assert!(set.is_empty(), "{:?}", ids(&set));
     assert_eq!(issues.len(), 2, "{issues:#?}");
-    for (issue, line, column) in [(&issues[0], 5, "x_ego"), (&issues[1], 28, "y_sur")] {
+    for (issue, line, column, value) in [
+        (&issues[0], 5, "x_ego", "1e30"),
+        (&issues[1], 28, "y_sur", "-2e9"),
+    ] {
         assert_eq!(issue.problem.kind(), "ImplausiblePosition", "{issue}");
         assert!(!issue.problem.is_note(), "{issue}");
         assert_eq!((issue.line, issue.column.as_deref()), (line, Some(column)));
         let text = issue.to_string();
-        assert!(text.contains(&format!("frames.csv:{line}:")), "{text}");
+        assert!(
+            text.contains(&format!("frames.csv:{line}:"))
+                && text.contains(&format!("position {value} m is beyond 1e8 m")),
+            "{text}"
+        );
     }
     // UTM-sized coordinates are places, not errors.
     let utm = fr.replace(",0,10,0,1,0,-0.5,", ",9999999,10,0,1,0,-0.5,");

@@ -159,7 +159,7 @@ pub enum IssueProblem {
     ImplausibleDimension { value: f32, min: f32, max: f32 },
     #[error("speed {speed} m/s is above the physical limit {MAX_SPEED_M_S} m/s")]
     ImplausibleSpeed { speed: f32 },
-    #[error("position {value} m is beyond {MAX_POSITION_M} m from the world frame's origin (more than twice round the Earth): a broken export or a wrong unit?")]
+    #[error("position {value:e} m is beyond {MAX_POSITION_M:e} m from the world frame's origin (more than twice round the Earth): a broken export or a wrong unit?")]
     ImplausiblePosition { value: f32 },
     #[error("... and {more} more `{kind}` {} in this file (not listed)", if is_note_kind(kind) { "notes" } else { "problems" })]
     MoreOfKind { kind: &'static str, more: u64 },
