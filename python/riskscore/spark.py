@@ -40,6 +40,13 @@ def _check_columns(df: Any) -> None:
     """Fail on the driver, naming the column, before a job starts."""
     from pyspark.sql import types as T
 
+    if not (hasattr(df, "mapInArrow") and hasattr(df, "schema")):
+        # A pandas or polars frame would fail with "'DataFrame' object has no attribute 'schema'".
+        raise TypeError(
+            f"expected a Spark DataFrame, not {type(df).__module__}.{type(df).__name__} "
+            "(riskscore.ssm and riskscore.Model.score take pandas, polars and pyarrow tables)"
+        )
+
     numeric = (T.DoubleType, T.FloatType, T.LongType, T.IntegerType)
     by_name = {f.name.lower(): f for f in df.schema.fields}
     missing = [c for c in _PAIR_COLUMNS if c not in by_name]

@@ -155,3 +155,15 @@ def test_spark_refuses_an_input_that_has_the_output_columns(spark, million_pairs
         rs.ssm(rs.ssm(df))
     with pytest.raises(riskscore.ColumnError, match="already has column.*RISK"):
         rs.score(df.withColumn("RISK", df.x_i), str(MODELS / "drl-default.rsk"))
+
+
+def test_a_local_frame_is_pointed_at_the_local_api(golden_pairs):
+    """A pandas frame handed to riskscore.spark used to fail with "'DataFrame' object has no
+    attribute 'schema'"; no Spark session is needed to say so."""
+    import riskscore.spark as rs
+
+    frame = golden_pairs.to_pandas()
+    for call in (lambda: rs.ssm(frame), lambda: rs.score(frame, MODELS / "drl-default.rsk")):
+        with pytest.raises(TypeError, match=r"expected a Spark DataFrame, not pandas\..*DataFrame "
+                                            r"\(riskscore\.ssm and riskscore\.Model\.score take"):
+            call()
