@@ -434,6 +434,42 @@ fn train_without_a_conflict_warns_and_refuses_when_nothing_can_be_learnt() {
     }
 }
 
+/// A folder of conflicts only (or one whose safe rows were all dropped: `t_impact` written `NA`
+/// by R) trained without a word, though no cross-sequence pair (conflict over safe driving) can
+/// be built; it now warns like the folder without a conflict does, and still writes the models.
+#[test]
+fn train_without_a_safe_sequence_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate_mix(dir.path(), "conflicts", "12", "1,1,0");
+    let ev = events.to_str().unwrap();
+    let config = tiny_config(dir.path());
+    let out = dir.path().join("train");
+    let o = train_quietly(&events, &config, &out);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let warning = err
+        .lines()
+        .find(|l| l.contains("0 safe sequences"))
+        .unwrap_or_else(|| panic!("no warning: {err}"));
+    for part in [
+        "riskctl: warning:",
+        &format!("--events {ev}: 12 conflict sequences"),
+        "normal driving",
+        "threshold",
+    ] {
+        assert!(warning.contains(part), "{part}: {warning}");
+    }
+    assert!(out.join("drl.rsk").is_file() && out.join("msra.rsk").is_file());
+    // A folder with both kinds says nothing of the sort.
+    let mixed = simulate_mix(dir.path(), "mixed", "12", "1,1,1");
+    let o = train_quietly(&mixed, &config, &dir.path().join("train-mixed"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && !err.contains("0 safe sequences"),
+        "{err}"
+    );
+}
+
 #[test]
 fn a_frames_file_without_final_newline_is_a_warning_not_a_refusal() {
     // A copy cut inside the last row's last number still parses: the loader says the file ends

@@ -22,8 +22,10 @@ Without a conflict (crash or near-crash) sequence, in the folder or in --augment
 counterfactual pairs can be built: the models still learn which of two states is physically
 riskier, but nothing ties their scale to a conflict, so the run warns on stderr; calibrate a
 threshold on normal driving (`riskctl calibrate`) before using them. When no comparison at all
-can be built (physics pairs off in the configuration too), it fails and writes nothing. A folder
-too small to hold out validation events trains with a warning. Problems in the folder are listed
+can be built (physics pairs off in the configuration too), it fails and writes nothing. Without
+a safe sequence (a folder of conflicts only, or one whose safe rows were all dropped) no
+conflict-over-safe pair can be built and the models never see normal driving: that warns too. A
+folder too small to hold out validation events trains with a warning. Problems in the folder are listed
 on stderr and their events left out.";
 
 /// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs (see
@@ -122,6 +124,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             seqs.len()
         )
     });
+    // The mirror case: conflicts but no safe sequence anywhere (a folder of conflicts only, or
+    // one whose safe rows were all dropped, e.g. `t_impact` written as `NA`): no cross-sequence
+    // pair, so the models never saw normal driving.
+    let safe = |s: &[Sequence]| s.iter().filter(|s| !s.kind.is_conflict()).count();
+    let no_safe = (no_conflict.is_none()
+        && safe(&seqs) == 0
+        && augmentation.as_deref().is_none_or(|a| safe(a) == 0))
+    .then(|| {
+        let augment = match (&args.augment, &augmentation) {
+            (Some(dir), Some(aug)) => format!(
+                " (and --augment {}: {} conflict sequences, 0 safe)",
+                dir.display(),
+                aug.len()
+            ),
+            _ => String::new(),
+        };
+        format!(
+            "--events {}: {} conflict sequences (crash / near-crash), 0 safe sequences{augment}",
+            args.events.display(),
+            seqs.len()
+        )
+    });
     let started = std::time::Instant::now();
     let (finals, files) = train_and_export(
         &seqs,
@@ -143,6 +167,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!(
             "riskctl: warning: {what}: the models learnt from physics counterfactual pairs alone ({} fit pairs): no temporal or cross-sequence comparison and no impact anchor, so they rank states by physics but their scale is tied to no conflict and the default warning threshold means nothing; calibrate one on normal driving (riskctl calibrate) or train with conflict events (in the folder or with --augment DIR)",
             finals.drl.report.pairs
+        );
+    }
+    if let Some(what) = &no_safe {
+        eprintln!(
+            "riskctl: warning: {what}: the models never saw normal driving: no cross-sequence pair (a conflict frame over a safe one), only temporal and physics pairs, so nothing tells them how low a safe state scores and the default warning threshold's false-alarm rate is unknown; train with safe events (in the folder or with --augment DIR), or calibrate a threshold on normal driving (riskctl calibrate)"
         );
     }
     host_tools::warnings::print(&finals.warnings);
