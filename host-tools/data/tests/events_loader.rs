@@ -306,6 +306,35 @@ fn a_position_beyond_any_world_frame_drops_its_event() {
     assert_eq!((set.len(), issues.len()), (2, 0), "{issues:#?}");
 }
 
+/// A file saved as UTF-16 (Excel's "Unicode Text") failed with `CSV parse error: record 0
+/// (line 1, field: 0, byte: 0): invalid utf-8`; the error now says it is UTF-16 and how to
+/// convert it.
+#[test]
+fn a_utf16_file_is_named_as_utf16() {
+    let (ev, fr) = good();
+    for (name, bom, le) in [
+        ("events.csv", [0xFF, 0xFE], true),
+        ("frames.csv", [0xFE, 0xFF], false),
+    ] {
+        let dir = folder(&ev, &fr);
+        let text = if name == "events.csv" { &ev } else { &fr };
+        let mut bytes = bom.to_vec();
+        for unit in text.encode_utf16() {
+            bytes.extend(if le {
+                unit.to_le_bytes()
+            } else {
+                unit.to_be_bytes()
+            });
+        }
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+        let err = load_events(dir.path()).map(|_| ()).unwrap_err().to_string();
+        assert!(
+            err.contains(name) && err.contains("UTF-16") && err.contains("UTF-8"),
+            "{err}"
+        );
+    }
+}
+
 #[test]
 fn unsorted_and_duplicate_times() {
     let ev = format!(

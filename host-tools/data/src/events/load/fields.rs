@@ -22,6 +22,15 @@ pub(crate) fn open(path: &Path) -> Result<(csv::Reader<BufReader<File>>, LineEnd
     let file = File::open(path).map_err(io)?;
     let mut buf = BufReader::with_capacity(1 << 20, file);
     let head = buf.fill_buf().map_err(io)?;
+    // UTF-16 (Excel's "Unicode Text", Windows tools) reads as invalid UTF-8 in field 0 of line
+    // 1; its byte-order mark says what it is.
+    if head.starts_with(&[0xFF, 0xFE]) || head.starts_with(&[0xFE, 0xFF]) {
+        return Err(io(std::io::Error::other(
+            "the file is UTF-16 (it starts with a UTF-16 byte-order mark, as Excel's \
+             \"Unicode Text\" writes); event folders are UTF-8 CSV: save it as \"CSV UTF-8\" \
+             or convert it (iconv -f UTF-16 -t UTF-8)",
+        )));
+    }
     let crlf = memchr::memchr(b'\n', head).is_some_and(|i| i > 0 && head[i - 1] == b'\r');
     let rdr = csv::ReaderBuilder::new()
         .flexible(true)
