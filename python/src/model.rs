@@ -1,4 +1,6 @@
 //! `riskscore.Model`: a model blob, scored over tables of pairs exactly as on the ECU.
+use std::io::Read;
+
 use arrow_array::{Array, BooleanArray, Float32Array};
 use arrow_data::ArrayData;
 use arrow_pyarrow::{PyArrowType, Table};
@@ -16,6 +18,11 @@ use crate::tables::{
     flatten_flags, flatten_scores, gather_bad, kernel_failure, locate, rows_per_task, slices,
 };
 
+/// `source` (a path, or "model bytes") is not a blob, because of `e`.
+fn invalid(source: &str, e: model::ModelError) -> Failure {
+    Failure::Model(format!("{source}: not a valid model blob: {e}"))
+}
+
 /// A decoded, validated model blob (`*.rsk`).
 #[pyclass(frozen, module = "riskscore._riskscore")]
 pub struct Model {
@@ -26,9 +33,8 @@ pub struct Model {
 
 impl Model {
     fn checked(bytes: Vec<u8>, path: Option<String>) -> Result<Self, Failure> {
-        let source = path.as_deref().unwrap_or("model bytes").to_owned();
-        model::decode_blob(&bytes)
-            .map_err(|e| Failure::Model(format!("{source}: not a valid model blob: {e}")))?;
+        let source = path.as_deref().unwrap_or("model bytes");
+        model::decode_blob(&bytes).map_err(|e| invalid(source, e))?;
         Ok(Model { bytes, path })
     }
 
@@ -69,14 +75,30 @@ impl Model {
     #[staticmethod]
     fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Self> {
         let shown = path.display().to_string();
-        let bytes = std::fs::read(&path).map_err(|e| {
+        let read_error = |e: std::io::Error| {
             let message = format!("model file {shown}: cannot read: {e}");
             // OSError(errno, text) is the errno's subclass: FileNotFoundError, PermissionError...
             match e.raw_os_error() {
                 Some(errno) => pyo3::exceptions::PyOSError::new_err((errno, message)),
                 None => pyo3::exceptions::PyOSError::new_err(message),
             }
-        })?;
+        };
+        // The header first: a file that is no blob (a Parquet table of pairs passed by mistake,
+        // a pipe) is refused from its first 20 bytes, not read whole into memory. Only a header
+        // that is merely short goes on to the full read, whose check reports it as before.
+        let mut file = std::fs::File::open(&path).map_err(read_error)?;
+        let mut bytes = Vec::with_capacity(model::HEADER_LEN);
+        (&mut file)
+            .take(model::HEADER_LEN as u64)
+            .read_to_end(&mut bytes)
+            .map_err(read_error)?;
+        match model::decode_header(&bytes) {
+            Err(e) if !matches!(e, model::ModelError::Truncated { .. }) => {
+                return Err(invalid(&shown, e).into_py(py));
+            }
+            _ => {}
+        }
+        file.read_to_end(&mut bytes).map_err(read_error)?;
         Model::checked(bytes, Some(shown)).map_err(|f| f.into_py(py))
     }
 

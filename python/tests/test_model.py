@@ -129,3 +129,27 @@ def test_the_constructor_points_at_load_instead_of_building_a_broken_model(argum
     with "'str' object has no attribute '_score'"."""
     with pytest.raises(TypeError, match=r"Model\.load\(path\).*Model\.from_bytes\(blob\)"):
         riskscore.Model(argument)
+
+
+def test_a_file_that_is_no_blob_is_refused_from_its_header(tmp_path):
+    """Model.load read the whole file before looking at the magic: a table of pairs of some GB
+    passed by mistake went into memory first, and a pipe was read until its writer closed it.
+    Here the writer keeps a pipe open for 20 s after the first bytes; the header decides."""
+    import os
+    import subprocess
+    import time
+
+    pipe = tmp_path / "pairs.parquet"
+    os.mkfifo(pipe)
+    writer = subprocess.Popen(
+        ["sh", "-c", 'exec 3>"$1"; printf "PAR1%032d" 0 >&3; sleep 20', "sh", str(pipe)]
+    )
+    try:
+        started = time.monotonic()
+        with pytest.raises(riskscore.ModelError,
+                           match=r"pairs\.parquet: not a valid model blob: not a model blob: magic"):
+            riskscore.Model.load(pipe)
+        assert time.monotonic() - started < 10
+    finally:
+        writer.kill()
+        writer.wait()
