@@ -300,10 +300,11 @@ fn a_position_beyond_any_world_frame_drops_its_event() {
             "{text}"
         );
     }
-    // UTM-sized coordinates are places, not errors.
+    // UTM-sized coordinates are places, not errors (at most a note on their precision).
     let utm = fr.replace(",0,10,0,1,0,-0.5,", ",9999999,10,0,1,0,-0.5,");
     let (set, issues, _d) = load(&ev, &utm);
-    assert_eq!((set.len(), issues.len()), (2, 0), "{issues:#?}");
+    assert_eq!(set.len(), 2, "{issues:#?}");
+    assert!(issues.iter().all(|i| i.problem.is_note()), "{issues:#?}");
 }
 
 /// A file saved as UTF-16 (Excel's "Unicode Text") failed with `CSV parse error: record 0
@@ -333,6 +334,47 @@ fn a_utf16_file_is_named_as_utf16() {
             "{err}"
         );
     }
+}
+
+/// Positions in UTM (a northing of 5,400 km) are read as f32, resolved to 0.5 m: every gap of
+/// the event is rounded to that, and the same 310 simulated events moved by a UTM origin scored
+/// other metrics (DRL A^ROC_90 76.6 -> 77.2), silently. Such an event is now kept with a
+/// `CoarsePositions` note on its events.csv line naming the largest coordinate and its spacing;
+/// local coordinates (100 km and less) get none.
+#[test]
+fn positions_far_from_the_origin_are_noted_and_the_event_kept() {
+    let (ev, fr) = good();
+    // s1's partner at a UTM northing: its y_sur is 5,400,000 m on every frame.
+    let utm = fr
+        .lines()
+        .map(|l| {
+            if l.starts_with("s1,") {
+                let mut f: Vec<&str> = l.split(',').collect();
+                f[10] = "5400000";
+                f.join(",")
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n";
+    let (set, issues, _d) = load(&ev, &utm);
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    assert_eq!(issues.len(), 1, "{issues:#?}");
+    let issue = &issues[0];
+    assert_eq!(issue.problem.kind(), "CoarsePositions", "{issue}");
+    assert!(issue.problem.is_note(), "{issue}");
+    assert_eq!((issue.line, issue.event_id.as_deref()), (3, Some("s1")));
+    let text = issue.to_string();
+    assert!(
+        text.contains("events.csv:3:") && text.contains("5400000 m") && text.contains("0.5 m"),
+        "{text}"
+    );
+    // 100 km is still local.
+    let local = utm.replace(",5400000,", ",100000,");
+    let (set, issues, _d) = load(&ev, &local);
+    assert_eq!((set.len(), issues.len()), (2, 0), "{issues:#?}");
 }
 
 #[test]

@@ -19,6 +19,10 @@ pub const MAX_SPEED_M_S: f32 = 100.0;
 /// round the Earth, so no fixed world frame (local ENU, UTM, even Earth-centred) comes near it;
 /// beyond it a value is a broken export (`1e30`), not a place.
 pub const MAX_POSITION_M: f32 = 1.0e8;
+/// Largest magnitude of a position coordinate (m) that the loader's `f32` still resolves to
+/// better than 1 cm (7.8 mm at 100 km, 0.5 m at a UTM northing of 5,400 km): an event whose
+/// positions reach beyond it gets an [`IssueProblem::CoarsePositions`] note.
+pub const COARSE_POSITION_M: f32 = 1.0e5;
 /// Problems kept per kind (and file); the rest are counted in one [`IssueProblem::MoreOfKind`].
 pub const KEPT_PER_KIND: usize = 20;
 /// Largest ratio of a road user's speeds integrated over time to the path its positions cover
@@ -213,6 +217,8 @@ pub enum IssueProblem {
     },
     #[error("the header line again (two files joined, each with its header?): the row is skipped, nothing else is dropped")]
     RepeatedHeader,
+    #[error("frames.csv `x_*`, `y_*`: positions reach {largest} m from the world frame's origin, where a position (read as f32) is resolved to only {spacing} m: every box gap and offset of the event is rounded to that (UTM or Earth-centred coordinates?). Subtract a local origin (e.g. the event's first ego position) before writing the folder. The event is kept")]
+    CoarsePositions { largest: f32, spacing: f32 },
 }
 
 impl IssueProblem {
@@ -248,6 +254,7 @@ impl IssueProblem {
             Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
             Self::FrameGap { .. } => "FrameGap",
             Self::RepeatedHeader => "RepeatedHeader",
+            Self::CoarsePositions { .. } => "CoarsePositions",
         }
     }
 
@@ -273,6 +280,7 @@ fn is_note_kind(kind: &str) -> bool {
             | "ImpactAfterFrames"
             | "FrameGap"
             | "RepeatedHeader"
+            | "CoarsePositions"
     )
 }
 
