@@ -640,6 +640,44 @@ fn train_warns_when_no_event_can_be_held_out_for_validation() {
     assert!(!err.contains("too few to hold out"), "{err}");
 }
 
+/// `evaluate --help` said --trajectory-event takes "a crash, a near crash or a safe one", but the
+/// trajectories are drawn against the time to the endpoint, which a safe event lacks, and a safe
+/// id is refused: the help says what the command does.
+#[test]
+fn evaluate_trajectory_event_help_says_what_it_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate_mix(dir.path(), "mixed", "6", "1,0,1");
+    let text = std::fs::read_to_string(events.join("events.csv")).unwrap();
+    let safe = text
+        .lines()
+        .find_map(|l| l.split_once(",safe,").map(|(id, _)| id.to_owned()))
+        .unwrap();
+    let drl = model("drl-default.rsk");
+    let out = dir.path().join("report");
+    let o = riskctl(&[
+        "evaluate",
+        "--model",
+        drl.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--trajectory-event",
+        &safe,
+    ]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("no crash or near-crash sequence"), "{err}");
+    let help = String::from_utf8_lossy(&riskctl(&["evaluate", "--help"]).stdout).into_owned();
+    let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        help.contains("Crash or near-crash event whose risk trajectory")
+            && help.contains("A safe event has no endpoint to plot against and is refused")
+            && !help.contains("or a safe one"),
+        "{help}"
+    );
+}
+
 #[test]
 fn augmenting_a_folder_with_itself_is_refused() {
     // It trained, repeating the events as a "simulation" source and carrying the validation

@@ -88,8 +88,9 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     thresholds: Vec<String>,
-    /// Event (a crash, a near crash or a safe one) whose risk trajectory is plotted (repeatable;
-    /// default: the first three crash events of the folder).
+    /// Crash or near-crash event whose risk trajectory (against time to its impact or endpoint)
+    /// is plotted (repeatable; default: the first three crash events of the folder). A safe
+    /// event has no endpoint to plot against and is refused.
     #[arg(long = "trajectory-event", value_name = "ID", requires = "out")]
     trajectory_events: Vec<String>,
 }
