@@ -14,6 +14,8 @@ pub enum Failure {
     Events(String),
     /// A file that exists and would be replaced.
     Exists(String),
+    /// The operating system refused the worker threads.
+    Threads(String),
 }
 
 impl Failure {
@@ -25,6 +27,7 @@ impl Failure {
             Failure::Exists(m) => {
                 return pyo3::exceptions::PyFileExistsError::new_err(m);
             }
+            Failure::Threads(m) => return pyo3::exceptions::PyOSError::new_err(m),
         };
         raise(py, class, &message)
     }

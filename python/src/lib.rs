@@ -12,6 +12,7 @@ mod errors;
 mod evaluate;
 mod events;
 mod model;
+mod pool;
 mod tables;
 
 #[pymodule]

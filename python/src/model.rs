@@ -60,10 +60,14 @@ impl Model {
         let columns = locate(&schema)?;
         let blob = self.blob();
         let total = batches.iter().map(|b| b.num_rows()).sum();
-        let results: Vec<_> = slices(&batches, rows_per_task(total))
-            .par_iter()
-            .map(|(first, batch)| kernel(&blob, &columns, batch, *first).map_err(kernel_failure))
-            .collect::<Result<_, Failure>>()?;
+        let results: Vec<_> = crate::pool::install(|| {
+            slices(&batches, rows_per_task(total))
+                .par_iter()
+                .map(|(first, batch)| {
+                    kernel(&blob, &columns, batch, *first).map_err(kernel_failure)
+                })
+                .collect::<Result<_, Failure>>()
+        })??;
         let (parts, bad): (Vec<_>, Vec<_>) = results.into_iter().unzip();
         let (listed, count) = gather_bad(bad);
         Ok((parts, listed, count, total))

@@ -41,7 +41,8 @@ pub fn slices(batches: &[RecordBatch], rows: usize) -> Vec<(u64, RecordBatch)> {
 }
 
 /// Rows per task: about eight tasks per core so the cores finish together, but large enough
-/// that per-task overhead is noise.
+/// that per-task overhead is noise (called inside [`crate::pool::install`], so "core" is a
+/// thread of that pool).
 pub fn rows_per_task(total: usize) -> usize {
     let tasks = 8 * rayon::current_num_threads().max(1);
     total.div_ceil(tasks).clamp(4096, 1 << 17)
@@ -97,34 +98,43 @@ pub fn ssm(
 ) -> PyResult<(PyArrowType<Table>, Vec<BadRow>, u64)> {
     let (batches, schema) = table.0.into_inner();
     let computed = py.detach(|| -> Result<_, Failure> {
-        let columns = locate(&schema)?;
-        let total = batches.iter().map(RecordBatch::num_rows).sum();
-        let pieces = slices(&batches, rows_per_task(total));
-        let results: Vec<_> = pieces
-            .par_iter()
-            .map(|(first, batch)| {
-                let out = ssm_kernel(&columns, batch, *first).map_err(kernel_failure)?;
-                let joined = if keep_input {
-                    append_columns(batch, &out.computed, None)
-                        .map_err(|e| Failure::Column(e.to_string()))?
-                } else {
-                    out.computed
-                };
-                Ok((joined, out.bad))
-            })
-            .collect::<Result<_, Failure>>()?;
-        let out_schema = if keep_input {
-            joined_schema(&schema)
-        } else {
-            computed_schema()
-        };
-        let (out, bad): (Vec<RecordBatch>, Vec<Vec<RowError>>) = results.into_iter().unzip();
-        let (listed, count) = gather_bad(bad);
-        let table = Table::try_new(out, out_schema).map_err(|e| Failure::Column(e.to_string()))?;
-        Ok((table, listed, count))
+        crate::pool::install(|| ssm_on_slices(batches, &schema, keep_input))?
     });
     let (table, listed, count) = computed.map_err(|f| f.into_py(py))?;
     Ok((PyArrowType(table), listed, count))
+}
+
+/// [`ssm`]'s work, on the current rayon pool.
+fn ssm_on_slices(
+    batches: Vec<RecordBatch>,
+    schema: &Arc<Schema>,
+    keep_input: bool,
+) -> Result<(Table, Vec<BadRow>, u64), Failure> {
+    let columns = locate(schema)?;
+    let total = batches.iter().map(RecordBatch::num_rows).sum();
+    let pieces = slices(&batches, rows_per_task(total));
+    let results: Vec<_> = pieces
+        .par_iter()
+        .map(|(first, batch)| {
+            let out = ssm_kernel(&columns, batch, *first).map_err(kernel_failure)?;
+            let joined = if keep_input {
+                append_columns(batch, &out.computed, None)
+                    .map_err(|e| Failure::Column(e.to_string()))?
+            } else {
+                out.computed
+            };
+            Ok((joined, out.bad))
+        })
+        .collect::<Result<_, Failure>>()?;
+    let out_schema = if keep_input {
+        joined_schema(schema)
+    } else {
+        computed_schema()
+    };
+    let (out, bad): (Vec<RecordBatch>, Vec<Vec<RowError>>) = results.into_iter().unzip();
+    let (listed, count) = gather_bad(bad);
+    let table = Table::try_new(out, out_schema).map_err(|e| Failure::Column(e.to_string()))?;
+    Ok((table, listed, count))
 }
 
 /// The input's fields followed by the computed ones.

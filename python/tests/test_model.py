@@ -153,3 +153,25 @@ def test_a_file_that_is_no_blob_is_refused_from_its_header(tmp_path):
     finally:
         writer.kill()
         writer.wait()
+
+
+def _score_sum(model, frames):
+    return float(np.nansum(model.score(frames))), riskscore.ssm(frames).num_rows
+
+
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_a_forked_worker_scores_after_its_parent_did(ngsim_frames):
+    """multiprocessing's "fork" start method (Linux's default before Python 3.14): a child
+    forked after the parent scored inherited rayon's global pool without its threads and waited
+    for them forever on its first Model.score. The kernels now run on a pool per process."""
+    import multiprocessing
+
+    model = riskscore.Model.load(MODELS / "drl-default.rsk")
+    expected = _score_sum(model, ngsim_frames)  # the parent's pool is up before the fork
+    pool = multiprocessing.get_context("fork").Pool(2)
+    try:
+        pending = pool.starmap_async(_score_sum, [(model, ngsim_frames)] * 2, chunksize=1)
+        assert pending.get(timeout=60) == [expected] * 2
+    finally:
+        pool.terminate()
+        pool.join()
