@@ -134,11 +134,13 @@ impl Checkpoint {
                 e.utf8_error().valid_up_to()
             ),
         })?;
-        let c: Checkpoint =
-            serde_json::from_str(&text).map_err(|e| ExportError::BadCheckpoint {
-                path: p.clone(),
-                message: format!("line {}, column {}: {e}", e.line(), e.column()),
-            })?;
+        // A UTF-8 byte-order mark (a Windows editor saved the file) is no JSON value, but says
+        // nothing against the text after it (the configuration's TOML reader skips it too).
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let c: Checkpoint = serde_json::from_str(text).map_err(|e| ExportError::BadCheckpoint {
+            path: p.clone(),
+            message: format!("line {}, column {}: {e}", e.line(), e.column()),
+        })?;
         if c.format != CHECKPOINT_FORMAT || c.version != CHECKPOINT_VERSION {
             return Err(ExportError::BadCheckpoint {
                 path: p,

@@ -190,6 +190,14 @@ fn checkpoints_round_trip_and_bad_files_are_named() {
     let f32_blob = export::export(&ck, DrlFormat::F32).unwrap();
     assert!(matches!(decode(&f32_blob).unwrap(), Model::DrlF32(_)));
 
+    // Saved again by a Windows editor, with a UTF-8 byte-order mark: 'line 1, column 1:
+    // expected value' before, the same checkpoint now.
+    let bom = dir.path().join("bom.json");
+    let mut bytes = "\u{feff}".as_bytes().to_vec();
+    bytes.extend(std::fs::read(&path).unwrap());
+    std::fs::write(&bom, bytes).unwrap();
+    assert_eq!(Checkpoint::load(&bom).unwrap(), ck);
+
     let bad = dir.path().join("bad.json");
     std::fs::write(
         &bad,
