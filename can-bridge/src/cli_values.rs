@@ -65,6 +65,29 @@ pub fn iface(s: &str) -> Result<String, String> {
     can_codec::check_iface_name(s).map(|()| s.to_string())
 }
 
+/// The `BUS` and `FILE` of a `--dbc BUS=FILE` argument: the part before the first `=` is a bus
+/// when it is made of interface-name characters (letters, digits, `_`, `-`, `.`), so a path such
+/// as `/data/run=3/radar.dbc` stays a path (and `./a=b.dbc` is how to name a file `a=b.dbc`).
+pub fn dbc_bus(arg: &str) -> Option<(&str, &str)> {
+    let (bus, file) = arg.split_once('=')?;
+    let bus_like = !bus.is_empty()
+        && bus
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+    (bus_like && !file.is_empty()).then_some((bus, file))
+}
+
+/// A `--dbc` value, `FILE` or `BUS=FILE`: a BUS that no interface can have (longer than
+/// IFNAMSIZ - 1 bytes) is refused, not read as part of a file name.
+pub fn dbc(s: &str) -> Result<std::path::PathBuf, String> {
+    if let Some((bus, _)) = dbc_bus(s) {
+        can_codec::check_iface_name(bus).map_err(|e| {
+            format!("the bus of BUS=FILE is an interface name, and {e}; a file whose name has `=` in it: write ./{s}")
+        })?;
+    }
+    Ok(std::path::PathBuf::from(s))
+}
+
 /// Milliseconds in `0..=1000` (how long `live` lets a frame wait for the other interfaces).
 pub fn merge_wait_ms(s: &str) -> Result<u64, String> {
     let v: u64 = number(s)?;
@@ -133,5 +156,21 @@ mod tests {
         assert!(seconds("-1").is_err());
         assert!(fraction("1.5").is_err());
         assert!(fraction("NaN").is_err());
+    }
+
+    #[test]
+    fn a_dbc_bus_longer_than_an_interface_name_is_refused() {
+        let e = dbc("averyveryverylongbus=radar.dbc").unwrap_err();
+        assert!(
+            e.contains("is 20 bytes long; at most 15 (IFNAMSIZ - 1)"),
+            "{e}"
+        );
+        assert!(e.contains("./averyveryverylongbus=radar.dbc"), "{e}");
+        let fifteen = "abcdefghijklmno=radar.dbc";
+        assert_eq!(dbc(fifteen), Ok(fifteen.into()));
+        assert_eq!(dbc_bus(fifteen), Some(("abcdefghijklmno", "radar.dbc")));
+        // Paths with `=` that are no binding stay paths.
+        assert_eq!(dbc_bus("/data/run=3/radar.dbc"), None);
+        assert!(dbc("./averyveryverylongbus=radar.dbc").is_ok());
     }
 }

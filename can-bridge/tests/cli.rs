@@ -363,6 +363,37 @@ fn objects_logged_on_another_bus_than_their_binding_are_named() {
 }
 
 #[test]
+fn a_dbc_bus_longer_than_an_interface_name_is_refused_naming_the_option_and_the_limit() {
+    // Before, `BUS=FILE` with a 16-byte BUS was read as one file name: "DBC
+    // canbus-powertrain=builtin:riskscore: No such file or directory".
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, "").unwrap();
+    let out = bridge()
+        .args([
+            "score-log",
+            "--dbc",
+            "canbus-powertrain=builtin:riskscore",
+            "--log",
+        ])
+        .arg(&log)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--dbc"), "{stderr}");
+    assert!(
+        stderr.contains(
+            "interface name `canbus-powertrain` is 17 bytes long; at most 15 (IFNAMSIZ - 1)"
+        ),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("No such file"), "{stderr}");
+}
+
+#[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();
     let model = tmp.path().join("bad.rsk");

@@ -17,7 +17,7 @@ pub struct ScoringArgs {
     /// frame of that interface reads its messages and the unbound ones. An id defined in two
     /// files is an error only where they share a bus (same BUS, or one of them unbound). Default:
     /// the map's `[bus]` table, else the project's riskscore.dbc (`builtin:riskscore`).
-    #[arg(long, value_name = "[BUS=]FILE")]
+    #[arg(long, value_name = "[BUS=]FILE", value_parser = cli_values::dbc)]
     pub dbc: Vec<PathBuf>,
     /// Map file naming the DBC signals of each input (default: the project's map; see
     /// docs/can-bridge.md, "Bring your own vehicle").
@@ -101,7 +101,7 @@ pub struct MonitorArgs {
     #[arg(long, value_parser = cli_values::iface)]
     pub iface: String,
     /// DBC file(s), as for the bridge: `[BUS=]FILE`, repeatable (default: the project's).
-    #[arg(long, value_name = "[BUS=]FILE")]
+    #[arg(long, value_name = "[BUS=]FILE", value_parser = cli_values::dbc)]
     pub dbc: Vec<PathBuf>,
     /// Map file naming the warning message and the trigger message (default: the project's).
     #[arg(long)]
@@ -236,7 +236,7 @@ pub struct DecodeScoringArgs {
     pub model: Option<PathBuf>,
     /// DBC file, as for `score-log`: `[BUS=]FILE`, repeatable; an id clash is an error only on
     /// the same bus (default: the map's `[bus]` table, else `builtin:riskscore`).
-    #[arg(long, value_name = "[BUS=]FILE")]
+    #[arg(long, value_name = "[BUS=]FILE", value_parser = cli_values::dbc)]
     pub dbc: Vec<PathBuf>,
     /// Map file, as for `score-log` (default: the project's map).
     #[arg(long)]

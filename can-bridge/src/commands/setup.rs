@@ -86,19 +86,13 @@ pub fn creating(path: &Path) -> impl FnOnce(std::io::Error) -> SetupError + '_ {
 }
 
 /// A `--dbc` argument: `FILE` (every bus) or `BUS=FILE` (the interface the file's messages are
-/// on). A path with `=` in its first component that is not meant as a bus: write it `./a=b.dbc`.
+/// on; [`crate::cli_values::dbc_bus`], a too long BUS is refused when parsed). A path with `=`
+/// in its first component that is not meant as a bus: write it `./a=b.dbc`.
 pub fn dbc_binding(arg: &Path) -> (Option<&str>, &Path) {
-    if let Some((bus, file)) = arg.to_str().and_then(|t| t.split_once('=')) {
-        let is_iface = !bus.is_empty()
-            && bus.len() <= 15
-            && bus
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
-        if is_iface && !file.is_empty() {
-            return (Some(bus), Path::new(file));
-        }
+    match arg.to_str().and_then(crate::cli_values::dbc_bus) {
+        Some((bus, file)) => (Some(bus), Path::new(file)),
+        None => (None, arg),
     }
-    (None, arg)
 }
 
 fn load_one(path: &Path) -> Result<Database, SetupError> {
