@@ -377,6 +377,23 @@ fn positions_far_from_the_origin_are_noted_and_the_event_kept() {
     assert_eq!((set.len(), issues.len()), (2, 0), "{issues:#?}");
 }
 
+/// An empty cell (a missing value, as pandas writes NaN) was reported as "`` is not a number";
+/// it now says the field is empty.
+#[test]
+fn an_empty_frame_field_is_named_as_empty() {
+    let (ev, fr) = good();
+    let fr = fr.replacen("c1,0.3,3,0,10,", "c1,0.3,,0,10,", 1);
+    let (set, issues, _d) = load(&ev, &fr);
+    assert_eq!(ids(&set), ["s1"]);
+    let problem = only_issue(&issues, "frames.csv", 5, Some("x_ego"));
+    assert_eq!(problem, &IssueProblem::BadNumber(String::new()));
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("x_ego") && text.contains("the field is empty") && !text.contains("``"),
+        "{text}"
+    );
+}
+
 #[test]
 fn unsorted_and_duplicate_times() {
     let ev = format!(

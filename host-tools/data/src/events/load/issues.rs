@@ -141,7 +141,7 @@ pub enum IssueProblem {
     DuplicateEventId { first_line: u64 },
     #[error("unknown kind `{0}` (expected crash, near_crash or safe)")]
     UnknownKind(String),
-    #[error("`{0}` is not a number")]
+    #[error("{}", bad_number_text(.0))]
     BadNumber(String),
     #[error("`{0}` is not finite")]
     NonFinite(String),
@@ -219,6 +219,16 @@ pub enum IssueProblem {
     RepeatedHeader,
     #[error("frames.csv `x_*`, `y_*`: positions reach {largest} m from the world frame's origin, where a position (read as f32) is resolved to only {spacing} m: every box gap and offset of the event is rounded to that (UTM or Earth-centred coordinates?). Subtract a local origin (e.g. the event's first ego position) before writing the folder. The event is kept")]
     CoarsePositions { largest: f32, spacing: f32 },
+}
+
+/// `BadNumber`'s message: an empty field (a gap in the data, pandas' default for NaN in a column
+/// that should have a value) says so rather than "`` is not a number".
+fn bad_number_text(field: &str) -> String {
+    if field.is_empty() {
+        "the field is empty (a missing value?): a number is required here".to_owned()
+    } else {
+        format!("`{field}` is not a number")
+    }
 }
 
 impl IssueProblem {
