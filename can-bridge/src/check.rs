@@ -485,11 +485,22 @@ impl ContentOff {
 /// Writes an event set as an event folder, with the partner acceleration in an `acc_sur` column so
 /// the loader uses exactly the value the bridge scored with (the folder reads back bit-exactly).
 pub fn write_decoded_events(dir: &Path, set: &EventSet) -> Result<(), EventsError> {
+    write_decoded_events_with(dir, set, Vec::new())
+}
+
+/// Like [`write_decoded_events`], with other outputs of the run already written to their
+/// temporaries (`check --per-event-out`): every file is synced before any is renamed into place,
+/// so a failure leaves all of them as they were.
+pub fn write_decoded_events_with(
+    dir: &Path,
+    set: &EventSet,
+    others: Vec<riskscore_output::AtomicFile>,
+) -> Result<(), EventsError> {
     let mut w = EventWriter::create_with_partner_acceleration(dir)?;
     for event in set {
         w.write_event(event)?;
     }
-    w.finish()
+    w.finish_with(others)
 }
 
 impl CheckReport {

@@ -12,7 +12,7 @@ mod fault_harness;
 
 use fault_harness::{
     ctrl_c_and_second_run, every_writer_into, missing_input, output_is_input,
-    output_of_the_wrong_kind, second_writer, Streams, Tmpfs, Writer,
+    output_of_the_wrong_kind, refused, second_writer, Streams, Tmpfs, Writer,
 };
 use riskscore_data::candump_export::{write_candump, ExportOptions};
 use riskscore_data::events::{load_events, write_events};
@@ -166,4 +166,29 @@ fn ctrl_c_in_the_middle_and_a_second_run_leave_the_old_output() {
     // harness signals it 300 ms after the start: 150 events took 0.34 s on a fast core, a race.
     event_folder_and_log(d.path(), "long", "long.log", 1000);
     ctrl_c_and_second_run(BRIDGE, d.path(), WRITERS);
+}
+
+#[test]
+fn check_replaces_both_of_its_outputs_or_neither() {
+    // `check --decoded-events-out D --per-event-out F`: when one cannot be written, the other is
+    // left as it was too (before, D was swapped in and then writing F failed).
+    let d = scratch();
+    std::fs::create_dir(d.path().join("pe-folder")).unwrap();
+    std::fs::write(d.path().join("dec-file"), "a file, not a folder\n").unwrap();
+    let check = |decoded: &str, per_event: &str| -> Vec<String> {
+        format!(
+            "check --log drive.log --events sim --model m.rsk --decoded-events-out {decoded} --per-event-out {per_event}"
+        )
+        .split_whitespace()
+        .map(String::from)
+        .collect()
+    };
+    refused(BRIDGE, d.path(), &check("dec", "pe-folder"), &["pe-folder"]).unwrap();
+    refused(
+        BRIDGE,
+        d.path(),
+        &check("dec-file", "pe.jsonl"),
+        &["dec-file"],
+    )
+    .unwrap();
 }

@@ -81,12 +81,21 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         })
     })?;
     losses::account(&args.log, &report.log, &report.losses, args.loss.max_lost)?;
-    if let Some(dir) = &args.decoded_events_out {
-        check::write_decoded_events(dir, &report.decoded)
-            .map_err(|source| Failure::Input(InputError::DecodedEvents { source }))?;
-    }
-    if let Some(p) = &args.per_event_out {
-        write_verdicts(p, &report).map_err(writing("--per-event-out", Some(p)))?;
+    // Both outputs go to temporaries first and are renamed into place only when both are
+    // written: a failure leaves the old per-event file and the old decoded folder alike.
+    let per_event = match &args.per_event_out {
+        Some(p) => Some(write_verdicts(p, &report).map_err(writing("--per-event-out", Some(p)))?),
+        None => None,
+    };
+    match (&args.decoded_events_out, per_event) {
+        (Some(dir), per_event) => {
+            check::write_decoded_events_with(dir, &report.decoded, per_event.into_iter().collect())
+                .map_err(|source| Failure::Input(InputError::DecodedEvents { source }))?
+        }
+        (None, Some(file)) => file
+            .commit()
+            .map_err(writing("--per-event-out", args.per_event_out.as_deref()))?,
+        (None, None) => {}
     }
     print_report(&report, args.json);
     report.sanity.print("check");
@@ -128,11 +137,12 @@ fn print_report(report: &CheckReport, json: bool) {
     }
 }
 
-/// The per-event verdicts as JSON Lines, written whole or not at all.
-fn write_verdicts(path: &Path, report: &CheckReport) -> std::io::Result<()> {
+/// The per-event verdicts as JSON Lines in a temporary file beside `path`, renamed into place
+/// by the caller's commit (with the other output of the run).
+fn write_verdicts(path: &Path, report: &CheckReport) -> std::io::Result<AtomicFile> {
     let mut w = AtomicFile::create(path)?;
     for v in &report.verdicts {
         writeln!(w, "{}", serde_json::to_string(v)?)?;
     }
-    w.commit()
+    Ok(w)
 }
