@@ -72,7 +72,7 @@ pub struct CheckReport {
 pub enum CheckError {
     #[error("reading the log: {0}")]
     Io(#[from] std::io::Error),
-    #[error("the log has no frames{}", if *unreadable > 0 { format!(": {unreadable} unreadable lines (listed above)") } else { String::new() })]
+    #[error("the log holds no frames: {}", if *unreadable > 0 { format!("{unreadable} unreadable lines (listed above)") } else { "it is empty".to_string() })]
     EmptyLog { unreadable: usize },
     #[error("the bridge scored no track update in the log, so it cannot be matched to the event folder (is this a log written by `riskctl events-to-candump`?)")]
     NothingScored,

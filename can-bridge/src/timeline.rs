@@ -29,6 +29,16 @@ pub const LATE_WINDOW_US: u64 = 1_000_000;
 /// Consecutive frames that confirm a jump as a new segment.
 pub const CONFIRM_FRAMES: usize = 4;
 
+/// Log segments of a run that read `frames` frames and started `new_segments` new ones after the
+/// first: the first frame opens the first segment, so a log without frames has none (not one).
+pub fn segment_count(frames: u64, new_segments: u64) -> u64 {
+    if frames == 0 {
+        0
+    } else {
+        new_segments + 1
+    }
+}
+
 /// What to do with a frame.
 #[derive(Debug, PartialEq)]
 pub enum Action<T> {

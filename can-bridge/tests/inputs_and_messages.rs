@@ -92,7 +92,68 @@ fn a_log_of_unreadable_lines_lists_each_line_before_refusing() {
     assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("junk.log:1: not a candump"), "{stderr}");
     assert!(
-        stderr.contains("the log has no frames: 2 unreadable lines"),
+        stderr.contains("the log holds no frames: 2 unreadable lines"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn an_empty_log_is_refused_as_empty_with_no_log_segment() {
+    // Before: "1 log segments" in the summary and "no CAN data frame (the log has no frame
+    // line)". An empty log is a failed capture or a wrong path, so it stays an error (exit 1,
+    // old outputs kept), and says so.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    for (name, text) in [("empty.log", ""), ("blank.log", "\n\n")] {
+        let log = tmp.path().join(name);
+        std::fs::write(&log, text).unwrap();
+        let log = log.to_str().unwrap();
+        let old = tmp.path().join("old-output");
+        std::fs::write(&old, "previous run\n").unwrap();
+        let old = old.to_str().unwrap();
+        for args in [
+            vec![
+                "score-log",
+                "--log",
+                log,
+                "--model",
+                &m,
+                "--events-out",
+                old,
+            ],
+            vec!["decode", "--log", log, "--out", old],
+        ] {
+            let (code, _, stderr) = bridge(&args);
+            assert_eq!(code, Some(1), "{stderr}");
+            assert!(stderr.contains(", 0 log segments,"), "{stderr}");
+            assert!(
+                stderr.contains(&format!("{log} holds no frames: the log is empty")),
+                "{stderr}"
+            );
+            assert_eq!(std::fs::read_to_string(old).unwrap(), "previous run\n");
+        }
+    }
+    let (code, _, stderr) = bridge(&["score-log", "--log", "-", "--model", &m]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("standard input (--log -) holds no frames: the log is empty"),
+        "{stderr}"
+    );
+    let events = tmp.path().join("events");
+    riskscore_data::events::write_events(&events, &common::simulated_events(1, 1)).unwrap();
+    let empty = tmp.path().join("empty.log");
+    let (code, _, stderr) = bridge(&[
+        "check",
+        "--log",
+        empty.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--model",
+        &m,
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("the log holds no frames: it is empty"),
         "{stderr}"
     );
 }

@@ -119,7 +119,7 @@ pub fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
                 "replay: {} frames sent in {:.3} s ({} log segments), {} not sent, {} bad lines, max lateness {:.3} ms",
                 s.sent,
                 s.elapsed.as_secs_f64(),
-                s.segments + 1,
+                crate::timeline::segment_count(s.log.frames as u64, s.segments),
                 s.losses.total(),
                 s.log.bad_lines(),
                 s.max_late.as_secs_f64() * 1e3

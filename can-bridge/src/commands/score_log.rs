@@ -1,8 +1,8 @@
 //! `can-bridge score-log`: a candump log scored offline by the same engine as live, with its
 //! warning events, warning frames, losses and (with `--bench`) throughput and latency.
 use super::setup::{
-    creating, engine_config, load_map, open_events, print_inputs, refuse_nothing_scored,
-    scoring_inputs, summary, unsent_note,
+    creating, engine_config, load_map, open_events, print_inputs, refuse_empty_log,
+    refuse_nothing_scored, scoring_inputs, summary, unsent_note,
 };
 use super::{writing, Failure, InputError, ScoreLogArgs, SetupError};
 use crate::cli_values::is_std_stream;
@@ -108,6 +108,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     problems.sanity.print("score-log");
     // The reasons first: a log nothing could be read from says why, line by line.
     losses::print_lost(&args.log, &report, &losses);
+    refuse_empty_log(&args.log, &report)?;
     refuse_nothing_scored(stats, "score-log", report.bad_lines())?;
     if args.bench {
         eprintln!(

@@ -282,7 +282,7 @@ pub fn summary(s: &Stats) -> String {
     format!(
         "{} frames, {} scored, {} warning frames, {} unsent, {} decode errors, {} stale drops, {} invalid objects, {} reordered, {} off the timeline, {} log segments, {} duplicates, {} unknown ids, {} remote, {} error frames ({} bus-off), {} tracks dropped, {} table full, {} new objects, {} awaiting motion, {} outside the view, {} outside the training domain",
         s.frames, s.scored, s.warning_frames, s.warning_frames_unsent, s.decode_errors, s.stale_drops, s.invalid_objects,
-        s.reordered, s.out_of_window, s.segments + 1, s.duplicates, s.unknown_ids, s.remote_frames,
+        s.reordered, s.out_of_window, crate::timeline::segment_count(s.frames, s.segments), s.duplicates, s.unknown_ids, s.remote_frames,
         s.error_frames, s.bus_off, s.tracks_dropped, s.table_full, s.new_objects, s.motion_pending, s.outside_view,
         s.out_of_domain
     )
@@ -343,6 +343,30 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
     Some(NothingScored::NoUpdate(format!(
         "nothing was scored: {} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view); is every ego field the map needs on the log?{other_bus}",
         s.decoded, s.decode_errors, s.invalid_objects, s.stale_drops, s.motion_pending, s.outside_view
+    )))
+}
+
+/// Offline commands: a log without one line (blank lines aside) is an error that says so and
+/// names the log (`--log -`: standard input): a failed capture, a wrong path or a producer that
+/// wrote nothing, never "no warnings".
+pub fn refuse_empty_log(
+    path: &Path,
+    report: &crate::logfile::LogReport,
+) -> Result<(), super::Failure> {
+    if report.frames > 0 || report.bad_lines() > 0 {
+        return Ok(());
+    }
+    let name = if is_std_stream(path) {
+        "standard input (--log -)".to_string()
+    } else {
+        path.display().to_string()
+    };
+    let blank = match report.blank {
+        0 => String::new(),
+        n => format!(" ({n} blank lines)"),
+    };
+    Err(super::Failure::Input(super::InputError::NothingMapped(
+        format!("nothing was scored: {name} holds no frames: the log is empty{blank}"),
     )))
 }
 
