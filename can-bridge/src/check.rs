@@ -74,6 +74,8 @@ pub enum CheckError {
     Io(#[from] std::io::Error),
     #[error("the log holds no frames: {}", if *unreadable > 0 { format!("{unreadable} unreadable lines (listed above)") } else { "it is empty".to_string() })]
     EmptyLog { unreadable: usize },
+    #[error("{0}")]
+    StuckTimestamps(String),
     #[error("the bridge scored no track update in the log, so it cannot be matched to the event folder (is this a log written by `riskctl events-to-candump`?)")]
     NothingScored,
     #[error("the log and the event folder do not belong together: {0}")]
@@ -295,6 +297,9 @@ pub fn check(
         } else {
             CheckError::NothingScored
         });
+    }
+    if let Some(m) = log_report.stuck_timestamps(engine.stats().duplicates, engine.stats().scored) {
+        return Err(CheckError::StuckTimestamps(m));
     }
     let keys: Vec<(u32, u64)> = scored_updates.iter().map(|o| (o.track, o.t_us)).collect();
     let (offset, traced) = align(&keys, &layout, &index).unwrap_or((0, 0));

@@ -74,12 +74,31 @@ pub struct LogReport {
     pub bad: Vec<BadLine>,
     /// Every bad line, counted by kind.
     pub bad_by_kind: BTreeMap<&'static str, usize>,
+    /// The first frame's line and timestamp (us).
+    pub first_frame: Option<(usize, u64)>,
+    /// Whether any frame has another timestamp than the first frame.
+    pub timestamps_advance: bool,
 }
 
 impl LogReport {
     /// Lines skipped for any reason.
     pub fn bad_lines(&self) -> usize {
         self.bad_by_kind.values().sum()
+    }
+
+    /// When every frame of the log (two or more) carries the same timestamp and that cost track
+    /// updates (`duplicates`: dropped as a second update of a track at the same time), what to
+    /// tell the user (`scored`: the updates scored); `None` otherwise. A snapshot that scores each track once is not refused.
+    pub fn stuck_timestamps(&self, duplicates: u64, scored: u64) -> Option<String> {
+        let (line, t_us) = self.first_frame?;
+        (self.frames >= 2 && !self.timestamps_advance && duplicates > 0).then(|| {
+            format!(
+                "the timestamps do not advance: all {} frames, from line {line} on, are stamped {}.{:06}, so {duplicates} track updates were dropped as second updates at the same time ({scored} scored); the bridge needs each frame's receive time (what candump -L writes): was the log converted or written without real timestamps?",
+                self.frames,
+                t_us / 1_000_000,
+                t_us % 1_000_000
+            )
+        })
     }
 
     fn push_bad(&mut self, line: usize, problem: LineProblem) {
@@ -251,6 +270,10 @@ pub fn for_each_frame_in<R: BufRead>(
         match parse_line(line) {
             Ok(rec) => {
                 report.frames += 1;
+                match report.first_frame {
+                    None => report.first_frame = Some((line_no, rec.timestamp_us)),
+                    Some((_, t)) => report.timestamps_advance |= rec.timestamp_us != t,
+                }
                 f(line_no, &rec);
             }
             Err(error) => report.push_bad(line_no, LineProblem::NotFrame(error)),
@@ -321,6 +344,23 @@ mod tests {
         assert_eq!(rep.bad_lines(), 1001);
         assert_eq!(rep.bad.len(), KEPT_PER_KIND + 1);
         assert_eq!(rep.bad.last().unwrap().line, 1001);
+    }
+
+    #[test]
+    fn a_log_whose_timestamps_never_advance_is_named_with_its_first_frame_line() {
+        let log = b"\n(1700000000.250000) can0 123#00\n(1700000000.250000) can0 123#01\n";
+        let (rep, _) = read(log, 1 << 16);
+        assert_eq!(rep.first_frame, Some((2, 1_700_000_000_250_000)));
+        assert!(!rep.timestamps_advance);
+        let m = rep.stuck_timestamps(1, 1).unwrap();
+        assert!(
+            m.contains("all 2 frames, from line 2 on, are stamped 1700000000.250000"),
+            "{m}"
+        );
+        assert_eq!(rep.stuck_timestamps(0, 1), None);
+        let (rep, _) = read(b"(1.0) can0 123#00\n(1.000001) can0 123#00\n", 1 << 16);
+        assert!(rep.timestamps_advance);
+        assert_eq!(rep.stuck_timestamps(5, 1), None);
     }
 
     #[test]

@@ -98,6 +98,68 @@ fn a_log_of_unreadable_lines_lists_each_line_before_refusing() {
 }
 
 #[test]
+fn a_log_whose_timestamps_never_advance_is_refused_naming_the_file_and_first_line() {
+    // Before: exit 0 with 198 of 200 track updates dropped as duplicates (2 scored).
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let set = common::simulated_events(2, 1);
+    let events = tmp.path().join("events");
+    riskscore_data::events::write_events(&events, &set).unwrap();
+    let frozen: String = export(&set, &ExportOptions::default())
+        .unwrap()
+        .lines()
+        .map(|l| format!("(1700000000.500000){}\n", &l[l.find(')').unwrap() + 1..]))
+        .collect();
+    let frames = frozen.lines().count();
+    let log = tmp.path().join("frozen.log");
+    std::fs::write(&log, &frozen).unwrap();
+    let log = log.to_str().unwrap();
+    let old = tmp.path().join("old-output");
+    std::fs::write(&old, "previous run\n").unwrap();
+    let old = old.to_str().unwrap();
+    let events = events.to_str().unwrap();
+    let said = format!(
+        "the timestamps do not advance: all {frames} frames, from line 1 on, are stamped 1700000000.500000"
+    );
+    for args in [
+        vec![
+            "score-log",
+            "--log",
+            log,
+            "--model",
+            &m,
+            "--events-out",
+            old,
+        ],
+        vec!["decode", "--log", log, "--out", old],
+        vec![
+            "check",
+            "--log",
+            log,
+            "--events",
+            events,
+            "--model",
+            &m,
+            "--per-event-out",
+            old,
+        ],
+    ] {
+        let (code, _, stderr) = bridge(&args);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(log), "{stderr}");
+        assert!(stderr.contains(&said), "{args:?}: {stderr}");
+        assert_eq!(std::fs::read_to_string(old).unwrap(), "previous run\n");
+    }
+    // One snapshot (every track updated once at one time) costs nothing and is scored.
+    let snapshot: String = frozen.lines().take(5).map(|l| format!("{l}\n")).collect();
+    let one = tmp.path().join("snapshot.log");
+    std::fs::write(&one, snapshot).unwrap();
+    let (code, _, stderr) = bridge(&["score-log", "--log", one.to_str().unwrap(), "--model", &m]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!stderr.contains("do not advance"), "{stderr}");
+}
+
+#[test]
 fn an_empty_log_is_refused_as_empty_with_no_log_segment() {
     // Before: "1 log segments" in the summary and "no CAN data frame (the log has no frame
     // line)". An empty log is a failed capture or a wrong path, so it stays an error (exit 1,

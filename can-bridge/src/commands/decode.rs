@@ -3,8 +3,8 @@
 //! report. This is how a user checks a map's signs, offsets and units (docs/can-bridge.md).
 use super::args::DecodeArgs;
 use super::setup::{
-    engine_config, load_map, print_inputs, refuse_empty_log, refuse_nothing_scored, scoring_inputs,
-    summary,
+    engine_config, load_map, print_inputs, refuse_empty_log, refuse_nothing_scored,
+    refuse_stuck_timestamps, scoring_inputs, summary,
 };
 use super::{writing, Failure, InputError};
 use crate::cli_values::is_std_stream;
@@ -103,6 +103,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     // The reasons first: a log nothing could be read from says why, line by line.
     losses::print_lost(&args.log, &report, &losses);
     refuse_empty_log(&args.log, &report)?;
+    refuse_stuck_timestamps(&args.log, &report, engine.stats())?;
     refuse_nothing_scored(engine.stats(), "decode", report.bad_lines())?;
     losses::verdict(&args.log, &report, &losses, args.loss.max_lost)?;
     if let Some(f) = file {

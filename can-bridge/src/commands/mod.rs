@@ -88,6 +88,9 @@ pub enum InputError {
     },
     #[error(transparent)]
     Lost(#[from] TooMuchLost),
+    /// Every frame of the log carries one timestamp (`drive.log: the timestamps do not advance...`).
+    #[error("{0}")]
+    StuckTimestamps(String),
     /// Frames came in but none was a message the map reads: the wrong DBC, map or bus names.
     #[error("{0}")]
     NothingMapped(String),

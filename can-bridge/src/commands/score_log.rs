@@ -2,7 +2,7 @@
 //! warning events, warning frames, losses and (with `--bench`) throughput and latency.
 use super::setup::{
     creating, engine_config, load_map, open_events, print_inputs, refuse_empty_log,
-    refuse_nothing_scored, scoring_inputs, summary, unsent_note,
+    refuse_nothing_scored, refuse_stuck_timestamps, scoring_inputs, summary, unsent_note,
 };
 use super::{writing, Failure, InputError, ScoreLogArgs, SetupError};
 use crate::cli_values::is_std_stream;
@@ -109,6 +109,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     // The reasons first: a log nothing could be read from says why, line by line.
     losses::print_lost(&args.log, &report, &losses);
     refuse_empty_log(&args.log, &report)?;
+    refuse_stuck_timestamps(&args.log, &report, stats)?;
     refuse_nothing_scored(stats, "score-log", report.bad_lines())?;
     if args.bench {
         eprintln!(

@@ -346,6 +346,15 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
     )))
 }
 
+/// `--log` as a message names it (`-`: standard input).
+fn log_name(path: &Path) -> String {
+    if is_std_stream(path) {
+        "standard input (--log -)".to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
 /// Offline commands: a log without one line (blank lines aside) is an error that says so and
 /// names the log (`--log -`: standard input): a failed capture, a wrong path or a producer that
 /// wrote nothing, never "no warnings".
@@ -356,11 +365,7 @@ pub fn refuse_empty_log(
     if report.frames > 0 || report.bad_lines() > 0 {
         return Ok(());
     }
-    let name = if is_std_stream(path) {
-        "standard input (--log -)".to_string()
-    } else {
-        path.display().to_string()
-    };
+    let name = log_name(path);
     let blank = match report.blank {
         0 => String::new(),
         n => format!(" ({n} blank lines)"),
@@ -368,6 +373,22 @@ pub fn refuse_empty_log(
     Err(super::Failure::Input(super::InputError::NothingMapped(
         format!("nothing was scored: {name} holds no frames: the log is empty{blank}"),
     )))
+}
+
+/// Offline commands: a log whose frames all carry one timestamp, which dropped track updates as
+/// duplicates, is an error naming the log and its first frame's line
+/// ([`crate::logfile::LogReport::stuck_timestamps`]); the outputs are not written.
+pub fn refuse_stuck_timestamps(
+    path: &Path,
+    report: &crate::logfile::LogReport,
+    stats: &Stats,
+) -> Result<(), super::Failure> {
+    match report.stuck_timestamps(stats.duplicates, stats.scored) {
+        Some(m) => Err(super::Failure::Input(super::InputError::StuckTimestamps(
+            format!("{}: {m}", log_name(path)),
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// Offline commands: a log with no mapped message is an error (its outputs are not written); one
