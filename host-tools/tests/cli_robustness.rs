@@ -678,6 +678,37 @@ fn evaluate_trajectory_event_help_says_what_it_takes() {
     );
 }
 
+/// A DRL trained on a small folder carries a training domain its own training frames mostly lie
+/// outside (a geometry cell counts only where 5 training sequences reached it): 61 % of a
+/// 30-event folder's frames, which its guard scores with the kinematic fallback instead of the
+/// network. train said nothing of it; it now warns with the share.
+#[test]
+fn train_on_a_small_folder_warns_that_the_domain_leaves_most_frames_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate_mix(dir.path(), "small", "30", "70,110,130");
+    let out = dir.path().join("run");
+    let o = riskctl(&[
+        "train",
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let warning = err
+        .lines()
+        .find(|l| l.contains("lie outside the training domain it carries"))
+        .unwrap_or_else(|| panic!("no warning: {err}"));
+    assert!(
+        warning.starts_with("riskctl: warning: drl.rsk: ")
+            && warning.contains("training frames (")
+            && warning.contains("kinematic fallback"),
+        "{warning}"
+    );
+}
+
 #[test]
 fn augmenting_a_folder_with_itself_is_refused() {
     // It trained, repeating the events as a "simulation" source and carrying the validation

@@ -112,6 +112,9 @@ pub fn train_and_export(
             Some(msra_terms.as_slice()),
         )?;
         warnings.extend(guarded.warning(name));
+        if name == drl_rsk {
+            warnings.extend(outside_share_warning(name, &guarded, trained_on));
+        }
         contents.push((dir.join(name), guarded.bytes));
     }
     // The five files are one output: all new or all old.
@@ -128,4 +131,34 @@ pub fn train_and_export(
         },
         files,
     ))
+}
+
+/// Share of a model's training frames outside the domain it carries above which training warns:
+/// the full default folder leaves 8 % of its frames outside, a 30-event one 61 %.
+const OUTSIDE_SHARE_WARNING: f64 = 0.25;
+
+/// A warning when more than [`OUTSIDE_SHARE_WARNING`] of the frames a guarded model was trained
+/// on lie outside the training domain it carries: there its score is the kinematic fallback's,
+/// not the network's. A small folder does that (a geometry cell counts only where at least 5
+/// training sequences reached it), and nothing else would tell the user who trained it.
+fn outside_share_warning(
+    name: &str,
+    guarded: &export::GuardedBlob,
+    trained_on: &[Sequence],
+) -> Option<String> {
+    let inside = guarded.fallback.as_ref()?.frames;
+    let total: usize = trained_on.iter().map(|s| s.frames.len()).sum();
+    let outside = total.saturating_sub(inside);
+    let share = outside as f64 / total.max(1) as f64;
+    (share > OUTSIDE_SHARE_WARNING).then(|| {
+        format!(
+            "{name}: {outside} of its {total} training frames ({:.0} %) lie outside the training \
+             domain it carries (a geometry cell counts only where at least 5 training sequences \
+             reached it, and {} sequences reach few): there it scores with its kinematic \
+             fallback, not the network (riskctl evaluate lists the share outside); train on more \
+             events, or choose another [guard] policy (docs/domain-guard.md)",
+            100.0 * share,
+            trained_on.len()
+        )
+    })
 }
