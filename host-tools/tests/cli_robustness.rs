@@ -612,6 +612,13 @@ fn inspect_model_says_a_checkpoint_is_not_a_blob_and_how_to_export_it() {
         assert!(err.contains("it is a training checkpoint"), "{err}");
         assert!(err.contains("riskctl export-model"), "{err}");
     }
+    // Saved again with a UTF-8 byte-order mark (export-model reads it): still named.
+    let bom = dir.path().join("bom.json");
+    let mut bytes = b"\xEF\xBB\xBF".to_vec();
+    bytes.extend(std::fs::read(run.join("drl.json")).unwrap());
+    std::fs::write(&bom, bytes).unwrap();
+    let err = common::stderr(&riskctl(&["inspect-model", bom.to_str().unwrap()]));
+    assert!(err.contains("it is a training checkpoint"), "{err}");
     // A blob is still inspected.
     let o = riskctl(&["inspect-model", run.join("drl.rsk").to_str().unwrap()]);
     assert!(o.status.success(), "{}", common::stderr(&o));

@@ -102,6 +102,8 @@ impl ModelFile {
 /// is exported from.
 fn looks_like_checkpoint(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
+    // A UTF-8 byte-order mark (saved again by a Windows editor) is not part of the JSON.
+    let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
     head.trim_ascii_start().starts_with(b"{")
         && head
             .windows(b"\"riskscore-checkpoint\"".len())
@@ -198,6 +200,13 @@ mod tests {
                 && err.contains(&format!("riskctl export-model {} --out", file.display())),
             "{err}"
         );
+        // With a UTF-8 byte-order mark in front (export-model reads it) it is still one.
+        let mut bom = b"\xEF\xBB\xBF".to_vec();
+        bom.extend(std::fs::read(&file).unwrap());
+        std::fs::write(&file, bom).unwrap();
+        let f = ModelFile::read(&file.display().to_string()).unwrap();
+        let err = named_models(std::slice::from_ref(&f)).unwrap_err();
+        assert!(matches!(err, ModelFileError::Checkpoint { .. }), "{err}");
         // Other JSON is still a plain decode error.
         std::fs::write(&file, "{\"format\": \"something else\"}").unwrap();
         let f = ModelFile::read(&file.display().to_string()).unwrap();

@@ -16,7 +16,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let blob = std::fs::read(&args.file)
         .with_context(|| format!("{}: cannot read", args.file.display()))?;
     // A training checkpoint (JSON) is not a blob: say what it is and how to get the blob.
-    if blob.trim_ascii_start().starts_with(b"{")
+    let json = blob.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&blob);
+    if json.trim_ascii_start().starts_with(b"{")
         && riskscore_train::export::Checkpoint::load(&args.file).is_ok()
     {
         anyhow::bail!(
