@@ -197,6 +197,57 @@ fn calibrate_dash_writes_the_blob_to_standard_output_and_the_summary_to_stderr()
     ok(p, &["inspect-model", "piped.rsk"]);
 }
 
+/// `export-model --out -` wrote a file named `-` (and its summary on standard output), though
+/// `-` is standard output for every command that writes one file; now the blob is the stream,
+/// byte for byte what `--out FILE` writes, and the summary goes to stderr.
+#[test]
+fn export_model_dash_writes_the_blob_to_standard_output_and_the_summary_to_stderr() {
+    let d = scratch();
+    let p = d.path();
+    std::fs::write(
+        p.join("tiny.toml"),
+        "[comparisons.temporal]\npairs = 100\n[comparisons.cross_sequence]\npairs = 100\n\
+         [comparisons.physics]\npairs = 50\n[optimiser]\nmax_epochs = 2\n[drl]\nhidden = [8]\n",
+    )
+    .unwrap();
+    ok(
+        p,
+        &[
+            "train",
+            "--events",
+            "sim",
+            "--config",
+            "tiny.toml",
+            "--out",
+            "run",
+            "--quiet",
+        ],
+    );
+    for checkpoint in ["run/drl.json", "run/msra.json"] {
+        let file = ok(p, &["export-model", checkpoint, "--out", "x.rsk"]);
+        assert!(
+            text(&file.stdout).contains(&format!("{checkpoint} (")),
+            "{}",
+            text(&file.stdout)
+        );
+        let blob = std::fs::read(p.join("x.rsk")).unwrap();
+        let before = tree(p);
+        let o = ok(p, &["export-model", checkpoint, "--out", "-"]);
+        assert!(
+            o.stdout == blob,
+            "{checkpoint}: standard output differs from --out FILE"
+        );
+        let stderr = text(&o.stderr);
+        assert!(
+            stderr.contains(&format!("-> standard output ({} bytes)", blob.len()))
+                && stderr.contains("RSKM"),
+            "{stderr}"
+        );
+        assert!(!p.join("-").exists(), "a file named - was created");
+        assert_eq!(tree(p), before, "files appeared or changed");
+    }
+}
+
 #[test]
 fn a_missing_parent_folder_is_created_for_files_folders_and_event_folders() {
     let d = scratch();

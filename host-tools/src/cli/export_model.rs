@@ -30,7 +30,8 @@ pub struct Args {
     /// The checkpoint as an option (the older spelling; same as the positional CHECKPOINT).
     #[arg(long, value_name = "CHECKPOINT", conflicts_with = "file")]
     pub checkpoint: Option<PathBuf>,
-    /// Output blob (conventionally `*.rsk`).
+    /// Output blob (conventionally `*.rsk`); `-` writes the blob to standard output (the summary
+    /// then goes to stderr).
     #[arg(long)]
     pub out: PathBuf,
     /// Export DRL as the f32 network instead of int8. An MSRA blob is always f32: for an MSRA
@@ -49,9 +50,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .or(args.checkpoint)
         .context("no checkpoint given")?;
     super::output::refuse(&[("CHECKPOINT", &checkpoint)], &[("--out", &args.out)])?;
+    // `-` (or another name of standard output) streams the blob, as `calibrate --out -` does;
+    // there is no file there to protect.
+    let to_stdout = super::output::is_stdout(&args.out);
     // A checkpoint at --out (the other model's, `export-model run/drl.json --out run/msra.json`)
     // holds trained parameters no export can give back: a blob over it would lose a training run.
-    if std::fs::metadata(&args.out).is_ok_and(|m| m.is_file())
+    if !to_stdout
+        && std::fs::metadata(&args.out).is_ok_and(|m| m.is_file())
         && Checkpoint::load(&args.out).is_ok()
     {
         anyhow::bail!(
@@ -62,8 +67,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     // What the old blob carries that a checkpoint cannot give (it holds no data).
-    let lost = std::fs::read(&args.out)
-        .ok()
+    let lost = (!to_stdout)
+        .then(|| std::fs::read(&args.out).ok())
+        .flatten()
         .and_then(|old| lost_records(&old));
     if let (Some((lost, how)), false) = (&lost, args.replace_calibrated) {
         anyhow::bail!(
@@ -89,7 +95,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot export", checkpoint.display()))?;
     let summary = export::inspect(&blob)
         .map_err(|e| anyhow::anyhow!("the written blob does not decode: {e}"))?;
-    export::write_blob(&args.out, &blob)?;
+    // Through the output layer: a file is renamed into place whole, `-` is standard output.
+    super::output::write_file_atomically(&args.out, &blob)?;
     if let Some((lost, how)) = lost {
         eprintln!(
             "riskctl: warning: --replace-calibrated: {} held {lost}; the new blob has none: \
@@ -97,14 +104,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    outln!(
+    // On stderr when the blob is on standard output, so the stream is the blob alone.
+    summaryln!(
+        &args.out,
         "{} ({}) -> {} ({} bytes)",
         checkpoint.display(),
         ck.kind_name(),
-        args.out.display(),
+        super::output::output_name(&args.out),
         blob.len()
     );
-    out!("{summary}");
+    super::output::summary(&args.out, format_args!("{summary}"));
     Ok(())
 }
 
