@@ -248,6 +248,33 @@ fn export_model_dash_writes_the_blob_to_standard_output_and_the_summary_to_stder
     }
 }
 
+/// `gssm fit --out -` (and `align`, `msra`) wrote a file named `-`, its summary on standard
+/// output; the model now goes to standard output, byte for byte what `--out FILE` writes, and the
+/// summary to stderr.
+#[test]
+fn gssm_fit_dash_writes_the_model_to_standard_output_and_the_summary_to_stderr() {
+    let d = scratch();
+    let p = d.path();
+    let fit = |out: &str| ok(p, &["gssm", "fit", "--events", "sim", "--out", out]);
+    let file = fit("g.rsk");
+    assert!(
+        text(&file.stdout).contains("GSSM "),
+        "{}",
+        text(&file.stdout)
+    );
+    let blob = std::fs::read(p.join("g.rsk")).unwrap();
+    let before = tree(p);
+    let o = fit("-");
+    assert!(o.stdout == blob, "standard output differs from --out FILE");
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("GSSM ") && stderr.contains("wrote standard output"),
+        "{stderr}"
+    );
+    assert!(!p.join("-").exists(), "a file named - was created");
+    assert_eq!(tree(p), before, "files appeared or changed");
+}
+
 #[test]
 fn a_missing_parent_folder_is_created_for_files_folders_and_event_folders() {
     let d = scratch();

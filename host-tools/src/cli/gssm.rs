@@ -254,9 +254,15 @@ fn read_gssm(path: &Path) -> anyhow::Result<GssmParams> {
     Ok(params)
 }
 
+/// Writes a model through the output layer: a file replaced whole, `-` (or another name of
+/// standard output) the blob streamed there, as every command that writes one file does.
 fn write(path: &Path, blob: &[u8]) -> anyhow::Result<()> {
-    write_blob(path, blob)?;
-    eprintln!("riskctl: wrote {} ({} bytes)", path.display(), blob.len());
+    super::output::write_file_atomically(path, blob)?;
+    eprintln!(
+        "riskctl: wrote {} ({} bytes)",
+        super::output::output_name(path),
+        blob.len()
+    );
     Ok(())
 }
 
@@ -319,7 +325,9 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
         &gcfg.fit,
         progress(),
     )?;
-    outln!(
+    // On stderr when the model goes to standard output (`--out -`).
+    summaryln!(
+        &a.out,
         "GSSM {}: {} safe observations ({} validation), {} epochs (best {}), NLL train {:.4} validation {}",
         g.params.shape(),
         g.report.observations,
@@ -343,7 +351,8 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
     let seqs = load_all(&a.common.events)?;
     let prepared = prepare_comparisons(&seqs, None, &cfg);
     let s = align_ssra(&gssm, &prepared, &cfg, &gcfg.ssra, progress())?;
-    outln!(
+    summaryln!(
+        &a.out,
         "SSRA: {} pairs, {} epochs (best {}), validation objective {} -> {}{}",
         s.report.pairs,
         s.report.epochs,
@@ -381,7 +390,8 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
         gcfg.msra.learning_rate,
         progress(),
     )?;
-    print_weights(&msra_row_name(&kinds), &m.params.weights());
+    let table = weights_table(&msra_row_name(&kinds), &m.params.weights());
+    super::output::summary(&a.out, format_args!("{table}"));
     write(&a.out, &m.params.blob()?)
 }
 
