@@ -7,11 +7,11 @@
 //! - [`state`]: the kinematic state of one road user ([`VehicleState`]).
 //! - [`geometry`]: oriented boxes and the exact box-to-box distance.
 //! - [`interaction`]: the geometry of a pair (following, adjacent, crossing, oncoming).
-//! - [`features`]: the 13 observation features of an ego/partner pair.
+//! - [`mod@features`]: the 13 observation features of an ego/partner pair.
 //! - [`encoding`]: the DRL input encoding (versioned, trig-free transform of the two states).
 //! - [`geometry_cell`]: bearing, relative heading and distance band of a pair, from its DRL inputs.
 //! - [`observation`]: features + surrogates + DRL inputs of a pair, computed once ([`Observation`]).
-//! - [`surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
+//! - [`mod@surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
 //! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
 //! - [`msra`]: the multi-surrogate risk aggregation `R = sum_k w_k sigmoid(a_k g_k(f_k) + b_k)`.

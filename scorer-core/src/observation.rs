@@ -20,8 +20,8 @@ pub struct Observation {
 }
 
 impl Observation {
-    /// The observation of the pair (`ego`, `partner`): [`features()`], [`surrogates()`] and
-    /// [`crate::drl_inputs()`] (which reuses the surrogates' box distance, the same number).
+    /// The observation of the pair (`ego`, `partner`): [`crate::features()`], [`crate::surrogates()`]
+    /// and [`crate::drl_inputs()`] (which reuses the surrogates' box distance, the same number).
     pub fn of(ego: &VehicleState, partner: &VehicleState) -> Self {
         // Each heading is normalised once for all three parts.
         let (heading_ego, heading_partner) = (unit_heading(ego), unit_heading(partner));

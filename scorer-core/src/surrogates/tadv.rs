@@ -1,4 +1,4 @@
-//! Time advantage (Laureshyn et al. 2010, https://doi.org/10.1016/j.aap.2010.03.021), with the
+//! Time advantage (Laureshyn et al. 2010, <https://doi.org/10.1016/j.aap.2010.03.021>), with the
 //! conventions of the reference implementation (Jiao, "SSMsOnPlane").
 //!
 //! Crossing motion: for each of the 16 (ego corner `a`, partner corner `b`) pairs, the rays

@@ -1,4 +1,4 @@
-//! Two-dimensional time-to-collision (Guo et al. 2023, https://doi.org/10.1016/j.aap.2023.107063),
+//! Two-dimensional time-to-collision (Guo et al. 2023, <https://doi.org/10.1016/j.aap.2023.107063>),
 //! with the conventions of the reference implementation (Jiao, "A fast calculation of 2D TTC").
 //!
 //! The follower `f` is the ego unless the partner's centre lies behind the ego along the ego's
