@@ -1,0 +1,300 @@
+//! The user guides against the code: every `riskctl` flag a guide shows exists in that
+//! (sub)command's `--help`, every relative link between the guides reaches a file and, with
+//! `#anchor`, a heading of it, and the configuration block of docs/gssm.md is the built-in
+//! default. A reader follows the guides literally; a renamed flag or heading must take the guide
+//! with it.
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use common::riskctl;
+
+/// The guides checked here (README.md and the docs pages a user reads to run `riskctl`).
+const GUIDES: [&str; 13] = [
+    "README.md",
+    "docs/benchmarks.md",
+    "docs/domain-guard.md",
+    "docs/domain.md",
+    "docs/evaluation.md",
+    "docs/event-format.md",
+    "docs/fuzzing.md",
+    "docs/glossary.md",
+    "docs/gssm.md",
+    "docs/outputs.md",
+    "docs/real-data.md",
+    "docs/scale.md",
+    "docs/training.md",
+];
+
+/// `riskctl`'s subcommands; the value lists the sub-subcommands of those that have them.
+const SUBCOMMANDS: [(&str, &[&str]); 19] = [
+    ("ssm", &[]),
+    ("simulate", &[]),
+    ("train", &[]),
+    ("evaluate", &[]),
+    ("score", &[]),
+    ("ablation", &[]),
+    ("export-model", &[]),
+    ("inspect-model", &[]),
+    ("calibrate", &[]),
+    ("calibrate-domain", &[]),
+    ("plot", &[]),
+    ("roadside-passes", &[]),
+    (
+        "gssm",
+        &["fit", "align", "msra", "ship", "cv", "augmentation", "nll"],
+    ),
+    ("import", &["commonroad"]),
+    ("events-to-candump", &[]),
+    ("demo", &[]),
+    ("benchmark", &["transfer", "domains"]),
+    ("completions", &[]),
+    ("man", &[]),
+];
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn read(rel: &str) -> String {
+    std::fs::read_to_string(repo().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// The guide as logical lines: a line ending in `\` continues on the next, and an inline code
+/// span (single backticks) that wraps is one line; fenced blocks are kept line by line.
+fn logical_lines(text: &str) -> Vec<(usize, String)> {
+    let mut out = Vec::new();
+    let mut fenced = false;
+    let mut current = String::new();
+    let mut start = 0;
+    let mut in_span = false;
+    for (i, line) in text.lines().enumerate() {
+        if line.trim_start().starts_with("```") {
+            if !current.is_empty() {
+                out.push((start, std::mem::take(&mut current)));
+            }
+            fenced = !fenced;
+            in_span = false;
+            continue;
+        }
+        if current.is_empty() {
+            start = i + 1;
+        }
+        let (body, continued) = match line.trim_end().strip_suffix('\\') {
+            Some(b) => (b, true),
+            None => (line, false),
+        };
+        current.push_str(body);
+        if !fenced {
+            in_span ^= body.matches('`').count() % 2 == 1;
+        }
+        if continued || (in_span && !fenced) {
+            current.push(' ');
+        } else {
+            out.push((start, std::mem::take(&mut current)));
+        }
+    }
+    if !current.is_empty() {
+        out.push((start, current));
+    }
+    out
+}
+
+/// One command a guide shows: the (sub)command paths it may mean and the flags it uses.
+struct Shown {
+    line: usize,
+    paths: Vec<Vec<String>>,
+    flags: Vec<String>,
+}
+
+fn shown_commands(text: &str) -> Vec<Shown> {
+    let mut shown = Vec::new();
+    for (line, logical) in logical_lines(text) {
+        let mut rest = logical.as_str();
+        while let Some(at) = rest.find("riskctl ") {
+            let before = rest[..at].chars().last();
+            let after = &rest[at + "riskctl ".len()..];
+            rest = after;
+            if before.is_some_and(|c| c.is_alphanumeric() || c == '-' || c == '_') {
+                continue;
+            }
+            // The command ends at a comment, a pipe, the end of its code span or of its clause.
+            let end = ["`", " #", " | ", ";", "(", ")", ", ", ": "]
+                .iter()
+                .filter_map(|t| after.find(t))
+                .min()
+                .unwrap_or(after.len());
+            let mut words = after[..end].split_whitespace();
+            let Some(top) = words.next() else { continue };
+            let Some((_, subs)) = SUBCOMMANDS.iter().find(|(name, _)| *name == top) else {
+                continue;
+            };
+            let mut words: Vec<&str> = words.collect();
+            let paths: Vec<Vec<String>> = if subs.is_empty() {
+                vec![vec![top.to_owned()]]
+            } else {
+                let named: Vec<&str> = words
+                    .first()
+                    .map(|w| w.split('|').filter(|s| subs.contains(s)).collect())
+                    .unwrap_or_default();
+                if named.is_empty() {
+                    // `riskctl gssm ... --normal DIR`: any of its subcommands.
+                    subs.iter()
+                        .map(|s| vec![top.to_owned(), (*s).to_owned()])
+                        .collect()
+                } else {
+                    words.remove(0);
+                    named
+                        .iter()
+                        .map(|s| vec![top.to_owned(), (*s).to_owned()])
+                        .collect()
+                }
+            };
+            let flags = words
+                .iter()
+                .filter_map(|w| w.trim_start_matches('[').strip_prefix("--"))
+                .filter(|w| w.starts_with(|c: char| c.is_ascii_lowercase()))
+                .map(|w| {
+                    let name: String = w
+                        .chars()
+                        .take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '-')
+                        .collect();
+                    format!("--{}", name.trim_end_matches('-'))
+                })
+                .collect();
+            shown.push(Shown { line, paths, flags });
+        }
+    }
+    shown
+}
+
+/// Whether `help` names `flag` as a whole word (`--out` is not found in `--out-dir`).
+fn names_flag(help: &str, flag: &str) -> bool {
+    let word = |c: char| c.is_ascii_alphanumeric() || c == '-';
+    help.match_indices(flag).any(|(i, _)| {
+        let before = help[..i].chars().last();
+        let after = help[i + flag.len()..].chars().next();
+        !before.is_some_and(word) && !after.is_some_and(word)
+    })
+}
+
+#[test]
+fn every_riskctl_flag_a_guide_shows_exists() {
+    let mut helps: BTreeMap<Vec<String>, String> = BTreeMap::new();
+    let mut missing = Vec::new();
+    let mut checked = 0;
+    for guide in GUIDES {
+        for shown in shown_commands(&read(guide)) {
+            for flag in &shown.flags {
+                checked += 1;
+                let known = shown.paths.iter().any(|path| {
+                    let help = helps.entry(path.clone()).or_insert_with(|| {
+                        let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+                        args.push("--help");
+                        let out = riskctl(&args);
+                        assert!(out.status.success(), "riskctl {args:?} failed");
+                        String::from_utf8_lossy(&out.stdout).into_owned()
+                    });
+                    names_flag(help, flag)
+                });
+                if !known {
+                    missing.push(format!(
+                        "{guide}:{}: riskctl {} has no {flag}",
+                        shown.line,
+                        shown.paths[0].join(" ")
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        checked > 200,
+        "only {checked} flags found: is the parser still right?"
+    );
+    assert!(
+        missing.is_empty(),
+        "flags the guides show but riskctl lacks:\n{}",
+        missing.join("\n")
+    );
+}
+
+/// GitHub's anchor of a heading: lower case, spaces to `-`, punctuation other than `-`/`_` dropped.
+fn anchor(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter_map(|c| match c {
+            ' ' => Some('-'),
+            c if c.is_alphanumeric() || c == '-' || c == '_' => Some(c),
+            _ => None,
+        })
+        .collect()
+}
+
+fn anchors(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let mut fenced = false;
+    let mut out = Vec::new();
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+        } else if !fenced && line.starts_with('#') {
+            out.push(anchor(line.trim_start_matches('#')));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_relative_link_of_a_guide_reaches_its_file_and_heading() {
+    let mut broken = Vec::new();
+    for guide in GUIDES {
+        let text = read(guide);
+        let dir = repo().join(guide).parent().unwrap().to_path_buf();
+        for (n, line) in text.lines().enumerate() {
+            for (i, _) in line.match_indices("](") {
+                let target = &line[i + 2..];
+                let Some(end) = target.find(')') else {
+                    continue;
+                };
+                let target = &target[..end];
+                if target.contains("://") || target.starts_with("mailto:") {
+                    continue;
+                }
+                let (file, anchor) = match target.split_once('#') {
+                    Some((f, a)) => (f, Some(a)),
+                    None => (target, None),
+                };
+                let path = if file.is_empty() {
+                    repo().join(guide)
+                } else {
+                    dir.join(file)
+                };
+                if !path.exists() {
+                    broken.push(format!("{guide}:{}: {target}: no such file", n + 1));
+                } else if let Some(a) = anchor {
+                    let markdown = file.is_empty() || file.ends_with(".md");
+                    if markdown && !anchors(&path).iter().any(|h| h == a) {
+                        broken.push(format!("{guide}:{}: {target}: no such heading", n + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn the_gssm_configuration_block_of_docs_gssm_md_is_the_default() {
+    let text = read("docs/gssm.md");
+    let start = text
+        .find("```toml\n")
+        .expect("docs/gssm.md has a toml block")
+        + 8;
+    let block = &text[start..start + text[start..].find("```").unwrap()];
+    let parsed = riskscore_train::gssm::GssmConfig::from_toml(block, "docs/gssm.md")
+        .unwrap_or_else(|e| panic!("docs/gssm.md's configuration does not parse: {e}"));
+    assert_eq!(parsed, riskscore_train::gssm::GssmConfig::default());
+}
