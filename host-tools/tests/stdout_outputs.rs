@@ -275,6 +275,57 @@ fn gssm_fit_dash_writes_the_model_to_standard_output_and_the_summary_to_stderr()
     assert_eq!(tree(p), before, "files appeared or changed");
 }
 
+/// `gssm cv --out -` wrote cv.json into a file named `-` (`riskctl: wrote -`); cv.json now goes
+/// to standard output, what `--out FILE` writes (but for the runs' timings), and the report to
+/// stderr.
+#[test]
+fn gssm_cv_dash_writes_cv_json_to_standard_output_and_the_report_to_stderr() {
+    let d = scratch();
+    let p = d.path();
+    let cv = |out: &str| {
+        ok(
+            p,
+            &[
+                "gssm", "cv", "--events", "sim", "--folds", "2", "--out", out,
+            ],
+        )
+    };
+    let file = cv("cv.json");
+    let report = text(&file.stdout);
+    assert!(report.contains("| Method |"), "{report}");
+    let json = std::fs::read(p.join("cv.json")).unwrap();
+    let before = tree(p);
+    let o = cv("-");
+    // The same JSON but for the runs' timings ("seconds").
+    fn untimed(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.remove("seconds");
+                m.values_mut().for_each(untimed);
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(untimed),
+            _ => {}
+        }
+    }
+    let mut streamed: serde_json::Value = serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|e| panic!("standard output is no JSON ({e}):\n{}", text(&o.stdout)));
+    let mut written: serde_json::Value = serde_json::from_slice(&json).unwrap();
+    untimed(&mut streamed);
+    untimed(&mut written);
+    assert!(
+        streamed == written,
+        "standard output differs from --out FILE"
+    );
+    assert!(streamed.get("folds").is_some(), "{streamed}");
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains(&report) && stderr.contains("wrote standard output"),
+        "{stderr}"
+    );
+    assert!(!p.join("-").exists(), "a file named - was created");
+    assert_eq!(tree(p), before, "files appeared or changed");
+}
+
 #[test]
 fn a_missing_parent_folder_is_created_for_files_folders_and_event_folders() {
     let d = scratch();

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use riskscore_data::events::Sequence;
-use riskscore_train::export::write_blob;
 use riskscore_train::gssm::fit::nll_by_speed_band;
 use riskscore_train::gssm::msra::{parse_configuration, row_name as msra_row_name};
 use riskscore_train::gssm::ship::{ship, SHIPPED_FILES, SUMMARY_FILE};
@@ -152,7 +151,8 @@ pub struct CvArgs {
     /// Print JSON instead of Markdown.
     #[arg(long)]
     pub json: bool,
-    /// Also write cv.json (report, folds, per-fold details) here.
+    /// Also write cv.json (report, folds, per-fold details) here; `-` writes it to standard
+    /// output, and the report then goes to stderr.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// MSRA blob whose TTC2D/TAdv/EI terms every fold's GSSM and SSRA hand over to outside the
@@ -487,37 +487,41 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
     for warning in &result.warnings {
         eprintln!("riskctl: warning: {warning}");
     }
+    // The report is the summary: on stderr when cv.json goes to standard output (`--out -`), so
+    // the stream there is exactly the JSON `--out FILE` writes.
+    let mut report = String::new();
     if a.json {
-        outln!(
-            "{}",
+        report = format!(
+            "{}\n",
             serde_json::to_string_pretty(&result.report.to_json())?
         );
     } else {
-        out!("{}", result.report.to_markdown());
-        outln!();
+        report.push_str(&result.report.to_markdown());
+        report.push('\n');
         for (name, ws) in mean_weights(&result.details) {
-            print_weights(&format!("{name} (mean over runs)"), &ws);
-            outln!();
+            report.push_str(&weights_table(&format!("{name} (mean over runs)"), &ws));
+            report.push('\n');
         }
         let kept = result
             .details
             .iter()
             .filter(|d| d.ssra_kept_initial)
             .count();
-        outln!(
-            "SSRA kept the unaligned GSSM in {kept} of {} runs (no fine-tuned epoch beat it on validation).",
+        report.push_str(&format!(
+            "SSRA kept the unaligned GSSM in {kept} of {} runs (no fine-tuned epoch beat it on validation).\n",
             result.details.len()
-        );
+        ));
+    }
+    match &a.out {
+        Some(out) => super::output::summary(out, format_args!("{report}")),
+        None => out!("{report}"),
     }
     if let Some(out) = &a.out {
-        write_blob(
-            out,
-            serde_json::to_string_pretty(&serde_json::json!({
-                "report": result.report.to_json(), "folds": result.folds, "details": result.details,
-            }))?
-            .as_bytes(),
-        )?;
-        eprintln!("riskctl: wrote {}", out.display());
+        let json = serde_json::to_string_pretty(&serde_json::json!({
+            "report": result.report.to_json(), "folds": result.folds, "details": result.details,
+        }))?;
+        // A file replaced whole, `-` (or another name of standard output) streamed there.
+        write(out, format!("{json}\n").as_bytes())?;
     }
     Ok(())
 }
