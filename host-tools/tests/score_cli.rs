@@ -223,3 +223,59 @@ fn a_bad_model_file_is_named() {
     assert!(err.contains("bogus.rsk"), "{err}");
     assert!(!dir.path().join("x.csv").exists());
 }
+
+/// `score --out FILE` replaced a model blob or a training checkpoint that was not one of the
+/// `--model` files (`--out run/msra.rsk` for `run/msra.csv`) with the score table; both are
+/// refused, named, and left as they are. A table from an earlier run is still replaced.
+#[test]
+fn an_out_that_is_a_model_blob_or_a_checkpoint_is_refused_and_left_as_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let blob = dir.path().join("msra.rsk");
+    std::fs::copy(model("msra-default.rsk"), &blob).unwrap();
+    let checkpoint = dir.path().join("drl.json");
+    std::fs::write(
+        &checkpoint,
+        "{\n  \"format\": \"riskscore-checkpoint\",\n  \"version\": 3,\n  \"model\": {}\n}\n",
+    )
+    .unwrap();
+    let drl = model("drl-default.rsk");
+    let score = |out: &Path| {
+        riskctl(&[
+            "score",
+            "--model",
+            drl.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    for (out, what) in [
+        (&blob, "it is a model blob"),
+        (&checkpoint, "it is a training checkpoint"),
+    ] {
+        let before = std::fs::read(out).unwrap();
+        let o = score(out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains(&format!("--out {}: {what}", out.display()))
+                && err.contains("left as it is"),
+            "{err}"
+        );
+        assert_eq!(
+            std::fs::read(out).unwrap(),
+            before,
+            "{} changed",
+            out.display()
+        );
+    }
+    let table = dir.path().join("scores.csv");
+    std::fs::write(&table, "an earlier table\n").unwrap();
+    let o = score(&table);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read_to_string(&table)
+        .unwrap()
+        .starts_with("event_id,"));
+}

@@ -97,11 +97,35 @@ impl ModelFile {
     }
 }
 
+/// What a file of a user's models is, told from its first bytes ([`model_file_kind`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelFileKind {
+    /// A model blob (`*.rsk`): it starts with the blob magic, whether or not it decodes.
+    Blob,
+    /// A training checkpoint (`drl.json`, `msra.json`, the JSON `riskctl train` writes).
+    Checkpoint,
+}
+
+/// How many leading bytes of a file [`model_file_kind`] reads (more are ignored).
+pub const KIND_HEAD_BYTES: usize = 4096;
+
+/// What the file starting with `head` is, if it is a model blob or a training checkpoint; `None`
+/// for anything else. `head`: the file's first [`KIND_HEAD_BYTES`] bytes (or all, if fewer).
+pub fn model_file_kind(head: &[u8]) -> Option<ModelFileKind> {
+    if head.starts_with(&scorer_core::model::MAGIC) {
+        Some(ModelFileKind::Blob)
+    } else if looks_like_checkpoint(head) {
+        Some(ModelFileKind::Checkpoint)
+    } else {
+        None
+    }
+}
+
 /// A JSON object that names the training checkpoint format (`"format": "riskscore-checkpoint"`,
 /// `riskscore_train::export::CHECKPOINT_FORMAT`) near its start: not a blob, but the file a blob
 /// is exported from.
 fn looks_like_checkpoint(bytes: &[u8]) -> bool {
-    let head = &bytes[..bytes.len().min(4096)];
+    let head = &bytes[..bytes.len().min(KIND_HEAD_BYTES)];
     // A UTF-8 byte-order mark (saved again by a Windows editor) is not part of the JSON.
     let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
     head.trim_ascii_start().starts_with(b"{")

@@ -173,6 +173,38 @@ pub fn refuse_overwriting_inputs(
     Ok(())
 }
 
+/// Refuses an output file `out` (given with `flag`) that holds a user's model: a model blob or a
+/// training checkpoint ([`riskscore_eval::model_files::model_file_kind`], from its first bytes).
+/// A table written over it would lose the model (`score --out run/drl.rsk`, one tab completion
+/// from `run/drl.csv`), and a model is never an output of the commands that call this.
+pub fn refuse_overwriting_a_model(flag: &str, out: &Path, writes: &str) -> anyhow::Result<()> {
+    use riskscore_eval::model_files::{model_file_kind, ModelFileKind, KIND_HEAD_BYTES};
+    use std::io::Read;
+    // Only a regular file can be replaced (`-`, a pipe, a device are written into).
+    if is_stdout(out) || !std::fs::metadata(out).is_ok_and(|m| m.is_file()) {
+        return Ok(());
+    }
+    let mut head = Vec::with_capacity(KIND_HEAD_BYTES);
+    let read = std::fs::File::open(out)
+        .and_then(|f| f.take(KIND_HEAD_BYTES as u64).read_to_end(&mut head));
+    if read.is_err() {
+        // Not readable: the write says why it cannot replace the file either.
+        return Ok(());
+    }
+    let what = match model_file_kind(&head) {
+        None => return Ok(()),
+        Some(ModelFileKind::Blob) => "a model blob",
+        Some(ModelFileKind::Checkpoint) => {
+            "a training checkpoint (the JSON `riskctl train` writes)"
+        }
+    };
+    anyhow::bail!(
+        "{flag} {}: it is {what}, not {writes}: writing there would replace the model; \
+         it is left as it is. Give {flag} another name",
+        out.display()
+    )
+}
+
 /// How a refused run's message names an output it did not write: "OUT left as it was" when it
 /// exists, "OUT not created" when it does not.
 pub fn left_alone(out: &Path) -> String {

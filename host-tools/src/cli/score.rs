@@ -34,6 +34,7 @@ evaluation sequences are (the windows `riskctl evaluate` scores: docs/evaluation
 
 An output path ending in .parquet is written as Apache Parquet (event_id and class strings,
 time Float64, scores and surrogates Float32); anything else as CSV ('-' = standard output).
+An --out that is a model blob or a training checkpoint is refused and left as it is.
 Problems in the event folder are listed on stderr; the valid events are still scored.
 
 Memory: with --out FILE the folder is read and scored one event at a time, so memory is one
@@ -100,6 +101,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let methods = named_models(&files)?;
     let dir = &args.events;
     super::output::refuse_overwriting_inputs(&files, dir, &[("--out", &args.out)])?;
+    // A model of the user's that is not one of the --model files (`--out run/msra.rsk`).
+    super::output::refuse_overwriting_a_model("--out", &args.out, "a score table")?;
     let parquet = is_parquet(&args.out);
 
     let mut scored = None;
