@@ -20,6 +20,53 @@
 //! - [`crc`]: CRC-32 used by the model blob header.
 //! - [`domain`]: the guard: is an observation inside the model's training domain; guarded scores.
 //! - [`model`]: the model blob format (header + postcard payload), decoding without allocation.
+//!
+//! # Scoring as deployed, from Rust firmware
+//!
+//! Decode the blob once with [`decode_blob`] (it borrows the weights: keep the blob in flash or a
+//! `static`), score each ego/partner pair through the blob's training-domain guard with
+//! [`ModelBlob::score_pair_guarded`], and feed the score to a [`TrackTable`] with the blob's own
+//! threshold ([`ModelBlob::default_threshold`]). [`decode`] and [`Model::score`] skip the guard:
+//! for the shipped blobs, which all carry a training-domain record, that is not the deployed score.
+//!
+//! ```
+//! use scorer_core::warning::WarningEvent;
+//! use scorer_core::{decode_blob, ModelError, TrackTable, VehicleState, WarningConfig};
+//!
+//! // On the ECU: `static DRL: &[u8] = include_bytes!(...)` in flash.
+//! let blob_bytes: &[u8] = include_bytes!("../../models/drl-default.rsk");
+//! let blob = decode_blob(blob_bytes)?; // header, CRC, payload, records, validation
+//! let threshold = blob.default_threshold(); // the calibrated 2.876 of the shipped DRL
+//!
+//! // SI units, one world frame, box centres, unit heading; velocity over ground.
+//! let car = |x: f32, vx: f32| VehicleState {
+//!     x, y: 0.0, vx, vy: 0.0, hx: 1.0, hy: 0.0, acc: 0.0, length: 4.5, width: 1.8,
+//! };
+//! let ego = car(0.0, 25.0);
+//!
+//! // Live mode: release 0.05 below the threshold after 0.5 s on; drop tracks silent for 1 s.
+//! let config = WarningConfig::live(threshold, 0.05, 500_000, 1_000_000);
+//! let mut tracks = TrackTable::<32>::new(config).expect("a finite threshold is valid");
+//!
+//! let mut onset_at = None;
+//! for frame in 0..60u64 {
+//!     let now_us = frame * 100_000; // 10 Hz, monotonic microseconds
+//!     // A partner 150 m ahead at 5 m/s: the gap closes at 20 m/s (to 32 m at the last frame).
+//!     let partner = car(150.0 - 2.0 * frame as f32, 5.0);
+//!     let guarded = blob.score_pair_guarded(&ego, &partner);
+//!     assert!(guarded.score.is_finite()); // always, NaN/inf states included
+//!     let status = tracks.update(7, now_us, guarded.score).expect("valid update");
+//!     if status.event == WarningEvent::Onset {
+//!         onset_at.get_or_insert(frame);
+//!     }
+//! }
+//! // Not at once (at 145 m the guarded score is below the threshold), but before the gap is gone.
+//! assert!(matches!(onset_at, Some(frame) if frame > 0));
+//!
+//! // Bad bytes are a typed error, never a panic.
+//! assert_eq!(decode_blob(&blob_bytes[..10]), Err(ModelError::Truncated { needed: 20, available: 10 }));
+//! # Ok::<(), ModelError>(())
+//! ```
 #![no_std]
 #![forbid(unsafe_code)]
 #![cfg_attr(
@@ -62,7 +109,7 @@ pub use surrogates::{ei, surrogates, tadv, ttc2d, SurrogateKind, Surrogates};
 pub use domain::Guarded;
 pub use gssm::{GssmModel, GssmScore};
 pub use mlp::{FloatMlp, QuantMlp};
-pub use model::{decode, encode, Model, ModelError, ModelKind};
+pub use model::{decode, decode_blob, encode, Model, ModelBlob, ModelError, ModelKind};
 pub use msra::{MsraModel, MsraTerm};
 pub use observation::Observation;
-pub use warning::{FirstThreshold, TrackTable, WarningConfig};
+pub use warning::{FirstThreshold, TrackTable, WarningConfig, WarningError};
