@@ -298,3 +298,95 @@ fn the_gssm_configuration_block_of_docs_gssm_md_is_the_default() {
         .unwrap_or_else(|e| panic!("docs/gssm.md's configuration does not parse: {e}"));
     assert_eq!(parsed, riskscore_train::gssm::GssmConfig::default());
 }
+
+/// The configuration keys a guide names in code spans (`optimiser.learning_rate`,
+/// `[comparisons.physics] lane_shift`, `fit.batch`), as dotted paths.
+fn named_config_keys(text: &str) -> Vec<(usize, String)> {
+    const SECTIONS: [&str; 9] = [
+        "comparisons",
+        "objective",
+        "optimiser",
+        "drl",
+        "msra",
+        "quantisation",
+        "guard",
+        "fit",
+        "ssra",
+    ];
+    const FILE_ENDINGS: [&str; 6] = ["rsk", "json", "csv", "md", "toml", "rs"];
+    let mut keys = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        for span in line.split('`').skip(1).step_by(2) {
+            let path = if let Some(inner) = span.strip_prefix('[') {
+                let Some((section, rest)) = inner.split_once(']') else {
+                    continue;
+                };
+                let key = rest.split(['=', ' ']).find(|w| !w.is_empty()).unwrap_or("");
+                if key.is_empty() {
+                    section.to_owned()
+                } else {
+                    format!("{section}.{key}")
+                }
+            } else {
+                span.split(['=', ' ']).next().unwrap_or("").to_owned()
+            };
+            let parts: Vec<&str> = path.split('.').collect();
+            let plausible = parts.len() >= 2 || span.starts_with('[');
+            let well_formed = parts.iter().all(|p| {
+                !p.is_empty()
+                    && p.chars()
+                        .all(|c| c.is_ascii_lowercase() || c == '_' || c == '*')
+            });
+            if plausible
+                && well_formed
+                && SECTIONS.contains(&parts[0])
+                && !FILE_ENDINGS.contains(parts.last().unwrap())
+            {
+                keys.push((n + 1, path));
+            }
+        }
+    }
+    keys
+}
+
+/// Whether the dotted `path` (with `*` for any table) names a key of `value`.
+fn has_key(value: &serde_json::Value, path: &[&str]) -> bool {
+    let Some((first, rest)) = path.split_first() else {
+        return true;
+    };
+    let serde_json::Value::Object(map) = value else {
+        return false;
+    };
+    if *first == "*" {
+        map.values().any(|v| has_key(v, rest))
+    } else {
+        map.get(*first).is_some_and(|v| has_key(v, rest))
+    }
+}
+
+#[test]
+fn every_configuration_key_a_guide_names_exists() {
+    let train = serde_json::to_value(riskscore_train::train::TrainConfig::default()).unwrap();
+    let gssm = serde_json::to_value(riskscore_train::gssm::GssmConfig::default()).unwrap();
+    let mut unknown = Vec::new();
+    let mut checked = 0;
+    for guide in GUIDES {
+        for (line, key) in named_config_keys(&read(guide)) {
+            checked += 1;
+            let path: Vec<&str> = key.split('.').collect();
+            if !has_key(&train, &path) && !has_key(&gssm, &path) {
+                unknown.push(format!("{guide}:{line}: `{key}`"));
+            }
+        }
+    }
+    assert!(
+        checked > 20,
+        "only {checked} keys found: is the parser still right?"
+    );
+    assert!(
+        unknown.is_empty(),
+        "configuration keys the guides name but neither configs/train.toml's nor the GSSM \
+         configuration's parser knows:\n{}",
+        unknown.join("\n")
+    );
+}
