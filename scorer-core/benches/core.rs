@@ -1,12 +1,13 @@
 //! Per-observation cost of the core on the host: features, each surrogate, all of them at once (what
-//! `riskctl ssm` computes per pair), the int8 and f32 DRL networks, MSRA and a warning-table update.
+//! `riskctl ssm` computes per pair), the int8 and f32 DRL networks, MSRA, each pipeline unguarded
+//! (`Model::score`) and as deployed (`ModelBlob::score_pair_guarded`), and a warning-table update.
 //! Inputs are the golden configurations (a realistic mix of conflicts and non-conflicts). Models:
 //! the shipped `models/*.rsk` when present, else a synthetic 13-32-16-1 network with the same
 //! structure (printed at start).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use scorer_core::model::{decode, encode, Model};
+use scorer_core::model::{decode, decode_blob, encode, Model};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use scorer_core::warning::{TrackTable, WarningConfig};
 use scorer_core::{ei, features, tadv, ttc2d, SurrogateKind, VehicleState};
@@ -158,6 +159,10 @@ fn bench_core(c: &mut Criterion) {
     let msra_blob = shipped_or_synthetic("msra-default.rsk", synthetic_msra);
     let drl = decode(&drl_blob).expect("drl model");
     let msra = decode(&msra_blob).expect("msra model");
+    // As deployed: through each blob's training-domain guard (for the shipped DRL, the blend
+    // with its kinematic fallback inside the domain).
+    let drl_guarded = decode_blob(&drl_blob).expect("drl blob");
+    let msra_guarded = decode_blob(&msra_blob).expect("msra blob");
     let observations: Vec<_> = pairs
         .iter()
         .map(|(e, p)| scorer_core::Observation::of(e, p))
@@ -242,6 +247,20 @@ fn bench_core(c: &mut Criterion) {
         b.iter(|| {
             for (e, p) in &pairs {
                 black_box(msra.score(black_box(e), black_box(p)));
+            }
+        })
+    });
+    g.bench_function("drl_guarded_pair", |b| {
+        b.iter(|| {
+            for (e, p) in &pairs {
+                black_box(drl_guarded.score_pair_guarded(black_box(e), black_box(p)));
+            }
+        })
+    });
+    g.bench_function("msra_guarded_pair", |b| {
+        b.iter(|| {
+            for (e, p) in &pairs {
+                black_box(msra_guarded.score_pair_guarded(black_box(e), black_box(p)));
             }
         })
     });
