@@ -228,6 +228,35 @@ fn wait_until(deadline: Instant) {
     }
 }
 
+/// Most blank bytes [`leading_blank`] reads off a log looking for its first other byte.
+const BLANK_PEEK: usize = 1 << 20;
+
+/// Reads the ASCII whitespace that starts `reader` (up to [`BLANK_PEEK`] bytes, pipes included):
+/// those bytes, and whether the reader ended after them (an empty log, or blank lines only).
+fn leading_blank(reader: &mut impl std::io::BufRead) -> std::io::Result<(Vec<u8>, bool)> {
+    let mut blank = Vec::new();
+    loop {
+        let buf = match reader.fill_buf() {
+            Ok(buf) => buf,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if buf.is_empty() {
+            return Ok((blank, true));
+        }
+        let n = buf
+            .iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .unwrap_or(buf.len());
+        let found = n < buf.len();
+        blank.extend_from_slice(&buf[..n]);
+        reader.consume(n);
+        if found || blank.len() >= BLANK_PEEK {
+            return Ok((blank, false));
+        }
+    }
+}
+
 /// Opens a send-only socket on `iface`.
 fn open_sender(iface: &str) -> Result<socketcan::CanFdSocket, SocketError> {
     let sock = socket::open(iface)?;
@@ -250,7 +279,19 @@ pub fn replay(log: &Path, ifaces: &[String], rate: Rate) -> Result<ReplaySummary
         cause,
     };
     let file = std::fs::File::open(log).map_err(read_err)?;
-    let reader = std::io::BufReader::with_capacity(1 << 20, file);
+    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+    // An empty log (no byte but blank lines) is refused by the caller before a socket is opened:
+    // its summary counts no frame and no bad line.
+    let (blank, ended) = leading_blank(&mut reader).map_err(read_err)?;
+    if ended {
+        let log = for_each_frame_in(std::io::Cursor::new(blank), |_, _| {}).map_err(read_err)?;
+        return Ok(ReplaySummary {
+            log,
+            ..ReplaySummary::default()
+        });
+    }
+    // The blank bytes read off go first again, so the lines keep their numbers.
+    let reader = std::io::Read::chain(std::io::Cursor::new(blank), reader);
     let socks = ifaces
         .iter()
         .map(|i| open_sender(i))

@@ -220,6 +220,32 @@ fn an_empty_log_is_refused_as_empty_with_no_log_segment() {
     );
 }
 
+/// `replay` of an empty log said "0 frames sent" and exited 0 (once the interface opened); it is
+/// refused as score-log and check refuse it, exit 1, before any socket is opened: the interface
+/// here does not exist, and is never named.
+#[test]
+fn replay_refuses_an_empty_log_before_opening_the_interface() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, text, blank) in [
+        ("empty.log", "", ""),
+        ("blank.log", "\n \n\r\n", " (3 blank lines)"),
+    ] {
+        let log = tmp.path().join(name);
+        std::fs::write(&log, text).unwrap();
+        let log = log.to_str().unwrap();
+        let (code, _, stderr) = bridge(&["replay", "--log", log, "--iface", "nosuchcan9"]);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "nothing was sent: {log} holds no frames: the log is empty{blank}"
+            )),
+            "{stderr}"
+        );
+        assert!(!stderr.contains("nosuchcan9"), "{stderr}");
+        assert!(!stderr.contains("frames sent"), "{stderr}");
+    }
+}
+
 #[test]
 fn interface_names_no_candump_line_can_carry_are_refused_naming_the_flag() {
     let set = common::simulated_events(1, 2);

@@ -1,8 +1,8 @@
 //! The SocketCAN subcommands: `live` (score an interface), `monitor` (check the warning frames on
 //! one) and `replay` (play a log onto one).
 use super::setup::{
-    creating, engine_config, load_map, nothing_scored, open_events, print_inputs, scoring_inputs,
-    summary, unsent_note, NothingScored,
+    creating, engine_config, load_map, nothing_scored, open_events, print_inputs, refuse_empty_log,
+    scoring_inputs, summary, unsent_note, NothingScored,
 };
 use super::{writing, Failure, InputError, LiveArgs, MonitorArgs, ReplayArgs, ScoringArgs};
 use crate::engine::Engine;
@@ -115,6 +115,9 @@ pub fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
 pub fn run_replay(args: ReplayArgs) -> Result<(), Failure> {
     match replay::replay(&args.log, &args.iface, args.rate) {
         Ok(s) => {
+            // An empty log is refused as score-log and check refuse it (no socket was opened for
+            // one): a failed capture or a wrong path, never "0 frames sent".
+            refuse_empty_log(&args.log, &s.log, "sent")?;
             eprintln!(
                 "replay: {} frames sent in {:.3} s ({} log segments), {} not sent, {} bad lines, max lateness {:.3} ms",
                 s.sent,

@@ -102,7 +102,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     problems.sanity.print("decode");
     // The reasons first: a log nothing could be read from says why, line by line.
     losses::print_lost(&args.log, &report, &losses);
-    refuse_empty_log(&args.log, &report)?;
+    refuse_empty_log(&args.log, &report, "scored")?;
     refuse_stuck_timestamps(&args.log, &report, engine.stats())?;
     refuse_nothing_scored(engine.stats(), "decode", report.bad_lines())?;
     losses::verdict(&args.log, &report, &losses, args.loss.max_lost)?;

@@ -108,7 +108,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     problems.sanity.print("score-log");
     // The reasons first: a log nothing could be read from says why, line by line.
     losses::print_lost(&args.log, &report, &losses);
-    refuse_empty_log(&args.log, &report)?;
+    refuse_empty_log(&args.log, &report, "scored")?;
     refuse_stuck_timestamps(&args.log, &report, stats)?;
     refuse_nothing_scored(stats, "score-log", report.bad_lines())?;
     if args.bench {

@@ -355,12 +355,14 @@ fn log_name(path: &Path) -> String {
     }
 }
 
-/// Offline commands: a log without one line (blank lines aside) is an error that says so and
-/// names the log (`--log -`: standard input): a failed capture, a wrong path or a producer that
-/// wrote nothing, never "no warnings".
+/// Offline commands and `replay`: a log without one line (blank lines aside) is an error that
+/// says so and names the log (`--log -`: standard input): a failed capture, a wrong path or a
+/// producer that wrote nothing, never "no warnings" (or "0 frames sent"). `done`: what did not
+/// happen, "scored" or "sent".
 pub fn refuse_empty_log(
     path: &Path,
     report: &crate::logfile::LogReport,
+    done: &str,
 ) -> Result<(), super::Failure> {
     if report.frames > 0 || report.bad_lines() > 0 {
         return Ok(());
@@ -371,7 +373,7 @@ pub fn refuse_empty_log(
         n => format!(" ({n} blank lines)"),
     };
     Err(super::Failure::Input(super::InputError::NothingMapped(
-        format!("nothing was scored: {name} holds no frames: the log is empty{blank}"),
+        format!("nothing was {done}: {name} holds no frames: the log is empty{blank}"),
     )))
 }
 
