@@ -9,7 +9,10 @@ use core::fmt;
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum ModelError {
-    /// The blob ends before the header or the declared payload does.
+    /// The blob ends before the header or the declared payload does (`needed`, `available`: bytes
+    /// of the whole blob), or, inside a version-2 payload whose length and CRC are right, a
+    /// metadata record declares a body longer than what follows its length varint (`needed`: the
+    /// declared body length, `available`: the payload bytes left after the varint).
     Truncated { needed: usize, available: usize },
     /// The first four bytes are not [`MAGIC`](crate::model::MAGIC).
     BadMagic([u8; 4]),
@@ -85,7 +88,7 @@ pub enum ModelError {
         reason: &'static str,
     },
     /// The training-domain record names an outside policy this build does not know (the first
-    /// body byte; `0` flag-only, `1` clamp and `2` fallback are known).
+    /// body byte; `0` flag-only, `1` clamp, `2` fallback and `3` blend are known).
     UnknownOutsidePolicy(u8),
     /// Term `term` of the kinematic-fallback record is unusable: an unknown or GSSM surrogate,
     /// or a parameter that [`MsraTerm::validate`](crate::msra::MsraTerm::validate) refuses.

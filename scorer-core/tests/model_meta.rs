@@ -113,10 +113,15 @@ fn bad_records_are_refused() {
     // A length past the end.
     let mut long = good.clone();
     long[1] += 1;
-    assert!(matches!(
+    // Record-relative sizes (docs/model-format.md, step 5): the declared body, the bytes after the
+    // one-byte length varint.
+    assert_eq!(
         model::decode_blob(&blob_with_records(&long)),
-        Err(ModelError::Truncated { .. })
-    ));
+        Err(ModelError::Truncated {
+            needed: usize::from(long[1]),
+            available: long.len() - 2,
+        })
+    );
     // A body longer than the struct.
     let mut padded = good.clone();
     padded[1] += 1;
