@@ -390,3 +390,69 @@ fn every_configuration_key_a_guide_names_exists() {
         unknown.join("\n")
     );
 }
+
+/// The backticked names in the first cell of every row of the first table after `heading`.
+fn first_column_of_table_after(text: &str, heading: &str) -> Vec<String> {
+    let start = text
+        .find(heading)
+        .unwrap_or_else(|| panic!("no {heading:?}"));
+    let mut names = Vec::new();
+    let mut in_table = false;
+    for line in text[start..].lines().skip(1) {
+        if !line.starts_with('|') {
+            if in_table {
+                break;
+            }
+            continue;
+        }
+        in_table = true;
+        let cell = line.split('|').nth(1).unwrap_or("");
+        names.extend(cell.split('`').skip(1).step_by(2).map(str::to_owned));
+    }
+    names
+}
+
+#[test]
+fn the_sequences_out_columns_of_docs_evaluation_md_are_the_written_ones() {
+    let text = read("docs/evaluation.md");
+    let documented = first_column_of_table_after(&text, "**Per-sequence rows**");
+    assert_eq!(documented, riskscore_train::domains::sequences::COLUMNS);
+    let claims = format!("`round,{}`", riskscore_eval::claims::CSV_COLUMNS.join(","));
+    assert!(
+        text.contains(&claims),
+        "docs/evaluation.md does not give claims.csv's columns as {claims}"
+    );
+}
+
+#[test]
+fn the_events_csv_columns_of_docs_event_format_md_are_the_written_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let run = riskctl(&["simulate", "--events", "3", "--out", out.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    let header: Vec<&str> = events.lines().next().unwrap().split(',').collect();
+    let guide = read("docs/event-format.md");
+    let documented = first_column_of_table_after(&guide, "## `events.csv`");
+    assert_eq!(documented, header);
+
+    // scenarios.csv as `riskctl simulate` and `riskctl import commonroad` write it.
+    let imported = dir.path().join("real");
+    let scenarios = repo().join("host-tools/tests/data/commonroad");
+    let run = riskctl(&[
+        "import",
+        "commonroad",
+        "--out",
+        imported.to_str().unwrap(),
+        scenarios.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    for folder in [&out, &imported] {
+        let provenance = std::fs::read_to_string(folder.join("scenarios.csv")).unwrap();
+        let header = format!("`{}`", provenance.lines().next().unwrap());
+        assert!(
+            guide.contains(&header),
+            "docs/event-format.md does not give scenarios.csv's columns as {header}"
+        );
+    }
+}
