@@ -393,6 +393,48 @@ fn a_dbc_bus_longer_than_an_interface_name_is_refused_naming_the_option_and_the_
     assert!(!stderr.contains("No such file"), "{stderr}");
 }
 
+/// A map's `[bus]` name was not checked (a 17-byte bus bound files no interface could carry);
+/// it is refused when the map is loaded, naming the map, the key's line and the limit, as
+/// `--dbc BUS=FILE` refuses it.
+#[test]
+fn a_map_bus_longer_than_an_interface_name_is_refused_naming_the_map_line_and_the_limit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, "").unwrap();
+    let map = tmp.path().join("long-bus.toml");
+    let text = format!(
+        "{}\n[bus]\ncan0 = [\"builtin:riskscore\"]\ncanbus-powertrain = [\"builtin:riskscore\"]\n",
+        can_bridge::map::DEFAULT_MAP
+    );
+    std::fs::write(&map, &text).unwrap();
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("canbus-powertrain"))
+        .unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--map")
+        .arg(&map)
+        .arg("--model")
+        .arg(write_model(tmp.path()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("map {}", map.display())),
+        "{stderr}"
+    );
+    assert!(stderr.contains(&format!("line {line}")), "{stderr}");
+    assert!(
+        stderr.contains(
+            "interface name `canbus-powertrain` is 17 bytes long; at most 15 (IFNAMSIZ - 1)"
+        ),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn corrupt_model_is_refused_with_exit_code_1() {
     let tmp = tempfile::tempdir().unwrap();

@@ -219,9 +219,32 @@ pub struct MapFile {
     pub partner: PartnerMap,
     pub warning: WarningMap,
     /// DBC files per bus (interface name -> files, paths relative to the map file), used when
-    /// no `--dbc` is given.
-    #[serde(default)]
+    /// no `--dbc` is given. A name no interface can have (longer than IFNAMSIZ - 1 bytes) is
+    /// refused when the map is parsed, at its line, as `--dbc BUS=FILE` refuses it.
+    #[serde(default, deserialize_with = "bus_table")]
     pub bus: BTreeMap<String, Vec<String>>,
+}
+
+/// A `[bus]` key: an interface name ([`can_codec::check_iface_name`]).
+#[derive(PartialEq, Eq, PartialOrd, Ord)]
+struct BusName(String);
+
+impl<'de> Deserialize<'de> for BusName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        can_codec::check_iface_name(&name).map_err(|e| {
+            serde::de::Error::custom(format!("[bus]: a bus is an interface name, and {e}"))
+        })?;
+        Ok(BusName(name))
+    }
+}
+
+/// The `[bus]` table, every key checked as it is read (so the error carries the key's line).
+fn bus_table<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<BTreeMap<String, Vec<String>>, D::Error> {
+    let table = BTreeMap::<BusName, Vec<String>>::deserialize(d)?;
+    Ok(table.into_iter().map(|(k, v)| (k.0, v)).collect())
 }
 
 impl MapFile {
