@@ -137,7 +137,9 @@ impl ModelBlob<'_> {
     }
 
     /// The guarded score of one pair, computing only what the model reads (the ECU's path); the
-    /// same bits as [`ModelBlob::score_guarded`] of [`Observation::of`] the pair.
+    /// same bits as [`ModelBlob::score_guarded`] of [`Observation::of`] the pair. The score is
+    /// finite for every pair of a decoded blob; it is a risk only for states the C ABI would accept
+    /// (see "Check states before scoring" on [`VehicleState`]).
     pub fn score_pair_guarded(&self, ego: &VehicleState, partner: &VehicleState) -> Guarded {
         // The surrogates only when the fallback needs them (DRL, GSSM) or the model reads them;
         // a GSSM's geometry cell only when its domain has cells.

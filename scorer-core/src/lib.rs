@@ -43,6 +43,7 @@
 //!     x, y: 0.0, vx, vy: 0.0, hx: 1.0, hy: 0.0, acc: 0.0, length: 4.5, width: 1.8,
 //! };
 //! let ego = car(0.0, 25.0);
+//! // Refuse states without a usable box first, as the C ABI does (see `VehicleState`).
 //!
 //! // Live mode: release 0.05 below the threshold after 0.5 s on; drop tracks silent for 1 s.
 //! let config = WarningConfig::live(threshold, 0.05, 500_000, 1_000_000);
