@@ -64,6 +64,11 @@
 //! // Not at once (at 145 m the guarded score is below the threshold), but before the gap is gone.
 //! assert!(matches!(onset_at, Some(frame) if frame > 0));
 //!
+//! // The unguarded score of `decode` / `Model::score` would have warned at once, 150 m away.
+//! let far = car(150.0, 5.0);
+//! assert!(blob.model.score(&ego, &far) >= threshold);
+//! assert!(blob.score_pair_guarded(&ego, &far).score < threshold);
+//!
 //! // Bad bytes are a typed error, never a panic.
 //! assert_eq!(decode_blob(&blob_bytes[..10]), Err(ModelError::Truncated { needed: 20, available: 10 }));
 //! # Ok::<(), ModelError>(())
