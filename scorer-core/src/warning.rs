@@ -332,6 +332,34 @@ pub struct TrackStatus {
 }
 
 /// Up to `N` partner tracks; no allocation.
+///
+/// The live rule of the module documentation, step by step (times in microseconds):
+///
+/// ```
+/// use scorer_core::warning::{TrackTable, WarningConfig, WarningError, WarningEvent};
+///
+/// // Warn at R >= 2.0; release below 1.9 once on for 0.5 s; a track silent for 1 s is stale.
+/// let mut table = TrackTable::<8>::new(WarningConfig::live(2.0, 0.1, 500_000, 1_000_000))?;
+/// let event = |t: &mut TrackTable<8>, now, r| t.update(7, now, r).map(|s| s.event);
+///
+/// assert_eq!(event(&mut table, 0, 1.0), Ok(WarningEvent::None));
+/// assert_eq!(event(&mut table, 100_000, 2.0), Ok(WarningEvent::Onset)); // inclusive
+/// assert_eq!(event(&mut table, 200_000, 0.0), Ok(WarningEvent::None)); // held: on for 0.1 s
+/// assert_eq!(event(&mut table, 600_000, 1.95), Ok(WarningEvent::None)); // within the hysteresis
+/// assert_eq!(event(&mut table, 600_000, 1.85), Ok(WarningEvent::Release)); // 0.5 s on, below 1.9
+/// assert!(!table.is_warning(7, 600_000));
+///
+/// // Refused, changing nothing: a NaN score, a step back in time within the stale window.
+/// assert_eq!(table.update(7, 700_000, f32::NAN), Err(WarningError::NonFiniteScore { id: 7 }));
+/// assert!(matches!(table.update(7, 500_000, 3.0), Err(WarningError::OutOfOrder { .. })));
+///
+/// // Silent for more than 1 s: never reported as warning, dropped by the next update.
+/// assert_eq!(event(&mut table, 700_000, 5.0), Ok(WarningEvent::Onset));
+/// assert!(table.is_warning(7, 1_700_000) && !table.is_warning(7, 1_700_001));
+/// let status = table.update(9, 1_700_001, 0.0)?;
+/// assert!(status.new_track && table.get(7).is_none());
+/// # Ok::<(), WarningError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct TrackTable<const N: usize> {
     config: WarningConfig,
