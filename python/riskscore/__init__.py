@@ -327,7 +327,9 @@ def write_events(
 
 
 ModelSpec = Union[PathLike, Model]
-Threshold = Union[float, str, None]
+# A number (numpy's float32 and integer scalars too, as a threshold picked from a float32 score
+# array is), "default", "none" or None.
+Threshold = Union[float, "np.floating[Any]", "np.integer[Any]", str, None]
 
 
 def _model_specs(
@@ -339,6 +341,11 @@ def _model_specs(
     none (``from_bytes``, unpickled)."""
 
     def path_of(m: ModelSpec) -> str:
+        if not isinstance(m, (str, os.PathLike, Model)):
+            raise TypeError(
+                f"models: {m!r} ({type(m).__name__}) is not a model: give a model file's path "
+                "(str or os.PathLike) or a riskscore.Model"
+            )
         if isinstance(m, Model):
             folder = tempfile.mkdtemp(dir=scratch)
             blob = os.path.join(folder, os.path.basename(m.path) if m.path else "model.rsk")
@@ -368,6 +375,12 @@ def _model_specs(
         return [f"{name}={path_of(m)}" for name, m in models.items()]
     if isinstance(models, (str, os.PathLike, Model)):
         return [path_of(models)]
+    if not isinstance(models, Iterable) or isinstance(models, (bytes, bytearray)):
+        raise TypeError(
+            f"models: expected a model file's path, a riskscore.Model, a list of them or a "
+            f"{{row name: path or Model}} dict, not {type(models).__name__} "
+            "(models=() evaluates the TTC2D, TAdv and EI baselines alone)"
+        )
     return [path_of(m) for m in models]
 
 

@@ -1,6 +1,7 @@
 # Type stubs of the extension module; the documented API is riskscore/__init__.py.
-from typing import Dict, List, Optional, Tuple, Union, final
+from typing import Any, Dict, List, Optional, Tuple, Union, final
 
+import numpy as np
 import pyarrow as pa
 
 __all__ = ["ssm", "computed_columns", "read_events", "write_events", "evaluate", "Model", "__version__"]
@@ -8,6 +9,8 @@ __all__ = ["ssm", "computed_columns", "read_events", "write_events", "evaluate",
 __version__: str
 
 _BadRows = List[Tuple[int, Optional[str], str]]
+# A threshold: a number (numpy scalars too: the extension reads any float-like), or a word.
+_Threshold = Union[float, np.floating[Any], np.integer[Any], str]
 
 def computed_columns() -> List[str]: ...
 def ssm(table: pa.Table, keep_input: bool = False) -> Tuple[pa.Table, _BadRows, int]: ...
@@ -16,8 +19,8 @@ def write_events(dir: str, events: pa.Table, frames: pa.Table, overwrite: bool =
 def evaluate(
     events: str,
     models: List[str],
-    threshold_all: Optional[Union[float, str]] = None,
-    thresholds_by_name: Dict[str, Union[float, str]] = ...,
+    threshold_all: Optional[_Threshold] = None,
+    thresholds_by_name: Dict[str, _Threshold] = ...,
     skip_bad_events: bool = False,
 ) -> Tuple[str, List[str], List[str], int]: ...
 

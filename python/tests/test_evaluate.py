@@ -136,3 +136,30 @@ def test_a_row_name_the_spec_cannot_carry_is_refused_naming_it(simulated, name):
     """Not "cannot read b=/.../drl-default.rsk" about a file the caller never named."""
     with pytest.raises(riskscore.ModelError, match=f"row name {name!r}".replace("\\", "\\\\")):
         riskscore.evaluate(simulated, {name: DRL})
+
+
+@pytest.mark.parametrize("models, named", [(None, "NoneType"), (3, "int"), (b"m.rsk", "bytes")])
+def test_models_of_the_wrong_type_say_what_is_expected(simulated, models, named):
+    """models=None raised a bare "TypeError: 'NoneType' object is not iterable"."""
+    with pytest.raises(TypeError, match=rf"models: expected a model file's path, a riskscore\.Model, "
+                                        rf"a list of them or a {{row name: path or Model}} dict, "
+                                        rf"not {named} \(models=\(\) evaluates"):
+        riskscore.evaluate(simulated, models)
+
+
+@pytest.mark.parametrize("models", [[None], [DRL, 3], {"MINE": None}])
+def test_a_model_of_the_wrong_type_in_a_list_or_dict_is_named(simulated, models):
+    with pytest.raises(TypeError, match=r"models: (None|3) \((NoneType|int)\) is not a model: give a "
+                                        r"model file's path \(str or os\.PathLike\) or a riskscore\.Model"):
+        riskscore.evaluate(simulated, models)
+
+
+def test_a_numpy_threshold_is_taken_as_a_number(simulated):
+    """np.float32 works at runtime (a threshold picked from a float32 score array is one); the
+    type hints said float only, which type checkers held against it."""
+    import numpy as np
+
+    at = riskscore.evaluate(simulated, [DRL], thresholds=2.5)["operating_points"]
+    assert riskscore.evaluate(simulated, [DRL], thresholds=np.float32(2.5))["operating_points"] == at
+    assert riskscore.evaluate(simulated, [DRL], thresholds={"DRL": np.float32(2.5)})[
+        "operating_points"] == at
