@@ -11,6 +11,9 @@ use pyo3::types::{PyBytes, PyDict};
 use rayon::prelude::*;
 use riskscore_data::ssm_csv::{PairColumns, RowError};
 use riskscore_eval::arrow_kernel::{guarded_kernel, score_kernel, KernelError};
+use riskscore_eval::model_files::{
+    model_file_kind, ModelFileError, ModelFileKind, KIND_HEAD_BYTES,
+};
 use scorer_core::model::{self, ThresholdRule, DRL_INPUT_SCHEMA};
 
 use crate::errors::{BadRow, Failure};
@@ -18,9 +21,19 @@ use crate::tables::{
     flatten_flags, flatten_scores, gather_bad, kernel_failure, locate, rows_per_task, slices,
 };
 
-/// `source` (a path, or "model bytes") is not a blob, because of `e`.
-fn invalid(source: &str, e: model::ModelError) -> Failure {
-    Failure::Model(format!("{source}: not a valid model blob: {e}"))
+/// The file `path` (`None`: bytes given to `from_bytes`) is not a blob, because of `e`. A file
+/// that is a training checkpoint (`head`: its first bytes, [`model_file_kind`]) is named as one,
+/// with the command that exports its blob, in riskctl's words ([`ModelFileError::Checkpoint`]).
+fn invalid(path: Option<&str>, head: &[u8], e: model::ModelError) -> Failure {
+    match path {
+        Some(path) if model_file_kind(head) == Some(ModelFileKind::Checkpoint) => {
+            Failure::Model(ModelFileError::Checkpoint { path: path.into() }.to_string())
+        }
+        _ => Failure::Model(format!(
+            "{}: not a valid model blob: {e}",
+            path.unwrap_or("model bytes")
+        )),
+    }
 }
 
 /// A decoded, validated model blob (`*.rsk`).
@@ -33,8 +46,7 @@ pub struct Model {
 
 impl Model {
     fn checked(bytes: Vec<u8>, path: Option<String>) -> Result<Self, Failure> {
-        let source = path.as_deref().unwrap_or("model bytes");
-        model::decode_blob(&bytes).map_err(|e| invalid(source, e))?;
+        model::decode_blob(&bytes).map_err(|e| invalid(path.as_deref(), &bytes, e))?;
         Ok(Model { bytes, path })
     }
 
@@ -98,7 +110,15 @@ impl Model {
             .map_err(read_error)?;
         match model::decode_header(&bytes) {
             Err(e) if !matches!(e, model::ModelError::Truncated { .. }) => {
-                return Err(invalid(&shown, e).into_py(py));
+                // Enough of a regular file to tell a training checkpoint (a pipe is not waited
+                // on: its header decided).
+                if file.metadata().is_ok_and(|m| m.is_file()) {
+                    (&mut file)
+                        .take((KIND_HEAD_BYTES - bytes.len()) as u64)
+                        .read_to_end(&mut bytes)
+                        .map_err(read_error)?;
+                }
+                return Err(invalid(Some(&shown), &bytes, e).into_py(py));
             }
             _ => {}
         }

@@ -82,6 +82,27 @@ def test_bad_blobs_are_refused_naming_the_file(tmp_path):
         riskscore.Model.load(tmp_path)
 
 
+@pytest.mark.parametrize("bom", [b"", b"\xef\xbb\xbf"])
+def test_a_training_checkpoint_is_named_as_riskctl_names_it(riskctl, tmp_path, bom):
+    """Model.load("run/drl.json") said 'not a model blob: magic [7b, 0a, 20, 20]'; riskctl names
+    a checkpoint and the command that exports its blob. Python now says the same words (the
+    detection and the message are riskscore-eval's, shared with riskctl)."""
+    import subprocess
+
+    checkpoint = tmp_path / "drl.json"
+    checkpoint.write_bytes(
+        bom + b'{\n  "format": "riskscore-checkpoint",\n  "version": 3,\n  "model": {}\n}\n'
+    )
+    with pytest.raises(riskscore.ModelError) as raised:
+        riskscore.Model.load(checkpoint)
+    message = str(raised.value)
+    assert "it is a training checkpoint" in message, message
+    assert f"riskctl export-model {checkpoint} --out MODEL.rsk" in message, message
+    with pytest.raises(subprocess.CalledProcessError) as cli:
+        riskctl("score", "--model", checkpoint, "--events", tmp_path, "--out", tmp_path / "s.csv")
+    assert cli.value.stderr.strip() == f"riskctl: error: {message}"
+
+
 def test_bad_rows_score_nan_and_strict_raises(ngsim_frames):
     model = riskscore.Model.load(MODELS / "drl-default.rsk")
     pairs = ngsim_frames.select(PAIR_COLUMNS).slice(0, 50).to_pandas()
