@@ -41,6 +41,9 @@ pub struct Guarded {
     pub in_domain: bool,
     /// The input index of the first range (record order) the observation is outside of, else
     /// [`GEOMETRY_INPUT`] (13) when it is inside every range but its geometry cell is not covered.
+    /// The index is into the vector the model kind reads ([`Model::domain_inputs`]): name it with
+    /// [`crate::DRL_INPUT_NAMES`] when [`Model::reads_drl_inputs`], else [`crate::FEATURE_NAMES`],
+    /// and 13 with [`GEOMETRY_INPUT_NAME`](crate::model::geometry_coverage::GEOMETRY_INPUT_NAME).
     pub first_outside: Option<u8>,
 }
 
