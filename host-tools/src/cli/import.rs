@@ -5,6 +5,7 @@ use anyhow::{bail, Context};
 use riskscore_data::events::PrepareConfig;
 use riskscore_data::import::commonroad::{
     geometry_index, import_to_dir, EgoChoice, GeometrySet, ImportSummary, InteractionRules,
+    FAR_COORDINATE_M,
 };
 use scorer_core::interaction::Geometry;
 
@@ -215,6 +216,15 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
     let ignored: Vec<String> = s.ignored.iter().map(|(k, v)| format!("{v} {k}")).collect();
     if !ignored.is_empty() {
         outln!("ignored road users: {}", ignored.join(", "));
+    }
+    if let Some((file, (x, y))) = s.moved_origins.first() {
+        outln!(
+            "positions taken relative to a local origin in {} file(s) whose coordinates reach \
+             beyond {} km (event files hold f32 positions, which would round them): e.g. {file} \
+             minus ({x}, {y}) m",
+            s.moved_origins.len(),
+            FAR_COORDINATE_M / 1000.0
+        );
     }
     if !s.issues.is_empty() {
         outln!(

@@ -31,7 +31,8 @@ pub use pairs::{
 };
 pub use provenance::{read_event_geometries, PROVENANCE_FILE};
 pub use xml::{
-    parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track, TrackState,
+    local_origin, parse_scenario, read_scenario, Ignored, Issue, Problem, Scenario, Track,
+    TrackState, FAR_COORDINATE_M,
 };
 
 /// The scenario id (file stem) an imported event comes from (the event-format convention
@@ -49,6 +50,9 @@ pub struct ImportSummary {
     pub ignored: BTreeMap<Ignored, usize>,
     /// Files or road users skipped because something is malformed (file, line, element).
     pub issues: Vec<Issue>,
+    /// Files whose coordinates reach beyond [`FAR_COORDINATE_M`], with the origin subtracted
+    /// from their positions ([`Scenario::origin`]), in file order.
+    pub moved_origins: Vec<(String, (f64, f64))>,
     pub counts: PairCounts,
     /// Smallest box gap and centre distance of every written event (m), in event order.
     pub closeness: Vec<(f32, f32)>,
@@ -180,6 +184,11 @@ pub fn import_to_dir(
         seen.insert(scenario.id.clone(), path.clone());
         summary.files += 1;
         summary.road_users += scenario.tracks.len();
+        if scenario.origin != (0.0, 0.0) {
+            summary
+                .moved_origins
+                .push((path.display().to_string(), scenario.origin));
+        }
         for (_, why) in &scenario.ignored {
             *summary.ignored.entry(why.clone()).or_default() += 1;
         }

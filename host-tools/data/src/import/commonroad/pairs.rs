@@ -588,6 +588,7 @@ mod tests {
             id: "ZAM_Rules-1_1_T-1".into(),
             version: "2020a".into(),
             dt: 0.1,
+            origin: (0.0, 0.0),
             tracks,
             ignored: Vec::new(),
             issues: Vec::new(),

@@ -262,6 +262,7 @@ mod tests {
             id: id.into(),
             version: "2020a".into(),
             dt: 0.1,
+            origin: (0.0, 0.0),
             tracks,
             ignored: Vec::new(),
             issues: Vec::new(),

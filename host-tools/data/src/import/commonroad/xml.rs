@@ -91,6 +91,9 @@ pub struct Scenario {
     pub version: String,
     /// `timeStepSize` (s).
     pub dt: f64,
+    /// Subtracted from every position of `tracks` (m): `(0, 0)` unless the file's coordinates
+    /// reach beyond [`FAR_COORDINATE_M`] (see [`local_origin`]).
+    pub origin: (f64, f64),
     pub tracks: Vec<Track>,
     /// Road users deliberately not imported, with the reason.
     pub ignored: Vec<(String, Ignored)>,
@@ -267,6 +270,7 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
         id: id.to_string(),
         version: root.attribute("commonRoadVersion").unwrap_or("").into(),
         dt,
+        origin: (0.0, 0.0),
         tracks: Vec::new(),
         ignored: Vec::new(),
         issues: Vec::new(),
@@ -304,7 +308,38 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
             Err(issue) => scenario.issues.push(issue),
         }
     }
+    scenario.origin = local_origin(&scenario.tracks);
+    let (ox, oy) = scenario.origin;
+    if (ox, oy) != (0.0, 0.0) {
+        for s in scenario.tracks.iter_mut().flat_map(|t| t.states.iter_mut()) {
+            s.x -= ox;
+            s.y -= oy;
+        }
+    }
     Ok(scenario)
+}
+
+/// Largest position coordinate (m) a scenario keeps as it is: event files and every gap computed
+/// on the way hold positions as `f32`, which resolves 100 km to 7.8 mm but a UTM northing of
+/// 5,400 km only to 0.5 m (the loader's [`crate::events::COARSE_POSITION_M`]).
+pub const FAR_COORDINATE_M: f64 = 1.0e5;
+
+/// The origin a scenario's positions are taken relative to: `(0, 0)` when every coordinate is
+/// within [`FAR_COORDINATE_M`] (the file's own frame, as recorded), else the first state of the
+/// first track rounded to whole kilometres (a UTM or other geo-referenced frame: kept as it is,
+/// two cars 0.1 m apart would be rounded into overlapping boxes).
+pub fn local_origin(tracks: &[Track]) -> (f64, f64) {
+    let far = tracks
+        .iter()
+        .flat_map(|t| &t.states)
+        .any(|s| s.x.abs() > FAR_COORDINATE_M || s.y.abs() > FAR_COORDINATE_M);
+    match tracks.iter().find_map(|t| t.states.first()) {
+        Some(s) if far => (
+            (s.x / 1000.0).round() * 1000.0,
+            (s.y / 1000.0).round() * 1000.0,
+        ),
+        _ => (0.0, 0.0),
+    }
 }
 
 /// Two obstacles of one file with the same id make every event id of their interactions

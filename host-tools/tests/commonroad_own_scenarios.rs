@@ -1,0 +1,158 @@
+//! `riskctl import commonroad` on scenarios a user brings: files from the CommonRoad dataset
+//! converters (highD, inD, ...), simulator interfaces or hand editing, which differ from the
+//! NGSIM benchmark files the committed extracts come from (geo-referenced coordinates, road users
+//! given by an initial state only, ...). The XML is built here, so every expected number follows
+//! from the text of the test.
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::Command;
+
+use riskscore_data::import::commonroad::{
+    parse_scenario, safe_interactions, InteractionRules, FAR_COORDINATE_M,
+};
+
+const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
+
+/// One recorded state: (step, x, y, orientation, speed).
+type State = (i64, f64, f64, f64, f64);
+
+fn state_xml(tag: &str, (step, x, y, orientation, speed): State) -> String {
+    format!(
+        "<{tag}><position><point><x>{x}</x><y>{y}</y></point></position>\
+         <orientation><exact>{orientation}</exact></orientation><time><exact>{step}</exact></time>\
+         <velocity><exact>{speed}</exact></velocity>\
+         <acceleration><exact>0</exact></acceleration></{tag}>\n"
+    )
+}
+
+/// A car (4.5 m x 1.8 m) with the given states: the first is its `<initialState>`, the rest its
+/// `<trajectory>` (none: no `<trajectory>` element at all).
+fn car(id: u32, states: &[State]) -> String {
+    let mut s = format!(
+        "<dynamicObstacle id=\"{id}\"><type>car</type><shape><rectangle><length>4.5</length>\
+         <width>1.8</width></rectangle></shape>\n{}",
+        state_xml("initialState", states[0])
+    );
+    if states.len() > 1 {
+        s.push_str("<trajectory>\n");
+        for st in &states[1..] {
+            s.push_str(&state_xml("state", *st));
+        }
+        s.push_str("</trajectory>\n");
+    }
+    s.push_str("</dynamicObstacle>\n");
+    s
+}
+
+fn scenario(cars: &[String]) -> String {
+    let mut s = String::from(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<commonRoad commonRoadVersion=\"2020a\" \
+         benchmarkID=\"ZAM_Own-1_1_T-1\" timeStepSize=\"0.1\">\n",
+    );
+    for c in cars {
+        s.push_str(c);
+    }
+    let _ = writeln!(s, "</commonRoad>");
+    s
+}
+
+/// 50 states at 0.1 s of a car driving east at 10 m/s from (x0, y0).
+fn east(x0: f64, y0: f64) -> Vec<State> {
+    (0..50).map(|k| (k, x0 + k as f64, y0, 0.0, 10.0)).collect()
+}
+
+/// Two cars side by side in adjacent lanes, 0.1 m between their boxes (centres 1.9 m apart on
+/// 1.8 m wide cars, 0.5 m longitudinal offset), shifted by `(ox, oy)`.
+fn side_by_side(ox: f64, oy: f64) -> String {
+    scenario(&[
+        car(1, &east(ox, oy + 0.3)),
+        car(2, &east(ox + 0.5, oy + 2.2)),
+    ])
+}
+
+/// The same recorded traffic in a geo-referenced frame (a UTM easting and northing, as files with
+/// such coordinates have) gives the same interactions as in a local frame: positions are taken
+/// relative to a local origin before they become `f32`, which resolves a northing of 5,400 km to
+/// only 0.5 m and would round two cars 0.1 m apart into overlapping boxes (dropped as recording
+/// artefacts: nothing imported).
+#[test]
+fn utm_coordinates_are_taken_relative_to_a_local_origin() {
+    let rules = InteractionRules::default();
+    let local = parse_scenario(&side_by_side(0.0, 0.0), "local.xml", "local").unwrap();
+    assert_eq!(local.origin, (0.0, 0.0));
+    let (found_local, counts_local) = safe_interactions(&local, &rules);
+    assert_eq!(counts_local.sequences, 2);
+    assert!((found_local[0].min_gap - 0.1).abs() < 1e-4);
+
+    let utm = parse_scenario(&side_by_side(500_000.0, 5_400_000.0), "utm.xml", "utm").unwrap();
+    assert_eq!(utm.origin, (500_000.0, 5_400_000.0));
+    // Positions relative to the origin, exactly as recorded minus the origin.
+    let s0 = utm.tracks[1].states[0];
+    assert!(
+        (s0.x - 0.5).abs() < 1e-6 && (s0.y - 2.2).abs() < 1e-6,
+        "{s0:?}"
+    );
+    let (found, counts) = safe_interactions(&utm, &rules);
+    assert_eq!(counts.overlap_frames, 0, "{counts:?}");
+    assert_eq!(counts.sequences, 2, "{counts:?}");
+    for (a, b) in found.iter().zip(&found_local) {
+        assert_eq!(a.event.frames.len(), b.event.frames.len());
+        assert!(
+            (a.min_gap - b.min_gap).abs() < 1e-4,
+            "{} {}",
+            a.min_gap,
+            b.min_gap
+        );
+        // Written positions are local: within the resolution f32 keeps to the centimetre.
+        let f = &a.event.frames[0];
+        assert!(f.ego.x.abs() < 100.0 && f.ego.y.abs() < 100.0, "{f:?}");
+    }
+
+    // A file within FAR_COORDINATE_M keeps its own frame (the committed extracts).
+    let near = FAR_COORDINATE_M - 100.0;
+    let kept = parse_scenario(&side_by_side(near, 0.0), "near.xml", "near").unwrap();
+    assert_eq!(kept.origin, (0.0, 0.0));
+    assert_eq!(kept.tracks[0].states[0].x, near);
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "riskscore-own-scenarios-{name}-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The command says which files were moved and by how much, and the event folder holds the
+/// local positions.
+#[test]
+fn the_import_names_the_files_moved_to_a_local_origin() {
+    let dir = temp_dir("utm");
+    let input = dir.join("utm.xml");
+    std::fs::write(&input, side_by_side(500_000.0, 5_400_000.0)).unwrap();
+    let out = dir.join("out");
+    let o = Command::new(RISKCTL)
+        .args(["import", "commonroad", "--out"])
+        .arg(&out)
+        .arg(&input)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("local origin in 1 file(s)")
+            && stdout.contains("minus (500000, 5400000) m"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("wrote 2 safe sequences"), "{stdout}");
+    let frames = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    let first = frames.lines().nth(1).unwrap();
+    assert!(first.starts_with("utm/1-2@0#0,0,0,0.3,"), "{first}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
