@@ -3,6 +3,7 @@
 //!   any pair, NaN/inf/huge states included, through [`ModelBlob::score_pair_guarded`] to a finite
 //!   score, the same bits as [`ModelBlob::score_guarded`] of [`Observation::of`], with a flag that
 //!   agrees with the first input outside;
+//! - every shipped blob re-encodes to its own bytes;
 //! - truncated and byte-flipped shipped blobs never panic [`decode_blob`], and whatever still
 //!   decodes scores finitely;
 //! - random operation sequences on a [`TrackTable`] (any times, scores and configs that
@@ -15,7 +16,10 @@
 )]
 
 use proptest::prelude::*;
-use scorer_core::model::{decode_blob, ModelBlob, OutsidePolicy, TrainingDomain, HEADER_LEN};
+use scorer_core::model::{
+    decode_blob, encode_blob, encoded_blob_len, ModelBlob, OutsidePolicy, TrainingDomain,
+    HEADER_LEN,
+};
 use scorer_core::warning::{FullPolicy, TrackTable, WarningConfig, WarningError, WarningEvent};
 use scorer_core::{Observation, VehicleState};
 
@@ -101,6 +105,21 @@ fn road_user() -> impl Strategy<Value = VehicleState> {
                 width,
             }
         })
+}
+
+#[test]
+fn shipped_blobs_re_encode_byte_for_byte() {
+    for (name, bytes) in SHIPPED {
+        let blob = decode_blob(bytes).unwrap();
+        let mut out = vec![0u8; encoded_blob_len(&blob).unwrap()];
+        let n = encode_blob(&blob, &mut out).unwrap();
+        assert_eq!(&out[..n], bytes, "{name}");
+        assert!(blob.default_threshold().is_finite(), "{name}");
+        assert!(
+            blob.meta.training_domain.is_some(),
+            "{name}: every shipped blob is guarded"
+        );
+    }
 }
 
 /// The shipped blobs, and each blob with a domain under every outside policy (in memory: a policy
