@@ -30,6 +30,26 @@
 //!   ([`WarningError::OutOfOrder`]) and changes nothing; older by more, it restarts that track
 //!   (above); a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
 //!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score.
+//!
+//! After a time-base reset the caller should [`TrackTable::clear`] the table (or remove the
+//! tracks), as the C ABI asks of its integrators. Tracks left ahead of `now` are never reported as
+//! warning, never expired, and a warning one is never evicted: a table full of them refuses every
+//! new partner with [`WarningError::TableFull`] until the clock passes their old times, and the
+//! non-warning ones are evicted last, after the live partners.
+//!
+//! ```
+//! use scorer_core::warning::{TrackTable, WarningConfig, WarningError};
+//!
+//! let mut table = TrackTable::<2>::new(WarningConfig::live(1.0, 0.0, 0, 1_000_000))?;
+//! table.update(1, 5_000_000_000, 5.0)?; // two warnings, 5 000 s after start-up
+//! table.update(2, 5_000_000_000, 5.0)?;
+//! // The timer restarts at 0; partners 1 and 2 are gone, a new one closes in.
+//! assert_eq!(table.update(3, 100, 5.0), Err(WarningError::TableFull { id: 3 }));
+//! assert!(!table.any_warning(100));
+//! table.clear(); // on the reset
+//! assert!(table.update(3, 100, 5.0)?.warning);
+//! # Ok::<(), WarningError>(())
+//! ```
 
 use core::fmt;
 
