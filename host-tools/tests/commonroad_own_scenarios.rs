@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use riskscore_data::import::commonroad::{
-    parse_scenario, safe_interactions, InteractionRules, FAR_COORDINATE_M,
+    parse_scenario, safe_interactions, Ignored, InteractionRules, FAR_COORDINATE_M,
 };
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
@@ -155,4 +155,39 @@ fn the_import_names_the_files_moved_to_a_local_origin() {
     let first = frames.lines().nth(1).unwrap();
     assert!(first.starts_with("utm/1-2@0#0,0,0,0.3,"), "{first}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A dynamic obstacle with an `<initialState>` and no `<trajectory>` is valid CommonRoad (the
+/// prediction is optional; converters write one for a road user seen at a single step): it is
+/// ignored and counted like other road users that are not tracks, not reported as malformed.
+#[test]
+fn an_obstacle_with_only_an_initial_state_is_ignored_not_an_issue() {
+    let text = scenario(&[
+        car(1, &east(0.0, 0.0)),
+        car(2, &east(15.0, 0.0)),
+        car(3, &[(20, 40.0, 0.0, 0.0, 10.0)]),
+    ]);
+    let s = parse_scenario(&text, "own.xml", "own").unwrap();
+    assert!(s.issues.is_empty(), "{:?}", s.issues);
+    assert_eq!(s.ignored, [("3".to_string(), Ignored::InitialStateOnly)]);
+    assert_eq!(s.tracks.len(), 2);
+    assert_eq!(
+        Ignored::InitialStateOnly.to_string(),
+        "initial state only, no trajectory"
+    );
+    // Neither an initial state nor a trajectory: still a malformed road user, with its line.
+    let broken = text.replace(&state_xml("initialState", (20, 40.0, 0.0, 0.0, 10.0)), "");
+    let s = parse_scenario(&broken, "own.xml", "own").unwrap();
+    assert_eq!(s.issues.len(), 1);
+    let line = 1 + broken
+        .lines()
+        .position(|l| l.starts_with("<dynamicObstacle id=\"3\""))
+        .unwrap();
+    assert!(
+        s.issues[0].to_string().starts_with(&format!(
+            "own.xml:{line}: <dynamicObstacle id=3>: missing <trajectory>"
+        )),
+        "{}",
+        s.issues[0]
+    );
 }

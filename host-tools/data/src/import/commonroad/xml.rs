@@ -9,7 +9,8 @@
 //! Ignored (counted, never an error): `<staticObstacle>`, 2018b static obstacles,
 //! `<environmentObstacle>`, `<phantomObstacle>`, `<planningProblem>`, lanelets and traffic rules,
 //! road users of a type that is not a vehicle (pedestrian, train, unknown, …), non-rectangular
-//! shapes and obstacles with an `<occupancySet>` prediction instead of a recorded `<trajectory>`.
+//! shapes, obstacles with an `<occupancySet>` prediction instead of a recorded `<trajectory>` and
+//! obstacles with an `<initialState>` only (no prediction: the schema allows it).
 //! A malformed road user is skipped with an [`Issue`] naming the file, line, obstacle id and
 //! element; the rest of the file is still read.
 use std::path::Path;
@@ -68,6 +69,9 @@ pub enum Ignored {
     NotRectangle,
     /// An `<occupancySet>` prediction, not a recorded trajectory.
     NoTrajectory,
+    /// An `<initialState>` and no prediction at all (valid CommonRoad: the trajectory is
+    /// optional): one recorded moment, too short for any interaction.
+    InitialStateOnly,
 }
 
 impl std::fmt::Display for Ignored {
@@ -78,6 +82,7 @@ impl std::fmt::Display for Ignored {
             Ignored::Type(t) => write!(f, "type `{t}`"),
             Ignored::NotRectangle => f.write_str("shape is not one rectangle"),
             Ignored::NoTrajectory => f.write_str("occupancy set, no trajectory"),
+            Ignored::InitialStateOnly => f.write_str("initial state only, no trajectory"),
         }
     }
 }
@@ -438,6 +443,9 @@ fn read_obstacle(node: Node, dt: f64, at: &Locator) -> Result<Result<Track, Igno
     let Some(trajectory) = child(node, "trajectory") else {
         if child(node, "occupancySet").is_some() {
             return Ok(Err(Ignored::NoTrajectory));
+        }
+        if child(node, "initialState").is_some() {
+            return Ok(Err(Ignored::InitialStateOnly));
         }
         return Err(at.issue(node, "", Problem::Missing("trajectory")));
     };
