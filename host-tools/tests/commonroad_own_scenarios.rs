@@ -8,7 +8,8 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use riskscore_data::import::commonroad::{
-    parse_scenario, safe_interactions, Ignored, InteractionRules, FAR_COORDINATE_M,
+    import_to_dir, parse_scenario, safe_interactions, scenario_files, Ignored, InteractionRules,
+    Problem, FAR_COORDINATE_M,
 };
 
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
@@ -190,4 +191,54 @@ fn an_obstacle_with_only_an_initial_state_is_ignored_not_an_issue() {
         "{}",
         s.issues[0]
     );
+}
+
+/// A compressed scenario file is named with its format, whether it was given by name (any
+/// extension) or found in a folder as `*.xml.gz`, where the search used to pass over it in
+/// silence; the other files are imported.
+#[test]
+fn compressed_files_are_named_with_their_format_and_the_rest_is_imported() {
+    let dir = temp_dir("compressed");
+    let input = dir.join("in");
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::write(
+        input.join("a.xml"),
+        scenario(&[car(1, &east(0.0, 0.0)), car(2, &east(15.0, 0.0))]),
+    )
+    .unwrap();
+    // The gzip magic number and deflate method, then anything: never read as text.
+    let gzip = [
+        0x1F, 0x8B, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0xDF,
+    ];
+    std::fs::write(input.join("b.xml.gz"), gzip).unwrap();
+    std::fs::write(input.join("c.xml"), gzip).unwrap();
+    let (files, _) = scenario_files(std::slice::from_ref(&input)).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["a.xml", "b.xml.gz", "c.xml"]);
+
+    let summary = import_to_dir(
+        std::slice::from_ref(&input),
+        &dir.join("out"),
+        &InteractionRules::default(),
+    )
+    .unwrap();
+    assert_eq!(summary.files, 1);
+    assert_eq!(summary.counts.sequences, 2);
+    let issues: Vec<String> = summary.issues.iter().map(ToString::to_string).collect();
+    assert_eq!(issues.len(), 2, "{issues:?}");
+    for (issue, name) in summary.issues.iter().zip(["b.xml.gz", "c.xml"]) {
+        assert!(issue.file.ends_with(name), "{issue}");
+        assert_eq!(issue.line, 1);
+        assert_eq!(issue.problem, Problem::Compressed("gzip"), "{issue}");
+        assert!(
+            issue.to_string().ends_with(
+                ":1: gzip-compressed: decompress it first (scenario files are read as XML text)"
+            ),
+            "{issue}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

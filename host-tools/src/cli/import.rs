@@ -72,7 +72,8 @@ pub struct CommonRoadArgs {
     /// Output event folder (created; existing event files are replaced).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Scenario files and folders (searched recursively for *.xml).
+    /// Scenario files and folders (searched recursively for *.xml). Compressed files
+    /// (*.xml.gz, ...) are named and skipped: decompress them first.
     #[arg(value_name = "FILE_OR_DIR", required = true)]
     pub inputs: Vec<PathBuf>,
     /// Largest gap between the two boxes for a step to count as near (m).

@@ -60,7 +60,8 @@ pub struct ImportSummary {
 }
 
 /// The scenario files named by `inputs`: files as given, folders searched recursively for
-/// `*.xml`, each folder's entries in name order, symbolic links followed.
+/// `*.xml` (and compressed `*.xml.gz`, ..., which reading refuses with the format), each
+/// folder's entries in name order, symbolic links followed.
 ///
 /// Each real file is listed once and each real folder searched once (compared by device and
 /// inode), so a link back up the tree cannot make the search endless, and a file reached by a
@@ -133,9 +134,18 @@ impl Search {
     }
 }
 
+/// `*.xml`, and compressed `*.xml.gz` (`.xz`, `.bz2`, `.zst`, `.zip`): listed so that reading
+/// them reports the compression instead of the search passing them over in silence.
 fn is_xml(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    [
+        ".xml", ".xml.gz", ".xml.xz", ".xml.bz2", ".xml.zst", ".xml.zip",
+    ]
+    .iter()
+    .any(|ext| name.ends_with(ext))
 }
 
 /// Imports every scenario of `inputs` (files or folders) into the event folder `out`.

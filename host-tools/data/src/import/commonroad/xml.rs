@@ -150,6 +150,8 @@ pub enum Problem {
         "encoding {0:?} is not supported (UTF-8 and ISO-8859-1 are): convert the file to UTF-8"
     )]
     Encoding(String),
+    #[error("{0}-compressed: decompress it first (scenario files are read as XML text)")]
+    Compressed(&'static str),
 }
 
 /// A problem, located: `file:line: <dynamicObstacle id=42> <state> #3 <velocity>: missing <exact>`.
@@ -176,12 +178,31 @@ pub fn read_scenario(path: &Path) -> Result<Scenario, Issue> {
         problem,
     };
     let bytes = std::fs::read(path).map_err(|e| file_issue(1, Problem::Io(e.to_string())))?;
+    if let Some(format) = compression(&bytes) {
+        return Err(file_issue(1, Problem::Compressed(format)));
+    }
     let text = decode(bytes).map_err(|(line, problem)| file_issue(line, problem))?;
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| name.clone());
     parse_scenario(&text, &name, &stem)
+}
+
+/// The compression format whose magic number `bytes` start with (gzip, zip, xz, bzip2, zstd),
+/// if any: such a file is not XML text, and naming the format says what to do.
+pub(crate) fn compression(bytes: &[u8]) -> Option<&'static str> {
+    const MAGIC: [(&[u8], &str); 5] = [
+        (b"\x1F\x8B", "gzip"),
+        (b"PK\x03\x04", "zip"),
+        (b"\xFD7zXZ\x00", "xz"),
+        (b"BZh", "bzip2"),
+        (b"\x28\xB5\x2F\xFD", "zstd"),
+    ];
+    MAGIC
+        .iter()
+        .find(|(magic, _)| bytes.starts_with(magic))
+        .map(|(_, name)| *name)
 }
 
 /// The text of an XML file: UTF-8 (a byte-order mark is dropped by the parser), or ISO-8859-1
