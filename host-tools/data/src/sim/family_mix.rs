@@ -69,6 +69,8 @@ pub enum FamilyMixError {
     Duplicate { text: String, name: String },
     #[error("families `{text}`: no family named")]
     Empty { text: String },
+    #[error("families `{text}`: the weights add up to more than the largest number ({max:e})")]
+    WeightsOverflow { text: String, max: f64 },
 }
 
 impl FamilyMix {
@@ -170,6 +172,13 @@ impl std::str::FromStr for FamilyMix {
         if weights.is_empty() {
             return Err(FamilyMixError::Empty { text: text.into() });
         }
+        // The draw takes a uniform number below the total: an infinite total panics there.
+        if !weights.iter().map(|(_, w)| w).sum::<f64>().is_finite() {
+            return Err(FamilyMixError::WeightsOverflow {
+                text: text.into(),
+                max: f64::MAX,
+            });
+        }
         Ok(Self {
             name: text.into(),
             weights,
@@ -221,6 +230,13 @@ mod tests {
             " , ".parse::<FamilyMix>(),
             Err(FamilyMixError::Empty { .. })
         ));
+        assert!(matches!(
+            "motorway_approach:1e308,signal_queue:1e308".parse::<FamilyMix>(),
+            Err(FamilyMixError::WeightsOverflow { .. })
+        ));
+        assert!("motorway_approach:1e307,signal_queue:1e307"
+            .parse::<FamilyMix>()
+            .is_ok());
     }
 
     #[test]

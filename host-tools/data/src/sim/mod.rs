@@ -70,14 +70,18 @@ pub enum MixError {
         #[source]
         source: std::num::ParseFloatError,
     },
-    #[error("mix `{text}`: expected three non-negative finite weights C,N,S with a positive sum")]
+    #[error(
+        "mix `{text}`: expected three non-negative finite weights C,N,S with a positive, finite sum"
+    )]
     BadWeights { text: String },
 }
 
 impl std::str::FromStr for Mix {
     type Err = MixError;
 
-    /// `C,N,S`: three non-negative finite weights (crash, near-crash, safe) with a positive sum.
+    /// `C,N,S`: three non-negative finite weights (crash, near-crash, safe) with a positive sum
+    /// that is finite too (`1e308,1e308,0` overflows to infinity, and the counts would then
+    /// ignore the weights: a safe event at weight 0).
     fn from_str(s: &str) -> Result<Mix, MixError> {
         let v: Vec<f64> = s
             .split(',')
@@ -89,7 +93,9 @@ impl std::str::FromStr for Mix {
             })?;
         match v[..] {
             [crash, near_crash, safe]
-                if v.iter().all(|x| x.is_finite() && *x >= 0.0) && v.iter().sum::<f64>() > 0.0 =>
+                if v.iter().all(|x| x.is_finite() && *x >= 0.0)
+                    && v.iter().sum::<f64>() > 0.0
+                    && v.iter().sum::<f64>().is_finite() =>
             {
                 Ok(Mix {
                     crash,
@@ -662,7 +668,14 @@ mod tests {
             std::error::Error::source(&e).is_some(),
             "the float error is kept"
         );
-        for bad in ["1,2", "1,2,3,4", "0,0,0", "1,-1,1", "1,inf,1"] {
+        for bad in [
+            "1,2",
+            "1,2,3,4",
+            "0,0,0",
+            "1,-1,1",
+            "1,inf,1",
+            "1e308,1e308,0",
+        ] {
             assert_eq!(
                 bad.parse::<Mix>(),
                 Err(MixError::BadWeights { text: bad.into() }),
