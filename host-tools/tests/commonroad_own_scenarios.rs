@@ -242,3 +242,45 @@ fn compressed_files_are_named_with_their_format_and_the_rest_is_imported() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A road user without an `id` (or with an empty one) is skipped with an issue naming its line:
+/// event ids are built from obstacle ids, and two of them used to write clashing events
+/// (`own/1-?@0#0` twice) that an event folder then dropped, both rows, far from the cause.
+#[test]
+fn a_road_user_without_an_id_is_an_issue_not_a_clashing_event() {
+    let text = scenario(&[
+        car(1, &east(0.0, 0.0)),
+        car(2, &east(15.0, 0.0)),
+        car(3, &east(30.0, 0.0)),
+        car(4, &east(7.5, 0.0)),
+    ])
+    .replace("<dynamicObstacle id=\"2\">", "<dynamicObstacle>")
+    .replace("<dynamicObstacle id=\"3\">", "<dynamicObstacle id=\" \">");
+    let s = parse_scenario(&text, "own.xml", "own").unwrap();
+    let ids: Vec<&str> = s.tracks.iter().map(|t| t.id.as_str()).collect();
+    assert_eq!(ids, ["1", "4"]);
+    let line = |id: &str| {
+        1 + text
+            .lines()
+            .position(|l| l.starts_with(&format!("<dynamicObstacle{id}>")))
+            .unwrap()
+    };
+    let issues: Vec<String> = s.issues.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        issues,
+        [
+            format!(
+                "own.xml:{}: <dynamicObstacle id=?>: missing attribute `id`",
+                line("")
+            ),
+            format!(
+                "own.xml:{}: <dynamicObstacle id= >: missing attribute `id`",
+                line(" id=\" \"")
+            ),
+        ]
+    );
+    let (found, _) = safe_interactions(&s, &InteractionRules::default());
+    let mut event_ids: Vec<&str> = found.iter().map(|f| f.event.id.as_str()).collect();
+    event_ids.sort_unstable();
+    assert_eq!(event_ids, ["own/1-4@0#0", "own/4-1@0#0"]);
+}

@@ -329,6 +329,11 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
             obstacle: format!("<{} id={}> ", node.tag_name().name(), obstacle_id),
         };
         match read_obstacle(node, dt, &at) {
+            // Event ids are built from obstacle ids: two road users without one would write
+            // clashing events (`x/1-?@0#0` twice), which an event folder drops later.
+            Ok(Ok(_)) if node.attribute("id").is_none_or(|id| id.trim().is_empty()) => scenario
+                .issues
+                .push(at.issue(node, "", Problem::MissingAttribute("id"))),
             Ok(Ok(track)) => scenario.tracks.push(track),
             Ok(Err(why)) => scenario.ignored.push((obstacle_id, why)),
             Err(issue) => scenario.issues.push(issue),
