@@ -284,3 +284,26 @@ fn a_road_user_without_an_id_is_an_issue_not_a_clashing_event() {
     event_ids.sort_unstable();
     assert_eq!(event_ids, ["own/1-4@0#0", "own/4-1@0#0"]);
 }
+
+/// The long help teaches what a user bringing their own files needs: which values are read (and
+/// that intervals are refused), when the command fails, and what to do with the folder next.
+#[test]
+fn the_help_says_what_is_read_when_it_fails_and_what_comes_next() {
+    let o = Command::new(RISKCTL)
+        .args(["import", "commonroad", "--help"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout);
+    for needle in [
+        "<intervalStart>/<intervalEnd> value is refused",
+        "<acceleration>\nis optional",
+        "beyond 100 km",
+        "only when no file could be read or no safe sequence",
+        "riskctl demo --real DIR",
+        "--extra-real DIR",
+        "by scenario file, never by event",
+    ] {
+        assert!(help.contains(needle), "help lacks {needle:?}:\n{help}");
+    }
+}

@@ -53,8 +53,18 @@ Rules (docs/real-data.md):
   Noisy recordings: --smooth-speed S derives the acceleration (for the |acc| rule and the
   acc columns) from the speed averaged over a centred S-second window instead of the recorded
   value (video-tracked data such as NGSIM Lankershim/Peachtree; docs/real-data.md has the yield).
+Values: every state needs <position><point>, <orientation>, <time> and <velocity> as <exact>
+values (an <intervalStart>/<intervalEnd> value is refused: it is no recording); <acceleration>
+is optional. A file whose coordinates reach beyond 100 km (UTM, say) is taken relative to a
+local origin, and the summary names it. Compressed files (.xml.gz, ...) are named and skipped.
 Errors name the file, line, obstacle and element (e.g. `x.xml:812: <dynamicObstacle id=42>
 <state> #3: missing <velocity>`); the malformed road user or file is skipped, the rest written.
+The command fails, leaving --out as it was, only when no file could be read or no safe sequence
+was found.
+Next: the folder is real normal driving (safe events only). Train with it as such:
+`riskctl demo --real DIR` or `--extra-real DIR` (docs/training.md, \"Real normal driving\"), and
+hold real data out by scenario file, never by event (the two ego orders of one interaction are
+near-duplicates).
 
 Example (SCENARIOS is a folder of CommonRoad XML files, e.g. the NGSIM US-101 benchmark
 scenarios USA_US101-*.xml from the CommonRoad scenario collection; data/ngsim-us101-safe/
