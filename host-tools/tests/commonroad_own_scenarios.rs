@@ -307,3 +307,38 @@ fn the_help_says_what_is_read_when_it_fails_and_what_comes_next() {
         assert!(help.contains(needle), "help lacks {needle:?}:\n{help}");
     }
 }
+
+/// A UTF-16 file (a text editor's "Unicode" save) is refused naming its encoding, as the
+/// documentation says of every encoding but UTF-8 and ISO-8859-1; it was refused as "not UTF-8
+/// (invalid byte 0xFF) and no other encoding declared", though its declaration says UTF-16.
+#[test]
+fn a_utf16_file_is_refused_naming_its_encoding() {
+    let dir = temp_dir("utf16");
+    let text = scenario(&[car(1, &east(0.0, 0.0)), car(2, &east(15.0, 0.0))])
+        .replace("encoding=\"UTF-8\"", "encoding=\"UTF-16\"");
+    let mut le = vec![0xFF, 0xFE];
+    let mut be = vec![0xFE, 0xFF];
+    for unit in text.encode_utf16() {
+        le.extend(unit.to_le_bytes());
+        be.extend(unit.to_be_bytes());
+    }
+    for (name, bytes, encoding) in [("le.xml", le, "UTF-16LE"), ("be.xml", be, "UTF-16BE")] {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let issue = riskscore_data::import::commonroad::read_scenario(&path).unwrap_err();
+        assert_eq!(issue.line, 1);
+        assert_eq!(
+            issue.problem,
+            Problem::Encoding(format!("{encoding} (byte-order mark)")),
+            "{issue}"
+        );
+        assert!(
+            issue.to_string().ends_with(&format!(
+                "{name}:1: encoding \"{encoding} (byte-order mark)\" is not supported (UTF-8 and \
+                 ISO-8859-1 are): convert the file to UTF-8"
+            )),
+            "{issue}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -209,6 +209,17 @@ pub(crate) fn compression(bytes: &[u8]) -> Option<&'static str> {
 /// when its declaration says so (every byte is the code point of the same value). Any other
 /// declared encoding, or bytes that are not UTF-8 without a declaration, is an error with its line.
 fn decode(bytes: Vec<u8>) -> Result<String, (u32, Problem)> {
+    // A UTF-16 or UTF-32 file (a "Unicode" save of a text editor) says so by its byte-order
+    // mark; its declaration cannot be read byte by byte, so the mark names the encoding.
+    const MARKS: [(&[u8], &str); 4] = [
+        (b"\xFF\xFE\x00\x00", "UTF-32LE"),
+        (b"\x00\x00\xFE\xFF", "UTF-32BE"),
+        (b"\xFF\xFE", "UTF-16LE"),
+        (b"\xFE\xFF", "UTF-16BE"),
+    ];
+    if let Some((_, name)) = MARKS.iter().find(|(mark, _)| bytes.starts_with(mark)) {
+        return Err((1, Problem::Encoding(format!("{name} (byte-order mark)"))));
+    }
     match declared_encoding(&bytes) {
         Some(e) if is_latin1(&e) => return Ok(bytes.iter().map(|&b| char::from(b)).collect()),
         Some(e) if !e.eq_ignore_ascii_case("utf-8") && !e.eq_ignore_ascii_case("us-ascii") => {
