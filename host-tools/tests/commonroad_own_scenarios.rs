@@ -342,3 +342,21 @@ fn a_utf16_file_is_refused_naming_its_encoding() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A hand-edited file with a document type declaration is well-formed XML: it is refused naming
+/// the declaration and its line, not as "not well-formed XML: XML with DTD detected" at line 1.
+#[test]
+fn a_doctype_is_refused_naming_the_declaration_and_its_line() {
+    let text = scenario(&[car(1, &east(0.0, 0.0)), car(2, &east(15.0, 0.0))]).replacen(
+        "?>\n",
+        "?>\n<!-- edited by hand -->\n<!DOCTYPE commonRoad>\n",
+        1,
+    );
+    let issue = parse_scenario(&text, "own.xml", "own").unwrap_err();
+    assert_eq!(issue.problem, Problem::Doctype);
+    assert_eq!(
+        issue.to_string(),
+        "own.xml:3: a <!DOCTYPE ...> declaration is not read (its entities could expand without \
+         bound): remove that line; CommonRoad files have none"
+    );
+}

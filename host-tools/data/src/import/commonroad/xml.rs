@@ -113,6 +113,8 @@ pub enum Problem {
     Io(String),
     #[error("not well-formed XML: {0}")]
     Xml(String),
+    #[error("a <!DOCTYPE ...> declaration is not read (its entities could expand without bound): remove that line; CommonRoad files have none")]
+    Doctype,
     #[error("root element is <{0}>, not <commonRoad>")]
     NotCommonRoad(String),
     #[error("missing attribute `{0}`")]
@@ -268,6 +270,18 @@ fn declared_encoding(bytes: &[u8]) -> Option<String> {
 /// Parses scenario XML `text`; `file` names it in issues, `id` becomes [`Scenario::id`].
 pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issue> {
     let doc = Document::parse(text).map_err(|e| {
+        if matches!(e, roxmltree::Error::DtdDetected) {
+            // Well-formed, but a document type declaration is not read (its entities could
+            // expand without bound); the parser reports it at 1:1, the line is where it is.
+            let at = text.find("<!DOCTYPE").unwrap_or(0);
+            let line = 1 + text[..at].matches('\n').count();
+            return Issue {
+                file: file.to_string(),
+                line: u32::try_from(line).unwrap_or(u32::MAX),
+                context: String::new(),
+                problem: Problem::Doctype,
+            };
+        }
         let pos = e.pos();
         Issue {
             file: file.to_string(),
