@@ -360,3 +360,47 @@ fn a_doctype_is_refused_naming_the_declaration_and_its_line() {
          bound): remove that line; CommonRoad files have none"
     );
 }
+
+/// A trajectory whose first state repeats the initial state at the same step (files converted
+/// from OpenSCENARIO by CommonRoad's tools do this) is read once, not refused: every road user
+/// of such a file used to be skipped ("time step 0 does not follow step 0"). A first state at the
+/// same step with other values is still an error naming it.
+#[test]
+fn a_trajectory_repeating_the_initial_state_is_read_once() {
+    let repeat = |id: u32, states: &[State], change: f64| {
+        let first = states[0];
+        car(id, states).replacen(
+            "<trajectory>\n",
+            &format!(
+                "<trajectory>\n{}",
+                state_xml(
+                    "state",
+                    (first.0, first.1 + change, first.2, first.3, first.4)
+                )
+            ),
+            1,
+        )
+    };
+    let text = scenario(&[
+        repeat(1, &east(0.0, 0.0), 0.0),
+        repeat(2, &east(15.0, 0.0), 0.0),
+    ]);
+    let s = parse_scenario(&text, "osc.xml", "osc").unwrap();
+    assert!(s.issues.is_empty(), "{:?}", s.issues);
+    let steps: Vec<i64> = s.tracks[0].states.iter().map(|st| st.step).collect();
+    assert_eq!(steps, (0..50).collect::<Vec<_>>());
+    let (_, counts) = safe_interactions(&s, &InteractionRules::default());
+    assert_eq!(counts.sequences, 2);
+
+    let text = scenario(&[repeat(1, &east(0.0, 0.0), 0.5), car(2, &east(15.0, 0.0))]);
+    let s = parse_scenario(&text, "osc.xml", "osc").unwrap();
+    assert_eq!(s.tracks.len(), 1);
+    assert_eq!(s.issues.len(), 1);
+    assert!(
+        s.issues[0].to_string().contains(
+            "<dynamicObstacle id=1> <state> #1: time step 0 does not follow step 0 of the previous state"
+        ),
+        "{}",
+        s.issues[0]
+    );
+}

@@ -510,6 +510,11 @@ fn read_obstacle(node: Node, dt: f64, at: &Locator) -> Result<Result<Track, Igno
     {
         let path = format!("<state> #{}", k + 1);
         let st = read_state(s, &path, at)?;
+        // Files converted from OpenSCENARIO (commonroad-crime's OSC_CutIn-1_2_T-1) repeat the
+        // initial state as the trajectory's first state, at the same step: the same recording.
+        if k == 0 && states.len() == 1 && states[0] == st {
+            continue;
+        }
         let previous = states
             .last()
             .map_or(i64::MIN, |p: &(TrackState, bool)| p.0.step);
