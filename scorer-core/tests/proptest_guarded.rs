@@ -15,6 +15,9 @@
     clippy::panic
 )]
 
+mod common_hostile;
+
+use common_hostile::{nasty_f32_weighted, nasty_state_of};
 use proptest::prelude::*;
 use scorer_core::model::{
     decode_blob, encode_blob, encoded_blob_len, ModelBlob, OutsidePolicy, TrainingDomain,
@@ -51,33 +54,11 @@ fn shipped() -> Vec<(&'static str, ModelBlob<'static>)> {
 }
 
 fn nasty_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        4 => -1.0e3f32..1.0e3,
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(0.0f32),
-        1 => Just(-0.0f32),
-        1 => Just(f32::MAX),
-        1 => Just(f32::MIN),
-        1 => Just(f32::MIN_POSITIVE),
-        1 => Just(1.0e-40f32),
-        2 => any::<u32>().prop_map(f32::from_bits),
-    ]
+    nasty_f32_weighted(4)
 }
 
 fn nasty_state() -> impl Strategy<Value = VehicleState> {
-    proptest::array::uniform9(nasty_f32()).prop_map(|v| VehicleState {
-        x: v[0],
-        y: v[1],
-        vx: v[2],
-        vy: v[3],
-        hx: v[4],
-        hy: v[5],
-        acc: v[6],
-        length: v[7],
-        width: v[8],
-    })
+    nasty_state_of(nasty_f32())
 }
 
 /// A plausible road user: what reaches both sides of every shipped domain.

@@ -11,8 +11,10 @@
     clippy::panic
 )]
 
+mod common_hostile;
 mod common_models;
 
+use common_hostile::{nasty_f32_weighted, nasty_state_of};
 use common_models::*;
 use proptest::prelude::*;
 use scorer_core::gssm::{self, GssmModel, GssmScore};
@@ -21,19 +23,7 @@ use scorer_core::msra::{self, MsraModel, MsraTerm};
 use scorer_core::{Features, SurrogateKind, Surrogates, VehicleState, FEATURE_COUNT};
 
 fn nasty_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        3 => -1.0e3f32..1.0e3,
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(0.0f32),
-        1 => Just(-0.0f32),
-        1 => Just(f32::MAX),
-        1 => Just(f32::MIN),
-        1 => Just(f32::MIN_POSITIVE),
-        1 => Just(1.0e-40f32),
-        2 => any::<u32>().prop_map(f32::from_bits),
-    ]
+    nasty_f32_weighted(3)
 }
 
 fn nasty_features() -> impl Strategy<Value = Features> {
@@ -50,17 +40,7 @@ fn nasty_surrogates() -> impl Strategy<Value = Surrogates> {
 }
 
 fn nasty_state() -> impl Strategy<Value = VehicleState> {
-    proptest::array::uniform9(nasty_f32()).prop_map(|v| VehicleState {
-        x: v[0],
-        y: v[1],
-        vx: v[2],
-        vy: v[3],
-        hx: v[4],
-        hy: v[5],
-        acc: v[6],
-        length: v[7],
-        width: v[8],
-    })
+    nasty_state_of(nasty_f32())
 }
 
 struct Nets {
