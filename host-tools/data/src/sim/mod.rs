@@ -91,11 +91,12 @@ impl std::str::FromStr for Mix {
                 text: s.to_string(),
                 source,
             })?;
+        let total: f64 = v.iter().sum();
         match v[..] {
             [crash, near_crash, safe]
                 if v.iter().all(|x| x.is_finite() && *x >= 0.0)
-                    && v.iter().sum::<f64>() > 0.0
-                    && v.iter().sum::<f64>().is_finite() =>
+                    && total > 0.0
+                    && total.is_finite() =>
             {
                 Ok(Mix {
                     crash,

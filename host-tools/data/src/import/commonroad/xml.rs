@@ -377,8 +377,9 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
 
 /// Largest position coordinate (m) a scenario keeps as it is: event files and every gap computed
 /// on the way hold positions as `f32`, which resolves 100 km to 7.8 mm but a UTM northing of
-/// 5,400 km only to 0.5 m (the loader's [`crate::events::COARSE_POSITION_M`]).
-pub const FAR_COORDINATE_M: f64 = 1.0e5;
+/// 5,400 km only to 0.5 m. The same bound as the loader's note on coarse positions, so an import
+/// never writes an event the loader would flag.
+pub const FAR_COORDINATE_M: f64 = crate::events::COARSE_POSITION_M as f64;
 
 /// The origin a scenario's positions are taken relative to: `(0, 0)` when every coordinate is
 /// within [`FAR_COORDINATE_M`] (the file's own frame, as recorded), else the first state of the
