@@ -1,0 +1,159 @@
+//! `riskctl inspect-model` names a file that is nearly a training checkpoint (JSON that does not
+//! load as one) with the loader's reason.
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{riskctl, stderr};
+use riskscore_train::export::{Checkpoint, CheckpointModel};
+use riskscore_train::train::msra::{MsraParams, MsraTermParams};
+
+/// A valid MSRA checkpoint (one TTC2D term), as `riskctl train` writes it, at `dir/msra.json`.
+fn msra_checkpoint(dir: &Path) -> PathBuf {
+    let path = dir.join("msra.json");
+    let ck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: MsraParams {
+                terms: vec![MsraTermParams {
+                    surrogate: "ttc2d".into(),
+                    lo: 0.0,
+                    hi: 10.0,
+                    w: 1.0,
+                    a: 1.0,
+                    b: 0.0,
+                }],
+            },
+        },
+        serde_json::Value::Null,
+    );
+    ck.save(&path).unwrap();
+    Checkpoint::load(&path).expect("the test's checkpoint loads");
+    path
+}
+
+/// `riskctl inspect-model FILE`'s standard error; the command must fail with exit code 1.
+fn inspect_fails(file: &Path) -> String {
+    let o = riskctl(&["inspect-model", file.to_str().unwrap()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    err
+}
+
+/// A checkpoint cut short (a copy interrupted, a download stopped) was reported as
+/// `integrity check failed: not a model blob: magic [7b, 0a, 20, 20], expected "RSKM"`, with no
+/// word of checkpoints; now it is named as a checkpoint that does not load, with the parse error's
+/// line and column and how to get a blob.
+#[test]
+fn inspect_model_names_a_truncated_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = msra_checkpoint(dir.path());
+    // The valid checkpoint keeps its message.
+    let err = inspect_fails(&full);
+    assert!(err.contains("it is a training checkpoint"), "{err}");
+    let bytes = std::fs::read(&full).unwrap();
+    let cut = dir.path().join("cut.json");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let err = inspect_fails(&cut);
+    let file = cut.display().to_string();
+    assert!(
+        err.contains(&format!(
+            "{file}: not a model blob: it looks like a training checkpoint"
+        )),
+        "{err}"
+    );
+    assert!(err.contains("but it does not load as one"), "{err}");
+    assert!(
+        err.contains("EOF while parsing") && err.contains("line ") && err.contains("column "),
+        "{err}"
+    );
+    assert!(
+        err.contains("riskctl export-model CHECKPOINT --out MODEL.rsk"),
+        "{err}"
+    );
+    assert!(!err.contains("integrity check failed"), "{err}");
+}
+
+/// A checkpoint with a field removed (or renamed by hand), or of another version, is named as a
+/// checkpoint that does not load, with the field (or the versions) the loader names.
+#[test]
+fn inspect_model_names_a_checkpoint_with_a_missing_field_or_another_version() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = msra_checkpoint(dir.path());
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&full).unwrap()).unwrap();
+
+    let mut missing = json.clone();
+    let term = &mut missing["model"]["params"]["terms"][0];
+    term.as_object_mut().unwrap().remove("w").unwrap();
+    let path = dir.path().join("missing.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&missing).unwrap()).unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains("it looks like a training checkpoint")
+            && err.contains("but it does not load as one"),
+        "{err}"
+    );
+    assert!(
+        err.contains("missing field `w`") && err.contains("line "),
+        "{err}"
+    );
+    assert!(err.contains("riskctl export-model"), "{err}");
+
+    let mut old = json.clone();
+    old["version"] = serde_json::json!(2);
+    let path = dir.path().join("old.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&old).unwrap()).unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains("it looks like a training checkpoint") && err.contains("version 2"),
+        "{err}"
+    );
+
+    // JSON meant as a checkpoint but without the format's name: it still starts like one.
+    let mut renamed = json;
+    let format = renamed.as_object_mut().unwrap().remove("format").unwrap();
+    renamed["fromat"] = format;
+    let path = dir.path().join("renamed.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&renamed).unwrap()).unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains("it looks like a training checkpoint")
+            && err.contains("but it does not load as one"),
+        "{err}"
+    );
+    let path = dir.path().join("other.json");
+    std::fs::write(&path, "{\"model\": ").unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains("it starts like JSON, as a training checkpoint does")
+            && err.contains("but it does not load as one")
+            && err.contains("line 1"),
+        "{err}"
+    );
+}
+
+/// Bytes that are neither a blob nor JSON keep the blob's integrity error, with no word of
+/// checkpoints.
+#[test]
+fn inspect_model_keeps_the_integrity_error_for_random_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("noise.rsk");
+    // A fixed xorshift stream; its first byte is no `{` or white space.
+    let mut x: u32 = 0x9E37_79B9;
+    let mut bytes: Vec<u8> = (0..512)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 24) as u8
+        })
+        .collect();
+    bytes[0] = 0x8F;
+    std::fs::write(&path, &bytes).unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains(&format!("{}: integrity check failed", path.display())),
+        "{err}"
+    );
+    assert!(!err.contains("checkpoint"), "{err}");
+    assert!(!err.contains("JSON"), "{err}");
+}
