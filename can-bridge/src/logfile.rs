@@ -282,18 +282,45 @@ pub fn for_each_frame_in<R: BufRead>(
     Ok(report)
 }
 
-/// Calls `f(line_number, record)` for every frame line of the log at `path` (`-`: standard
-/// input, so `riskctl events-to-candump --out - | can-bridge score-log --log -` works).
+/// Buffer of a log reader: whole candump lines per refill, also from a pipe.
+const READ_BUFFER: usize = 1 << 20;
+
+/// Opens the log a `--log PATH` names: standard input for `-` (as riskctl reads `-`, so
+/// `riskctl events-to-candump --out - | can-bridge score-log --log -` works), the file otherwise.
+/// Every command that reads a log opens it here and reads it once, front to back: standard input
+/// cannot be read a second time, so none of them makes two passes over the log.
+pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead>> {
+    if crate::cli_values::is_std_stream(path) {
+        let stdin = std::io::stdin().lock();
+        return Ok(Box::new(std::io::BufReader::with_capacity(
+            READ_BUFFER,
+            stdin,
+        )));
+    }
+    let file = std::fs::File::open(path)?;
+    Ok(Box::new(std::io::BufReader::with_capacity(
+        READ_BUFFER,
+        file,
+    )))
+}
+
+/// The log at `path` as a sentence names it: `standard input (--log -)` for `-`, the path
+/// otherwise.
+pub fn describe(path: &Path) -> String {
+    if crate::cli_values::is_std_stream(path) {
+        "standard input (--log -)".to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Calls `f(line_number, record)` for every frame line of the log at `path` ([`open`]: `-` is
+/// standard input).
 pub fn for_each_frame(
     path: &Path,
     f: impl FnMut(usize, &LogRecord<'_>),
 ) -> std::io::Result<LogReport> {
-    if crate::cli_values::is_std_stream(path) {
-        let stdin = std::io::stdin().lock();
-        return for_each_frame_in(std::io::BufReader::with_capacity(1 << 20, stdin), f);
-    }
-    let file = std::fs::File::open(path)?;
-    for_each_frame_in(std::io::BufReader::with_capacity(1 << 20, file), f)
+    for_each_frame_in(open(path)?, f)
 }
 
 #[cfg(test)]

@@ -272,14 +272,14 @@ fn open_sender(iface: &str) -> Result<socketcan::CanFdSocket, SocketError> {
 }
 
 /// Replays `log` onto `ifaces`: with one, every frame goes to it; with several, each frame goes
-/// to the interface its line names (a line naming another is not sent, and counted).
+/// to the interface its line names (a line naming another is not sent, and counted). `-` is
+/// standard input ([`crate::logfile::open`]), read once like a file.
 pub fn replay(log: &Path, ifaces: &[String], rate: Rate) -> Result<ReplaySummary, ReplayError> {
     let read_err = |cause| ReplayError::Read {
-        path: log.display().to_string(),
+        path: crate::logfile::describe(log),
         cause,
     };
-    let file = std::fs::File::open(log).map_err(read_err)?;
-    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+    let mut reader = crate::logfile::open(log).map_err(read_err)?;
     // An empty log (no byte but blank lines) is refused by the caller before a socket is opened:
     // its summary counts no frame and no bad line.
     let (blank, ended) = leading_blank(&mut reader).map_err(read_err)?;

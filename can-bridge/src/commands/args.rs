@@ -82,7 +82,8 @@ pub struct LiveArgs {
 
 #[derive(Args, Debug)]
 pub struct ReplayArgs {
-    /// candump -L log to send.
+    /// candump -L log to send (`-`: standard input, e.g. `riskctl events-to-candump --out - |
+    /// can-bridge replay --log - ...`).
     #[arg(long)]
     pub log: PathBuf,
     /// Interface to send on; repeat for several: each line goes to the interface it names.

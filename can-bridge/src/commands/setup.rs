@@ -346,15 +346,6 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
     )))
 }
 
-/// `--log` as a message names it (`-`: standard input).
-fn log_name(path: &Path) -> String {
-    if is_std_stream(path) {
-        "standard input (--log -)".to_string()
-    } else {
-        path.display().to_string()
-    }
-}
-
 /// Offline commands and `replay`: a log without one line (blank lines aside) is an error that
 /// says so and names the log (`--log -`: standard input): a failed capture, a wrong path or a
 /// producer that wrote nothing, never "no warnings" (or "0 frames sent"). `done`: what did not
@@ -367,7 +358,7 @@ pub fn refuse_empty_log(
     if report.frames > 0 || report.bad_lines() > 0 {
         return Ok(());
     }
-    let name = log_name(path);
+    let name = crate::logfile::describe(path);
     let blank = match report.blank {
         0 => String::new(),
         n => format!(" ({n} blank lines)"),
@@ -387,7 +378,7 @@ pub fn refuse_stuck_timestamps(
 ) -> Result<(), super::Failure> {
     match report.stuck_timestamps(stats.duplicates, stats.scored) {
         Some(m) => Err(super::Failure::Input(super::InputError::StuckTimestamps(
-            format!("{}: {m}", log_name(path)),
+            format!("{}: {m}", crate::logfile::describe(path)),
         ))),
         None => Ok(()),
     }
