@@ -1,12 +1,17 @@
 //! `riskctl inspect-model` names a file that is nearly a training checkpoint (JSON that does not
-//! load as one) with the loader's reason.
+//! load as one) with the loader's reason; the `riskctl calibrate-domain --help` examples run as
+//! written from the repository's root.
 mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{riskctl, stderr};
+use common::{riskctl, riskctl_in, stderr};
 use riskscore_train::export::{Checkpoint, CheckpointModel};
 use riskscore_train::train::msra::{MsraParams, MsraTermParams};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
 
 /// A valid MSRA checkpoint (one TTC2D term), as `riskctl train` writes it, at `dir/msra.json`.
 fn msra_checkpoint(dir: &Path) -> PathBuf {
@@ -156,4 +161,103 @@ fn inspect_model_keeps_the_integrity_error_for_random_bytes() {
     );
     assert!(!err.contains("checkpoint"), "{err}");
     assert!(!err.contains("JSON"), "{err}");
+}
+
+/// The `riskctl` command lines of the examples at the end of `calibrate-domain --help`, each
+/// joined over its `\` continuations and split into words (without the leading `riskctl`).
+fn calibrate_domain_examples() -> Vec<Vec<String>> {
+    let o = riskctl(&["calibrate-domain", "--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = String::from_utf8(o.stdout).unwrap();
+    let examples = &help[help.find("\nExample").expect("an Example(s) section")..];
+    let mut commands = Vec::new();
+    let mut current: Option<String> = None;
+    for line in examples.lines() {
+        let line = line.trim();
+        let (text, continues) = match line.strip_suffix('\\') {
+            Some(text) => (text, true),
+            None => (line, false),
+        };
+        match current.as_mut() {
+            Some(command) => command.push_str(&format!(" {text}")),
+            None if text.starts_with("riskctl ") => current = Some(text.to_owned()),
+            None => continue,
+        }
+        if !continues {
+            commands.push(current.take().unwrap());
+        }
+    }
+    assert!(current.is_none(), "an example ends in `\\`: {current:?}");
+    commands
+        .iter()
+        .map(|c| c.split_whitespace().skip(1).map(str::to_owned).collect())
+        .collect()
+}
+
+/// The flags of the examples whose value is a path read, and written.
+const INPUT_FLAGS: [&str; 3] = ["--model", "--events", "--fallback-from"];
+const OUTPUT_FLAGS: [&str; 1] = ["--out"];
+
+/// The help's examples named `data/sim` and `data/ngsim-us101`, neither of which exists (the
+/// shipped extract is `data/ngsim-us101-safe`; a simulated folder is what `riskctl simulate
+/// --out` writes). Every path an example reads now exists in the repository or is written by an
+/// earlier example; and the examples run, in order, as written from the repository's root (in a
+/// copy of it holding `models/` and `data/`, so that nothing is written into the repository).
+#[test]
+fn calibrate_domain_help_examples_name_real_paths_and_run() {
+    let examples = calibrate_domain_examples();
+    assert!(
+        examples.iter().any(|e| e[0] == "calibrate-domain"),
+        "{examples:?}"
+    );
+    let mut written: Vec<String> = Vec::new();
+    for words in &examples {
+        assert!(
+            ["simulate", "calibrate-domain"].contains(&words[0].as_str()),
+            "{words:?}"
+        );
+        for (i, word) in words.iter().enumerate() {
+            let flag = i.checked_sub(1).map(|f| words[f].as_str());
+            if flag.is_some_and(|f| OUTPUT_FLAGS.contains(&f)) {
+                written.push(word.clone());
+            } else if flag.is_some_and(|f| INPUT_FLAGS.contains(&f)) {
+                assert!(
+                    repo().join(word).exists() || written.contains(word),
+                    "{words:?}: {word} neither exists in the repository nor is written by an \
+                     earlier example"
+                );
+            } else {
+                assert!(
+                    !word.contains('/'),
+                    "{words:?}: {word} is a path of a flag this test does not know"
+                );
+            }
+        }
+    }
+
+    let dir = tempfile::tempdir().unwrap();
+    for shared in ["models", "data"] {
+        std::os::unix::fs::symlink(repo().join(shared), dir.path().join(shared)).unwrap();
+    }
+    for words in &examples {
+        let args: Vec<&str> = words.iter().map(String::as_str).collect();
+        let o = riskctl_in(dir.path(), &args);
+        assert!(o.status.success(), "riskctl {words:?}: {}", stderr(&o));
+    }
+    // Each calibrate-domain example wrote its blob, with the policy it asked for.
+    for words in examples.iter().filter(|e| e[0] == "calibrate-domain") {
+        let at = |flag: &str| &words[words.iter().position(|w| w == flag).unwrap() + 1];
+        let out = dir.path().join(at("--out"));
+        let o = riskctl(&["inspect-model", out.to_str().unwrap()]);
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let policy = text
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("policy"))
+            .map(str::trim_start);
+        assert!(
+            policy.is_some_and(|p| p.starts_with(&format!("{} ", at("--policy")))),
+            "{words:?}: {text}"
+        );
+    }
 }

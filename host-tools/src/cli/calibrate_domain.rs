@@ -33,14 +33,17 @@ kinematic ordering. A blend changes the scores inside: run `riskctl calibrate` a
 <model>_in_domain column, `riskctl evaluate` reports the share of frames outside and the CAN
 bridge counts out-of-domain track updates. `riskctl inspect-model` prints the record.
 
-Example:
-  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
-                           --events data/ngsim-us101 --policy clamp --out drl-guarded.rsk
-  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
-                           --events data/ngsim-us101 --policy fallback \\
+Examples, run from the repository's root: a simulated folder of the simulator's default set and
+the real freeway driving shipped in data/, two of the folders the shipped DRL was trained on
+(models/README.md lists them all):
+  riskctl simulate --out sim
+  riskctl calibrate-domain --model models/drl-default.rsk --events sim \\
+                           --events data/ngsim-us101-safe --policy clamp --out drl-guarded.rsk
+  riskctl calibrate-domain --model models/drl-default.rsk --events sim \\
+                           --events data/ngsim-us101-safe --policy fallback \\
                            --fallback-from models/msra-default.rsk --out drl-fallback.rsk
-  riskctl calibrate-domain --model models/drl-default.rsk --events data/sim \\
-                           --events data/ngsim-us101 --policy blend --blend-weight 0.7 \\
+  riskctl calibrate-domain --model models/drl-default.rsk --events sim \\
+                           --events data/ngsim-us101-safe --policy blend --blend-weight 0.7 \\
                            --fallback-from models/msra-default.rsk --out drl-blend.rsk";
 
 /// Attach a model's training domain (the input ranges of its training data and the policy
