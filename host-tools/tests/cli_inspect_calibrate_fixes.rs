@@ -1,11 +1,12 @@
 //! `riskctl inspect-model` names a file that is nearly a training checkpoint (JSON that does not
 //! load as one) with the loader's reason; the `riskctl calibrate-domain --help` examples run as
-//! written from the repository's root.
+//! written from the repository's root; `riskscore_train::gssm::row_name` names the shipped blobs
+//! as its documentation says.
 mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{riskctl, riskctl_in, stderr};
+use common::{riskctl, riskctl_in, shipped_model, stderr};
 use riskscore_train::export::{Checkpoint, CheckpointModel};
 use riskscore_train::train::msra::{MsraParams, MsraTermParams};
 
@@ -258,6 +259,28 @@ fn calibrate_domain_help_examples_name_real_paths_and_run() {
         assert!(
             policy.is_some_and(|p| p.starts_with(&format!("{} ", at("--policy")))),
             "{words:?}: {text}"
+        );
+    }
+}
+
+/// `row_name`'s documentation: the GSSM kinds are named as `model_row_name` names them, and an
+/// MSRA blob with a GSSM term is `MSRA` there (`MSRA-GSSM` in the evaluation).
+#[test]
+fn gssm_row_name_names_the_shipped_blobs_as_documented() {
+    for (file, row, eval_row) in [
+        ("gssm-default.rsk", "GSSM", "GSSM"),
+        ("ssra-default.rsk", "SSRA", "SSRA"),
+        ("msra-gssm.rsk", "MSRA", "MSRA-GSSM"),
+        ("drl-default.rsk", "DRL", "DRL"),
+        ("msra-default.rsk", "MSRA", "MSRA"),
+    ] {
+        let bytes = std::fs::read(shipped_model(file)).unwrap();
+        let model = scorer_core::model::decode(&bytes).unwrap();
+        assert_eq!(riskscore_train::gssm::row_name(&model), row, "{file}");
+        assert_eq!(
+            riskscore_eval::scoring::model_row_name(&model),
+            eval_row,
+            "{file}"
         );
     }
 }

@@ -71,8 +71,9 @@ pub fn encode_blob(model: &scorer_core::Model<'_>) -> Result<Vec<u8>, GssmError>
 
 /// Row name in evaluation tables for a decoded model: `GSSM` for a GSSM blob scoring its intensity
 /// (the GSSM baseline), `SSRA` for a GSSM blob scoring its CDF or logit (the aligned model), else the
-/// evaluation's name for the kind. (`eval::scoring::kind_row_name` names by kind only; see
-/// docs/gssm.md for the proposed change there.)
+/// evaluation's name for the kind (`riskscore_eval::scoring::kind_row_name`). The GSSM kinds are
+/// named as `riskscore_eval::scoring::model_row_name` names them; unlike it, an MSRA blob with a
+/// GSSM term is `MSRA` here (`model_row_name`: `MSRA-GSSM`).
 pub fn row_name(model: &scorer_core::Model<'_>) -> &'static str {
     match model {
         scorer_core::Model::Gssm(g) => match g.score {
