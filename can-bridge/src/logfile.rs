@@ -109,17 +109,17 @@ impl LogReport {
         }
     }
 
-    /// Prints the kept bad lines as `FILE:LINE: reason` on stderr, then one count per kind of
-    /// the lines not printed.
+    /// Prints the kept bad lines as `FILE:LINE: reason` on stderr (`<stdin>:LINE:` for `-`,
+    /// [`line_name`]), then one count per kind of the lines not printed.
     pub fn print_bad_lines(&self, path: &Path) {
+        let name = line_name(path);
         for b in &self.bad {
-            eprintln!("{}:{}: {}", path.display(), b.line, b.problem);
+            eprintln!("{name}:{}: {}", b.line, b.problem);
         }
         for (kind, n) in &self.bad_by_kind {
             if *n > KEPT_PER_KIND {
                 eprintln!(
-                    "{}: ... {} more lines skipped ({kind})",
-                    path.display(),
+                    "{name}: ... {} more lines skipped ({kind})",
                     n - KEPT_PER_KIND
                 );
             }
@@ -302,6 +302,16 @@ pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead>> {
         READ_BUFFER,
         file,
     )))
+}
+
+/// The log at `path` where a message names a line of it (`FILE:LINE: reason`): `<stdin>` for
+/// `-` (as riskctl names standard input), the path otherwise.
+pub fn line_name(path: &Path) -> String {
+    if crate::cli_values::is_std_stream(path) {
+        "<stdin>".to_string()
+    } else {
+        path.display().to_string()
+    }
 }
 
 /// The log at `path` as a sentence names it: `standard input (--log -)` for `-`, the path

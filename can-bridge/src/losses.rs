@@ -60,19 +60,19 @@ impl FrameLosses {
         self.by_kind.get(kind).copied().unwrap_or(0)
     }
 
-    /// Prints the kept losses as `FILE:LINE: reason` (in line order) on stderr, then one count
-    /// per kind of those not printed.
+    /// Prints the kept losses as `FILE:LINE: reason` (in line order; `<stdin>:LINE:` for `-`,
+    /// [`crate::logfile::line_name`]) on stderr, then one count per kind of those not printed.
     pub fn print(&self, path: &Path) {
+        let name = crate::logfile::line_name(path);
         let mut kept: Vec<&LostFrame> = self.kept.iter().collect();
         kept.sort_by_key(|l| l.line);
         for l in kept {
-            eprintln!("{}:{}: {}", path.display(), l.line, l.reason);
+            eprintln!("{name}:{}: {}", l.line, l.reason);
         }
         for (kind, n) in &self.by_kind {
             if *n > KEPT_PER_KIND as u64 {
                 eprintln!(
-                    "{}: ... {} more {kind} not listed",
-                    path.display(),
+                    "{name}: ... {} more {kind} not listed",
                     n - KEPT_PER_KIND as u64
                 );
             }
@@ -88,7 +88,8 @@ pub struct TooMuchLost {
     pub max_lost: f64,
 }
 
-/// `FILE: lost N of M lines (P%): ...` with a count per kind, or `None` when nothing was lost.
+/// `FILE: lost N of M lines (P%): ...` (`<stdin>: ...` for `-`) with a count per kind, or `None`
+/// when nothing was lost.
 pub fn summary(path: &Path, report: &LogReport, frames: &FrameLosses) -> Option<(String, f64)> {
     let unreadable = report.bad_lines() as u64;
     let lost = unreadable + frames.total();
@@ -102,7 +103,7 @@ pub fn summary(path: &Path, report: &LogReport, frames: &FrameLosses) -> Option<
     Some((
         format!(
             "{}: lost {lost} of {total} lines ({:.3}%): {}",
-            path.display(),
+            crate::logfile::line_name(path),
             share * 100.0,
             parts.join(", ")
         ),

@@ -74,7 +74,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
         feed.push(&mut engine, line_no as u64, rec, &mut handle);
     })
     .map_err(|cause| InputError::Read {
-        path: args.log.display().to_string(),
+        path: logfile::describe(&args.log),
         cause,
     })?;
     feed.finish(&mut engine, &mut handle);

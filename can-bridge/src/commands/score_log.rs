@@ -81,7 +81,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
         });
     })
     .map_err(|cause| InputError::Read {
-        path: args.log.display().to_string(),
+        path: logfile::describe(&args.log),
         cause,
     })?;
     feed.finish(&mut engine, &mut |o: Output| handle(o, None));
