@@ -29,7 +29,8 @@
 //! - An update older than its track's last update by at most `stale_after_us` is rejected
 //!   ([`WarningError::OutOfOrder`]) and changes nothing; older by more, it restarts that track
 //!   (above); a NaN score is rejected ([`WarningError::NonFiniteScore`]) and changes nothing
-//!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score.
+//!   (the track then goes stale if no valid score follows). `+inf` is a valid, maximal score and
+//!   `-inf` a valid, minimal one (what each does: [`WarningError::NonFiniteScore`]).
 //!
 //! After a time-base reset the caller should [`TrackTable::clear`] the table (or remove the
 //! tracks), as the C ABI asks of its integrators. Tracks left ahead of `now` are never reported as
@@ -188,17 +189,71 @@ impl WarningConfig {
 /// Rejected table operations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WarningError {
-    /// The score was NaN.
-    NonFiniteScore { id: u32 },
+    /// The score was NaN (any NaN, whatever its sign or payload): despite the name, the only
+    /// score [`TrackTable::update`] refuses. It is checked first, so the refused call changes
+    /// nothing at all, not even the drop of expired tracks every accepted update does; the
+    /// track keeps its last update time and goes stale if no valid score follows.
+    ///
+    /// Infinite scores are not refused: they are accepted updates like any finite score (the
+    /// track's `last_update_us` and `last_score` are set, `updates` counts it, a new id gets a
+    /// track), compared with the threshold as IEEE floats:
+    ///
+    /// - `+inf` is the maximal score: it turns a warning on at once (`>= threshold` holds for
+    ///   every threshold, `+inf` included) and never releases one.
+    /// - `-inf` is the minimal score: it never turns a warning on (unless the threshold is
+    ///   `-inf`). In live mode it releases a warning that has been on for at least `min_on_us`
+    ///   (it is below `threshold - hysteresis` for every threshold but `-inf`); latched, the
+    ///   warning stays on.
+    ///
+    /// [`FirstThreshold::update`] reads them the same way (NaN never triggers, `+inf` does).
+    /// This example runs as a doctest, as does `tests/warning.rs`
+    /// (`infinite_scores_are_accepted_updates`), so the description cannot drift:
+    ///
+    /// ```
+    /// use scorer_core::warning::{TrackTable, WarningConfig, WarningError, WarningEvent};
+    ///
+    /// // Live: warn at 2.0, release below 1.9 after 0.5 s on; stale after 1 s.
+    /// let mut table = TrackTable::<4>::new(WarningConfig::live(2.0, 0.1, 500_000, 1_000_000))?;
+    /// let event = |t: &mut TrackTable<4>, now, r| t.update(1, now, r).map(|s| (s.warning, s.event));
+    ///
+    /// // NaN: refused, no track created.
+    /// assert_eq!(table.update(1, 0, f32::NAN), Err(WarningError::NonFiniteScore { id: 1 }));
+    /// assert!(table.get(1).is_none());
+    /// // -inf: accepted (a new track), no onset.
+    /// assert_eq!(event(&mut table, 0, f32::NEG_INFINITY), Ok((false, WarningEvent::None)));
+    /// // +inf: accepted, onset; held by a later -inf until the warning has been on for 0.5 s.
+    /// assert_eq!(event(&mut table, 100_000, f32::INFINITY), Ok((true, WarningEvent::Onset)));
+    /// assert_eq!(event(&mut table, 200_000, f32::NEG_INFINITY), Ok((true, WarningEvent::None)));
+    /// assert_eq!(event(&mut table, 600_000, f32::NEG_INFINITY), Ok((false, WarningEvent::Release)));
+    /// let track = table.get(1).copied().expect("held");
+    /// assert_eq!((track.last_score, track.updates, track.onsets), (f32::NEG_INFINITY, 4, 1));
+    ///
+    /// // Latched: -inf does not release.
+    /// let mut latched = TrackTable::<4>::new(WarningConfig::first_threshold(2.0, 1_000_000))?;
+    /// assert!(latched.update(1, 0, f32::INFINITY)?.warning);
+    /// assert!(latched.update(1, 100_000, f32::NEG_INFINITY)?.warning);
+    /// # Ok::<(), WarningError>(())
+    /// ```
+    NonFiniteScore {
+        /// The partner id of the refused update.
+        id: u32,
+    },
     /// `now` is earlier than the track's last update, by at most the stale window (further back,
     /// the track is stale: see [`Track::is_stale`]).
     OutOfOrder {
+        /// The partner id of the refused update.
         id: u32,
+        /// The track's last accepted update time (us, the caller's monotonic clock).
         last_us: Micros,
+        /// The refused update's time (us): before `last_us`, by at most
+        /// [`WarningConfig::stale_after_us`].
         now_us: Micros,
     },
     /// No room for a new track (see [`FullPolicy`]).
-    TableFull { id: u32 },
+    TableFull {
+        /// The partner id that found no slot (nothing was evicted for it).
+        id: u32,
+    },
     /// A [`WarningConfig`] field is invalid.
     InvalidConfig(&'static str),
 }
@@ -250,7 +305,8 @@ pub struct Track {
     pub created_us: Micros,
     /// Time of the last accepted update.
     pub last_update_us: Micros,
-    /// Last accepted score.
+    /// Last accepted score (never NaN; may be `+inf` or `-inf`, see
+    /// [`WarningError::NonFiniteScore`]).
     pub last_score: f32,
     /// Whether the warning is on.
     pub warning: bool,

@@ -202,6 +202,66 @@ fn rejected_updates_change_nothing() {
     assert!(t.update(1, 100, 0.9).unwrap().warning);
 }
 
+/// `WarningError::NonFiniteScore` refuses NaN only: `+inf` and `-inf` are accepted updates
+/// compared with the threshold as IEEE floats (the variant's documentation states this rule).
+#[test]
+fn infinite_scores_are_accepted_updates() {
+    let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
+    let (none, onset, release) = (
+        WarningEvent::None,
+        WarningEvent::Onset,
+        WarningEvent::Release,
+    );
+    let status = |t: &mut TrackTable<4>, id, now, r| {
+        let s = t.update(id, now, r).unwrap();
+        (s.warning, s.event, s.new_track)
+    };
+
+    // Live, warn at 2.0, release below 1.9 once on for 0.5 s, stale after 1 s.
+    let mut t = TrackTable::<4>::new(WarningConfig::live(2.0, 0.1, 500 * MS, S)).unwrap();
+    // -inf creates a track without warning; +inf turns it on.
+    assert_eq!(status(&mut t, 1, 0, ninf), (false, none, true));
+    assert_eq!(status(&mut t, 1, 100 * MS, inf), (true, onset, false));
+    // +inf never releases, however long the warning has been on.
+    assert_eq!(status(&mut t, 1, 900 * MS, inf), (true, none, false));
+    // -inf releases once the minimum on-time is over (it was: on since 0.1 s).
+    assert_eq!(status(&mut t, 1, 1_000 * MS, ninf), (false, release, false));
+    let track = *t.get(1).unwrap();
+    assert_eq!(track.last_update_us, 1_000 * MS);
+    assert_eq!(track.last_score, ninf);
+    assert_eq!((track.updates, track.onsets), (4, 1));
+    // An infinite score keeps the track fresh (accepted), a NaN one does not move it.
+    assert_eq!(
+        t.update(1, 1_500 * MS, f32::NAN),
+        Err(WarningError::NonFiniteScore { id: 1 })
+    );
+    assert_eq!(*t.get(1).unwrap(), track);
+    // -inf within the minimum on-time holds the warning.
+    assert_eq!(status(&mut t, 2, 0, inf), (true, onset, true));
+    assert_eq!(status(&mut t, 2, 100 * MS, ninf), (true, none, false));
+
+    // Latched: -inf never releases.
+    let mut t = TrackTable::<4>::new(WarningConfig::first_threshold(2.0, S)).unwrap();
+    assert_eq!(status(&mut t, 1, 0, inf), (true, onset, true));
+    assert_eq!(status(&mut t, 1, 100 * MS, ninf), (true, none, false));
+
+    // Infinite thresholds (valid: only a NaN threshold is refused). At +inf only +inf warns;
+    // at -inf every score but NaN warns, and nothing releases, -inf included.
+    let mut t = TrackTable::<4>::new(WarningConfig::live(inf, 0.0, 0, S)).unwrap();
+    assert_eq!(status(&mut t, 1, 0, f32::MAX), (false, none, true));
+    assert_eq!(status(&mut t, 1, 1, inf), (true, onset, false));
+    assert_eq!(status(&mut t, 1, 2, f32::MAX), (false, release, false));
+    let mut t = TrackTable::<4>::new(WarningConfig::live(ninf, 0.0, 0, S)).unwrap();
+    assert_eq!(status(&mut t, 1, 0, ninf), (true, onset, true));
+    assert_eq!(status(&mut t, 1, 1, ninf), (true, none, false));
+
+    // The evaluation rule agrees: +inf triggers, -inf does not.
+    let mut rule = FirstThreshold::new(2.0);
+    assert!(!rule.update(ninf));
+    assert!(rule.update(inf));
+    assert_eq!(rule.first_warning(), Some(1));
+}
+
 #[test]
 fn time_base_reset_makes_the_track_stale_and_restarts_it() {
     // Live mode, stale after 1 s: a warning on at t = 5000 s, then the clock restarts near 0.
