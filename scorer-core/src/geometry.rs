@@ -62,10 +62,16 @@ pub fn unit_heading(s: &VehicleState) -> Option<Vec2> {
 /// A vehicle footprint: centre, unit heading and half extents.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OrientedBox {
+    /// Centre of the box (m), world frame ([`OrientedBox::of`]: the state's `(x, y)`), or
+    /// relative to another point after [`OrientedBox::relative_to`].
     pub center: Vec2,
     /// Unit vector along the long axis (the heading).
     pub axis: Vec2,
+    /// Half the length, along [`OrientedBox::axis`] (m): the state's `length / 2`. The distance
+    /// and overlap tests read its magnitude, so a negative value acts as its absolute value.
     pub half_length: f32,
+    /// Half the width, across [`OrientedBox::axis`] (m): the state's `width / 2`; as
+    /// [`OrientedBox::half_length`].
     pub half_width: f32,
 }
 

@@ -14,8 +14,16 @@ use crate::surrogates::{surrogates_and_features_with_headings, Surrogates};
 /// surrogates (MSRA, baselines) and the DRL input encoding (DRL).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Observation {
+    /// The 13 reference features ([`crate::features()`]; names, units and the ego-frame
+    /// convention in [`crate::features`](mod@crate::features)): what GSSM and MSRA blobs read and their training
+    /// domain bounds. Always finite (NaN becomes 0, infinities `+-f32::MAX`).
     pub features: Features,
+    /// Box distance (m), TTC2D (s), TAdv (s) and EI (m/s) ([`crate::surrogates()`]): "no
+    /// conflict" is `+inf` for TTC2D and TAdv, `-inf` for EI; without a box the box distance is
+    /// `+inf` too. Never NaN.
     pub surrogates: Surrogates,
+    /// The 13 DRL inputs of encoding 3 ([`crate::drl_inputs()`]; table in [`crate::encoding`]):
+    /// what DRL blobs read and their training domain bounds. Always finite.
     pub drl_inputs: DrlInputs,
 }
 

@@ -42,14 +42,51 @@
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct VehicleState {
+    /// World-frame x of the centre of the box (m; not the rear axle, not a GPS antenna).
+    ///
+    /// One fixed right-handed Cartesian frame for ego and partner (e.g. local ENU); only
+    /// differences of positions matter. f32 resolves better than 1 cm within 100 km of the origin
+    /// but only 0.5 m at a UTM northing (5,400 km): subtract a local origin first. Non-finite: the
+    /// state has no box (see "Check states before scoring").
     pub x: f32,
+    /// World-frame y of the centre of the box (m); as [`VehicleState::x`].
     pub y: f32,
+    /// Velocity over ground along the world x axis (m/s), not relative to the ego.
+    ///
+    /// Need not be parallel to the heading (side slip, reversing). Any finite value is scored; the
+    /// operating domain (`docs/domain.md`) is a speed `|(vx, vy)|` of 0-50 m/s per road user and
+    /// up to 30 m/s relative: beyond what a blob's training data covered, its training-domain
+    /// guard decides ([`ModelBlob::score_pair_guarded`](crate::ModelBlob::score_pair_guarded)).
+    /// Non-finite: no box.
     pub vx: f32,
+    /// Velocity over ground along the world y axis (m/s); as [`VehicleState::vx`].
     pub vy: f32,
+    /// World-frame x of the heading: the direction the front of the box points (dimensionless).
+    ///
+    /// `(hx, hy)` is normally a unit vector; any other non-zero finite vector is normalised
+    /// ([`unit_heading`](crate::geometry::unit_heading)) and gives the same numbers. A heading, not
+    /// an angle: no yaw convention applies; angles derived from it (`psi_sur`, `sin_psi`) are
+    /// counter-clockwise positive in the right-handed world frame, and the ego frame of the
+    /// features and DRL inputs has `+y` along the ego heading and `+x` to the ego's right. A zero
+    /// or non-finite heading: no box (see "Check states before scoring").
     pub hx: f32,
+    /// World-frame y of the heading (dimensionless); as [`VehicleState::hx`].
     pub hy: f32,
+    /// Longitudinal acceleration along the heading (m/s^2, braking negative).
+    ///
+    /// No score of this crate reads it: it is carried for the host tools (the safe-sequence rule).
+    /// It still counts in [`VehicleState::is_finite`]: a NaN or infinite `acc` makes the whole
+    /// state non-finite and so without a box (see "Check states before scoring"; the C ABI refuses
+    /// it). Pass `0.0` when unknown.
     pub acc: f32,
+    /// Length of the box along the heading, bumper to bumper (m), `>= 0` (0: a point).
+    ///
+    /// A negative length is not refused here and gives no meaningful score (the box distance
+    /// reads its magnitude, the features, TTC2D and EI the signed value); the C ABI refuses it
+    /// (`RISKSCORE_STATUS_INVALID_INPUT`). Non-finite: no box.
     pub length: f32,
+    /// Width of the box across the heading, without mirrors (m), `>= 0`; as
+    /// [`VehicleState::length`].
     pub width: f32,
 }
 

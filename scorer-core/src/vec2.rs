@@ -2,14 +2,20 @@
 /// A 2-D vector (m or m/s).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Vec2 {
+    /// x component (m for positions, m/s for velocities, dimensionless for headings), world frame
+    /// unless the function that returns the vector says otherwise.
     pub x: f32,
+    /// y component, in the same unit and frame as [`Vec2::x`].
     pub y: f32,
 }
 
 impl Vec2 {
+    /// The vector `(x, y)`.
     pub const fn new(x: f32, y: f32) -> Self {
         Self { x, y }
     }
+    /// Dot product `x * o.x + y * o.y` (unit: the product of the two vectors' units). No
+    /// overflow guard: infinite or NaN as IEEE arithmetic gives it.
     pub fn dot(self, o: Vec2) -> f32 {
         self.x * o.x + self.y * o.y
     }
@@ -34,9 +40,12 @@ impl Vec2 {
         let (x, y) = (self.x / m, self.y / m);
         m * libm::sqrtf(x * x + y * y)
     }
+    /// Squared length `x^2 + y^2` (unit squared), without a square root; `+inf` when it
+    /// overflows (components beyond about 1.8e19), NaN when a component is NaN.
     pub fn norm2(self) -> f32 {
         self.dot(self)
     }
+    /// Both components multiplied by `k` (IEEE arithmetic: no guard against NaN or overflow).
     pub fn scale(self, k: f32) -> Vec2 {
         Vec2::new(self.x * k, self.y * k)
     }
@@ -44,6 +53,7 @@ impl Vec2 {
     pub fn perp_left(self) -> Vec2 {
         Vec2::new(-self.y, self.x)
     }
+    /// True when both components are finite (neither NaN nor infinite).
     pub fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite()
     }

@@ -28,9 +28,16 @@ pub use ttc2d::ttc2d;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[repr(u8)]
 pub enum SurrogateKind {
+    /// Two-dimensional time-to-collision ([`ttc2d`], s; smaller is riskier, `+inf` = no
+    /// conflict). Wire index 0.
     Ttc2d = 0,
+    /// Time advantage ([`tadv`], s; smaller is riskier, `+inf` = no conflict). Wire index 1.
     Tadv = 1,
+    /// Emergency index ([`ei`], m/s; larger is riskier, `-inf` = no conflict). Wire index 2.
     Ei = 2,
+    /// The score of the GSSM network embedded in an MSRA model ([`crate::gssm`]; larger is
+    /// riskier; dimensionless, in the range of its [`GssmScore`](crate::gssm::GssmScore) mode); not a kinematic measure, so not in [`Surrogates`].
+    /// Wire index 3.
     Gssm = 3,
 }
 
