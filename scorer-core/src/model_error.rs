@@ -13,7 +13,13 @@ pub enum ModelError {
     /// of the whole blob), or, inside a version-2 payload whose length and CRC are right, a
     /// metadata record declares a body longer than what follows its length varint (`needed`: the
     /// declared body length, `available`: the payload bytes left after the varint).
-    Truncated { needed: usize, available: usize },
+    Truncated {
+        /// Bytes required: of the whole blob (header + declared payload), or the record body's
+        /// declared length.
+        needed: usize,
+        /// Bytes present: of the whole blob, or of the payload after the record's length varint.
+        available: usize,
+    },
     /// The first four bytes are not [`MAGIC`](crate::model::MAGIC).
     BadMagic([u8; 4]),
     /// The format version is not one this build reads.
@@ -21,70 +27,134 @@ pub enum ModelError {
     /// The model-kind byte names no known kind.
     UnknownKind(u8),
     /// A reserved header field is not zero.
-    ReservedNotZero { offset: usize },
+    ReservedNotZero {
+        /// Byte offset of the first non-zero reserved byte in the header: 7, 10 or 11.
+        offset: usize,
+    },
     /// The input-schema id is not one this build computes.
     UnsupportedFeatureSchema(u16),
     /// The input schema is known but not the one this build scores the model kind with (e.g. a
     /// DRL blob of schema 1 (the raw features) or 2 (the retired DRL input encoding 2) in a build
     /// that scores DRL with encoding 3).
     WrongInputSchema {
+        /// The header's model kind, as [`ModelKind::name`](crate::model::ModelKind::name) spells
+        /// it (`drl-int8`, `drl-f32`, `msra`, `gssm`).
         kind: &'static str,
+        /// The header's input-schema id (bytes 8-9).
         found: u16,
+        /// The schema this build scores the kind with
+        /// ([`ModelKind::input_schema`](crate::model::ModelKind::input_schema)).
         expected: u16,
     },
     /// Bytes follow the payload (after the declared length, or inside it after the model).
-    TrailingBytes { extra: usize },
+    TrailingBytes {
+        /// How many bytes are left over.
+        extra: usize,
+    },
     /// The payload CRC-32 does not match the header.
-    CrcMismatch { stored: u32, computed: u32 },
+    CrcMismatch {
+        /// The CRC-32 the header carries (bytes 16-19).
+        stored: u32,
+        /// The CRC-32/ISO-HDLC of the payload bytes as received ([`crate::crc::crc32`]).
+        computed: u32,
+    },
     /// The payload is not a valid postcard encoding of the model kind (the postcard error says why).
     Payload(postcard::Error),
     /// A list or dimension is larger than the compiled capacity.
     CapacityExceeded {
+        /// The list or dimension, as `docs/model-format.md` spells it.
         field: &'static str,
+        /// Its length: elements, or bytes for a byte string or the payload.
         len: usize,
+        /// The compiled capacity it exceeds.
         max: usize,
     },
     /// A required list is empty (no inputs, no layers, no terms).
-    Empty { field: &'static str },
+    Empty {
+        /// The empty list or dimension.
+        field: &'static str,
+    },
     /// A byte array or list length disagrees with the dimensions it must match.
     DimensionMismatch {
+        /// The array or list whose length is wrong.
         field: &'static str,
+        /// The layer it belongs to (0-based); 0 for a field that is not per layer.
         index: usize,
+        /// The length the dimensions require (bytes for a byte array, else elements).
         expected: usize,
+        /// The length the blob has, in the same unit.
         found: usize,
     },
     /// A float parameter is NaN, infinite, or larger in magnitude than
     /// [`MAX_ABS_PARAM`](crate::mlp::MAX_ABS_PARAM).
-    NonFinite { field: &'static str, index: usize },
+    NonFinite {
+        /// The parameter array.
+        field: &'static str,
+        /// Index of the offending element in it (0 for a single value).
+        index: usize,
+    },
     /// A scale that must be strictly positive is zero or negative.
-    NonPositiveScale { field: &'static str, index: usize },
+    NonPositiveScale {
+        /// The scale array.
+        field: &'static str,
+        /// Index of the offending element in it.
+        index: usize,
+    },
     /// A feature index is not below [`FEATURE_COUNT`](crate::FEATURE_COUNT).
-    BadFeatureIndex { index: usize, feature: u8 },
+    BadFeatureIndex {
+        /// Position in the model's `inputs` list.
+        index: usize,
+        /// The feature index found there (must be below 13).
+        feature: u8,
+    },
     /// A requantisation pair is outside `multiplier in [2^30, 2^31)`, `shift in [-32, 32]`.
     BadMultiplier {
+        /// The layer (0-based; only hidden layers carry requantisation pairs).
         layer: usize,
+        /// The output channel of that layer (0-based).
         channel: usize,
+        /// The fixed-point multiplier found (see [`crate::quant`]).
         multiplier: i32,
+        /// The right shift found (see [`crate::quant`]).
         shift: i8,
     },
     /// An MSRA clip range is not `lo < hi` with finite bounds.
-    BadClipRange { term: usize },
+    BadClipRange {
+        /// The MSRA term (0-based).
+        term: usize,
+    },
     /// An MSRA term reads GSSM but the model embeds no GSSM network.
-    MissingGssm { term: usize },
+    MissingGssm {
+        /// The first MSRA term (0-based) that reads GSSM.
+        term: usize,
+    },
     /// The output buffer given to `encode` is too small.
-    BufferTooSmall { needed: usize, available: usize },
+    BufferTooSmall {
+        /// Bytes the encoded blob (or its metadata records) takes.
+        needed: usize,
+        /// Bytes the buffer has.
+        available: usize,
+    },
     /// A metadata record of a version-2 blob appears twice.
-    DuplicateRecord { tag: u8 },
+    DuplicateRecord {
+        /// The record tag given twice.
+        tag: u8,
+    },
     /// A metadata record's fields contradict each other or cannot be shown safely.
     BadRecord {
+        /// The record field at fault, as `docs/model-format.md` spells it.
         field: &'static str,
+        /// What is wrong with it.
         reason: &'static str,
     },
     /// Entry `entry` of the training-domain record (for input `input`) is unusable: an unknown
     /// input index, a non-finite bound, `lo > hi`, or an input given twice.
     BadDomainEntry {
+        /// Position of the range in the record (0-based).
         entry: usize,
+        /// The input index the range names.
         input: u8,
+        /// What is wrong with it.
         reason: &'static str,
     },
     /// The training-domain record names an outside policy this build does not know (the first
@@ -92,7 +162,12 @@ pub enum ModelError {
     UnknownOutsidePolicy(u8),
     /// Term `term` of the kinematic-fallback record is unusable: an unknown or GSSM surrogate,
     /// or a parameter that [`MsraTerm::validate`](crate::msra::MsraTerm::validate) refuses.
-    BadFallbackTerm { term: usize, reason: &'static str },
+    BadFallbackTerm {
+        /// The fallback term (0-based).
+        term: usize,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
 }
 
 impl fmt::Display for ModelError {

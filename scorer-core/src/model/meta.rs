@@ -30,8 +30,13 @@ pub enum ThresholdRule {
     /// The smallest sequence maximum at which at most `target` of `sequences` normal-driving
     /// sequences warn; `measured` is the share that does (both fractions in `[0, 1]`).
     SafeShare {
+        /// The largest share of the sequences allowed to warn, a fraction in `[0, 1]` (0.05 for
+        /// the shipped blobs' 5 % rule); outside, [`DefaultThreshold::validate`] refuses it.
         target: f32,
+        /// The share that warns at the chosen threshold, a fraction in `[0, 1]` and at most
+        /// `target` (plus 1e-6 of rounding room); else refused.
         measured: f32,
+        /// How many normal-driving sequences the shares were measured on (a count).
         sequences: u32,
     },
 }
@@ -41,6 +46,7 @@ pub enum ThresholdRule {
 pub struct DefaultThreshold<'a> {
     /// Warn when the score is `>= threshold`.
     pub threshold: f32,
+    /// How the threshold was chosen (for people and tools; scoring does not read it).
     pub rule: ThresholdRule,
     /// What the rule was measured on (for people: shown by `inspect-model`), at most
     /// [`MAX_DATA_DESCRIPTION`] bytes.
@@ -114,6 +120,9 @@ impl<'a> DefaultThreshold<'a> {
 /// Everything a blob says beside its model. The default (no records) is what a version-1 blob has.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ModelMeta<'a> {
+    /// Tag 1: the calibrated default warning threshold (same unit as the model's score);
+    /// `None`: [`ModelBlob::default_threshold`](super::ModelBlob::default_threshold) falls back to
+    /// the kind's rule ([`super::Model::kind_default_threshold`]).
     pub default_threshold: Option<DefaultThreshold<'a>>,
     /// Tag 2: the inputs' trained ranges and the policy outside them, with the covered geometry
     /// cells of tag 4 when the blob has them; `None` scores unguarded.
@@ -135,6 +144,11 @@ impl<'a> ModelMeta<'a> {
             && self.blend.is_none()
     }
 
+    /// Checks every record ([`DefaultThreshold::validate`], [`TrainingDomain::validate`],
+    /// [`KinematicFallback::validate`], [`Blend::validate`]) and that the records fit together:
+    /// a kinematic fallback exactly when the domain's policy is fallback or blend, a blend record
+    /// exactly when it is blend ([`ModelError::BadRecord`] otherwise). [`super::decode_blob`] and
+    /// [`super::encode_blob`] run it.
     pub fn validate(&self) -> Result<(), ModelError> {
         if let Some(op) = &self.default_threshold {
             op.validate()?;

@@ -116,10 +116,22 @@ impl ModelKind {
 /// The decoded fixed header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ModelHeader {
+    /// Format version (bytes 4-5): [`MODEL_ONLY_VERSION`] (1, model only) or [`FORMAT_VERSION`]
+    /// (2, model then metadata records); any other is [`ModelError::UnsupportedVersion`].
     pub version: u16,
+    /// Model kind (byte 6); an unknown byte is [`ModelError::UnknownKind`].
     pub kind: ModelKind,
+    /// Input-schema id (bytes 8-9): must be [`ModelKind::input_schema`] of `kind` in this build
+    /// (1 for MSRA and GSSM, 3 for DRL); an id outside [`KNOWN_INPUT_SCHEMAS`] is
+    /// [`ModelError::UnsupportedFeatureSchema`], a known one of the wrong kind
+    /// [`ModelError::WrongInputSchema`].
     pub feature_schema: u16,
+    /// Payload length in bytes after the 20-byte header (bytes 12-15); the blob must be exactly
+    /// `HEADER_LEN + payload_len` long ([`ModelError::Truncated`] / [`ModelError::TrailingBytes`];
+    /// [`decode_header`] alone does not check it).
     pub payload_len: u32,
+    /// CRC-32/ISO-HDLC of the payload (bytes 16-19, [`crate::crc`]); checked by [`decode_blob`]
+    /// ([`ModelError::CrcMismatch`]), not by [`decode_header`].
     pub payload_crc: u32,
 }
 
@@ -150,9 +162,15 @@ impl ModelHeader {
 /// A decoded model, borrowing its weights from the blob.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Model<'a> {
+    /// The int8 DRL network, as deployed ([`ModelKind::DrlInt8`]); reads the DRL inputs.
     DrlInt8(QuantMlp<'a>),
+    /// The f32 DRL network, the int8 one's parity reference ([`ModelKind::DrlF32`]); reads the DRL
+    /// inputs.
     DrlF32(FloatMlp<'a>),
+    /// A multi-surrogate risk aggregation ([`ModelKind::Msra`]); reads the features and the
+    /// surrogates.
     Msra(MsraModel<'a>),
+    /// A GSSM / SSRA lognormal spacing model ([`ModelKind::Gssm`]); reads the features.
     Gssm(GssmModel<'a>),
 }
 
@@ -313,7 +331,11 @@ pub fn decode_header(blob: &[u8]) -> Result<ModelHeader, ModelError> {
 /// A decoded blob: the model and what the blob says about using it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelBlob<'a> {
+    /// The model, borrowing its weights from the blob. Its [`Model::score`] is the unguarded
+    /// score: score as deployed with [`ModelBlob::score_pair_guarded`].
     pub model: Model<'a>,
+    /// The blob's metadata records (default threshold, training domain, kinematic fallback,
+    /// blend); empty for a version-1 blob, which then scores unguarded.
     pub meta: ModelMeta<'a>,
 }
 

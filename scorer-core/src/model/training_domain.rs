@@ -77,8 +77,18 @@ impl OutsidePolicy {
 /// The trained range `[lo, hi]` of one input (an index into the kind's input vector).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InputRange {
+    /// Index into the vector the model kind reads
+    /// ([`Model::domain_inputs`](crate::model::Model::domain_inputs)): `0..13`, named by
+    /// [`crate::DRL_INPUT_NAMES`] for DRL blobs and [`crate::FEATURE_NAMES`] for MSRA and GSSM
+    /// blobs. 13 or more is refused ([`ModelError::BadDomainEntry`]).
     pub input: u8,
+    /// Lowest trained value, inclusive, in that input's own unit (m, m/s, m^2/s^2, rad,
+    /// dimensionless, or the log and `slog` scales of the DRL inputs; see
+    /// [`crate::features`](mod@crate::features) and [`crate::encoding`]). Finite and `<= hi`,
+    /// else the record is refused.
     pub lo: f32,
+    /// Highest trained value, inclusive, in the same unit; finite and `>= lo`. An input `x` is
+    /// inside when `lo <= x <= hi` ([`InputRange::contains`]; NaN is outside).
     pub hi: f32,
 }
 
@@ -112,6 +122,9 @@ impl InputRange {
 /// one) and the policy for outside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainingDomain<'a> {
+    /// What the guarded score is for an observation outside the domain (the first body byte on
+    /// the wire: 0 flag-only, 1 clamp, 2 fallback, 3 blend; another byte is
+    /// [`ModelError::UnknownOutsidePolicy`]).
     pub policy: OutsidePolicy,
     /// [`InputRange`]s, [`RANGE_BYTES`] each ([`TrainingDomain::ranges`] reads them).
     #[serde(borrow)]
