@@ -75,6 +75,8 @@
 //! ```
 #![no_std]
 #![forbid(unsafe_code)]
+// Every public item says what an integrator needs (unit, frame, range, what happens outside it).
+#![deny(missing_docs)]
 #![cfg_attr(
     test,
     allow(

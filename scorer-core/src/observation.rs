@@ -15,8 +15,9 @@ use crate::surrogates::{surrogates_and_features_with_headings, Surrogates};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Observation {
     /// The 13 reference features ([`crate::features()`]; names, units and the ego-frame
-    /// convention in [`crate::features`](mod@crate::features)): what GSSM and MSRA blobs read and their training
-    /// domain bounds. Always finite (NaN becomes 0, infinities `+-f32::MAX`).
+    /// convention in [`crate::features`](mod@crate::features)): what GSSM and MSRA blobs read
+    /// and their training domain bounds. Always finite (NaN becomes 0, infinities
+    /// `+-f32::MAX`).
     pub features: Features,
     /// Box distance (m), TTC2D (s), TAdv (s) and EI (m/s) ([`crate::surrogates()`]): "no
     /// conflict" is `+inf` for TTC2D and TAdv, `-inf` for EI; without a box the box distance is
