@@ -108,6 +108,12 @@ pub mod vec2;
 pub mod warning;
 mod wire_reader;
 
+/// `models/README.md`, whose Rust example runs as a doctest (`cargo test -p scorer-core --doc`),
+/// so the example a user copies from it compiles against this crate and scores through the guard.
+#[cfg(doctest)]
+#[doc = include_str!("../../models/README.md")]
+pub struct ModelsReadme;
+
 pub use encoding::{drl_inputs, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, DRL_INPUT_NAMES};
 pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
 pub use geometry::box_distance;
