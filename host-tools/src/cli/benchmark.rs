@@ -567,6 +567,7 @@ fn refuse_sequences_out(path: &Path, a: &DomainsArgs) -> anyhow::Result<()> {
             super::output::left_alone(path)
         );
     }
+    super::output::refuse_overwriting_a_model("--sequences-out", path, "a per-sequence table")?;
     for folder in written_folders(a) {
         if riskscore_output::lies_within(path, &folder) {
             anyhow::bail!(

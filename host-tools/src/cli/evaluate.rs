@@ -70,7 +70,8 @@ pub struct Args {
     /// Also write results.{md,csv,json}, curves.csv and the ROC, PR and trajectory plots
     /// (SVG and PNG) into DIR. They are written under temporary names and renamed into place
     /// together at the end: a failed run changes none of them. A name that is one of the
-    /// input files is refused. The folder is still read one event at a time: the trajectory
+    /// input files, or that holds a model blob or training checkpoint, is refused (the folder's
+    /// other files are kept). The folder is still read one event at a time: the trajectory
     /// plot's percentiles are exact up to 65,536 frames per method and beyond that within a
     /// small error that is printed (see docs/scale.md).
     #[arg(long, value_name = "DIR")]
@@ -292,18 +293,32 @@ pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
 }
 
 /// Refuses an `--out` folder that holds a model or event file, or whose result files would
-/// overwrite one.
+/// overwrite one: an input, or any model blob or training checkpoint stored under a result
+/// file's name.
 fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> anyhow::Result<()> {
-    let outputs: Vec<PathBuf> = RESULT_FILES
+    let files: Vec<PathBuf> = RESULT_FILES
         .iter()
         .chain(&FIGURE_FILES)
         .map(|n| out.join(n))
         .collect();
-    let mut outputs: Vec<(&str, &Path)> = outputs.iter().map(|p| ("--out", p.as_path())).collect();
+    let mut outputs: Vec<(&str, &Path)> = files.iter().map(|p| ("--out", p.as_path())).collect();
     // The folder itself last (its files first: "same file as" says more than "contains"): it is
     // swapped whole, so it must not hold an input either.
     outputs.push(("--out", out));
-    super::output::refuse_overwriting_inputs(models, events, &outputs)
+    super::output::refuse_overwriting_inputs(models, events, &outputs)?;
+    // The swap carries every other file of the old folder over (riskscore_output::OutputDir), so
+    // a model there under another name is kept; only a result file's name is replaced. A link
+    // of that name is replaced itself, never the file it points to.
+    for file in &files {
+        if !std::fs::symlink_metadata(file).is_ok_and(|m| m.file_type().is_symlink()) {
+            super::output::refuse_overwriting_a_model(
+                "--out",
+                file,
+                "a result file of `riskctl evaluate`",
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// Writes the `--out` folder as a whole: a complete new folder is swapped in for the old one.

@@ -86,6 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &[],
         &[("--out", args.out.as_path())],
     )?;
+    super::output::refuse_overwriting_a_model("--out", &args.out, "a candump log")?;
     let (set, issues) = riskscore_data::events::load_events(&args.events)
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     // The loader keeps the first problems of each kind and counts the rest.

@@ -53,7 +53,7 @@ pub struct Args {
     )]
     thresholds: Vec<String>,
     /// Output image: `.svg` or `.png`. Written under a temporary name and renamed into place;
-    /// an input file is refused.
+    /// an input file, and any model blob or training checkpoint, is refused.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
 }
@@ -67,6 +67,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let files = ModelFile::read_all(&args.models)?;
     super::output::refuse_overwriting_inputs(&files, &args.events, &[("--out", &args.out)])?;
+    super::output::refuse_overwriting_a_model("--out", &args.out, "an image")?;
     let mut methods: Vec<Method<'_>> = named_models(&files)?;
     methods.extend(Method::baselines());
     let thresholds = super::evaluate::operating_thresholds(&args.thresholds, &files, &methods)?;

@@ -120,6 +120,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut report = BadRowReport::new(args.show_bad);
     super::output::refuse(&[("--input", &args.input)], &[("--output", &args.output)])?;
+    super::output::refuse_overwriting_a_model("--output", &args.output, "a table")?;
     let columnar = is_parquet(&args.input) || is_parquet(&args.output);
     let summary = write_output(&args.output, |out| {
         let summary = if columnar {
