@@ -283,3 +283,61 @@ fn riskctl_within(args: &[&str], limit: Duration) -> Output {
     }
     child.wait_with_output().unwrap()
 }
+
+/// Frames of an event id that events.csv lacks drop only those rows, yet the listing said
+/// "those events are skipped" for them; each problem now says what it leaves out.
+#[test]
+fn load_problems_say_whether_an_event_or_only_rows_are_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = folder(dir.path(), "events", 3);
+    let frames_csv = events.join("frames.csv");
+    let frames = std::fs::read_to_string(&frames_csv).unwrap();
+    let row = frames.lines().nth(1).unwrap();
+    let ghost = format!("ghost{}", &row[row.find(',').unwrap()..]);
+    std::fs::write(&frames_csv, format!("{frames}{ghost}\n{ghost}\n")).unwrap();
+    let events_csv = events.join("events.csv");
+    let table = std::fs::read_to_string(&events_csv).unwrap();
+    let mut bad: Vec<&str> = table.lines().nth(1).unwrap().split(',').collect();
+    bad[0] = "bad";
+    bad[1] = "bogus";
+    std::fs::write(&events_csv, format!("{table}{}\n", bad.join(","))).unwrap();
+
+    let o = riskctl(&["evaluate", "--events", p(&events), "--skip-bad-events"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("riskctl: 2 problem(s) in the event folder:\n"),
+        "{err}"
+    );
+    assert!(!err.contains("those events are skipped"), "{err}");
+    let line = |needle: &str| {
+        err.lines()
+            .find(|l| l.contains(needle))
+            .unwrap_or_else(|| panic!("no line with {needle:?}: {err}"))
+            .to_owned()
+    };
+    assert!(
+        line("event `ghost`").ends_with(
+            "2 frame(s) for an event that is not in events.csv \
+             (only these rows are dropped: no event is skipped)"
+        ),
+        "{err}"
+    );
+    assert!(
+        line("unknown kind `bogus`").ends_with("(the event is skipped)"),
+        "{err}"
+    );
+    // The unknown rows leave every event in: 3 crashes, 3 near-crashes, 4 safe.
+    let o = riskctl(&[
+        "evaluate",
+        "--events",
+        p(&events),
+        "--skip-bad-events",
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        json["events"],
+        serde_json::json!({"crash": 3, "near_crash": 3, "safe": 4})
+    );
+}

@@ -278,6 +278,8 @@ fn evaluate_checked(
 /// number of problems, not of listed lines.
 ///
 /// Notes (a file without a final newline) skip nothing: each is a warning line of its own.
+/// Every problem says what it leaves out ([`left_out`]): most skip their event, but frames of
+/// an id that events.csv does not have drop only those rows.
 pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
     let (notes, problems): (Vec<_>, Vec<_>) = issues.iter().partition(|i| i.problem.is_note());
     for note in notes {
@@ -285,10 +287,32 @@ pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
     }
     if !problems.is_empty() {
         let total: u64 = problems.iter().map(|i| i.count()).sum();
-        eprintln!("riskctl: {total} problem(s) in the event folder (those events are skipped):");
+        eprintln!("riskctl: {total} problem(s) in the event folder:");
         for issue in problems {
-            eprintln!("  {issue}");
+            eprintln!("  {issue} ({})", left_out(issue));
         }
+    }
+}
+
+/// What the loader leaves out for `issue` (not a note): rows of an event id that is not in
+/// events.csv are dropped alone, as there is no such event to skip
+/// ([`IssueProblem::UnknownEvent`](riskscore_data::events::IssueProblem::UnknownEvent)); every
+/// other problem skips the event it names, or drops its row when no event can be named.
+fn left_out(issue: &riskscore_data::events::LoadIssue) -> &'static str {
+    use riskscore_data::events::IssueProblem;
+    let unknown = IssueProblem::UnknownEvent {
+        frames: 0,
+        similar: None,
+    }
+    .kind();
+    match &issue.problem {
+        IssueProblem::UnknownEvent { .. } => "only these rows are dropped: no event is skipped",
+        IssueProblem::MoreOfKind { kind, .. } if *kind == unknown => {
+            "only those rows are dropped: no event is skipped"
+        }
+        IssueProblem::MoreOfKind { .. } => "their events are skipped",
+        _ if issue.event_id.as_deref().is_some_and(|id| !id.is_empty()) => "the event is skipped",
+        _ => "the row is skipped",
     }
 }
 
