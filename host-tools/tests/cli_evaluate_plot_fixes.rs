@@ -341,3 +341,40 @@ fn load_problems_say_whether_an_event_or_only_rows_are_left_out() {
         serde_json::json!({"crash": 3, "near_crash": 3, "safe": 4})
     );
 }
+
+/// The trajectory figure was titled "of crash events" though `--trajectory-event` draws
+/// near-crash sequences too; its title and the message when nothing is drawn say what is.
+#[test]
+fn the_trajectory_figure_says_it_plots_crash_or_near_crash_events() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = folder(dir.path(), "events", 0);
+    let out = dir.path().join("report");
+    // No crash: by default nothing is drawn, and the message says why and how to draw one.
+    let o = riskctl(&["evaluate", "--events", p(&events), "--out", p(&out)]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("no crash sequence, so no trajectory plot")
+            && err.contains("--trajectory-event ID draws a crash or near-crash one"),
+        "{err}"
+    );
+    assert!(!out.join("trajectories.svg").exists());
+    // A near-crash asked for is drawn under a title that covers it.
+    let o = riskctl(&[
+        "evaluate",
+        "--events",
+        p(&events),
+        "--out",
+        p(&out),
+        "--trajectory-event",
+        "near1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(out.join("trajectories.svg")).unwrap();
+    assert!(
+        svg.contains("Risk trajectories of crash or near-crash events (each method as its percentile over all frames)"),
+        "title not found"
+    );
+    assert!(svg.contains("event near1"));
+    assert!(!svg.contains("of crash events"));
+}

@@ -1,5 +1,5 @@
 //! Evaluation figures (plotters), each written as SVG and PNG: ROC curves, precision-recall curves,
-//! and risk trajectories of crash events.
+//! and risk trajectories of conflict events (crash or near-crash sequences, up to their endpoint).
 //!
 //! Text needs a font in both backends (plotters measures labels to lay them out). We embed DejaVu
 //! Sans (`fonts/DejaVuSans.ttf`, unmodified, Bitstream Vera licence in `fonts/LICENSE-DejaVu.txt`,
@@ -420,16 +420,17 @@ pub(crate) fn draw_legend_strip<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The trajectory figure's title. Its panels are conflict sequences: by default the first crash
+/// sequences, else the crash or near-crash sequences asked for (`--trajectory-event`).
+const TRAJECTORY_TITLE: &str =
+    "Risk trajectories of crash or near-crash events (each method as its percentile over all frames)";
+
 fn draw_trajectories<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     panels: &[TrajectoryPanel],
     scores: &str,
 ) -> DrawResult<DB> {
-    let body = captioned(
-        root,
-        "Risk trajectories of crash events (each method as its percentile over all frames)",
-        scores,
-    )?;
+    let body = captioned(root, TRAJECTORY_TITLE, scores)?;
     let (charts, legend) = body.split_vertically(body.dim_in_pixel().1.saturating_sub(56));
     let names: Vec<&String> = panels
         .iter()

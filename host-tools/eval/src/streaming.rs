@@ -65,7 +65,8 @@ pub struct ProfileAccumulator<'a, 'm> {
     domain: Vec<Option<DomainShare>>,
 }
 
-/// The crash events whose risk trajectories are drawn.
+/// The conflict events whose risk trajectories are drawn: the first crash sequences, or crash or
+/// near-crash sequences named by id.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TrajectoryEvents {
     /// The first `n` crash sequences in `events.csv` order.

@@ -356,7 +356,9 @@ fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<Pat
             );
         }
         if trajectories.event_ids.is_empty() {
-            eprintln!("riskctl: no crash events, so no trajectory plot");
+            eprintln!(
+                "riskctl: no crash sequence, so no trajectory plot (by default the first {DEFAULT_TRAJECTORIES} crash sequences are drawn; --trajectory-event ID draws a crash or near-crash one)"
+            );
         }
         let error = trajectories.percentile_error();
         if error > 0.0 {
