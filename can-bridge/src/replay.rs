@@ -149,30 +149,41 @@ impl Pacer {
                 ),
             }),
             Action::Held => {}
+            // A gap: the frames play on the current segment's timing.
+            Action::Continue(held) => self.send_held(held, out),
             Action::NewSegment(held) => {
                 // The new segment plays on from the last frame sent, with its own timing.
                 self.anchor = Some((held[0].0, self.last_at));
                 out(Paced::NewSegment { t_us: held[0].0 });
-                for (t, (f, l, port)) in held {
-                    if self.timeline.newest_us() == Some(t) {
-                        self.newest_line = l;
-                    }
-                    let at = self.schedule(t);
-                    out(Paced::Send {
-                        at,
-                        line: l,
-                        frame: f,
-                        port,
-                    });
-                }
+                self.send_held(held, out);
             }
         }
     }
 
-    /// End of the log: frames still held for an unconfirmed jump are dropped.
+    /// Sends frames the timeline held, in order.
+    fn send_held(&mut self, held: Vec<(u64, (Frame, u64, usize))>, out: &mut impl FnMut(Paced)) {
+        for (t, (f, l, port)) in held {
+            if self.timeline.newest_us() == Some(t) {
+                self.newest_line = l;
+            }
+            let at = self.schedule(t);
+            out(Paced::Send {
+                at,
+                line: l,
+                frame: f,
+                port,
+            });
+        }
+    }
+
+    /// End of the log: frames still held for an unconfirmed jump are dropped; those held after a
+    /// gap are sent.
     pub fn finish(&mut self, out: &mut impl FnMut(Paced)) {
-        let held = self.timeline.finish();
-        self.drop_off_timeline(&held, out);
+        let step = self.timeline.finish();
+        self.drop_off_timeline(&step.dropped, out);
+        if let Action::Continue(held) = step.action {
+            self.send_held(held, out);
+        }
     }
 
     fn drop_off_timeline(
@@ -455,6 +466,33 @@ mod tests {
         // The schedule is the original timing: the last frame leaves 0.9 s after the first.
         assert_eq!(s.last(), Some(&(11, ms(900))));
         assert!(s.iter().all(|(_, at)| *at <= ms(900)), "{s:?}");
+    }
+
+    #[test]
+    fn a_frame_2_s_ahead_is_dropped_alone_and_the_frames_after_it_are_sent() {
+        let mut stamps = cycle(T0);
+        stamps[4] += 2_000_000;
+        let out = pace(Rate::Factor(1.0), &stamps);
+        assert_eq!(drops(&out), [(5, LossKind::OffTimeline)]);
+        assert!(!out.iter().any(|x| matches!(x, Paced::NewSegment { .. })));
+        let s = sends(&out);
+        assert_eq!(s.len(), 9);
+        assert_eq!(s.last(), Some(&(10, ms(900))));
+    }
+
+    #[test]
+    fn a_gap_of_2_s_plays_on_the_same_timing_also_at_the_end() {
+        let mut stamps = cycle(T0);
+        stamps.extend(cycle(T0 + 2_900_000));
+        // Two frames after a second gap end the log: sent, on the same timing.
+        stamps.extend([T0 + 6_000_000, T0 + 6_100_000]);
+        let out = pace(Rate::Factor(1.0), &stamps);
+        assert!(drops(&out).is_empty(), "{out:?}");
+        assert!(!out.iter().any(|x| matches!(x, Paced::NewSegment { .. })));
+        let s = sends(&out);
+        assert_eq!(s.len(), 22);
+        assert_eq!(s[10], (11, ms(2900)));
+        assert_eq!(s[21], (22, ms(6100)));
     }
 
     #[test]

@@ -204,13 +204,20 @@ impl<'m> Engine<'m> {
                 });
             }
             Action::Held => {}
+            Action::Continue(held) => self.process_held(&held, out),
             Action::NewSegment(held) => {
                 self.start_segment(held[0].0, out);
-                for (t, (f, source, bus)) in &held {
-                    self.set_source(*t, *source);
-                    self.process_in_order(*t, f, *bus, out);
-                }
+                self.process_held(&held, out);
             }
+        }
+    }
+
+    /// Processes frames the timeline held, in order.
+    #[cold]
+    fn process_held(&mut self, held: &[(u64, HeldFrame)], out: &mut impl FnMut(Output)) {
+        for (t, (f, source, bus)) in held {
+            self.set_source(*t, *source);
+            self.process_in_order(*t, f, *bus, out);
         }
     }
 
@@ -222,10 +229,14 @@ impl<'m> Engine<'m> {
         }
     }
 
-    /// End of input: frames held for a jump that was never confirmed are dropped and counted.
+    /// End of input: frames held for a jump that was never confirmed are dropped and counted;
+    /// those held after a gap are processed ([`crate::timeline`]).
     pub fn finish(&mut self, out: &mut impl FnMut(Output)) {
-        let held = self.timeline.finish();
-        self.drop_out_of_window(&held, out);
+        let step = self.timeline.finish();
+        self.drop_out_of_window(&step.dropped, out);
+        if let Action::Continue(held) = step.action {
+            self.process_held(&held, out);
+        }
     }
 
     #[cold]
