@@ -72,8 +72,8 @@ enum RiskscoreStatus
   RISKSCORE_STATUS_CONTEXT_MISALIGNED = 3,
   // The context was not initialised by `riskscore_init` (or was overwritten).
   RISKSCORE_STATUS_CONTEXT_NOT_INITIALIZED = 4,
-  // A `RiskscoreWarningConfig` field is invalid (NaN threshold, negative or non-finite
-  // hysteresis, a flag other than 0/1).
+  // A `RiskscoreWarningConfig` field is invalid (NaN or infinite threshold, negative or
+  // non-finite hysteresis, `stale_after_us` of 0, a flag other than 0/1).
   RISKSCORE_STATUS_INVALID_CONFIG = 5,
   // A vehicle state has a NaN or infinite field.
   RISKSCORE_STATUS_NON_FINITE_STATE = 6,
@@ -180,13 +180,17 @@ typedef struct {
 
 // Parameters of the per-partner warning rule and of the track table.
 typedef struct {
-  // Warn when the score is `>= threshold`.
+  // Warn when the score is `>= threshold`. Finite: NaN and +-infinity are refused
+  // (`RISKSCORE_STATUS_INVALID_CONFIG`; `+inf` would never warn on a finite score, `-inf` would
+  // warn on every partner).
   float threshold;
   // Live mode: release when the score is `< threshold - hysteresis` (`>= 0`).
   float hysteresis;
   // Live mode: a warning stays on at least this long (microseconds).
   uint64_t min_on_us;
-  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
+  // Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never; 0 is
+  // refused with `RISKSCORE_STATUS_INVALID_CONFIG`: every track would be stale as soon as the
+  // clock moves on, so no warning would persist and no partner be followed). A track
   // last updated more than this after `now_us` (the time base was reset) is stale: not reported
   // as warning, restarted by the next update of its own id, evictable only if its warning was
   // off (a warning one is kept and can fill the table: `RISKSCORE_STATUS_TABLE_FULL`); other

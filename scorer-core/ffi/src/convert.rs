@@ -41,19 +41,33 @@ pub(crate) fn flag(v: u8) -> Result<bool, RiskscoreStatus> {
     }
 }
 
+/// The C configuration as the core's; `RISKSCORE_STATUS_INVALID_CONFIG` for a flag other than 0/1,
+/// for what [`WarningConfig::validate`] refuses (NaN threshold; negative or non-finite hysteresis)
+/// and for two values the core accepts but that silently disable the warnings: `stale_after_us ==
+/// 0` (every track is stale as soon as the clock moves on: no warning persists, no partner is
+/// followed) and an infinite threshold (`+inf`: no finite score ever warns; `-inf`: every partner
+/// warns). The checks' form and place are the cheapest found for the 32 KiB flash budget (+4 B on
+/// `footprint_c`: the finite test replaces `validate`'s NaN test, and the zero test is one `orrs`
+/// on the two halves); an equivalent `if` at the top of the function cost 32 B.
 pub(crate) fn warning_config(c: &RiskscoreWarningConfig) -> Result<WarningConfig, RiskscoreStatus> {
     let config = WarningConfig {
         threshold: c.threshold,
         latch: flag(c.latch)?,
         hysteresis: c.hysteresis,
         min_on_us: c.min_on_us,
-        stale_after_us: c.stale_after_us,
+        // 0 refused; RISKSCORE_NONE_U64 is "never stale".
+        stale_after_us: core::num::NonZeroU64::new(c.stale_after_us)
+            .ok_or(RiskscoreStatus::InvalidConfig)?
+            .get(),
         when_full: if flag(c.evict_when_full)? {
             FullPolicy::EvictLeastRecent
         } else {
             FullPolicy::Reject
         },
     };
+    if !c.threshold.is_finite() {
+        return Err(RiskscoreStatus::InvalidConfig);
+    }
     config
         .validate()
         .map_err(|_| RiskscoreStatus::InvalidConfig)?;

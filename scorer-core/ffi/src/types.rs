@@ -18,8 +18,8 @@ pub enum RiskscoreStatus {
     ContextMisaligned = 3,
     /// The context was not initialised by `riskscore_init` (or was overwritten).
     ContextNotInitialized = 4,
-    /// A `RiskscoreWarningConfig` field is invalid (NaN threshold, negative or non-finite
-    /// hysteresis, a flag other than 0/1).
+    /// A `RiskscoreWarningConfig` field is invalid (NaN or infinite threshold, negative or
+    /// non-finite hysteresis, `stale_after_us` of 0, a flag other than 0/1).
     InvalidConfig = 5,
     /// A vehicle state has a NaN or infinite field.
     NonFiniteState = 6,
@@ -161,13 +161,17 @@ pub struct RiskscoreVehicleState {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RiskscoreWarningConfig {
-    /// Warn when the score is `>= threshold`.
+    /// Warn when the score is `>= threshold`. Finite: NaN and +-infinity are refused
+    /// (`RISKSCORE_STATUS_INVALID_CONFIG`; `+inf` would never warn on a finite score, `-inf` would
+    /// warn on every partner).
     pub threshold: f32,
     /// Live mode: release when the score is `< threshold - hysteresis` (`>= 0`).
     pub hysteresis: f32,
     /// Live mode: a warning stays on at least this long (microseconds).
     pub min_on_us: u64,
-    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never). A track
+    /// Tracks not updated for longer than this are dropped (`RISKSCORE_NONE_U64`: never; 0 is
+    /// refused with `RISKSCORE_STATUS_INVALID_CONFIG`: every track would be stale as soon as the
+    /// clock moves on, so no warning would persist and no partner be followed). A track
     /// last updated more than this after `now_us` (the time base was reset) is stale: not reported
     /// as warning, restarted by the next update of its own id, evictable only if its warning was
     /// off (a warning one is kept and can fill the table: `RISKSCORE_STATUS_TABLE_FULL`); other

@@ -43,6 +43,134 @@ fn every_status_code_round_trips_and_is_described() {
     assert_eq!(RiskscoreStatus::from_code(23), None);
 }
 
+/// Configurations that would silently disable the warnings are refused by `riskscore_init` with
+/// `RISKSCORE_STATUS_INVALID_CONFIG`, like the NaN threshold, and leave the context uninitialised:
+/// `stale_after_us == 0` (every track is stale as soon as the clock moves on: no warning
+/// persists, no partner is followed) and an infinite threshold (`+inf`: no finite score ever
+/// warns; `-inf`: every partner warns). The smallest window, 1 us, and "never"
+/// (`RISKSCORE_NONE_U64`) are accepted.
+#[test]
+fn configs_that_disable_the_warnings_are_refused() {
+    let refused = [
+        (
+            "stale_after_us = 0",
+            RiskscoreWarningConfig {
+                stale_after_us: 0,
+                ..config()
+            },
+        ),
+        (
+            "latched, stale_after_us = 0",
+            RiskscoreWarningConfig {
+                stale_after_us: 0,
+                latch: 1,
+                ..config()
+            },
+        ),
+        (
+            "threshold = +inf",
+            RiskscoreWarningConfig {
+                threshold: f32::INFINITY,
+                ..config()
+            },
+        ),
+        (
+            "threshold = -inf",
+            RiskscoreWarningConfig {
+                threshold: f32::NEG_INFINITY,
+                ..config()
+            },
+        ),
+        // Refused before this check too: the same status.
+        (
+            "threshold = NaN",
+            RiskscoreWarningConfig {
+                threshold: f32::NAN,
+                ..config()
+            },
+        ),
+        (
+            "hysteresis = -0.1",
+            RiskscoreWarningConfig {
+                hysteresis: -0.1,
+                ..config()
+            },
+        ),
+        (
+            "hysteresis = inf",
+            RiskscoreWarningConfig {
+                hysteresis: f32::INFINITY,
+                ..config()
+            },
+        ),
+        (
+            "latch = 2",
+            RiskscoreWarningConfig {
+                latch: 2,
+                ..config()
+            },
+        ),
+        (
+            "evict_when_full = 2",
+            RiskscoreWarningConfig {
+                evict_when_full: 2,
+                ..config()
+            },
+        ),
+    ];
+    for (what, cfg) in refused {
+        let mut ctx = context();
+        let raw: *mut RiskscoreContext = &mut *ctx;
+        let mut warnings = 7u32;
+        let mut tracks = 7u32;
+        unsafe {
+            assert_eq!(
+                riskscore_init(raw, RISKSCORE_CONTEXT_SIZE, &cfg),
+                RiskscoreStatus::InvalidConfig,
+                "{what}"
+            );
+            // Nothing was written: the context is still not initialised.
+            assert_eq!(
+                riskscore_any_warning(raw, 0, &mut warnings, &mut tracks),
+                RiskscoreStatus::ContextNotInitialized,
+                "{what}"
+            );
+        }
+        assert_eq!((warnings, tracks), (7, 7), "{what}: outputs written");
+    }
+
+    // The smallest window and "never stale" are valid: a warning then persists between updates.
+    for stale_after_us in [1, 100_000, RISKSCORE_NONE_U64] {
+        let cfg = RiskscoreWarningConfig {
+            stale_after_us,
+            ..config()
+        };
+        let mut ctx = context();
+        let raw: *mut RiskscoreContext = &mut *ctx;
+        let (mut warnings, mut tracks) = (0u32, 0u32);
+        unsafe {
+            assert_eq!(
+                riskscore_init(raw, RISKSCORE_CONTEXT_SIZE, &cfg),
+                RiskscoreStatus::Ok,
+                "stale_after_us = {stale_after_us}"
+            );
+            assert_eq!(
+                riskscore_track_update(raw, 1, 1_000, 0.9, std::ptr::null_mut()),
+                RiskscoreStatus::Ok
+            );
+            assert_eq!(
+                riskscore_any_warning(raw, 1_001, &mut warnings, &mut tracks),
+                RiskscoreStatus::Ok
+            );
+        }
+        assert_eq!(
+            (warnings, tracks),
+            (1, 1),
+            "stale_after_us = {stale_after_us}"
+        );
+    }
+}
+
 #[test]
 fn states_without_heading_or_with_a_negative_size_and_the_reserved_id_are_refused() {
     let (mut ctx, blob) = context_with_drl();
