@@ -160,6 +160,32 @@ static void test_error_paths(size_t drl_len) {
     RiskscoreWarningConfig flag = live_config(0.5f);
     flag.latch = 2;
     EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &flag), RISKSCORE_STATUS_INVALID_CONFIG);
+    /* Configurations that would silently disable the warnings: no stale window (every track is
+     * stale as soon as the clock moves on, so no warning persists), an infinite threshold (+inf:
+     * no finite score warns; -inf: every partner warns). Refused, the context left uninitialised. */
+    RiskscoreWarningConfig no_window = live_config(0.5f);
+    no_window.stale_after_us = 0;
+    EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &no_window), RISKSCORE_STATUS_INVALID_CONFIG);
+    uint32_t n_warn = 7, n_tracks = 7;
+    EXPECT_STATUS(riskscore_any_warning(&ctx, 0, &n_warn, &n_tracks),
+                  RISKSCORE_STATUS_CONTEXT_NOT_INITIALIZED);
+    CHECK(n_warn == 7 && n_tracks == 7, "refused config: outputs written");
+    no_window.latch = 1;
+    EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &no_window), RISKSCORE_STATUS_INVALID_CONFIG);
+    RiskscoreWarningConfig inf_cfg = live_config(0.5f);
+    inf_cfg.threshold = INFINITY;
+    EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &inf_cfg), RISKSCORE_STATUS_INVALID_CONFIG);
+    inf_cfg.threshold = -INFINITY;
+    EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &inf_cfg), RISKSCORE_STATUS_INVALID_CONFIG);
+    /* The smallest window, 1 us, is valid: a warning persists until the clock moves past it. */
+    RiskscoreWarningConfig one_us = live_config(0.5f);
+    one_us.stale_after_us = 1;
+    EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &one_us), RISKSCORE_STATUS_OK);
+    EXPECT_STATUS(riskscore_track_update(&ctx, 1, 1000, 0.9f, &ts), RISKSCORE_STATUS_OK);
+    EXPECT_STATUS(riskscore_any_warning(&ctx, 1001, &n_warn, &n_tracks), RISKSCORE_STATUS_OK);
+    CHECK(n_warn == 1 && n_tracks == 1, "1 us window: %u warnings, %u tracks", n_warn, n_tracks);
+    EXPECT_STATUS(riskscore_any_warning(&ctx, 1002, &n_warn, &n_tracks), RISKSCORE_STATUS_OK);
+    CHECK(n_warn == 0, "1 us window: still warning 2 us later");
 
     EXPECT_STATUS(riskscore_init(&ctx, sizeof ctx, &cfg), RISKSCORE_STATUS_OK);
     EXPECT_STATUS(riskscore_score_pair(&ctx, &EGO, &LEAD, &r), RISKSCORE_STATUS_NO_MODEL);
