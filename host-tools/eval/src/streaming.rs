@@ -425,7 +425,9 @@ fn in_order<T>(mut v: Vec<(usize, T)>) -> Vec<T> {
 /// The evaluation of an event folder.
 #[derive(Debug)]
 pub struct FolderEvaluation {
-    /// Problems in the folder (their events are skipped), as [`load_events`] lists them.
+    /// Problems and notes in the folder, as [`load_events`] lists them: a problem skips its event,
+    /// except frames of an event id that events.csv lacks (only those rows are dropped); a note
+    /// leaves nothing out.
     pub load_issues: Vec<LoadIssue>,
     /// True when the folder was streamed event by event (false: read whole, see module docs).
     pub streamed: bool,
@@ -451,13 +453,71 @@ pub struct FolderEvaluation {
 pub enum FolderRefusal {
     #[error("no valid events to evaluate")]
     NoValidEvents,
-    /// Bad rows leave their events out of the metrics (allowed with `skip_bad_events`). Its
-    /// message is `riskctl evaluate`'s ([`BadRowsWording::RISKCTL_EVALUATE`]); elsewhere
-    /// [`FolderRefusal::bad_rows_message`] words it for the caller.
+    /// Load problems leave events out of the metrics, or drop frame rows unscored (allowed with
+    /// `skip_bad_events`). Its message is `riskctl evaluate`'s
+    /// ([`BadRowsWording::RISKCTL_EVALUATE`]); elsewhere [`FolderRefusal::bad_rows_message`]
+    /// words it for the caller.
     #[error("{}", FolderRefusal::bad_rows_message(*.valid_events, BadRowsWording::RISKCTL_EVALUATE))]
-    BadRows { valid_events: usize },
+    BadRows { valid_events: ValidEvents },
     #[error("none of its {events} events yields a sequence to evaluate")]
     NoSequences { events: usize },
+}
+
+/// The valid events of a folder refused for its load problems ([`FolderRefusal::BadRows`]), and
+/// what those problems leave out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ValidEvents {
+    pub count: usize,
+    pub left_out: LeftOut,
+}
+
+/// What the load problems of a refused folder leave out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LeftOut {
+    /// Events: each problem skips the event it names, or drops a row whose event cannot be told.
+    Events,
+    /// Only frame rows of event ids that events.csv lacks
+    /// ([`IssueProblem::UnknownEvent`](riskscore_data::events::IssueProblem::UnknownEvent)):
+    /// every event of events.csv is evaluated, those rows are dropped unscored.
+    UnknownIdRows,
+    /// Both: events, and frame rows of event ids that events.csv lacks.
+    EventsAndUnknownIdRows,
+}
+
+impl LeftOut {
+    /// What the problems (not notes) among `issues` leave out; `None` when there is none.
+    pub fn of(issues: &[LoadIssue]) -> Option<LeftOut> {
+        let problems = issues.iter().filter(|i| !i.problem.is_note());
+        let (mut events, mut rows) = (false, false);
+        for issue in problems {
+            if drops_only_its_rows(&issue.problem) {
+                rows = true;
+            } else {
+                events = true;
+            }
+        }
+        match (events, rows) {
+            (false, false) => None,
+            (true, false) => Some(LeftOut::Events),
+            (false, true) => Some(LeftOut::UnknownIdRows),
+            (true, true) => Some(LeftOut::EventsAndUnknownIdRows),
+        }
+    }
+}
+
+/// True for frames of an event id that events.csv lacks (and the count of more of them): only
+/// those rows are dropped, there is no event to skip.
+fn drops_only_its_rows(problem: &riskscore_data::events::IssueProblem) -> bool {
+    use riskscore_data::events::IssueProblem;
+    let unknown = IssueProblem::UnknownEvent {
+        frames: 0,
+        similar: None,
+    }
+    .kind();
+    match problem {
+        IssueProblem::MoreOfKind { kind, .. } => *kind == unknown,
+        other => other.kind() == unknown,
+    }
 }
 
 /// The parts of a [`FolderRefusal::BadRows`] message that depend on where it is shown.
@@ -484,21 +544,42 @@ impl BadRowsWording<'static> {
 }
 
 impl FolderRefusal {
-    /// The one text of the [`FolderRefusal::BadRows`] refusal of a folder with `valid_events`
-    /// valid events, worded for where it is shown.
-    pub fn bad_rows_message(valid_events: usize, wording: BadRowsWording<'_>) -> String {
+    /// The one text of the [`FolderRefusal::BadRows`] refusal of a folder with `valid_events`,
+    /// worded for where it is shown. It says what the problems leave out: their events, or (frame
+    /// rows of event ids that events.csv lacks) no event but those rows.
+    pub fn bad_rows_message(valid_events: ValidEvents, wording: BadRowsWording<'_>) -> String {
         let BadRowsWording {
             listed,
             left_out_of,
             skip,
         } = wording;
+        let ValidEvents { count, left_out } = valid_events;
+        if left_out == LeftOut::UnknownIdRows {
+            let instead = match skip {
+                Some(skip) => {
+                    format!(", or pass {skip} to evaluate the {count} events without them")
+                }
+                None => String::new(),
+            };
+            return format!(
+                "the problems listed {listed} are frame rows of event ids that events.csv lacks: \
+                 no event would be left out of the {left_out_of}, but those rows would be dropped; \
+                 add their events to events.csv or remove those rows{instead}"
+            );
+        }
         let instead = match skip {
-            Some(skip) => format!(", or pass {skip} to evaluate the {valid_events} valid events"),
-            None => format!(" (or write the {valid_events} valid events to a folder of their own)"),
+            Some(skip) => format!(", or pass {skip} to evaluate the {count} valid events"),
+            None => format!(" (or write the {count} valid events to a folder of their own)"),
+        };
+        let rows_too = match left_out {
+            LeftOut::EventsAndUnknownIdRows => {
+                " (except the frame rows of event ids that events.csv lacks: only those rows are dropped)"
+            }
+            _ => "",
         };
         format!(
-            "the problems listed {listed} would leave their events out of the {left_out_of}; fix \
-             those rows{instead}"
+            "the problems listed {listed} would leave their events out of the {left_out_of}\
+             {rows_too}; fix those rows{instead}"
         )
     }
 }
@@ -522,14 +603,20 @@ impl FolderEvaluation {
         serde_json::to_string_pretty(&json)
     }
 
-    /// `Err` when the metrics would leave events out or have nothing to measure: no valid event,
-    /// bad rows (unless `skip_bad_events`), or no event that yields a sequence.
+    /// `Err` when the metrics would leave events or frame rows out, or have nothing to measure: no
+    /// valid event, load problems other than notes (unless `skip_bad_events`; frame rows of event
+    /// ids that events.csv lacks leave no event out but are refused too, as their frames would go
+    /// unscored: they may be an event's whose id a spreadsheet changed), or no event that yields
+    /// a sequence.
     pub fn check(&self, skip_bad_events: bool) -> Result<(), FolderRefusal> {
         if self.events == 0 {
             Err(FolderRefusal::NoValidEvents)
-        } else if !skip_bad_events && self.load_issues.iter().any(|i| !i.problem.is_note()) {
+        } else if let Some(left_out) = LeftOut::of(&self.load_issues).filter(|_| !skip_bad_events) {
             Err(FolderRefusal::BadRows {
-                valid_events: self.events,
+                valid_events: ValidEvents {
+                    count: self.events,
+                    left_out,
+                },
             })
         } else if self.sequences == 0 {
             Err(FolderRefusal::NoSequences {
@@ -668,12 +755,22 @@ pub fn evaluate_folder_gathering(
 
 #[cfg(test)]
 mod tests {
-    use super::{BadRowsWording, FolderRefusal};
+    use super::{BadRowsWording, FolderRefusal, LeftOut, ValidEvents};
+
+    fn valid(count: usize) -> ValidEvents {
+        ValidEvents {
+            count,
+            left_out: LeftOut::Events,
+        }
+    }
 
     #[test]
     fn the_bad_rows_refusal_is_one_text_worded_for_where_it_is_shown() {
         assert_eq!(
-            FolderRefusal::BadRows { valid_events: 17 }.to_string(),
+            FolderRefusal::BadRows {
+                valid_events: valid(17)
+            }
+            .to_string(),
             "the problems listed above would leave their events out of the metrics; fix those \
              rows, or pass --skip-bad-events to evaluate the 17 valid events"
         );
@@ -683,7 +780,7 @@ mod tests {
             skip: Some("skip_bad_events=True"),
         };
         assert_eq!(
-            FolderRefusal::bad_rows_message(3, python),
+            FolderRefusal::bad_rows_message(valid(3), python),
             "the problems listed below would leave their events out of the metrics; fix those \
              rows, or pass skip_bad_events=True to evaluate the 3 valid events"
         );
@@ -693,7 +790,7 @@ mod tests {
             skip: None,
         };
         assert_eq!(
-            FolderRefusal::bad_rows_message(3, calibrate),
+            FolderRefusal::bad_rows_message(valid(3), calibrate),
             "the problems listed above would leave their events out of the calibration; fix \
              those rows (or write the 3 valid events to a folder of their own)"
         );
