@@ -4,7 +4,8 @@
 use super::protocol::{in_alert_window, ScoredSequence, NO_CONFLICT_RISK};
 use super::sketch::ScoreSketch;
 
-/// One crash event's normalised risk over time to its endpoint, for every method.
+/// One conflict event's (a crash or a near crash) normalised risk over time to its endpoint,
+/// for every method.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrajectoryPanel {
     pub event_id: String,
@@ -44,8 +45,8 @@ pub fn alert_window_scores(sequences: &[ScoredSequence]) -> ScoreSketch {
     scores
 }
 
-/// Builds the trajectory panels of `event_ids` from each method's scored sequences (methods that
-/// lack an event are left out of its panel).
+/// Builds the trajectory panels of `event_ids` (crash or near-crash events) from each method's
+/// scored sequences (methods that lack the event, or its endpoint, are left out of its panel).
 pub fn trajectory_panels(
     methods: &[(String, Vec<ScoredSequence>)],
     event_ids: &[String],
@@ -96,7 +97,8 @@ fn plotted_percentile(scale: &mut ScoreSketch, r: f32) -> f64 {
     }
 }
 
-/// The first `n` crash sequences in input order: the events whose trajectories are drawn.
+/// The first `n` crash sequences (with an endpoint) in input order: the events drawn when none
+/// are named (`riskctl evaluate --trajectory-event` names crash or near-crash ones instead).
 pub fn default_trajectory_events(sequences: &[ScoredSequence], n: usize) -> Vec<String> {
     sequences
         .iter()
