@@ -9,7 +9,10 @@ use host_tools::demo::{
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
 use riskscore_eval::claims::{acceptance_claims, Claim};
-use riskscore_train::domains::{self, DomainData, Draw, Round, SequenceSink, SequencesCsv};
+use riskscore_output::OutputDir;
+use riskscore_train::domains::{
+    self, DomainData, DomainsResult, Draw, Round, SequenceSink, SequencesCsv,
+};
 use riskscore_train::gssm::GssmConfig;
 use riskscore_train::train::{Progress, TrainConfig};
 use riskscore_train::transfer::{self, TransferData, TransferOptions};
@@ -128,7 +131,7 @@ impl SimArgs {
     /// The (training, test) sequences of draw `k` of `--draws`: the folders given (draw 0 only,
     /// [`SimArgs::check_draws`]), or simulated with `--families`, else `default_families`. Draw 0
     /// simulates into `out`; draw k moves both seeds by `k` x [`DRAW_SEED_STEP`] and simulates
-    /// into `draw-<k+1>/`.
+    /// into `draw-<k+1>/`. A simulated folder is staged ([`SimDraw::staged`]), not yet in place.
     fn load_draw(
         &self,
         out: &Path,
@@ -160,20 +163,23 @@ impl SimArgs {
             };
             folder_or_simulate(given, &dir.join(folder), &cfg)
         };
+        let (train, train_staged) = sim(
+            self.train_events.as_deref(),
+            "train-data",
+            train_seed,
+            self.train_mix,
+        )?;
+        let (test, test_staged) = sim(
+            self.test_events.as_deref(),
+            "test-data",
+            test_seed,
+            self.test_mix,
+        )?;
         Ok(SimDraw {
             label,
-            train: sim(
-                self.train_events.as_deref(),
-                "train-data",
-                train_seed,
-                self.train_mix,
-            )?,
-            test: sim(
-                self.test_events.as_deref(),
-                "test-data",
-                test_seed,
-                self.test_mix,
-            )?,
+            train,
+            test,
+            staged: [train_staged, test_staged].into_iter().flatten().collect(),
         })
     }
 }
@@ -186,6 +192,20 @@ struct SimDraw {
     label: String,
     train: Vec<Sequence>,
     test: Vec<Sequence>,
+    /// The folders this draw simulated, complete beside their targets under --out but not yet
+    /// in place: [`commit_staged`] swaps them in once the report is written, so a failed or
+    /// interrupted run (Ctrl-C, SIGTERM) leaves an old --out as it was.
+    staged: Vec<OutputDir>,
+}
+
+/// Swaps every staged simulated folder in ([`SimDraw::staged`]).
+fn commit_staged(staged: Vec<OutputDir>) -> anyhow::Result<()> {
+    for dir in staged {
+        let target = dir.target().to_path_buf();
+        dir.commit()
+            .with_context(|| format!("cannot write {}", target.display()))?;
+    }
+    Ok(())
 }
 
 /// Where draw `k` (k >= 1) of `--draws` simulates its folders.
@@ -325,19 +345,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
+/// The sequences of the folder given, else of a simulation into `out`: staged in a temporary
+/// folder beside it (an [`OutputDir`], removed on an error or a signal), which the caller swaps
+/// in when the run succeeds.
 fn folder_or_simulate(
     given: Option<&Path>,
     out: &Path,
     cfg: &SimConfig,
-) -> anyhow::Result<Vec<Sequence>> {
-    let dir = match given {
-        Some(d) => d.to_path_buf(),
-        None => {
-            simulate_to_dir(out, cfg).with_context(|| format!("simulating {}", out.display()))?;
-            out.to_path_buf()
-        }
-    };
-    Ok(super::load_prepared(&dir)?.sequences)
+) -> anyhow::Result<(Vec<Sequence>, Option<OutputDir>)> {
+    if let Some(dir) = given {
+        return Ok((super::load_prepared(dir)?.sequences, None));
+    }
+    let simulating = || format!("simulating {}", out.display());
+    let staged = OutputDir::create(out).with_context(simulating)?;
+    simulate_to_dir(staged.path(), cfg).with_context(simulating)?;
+    let sequences = super::load_prepared(staged.path())?.sequences;
+    Ok((sequences, Some(staged)))
 }
 
 /// The real freeway folder: the one given, else the committed extract.
@@ -383,12 +406,14 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
     let mut results = Vec::new();
     let mut per_draw = Vec::new();
     let mut labels = Vec::new();
+    let mut staged = Vec::new();
     for (k, draw) in a
         .sim
         .load_draws(&a.out, FamilyMix::default())?
         .into_iter()
         .enumerate()
     {
+        staged.extend(draw.staged);
         let mut train_sim = draw.train;
         train_sim.extend(train_only.iter().cloned());
         let data = TransferData {
@@ -414,6 +439,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         .zip(draw_claims.iter().copied())
         .collect();
     write_transfer_report(&a.out.join("report"), &result, &claims, &labelled)?;
+    commit_staged(staged)?;
     if a.json {
         outln!(
             "{}",
@@ -486,11 +512,13 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         real_city.len(),
         city_dirs.len()
     );
+    let mut staged = Vec::new();
     let draw_data: Vec<(String, DomainData)> = a
         .sim
         .load_draws(&a.out, FamilyMix::domain())?
         .into_iter()
         .map(|draw| {
+            staged.extend(draw.staged);
             let data = DomainData::new(
                 draw.train,
                 draw.test,
@@ -516,13 +544,22 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
             sequences,
         )
     };
-    let result = match &a.sequences_out {
-        None => run(None)?,
-        Some(path) => write_sequences(path, |sink| run(Some(sink)))?,
-    };
-    host_tools::warnings::print(result.warnings());
     let report_dir = a.out.join("report");
-    result.bundle()?.write_to(&report_dir)?;
+    // The report, then the simulated folders, then (on return) the --sequences-out file: every
+    // output goes in place only once the whole run has succeeded.
+    let finish = |result: &DomainsResult| -> anyhow::Result<()> {
+        host_tools::warnings::print(result.warnings());
+        result.bundle()?.write_to(&report_dir)?;
+        commit_staged(staged)
+    };
+    let result = match &a.sequences_out {
+        None => {
+            let result = run(None)?;
+            finish(&result)?;
+            result
+        }
+        Some(path) => write_sequences(path, |sink| run(Some(sink)), finish)?,
+    };
     if a.json {
         outln!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
@@ -582,12 +619,14 @@ fn refuse_sequences_out(path: &Path, a: &DomainsArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `run` with a CSV sink on `path`: written under a temporary name, renamed into place when
-/// `run` succeeds (a failed or interrupted run leaves an old file as it was), its folder created
-/// if needed (and removed again, if still empty, on failure).
+/// Runs `run` with a CSV sink on `path`, then `finish` on its result (the run's other outputs):
+/// written under a temporary name, renamed into place when both succeed (a failed or interrupted
+/// run leaves an old file as it was), its folder created if needed (and removed again, if still
+/// empty, on failure).
 fn write_sequences<T>(
     path: &Path,
     run: impl FnOnce(&mut dyn SequenceSink) -> Result<T, domains::DomainsError>,
+    finish: impl FnOnce(&T) -> anyhow::Result<()>,
 ) -> anyhow::Result<T> {
     let folders = match path.parent().filter(|p| !p.as_os_str().is_empty()) {
         Some(dir) => Some(riskscore_output::NewFolders::create(dir).with_context(|| {
@@ -604,6 +643,7 @@ fn write_sequences<T>(
         let result = run(&mut csv)?;
         let rows = csv.rows();
         csv.finish()?;
+        finish(&result)?;
         Ok((result, rows))
     })?;
     let (result, rows) =
