@@ -3,6 +3,8 @@
 //! --sequences-out file) that a previous run left stays byte for byte as it was, with no
 //! temporary, lock file or new folder left behind. The benchmarks simulate their training and
 //! test folders into --out before they train: an interrupted run must not have replaced them.
+//! A run that fails at its report (the last output) leaves --sequences-out and the simulated
+//! folders as they were too.
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -219,4 +221,34 @@ fn sigterm_stops_benchmark_transfer_and_leaves_the_old_out() {
     let d = tempfile::tempdir().unwrap();
     let args = benchmark("transfer", &[]);
     interrupted_in_training(d.path(), &args, "out", Stop::Term);
+}
+
+#[test]
+fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_folders() {
+    // The report is written last and fails here (out/report is a file): the per-sequence table
+    // and the simulated folders, complete by then, must not have been put in place before it.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p);
+    std::fs::remove_dir_all(p.join("out/report")).unwrap();
+    std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
+    let before = snapshot(p);
+    let mut args = benchmark("domains", &["--sequences-out", "sequences.csv"]);
+    args.extend(["--rounds", "speed-5-15", "--quiet"].map(String::from));
+    let o = Command::new(RISKCTL)
+        .current_dir(p)
+        .args(&args)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("out/report"), "{stderr}");
+    let after = snapshot(p);
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the failed run changed or left {changed:?}; stderr: {stderr}"
+    );
 }
