@@ -434,8 +434,9 @@ def evaluate(
 
         listing = "\n  ".join(problems)
         warnings.warn(
-            f"{count} problem(s) in event folder {os.fspath(events)} (those events are left "
-            f"out of the metrics):\n  {listing}",
+            f"{count} problem(s) in event folder {os.fspath(events)} (each leaves its event out "
+            f"of the metrics, except frames of an event id that events.csv lacks: only those rows "
+            f"are dropped):\n  {listing}",
             BadRowWarning,
             stacklevel=2,
         )
