@@ -490,7 +490,7 @@ impl LeftOut {
         let problems = issues.iter().filter(|i| !i.problem.is_note());
         let (mut events, mut rows) = (false, false);
         for issue in problems {
-            if drops_only_its_rows(&issue.problem) {
+            if issue.problem.drops_only_its_rows() {
                 rows = true;
             } else {
                 events = true;
@@ -502,21 +502,6 @@ impl LeftOut {
             (false, true) => Some(LeftOut::UnknownIdRows),
             (true, true) => Some(LeftOut::EventsAndUnknownIdRows),
         }
-    }
-}
-
-/// True for frames of an event id that events.csv lacks (and the count of more of them): only
-/// those rows are dropped, there is no event to skip.
-fn drops_only_its_rows(problem: &riskscore_data::events::IssueProblem) -> bool {
-    use riskscore_data::events::IssueProblem;
-    let unknown = IssueProblem::UnknownEvent {
-        frames: 0,
-        similar: None,
-    }
-    .kind();
-    match problem {
-        IssueProblem::MoreOfKind { kind, .. } => *kind == unknown,
-        other => other.kind() == unknown,
     }
 }
 

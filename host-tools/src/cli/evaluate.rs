@@ -300,14 +300,9 @@ pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
 /// other problem skips the event it names, or drops its row when no event can be named.
 fn left_out(issue: &riskscore_data::events::LoadIssue) -> &'static str {
     use riskscore_data::events::IssueProblem;
-    let unknown = IssueProblem::UnknownEvent {
-        frames: 0,
-        similar: None,
-    }
-    .kind();
     match &issue.problem {
         IssueProblem::UnknownEvent { .. } => "only these rows are dropped: no event is skipped",
-        IssueProblem::MoreOfKind { kind, .. } if *kind == unknown => {
+        IssueProblem::MoreOfKind { .. } if issue.problem.drops_only_its_rows() => {
             "only those rows are dropped: no event is skipped"
         }
         IssueProblem::MoreOfKind { .. } => "their events are skipped",

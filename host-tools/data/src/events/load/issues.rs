@@ -277,6 +277,16 @@ impl IssueProblem {
             other => is_note_kind(other.kind()),
         }
     }
+
+    /// Frames of an event id that events.csv lacks ([`IssueProblem::UnknownEvent`], and the count
+    /// of more of them): only those rows are dropped, as there is no event to skip. Every other
+    /// problem (not a note) skips the event it names, or its row when no event can be named.
+    pub fn drops_only_its_rows(&self) -> bool {
+        match self {
+            Self::MoreOfKind { kind, .. } => *kind == "UnknownEvent",
+            other => matches!(other, Self::UnknownEvent { .. }),
+        }
+    }
 }
 
 /// True for the [`IssueProblem::kind`] of a note ([`IssueProblem::is_note`]): the one list of
