@@ -202,6 +202,11 @@ class Model:
         return repr(self._native)
 
 
+# The problems a ``BadRowWarning`` lists each leave their event out, but for this one kind
+# (riskctl's listing says it per problem).
+_UNKNOWN_ID_ROWS = "except frames of an event id that events.csv lacks: only those rows are dropped"
+
+
 def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Table, pa.Table]:
     """Read an event folder (``events.csv`` + ``frames.csv``, docs/event-format.md) as two tables.
 
@@ -213,7 +218,8 @@ def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Tabl
 
     Every row is validated as ``riskctl`` does. A folder with problems raises ``EventsError``
     listing them (file:line: column: event: problem); with ``skip_bad=True`` the events with
-    problems are left out and a ``BadRowWarning`` lists them instead. Notes, which leave no event
+    problems are left out (frames of an event id that events.csv lacks drop only those rows) and a
+    ``BadRowWarning`` lists them instead. Notes, which leave no event
     out (a file without a final newline, a hole in the frames, ...), warn with a ``UserWarning``
     of their own and are not counted as problems.
     """
@@ -227,7 +233,9 @@ def read_events(directory: PathLike, *, skip_bad: bool = False) -> Tuple[pa.Tabl
             raise EventsError(message + "\n(skip_bad=True reads the valid events)")
         import warnings
 
-        warnings.warn(message + "\n(those events are left out)", BadRowWarning, stacklevel=2)
+        warnings.warn(
+            f"{message}\n(each leaves its event out, {_UNKNOWN_ID_ROWS})", BadRowWarning, stacklevel=2
+        )
     return events, frames
 
 
@@ -434,9 +442,8 @@ def evaluate(
 
         listing = "\n  ".join(problems)
         warnings.warn(
-            f"{count} problem(s) in event folder {os.fspath(events)} (each leaves its event out "
-            f"of the metrics, except frames of an event id that events.csv lacks: only those rows "
-            f"are dropped):\n  {listing}",
+            f"{count} problem(s) in event folder {os.fspath(events)} "
+            f"(each leaves its event out of the metrics, {_UNKNOWN_ID_ROWS}):\n  {listing}",
             BadRowWarning,
             stacklevel=2,
         )

@@ -46,3 +46,17 @@ def test_frames_of_an_unknown_id_are_refused_saying_no_event_is_left_out(tmp_pat
         "(each leaves its event out of the metrics, except frames of an event id that events.csv "
         "lacks: only those rows are dropped):\n  "
     ) in warning, warning
+
+
+def test_read_events_skip_bad_says_frames_of_an_unknown_id_leave_no_event_out(tmp_path):
+    folder = folder_with_frames_of_an_unknown_id(tmp_path / "folder")
+    count = len((folder / "events.csv").read_text().splitlines()) - 1
+    with pytest.warns(riskscore.BadRowWarning) as caught:
+        events, _frames = riskscore.read_events(folder, skip_bad=True)
+    assert events.num_rows == count
+    [warning] = [str(w.message) for w in caught if w.category is riskscore.BadRowWarning]
+    assert "(those events are left out)" not in warning, warning
+    assert (
+        "(each leaves its event out, except frames of an event id that events.csv lacks: only "
+        "those rows are dropped)"
+    ) in warning, warning
