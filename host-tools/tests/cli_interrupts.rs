@@ -11,6 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod fault_harness;
+use fault_harness::Stop;
+
 const RISKCTL: &str = env!("CARGO_BIN_EXE_riskctl");
 
 /// How long a run may take to stop after the signal.
@@ -51,28 +54,6 @@ fn old_output(p: &Path) {
         let path = p.join(file);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(path, text).unwrap();
-    }
-}
-
-#[derive(Clone, Copy, Debug)]
-enum Stop {
-    Int,
-    Term,
-}
-
-impl Stop {
-    fn name(self) -> &'static str {
-        match self {
-            Stop::Int => "INT",
-            Stop::Term => "TERM",
-        }
-    }
-
-    fn exit_code(self) -> i32 {
-        match self {
-            Stop::Int => 130,
-            Stop::Term => 143,
-        }
     }
 }
 

@@ -499,14 +499,16 @@ pub enum Stop {
 }
 
 impl Stop {
-    fn name(self) -> &'static str {
+    /// The signal's name for `kill -NAME` (and `SIGNAME` in messages).
+    pub fn name(self) -> &'static str {
         match self {
             Stop::Int => "INT",
             Stop::Term => "TERM",
         }
     }
 
-    fn exit_code(self) -> i32 {
+    /// The exit status the handler gives the run.
+    pub fn exit_code(self) -> i32 {
         match self {
             Stop::Int => 130,
             Stop::Term => 143,
