@@ -302,19 +302,10 @@ fn own_frames(gm: bool) -> Vec<(u64, Frame)> {
     out
 }
 
-fn to_log(frames: &[(u64, Frame)]) -> String {
-    let mut s = String::new();
-    for (t, f) in frames {
-        can_codec::format_line(&mut s, *t, "can0", f);
-        s.push('\n');
-    }
-    s
-}
-
 /// The committed log equals the scene (or is rewritten with BLESS_RADAR_SCENES=1).
 fn committed_log(name: &str, frames: &[(u64, Frame)]) -> PathBuf {
     let path = dir().join("scenes").join(name);
-    let text = to_log(frames);
+    let text = common::candump_log(frames);
     if std::env::var_os("BLESS_RADAR_SCENES").is_some() {
         std::fs::write(&path, &text).unwrap();
     }

@@ -4,7 +4,7 @@ mod common;
 use can_bridge::engine::{Engine, EngineConfig, Output};
 use can_bridge::map::{CompiledMap, MapFile, DEFAULT_MAP};
 use can_bridge::ModelFile;
-use can_codec::{Database, Frame};
+use can_codec::Frame;
 use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -17,32 +17,6 @@ fn write_model(dir: &Path) -> PathBuf {
     let p = dir.join("model.rsk");
     std::fs::write(&p, msra_blob()).unwrap();
     p
-}
-
-/// `cycles` 10 Hz cycles of two tracks (one closing, one receding), 5 frames each per track.
-fn drive(db: &Database, cycles: usize, t0: u64) -> Vec<(u64, Frame)> {
-    let mut out = Vec::new();
-    let mut t = t0;
-    for k in 0..cycles {
-        let gap = 60.0 - (k % 200) as f64 * 0.25;
-        for c in [Cycle::closing(3, gap), Cycle::receding(9)] {
-            for f in c.frames(db) {
-                out.push((t, f));
-                t += 100;
-            }
-        }
-        t += 100_000 - 1_000;
-    }
-    out
-}
-
-fn to_log(frames: &[(u64, Frame)]) -> String {
-    let mut s = String::new();
-    for (t, f) in frames {
-        can_codec::format_line(&mut s, *t, "can0", f);
-        s.push('\n');
-    }
-    s
 }
 
 struct Run {
@@ -75,7 +49,7 @@ const T0: u64 = 1_700_000_000_000_000;
 #[test]
 fn one_frame_a_million_seconds_ahead_costs_that_frame_only() {
     let db = project_db();
-    let clean = drive(&db, 1200, T0);
+    let clean = two_track_drive(&db, 0..1200, T0);
     let mut glitched = clean.clone();
     let (t, f) = glitched[3000];
     glitched.insert(3000, (t + 1_000_000_000_000, f));
@@ -92,7 +66,7 @@ fn one_frame_a_million_seconds_ahead_costs_that_frame_only() {
     // The same log through score-log: exit 0 (1 of 12,001 lines), the loss named.
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("glitch.log");
-    std::fs::write(&log, to_log(&glitched)).unwrap();
+    std::fs::write(&log, candump_log(&glitched)).unwrap();
     let out = bridge()
         .args(["score-log", "--log"])
         .arg(&log)
@@ -121,10 +95,10 @@ fn one_frame_a_million_seconds_ahead_costs_that_frame_only() {
 #[test]
 fn a_jump_back_of_100_s_starts_a_new_segment_and_loses_nothing() {
     let db = project_db();
-    let first = drive(&db, 600, T0);
+    let first = two_track_drive(&db, 0..600, T0);
     let end = first.last().unwrap().0;
     // Recordings concatenated: the second starts 100 s before the first ended.
-    let second = drive(&db, 600, end - 100_000_000);
+    let second = two_track_drive(&db, 0..600, end - 100_000_000);
     let mut log = first.clone();
     log.extend(second);
     let r = run_engine(&log);
@@ -134,7 +108,7 @@ fn a_jump_back_of_100_s_starts_a_new_segment_and_loses_nothing() {
     assert_eq!(r.scored.len(), 2400, "{:?}", r.stats);
     // A forward jump of an hour (a logger paused) is a new segment too.
     let mut log = first;
-    log.extend(drive(&db, 600, end + 3_600_000_000));
+    log.extend(two_track_drive(&db, 0..600, end + 3_600_000_000));
     let r = run_engine(&log);
     assert_eq!((r.stats.segments, r.stats.out_of_window), (1, 0));
     assert_eq!(r.scored.len(), 2400);
@@ -144,7 +118,10 @@ fn a_jump_back_of_100_s_starts_a_new_segment_and_loses_nothing() {
 fn a_run_that_loses_too_much_fails_with_a_summary_and_writes_no_output() {
     let db = project_db();
     let mut text = String::new();
-    for (i, line) in to_log(&drive(&db, 100, T0)).lines().enumerate() {
+    for (i, line) in candump_log(&two_track_drive(&db, 0..100, T0))
+        .lines()
+        .enumerate()
+    {
         text.push_str(line);
         text.push('\n');
         if i % 10 == 0 {
@@ -185,7 +162,7 @@ fn a_run_that_loses_too_much_fails_with_a_summary_and_writes_no_output() {
 #[test]
 fn non_utf8_and_over_long_lines_are_skipped_by_line_and_the_rest_is_kept() {
     let db = project_db();
-    let text = to_log(&drive(&db, 500, T0));
+    let text = candump_log(&two_track_drive(&db, 0..500, T0));
     let mut bytes = Vec::new();
     for (i, line) in text.lines().enumerate() {
         bytes.extend_from_slice(line.as_bytes());
@@ -240,7 +217,7 @@ fn outputs_that_name_an_input_are_refused_and_the_input_is_untouched() {
     let db = project_db();
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("drive.log");
-    let text = to_log(&drive(&db, 20, T0));
+    let text = candump_log(&two_track_drive(&db, 0..20, T0));
     std::fs::write(&log, &text).unwrap();
     let model = write_model(tmp.path());
     for flag in ["--warnings-out", "--events-out"] {
@@ -412,7 +389,7 @@ fn a_signal_mapped_twice_or_a_wide_signal_as_a_flag_is_refused() {
 #[test]
 fn undecodable_frames_of_mapped_messages_are_losses_named_by_line() {
     let db = project_db();
-    let mut frames = drive(&db, 100, T0);
+    let mut frames = two_track_drive(&db, 0..100, T0);
     // 20 OBJECT_SIZE frames (a mapped message) one byte short: 2% of the log, dropped whole.
     for k in 0..20 {
         let (_, f) = &mut frames[k * 10 + 3];
@@ -430,7 +407,7 @@ fn undecodable_frames_of_mapped_messages_are_losses_named_by_line() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("dlc.log");
-    std::fs::write(&log, to_log(&with_unmapped)).unwrap();
+    std::fs::write(&log, candump_log(&with_unmapped)).unwrap();
     let model = write_model(tmp.path());
     let run = |extra: &[&str]| {
         bridge()
@@ -470,12 +447,12 @@ fn undecodable_frames_of_mapped_messages_are_losses_named_by_line() {
 #[test]
 fn a_held_glitch_frame_is_reported_at_its_own_line() {
     let db = project_db();
-    let mut frames = drive(&db, 50, T0);
+    let mut frames = two_track_drive(&db, 0..50, T0);
     let (t, f) = frames[100];
     frames.insert(100, (t + 1_000_000_000_000, f));
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("glitch.log");
-    std::fs::write(&log, to_log(&frames)).unwrap();
+    std::fs::write(&log, candump_log(&frames)).unwrap();
     let out = bridge()
         .args(["score-log", "--log"])
         .arg(&log)
@@ -513,7 +490,7 @@ fn outputs_to_dev_null_leave_the_device_in_place() {
     let db = project_db();
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("drive.log");
-    std::fs::write(&log, to_log(&drive(&db, 50, T0))).unwrap();
+    std::fs::write(&log, candump_log(&two_track_drive(&db, 0..50, T0))).unwrap();
     let out = bridge()
         .args(["score-log", "--threshold", "1.5", "--log"])
         .arg(&log)

@@ -13,35 +13,6 @@ use std::process::Command;
 
 const T0: u64 = 1_700_000_000_000_000;
 
-/// `cycles` 10 Hz cycles of two tracks (one closing, one receding) from `t0`, each frame 100 us
-/// after the previous one within a cycle (the closing track's distance follows the cycle index,
-/// so a log in two parts is one drive).
-fn drive(cycles: std::ops::Range<usize>, t0: u64) -> Vec<(u64, Frame)> {
-    let db = project_db();
-    let mut out = Vec::new();
-    let mut t = t0;
-    for k in cycles {
-        let gap = 60.0 - (k % 200) as f64 * 0.25;
-        for c in [Cycle::closing(3, gap), Cycle::receding(9)] {
-            for f in c.frames(&db) {
-                out.push((t, f));
-                t += 100;
-            }
-        }
-        t += 100_000 - 1_000;
-    }
-    out
-}
-
-fn to_log(frames: &[(u64, Frame)]) -> String {
-    let mut s = String::new();
-    for (t, f) in frames {
-        can_codec::format_line(&mut s, *t, "can0", f);
-        s.push('\n');
-    }
-    s
-}
-
 /// `frames` as `candump -L can0 can1` could print them: the ego's frames on can0, printed 3 ms
 /// late (so after object frames up to 3 ms newer), the objects' on can1.
 fn two_ifaces(frames: &[(u64, Frame)]) -> String {
@@ -66,15 +37,15 @@ fn two_ifaces(frames: &[(u64, Frame)]) -> String {
 /// 20 s of drive, the bus silent for `gap_us` after cycle 100 (first frame after it `gap_us`
 /// after the last before it).
 fn real_gap(gap_us: u64) -> Vec<(u64, Frame)> {
-    let mut log = drive(0..100, T0);
+    let mut log = two_track_drive(&project_db(), 0..100, T0);
     let last = log.last().unwrap().0;
-    log.extend(drive(100..200, last + gap_us));
+    log.extend(two_track_drive(&project_db(), 100..200, last + gap_us));
     log
 }
 
 /// 20 s of drive with the frames at `at` (indices into the clean log) stamped `ahead_us` ahead.
 fn glitched(at: &[usize], ahead_us: u64) -> Vec<(u64, Frame)> {
-    let mut log = drive(0..200, T0);
+    let mut log = two_track_drive(&project_db(), 0..200, T0);
     for &i in at {
         log[i].0 += ahead_us;
     }
@@ -90,7 +61,7 @@ struct Outputs {
 }
 
 fn score_log(frames: &[(u64, Frame)], extra: &[&str]) -> Outputs {
-    score_log_text(&to_log(frames), extra)
+    score_log_text(&candump_log(frames), extra)
 }
 
 fn score_log_text(log: &str, extra: &[&str]) -> Outputs {
@@ -218,7 +189,7 @@ fn a_real_gap_of_2_s_or_4_9_s_loses_nothing_and_outputs_as_before() {
 /// `score-log` on `log` loses exactly the frames of `lines` (off the timeline, each named by its
 /// line) and otherwise scores and warns as on the clean drive, with and without the window.
 fn assert_costs_only(log: &[(u64, Frame)], lines: &[u64]) {
-    let clean = score_log(&drive(0..200, T0), &[]);
+    let clean = score_log(&two_track_drive(&project_db(), 0..200, T0), &[]);
     for extra in [&[][..], &["--merge-wait-ms", "0"][..]] {
         let out = score_log(log, extra);
         assert!(out.ok, "{}", out.stderr);
@@ -263,9 +234,13 @@ fn a_frame_stamped_ahead_at_the_very_end_and_a_gap_just_before_the_end_are_as_be
     let out = assert_as_recorded("ahead_last", &glitched(&[1999], 2_000_000), &[]);
     assert_eq!(count(&out.stderr, "off the timeline"), 0, "{}", out.stderr);
     // A real 2 s gap followed by only 2 frames (too few to confirm it): processed.
-    let mut log = drive(0..100, T0);
+    let mut log = two_track_drive(&project_db(), 0..100, T0);
     let last = log.last().unwrap().0;
-    log.extend(drive(100..101, last + 2_000_000).into_iter().take(2));
+    log.extend(
+        two_track_drive(&project_db(), 100..101, last + 2_000_000)
+            .into_iter()
+            .take(2),
+    );
     let out = assert_as_recorded("gap_then_2_frames", &log, &[]);
     assert_eq!(count(&out.stderr, "off the timeline"), 0, "{}", out.stderr);
     assert!(

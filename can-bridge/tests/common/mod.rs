@@ -131,3 +131,36 @@ pub fn simulated_events(n: usize, seed: u64) -> riskscore_data::events::EventSet
     };
     riskscore_data::sim::simulate_events(&cfg).unwrap().0
 }
+
+/// `cycles` 10 Hz cycles of two tracks (one closing, one receding) from `t0`, 5 frames each per
+/// track, each frame 100 us after the previous one within a cycle; the closing track's distance
+/// follows the cycle index, so `0..n` then `n..m` is one drive in two parts.
+pub fn two_track_drive(
+    db: &Database,
+    cycles: std::ops::Range<usize>,
+    t0: u64,
+) -> Vec<(u64, Frame)> {
+    let mut out = Vec::new();
+    let mut t = t0;
+    for k in cycles {
+        let gap = 60.0 - (k % 200) as f64 * 0.25;
+        for c in [Cycle::closing(3, gap), Cycle::receding(9)] {
+            for f in c.frames(db) {
+                out.push((t, f));
+                t += 100;
+            }
+        }
+        t += 100_000 - 1_000;
+    }
+    out
+}
+
+/// `frames` as a candump -L log on `can0`, one line each.
+pub fn candump_log(frames: &[(u64, Frame)]) -> String {
+    let mut s = String::new();
+    for (t, f) in frames {
+        can_codec::format_line(&mut s, *t, "can0", f);
+        s.push('\n');
+    }
+    s
+}
