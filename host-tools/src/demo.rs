@@ -32,6 +32,7 @@ use riskscore_data::sim::{self, SimConfig};
 use riskscore_eval::claims::{self, acceptance_claims, Claim};
 use riskscore_eval::metrics::Metric;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
+use riskscore_output::OutputDir;
 use riskscore_train::export;
 use riskscore_train::final_models::{train_and_export, FinalModelsError};
 use riskscore_train::gssm::GssmConfig;
@@ -276,6 +277,24 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
     }
 }
 
+/// Simulates `cfg` into a temporary folder beside `target` ([`OutputDir`]: removed on an error
+/// or a Ctrl-C/SIGTERM), not yet in place: [`commit_staged`] swaps it in once the report that
+/// uses it is written, so a failed or interrupted run leaves an old `target` as it was.
+pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, DemoError> {
+    let staged = OutputDir::create(target).map_err(io_err(target))?;
+    sim::simulate_to_dir(staged.path(), cfg)?;
+    Ok(staged)
+}
+
+/// Swaps every staged simulated folder ([`simulate_staged`]) in (one rename each).
+pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), DemoError> {
+    for dir in staged {
+        let target = dir.target().to_path_buf();
+        dir.commit().map_err(io_err(&target))?;
+    }
+    Ok(())
+}
+
 /// What the demo did, measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoSummary {
@@ -382,8 +401,10 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
 
     // 1. Data.
     let t0 = Instant::now();
-    let data_dir = match &opts.data {
-        Some(d) => d.clone(),
+    // The simulated folders are staged (`simulate_staged`) and swapped in only once the report
+    // computed on them is written: an interrupted or failed run leaves an old --out's as they were.
+    let (data_dir, data_staged) = match &opts.data {
+        Some(d) => (d.clone(), None),
         None => {
             let dir = opts.out.join("data");
             let cfg = SimConfig {
@@ -398,11 +419,15 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
                 cfg.seed,
                 dir.display()
             );
-            sim::simulate_to_dir(&dir, &cfg)?;
-            dir
+            let staged = simulate_staged(&dir, &cfg)?;
+            (dir, Some(staged))
         }
     };
-    let (sim_seqs, sim_counts) = load_sequences(&data_dir)?;
+    let (sim_seqs, sim_counts) = load_sequences(
+        data_staged
+            .as_ref()
+            .map_or(data_dir.as_path(), |s| s.path()),
+    )?;
     eprintln!(
         "      simulated events: {sim_counts}; {} sequences",
         sim_seqs.len()
@@ -422,7 +447,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         real_seqs = r;
         seqs.extend(real_seqs.iter().cloned());
     }
-    let (extra_seqs, extra_counts) = load_extra(opts)?;
+    let (extra_seqs, extra_counts, extra_staged) = load_extra(opts)?;
     let (drl_only_seqs, drl_only_counts) = load_drl_only(&opts.extra.drl_only)?;
     let extra_counts = match (extra_counts, drl_only_counts) {
         (Some(a), Some(b)) => Some(format!("{a}; DRL only: {b}")),
@@ -493,6 +518,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     })?;
     bundle.add_csv("curves.csv", |w| eval::report::write_curves_csv(&curves, w))?;
     files.extend(bundle.write_to(&report_dir)?);
+    commit_staged(data_staged.into_iter().chain(extra_staged))?;
     stages.push(("report".into(), t0.elapsed().as_secs_f64()));
     outln!();
     outln!(
@@ -524,8 +550,8 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             cfg.mix.safe,
             dir.display()
         );
-        sim::simulate_to_dir(&dir, &cfg)?;
-        let (test_sim, _) = load_sequences(&dir)?;
+        let staged = simulate_staged(&dir, &cfg)?;
+        let (test_sim, _) = load_sequences(staged.path())?;
         // The training-only data joins the simulated training side, which every fold trains on.
         let mut train_sim = sim_seqs.clone();
         train_sim.extend(extra_seqs.iter().cloned());
@@ -554,6 +580,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             &transfer_claims,
             &[],
         )?);
+        commit_staged([staged])?;
         outln!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
@@ -708,11 +735,16 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
 /// Event-id prefix of the training-only simulated events (apart from the simulated default set's).
 pub const EXTRA_SIM_PREFIX: &str = "extra-sim/";
 
+/// [`load_extra`]'s sequences, counts and staged simulated folder.
+type Extra = (Vec<Sequence>, Option<String>, Option<OutputDir>);
+
 /// The recipe's training-only sequences ([`ExtraTraining`]): simulates the extra folder into
-/// `extra-data/` and loads the extra real folders. Returns them and their counts (`None`: none).
-fn load_extra(opts: &DemoOptions) -> Result<(Vec<Sequence>, Option<String>), DemoError> {
+/// `extra-data/` (staged: [`simulate_staged`]) and loads the extra real folders. Returns them,
+/// their counts (`None`: none) and the staged folder.
+fn load_extra(opts: &DemoOptions) -> Result<Extra, DemoError> {
     let mut seqs = Vec::new();
     let mut counts = Vec::new();
+    let mut staged = None;
     if let Some(extra) = &opts.extra.sim {
         let dir = opts.out.join("extra-data");
         let cfg = SimConfig {
@@ -729,8 +761,9 @@ fn load_extra(opts: &DemoOptions) -> Result<(Vec<Sequence>, Option<String>), Dem
             cfg.seed,
             dir.display()
         );
-        sim::simulate_to_dir(&dir, &cfg)?;
-        let (mut s, c) = load_sequences(&dir)?;
+        let folder = simulate_staged(&dir, &cfg)?;
+        let (mut s, c) = load_sequences(folder.path())?;
+        staged = Some(folder);
         // Simulated ids restart at 000001 in every folder; training groups sequences by event id
         // (validation split, pair draws), so the extra folder's events get ids of their own.
         for seq in &mut s {
@@ -749,7 +782,11 @@ fn load_extra(opts: &DemoOptions) -> Result<(Vec<Sequence>, Option<String>), Dem
         counts.push(format!("real {c} ({})", dir.display()));
         seqs.extend(s);
     }
-    Ok((seqs, (!counts.is_empty()).then(|| counts.join(" + "))))
+    Ok((
+        seqs,
+        (!counts.is_empty()).then(|| counts.join(" + ")),
+        staged,
+    ))
 }
 
 /// Event-id prefix of the DRL-only training sequences (`drl-only/<folder index>/<id>`).
@@ -803,19 +840,21 @@ fn domain_benchmark(
     report_dir: &Path,
 ) -> Result<Vec<PathBuf>, DemoError> {
     use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
-    let simulate = |folder: &str, seed: u64, mix: sim::Mix| -> Result<Vec<Sequence>, DemoError> {
-        let dir = opts.out.join("domains-data").join(folder);
-        let cfg = SimConfig {
-            seed,
-            events: settings.events,
-            mix,
-            families: sim::FamilyMix::domain(),
-            progress: opts.progress == Progress::Bar,
-            ..SimConfig::default()
+    // Staged ([`simulate_staged`]), swapped in once `report/domains/` is written.
+    let simulate =
+        |folder: &str, seed: u64, mix: sim::Mix| -> Result<(Vec<Sequence>, OutputDir), DemoError> {
+            let dir = opts.out.join("domains-data").join(folder);
+            let cfg = SimConfig {
+                seed,
+                events: settings.events,
+                mix,
+                families: sim::FamilyMix::domain(),
+                progress: opts.progress == Progress::Bar,
+                ..SimConfig::default()
+            };
+            let staged = simulate_staged(&dir, &cfg)?;
+            Ok((load_sequences(staged.path())?.0, staged))
         };
-        sim::simulate_to_dir(&dir, &cfg)?;
-        Ok(load_sequences(&dir)?.0)
-    };
     let real_city = match &settings.real_city {
         Some(dir) => load_sequences(dir)?.0,
         None => Vec::new(),
@@ -832,12 +871,9 @@ fn domain_benchmark(
         settings.folds,
         settings.seeds
     );
-    let data = DomainData::new(
-        simulate("train", opts.sim_seed, SimConfig::default().mix)?,
-        simulate("test", transfer.test_seed, transfer.test_mix)?,
-        real_freeway.to_vec(),
-        real_city,
-    );
+    let (train, train_staged) = simulate("train", opts.sim_seed, SimConfig::default().mix)?;
+    let (test, test_staged) = simulate("test", transfer.test_seed, transfer.test_mix)?;
+    let data = DomainData::new(train, test, real_freeway.to_vec(), real_city);
     let options = riskscore_train::transfer::TransferOptions {
         folds: settings.folds,
         seeds: settings.seeds,
@@ -861,7 +897,9 @@ fn domain_benchmark(
     );
     outln!();
     outln!("{}", result.to_markdown());
-    Ok(result.bundle()?.write_to(&report_dir.join("domains"))?)
+    let files = result.bundle()?.write_to(&report_dir.join("domains"))?;
+    commit_staged([train_staged, test_staged])?;
+    Ok(files)
 }
 
 /// Write the transfer benchmark's report files into `dir`, its `claims` as `claims.md` and

@@ -38,19 +38,32 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
     map
 }
 
-/// The --out folder and --sequences-out file a previous run left, plus a note of the user's.
-fn old_output(p: &Path) {
+/// The simulated folders of the benchmarks under --out.
+const BENCHMARK_FOLDERS: &[&str] = &["train-data", "test-data"];
+
+/// What an old simulated folder `folder` holds in `file` (`events`, `frames`, `scenarios`).
+fn old_text(folder: &str, file: &str) -> String {
+    format!("old {folder} {file}\n")
+}
+
+/// The --out folder (its simulated `folders`, a report) and --sequences-out file a previous run
+/// left, plus a note of the user's.
+fn old_output(p: &Path, folders: &[&str]) {
+    let mut files: Vec<(String, String)> = folders
+        .iter()
+        .flat_map(|f| {
+            ["events", "frames", "scenarios"]
+                .map(|file| (format!("out/{f}/{file}.csv"), old_text(f, file)))
+        })
+        .collect();
     for (file, text) in [
-        ("out/train-data/events.csv", "old training events\n"),
-        ("out/train-data/frames.csv", "old training frames\n"),
-        ("out/train-data/scenarios.csv", "old training scenarios\n"),
-        ("out/test-data/events.csv", "old test events\n"),
-        ("out/test-data/frames.csv", "old test frames\n"),
-        ("out/test-data/scenarios.csv", "old test scenarios\n"),
         ("out/report/results.md", "old report\n"),
         ("out/notes.txt", "mine\n"),
         ("sequences.csv", "old per-sequence table\n"),
     ] {
+        files.push((file.into(), text.into()));
+    }
+    for (file, text) in files {
         let path = p.join(file);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(path, text).unwrap();
@@ -64,27 +77,28 @@ fn kill_and_fail(mut child: Child, why: String) -> ! {
     panic!("{why}");
 }
 
-/// Whether the test folder under `dir` has been simulated: its `events.csv` is complete, in the
-/// staged folder beside `test-data` or (a run that writes in place) in `test-data` itself.
-fn test_data_simulated(dir: &Path) -> bool {
-    let Ok(entries) = std::fs::read_dir(dir) else {
+/// Whether the folder `folder` (e.g. `out/test-data`) has been simulated: its `events.csv` is
+/// complete, in the staged folder beside it or (a run that writes in place) in `folder` itself.
+fn simulated(folder: &Path) -> bool {
+    let name = folder.file_name().unwrap().to_string_lossy().into_owned();
+    let Ok(entries) = std::fs::read_dir(folder.parent().unwrap()) else {
         return false;
     };
+    let old = old_text(&name, "events");
     entries.flatten().any(|e| {
-        let name = e.file_name().to_string_lossy().into_owned();
-        let staged = name.starts_with(".test-data.") && name.ends_with(".tmp");
+        let entry = e.file_name().to_string_lossy().into_owned();
+        let staged = entry.starts_with(&format!(".{name}.")) && entry.ends_with(".tmp");
         let events = e.path().join("events.csv");
         (staged && events.is_file())
-            || (name == "test-data"
-                && std::fs::read(&events).is_ok_and(|b| b != b"old test events\n"))
+            || (entry == name && std::fs::read(&events).is_ok_and(|b| b != old.as_bytes()))
     })
 }
 
-/// Runs riskctl `args` in `p` over the old output, sends `stop` once it is working (the last
-/// test folder, under `last_draw`, simulated: loading and training follow), and checks the exit,
-/// the time to stop and the folder.
-fn interrupted_in_training(p: &Path, args: &[String], last_draw: &str, stop: Stop) {
-    old_output(p);
+/// Runs riskctl `args` in `p` over the old output (its simulated `folders` under `out/`), sends
+/// `stop` once it is working (the last folder it simulates, `last`, is complete: loading and
+/// training follow), and checks the exit, the time to stop and the folder.
+fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &str, stop: Stop) {
+    old_output(p, folders);
     let before = snapshot(p);
     let mut child = Command::new(RISKCTL)
         .current_dir(p)
@@ -103,13 +117,13 @@ fn interrupted_in_training(p: &Path, args: &[String], last_draw: &str, stop: Sto
         all
     });
     let start = Instant::now();
-    while !test_data_simulated(&p.join(last_draw)) {
+    while !simulated(&p.join(last)) {
         if let Some(status) = child.try_wait().unwrap() {
             let all = reader.join().unwrap();
-            panic!("the run ended ({status}) before it simulated its test folder: {all}");
+            panic!("the run ended ({status}) before it simulated {last}: {all}");
         }
         if start.elapsed() > Duration::from_secs(120) {
-            kill_and_fail(child, "no simulated test folder within 120 s".into());
+            kill_and_fail(child, format!("{last} not simulated within 120 s"));
         }
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -155,7 +169,7 @@ fn interrupted_in_training(p: &Path, args: &[String], last_draw: &str, stop: Sto
         "the interrupted run changed or left {changed:?}; stderr: {stderr}"
     );
     assert!(
-        stderr.contains("out/train-data") && stderr.contains("left as it was"),
+        stderr.contains(&format!("out/{}", folders[0])) && stderr.contains("left as it was"),
         "the message does not name the simulated folder it left alone: {stderr}"
     );
 }
@@ -180,28 +194,104 @@ fn benchmark(mode: &str, extra: &[&str]) -> Vec<String> {
 fn ctrl_c_stops_benchmark_domains_and_leaves_the_old_out_and_sequences_out() {
     let d = tempfile::tempdir().unwrap();
     let args = benchmark("domains", &["--sequences-out", "sequences.csv"]);
-    interrupted_in_training(d.path(), &args, "out", Stop::Int);
+    let last = "out/test-data";
+    interrupted_in_training(d.path(), &args, BENCHMARK_FOLDERS, last, Stop::Int);
 }
 
 #[test]
 fn sigterm_stops_benchmark_domains_over_two_draws_and_leaves_the_old_out() {
     let d = tempfile::tempdir().unwrap();
     let args = benchmark("domains", &["--draws", "2"]);
-    interrupted_in_training(d.path(), &args, "out/draw-2", Stop::Term);
+    let last = "out/draw-2/test-data";
+    interrupted_in_training(d.path(), &args, BENCHMARK_FOLDERS, last, Stop::Term);
 }
 
 #[test]
 fn ctrl_c_stops_benchmark_transfer_and_leaves_the_old_out() {
     let d = tempfile::tempdir().unwrap();
     let args = benchmark("transfer", &[]);
-    interrupted_in_training(d.path(), &args, "out", Stop::Int);
+    let last = "out/test-data";
+    interrupted_in_training(d.path(), &args, BENCHMARK_FOLDERS, last, Stop::Int);
 }
 
 #[test]
 fn sigterm_stops_benchmark_transfer_and_leaves_the_old_out() {
     let d = tempfile::tempdir().unwrap();
     let args = benchmark("transfer", &[]);
-    interrupted_in_training(d.path(), &args, "out", Stop::Term);
+    let last = "out/test-data";
+    interrupted_in_training(d.path(), &args, BENCHMARK_FOLDERS, last, Stop::Term);
+}
+
+/// `riskctl demo`, small (about 4 s in a debug build): 200 simulated events and 60 training-only
+/// ones (`data/`, `extra-data/`), 2 folds x 2 seeds, no real data (so no transfer or domain
+/// benchmark).
+fn demo() -> Vec<String> {
+    [
+        "demo",
+        "--events",
+        "200",
+        "--extra-events",
+        "60",
+        "--folds",
+        "2",
+        "--seeds",
+        "2",
+        "--no-real",
+        "--quiet",
+        "--out",
+        "out",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[test]
+fn ctrl_c_stops_demo_and_leaves_the_old_data_and_extra_data() {
+    // Before, `data/` and `extra-data/` were simulated in place: the interrupted run left the
+    // new run's events beside the old report.
+    let d = tempfile::tempdir().unwrap();
+    let folders = ["data", "extra-data"];
+    interrupted_in_training(d.path(), &demo(), &folders, "out/extra-data", Stop::Int);
+}
+
+#[test]
+fn sigterm_stops_demo_and_leaves_the_old_data_and_extra_data() {
+    let d = tempfile::tempdir().unwrap();
+    let folders = ["data", "extra-data"];
+    interrupted_in_training(d.path(), &demo(), &folders, "out/extra-data", Stop::Term);
+}
+
+/// `riskctl ablation`, small (about 3 s in a debug build): the default simulated set into
+/// `data/`, two sources, one fraction, 3 folds.
+fn ablation() -> Vec<String> {
+    [
+        "ablation",
+        "--sources",
+        "temporal,physics",
+        "--fractions",
+        "0.5",
+        "--folds",
+        "3",
+        "--quiet",
+        "--out",
+        "out",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[test]
+fn ctrl_c_stops_ablation_and_leaves_the_old_data() {
+    // Before, `data/` was simulated in place: the interrupted run left the new run's events
+    // beside the old tables.
+    let d = tempfile::tempdir().unwrap();
+    interrupted_in_training(d.path(), &ablation(), &["data"], "out/data", Stop::Int);
+}
+
+#[test]
+fn sigterm_stops_ablation_and_leaves_the_old_data() {
+    let d = tempfile::tempdir().unwrap();
+    interrupted_in_training(d.path(), &ablation(), &["data"], "out/data", Stop::Term);
 }
 
 #[test]
@@ -210,7 +300,7 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
     // and the simulated folders, complete by then, must not have been put in place before it.
     let d = tempfile::tempdir().unwrap();
     let p = d.path();
-    old_output(p);
+    old_output(p, BENCHMARK_FOLDERS);
     std::fs::remove_dir_all(p.join("out/report")).unwrap();
     std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
     let before = snapshot(p);

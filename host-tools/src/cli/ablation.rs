@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use riskscore_data::sim::{self, SimConfig};
+use riskscore_data::sim::SimConfig;
 use riskscore_train::comparisons::Source;
 use riskscore_train::train::ablation::{self, AblationOptions, AblationTables};
 use riskscore_train::train::cv::Models;
@@ -117,8 +117,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Removed again (while still empty) when the run fails, like every command's new folders.
     let folders = riskscore_output::NewFolders::create(&args.out)
         .with_context(|| format!("{}: cannot create", args.out.display()))?;
-    let events_dir = match &args.events {
-        Some(d) => d.clone(),
+    // A simulated folder is staged beside <out>/data and swapped in only once the tables are
+    // written: an interrupted or failed run leaves an old one as it was.
+    let (events_dir, staged) = match &args.events {
+        Some(d) => (d.clone(), None),
         None => {
             let dir = args.out.join("data");
             let cfg = SimConfig {
@@ -126,12 +128,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 ..SimConfig::default()
             };
             eprintln!("simulating the default data set into {}", dir.display());
-            sim::simulate_to_dir(&dir, &cfg)?;
-            dir
+            let staged = host_tools::demo::simulate_staged(&dir, &cfg)?;
+            (dir, Some(staged))
         }
     };
-    super::refuse_augmenting_with_itself(&events_dir, args.augment.as_deref())?;
-    let folder = super::load_prepared(&events_dir)?;
+    let events_path = staged.as_ref().map_or(events_dir.as_path(), |s| s.path());
+    super::refuse_augmenting_with_itself(events_path, args.augment.as_deref())?;
+    let folder = super::load_prepared(events_path)?;
     let (seqs, counts) = (folder.sequences, folder.counts);
     eprintln!(
         "{}: {counts}; {} sequences",
@@ -173,6 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     })?;
     let (csv_path, md_path) = tables.finish().context("writing the ablation tables")?;
+    host_tools::demo::commit_staged(staged)?;
     folders.keep();
     outln!("wrote {} and {}", csv_path.display(), md_path.display());
     Ok(())
