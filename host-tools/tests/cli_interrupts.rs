@@ -1,10 +1,10 @@
-//! Ctrl-C (SIGINT) and SIGTERM in the middle of `riskctl benchmark domains` and `benchmark
-//! transfer`: the run stops within seconds with 130 / 143, and an --out folder (and a
-//! --sequences-out file) that a previous run left stays byte for byte as it was, with no
-//! temporary, lock file or new folder left behind. The benchmarks simulate their training and
-//! test folders into --out before they train: an interrupted run must not have replaced them.
-//! A run that fails at its report (the last output) leaves --sequences-out and the simulated
-//! folders as they were too.
+//! Ctrl-C (SIGINT) and SIGTERM in the middle of `riskctl benchmark domains`, `benchmark
+//! transfer`, `demo` and `ablation`: the run stops within seconds with 130 / 143, and an --out
+//! folder (and a --sequences-out file) that a previous run left stays byte for byte as it was,
+//! with no temporary, lock file or new folder left behind. These commands simulate their event
+//! folders into --out before they train: an interrupted run must not have replaced them. A run
+//! that fails at its report (the last output) leaves --sequences-out and the simulated folders
+//! as they were too.
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -41,9 +41,11 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
 /// The simulated folders of the benchmarks under --out.
 const BENCHMARK_FOLDERS: &[&str] = &["train-data", "test-data"];
 
-/// What an old simulated folder `folder` holds in `file` (`events`, `frames`, `scenarios`).
+/// What an old simulated folder `folder` (e.g. `domains-data/test`, named by its last part)
+/// holds in `file` (`events`, `frames`, `scenarios`).
 fn old_text(folder: &str, file: &str) -> String {
-    format!("old {folder} {file}\n")
+    let name = Path::new(folder).file_name().unwrap().to_string_lossy();
+    format!("old {name} {file}\n")
 }
 
 /// The --out folder (its simulated `folders`, a report) and --sequences-out file a previous run
@@ -100,6 +102,24 @@ fn simulated(folder: &Path) -> bool {
 fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &str, stop: Stop) {
     old_output(p, folders);
     let before = snapshot(p);
+    let stderr = stopped_once_simulated(p, args, last, stop);
+    let after = snapshot(p);
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("out/{}", folders[0])) && stderr.contains("left as it was"),
+        "the message does not name the simulated folder it left alone: {stderr}"
+    );
+}
+
+/// Runs riskctl `args` in `p`, sends `stop` once `last` is simulated (plus 0.5 s) and checks that
+/// the run stops within [`STOP_WITHIN`] with the signal's status and message. Returns its stderr.
+fn stopped_once_simulated(p: &Path, args: &[String], last: &str, stop: Stop) -> String {
     let mut child = Command::new(RISKCTL)
         .current_dir(p)
         .args(args)
@@ -160,18 +180,7 @@ fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &s
         stderr.contains(&format!("interrupted (SIG{})", stop.name())),
         "{stderr}"
     );
-    let after = snapshot(p);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
-    );
-    assert!(
-        stderr.contains(&format!("out/{}", folders[0])) && stderr.contains("left as it was"),
-        "the message does not name the simulated folder it left alone: {stderr}"
-    );
+    stderr
 }
 
 /// A small but real run: default training, 2 folds, 2 seeds (`domains`: 90 events per simulated
@@ -261,6 +270,83 @@ fn sigterm_stops_demo_and_leaves_the_old_data_and_extra_data() {
     interrupted_in_training(d.path(), &demo(), &folders, "out/extra-data", Stop::Term);
 }
 
+/// The demo's benchmark stages over an old --out: the run is stopped by `stop` once `last` (under
+/// `out/`) is simulated, in the middle of the benchmark. The stages before it have put their
+/// report and data in place (each simulated folder goes in with the report computed on it); the
+/// benchmark's own folders and report must be the old ones, and no temporary is left anywhere.
+fn demo_interrupted_in_a_benchmark(last: &str, kept: &[&str], stop: Stop) {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let folders = ["transfer-data", "domains-data/train", "domains-data/test"];
+    old_output(p, &folders);
+    for (file, text) in [
+        ("out/report/transfer/results.md", "old transfer report\n"),
+        ("out/report/domains/domains.md", "old domain report\n"),
+    ] {
+        std::fs::create_dir_all(p.join(file).parent().unwrap()).unwrap();
+        std::fs::write(p.join(file), text).unwrap();
+    }
+    let under = |snap: BTreeMap<PathBuf, Option<Vec<u8>>>| -> BTreeMap<_, _> {
+        snap.into_iter()
+            .filter(|(k, _)| {
+                kept.iter()
+                    .any(|dir| k.starts_with(Path::new("out").join(dir)))
+            })
+            .collect()
+    };
+    let before = under(snapshot(p));
+    // The real freeway extract is the default --real: the transfer and domain benchmarks run.
+    let args = [
+        "demo",
+        "--events",
+        "100",
+        "--no-extra",
+        "--folds",
+        "2",
+        "--seeds",
+        "1",
+        "--quiet",
+        "--out",
+        "out",
+    ]
+    .map(String::from);
+    let stderr = stopped_once_simulated(p, &args, &format!("out/{last}"), stop);
+    let all = snapshot(p);
+    let hidden: Vec<&PathBuf> = (all.keys())
+        .filter(|k| k.iter().any(|c| c.to_string_lossy().starts_with('.')))
+        .collect();
+    assert!(hidden.is_empty(), "temporaries left: {hidden:?}; {stderr}");
+    let after = under(all);
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("out/{last}")) && stderr.contains("left as it was"),
+        "the message does not name the simulated folder it left alone: {stderr}"
+    );
+}
+
+#[test]
+fn ctrl_c_in_demo_s_domain_benchmark_leaves_the_old_domains_data() {
+    let kept = ["domains-data", "report/domains"];
+    demo_interrupted_in_a_benchmark("domains-data/test", &kept, Stop::Int);
+}
+
+#[test]
+fn sigterm_in_demo_s_transfer_benchmark_leaves_the_old_transfer_and_domains_data() {
+    let kept = [
+        "transfer-data",
+        "report/transfer",
+        "domains-data",
+        "report/domains",
+    ];
+    demo_interrupted_in_a_benchmark("transfer-data", &kept, Stop::Term);
+}
+
 /// `riskctl ablation`, small (about 3 s in a debug build): the default simulated set into
 /// `data/`, two sources, one fraction, 3 folds.
 fn ablation() -> Vec<String> {
@@ -294,6 +380,28 @@ fn sigterm_stops_ablation_and_leaves_the_old_data() {
     interrupted_in_training(d.path(), &ablation(), &["data"], "out/data", Stop::Term);
 }
 
+/// Runs riskctl `args` in `p` (the old output there, `report` its last output and in the way):
+/// the run must fail naming `report` and leave everything byte for byte as it was.
+fn failed_at(p: &Path, args: &[String], report: &str) {
+    let before = snapshot(p);
+    let o = Command::new(RISKCTL)
+        .current_dir(p)
+        .args(args)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(report), "{stderr}");
+    let after = snapshot(p);
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the failed run changed or left {changed:?}; stderr: {stderr}"
+    );
+}
+
 #[test]
 fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_folders() {
     // The report is written last and fails here (out/report is a file): the per-sequence table
@@ -303,23 +411,32 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
     old_output(p, BENCHMARK_FOLDERS);
     std::fs::remove_dir_all(p.join("out/report")).unwrap();
     std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
-    let before = snapshot(p);
     let mut args = benchmark("domains", &["--sequences-out", "sequences.csv"]);
     args.extend(["--rounds", "speed-5-15", "--quiet"].map(String::from));
-    let o = Command::new(RISKCTL)
-        .current_dir(p)
-        .args(&args)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("out/report"), "{stderr}");
-    let after = snapshot(p);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the failed run changed or left {changed:?}; stderr: {stderr}"
-    );
+    failed_at(p, &args, "out/report");
+}
+
+#[test]
+fn a_demo_that_fails_at_its_report_leaves_the_old_data_and_extra_data() {
+    // out/report is a file: the report after cross-validation fails, and the data/ and
+    // extra-data/ it was computed on, simulated by then, must not have gone in place.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data", "extra-data"]);
+    std::fs::remove_dir_all(p.join("out/report")).unwrap();
+    std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
+    failed_at(p, &demo(), "out/report");
+}
+
+#[test]
+fn an_ablation_that_fails_at_its_tables_leaves_the_old_data() {
+    // out/ablation.md is a folder: the tables, written last, fail; data/ stays the old one.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data"]);
+    std::fs::create_dir_all(p.join("out/ablation.md")).unwrap();
+    std::fs::write(p.join("out/ablation.md/mine.txt"), "in the way\n").unwrap();
+    let mut args = ablation();
+    args.extend(["--models", "msra"].map(String::from));
+    failed_at(p, &args, "out/ablation.md");
 }
