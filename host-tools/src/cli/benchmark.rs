@@ -3,11 +3,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use host_tools::demo::{
-    default_real_city_data, default_real_data, load_training_only, print_claims,
-    write_transfer_report, DRL_ONLY_PREFIX, REAL_DATA, TRAIN_ONLY_PREFIX,
+    commit_staged, default_real_city_data, default_real_data, load_training_only, print_claims,
+    simulate_staged, write_transfer_report, DRL_ONLY_PREFIX, REAL_DATA, TRAIN_ONLY_PREFIX,
 };
 use riskscore_data::events::Sequence;
-use riskscore_data::sim::{simulate_to_dir, FamilyMix, Mix, SimConfig};
+use riskscore_data::sim::{FamilyMix, Mix, SimConfig};
 use riskscore_eval::claims::{acceptance_claims, Claim};
 use riskscore_output::OutputDir;
 use riskscore_train::domains::{
@@ -198,16 +198,6 @@ struct SimDraw {
     staged: Vec<OutputDir>,
 }
 
-/// Swaps every staged simulated folder in ([`SimDraw::staged`]).
-fn commit_staged(staged: Vec<OutputDir>) -> anyhow::Result<()> {
-    for dir in staged {
-        let target = dir.target().to_path_buf();
-        dir.commit()
-            .with_context(|| format!("cannot write {}", target.display()))?;
-    }
-    Ok(())
-}
-
 /// Where draw `k` (k >= 1) of `--draws` simulates its folders.
 fn draw_folder(out: &Path, k: u32) -> PathBuf {
     out.join(format!("draw-{}", k + 1))
@@ -356,9 +346,8 @@ fn folder_or_simulate(
     if let Some(dir) = given {
         return Ok((super::load_prepared(dir)?.sequences, None));
     }
-    let simulating = || format!("simulating {}", out.display());
-    let staged = OutputDir::create(out).with_context(simulating)?;
-    simulate_to_dir(staged.path(), cfg).with_context(simulating)?;
+    let staged =
+        simulate_staged(out, cfg).with_context(|| format!("simulating {}", out.display()))?;
     let sequences = super::load_prepared(staged.path())?.sequences;
     Ok((sequences, Some(staged)))
 }
@@ -550,7 +539,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
     let finish = |result: &DomainsResult| -> anyhow::Result<()> {
         host_tools::warnings::print(result.warnings());
         result.bundle()?.write_to(&report_dir)?;
-        commit_staged(staged)
+        Ok(commit_staged(staged)?)
     };
     let result = match &a.sequences_out {
         None => {
