@@ -182,7 +182,7 @@ const WRITERS: &[Writer] = &[
         args: "demo --out OUT --config t.toml --events 12 --folds 2 --no-real --no-transfer --quiet",
         out: "demo/",
         inputs: &["t.toml"],
-        lock: "OUT/data/events.csv",
+        lock: "OUT/data",
         long: None,
     },
     Writer {
