@@ -38,7 +38,7 @@ fn checkpoint_not_blob(path: &Path, bytes: &[u8]) -> Option<anyhow::Error> {
         return None;
     }
     let file = path.display();
-    let why = match Checkpoint::load(path) {
+    let why = match Checkpoint::from_bytes(bytes.to_vec(), path) {
         Ok(_) => {
             return Some(anyhow::anyhow!(
                 "{file}: not a model blob: it is a training checkpoint (the JSON `riskctl train` \

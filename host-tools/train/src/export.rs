@@ -111,11 +111,16 @@ impl Checkpoint {
     }
 
     pub fn load(path: &Path) -> Result<Checkpoint, ExportError> {
-        let p = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| ExportError::Io {
-            path: p.clone(),
+            path: path.display().to_string(),
             source,
         })?;
+        Self::from_bytes(bytes, path)
+    }
+
+    /// A checkpoint from the bytes of a file already read; `path` names it in an error.
+    pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<Checkpoint, ExportError> {
+        let p = path.display().to_string();
         if bytes.starts_with(&model::MAGIC) {
             return Err(ExportError::BadCheckpoint {
                 path: p,
