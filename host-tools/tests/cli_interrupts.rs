@@ -148,11 +148,7 @@ fn stopped_once_simulated(p: &Path, args: &[String], last: &str, stop: Stop) -> 
         std::thread::sleep(Duration::from_millis(20));
     }
     std::thread::sleep(Duration::from_millis(500));
-    let kill = Command::new("kill")
-        .args([&format!("-{}", stop.name()), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
+    fault_harness::send(&child, stop);
     let signalled = Instant::now();
     let status = loop {
         if let Some(status) = child.try_wait().unwrap() {

@@ -516,13 +516,18 @@ impl Stop {
     }
 }
 
-/// Sends `stop` to `child` and collects its output.
-pub fn interrupt(child: Child, stop: Stop) -> Output {
+/// Sends `stop` to `child` (`kill -NAME PID`).
+pub fn send(child: &Child, stop: Stop) {
     let kill = Command::new("kill")
         .args([&format!("-{}", stop.name()), &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
+}
+
+/// Sends `stop` to `child` and collects its output.
+pub fn interrupt(child: Child, stop: Stop) -> Output {
+    send(&child, stop);
     child.wait_with_output().unwrap()
 }
 
