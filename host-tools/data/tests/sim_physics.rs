@@ -3,9 +3,9 @@
 //! heading along the velocity, positions that follow the speeds, speeds and longitudinal
 //! accelerations inside the documented limits, and labels that match the box geometry.
 //!
-//! Three tests are `#[ignore]`d: they demonstrate defects found in an audit (2026-11-28) that are
-//! not fixed because fixing them changes every generated data set (see their comments); run them
-//! with `cargo test -p riskscore-data --test sim_physics -- --ignored`.
+//! One test is `#[ignore]`d: it demonstrates a defect found in an audit (2026-11-28) that is not
+//! fixed (D2 in docs/simulator.md, see its comment); run it with
+//! `cargo test -p riskscore-data --test sim_physics -- --ignored`.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -157,16 +157,13 @@ fn every_family_labels_match_the_box_geometry() {
     }
 }
 
-/// DEFECT (audit 2026-11-28, not fixed: the fix changes every data set). Lateral moves are not
-/// limited by the vehicle: a lane change or drift correction of `dd` m over `T` s peaks at
-/// `5.77·dd/T²` m/s² whatever the class, and swerves add to full braking without a friction
-/// circle. The opposite_drift steer-back (`dd` U(1.4, 3.6) m over U(1, 2.5) s, up to 21 m/s²)
-/// and hurried cut-ins (up to 3.75 m over 1.5 s, 9.6 m/s²) exceed what a tyre can give (the
-/// class's own hardest braking: car 9.5, van 8.5, truck 6.5, motorbike 9.0 m/s²); measured up to
-/// 12.5 m/s² (a car), 11.7 m/s² (a truck, whose rollover threshold is about 4 m/s²).
+/// Audit defect D1 (2026-11-28), fixed: lateral moves were not limited by the vehicle (the
+/// opposite_drift steer-back reached 12.5 m/s² for a car, 11.7 m/s² for a truck, and swerves
+/// added to full braking). Every lateral move is now sized within the class's lateral limit and
+/// braking shares the tyre with it (friction circle); the hardest braking of each class is the
+/// bound (car 9.5, van 8.5, truck 6.5, motorbike 9.0 m/s²).
 #[test]
-#[ignore = "defect: lateral acceleration exceeds the vehicle's friction limit"]
-fn defect_total_acceleration_stays_within_the_class_friction_limit() {
+fn total_acceleration_stays_within_the_class_friction_limit() {
     let sims = run("opposite_drift,cut_in", 1, 300, "1,2,0".parse().unwrap());
     let mut worst = Vec::new();
     for s in &sims {
@@ -267,17 +264,13 @@ fn defect_near_crash_evasion_is_not_the_conflicting_move_itself() {
     );
 }
 
-/// DEFECT (audit 2026-11-28, not fixed: the fix changes every data set). A swerve is at least
-/// 3 m long (`lateral_len`), so one triggered at walking speed (a give-way driver braking at a
-/// crossing) moves up to 2.2 m sideways within 3 m of travel: the path turns on a radius down to
-/// about 1 m (curvature 0.86 1/m measured), where a car, van or truck cannot steer tighter than
-/// about 4-5 m. The lateral acceleration stays small at that speed, so only the geometry shows
-/// it: headings swinging by tens of degrees within a few metres. Measured: 18 vehicles above
-/// 0.25 1/m in 7,800 events, all in crossing, signal_crossing, stopped_ahead and roadside_object
-/// conflicts.
+/// Audit defect D3 (2026-11-28), fixed: a swerve was at least 3 m long, so one triggered at
+/// walking speed (a give-way driver braking at a crossing) turned on a radius down to about 1 m
+/// (curvature 0.86 1/m), where a car, van or truck cannot steer tighter than about 4-5 m. Every
+/// lateral move is now long enough for the class's turning circle (`lateral_len`); the
+/// geometry is what shows it, since the lateral acceleration stays small at that speed.
 #[test]
-#[ignore = "defect: low-speed swerves turn tighter than a vehicle can steer"]
-fn defect_paths_stay_within_the_turning_circle() {
+fn paths_stay_within_the_turning_circle() {
     let sims = run("crossing,signal_crossing", 1, 300, "0,1,0".parse().unwrap());
     let mut bad = Vec::new();
     for s in &sims {

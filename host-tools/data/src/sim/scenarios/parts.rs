@@ -3,7 +3,7 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::sim::world::{Agent, Driver, FollowLaw, Path, Piece, Script, Swerve};
+use crate::sim::world::{Agent, Driver, FollowLaw, Handling, Path, Piece, Script, Swerve};
 
 /// Vehicle classes and their dimension/performance ranges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -165,8 +165,23 @@ pub(super) fn scripted(
     (d, Script { pieces })
 }
 
+/// What a vehicle of this class can do sideways with tyres that brake at `b_phys` m/s^2: the
+/// same grip laterally (a truck: its rollover threshold, about 4 m/s^2, when lower), and the
+/// tightest radius its steering allows (half the kerb-to-kerb turning circle: cars 10-11 m, vans
+/// about 12 m, rigid and articulated trucks 16-25 m, motorbikes about 5 m).
+pub(super) fn handling(class: VehicleClass, b_phys: f64) -> Handling {
+    let (lat_max, r_min) = match class {
+        VehicleClass::Car => (b_phys, 5.0),
+        VehicleClass::Van => (b_phys, 6.0),
+        VehicleClass::Truck => (b_phys.min(4.0), 8.0),
+        VehicleClass::Motorbike | VehicleClass::Object => (b_phys, 2.5),
+    };
+    Handling { lat_max, r_min }
+}
+
 pub(super) fn agent(path: Path, s: f64, v: f64, veh: &Vehicle, driver: Driver) -> Agent {
     Agent::new(path, s, v, veh.dims, veh.limits, driver)
+        .with_handling(handling(veh.class, veh.limits.0))
 }
 
 /// Draws whether the ego takes role A (with probability `p_ego_first`) and returns that flag with

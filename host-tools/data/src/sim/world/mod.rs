@@ -13,7 +13,7 @@ mod path;
 use conflict::{conflict_stop, CrossingProgress};
 pub(crate) use conflict::{conflict_zone, Conflict, Role};
 pub(crate) use driver::{Driver, FollowLaw, LatPlan, Piece, Script, Snap, Swerve, Trigger};
-pub(crate) use path::{lateral_len, Lateral, Path, Seg};
+pub(crate) use path::{lateral_len, Handling, Lateral, Path, Seg};
 use scorer_core::VehicleState;
 
 /// Integration step (s): 5 sub-steps per 10 Hz frame.
@@ -34,6 +34,8 @@ pub(crate) struct Agent {
     /// Physical limits (m/s^2): tyre-road braking and engine acceleration.
     pub b_phys: f64,
     pub a_phys: f64,
+    /// Lateral limits: every lateral move is sized within them (`lateral_len`).
+    pub handling: Handling,
     pub driver: Driver,
     pub script: Option<Script>,
     pub plans: Vec<LatPlan>,
@@ -65,6 +67,10 @@ impl Agent {
             width: dims.1,
             b_phys: limits.0,
             a_phys: limits.1,
+            handling: Handling {
+                lat_max: limits.0,
+                r_min: 5.0,
+            },
             driver,
             script: None,
             plans: Vec::new(),
@@ -111,8 +117,24 @@ impl Agent {
         }
     }
 
+    /// The same vehicle with the lateral limits of its class.
+    pub fn with_handling(mut self, handling: Handling) -> Self {
+        self.handling = handling;
+        self
+    }
+
     fn start_lat(&mut self, dd: f64, len: f64) {
         self.lat.start(self.s, dd, len);
+    }
+
+    /// The longitudinal acceleration (m/s^2) the tyres have left beside the lateral
+    /// acceleration of the current path (friction circle of radius `b_phys`). The lateral term
+    /// is v^2 times the curvature of the reference path plus that of the lateral moves under
+    /// way, the small-offset approximation of the driven path's curvature.
+    fn longitudinal_grip(&self) -> f64 {
+        let kappa = self.path.pose(self.s).kappa + self.lat.curvature(self.s);
+        let lat = self.v * self.v * kappa;
+        (self.b_phys * self.b_phys - lat * lat).max(0.0).sqrt()
     }
 
     /// A planned lane change has not started yet, or is still under way (and not abandoned).
@@ -254,8 +276,8 @@ impl World {
         }
         if let Some(sw) = drv.swerve {
             if !me.swerved && threat >= sw.trigger {
-                let len = lateral_len(self.agents[i].v, sw.dd, sw.alat);
                 let agent = &mut self.agents[i];
+                let len = lateral_len(agent.v, sw.dd, sw.alat, &agent.handling);
                 agent.start_lat(sw.dir * sw.dd, len);
                 agent.swerved = true;
                 agent.plans.iter_mut().for_each(|p| p.aborted = true);
@@ -285,7 +307,14 @@ impl World {
                         };
                         if go {
                             let before = agent.lat.target();
-                            let len = (agent.v.max(2.0) * plan.duration).max(5.0);
+                            // The drawn duration, stretched where the vehicle cannot move
+                            // that far that fast (its lateral limit or turning circle).
+                            let len = (agent.v.max(2.0) * plan.duration).max(5.0).max(lateral_len(
+                                agent.v,
+                                plan.dd,
+                                agent.handling.lat_max,
+                                &agent.handling,
+                            ));
                             agent.start_lat(plan.dd, len);
                             agent.plans[k].started = Some((t, before, agent.s + len));
                         }
@@ -295,7 +324,7 @@ impl World {
                             if t >= t0 + ta && agent.s < s_end {
                                 // Steer back to where the manoeuvre started.
                                 let back = before - agent.lat.target();
-                                let len = lateral_len(agent.v.max(2.0), back, 3.0);
+                                let len = lateral_len(agent.v.max(2.0), back, 3.0, &agent.handling);
                                 agent.start_lat(back, len);
                                 agent.plans[k].aborted = true;
                             }
@@ -303,12 +332,17 @@ impl World {
                     }
                 }
             }
+            let grip = agent.longitudinal_grip();
             let cmd = cmd.clamp(
-                -agent.driver.b_max.min(agent.b_phys),
-                agent.a_phys.min(agent.driver.a_max.max(0.5) * 2.0),
+                -agent.driver.b_max.min(agent.b_phys).min(grip),
+                agent
+                    .a_phys
+                    .min(agent.driver.a_max.max(0.5) * 2.0)
+                    .min(grip),
             );
             let dj = agent.driver.jerk * DT;
-            agent.a += (cmd - agent.a).clamp(-dj, dj);
+            // The tyres cap what the brake or engine delivers at once, jerk limit or not.
+            agent.a = (agent.a + (cmd - agent.a).clamp(-dj, dj)).clamp(-grip, grip);
             let v_new = agent.v + agent.a * DT;
             if v_new <= 0.0 {
                 // Standing: no reversing.

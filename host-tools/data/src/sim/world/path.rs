@@ -121,6 +121,15 @@ impl LatMove {
         let dd = self.d1 - self.d0;
         (self.d0 + dd * q, dd * dq / self.len)
     }
+    /// The offset's second derivative d''(s) (1/m): the curvature the move adds to the path.
+    pub fn curvature(&self, s: f64) -> f64 {
+        let u = (s - self.s0) / self.len;
+        if !(0.0..=1.0).contains(&u) {
+            return 0.0;
+        }
+        let ddq = 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u);
+        (self.d1 - self.d0) * ddq / (self.len * self.len)
+    }
 }
 
 /// The lateral offset of a vehicle: a sum of smooth moves, so a move started during another
@@ -138,6 +147,10 @@ impl Lateral {
             (d + a, d1 + b)
         })
     }
+    /// The curvature (1/m) all moves under way add to the reference path at `s`.
+    pub fn curvature(&self, s: f64) -> f64 {
+        self.moves.iter().map(|m| m.curvature(s)).sum()
+    }
     /// The offset once every move has finished.
     pub fn target(&self) -> f64 {
         self.moves.iter().map(|m| m.d1).sum()
@@ -153,10 +166,28 @@ impl Lateral {
     }
 }
 
-/// Path distance needed for a lateral move of `dd` m with peak lateral acceleration `alat` at
-/// speed `v` (quintic profile: peak d'' = 5.77 dd / len^2).
-pub(crate) fn lateral_len(v: f64, dd: f64, alat: f64) -> f64 {
-    (v * (5.77 * dd.abs() / alat).sqrt()).max(3.0)
+/// Peak of d''(s) of a quintic move, per metre moved: 5.77 dd / len^2.
+const QUINTIC_PEAK: f64 = 5.77;
+
+/// What a vehicle can do sideways: the lateral acceleration its tyres (or, for a truck, its
+/// rollover threshold) allow, and the tightest radius it can steer.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Handling {
+    /// m/s^2.
+    pub lat_max: f64,
+    /// m.
+    pub r_min: f64,
+}
+
+/// Path distance needed for a lateral move of `dd` m at speed `v` whose peak lateral
+/// acceleration is `alat` or the vehicle's limit, whichever is lower, and whose peak curvature
+/// stays within the vehicle's turning circle (quintic profile: peak d'' = 5.77 dd / len^2).
+pub(crate) fn lateral_len(v: f64, dd: f64, alat: f64, handling: &Handling) -> f64 {
+    let dd = dd.abs();
+    let alat = alat.min(handling.lat_max);
+    (v * (QUINTIC_PEAK * dd / alat).sqrt())
+        .max((QUINTIC_PEAK * dd * handling.r_min).sqrt())
+        .max(3.0)
 }
 
 #[cfg(test)]
@@ -215,8 +246,12 @@ mod tests {
         assert_eq!(lat.eval(30.0), before);
         assert!((lat.target()).abs() < 1e-12);
         assert!(lat.eval(100.0).0.abs() < 1e-12);
-        // Peak lateral acceleration of a move matches `lateral_len`.
-        let len = lateral_len(20.0, 2.0, 4.0);
+        // Peak lateral acceleration of a move matches `lateral_len`, and `curvature` is d''(s).
+        let roomy = Handling {
+            lat_max: 9.0,
+            r_min: 5.0,
+        };
+        let len = lateral_len(20.0, 2.0, 4.0, &roomy);
         let m = LatMove {
             s0: 0.0,
             len,
@@ -227,9 +262,39 @@ mod tests {
         let peak = (1..1000)
             .map(|i| {
                 let s = len * i as f64 / 1000.0;
-                ((m.eval(s + h).1 - m.eval(s - h).1) / (2.0 * h) * 400.0).abs()
+                let second = (m.eval(s + h).1 - m.eval(s - h).1) / (2.0 * h);
+                assert!((second - m.curvature(s)).abs() < 1e-6, "s = {s}");
+                (second * 400.0).abs()
             })
             .fold(0.0, f64::max);
         assert!((peak - 4.0).abs() < 0.02, "{peak}");
+        assert_eq!(m.curvature(-1.0), 0.0);
+        assert_eq!(m.curvature(len + 1.0), 0.0);
+    }
+
+    #[test]
+    fn lateral_moves_stay_within_the_vehicles_handling() {
+        // A truck asked for 7 m/s^2 gets its rollover limit: the move is longer.
+        let truck = Handling {
+            lat_max: 4.0,
+            r_min: 8.0,
+        };
+        let len = lateral_len(20.0, 2.0, 7.0, &truck);
+        assert!(
+            (5.77 * 2.0 * 400.0 / (len * len) - 4.0).abs() < 1e-9,
+            "{len}"
+        );
+        // At walking speed the turning circle, not the lateral acceleration, sets the length:
+        // peak curvature 5.77 dd / len^2 = 1 / r_min.
+        let car = Handling {
+            lat_max: 9.0,
+            r_min: 5.0,
+        };
+        let len = lateral_len(1.0, 2.2, 7.0, &car);
+        assert!(
+            (5.77 * 2.2 / (len * len) - 1.0 / 5.0).abs() < 1e-12,
+            "{len}"
+        );
+        assert!(len > 7.9, "{len}");
     }
 }
