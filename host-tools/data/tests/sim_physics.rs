@@ -4,7 +4,7 @@
 //! accelerations inside the documented limits, and labels that match the box geometry.
 //!
 //! One test is `#[ignore]`d: it demonstrates a defect found in an audit (2026-11-28) that is not
-//! fixed (D2 in docs/simulator.md, see its comment); run it with
+//! fixed (D2 in docs/simulator.md, see its comment; D1 and D3 are fixed); run it with
 //! `cargo test -p riskscore-data --test sim_physics -- --ignored`.
 #![allow(
     clippy::unwrap_used,
@@ -206,7 +206,8 @@ fn total_acceleration_stays_within_the_class_friction_limit() {
 /// its own evasion: a close cut-in or lane change with a lateral peak of 3-4 m/s², where nobody
 /// brakes at 4 m/s² or steers away, is labelled near-crash (the same pass at 2.9 m/s² is safe
 /// or rejected). Measured on 7 draws of 300-1000 events: 355 of 2,730 near-crashes (13 %),
-/// 152 of 279 cut_in and 112 of 175 lane_change near-crashes.
+/// 152 of 279 cut_in and 112 of 175 lane_change near-crashes. A labeller that passes this test
+/// was measured and not adopted (docs/training.md, "Audit defect D2 fixed in the labels").
 #[test]
 #[ignore = "defect: the conflicting lane change counts as the evasive manoeuvre"]
 fn defect_near_crash_evasion_is_not_the_conflicting_move_itself() {
