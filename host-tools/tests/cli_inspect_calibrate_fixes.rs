@@ -1,7 +1,7 @@
 //! `riskctl inspect-model` names a file that is nearly a training checkpoint (JSON that does not
 //! load as one) with the loader's reason; the `riskctl calibrate-domain --help` examples run as
-//! written from the repository's root; `riskscore_train::gssm::row_name` names the shipped blobs
-//! as its documentation says.
+//! written from the repository's root; the shipped blobs are named as `riskctl evaluate` names
+//! their rows (`riskscore_eval::scoring::model_row_name`).
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -263,24 +263,43 @@ fn calibrate_domain_help_examples_name_real_paths_and_run() {
     }
 }
 
-/// `row_name`'s documentation: the GSSM kinds are named as `model_row_name` names them, and an
-/// MSRA blob with a GSSM term is `MSRA` there (`MSRA-GSSM` in the evaluation).
+/// The shipped blobs' row names, one for each method (`model_row_name`, the only row namer): an
+/// MSRA blob with a GSSM term is `MSRA-GSSM`, and `riskctl evaluate` prints that row.
 #[test]
-fn gssm_row_name_names_the_shipped_blobs_as_documented() {
-    for (file, row, eval_row) in [
-        ("gssm-default.rsk", "GSSM", "GSSM"),
-        ("ssra-default.rsk", "SSRA", "SSRA"),
-        ("msra-gssm.rsk", "MSRA", "MSRA-GSSM"),
-        ("drl-default.rsk", "DRL", "DRL"),
-        ("msra-default.rsk", "MSRA", "MSRA"),
+fn shipped_blobs_are_named_as_riskctl_evaluate_names_their_rows() {
+    for (file, row) in [
+        ("gssm-default.rsk", "GSSM"),
+        ("ssra-default.rsk", "SSRA"),
+        ("msra-gssm.rsk", "MSRA-GSSM"),
+        ("drl-default.rsk", "DRL"),
+        ("msra-default.rsk", "MSRA"),
     ] {
         let bytes = std::fs::read(shipped_model(file)).unwrap();
         let model = scorer_core::model::decode(&bytes).unwrap();
-        assert_eq!(riskscore_train::gssm::row_name(&model), row, "{file}");
         assert_eq!(
             riskscore_eval::scoring::model_row_name(&model),
-            eval_row,
+            row,
             "{file}"
         );
     }
+    let out = riskctl_in(
+        &repo(),
+        &[
+            "evaluate",
+            "--model",
+            "models/msra-gssm.rsk",
+            "--events",
+            "data/ngsim-us101-safe",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("| "))
+        .filter_map(|l| l.split(" |").next())
+        .filter(|name| name.starts_with("MSRA"))
+        .collect();
+    assert!(!rows.is_empty(), "{text}");
+    assert!(rows.iter().all(|&name| name == "MSRA-GSSM"), "{text}");
 }

@@ -7,6 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use riskscore_data::events::{load_prepared, PrepareConfig};
 use riskscore_data::events::{EventKind, Frame, Sequence};
+use riskscore_eval::scoring::model_row_name;
 use riskscore_train::comparisons::{ObservationTable, RowOrigin};
 use riskscore_train::gssm::config::{FitConfig, SsraConfig, SsraScore};
 use riskscore_train::gssm::fit::{fit_gssm_on_observations, nll};
@@ -14,7 +15,7 @@ use riskscore_train::gssm::msra::parse_configuration;
 use riskscore_train::gssm::net::{GssmNet, GssmParams};
 use riskscore_train::gssm::ship::{ship, SHIPPED_FILES};
 use riskscore_train::gssm::ssra::{set_objective, Ssra};
-use riskscore_train::gssm::{align_msra_gssm, align_ssra, row_name, GssmConfig};
+use riskscore_train::gssm::{align_msra_gssm, align_ssra, GssmConfig};
 use riskscore_train::train::{self, Progress, TrainConfig};
 use scorer_core::gssm::{GssmScore, S_INDEX};
 use scorer_core::model::OutsidePolicy;
@@ -257,7 +258,7 @@ fn ssra_fine_tuning_changes_parameters_and_improves_the_pairwise_objective() {
     // The exported blob is the GSSM kind with the SSRA score mode, named SSRA.
     let blob = s.blob().unwrap();
     let m = scorer_core::model::decode(&blob).unwrap();
-    assert_eq!(row_name(&m), "SSRA");
+    assert_eq!(model_row_name(&m), "SSRA");
 }
 
 #[test]
@@ -287,7 +288,7 @@ fn export_decode_score_equals_the_candle_forward() {
     let model = scorer_core::model::decode(&blob).unwrap();
     let intensity_blob = g.params.gssm_blob(GssmScore::Intensity).unwrap();
     let intensity_model = scorer_core::model::decode(&intensity_blob).unwrap();
-    assert_eq!(row_name(&intensity_model), "GSSM");
+    assert_eq!(model_row_name(&intensity_model), "GSSM");
     let rows = ssra.net().rows_tensor(&table.features).unwrap();
     let candle = ssra
         .net()
@@ -521,11 +522,11 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
         let bytes = std::fs::read(path).unwrap();
         assert_eq!(&bytes, blob);
         let m = scorer_core::model::decode(&bytes).unwrap();
-        names.push(row_name(&m));
+        names.push(model_row_name(&m));
         let v = m.score(&car(0.0, 0.0, 10.0), &car(12.0, 0.0, 5.0));
         assert!(v.is_finite());
     }
-    assert_eq!(names, ["GSSM", "SSRA", "MSRA"]);
+    assert_eq!(names, ["GSSM", "SSRA", "MSRA-GSSM"]);
     let summary = shipped.summary(&config, &gssm_config, std::slice::from_ref(&events), &[]);
     assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
     assert_eq!(summary["seed"], 1);

@@ -68,18 +68,3 @@ impl From<scorer_core::ModelError> for GssmError {
 pub fn encode_blob(model: &scorer_core::Model<'_>) -> Result<Vec<u8>, GssmError> {
     Ok(crate::export::encode_model(model)?)
 }
-
-/// Row name in evaluation tables for a decoded model: `GSSM` for a GSSM blob scoring its intensity
-/// (the GSSM baseline), `SSRA` for a GSSM blob scoring its CDF or logit (the aligned model), else the
-/// evaluation's name for the kind (`riskscore_eval::scoring::kind_row_name`). The GSSM kinds are
-/// named as `riskscore_eval::scoring::model_row_name` names them; unlike it, an MSRA blob with a
-/// GSSM term is `MSRA` here (`model_row_name`: `MSRA-GSSM`).
-pub fn row_name(model: &scorer_core::Model<'_>) -> &'static str {
-    match model {
-        scorer_core::Model::Gssm(g) => match g.score {
-            scorer_core::GssmScore::Intensity => "GSSM",
-            scorer_core::GssmScore::Cdf | scorer_core::GssmScore::Logit => "SSRA",
-        },
-        other => riskscore_eval::scoring::kind_row_name(other.kind()),
-    }
-}
