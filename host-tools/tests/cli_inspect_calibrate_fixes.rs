@@ -72,6 +72,8 @@ fn inspect_model_names_a_truncated_checkpoint() {
         err.contains("EOF while parsing") && err.contains("line ") && err.contains("column "),
         "{err}"
     );
+    // The position is named once (it was `line 9, column 24: ... at line 9 column 24`).
+    assert_eq!(err.matches("line ").count(), 1, "{err}");
     assert!(
         err.contains("riskctl export-model CHECKPOINT --out MODEL.rsk"),
         "{err}"
@@ -102,6 +104,7 @@ fn inspect_model_names_a_checkpoint_with_a_missing_field_or_another_version() {
         err.contains("missing field `w`") && err.contains("line "),
         "{err}"
     );
+    assert_eq!(err.matches("line ").count(), 1, "{err}");
     assert!(err.contains("riskctl export-model"), "{err}");
 
     let mut old = json.clone();

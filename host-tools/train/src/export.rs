@@ -81,6 +81,18 @@ pub enum ExportError {
     Fallback(#[from] crate::fallback::FallbackError),
 }
 
+/// A checkpoint's JSON parse error as `line L, column C: what` (e.g. ``missing field `w` ``), the
+/// position named once: serde_json's own text ends with ` at line L column C`, which is dropped.
+fn parse_error_message(e: &serde_json::Error) -> String {
+    let text = e.to_string();
+    if e.line() == 0 {
+        return text;
+    }
+    let at = format!(" at line {} column {}", e.line(), e.column());
+    let what = text.strip_suffix(&at).unwrap_or(&text);
+    format!("line {}, column {}: {what}", e.line(), e.column())
+}
+
 impl Checkpoint {
     pub fn new(model: CheckpointModel, meta: serde_json::Value) -> Checkpoint {
         Checkpoint {
@@ -144,7 +156,7 @@ impl Checkpoint {
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let c: Checkpoint = serde_json::from_str(text).map_err(|e| ExportError::BadCheckpoint {
             path: p.clone(),
-            message: format!("line {}, column {}: {e}", e.line(), e.column()),
+            message: parse_error_message(&e),
         })?;
         if c.format != CHECKPOINT_FORMAT || c.version != CHECKPOINT_VERSION {
             return Err(ExportError::BadCheckpoint {

@@ -208,6 +208,61 @@ fn checkpoints_round_trip_and_bad_files_are_named() {
     assert!(err.contains("bad.json") && err.contains("line 2"), "{err}");
 }
 
+/// A checkpoint that does not parse (a field removed, the file cut short) is named with its file,
+/// the parse error's line and column, and the field, each once: the position used to be named
+/// twice (`line 17, column 3: missing field `w` at line 17 column 3`).
+#[test]
+fn checkpoint_parse_errors_name_the_position_once() {
+    use riskscore_train::train::msra::{MsraParams, MsraTermParams};
+    let dir = tempfile::tempdir().unwrap();
+    let ck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: MsraParams {
+                terms: vec![MsraTermParams {
+                    surrogate: "ttc2d".into(),
+                    lo: 0.0,
+                    hi: 10.0,
+                    w: 1.0,
+                    a: 1.0,
+                    b: 0.0,
+                }],
+            },
+        },
+        serde_json::Value::Null,
+    );
+    let mut value = serde_json::to_value(&ck).unwrap();
+    value["model"]["params"]["terms"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("w")
+        .unwrap();
+    // On one line; the model (a tagged enum) is read whole, so the error is where it closes.
+    let text = serde_json::to_string(&value).unwrap();
+    let column = text.find("}]}}").unwrap() + 4;
+    let missing = dir.path().join("missing.json");
+    std::fs::write(&missing, &text).unwrap();
+    let err = Checkpoint::load(&missing).unwrap_err().to_string();
+    assert_eq!(
+        err,
+        format!(
+            "{}: not a riskscore checkpoint: line 1, column {column}: missing field `w`",
+            missing.display()
+        )
+    );
+
+    // Cut short inside a string on the second line: EOF at its end, its 27th character.
+    let cut = dir.path().join("cut.json");
+    std::fs::write(&cut, "{\n  \"format\": \"riskscore-chec").unwrap();
+    let err = Checkpoint::load(&cut).unwrap_err().to_string();
+    assert_eq!(
+        err,
+        format!(
+            "{}: not a riskscore checkpoint: line 2, column 27: EOF while parsing a string",
+            cut.display()
+        )
+    );
+}
+
 /// A checkpoint cut or edited by another tool: a short weight array used to panic in the
 /// quantiser (`range end index 416 out of range for slice of length 415`), and a weight beyond
 /// f32's range (JSON `1e39`, read as infinity) gave an int8 blob that passed every check. Both are
