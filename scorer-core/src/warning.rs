@@ -128,7 +128,8 @@ pub enum FullPolicy {
 /// Parameters of the per-track rule and of the table.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WarningConfig {
-    /// Warn when `R >= threshold`.
+    /// Warn when `R >= threshold`. Finite: NaN, `+inf` and `-inf` are refused by
+    /// [`WarningConfig::validate`].
     pub threshold: f32,
     /// `true`: latched (evaluation semantics, never released). `false`: live mode.
     pub latch: bool,
@@ -136,7 +137,9 @@ pub struct WarningConfig {
     pub hysteresis: f32,
     /// Live mode: a warning stays on at least this long.
     pub min_on_us: Micros,
-    /// Tracks not updated for longer than this are stale and dropped (`u64::MAX`: never).
+    /// Tracks not updated for longer than this are stale and dropped (`u64::MAX`: never). At
+    /// least 1: 0 is refused by [`WarningConfig::validate`] (every track would be stale at the
+    /// next tick, silently disabling the warnings).
     pub stale_after_us: Micros,
     /// Table-full behaviour.
     pub when_full: FullPolicy,
@@ -172,14 +175,39 @@ impl WarningConfig {
         }
     }
 
-    /// The threshold must not be NaN; the hysteresis must be finite and `>= 0`.
+    /// Refuses ([`WarningError::InvalidConfig`], naming the field) what is invalid or would
+    /// silently disable the warnings, as the C ABI's `riskscore_init` does:
+    /// - a `threshold` that is not finite: NaN; `+inf`, at which no finite score ever warns;
+    ///   `-inf`, at which every partner warns at once and is never released;
+    /// - a `hysteresis` that is negative or not finite;
+    /// - a `stale_after_us` of 0: every track would be stale as soon as the clock moves on, so no
+    ///   warning outlives the next tick and every update of a partner starts a new track (use a
+    ///   positive window; `u64::MAX` is "never stale").
+    ///
+    /// ```
+    /// use scorer_core::warning::{WarningConfig, WarningError};
+    ///
+    /// assert!(WarningConfig::live(2.0, 0.1, 0, 1).validate().is_ok());
+    /// for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+    ///     let refused = WarningConfig::first_threshold(bad, 1_000_000).validate();
+    ///     assert!(matches!(refused, Err(WarningError::InvalidConfig(_))));
+    /// }
+    /// assert!(WarningConfig::first_threshold(2.0, 0).validate().is_err());
+    /// ```
     pub fn validate(&self) -> Result<(), WarningError> {
-        if self.threshold.is_nan() {
-            return Err(WarningError::InvalidConfig("threshold is NaN"));
+        if !self.threshold.is_finite() {
+            return Err(WarningError::InvalidConfig(
+                "threshold must be finite (NaN, +inf and -inf are refused)",
+            ));
         }
         if !(self.hysteresis.is_finite() && self.hysteresis >= 0.0) {
             return Err(WarningError::InvalidConfig(
                 "hysteresis must be finite and >= 0",
+            ));
+        }
+        if self.stale_after_us == 0 {
+            return Err(WarningError::InvalidConfig(
+                "stale_after_us must be > 0 (u64::MAX: never stale)",
             ));
         }
         Ok(())
@@ -199,11 +227,10 @@ pub enum WarningError {
     /// track), compared with the threshold as IEEE floats:
     ///
     /// - `+inf` is the maximal score: it turns a warning on at once (`>= threshold` holds for
-    ///   every threshold, `+inf` included) and never releases one.
-    /// - `-inf` is the minimal score: it never turns a warning on (unless the threshold is
-    ///   `-inf`). In live mode it releases a warning that has been on for at least `min_on_us`
-    ///   (it is below `threshold - hysteresis` for every threshold but `-inf`); latched, the
-    ///   warning stays on.
+    ///   every threshold, which [`WarningConfig::validate`] keeps finite) and never releases one.
+    /// - `-inf` is the minimal score: it never turns a warning on. In live mode it releases a
+    ///   warning that has been on for at least `min_on_us` (it is below `threshold -
+    ///   hysteresis` unless that difference overflows to `-inf`); latched, the warning stays on.
     ///
     /// [`FirstThreshold::update`] reads them the same way (NaN never triggers, `+inf` does).
     /// This example runs as a doctest, as does `tests/warning.rs`
@@ -443,7 +470,9 @@ pub struct TrackTable<const N: usize> {
 }
 
 impl<const N: usize> TrackTable<N> {
-    /// An empty table; `Err(InvalidConfig)` for a bad config.
+    /// An empty table; `Err(InvalidConfig)` for a config [`WarningConfig::validate`] refuses
+    /// (a threshold that is not finite, a negative or non-finite hysteresis, a `stale_after_us`
+    /// of 0).
     pub fn new(config: WarningConfig) -> Result<Self, WarningError> {
         config.validate()?;
         Ok(Self {

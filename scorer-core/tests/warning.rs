@@ -245,15 +245,13 @@ fn infinite_scores_are_accepted_updates() {
     assert_eq!(status(&mut t, 1, 0, inf), (true, onset, true));
     assert_eq!(status(&mut t, 1, 100 * MS, ninf), (true, none, false));
 
-    // Infinite thresholds (valid: only a NaN threshold is refused). At +inf only +inf warns;
-    // at -inf every score but NaN warns, and nothing releases, -inf included.
-    let mut t = TrackTable::<4>::new(WarningConfig::live(inf, 0.0, 0, S)).unwrap();
-    assert_eq!(status(&mut t, 1, 0, f32::MAX), (false, none, true));
-    assert_eq!(status(&mut t, 1, 1, inf), (true, onset, false));
-    assert_eq!(status(&mut t, 1, 2, f32::MAX), (false, release, false));
-    let mut t = TrackTable::<4>::new(WarningConfig::live(ninf, 0.0, 0, S)).unwrap();
-    assert_eq!(status(&mut t, 1, 0, ninf), (true, onset, true));
-    assert_eq!(status(&mut t, 1, 1, ninf), (true, none, false));
+    // Infinite thresholds are refused by the config (`infinite_thresholds_are_refused`). At the
+    // largest finite one, f32::MAX and +inf warn, and a lower score releases.
+    let mut t = TrackTable::<4>::new(WarningConfig::live(f32::MAX, 0.0, 0, S)).unwrap();
+    assert_eq!(status(&mut t, 1, 0, f32::MAX), (true, onset, true));
+    assert_eq!(status(&mut t, 2, 0, 1.0), (false, none, true));
+    assert_eq!(status(&mut t, 2, 1, inf), (true, onset, false));
+    assert_eq!(status(&mut t, 2, 2, 1.0), (false, release, false));
 
     // The evaluation rule agrees: +inf triggers, -inf does not.
     let mut rule = FirstThreshold::new(2.0);
@@ -315,6 +313,68 @@ fn invalid_configs_are_rejected() {
         Err(WarningError::InvalidConfig(_))
     ));
     assert!(TrackTable::<2>::new(WarningConfig::live(0.5, 0.0, 0, u64::MAX)).is_ok());
+}
+
+/// The refusals of `invalid_configs_are_rejected`, through `validate` and `TrackTable::new` alike,
+/// in both modes.
+fn refused(cfg: WarningConfig) -> bool {
+    let by_validate = matches!(cfg.validate(), Err(WarningError::InvalidConfig(_)));
+    let by_new = matches!(
+        TrackTable::<2>::new(cfg),
+        Err(WarningError::InvalidConfig(_))
+    );
+    assert_eq!(by_validate, by_new, "{cfg:?}");
+    by_validate
+}
+
+#[test]
+fn zero_stale_window_is_refused() {
+    // 0: every track is stale at the next tick, so no warning persists (riskscore_init refuses
+    // it too).
+    assert!(refused(WarningConfig::first_threshold(0.5, 0)));
+    assert!(refused(WarningConfig::live(0.5, 0.1, 0, 0)));
+    assert_eq!(
+        WarningConfig::live(0.5, 0.1, 0, 0).validate(),
+        Err(WarningError::InvalidConfig(
+            "stale_after_us must be > 0 (u64::MAX: never stale)"
+        ))
+    );
+    // The shortest window and "never" stay accepted.
+    for stale in [1, S, u64::MAX] {
+        assert!(!refused(WarningConfig::first_threshold(0.5, stale)));
+        assert!(!refused(WarningConfig::live(0.5, 0.1, 0, stale)));
+    }
+    let mut t = TrackTable::<2>::new(WarningConfig::live(0.5, 0.0, 0, 1)).unwrap();
+    assert!(t.update(1, 0, 1.0).unwrap().warning);
+    assert!(t.is_warning(1, 1) && !t.is_warning(1, 2));
+}
+
+#[test]
+fn infinite_thresholds_are_refused() {
+    // +inf: no finite score ever warns; -inf: every partner warns and is never released.
+    let bad = [f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+    let accepted: Vec<f32> = bad
+        .into_iter()
+        .filter(|&t| !refused(WarningConfig::first_threshold(t, S)))
+        .chain(
+            bad.into_iter()
+                .filter(|&t| !refused(WarningConfig::live(t, 0.0, 0, S))),
+        )
+        .collect();
+    assert!(accepted.is_empty(), "accepted thresholds: {accepted:?}");
+    for threshold in bad {
+        assert_eq!(
+            WarningConfig::live(threshold, 0.0, 0, S).validate(),
+            Err(WarningError::InvalidConfig(
+                "threshold must be finite (NaN, +inf and -inf are refused)"
+            ))
+        );
+    }
+    // Every finite threshold stays accepted, the extremes included.
+    for threshold in [0.5, -3.0, 0.0, f32::MAX, f32::MIN] {
+        assert!(!refused(WarningConfig::first_threshold(threshold, S)));
+        assert!(!refused(WarningConfig::live(threshold, 0.0, 0, 1)));
+    }
 }
 
 #[test]
