@@ -215,7 +215,7 @@ fn median_track_max(log: &Path, model: &ModelFile) -> f32 {
     let mut engine = Engine::new(
         model.model().expect("model"),
         map,
-        EngineConfig::new(f32::INFINITY),
+        EngineConfig::new(f32::MAX),
     )
     .expect("engine");
     let mut max: HashMap<(u32, u64), f32> = HashMap::new();
