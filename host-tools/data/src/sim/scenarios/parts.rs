@@ -180,8 +180,8 @@ pub(super) fn handling(class: VehicleClass, b_phys: f64) -> Handling {
 }
 
 pub(super) fn agent(path: Path, s: f64, v: f64, veh: &Vehicle, driver: Driver) -> Agent {
-    Agent::new(path, s, v, veh.dims, veh.limits, driver)
-        .with_handling(handling(veh.class, veh.limits.0))
+    let handling = handling(veh.class, veh.limits.0);
+    Agent::new(path, s, v, veh.dims, veh.limits, handling, driver)
 }
 
 /// Draws whether the ego takes role A (with probability `p_ego_first`) and returns that flag with

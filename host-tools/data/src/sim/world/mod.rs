@@ -55,6 +55,7 @@ impl Agent {
         v: f64,
         dims: (f64, f64),
         limits: (f64, f64),
+        handling: Handling,
         driver: Driver,
     ) -> Self {
         Self {
@@ -67,10 +68,7 @@ impl Agent {
             width: dims.1,
             b_phys: limits.0,
             a_phys: limits.1,
-            handling: Handling {
-                lat_max: limits.0,
-                r_min: 5.0,
-            },
+            handling,
             driver,
             script: None,
             plans: Vec::new(),
@@ -117,12 +115,6 @@ impl Agent {
         }
     }
 
-    /// The same vehicle with the lateral limits of its class.
-    pub fn with_handling(mut self, handling: Handling) -> Self {
-        self.handling = handling;
-        self
-    }
-
     fn start_lat(&mut self, dd: f64, len: f64) {
         self.lat.start(self.s, dd, len);
     }
@@ -132,7 +124,7 @@ impl Agent {
     /// is v^2 times the curvature of the reference path plus that of the lateral moves under
     /// way, the small-offset approximation of the driven path's curvature.
     fn longitudinal_grip(&self) -> f64 {
-        let kappa = self.path.pose(self.s).kappa + self.lat.curvature(self.s);
+        let kappa = self.path.kappa(self.s) + self.lat.curvature(self.s);
         let lat = self.v * self.v * kappa;
         (self.b_phys * self.b_phys - lat * lat).max(0.0).sqrt()
     }
@@ -376,6 +368,11 @@ impl World {
 mod tests {
     use super::*;
 
+    const CAR: Handling = Handling {
+        lat_max: 9.0,
+        r_min: 5.0,
+    };
+
     #[test]
     fn reaction_delay_postpones_braking() {
         // A follower 30 m behind a standing car at 15 m/s: with tau = 1.5 s the first braking
@@ -407,6 +404,7 @@ mod tests {
                 15.0,
                 (4.5, 1.8),
                 (9.0, 3.0),
+                CAR,
                 d.clone(),
             );
             d.reactive = false;
@@ -416,6 +414,7 @@ mod tests {
                 0.0,
                 (4.5, 1.8),
                 (9.0, 3.0),
+                CAR,
                 d,
             );
             l.script = Some(Script { pieces: vec![] });

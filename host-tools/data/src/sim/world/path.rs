@@ -51,22 +51,35 @@ impl Path {
         if s <= 0.0 {
             return line_pose(x0, y0, p0, s);
         }
-        for (i, seg) in self.segs.iter().enumerate() {
+        if let Some((i, kappa)) = self.segment_at(s) {
             let (k0, kx, ky, kp) = self.knots[i];
+            return if kappa == 0.0 {
+                line_pose(kx, ky, kp, s - k0)
+            } else {
+                arc_pose(kx, ky, kp, kappa, s - k0)
+            };
+        }
+        let &(k0, kx, ky, kp) = self.knots.last().unwrap_or(&self.knots[0]);
+        line_pose(kx, ky, kp, s - k0)
+    }
+
+    /// The curvature of the path at `s` (what `pose(s).kappa` gives, without the trigonometry).
+    pub fn kappa(&self, s: f64) -> f64 {
+        if s <= 0.0 {
+            return 0.0;
+        }
+        self.segment_at(s).map_or(0.0, |(_, kappa)| kappa)
+    }
+
+    /// The segment `s` (> 0) lies on and its curvature; `None` beyond the last one.
+    fn segment_at(&self, s: f64) -> Option<(usize, f64)> {
+        self.segs.iter().enumerate().find_map(|(i, seg)| {
             let (len, kappa) = match *seg {
                 Seg::Line(len) => (len, 0.0),
                 Seg::Arc { len, kappa } => (len, kappa),
             };
-            if s < k0 + len {
-                return if kappa == 0.0 {
-                    line_pose(kx, ky, kp, s - k0)
-                } else {
-                    arc_pose(kx, ky, kp, kappa, s - k0)
-                };
-            }
-        }
-        let &(k0, kx, ky, kp) = self.knots.last().unwrap_or(&self.knots[0]);
-        line_pose(kx, ky, kp, s - k0)
+            (s < self.knots[i].0 + len).then_some((i, kappa))
+        })
     }
 
     /// Distance from `s` to the next arc (0 inside one) and its radius, looking `range` m ahead.
