@@ -133,7 +133,8 @@ pub struct WarningConfig {
     pub threshold: f32,
     /// `true`: latched (evaluation semantics, never released). `false`: live mode.
     pub latch: bool,
-    /// Live mode: release when `R < threshold - hysteresis` (`>= 0`).
+    /// Live mode: release when `R < threshold - hysteresis` (`>= 0`, and small enough that
+    /// `threshold - hysteresis` is finite: [`WarningConfig::validate`]).
     pub hysteresis: f32,
     /// Live mode: a warning stays on at least this long.
     pub min_on_us: Micros,
@@ -180,6 +181,9 @@ impl WarningConfig {
     /// - a `threshold` that is not finite: NaN; `+inf`, at which no finite score ever warns;
     ///   `-inf`, at which every partner warns at once and is never released;
     /// - a `hysteresis` that is negative or not finite;
+    /// - a `hysteresis` so large that the release level `threshold - hysteresis` overflows to
+    ///   `-inf` (a very negative threshold): no score is below `-inf`, so a live warning could
+    ///   never be released (refused whatever the mode);
     /// - a `stale_after_us` of 0: every track would be stale as soon as the clock moves on, so no
     ///   warning outlives the next tick and every update of a partner starts a new track (use a
     ///   positive window; `u64::MAX` is "never stale").
@@ -193,6 +197,7 @@ impl WarningConfig {
     ///     assert!(matches!(refused, Err(WarningError::InvalidConfig(_))));
     /// }
     /// assert!(WarningConfig::first_threshold(2.0, 0).validate().is_err());
+    /// assert!(WarningConfig::live(f32::MIN, f32::MAX, 0, 1).validate().is_err());
     /// ```
     pub fn validate(&self) -> Result<(), WarningError> {
         if !self.threshold.is_finite() {
@@ -203,6 +208,13 @@ impl WarningConfig {
         if !(self.hysteresis.is_finite() && self.hysteresis >= 0.0) {
             return Err(WarningError::InvalidConfig(
                 "hysteresis must be finite and >= 0",
+            ));
+        }
+        // With both finite, only a huge hysteresis under a very negative threshold overflows,
+        // to -inf: no score is below that, so a live warning would never be released.
+        if !(self.threshold - self.hysteresis).is_finite() {
+            return Err(WarningError::InvalidConfig(
+                "threshold - hysteresis (the release level) must be finite, not -inf",
             ));
         }
         if self.stale_after_us == 0 {
@@ -230,7 +242,8 @@ pub enum WarningError {
     ///   every threshold, which [`WarningConfig::validate`] keeps finite) and never releases one.
     /// - `-inf` is the minimal score: it never turns a warning on. In live mode it releases a
     ///   warning that has been on for at least `min_on_us` (it is below `threshold -
-    ///   hysteresis` unless that difference overflows to `-inf`); latched, the warning stays on.
+    ///   hysteresis`, which [`WarningConfig::validate`] keeps finite); latched, the warning stays
+    ///   on.
     ///
     /// [`FirstThreshold::update`] reads them the same way (NaN never triggers, `+inf` does).
     /// This example runs as a doctest, as does `tests/warning.rs`
@@ -471,8 +484,8 @@ pub struct TrackTable<const N: usize> {
 
 impl<const N: usize> TrackTable<N> {
     /// An empty table; `Err(InvalidConfig)` for a config [`WarningConfig::validate`] refuses
-    /// (a threshold that is not finite, a negative or non-finite hysteresis, a `stale_after_us`
-    /// of 0).
+    /// (a threshold that is not finite, a negative or non-finite hysteresis, a `threshold -
+    /// hysteresis` that overflows to `-inf`, a `stale_after_us` of 0).
     pub fn new(config: WarningConfig) -> Result<Self, WarningError> {
         config.validate()?;
         Ok(Self {

@@ -408,3 +408,40 @@ fn table_is_deterministic() {
     };
     assert_eq!(run(), run());
 }
+
+#[test]
+fn release_level_that_overflows_is_refused() {
+    // threshold - hysteresis is the live release level; when it overflows to -inf no score is
+    // below it (not even -inf), so a warning could never be released.
+    const WHY: &str = "threshold - hysteresis (the release level) must be finite, not -inf";
+    for (threshold, hysteresis) in [(f32::MIN, f32::MAX), (-1.0e38, 3.0e38), (f32::MIN, 1.0e32)] {
+        assert_eq!(threshold - hysteresis, f32::NEG_INFINITY);
+        let live = WarningConfig::live(threshold, hysteresis, 0, S);
+        assert!(refused(live), "{live:?}");
+        assert_eq!(live.validate(), Err(WarningError::InvalidConfig(WHY)));
+        // Refused latched too: the config is the same, whatever the mode.
+        assert!(refused(WarningConfig {
+            latch: true,
+            ..live
+        }));
+    }
+    // A finite release level stays accepted however extreme, and -inf releases the warning there.
+    for (threshold, hysteresis) in [
+        (2.0, f32::MAX),
+        (f32::MAX, f32::MAX),
+        (f32::MIN, 0.0),
+        (f32::MIN, 1.0e30), // rounds back to f32::MIN
+    ] {
+        assert!((threshold - hysteresis).is_finite());
+        let mut t = TrackTable::<2>::new(WarningConfig::live(threshold, hysteresis, 0, S)).unwrap();
+        assert_eq!(
+            t.update(1, 0, f32::INFINITY).unwrap().event,
+            WarningEvent::Onset
+        );
+        assert_eq!(
+            t.update(1, MS, f32::NEG_INFINITY).unwrap().event,
+            WarningEvent::Release,
+            "threshold {threshold}, hysteresis {hysteresis}"
+        );
+    }
+}
