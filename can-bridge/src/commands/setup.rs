@@ -47,8 +47,10 @@ pub enum SetupError {
     },
     #[error(transparent)]
     Model(#[from] ModelFileError),
-    #[error("--threshold must be finite")]
-    Threshold,
+    /// The warning threshold is NaN or infinite; `origin` says where it came from: `--threshold`,
+    /// or the model file's default threshold (naming the file).
+    #[error("{origin} must be finite, not {threshold}")]
+    Threshold { threshold: f32, origin: String },
     #[error("{flag} -: stdout carries the report; give a path (`-` is not an output here)")]
     NotToStdout { flag: &'static str },
     #[error("--warnings-out - and the JSON events (--events-out, stdout by default) would both go to stdout: give --events-out FILE")]
@@ -220,7 +222,19 @@ pub fn engine_config(args: &ScoringArgs, model: &ModelFile) -> Result<EngineConf
         }
     };
     if !threshold.is_finite() {
-        return Err(SetupError::Threshold);
+        // Not reachable from the model today (a blob's default is finite once it loads: see
+        // tests/threshold_origin.rs), but said right if that ever changes.
+        return Err(SetupError::Threshold {
+            threshold,
+            origin: if args.threshold.is_some() {
+                "--threshold".to_string()
+            } else {
+                format!(
+                    "the default threshold of model file {}",
+                    model.path.display()
+                )
+            },
+        });
     }
     if let Some(urgent) = args.urgent.filter(|u| *u < threshold) {
         return Err(SetupError::UrgentBelowThreshold {
