@@ -106,6 +106,30 @@ fn inspect_model_names_a_checkpoint_with_a_missing_field_or_another_version() {
     );
     assert_eq!(err.matches("line ").count(), 1, "{err}");
     assert!(err.contains("riskctl export-model"), "{err}");
+    // Named at the term that lacks it, where it starts (it was where the model closes).
+    assert!(
+        err.contains(
+            "line 8, column 9: `model.params.terms[0]` (the object that starts there) is \
+             missing field `w`"
+        ),
+        "{err}"
+    );
+
+    // A string for a number names the field's path (it was serde's bare `invalid type: string
+    // "x", expected f32`, at the position where the model closes).
+    let mut typed = json.clone();
+    typed["model"]["params"]["terms"][0]["w"] = serde_json::json!("x");
+    let path = dir.path().join("typed.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&typed).unwrap()).unwrap();
+    let err = inspect_fails(&path);
+    assert!(
+        err.contains(
+            "line 14, column 18: `model.params.terms[0].w`: invalid type: string \"x\", \
+             expected f32"
+        ),
+        "{err}"
+    );
+    assert_eq!(err.matches("line ").count(), 1, "{err}");
 
     let mut old = json.clone();
     old["version"] = serde_json::json!(2);

@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use scorer_core::model::{self, BoundedVec, Model, ModelError, OutsidePolicy, HEADER_LEN};
 use scorer_core::msra::{MsraModel, MsraTerm};
 use serde::{Deserialize, Serialize};
+use serde_json::value::RawValue;
 
 use crate::quantize::{self, Calibration, FloatBuffers, QuantisedDrl};
 use crate::train::drl::DrlParams;
@@ -81,16 +82,223 @@ pub enum ExportError {
     Fallback(#[from] crate::fallback::FallbackError),
 }
 
-/// A checkpoint's JSON parse error as `line L, column C: what` (e.g. ``missing field `w` ``), the
-/// position named once: serde_json's own text ends with ` at line L column C`, which is dropped.
-fn parse_error_message(e: &serde_json::Error) -> String {
-    let text = e.to_string();
+/// The top level of a checkpoint file with its model left as JSON text: the first of the two steps
+/// of [`parse_checkpoint`]. Named `Checkpoint` in serde's messages (``expected struct Checkpoint``).
+#[derive(Deserialize)]
+#[serde(rename = "Checkpoint")]
+struct CheckpointText<'a> {
+    format: String,
+    version: u32,
+    #[serde(borrow)]
+    model: &'a RawValue,
+    #[serde(default)]
+    meta: serde_json::Value,
+}
+
+/// The tag of a model object, read as [`CheckpointModel`]'s derived `Deserialize` reads it (a
+/// string naming a variant; unknown: ``unknown variant `x`, expected `drl` or `msra` ``).
+#[derive(Deserialize)]
+struct ModelTag {
+    kind: ModelKind,
+}
+
+#[derive(Deserialize)]
+#[serde(variant_identifier, rename_all = "snake_case")]
+enum ModelKind {
+    Drl,
+    Msra,
+}
+
+/// [`CheckpointModel::Drl`]'s fields (the `kind` beside them is ignored, as the tagged enum
+/// ignores it).
+#[derive(Deserialize)]
+struct DrlFields {
+    params: DrlParams,
+    calibration: Calibration,
+}
+
+/// [`CheckpointModel::Msra`]'s fields.
+#[derive(Deserialize)]
+struct MsraFields {
+    params: MsraParams,
+}
+
+/// A parse error of one step of [`parse_checkpoint`]: serde_json's error (its position counted
+/// in the text that step read), the path of the field it is in (`None` for a syntax error), and
+/// where that text starts in the file.
+struct ParseFailure {
+    error: serde_json::Error,
+    path: Option<String>,
+    base: usize,
+}
+
+/// `text` (which starts at byte `base` of the file and is the value at `path`, `""` for the
+/// whole file) read as a `T`, the path of a failing field tracked.
+fn read_json<'a, T: Deserialize<'a>>(
+    text: &'a str,
+    base: usize,
+    path: &str,
+) -> Result<T, ParseFailure> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let inner = e.path().to_string();
+        let path = match (path, inner.as_str()) {
+            (p, ".") => p.to_string(),
+            ("", i) => i.to_string(),
+            (p, i) if i.starts_with('[') => format!("{p}{i}"),
+            (p, i) => format!("{p}.{i}"),
+        };
+        ParseFailure {
+            error: e.into_inner(),
+            path: Some(path),
+            base,
+        }
+    })?;
+    // Nothing but white space after the value (`trailing characters`, a syntax error).
+    de.end().map_err(|error| ParseFailure {
+        error,
+        path: None,
+        base,
+    })?;
+    Ok(value)
+}
+
+/// A checkpoint file's text read in two steps, so that a parse error names the field it is in
+/// and its own position: the top level with the model as its JSON text, then the model's tag,
+/// then the tagged variant's fields from that text. Read in one step, serde buffers an
+/// internally tagged enum whole, which loses both: a type error inside the model was
+/// ``invalid type: string "x", expected f32`` and a missing field was reported where the model
+/// object closes. The values read are those of `serde_json::from_str::<Checkpoint>`: a model
+/// that is no JSON object (the sequence form serde also reads, or a wrong type) is read by the
+/// derived `Deserialize` itself.
+fn parse_checkpoint(text: &str) -> Result<Checkpoint, ParseFailure> {
+    let top: CheckpointText = read_json(text, 0, "")?;
+    let raw = top.model.get();
+    // The model's text is a slice of `text` (borrowed, never copied).
+    let base = raw.as_ptr() as usize - text.as_ptr() as usize;
+    let model = if raw.starts_with('{') {
+        match read_json::<ModelTag>(raw, base, "model")?.kind {
+            ModelKind::Drl => {
+                let m: DrlFields = read_json(raw, base, "model")?;
+                CheckpointModel::Drl {
+                    params: m.params,
+                    calibration: m.calibration,
+                }
+            }
+            ModelKind::Msra => {
+                let m: MsraFields = read_json(raw, base, "model")?;
+                CheckpointModel::Msra { params: m.params }
+            }
+        }
+    } else {
+        read_json(raw, base, "model")?
+    };
+    Ok(Checkpoint {
+        format: top.format,
+        version: top.version,
+        model,
+        meta: top.meta,
+    })
+}
+
+/// Byte offset in `text` of line `line`, column `column` (1-based, the column counted in bytes,
+/// as serde_json counts both).
+fn offset_of(text: &str, line: usize, column: usize) -> usize {
+    let start = if line <= 1 {
+        0
+    } else {
+        text.match_indices('\n')
+            .nth(line - 2)
+            .map_or(text.len(), |(i, _)| i + 1)
+    };
+    (start + column).saturating_sub(1).min(text.len())
+}
+
+/// Line and column (1-based, as serde_json counts them) of byte `offset` of `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text.as_bytes()[..offset];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let column = offset
+        - before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1)
+        + 1;
+    (line, column)
+}
+
+/// Where the JSON object that closes with the `}` at byte `close` of `text` opens (`text` is
+/// valid JSON up to there, which the parser has read).
+fn object_start(text: &str, close: usize) -> Option<usize> {
+    let bytes = text.as_bytes();
+    if bytes.get(close) != Some(&b'}') {
+        return None;
+    }
+    let mut open = Vec::new();
+    let mut i = 0;
+    while i < close {
+        match bytes[i] {
+            b'"' => {
+                i += 1;
+                while i < close && bytes[i] != b'"' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+            }
+            b'{' | b'[' => open.push(i),
+            b'}' | b']' => {
+                open.pop();
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    open.pop().filter(|&i| bytes[i] == b'{')
+}
+
+/// A checkpoint's parse error as `line L, column C: what`, the position named once (serde_json's
+/// own text ends with ` at line L column C`, which is dropped) and counted in the whole file
+/// (`text`). An error in the data names the path of its field
+/// (``line 12, column 18: `model.params.terms[0].w`: invalid type: string "x", expected f32``);
+/// a missing field is named at the start of the object that lacks it, where serde_json names the
+/// object's end (``line 8, column 9: `model.params.terms[0]` (the object that starts there) is
+/// missing field `w` ``). A syntax error (`EOF while parsing a string`) names no field.
+fn parse_error_message(text: &str, f: &ParseFailure) -> String {
+    let e = &f.error;
+    let message = e.to_string();
     if e.line() == 0 {
-        return text;
+        return message;
     }
     let at = format!(" at line {} column {}", e.line(), e.column());
-    let what = text.strip_suffix(&at).unwrap_or(&text);
-    format!("line {}, column {}: {what}", e.line(), e.column())
+    let what = message.strip_suffix(&at).unwrap_or(&message);
+    // The position in the whole file: the step's text starts at `base`.
+    let (base_line, base_column) = line_column(text, f.base);
+    let (line, column) = if e.line() == 1 {
+        (base_line, base_column - 1 + e.column())
+    } else {
+        (base_line + e.line() - 1, e.column())
+    };
+    let path = match &f.path {
+        Some(path) if e.classify() == serde_json::error::Category::Data => path,
+        _ => return format!("line {line}, column {column}: {what}"),
+    };
+    let named = if path.is_empty() {
+        "the checkpoint".to_string()
+    } else {
+        format!("`{path}`")
+    };
+    if what.starts_with("missing field `") {
+        if let Some(start) = object_start(text, offset_of(text, line, column)) {
+            let (line, column) = line_column(text, start);
+            return format!(
+                "line {line}, column {column}: {named} (the object that starts there) is {what}"
+            );
+        }
+    }
+    if path.is_empty() {
+        format!("line {line}, column {column}: {what}")
+    } else {
+        format!("line {line}, column {column}: {named}: {what}")
+    }
 }
 
 impl Checkpoint {
@@ -154,9 +362,9 @@ impl Checkpoint {
         // A UTF-8 byte-order mark (a Windows editor saved the file) is no JSON value, but says
         // nothing against the text after it (the configuration's TOML reader skips it too).
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        let c: Checkpoint = serde_json::from_str(text).map_err(|e| ExportError::BadCheckpoint {
+        let c = parse_checkpoint(text).map_err(|f| ExportError::BadCheckpoint {
             path: p.clone(),
-            message: parse_error_message(&e),
+            message: parse_error_message(text, &f),
         })?;
         if c.format != CHECKPOINT_FORMAT || c.version != CHECKPOINT_VERSION {
             return Err(ExportError::BadCheckpoint {

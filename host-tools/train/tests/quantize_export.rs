@@ -236,16 +236,18 @@ fn checkpoint_parse_errors_name_the_position_once() {
         .unwrap()
         .remove("w")
         .unwrap();
-    // On one line; the model (a tagged enum) is read whole, so the error is where it closes.
+    // On one line; named at the start of the term that lacks `w` (it was where the model closes,
+    // `text.find("}]}}") + 4`: serde read the model, a tagged enum, whole).
     let text = serde_json::to_string(&value).unwrap();
-    let column = text.find("}]}}").unwrap() + 4;
+    let column = text.find("[{").unwrap() + 2;
     let missing = dir.path().join("missing.json");
     std::fs::write(&missing, &text).unwrap();
     let err = Checkpoint::load(&missing).unwrap_err().to_string();
     assert_eq!(
         err,
         format!(
-            "{}: not a riskscore checkpoint: line 1, column {column}: missing field `w`",
+            "{}: not a riskscore checkpoint: line 1, column {column}: `model.params.terms[0]` \
+             (the object that starts there) is missing field `w`",
             missing.display()
         )
     );
@@ -261,6 +263,237 @@ fn checkpoint_parse_errors_name_the_position_once() {
             cut.display()
         )
     );
+}
+
+/// Line and column (1-based, the column counted in bytes as serde_json counts it) of byte
+/// `offset` of `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = offset - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+/// An MSRA checkpoint of two terms, TTC2D and TAdv, as JSON.
+fn two_term_msra() -> serde_json::Value {
+    use riskscore_train::train::msra::{MsraParams, MsraTermParams};
+    let term = |surrogate: &str| MsraTermParams {
+        surrogate: surrogate.into(),
+        lo: 0.0,
+        hi: 10.0,
+        w: 1.0,
+        a: 1.0,
+        b: 0.0,
+    };
+    let ck = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: MsraParams {
+                terms: vec![term("ttc2d"), term("tadv")],
+            },
+        },
+        serde_json::Value::Null,
+    );
+    serde_json::to_value(&ck).unwrap()
+}
+
+/// `text` written to `dir/name`, loaded; the error's text with the file's name dropped.
+fn load_error(dir: &std::path::Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    let err = Checkpoint::load(&path).unwrap_err().to_string();
+    let prefix = format!("{}: not a riskscore checkpoint: ", path.display());
+    err.strip_prefix(&prefix)
+        .unwrap_or_else(|| panic!("{err}"))
+        .to_string()
+}
+
+/// A value of the wrong type inside the model (a string for a number, edited by hand) names the
+/// path of its field and the value's own position: it was serde's bare
+/// `invalid type: string "x", expected f32` at the position where the model closes.
+#[test]
+fn checkpoint_type_errors_name_the_field_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut msra = two_term_msra();
+    msra["model"]["params"]["terms"][1]["w"] = serde_json::json!("x");
+    let (_, drl, _) = trained();
+    let drl = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    let mut weight = serde_json::to_value(&drl).unwrap();
+    weight["model"]["params"]["layers"][1]["weight"][3] = serde_json::json!("x");
+    let mut observations = serde_json::to_value(&drl).unwrap();
+    observations["model"]["calibration"]["observations"] = serde_json::json!(-1);
+    // Each bad value is the first `bad` after `after` in the file.
+    let cases = [
+        (
+            &msra,
+            "\"x\"",
+            "\"x\"",
+            "`model.params.terms[1].w`: invalid type: string \"x\", expected f32",
+        ),
+        (
+            &weight,
+            "\"x\"",
+            "\"x\"",
+            "`model.params.layers[1].weight[3]`: invalid type: string \"x\", expected f32",
+        ),
+        (
+            &observations,
+            "\"observations\"",
+            "-1",
+            "`model.calibration.observations`: invalid value: integer `-1`, expected usize",
+        ),
+    ];
+    for (value, after, bad, what) in cases {
+        // On one line and pretty, over many lines (as `riskctl train` writes a checkpoint).
+        for text in [
+            serde_json::to_string(value).unwrap(),
+            serde_json::to_string_pretty(value).unwrap(),
+        ] {
+            let field = text.find(after).unwrap();
+            // serde_json names the value's last character.
+            let end = field + text[field..].find(bad).unwrap() + bad.len() - 1;
+            let (line, column) = line_column(&text, end);
+            assert_eq!(
+                load_error(dir.path(), "typed.json", &text),
+                format!("line {line}, column {column}: {what}")
+            );
+        }
+    }
+}
+
+/// A missing field is named with the object that lacks it and where that object starts (it was
+/// named at the end of the model, the object serde read whole, wherever the field was missing),
+/// the position named once.
+#[test]
+fn checkpoint_missing_fields_name_the_object_that_lacks_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut term = two_term_msra();
+    term["model"]["params"]["terms"][1]
+        .as_object_mut()
+        .unwrap()
+        .remove("w")
+        .unwrap();
+    let mut params = two_term_msra();
+    params["model"].as_object_mut().unwrap().remove("params");
+    let mut version = two_term_msra();
+    version.as_object_mut().unwrap().remove("version");
+    for text in [
+        serde_json::to_string_pretty(&term).unwrap(),
+        serde_json::to_string(&term).unwrap(),
+    ] {
+        let start = text[..text.find("\"tadv\"").unwrap()].rfind('{').unwrap();
+        let (line, column) = line_column(&text, start);
+        let err = load_error(dir.path(), "term.json", &text);
+        assert_eq!(
+            err,
+            format!(
+                "line {line}, column {column}: `model.params.terms[1]` (the object that starts \
+                 there) is missing field `w`"
+            )
+        );
+        assert_eq!(err.matches("line ").count(), 1, "{err}");
+    }
+    let text = serde_json::to_string_pretty(&params).unwrap();
+    let start = text.find("\"model\": {").unwrap() + "\"model\": ".len();
+    let (line, column) = line_column(&text, start);
+    assert!(line > 1, "{text}");
+    assert_eq!(
+        load_error(dir.path(), "params.json", &text),
+        format!(
+            "line {line}, column {column}: `model` (the object that starts there) is missing \
+             field `params`"
+        )
+    );
+    let text = serde_json::to_string_pretty(&version).unwrap();
+    assert_eq!(
+        load_error(dir.path(), "version.json", &text),
+        "line 1, column 1: the checkpoint (the object that starts there) is missing field \
+         `version`"
+    );
+}
+
+/// The checkpoint reader reads the model in a second step (so that its errors name the field);
+/// every checkpoint the derived one-step reader (`serde_json::from_str::<Checkpoint>`) reads
+/// reads to the same values: as `riskctl train` writes it, on one line, with the `kind` after
+/// the fields, with fields it does not know, and with the model in the sequence form serde also
+/// reads (`["msra", {"terms": ..}]`).
+#[test]
+fn checkpoints_read_in_two_steps_as_in_one() {
+    let (_, drl, msra) = trained();
+    let dir = tempfile::tempdir().unwrap();
+    let drl = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::json!({"seed": 7, "data": "events/"}),
+    );
+    let msra = Checkpoint::new(
+        CheckpointModel::Msra {
+            params: msra.params.clone(),
+        },
+        serde_json::Value::Null,
+    );
+    let json = |v: &serde_json::Value| serde_json::to_string(v).unwrap();
+    let mut texts = Vec::new();
+    for (ck, kind) in [(&drl, "drl"), (&msra, "msra")] {
+        texts
+            .push(String::from_utf8(ck.to_json(std::path::Path::new("ck.json")).unwrap()).unwrap());
+        let value = serde_json::to_value(ck).unwrap();
+        texts.push(json(&value));
+        let mut fields = value["model"].as_object().unwrap().clone();
+        fields.remove("kind");
+        let rest: Vec<String> = fields
+            .iter()
+            .map(|(k, v)| format!("{}:{}", json(&k.as_str().into()), json(v)))
+            .collect();
+        let top = |model: String| {
+            format!(
+                "{{\"format\":\"riskscore-checkpoint\",\"version\":3,\"model\":{model},\"meta\":{}}}",
+                json(&value["meta"])
+            )
+        };
+        // The tag last, and a field neither reader knows, in the model and beside it.
+        texts.push(top(format!("{{{},\"kind\":\"{kind}\"}}", rest.join(","))));
+        texts.push(
+            top(format!(
+                "{{\"note\":[1,{{\"kind\":\"x\"}}],{},\"kind\":\"{kind}\"}}",
+                rest.join(",")
+            ))
+            .replacen('{', "{\"extra\":{\"model\":0},", 1),
+        );
+        // The sequence form: the tag, then the fields in their order.
+        let seq = match ck.model {
+            CheckpointModel::Drl { .. } => format!(
+                "[\"drl\",{},{}]",
+                json(&value["model"]["params"]),
+                json(&value["model"]["calibration"])
+            ),
+            CheckpointModel::Msra { .. } => {
+                format!("[\"msra\",{}]", json(&value["model"]["params"]))
+            }
+        };
+        texts.push(top(seq));
+    }
+    for (i, text) in texts.iter().enumerate() {
+        let one_step: Checkpoint =
+            serde_json::from_str(text).unwrap_or_else(|e| panic!("{e}: {text}"));
+        let path = dir.path().join(format!("{i}.json"));
+        std::fs::write(&path, text).unwrap();
+        let two_steps = Checkpoint::load(&path).unwrap_or_else(|e| panic!("{e}: {text}"));
+        assert_eq!(two_steps, one_step, "{text}");
+        let original = if one_step.kind_name() == "drl" {
+            &drl
+        } else {
+            &msra
+        };
+        assert_eq!(&two_steps, original, "{text}");
+    }
 }
 
 /// A checkpoint cut or edited by another tool: a short weight array used to panic in the
