@@ -73,7 +73,8 @@ enum RiskscoreStatus
   // The context was not initialised by `riskscore_init` (or was overwritten).
   RISKSCORE_STATUS_CONTEXT_NOT_INITIALIZED = 4,
   // A `RiskscoreWarningConfig` field is invalid (NaN or infinite threshold, negative or
-  // non-finite hysteresis, `stale_after_us` of 0, a flag other than 0/1).
+  // non-finite hysteresis, a hysteresis so large that `threshold - hysteresis` overflows to
+  // `-inf`, `stale_after_us` of 0, a flag other than 0/1).
   RISKSCORE_STATUS_INVALID_CONFIG = 5,
   // A vehicle state has a NaN or infinite field.
   RISKSCORE_STATUS_NON_FINITE_STATE = 6,

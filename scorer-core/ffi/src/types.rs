@@ -19,7 +19,8 @@ pub enum RiskscoreStatus {
     /// The context was not initialised by `riskscore_init` (or was overwritten).
     ContextNotInitialized = 4,
     /// A `RiskscoreWarningConfig` field is invalid (NaN or infinite threshold, negative or
-    /// non-finite hysteresis, `stale_after_us` of 0, a flag other than 0/1).
+    /// non-finite hysteresis, a hysteresis so large that `threshold - hysteresis` overflows to
+    /// `-inf`, `stale_after_us` of 0, a flag other than 0/1).
     InvalidConfig = 5,
     /// A vehicle state has a NaN or infinite field.
     NonFiniteState = 6,
