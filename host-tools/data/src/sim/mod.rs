@@ -244,6 +244,9 @@ pub struct SimulatedEvent {
     pub event: Event,
     pub family: Family,
     pub classes: [VehicleClass; 2],
+    /// Tyre-road limit of each vehicle (ego, partner; m/s^2): its hardest braking and the radius
+    /// of its friction circle (the lateral limit is this, or for a truck at most 4 m/s^2).
+    pub b_phys: [f64; 2],
     pub measures: Measures,
     /// Scenarios drawn for this event (accepted one included).
     pub attempts: u64,
@@ -387,6 +390,7 @@ pub fn simulate_one(
         let family = families.draw(&mut rng);
         let scn = scenarios::build(family, &mut rng, kind.is_conflict());
         let (family, classes) = (scn.family, scn.classes);
+        let b_phys = [scn.agents[0].b_phys, scn.agents[1].b_phys];
         let place = Placement::draw(&mut rng);
         let (mut frames, touched) = run(scn, &place);
         if touched {
@@ -444,6 +448,7 @@ pub fn simulate_one(
             event,
             family,
             classes,
+            b_phys,
             measures,
             attempts: attempt,
             rejections,

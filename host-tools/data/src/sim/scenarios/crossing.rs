@@ -3,7 +3,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use super::parts::{agent, distraction, driver, roles, sign, u, Built, Vehicle};
+use super::parts::{agent, arc_radius, distraction, driver, roles, sign, u, Built, Vehicle};
 use crate::sim::world::{
     conflict_zone, Agent, Conflict, Driver, LatPlan, Path, Role, Seg, Trigger,
 };
@@ -230,7 +230,7 @@ pub(super) fn left_turn_across(
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.75);
-    let radius = u(rng, 6.0, 14.0);
+    let radius = arc_radius(rng, 6.0, 14.0, bv);
     let JunctionPaths {
         a: pa,
         b: pb,
@@ -299,7 +299,7 @@ pub(super) fn turn_into_path(
     partner: &Vehicle,
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.6, ego, partner);
-    let radius = u(rng, 6.0, 12.0);
+    let radius = arc_radius(rng, 6.0, 12.0, bv);
     let JunctionPaths {
         a: pa, b: pb, zone, ..
     } = right_turn_paths(radius, av, bv);

@@ -3,7 +3,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use super::parts::{
-    agent, distraction, driver, road_speed, roles, scripted, sign, u, Built, Vehicle, CRUISE,
+    agent, arc_radius, distraction, driver, road_speed, roles, scripted, sign, u, Built, Vehicle,
+    CRUISE,
 };
 use crate::sim::world::{LatPlan, Path, Piece, Seg, Trigger};
 
@@ -264,7 +265,7 @@ pub(super) fn merge(rng: &mut ChaCha8Rng, hz: bool, ego: &Vehicle, partner: &Veh
     let v_m = u(rng, 14.0, 30.0);
     let v_r = (v_m + u(rng, -6.0, 1.0)).max(8.0);
     let phi = u(rng, 6.0, 15.0).to_radians();
-    let radius = u(rng, 150.0, 400.0);
+    let radius = arc_radius(rng, 150.0, 400.0, rv);
     let l1 = 60.0;
     let segs = vec![
         Seg::Line(l1),

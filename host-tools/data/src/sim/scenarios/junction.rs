@@ -9,7 +9,7 @@ use super::crossing::{
     left_turn_paths, priority_and_yielding, right_turn_paths, steady_driver, straight_crossing,
     swerving_driver, JunctionPaths,
 };
-use super::parts::{agent, distraction, driver, roles, sign, u, Built, Vehicle};
+use super::parts::{agent, arc_radius, distraction, driver, roles, sign, u, Built, Vehicle};
 
 /// Speeds through a signalised junction on green (m/s): 30-60 km/h.
 const V_GREEN: (f64, f64) = (8.0, 17.0);
@@ -70,7 +70,7 @@ pub(super) fn signal_left_turn(
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.5, ego, partner);
     let lane = u(rng, 3.0, 3.6);
-    let radius = u(rng, 8.0, 16.0);
+    let radius = arc_radius(rng, 8.0, 16.0, bv);
     let JunctionPaths {
         a: pa, b: pb, zone, ..
     } = left_turn_paths(lane, radius, av, bv);
@@ -101,9 +101,10 @@ pub(super) fn signal_left_turn(
     (a, b, horizon, ego_a)
 }
 
-/// Right turn on red: B stops at its stop line, then turns right (radius 6-12 m) into the lane
-/// of A, who crosses on green from B's left. B goes when it accepts the gap (benign: ample
-/// margins; hazardous: misjudged speed or no look, p = 0.35); once B is in the lane, A follows it.
+/// Right turn on red: B stops at its stop line, then turns right (radius 6-12 m, a truck 8-12 m)
+/// into the lane of A, who crosses on green from B's left. B goes when it accepts the gap
+/// (benign: ample margins; hazardous: misjudged speed or no look, p = 0.35); once B is in the
+/// lane, A follows it.
 pub(super) fn signal_right_turn(
     rng: &mut ChaCha8Rng,
     hz: bool,
@@ -111,7 +112,7 @@ pub(super) fn signal_right_turn(
     partner: &Vehicle,
 ) -> Built {
     let (ego_a, av, bv) = roles(rng, 0.6, ego, partner);
-    let radius = u(rng, 6.0, 12.0);
+    let radius = arc_radius(rng, 6.0, 12.0, bv);
     let JunctionPaths {
         a: pa,
         b: pb,

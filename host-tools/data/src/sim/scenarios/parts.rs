@@ -179,6 +179,23 @@ pub(super) fn handling(class: VehicleClass, b_phys: f64) -> Handling {
     Handling { lat_max, r_min }
 }
 
+/// The radius (m) of a turn or ramp arc that `veh` drives, drawn U(`lo`, `hi`) but never tighter
+/// than the class can steer (`Handling::r_min`): the bounds become `max(lo, r_min)` and
+/// `max(hi, max(lo, r_min))`. A vehicle whose `r_min` is at most `lo` draws exactly as an
+/// unrestricted draw would, and every vehicle consumes the same single draw, so what is drawn
+/// after it does not shift.
+pub(super) fn arc_radius(rng: &mut ChaCha8Rng, lo: f64, hi: f64, veh: &Vehicle) -> f64 {
+    let lo = lo.max(handling(veh.class, veh.limits.0).r_min);
+    if hi > lo {
+        u(rng, lo, hi)
+    } else {
+        // The range is empty, the radius is `lo`; the draw is still made, so the stream stays
+        // aligned.
+        u(rng, 0.0, 1.0);
+        lo
+    }
+}
+
 pub(super) fn agent(path: Path, s: f64, v: f64, veh: &Vehicle, driver: Driver) -> Agent {
     let handling = handling(veh.class, veh.limits.0);
     Agent::new(path, s, v, veh.dims, veh.limits, handling, driver)
