@@ -24,14 +24,15 @@ fn default_data_set_is_pinned() {
     simulate_to_dir(dir.path(), &cfg).unwrap();
     let d = digest(dir.path());
     eprintln!("default digest {d:#018x}");
-    // `SimConfig::default()`: seed 1, 310 events, mix 70,110,130. Pinned since the turn arcs
-    // respect the turning radius of the class that drives them (2026-11-29, docs/simulator.md:
-    // a truck no longer turns on a 6-8 m arc), which changed 3 of its 310 events (trucks turning
-    // in left_turn_across and turn_into_path); before that it was 0x3dae_68c0_1c0f_e633 from
-    // the lateral limits of 2026-11-29 (which changed 35 events), and 0x6f50_8255_8368_ed2a from
-    // main 9147974 (before the domain families) on.
+    // `SimConfig::default()`: seed 1, 310 events, mix 70,110,130. Pinned since the quintic
+    // move's peak factor is exact (`QUINTIC_PEAK` 10/sqrt(3) for 5.77, 2026-11-29: moves sized
+    // for a limit are 0.03 % longer), which changed 62 of its 310 events, nearly all by under
+    // 5 mm of position; before that it was 0xa3fe_3571_68aa_c199 from the class-aware turn arcs
+    // (52b36c1, 3 events changed), 0x3dae_68c0_1c0f_e633 from the lateral limits of 2026-11-29
+    // (35 events changed), and 0x6f50_8255_8368_ed2a from main 9147974 (before the domain
+    // families) on.
     assert_eq!(
-        d, 0xa3fe_3571_68aa_c199,
+        d, 0x3619_b7c6_de4d_ee67,
         "the default simulated data set changed"
     );
 }

@@ -179,8 +179,12 @@ impl Lateral {
     }
 }
 
-/// Peak of d''(s) of a quintic move, per metre moved: 5.77 dd / len^2.
-const QUINTIC_PEAK: f64 = 5.77;
+/// Peak of |d''(s)| of a quintic move, per metre moved and per 1/len^2: the profile's second
+/// derivative is 60 u (1 - u) (1 - 2 u) dd / len^2, largest at u = 1/2 -+ sqrt(3)/6, where it is
+/// exactly 10 / sqrt(3) = 5.7735... (`f64::sqrt` is not `const`: the literal is that quotient
+/// rounded to f64, checked bit for bit in the tests). It was 5.77 before 2026-11-29, which let
+/// a sized move peak 0.06 % over its limit.
+const QUINTIC_PEAK: f64 = 5.773_502_691_896_258;
 
 /// What a vehicle can do sideways: the lateral acceleration its tyres (or, for a truck, its
 /// rollover threshold) allow, and the tightest radius it can steer.
@@ -194,7 +198,7 @@ pub(crate) struct Handling {
 
 /// Path distance needed for a lateral move of `dd` m at speed `v` whose peak lateral
 /// acceleration is `alat` or the vehicle's limit, whichever is lower, and whose peak curvature
-/// stays within the vehicle's turning circle (quintic profile: peak d'' = 5.77 dd / len^2).
+/// stays within the vehicle's turning circle (quintic profile: peak d'' = `QUINTIC_PEAK` dd / len^2).
 pub(crate) fn lateral_len(v: f64, dd: f64, alat: f64, handling: &Handling) -> f64 {
     let dd = dd.abs();
     let alat = alat.min(handling.lat_max);
@@ -294,20 +298,66 @@ mod tests {
         };
         let len = lateral_len(20.0, 2.0, 7.0, &truck);
         assert!(
-            (5.77 * 2.0 * 400.0 / (len * len) - 4.0).abs() < 1e-9,
+            (QUINTIC_PEAK * 2.0 * 400.0 / (len * len) - 4.0).abs() < 1e-9,
             "{len}"
         );
         // At walking speed the turning circle, not the lateral acceleration, sets the length:
-        // peak curvature 5.77 dd / len^2 = 1 / r_min.
+        // peak curvature QUINTIC_PEAK dd / len^2 = 1 / r_min.
         let car = Handling {
             lat_max: 9.0,
             r_min: 5.0,
         };
         let len = lateral_len(1.0, 2.2, 7.0, &car);
         assert!(
-            (5.77 * 2.2 / (len * len) - 1.0 / 5.0).abs() < 1e-12,
+            (QUINTIC_PEAK * 2.2 / (len * len) - 1.0 / 5.0).abs() < 1e-12,
             "{len}"
         );
         assert!(len > 7.9, "{len}");
+    }
+
+    #[test]
+    fn quintic_peak_is_the_profiles_exact_peak() {
+        assert_eq!(QUINTIC_PEAK.to_bits(), (10.0 / 3f64.sqrt()).to_bits());
+        // Analytic: d'' = 60 u (1 - u) (1 - 2 u) dd / len^2 at u = 1/2 - sqrt(3)/6.
+        let u = 0.5 - 3f64.sqrt() / 6.0;
+        let analytic = 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u);
+        assert!((analytic - QUINTIC_PEAK).abs() < 1e-12, "{analytic}");
+        // Numerical: the largest |d''| of a move, by central differences of its slope on a fine
+        // grid, scaled by len^2 / dd, matches it (and the old 5.77 does not).
+        let (len, dd) = (37.0, 2.6);
+        let m = LatMove {
+            s0: 5.0,
+            len,
+            d0: 0.4,
+            d1: 0.4 + dd,
+        };
+        let h = 1e-4;
+        let peak = (1..100_000)
+            .map(|i| {
+                let s = 5.0 + len * f64::from(i) / 100_000.0;
+                ((m.eval(s + h).1 - m.eval(s - h).1) / (2.0 * h)).abs()
+            })
+            .fold(0.0, f64::max)
+            * len
+            * len
+            / dd;
+        assert!((peak - QUINTIC_PEAK).abs() < 1e-6, "{peak}");
+        assert!(peak - 5.77 > 3e-3, "{peak}");
+        // A move sized for a limit peaks at that limit, not above it.
+        let car = Handling {
+            lat_max: 9.0,
+            r_min: 5.0,
+        };
+        let len = lateral_len(15.0, 3.0, 4.0, &car);
+        let m = LatMove {
+            s0: 0.0,
+            len,
+            d0: 0.0,
+            d1: 3.0,
+        };
+        let peak = (0..=100_000)
+            .map(|i| (m.curvature(len * f64::from(i) / 100_000.0) * 225.0).abs())
+            .fold(0.0, f64::max);
+        assert!(peak <= 4.0 + 1e-12 && peak > 4.0 - 1e-6, "{peak}");
     }
 }
