@@ -77,6 +77,9 @@ pub struct SsraConfig {
     pub score: SsraScore,
     /// Small: alignment should move the distribution, not forget it.
     pub learning_rate: f64,
+    /// SSRA's own AdamW weight decay, in place of `optimiser.weight_decay`: decoupled decay pulls
+    /// every parameter towards 0, which for a fine-tune is towards forgetting the fitted GSSM.
+    pub weight_decay: f64,
     pub max_epochs: usize,
     pub patience: usize,
     /// Weight of the impact anchoring term for SSRA.
@@ -94,6 +97,7 @@ impl Default for SsraConfig {
         SsraConfig {
             score: SsraScore::Logit,
             learning_rate: 1e-3,
+            weight_decay: 1e-4,
             max_epochs: 30,
             patience: 6,
             lambda_impact: 0.05,
@@ -215,6 +219,7 @@ impl GssmConfig {
             return Err(InvalidGssmConfig::FitRates);
         }
         check_non_negative("fit.weight_decay", f.weight_decay)?;
+        check_non_negative("ssra.weight_decay", self.ssra.weight_decay)?;
         check_non_negative("fit.min_delta", f.min_delta)?;
         let epochs_why = "early stopping ends real runs long before";
         check_at_most("fit.max_epochs", f.max_epochs, MAX_EPOCHS, epochs_why)?;
@@ -302,6 +307,10 @@ mod tests {
         assert_eq!(
             invalid("[fit]\nweight_decay = -1.0"),
             "g.toml: fit.weight_decay = -1: must be finite and >= 0"
+        );
+        assert_eq!(
+            invalid("[ssra]\nweight_decay = -1.0"),
+            "g.toml: ssra.weight_decay = -1: must be finite and >= 0"
         );
         assert!(invalid("[fit]\nmin_delta = nan").contains("fit.min_delta"));
         assert!(invalid("[fit]\nmax_epochs = 100001").contains("fit.max_epochs"));

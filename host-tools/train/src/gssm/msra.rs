@@ -298,9 +298,10 @@ pub fn align_msra_gssm(
     progress: Progress,
 ) -> Result<TrainedMsraGssm, GssmError> {
     let model = MsraGssm::new(kinds, gssm, train)?;
+    let optimiser = config.msra_optimiser();
     let settings = TrainSettings {
         objective: &config.objective,
-        optimiser: &config.optimiser,
+        optimiser: &optimiser,
         learning_rate,
         seed: config.seed,
         progress,

@@ -136,6 +136,7 @@ pub fn align_ssra(
     let mut optimiser = config.optimiser.clone();
     optimiser.max_epochs = ssra.max_epochs;
     optimiser.patience = ssra.patience;
+    optimiser.weight_decay = ssra.weight_decay;
     let settings = TrainSettings {
         objective: &objective,
         optimiser: &optimiser,

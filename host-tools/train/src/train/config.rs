@@ -78,7 +78,7 @@ impl Default for OptimiserConfig {
     fn default() -> Self {
         OptimiserConfig {
             learning_rate: 3e-3,
-            weight_decay: 1e-4,
+            weight_decay: 0.5,
             batch_pairs: 512,
             max_epochs: 60,
             patience: 8,
@@ -116,6 +116,10 @@ pub struct MsraConfig {
     pub surrogates: Vec<String>,
     /// Overrides `optimiser.learning_rate` when set (MSRA has few parameters and tolerates more).
     pub learning_rate: Option<f64>,
+    /// Overrides `optimiser.weight_decay` when set, for MSRA and MSRA over GSSM: a decay strong
+    /// enough to tame the network flattens MSRA's few sigmoid terms and costs its lead time
+    /// (docs/training.md, "Weight decay").
+    pub weight_decay: Option<f64>,
     /// Upper clip (s) of TTC2D and TAdv in the transform: longer times count as no conflict.
     pub time_clip: f32,
     /// Overrides the comparison sources' weights `beta` for MSRA when set: `[temporal,
@@ -134,6 +138,7 @@ impl Default for MsraConfig {
                 SurrogateKind::Ei.key().into(),
             ],
             learning_rate: Some(3e-2),
+            weight_decay: Some(1e-4),
             time_clip: 5.0,
             beta: Some([0.3, 1.0, 1.0, 0.5]),
             objective: Some(ObjectiveConfig {
@@ -442,6 +447,16 @@ where
 }
 
 impl TrainConfig {
+    /// The optimiser MSRA and MSRA over GSSM train with: `[optimiser]` with `msra.weight_decay`
+    /// in place of its decay when set.
+    pub fn msra_optimiser(&self) -> OptimiserConfig {
+        let mut optimiser = self.optimiser.clone();
+        if let Some(decay) = self.msra.weight_decay {
+            optimiser.weight_decay = decay;
+        }
+        optimiser
+    }
+
     /// Parse TOML text; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TrainConfig, ConfigError> {
         parse_toml(text, origin, TrainConfig::validate)
@@ -521,6 +536,9 @@ impl TrainConfig {
         if let Some(rate) = self.msra.learning_rate {
             check_positive("msra.learning_rate", rate)?;
         }
+        if let Some(decay) = self.msra.weight_decay {
+            check_non_negative("msra.weight_decay", decay)?;
+        }
         if !(0.0..0.9).contains(&p.validation_fraction) {
             return Err(InvalidConfig::ValidationFraction);
         }
@@ -584,6 +602,7 @@ mod tests {
         assert!(invalid("[optimiser]\nlearning_rate = inf").contains("learning_rate (finite)"));
         assert!(invalid("[drl]\nlearning_rate = -1.0").contains("drl.learning_rate = -1"));
         assert!(invalid("[msra]\nlearning_rate = 0.0").contains("msra.learning_rate = 0"));
+        assert!(invalid("[msra]\nweight_decay = -1.0").contains("msra.weight_decay = -1"));
         assert!(invalid("[objective]\nlambda_upper = inf").contains("finite and >= 0"));
         assert!(invalid("[comparisons.physics]\nclosing_horizon = inf").contains("closing_horizon"));
         assert!(

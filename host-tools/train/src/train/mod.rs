@@ -483,9 +483,10 @@ pub fn train_msra(
         .msra
         .learning_rate
         .unwrap_or(config.optimiser.learning_rate);
+    let optimiser = config.msra_optimiser();
     let settings = TrainSettings {
         objective: config.msra.objective.as_ref().unwrap_or(&config.objective),
-        optimiser: &config.optimiser,
+        optimiser: &optimiser,
         learning_rate: lr,
         seed: config.seed,
         progress,
