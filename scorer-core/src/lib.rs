@@ -36,7 +36,7 @@
 //! // On the ECU: `static DRL: &[u8] = include_bytes!(...)` in flash.
 //! let blob_bytes: &[u8] = include_bytes!("../../models/drl-default.rsk");
 //! let blob = decode_blob(blob_bytes)?; // header, CRC, payload, records, validation
-//! let threshold = blob.default_threshold(); // the calibrated 3.130 of the shipped DRL
+//! let threshold = blob.default_threshold(); // the calibrated 2.881 of the shipped DRL
 //!
 //! // SI units, one world frame, box centres, unit heading; velocity over ground.
 //! let car = |x: f32, vx: f32| VehicleState {

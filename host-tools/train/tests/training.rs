@@ -204,10 +204,11 @@ fn msra_recovers_a_known_monotone_relation() {
         &set.table,
     )
     .unwrap();
+    // MSRA's own decay (`msra.weight_decay`), as before DRL's default rose to 0.5.
     let opt = OptimiserConfig {
         max_epochs: 60,
         patience: 60,
-        ..OptimiserConfig::default()
+        ..TrainConfig::default().msra_optimiser()
     };
     let objective = ObjectiveConfig {
         lambda_impact: 0.0,

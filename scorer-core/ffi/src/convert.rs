@@ -44,10 +44,11 @@ pub(crate) fn flag(v: u8) -> Result<bool, RiskscoreStatus> {
 /// The C configuration as the core's; `RISKSCORE_STATUS_INVALID_CONFIG` for a flag other than 0/1
 /// and for what [`WarningConfig::validate`] refuses: a threshold that is not finite (NaN; `+inf`:
 /// no finite score ever warns; `-inf`: every partner warns), a negative or non-finite hysteresis,
+/// a hysteresis whose release level `threshold - hysteresis` overflows to `-inf`,
 /// `stale_after_us == 0` (every track is stale as soon as the clock moves on: no warning persists,
 /// no partner is followed). The zero and finite tests are also written out here, ahead of
 /// `validate`'s, which the optimiser then drops: that form is the cheapest found for the 32 KiB
-/// flash budget (`footprint_c` 32 640 B; relying on `validate` alone cost 36 B, an equivalent `if`
+/// flash budget (`footprint_c` 32 660 B; relying on `validate` alone cost 36 B, an equivalent `if`
 /// at the top of the function 32 B).
 pub(crate) fn warning_config(c: &RiskscoreWarningConfig) -> Result<WarningConfig, RiskscoreStatus> {
     let config = WarningConfig {

@@ -61,7 +61,8 @@ impl ObjectiveConfig {
 pub struct OptimiserConfig {
     /// AdamW learning rate.
     pub learning_rate: f64,
-    /// AdamW decoupled weight decay.
+    /// AdamW decoupled weight decay: DRL's, and any model without its own (MSRA and MSRA over
+    /// GSSM take `msra.weight_decay`, SSRA `[ssra] weight_decay` of the GSSM configuration).
     pub weight_decay: f64,
     /// Pairs per mini-batch (anchors are batched in the same proportion).
     pub batch_pairs: usize,
@@ -116,7 +117,8 @@ pub struct MsraConfig {
     pub surrogates: Vec<String>,
     /// Overrides `optimiser.learning_rate` when set (MSRA has few parameters and tolerates more).
     pub learning_rate: Option<f64>,
-    /// Overrides `optimiser.weight_decay` when set, for MSRA and MSRA over GSSM: a decay strong
+    /// Overrides `optimiser.weight_decay` for MSRA and MSRA over GSSM (1e-4 by default, so a file
+    /// cannot unset it; `None` through the Rust API trains with `optimiser.weight_decay`): a decay strong
     /// enough to tame the network flattens MSRA's few sigmoid terms and costs its lead time
     /// (docs/training.md, "Weight decay").
     pub weight_decay: Option<f64>,
@@ -672,5 +674,27 @@ mod tests {
         // A physics pair holds at least its pair, weight and one observation row.
         assert!(config.comparisons.memory_estimate() >= base + 1_000_000 * 100);
         assert!(TrainConfig::default().check_memory().is_ok());
+    }
+
+    #[test]
+    fn msra_trains_with_its_own_weight_decay_and_drl_with_the_optimiser_s() {
+        let config = TrainConfig::from_toml(
+            "[optimiser]\nweight_decay = 0.7\n[msra]\nweight_decay = 0.02",
+            "t.toml",
+        )
+        .unwrap();
+        assert_eq!(config.optimiser.weight_decay, 0.7);
+        assert_eq!(config.msra_optimiser().weight_decay, 0.02);
+        // Everything else of the optimiser is shared.
+        assert_eq!(
+            OptimiserConfig {
+                weight_decay: 0.7,
+                ..config.msra_optimiser()
+            },
+            config.optimiser
+        );
+        let mut without = config.clone();
+        without.msra.weight_decay = None;
+        assert_eq!(without.msra_optimiser().weight_decay, 0.7);
     }
 }
