@@ -526,7 +526,11 @@ fn clamp_changes_only_the_scores_of_frames_outside() {
 #[test]
 fn a_gssm_is_guarded_by_the_normal_driving_it_models_and_an_msra_gets_no_fallback() {
     let dir = tempfile::tempdir().unwrap();
-    let train = simulate(dir.path(), "3");
+    // Seed 4: on seed 3's four safe sequences the GSSM shipped on 2026-11-29 falls as the
+    // kinematic score rises (slope -0.55 over 579 frames), which `calibrate-domain` rightly
+    // refuses to map (the fallback would invert the ranking); that refusal is not this test's
+    // subject.
+    let train = simulate(dir.path(), "4");
     let gssm = dir.path().join("gssm-unguarded.rsk");
     write_unguarded(&shipped("gssm-default.rsk"), &gssm);
     let msra = shipped("msra-default.rsk");
