@@ -152,8 +152,9 @@ fn train_refuses_absurd_pair_counts_and_negative_weight_decay_before_training() 
             train_config_with(
                 dir.path(),
                 "wd.toml",
-                "weight_decay = 0.0001",
-                "weight_decay = -1.0",
+                // `[optimiser]`'s line (`[msra]` has a 0.0001 of its own since 2026-11-29).
+                "weight_decay = 0.5 ",
+                "weight_decay = -1.0 ",
             ),
             "optimiser.weight_decay = -1: must be finite and >= 0",
         ),
