@@ -67,6 +67,12 @@ pub fn train_and_export(
     };
     let drl = train::train_drl(drl_train, drl_comparisons, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
+    // `[guard] fallback_weight_decay`: the DRL falls back on an MSRA of its own, trained on
+    // what the DRL trained on.
+    let fallback_msra = match config.fallback_msra_config() {
+        Some(c) => Some(train::train_msra(drl_train, drl_comparisons, &c, progress)?),
+        None => None,
+    };
     let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
     let obs = train::calibration_observations(drl_train, usize::MAX);
     let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;
@@ -84,7 +90,7 @@ pub fn train_and_export(
         },
         json!({"model": "MSRA", "meta": meta, "training": msra.report, "comparisons": prepared.fit.stats}),
     );
-    let msra_terms = export::msra_terms(&msra.params)?;
+    let msra_terms = export::msra_terms(&fallback_msra.as_ref().unwrap_or(&msra).params)?;
     let mut contents = Vec::new();
     let mut warnings = Vec::new();
     let [drl_json, msra_json, drl_rsk, drl_f32_rsk, msra_rsk] = FINAL_MODEL_FILES;

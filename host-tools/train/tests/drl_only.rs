@@ -25,6 +25,13 @@ fn fast_following(n: usize) -> Vec<Sequence> {
 }
 
 fn cross_validate(drl_only: &[Sequence]) -> Vec<FoldOutcome> {
+    cross_validate_with(drl_only, |c| c.guard.policy = GuardPolicy::FlagOnly)
+}
+
+fn cross_validate_with(
+    drl_only: &[Sequence],
+    adjust: impl FnOnce(&mut TrainConfig),
+) -> Vec<FoldOutcome> {
     let mut config = TrainConfig::default();
     config.comparisons.temporal.pairs = 400;
     config.comparisons.cross_sequence.pairs = 400;
@@ -32,7 +39,7 @@ fn cross_validate(drl_only: &[Sequence]) -> Vec<FoldOutcome> {
     config.optimiser.max_epochs = 6;
     config.optimiser.batch_pairs = 256;
     config.drl.hidden = vec![8, 8];
-    config.guard.policy = GuardPolicy::FlagOnly;
+    adjust(&mut config);
     let options = CvOptions {
         folds: 2,
         progress: Progress::Hidden,
@@ -88,5 +95,33 @@ fn drl_only_data_trains_drl_alone_and_is_never_tested() {
                 run.name
             );
         }
+    }
+}
+
+/// The fallback terms a fold's DRL carries.
+fn fallback_terms(outcome: &FoldOutcome) -> Vec<scorer_core::msra::MsraTerm> {
+    scorer_core::model::decode_blob(blob(outcome, "DRL"))
+        .unwrap()
+        .meta
+        .kinematic_fallback
+        .expect("a fallback record")
+        .terms()
+        .collect()
+}
+
+#[test]
+fn the_drl_s_own_fallback_msra_trains_on_the_drl_only_data_too() {
+    // `[guard] fallback_weight_decay`: the DRL's fallback is an MSRA of its own, trained on what
+    // the DRL trained on; the MSRA that ships never sees the DRL-only data.
+    let own_fallback = |c: &mut TrainConfig| {
+        c.guard.policy = GuardPolicy::Blend;
+        c.guard.fallback_weight_decay = Some(0.5);
+    };
+    let fast = fast_following(6);
+    let without = cross_validate_with(&[], own_fallback);
+    let with = cross_validate_with(&fast, own_fallback);
+    for (a, b) in without.iter().zip(&with) {
+        assert!(blob(a, "MSRA") == blob(b, "MSRA"), "fold {}", b.fold);
+        assert_ne!(fallback_terms(a), fallback_terms(b), "fold {}", b.fold);
     }
 }

@@ -29,6 +29,15 @@ fn fold(policy: GuardPolicy) -> FoldOutcome {
 }
 
 fn fold_of(policy: GuardPolicy, models: Models) -> FoldOutcome {
+    fold_with(policy, models, |_| ())
+}
+
+/// A fold under `policy` with `adjust` applied to the small test configuration.
+fn fold_with(
+    policy: GuardPolicy,
+    models: Models,
+    adjust: impl FnOnce(&mut TrainConfig),
+) -> FoldOutcome {
     let mut config = TrainConfig::default();
     config.comparisons.temporal.pairs = 400;
     config.comparisons.cross_sequence.pairs = 400;
@@ -37,6 +46,7 @@ fn fold_of(policy: GuardPolicy, models: Models) -> FoldOutcome {
     config.optimiser.batch_pairs = 256;
     config.drl.hidden = vec![8, 8];
     config.guard.policy = policy;
+    adjust(&mut config);
     let options = CvOptions {
         progress: Progress::Hidden,
         models,
@@ -290,4 +300,61 @@ fn under_blend_the_drl_mixes_in_the_fallback_inside_and_hands_over_outside() {
         }
         assert!(checked > 100, "{m}: only {checked} frames inside");
     }
+}
+
+/// The kinematic terms of a fold's blob: an MSRA's own, a DRL's fallback record's.
+fn kinematic_terms(outcome: &FoldOutcome, method: &str) -> Vec<scorer_core::msra::MsraTerm> {
+    let blob = blob_of(outcome, method);
+    match (&blob.model, blob.meta.kinematic_fallback) {
+        (scorer_core::model::Model::Msra(m), _) => m.terms.to_vec(),
+        (_, Some(record)) => record.terms().collect(),
+        _ => panic!("{method}: neither an MSRA nor a fallback record"),
+    }
+}
+
+#[test]
+fn a_fallback_weight_decay_gives_the_drl_an_msra_of_its_own_and_leaves_the_shipped_one() {
+    let decayed = 0.5;
+    let shared = fold(GuardPolicy::Blend);
+    let own = fold_with(GuardPolicy::Blend, Models::default(), |c| {
+        c.guard.fallback_weight_decay = Some(decayed)
+    });
+    // The same MSRA ships, and the same network; only the DRL's fallback changed.
+    assert_eq!(
+        kinematic_terms(&own, "MSRA"),
+        kinematic_terms(&shared, "MSRA")
+    );
+    assert!(scores(&own, "MSRA") == scores(&shared, "MSRA"));
+    assert_eq!(blob_of(&own, "DRL").model, blob_of(&shared, "DRL").model);
+    assert_eq!(
+        kinematic_terms(&shared, "DRL"),
+        kinematic_terms(&shared, "MSRA")
+    );
+    assert_ne!(kinematic_terms(&own, "DRL"), kinematic_terms(&own, "MSRA"));
+    // The fallback is the MSRA that this decay trains.
+    let msra_decayed = fold_with(GuardPolicy::Blend, Models::default(), |c| {
+        c.msra.weight_decay = Some(decayed)
+    });
+    assert_eq!(
+        kinematic_terms(&own, "DRL"),
+        kinematic_terms(&msra_decayed, "MSRA")
+    );
+    assert_eq!(
+        kinematic_terms(&msra_decayed, "DRL"),
+        kinematic_terms(&msra_decayed, "MSRA")
+    );
+    // Without the MSRA in the report the DRL still gets the decayed fallback.
+    let drl_only = fold_with(
+        GuardPolicy::Blend,
+        Models {
+            msra: false,
+            ..Models::default()
+        },
+        |c| c.guard.fallback_weight_decay = Some(decayed),
+    );
+    assert!(drl_only.msra_params.is_none());
+    assert_eq!(
+        kinematic_terms(&drl_only, "DRL"),
+        kinematic_terms(&own, "DRL")
+    );
 }

@@ -201,6 +201,12 @@ pub struct GuardConfig {
     /// Under `blend`: the network's share of a DRL's score inside its domain (the kinematic
     /// fallback has the rest), strictly between 0 and 1.
     pub blend_weight: f32,
+    /// Under `fallback` and `blend`, opt-in: the weight decay of an MSRA trained for the DRL
+    /// alone, on the DRL's training data, whose kinematic terms become the DRL's fallback; the
+    /// MSRA that ships is trained as without it. `None` (the default), or `msra.weight_decay`'s
+    /// value: the fallback is the kinematic terms of the MSRA that ships (docs/training.md,
+    /// "A decayed fallback", measured and not the default).
+    pub fallback_weight_decay: Option<f64>,
 }
 
 /// The network's share under `blend` by default: measured on the held-out rounds against 0.5
@@ -212,6 +218,7 @@ impl Default for GuardConfig {
         GuardConfig {
             policy: GuardPolicy::default(),
             blend_weight: DEFAULT_BLEND_WEIGHT,
+            fallback_weight_decay: None,
         }
     }
 }
@@ -459,6 +466,19 @@ impl TrainConfig {
         optimiser
     }
 
+    /// The configuration a DRL's own fallback MSRA trains with, when `[guard]
+    /// fallback_weight_decay` asks for one apart from the MSRA that ships: this configuration
+    /// with that decay as `msra.weight_decay`. `None` when the DRL takes the shipped MSRA's terms.
+    pub fn fallback_msra_config(&self) -> Option<TrainConfig> {
+        let decay = self.guard.fallback_weight_decay?;
+        if !self.guard.policy.uses_fallback() || Some(decay) == self.msra.weight_decay {
+            return None;
+        }
+        let mut config = self.clone();
+        config.msra.weight_decay = Some(decay);
+        Some(config)
+    }
+
     /// Parse TOML text; `origin` names the file in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<TrainConfig, ConfigError> {
         parse_toml(text, origin, TrainConfig::validate)
@@ -541,6 +561,9 @@ impl TrainConfig {
         if let Some(decay) = self.msra.weight_decay {
             check_non_negative("msra.weight_decay", decay)?;
         }
+        if let Some(decay) = self.guard.fallback_weight_decay {
+            check_non_negative("guard.fallback_weight_decay", decay)?;
+        }
         if !(0.0..0.9).contains(&p.validation_fraction) {
             return Err(InvalidConfig::ValidationFraction);
         }
@@ -605,6 +628,8 @@ mod tests {
         assert!(invalid("[drl]\nlearning_rate = -1.0").contains("drl.learning_rate = -1"));
         assert!(invalid("[msra]\nlearning_rate = 0.0").contains("msra.learning_rate = 0"));
         assert!(invalid("[msra]\nweight_decay = -1.0").contains("msra.weight_decay = -1"));
+        assert!(invalid("[guard]\nfallback_weight_decay = -0.5")
+            .contains("guard.fallback_weight_decay = -0.5"));
         assert!(invalid("[objective]\nlambda_upper = inf").contains("finite and >= 0"));
         assert!(invalid("[comparisons.physics]\nclosing_horizon = inf").contains("closing_horizon"));
         assert!(
@@ -696,5 +721,33 @@ mod tests {
         let mut without = config.clone();
         without.msra.weight_decay = None;
         assert_eq!(without.msra_optimiser().weight_decay, 0.7);
+    }
+
+    #[test]
+    fn a_fallback_weight_decay_trains_a_fallback_msra_only_where_one_differs() {
+        let config =
+            TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.3", "t.toml").unwrap();
+        let fallback = config.fallback_msra_config().expect("a fallback MSRA");
+        assert_eq!(fallback.msra_optimiser().weight_decay, 0.3);
+        // Only MSRA's decay differs from the run's configuration.
+        assert_eq!(
+            TrainConfig {
+                msra: config.msra.clone(),
+                ..fallback
+            },
+            config
+        );
+        // No key (the default), the decay MSRA already has, or a policy without a fallback: no
+        // second MSRA.
+        assert_eq!(TrainConfig::default().fallback_msra_config(), None);
+        let mut none = config.clone();
+        none.guard.fallback_weight_decay = None;
+        assert_eq!(none.fallback_msra_config(), None);
+        let same =
+            TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.0001", "t.toml").unwrap();
+        assert_eq!(same.fallback_msra_config(), None);
+        let mut clamp = config.clone();
+        clamp.guard.policy = GuardPolicy::Clamp;
+        assert_eq!(clamp.fallback_msra_config(), None);
     }
 }

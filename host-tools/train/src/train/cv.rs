@@ -284,12 +284,20 @@ pub fn run_fold(
     };
     times.drl = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it.
+    // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it,
+    // or, under `[guard] fallback_weight_decay`, of one trained for it alone on the DRL's data.
     let drl_falls_back = opts.models.drl && cfg.guard.policy.uses_fallback();
-    let msra = if opts.models.msra || drl_falls_back {
+    let fallback_cfg = cfg.fallback_msra_config().filter(|_| drl_falls_back);
+    let msra = if opts.models.msra || (drl_falls_back && fallback_cfg.is_none()) {
         Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
     } else {
         None
+    };
+    let fallback_msra = match &fallback_cfg {
+        Some(c) => {
+            Some(super::train_msra(drl_train, drl_comparisons, c, opts.progress).map_err(terr)?)
+        }
+        None => None,
     };
     times.msra = t0.elapsed().as_secs_f64();
 
@@ -316,7 +324,7 @@ pub fn run_fold(
             ));
         }
     }
-    let msra_terms = match &msra {
+    let msra_terms = match fallback_msra.as_ref().or(msra.as_ref()) {
         Some(m) => Some(export::msra_terms(&m.params).map_err(xerr)?),
         None => None,
     };

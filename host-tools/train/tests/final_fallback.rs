@@ -1,0 +1,59 @@
+//! The final models' fallback (`final_models::train_and_export`, what `riskctl train` and the
+//! demo write): the DRL falls back on the kinematic terms of the MSRA written beside it, or, under
+//! `[guard] fallback_weight_decay`, of an MSRA trained for it alone; `msra.rsk` is the same either
+//! way.
+use riskscore_train::final_models::train_and_export;
+use riskscore_train::train::{Progress, TrainConfig};
+use scorer_core::model::{decode_blob, Model};
+use scorer_core::msra::MsraTerm;
+
+mod common;
+use common::in_town;
+
+/// The kinematic terms of `drl.rsk`'s fallback and of `msra.rsk`, and `msra.rsk`'s bytes.
+fn trained(fallback_weight_decay: Option<f64>) -> (Vec<MsraTerm>, Vec<MsraTerm>, Vec<u8>) {
+    let mut config = TrainConfig::default();
+    config.comparisons.temporal.pairs = 400;
+    config.comparisons.cross_sequence.pairs = 400;
+    config.comparisons.physics.pairs = 200;
+    config.optimiser.max_epochs = 6;
+    config.optimiser.batch_pairs = 256;
+    config.drl.hidden = vec![8, 8];
+    config.guard.fallback_weight_decay = fallback_weight_decay;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("models");
+    let data = in_town(24);
+    train_and_export(
+        &data,
+        &[],
+        None,
+        &config,
+        &out,
+        serde_json::json!({}),
+        Progress::Hidden,
+    )
+    .unwrap();
+    let drl = std::fs::read(out.join("drl.rsk")).unwrap();
+    let msra = std::fs::read(out.join("msra.rsk")).unwrap();
+    let fallback = decode_blob(&drl)
+        .unwrap()
+        .meta
+        .kinematic_fallback
+        .expect("a fallback record")
+        .terms()
+        .collect();
+    let terms = match decode_blob(&msra).unwrap().model {
+        Model::Msra(m) => m.terms.to_vec(),
+        _ => panic!("msra.rsk is not an MSRA"),
+    };
+    (fallback, terms, msra)
+}
+
+#[test]
+fn a_fallback_weight_decay_gives_the_final_drl_a_fallback_of_its_own() {
+    let (shared, msra_terms, msra) = trained(None);
+    assert_eq!(shared, msra_terms);
+    let (own, own_msra_terms, own_msra) = trained(Some(0.5));
+    assert_ne!(own, own_msra_terms);
+    assert_eq!(own_msra, msra, "msra.rsk changed");
+}
