@@ -3,22 +3,16 @@
 //! `[guard] fallback_weight_decay`, of an MSRA trained for it alone; `msra.rsk` is the same either
 //! way.
 use riskscore_train::final_models::train_and_export;
-use riskscore_train::train::{Progress, TrainConfig};
+use riskscore_train::train::Progress;
 use scorer_core::model::{decode_blob, Model};
 use scorer_core::msra::MsraTerm;
 
 mod common;
-use common::in_town;
+use common::{in_town, quick_config};
 
 /// The kinematic terms of `drl.rsk`'s fallback and of `msra.rsk`, and `msra.rsk`'s bytes.
 fn trained(fallback_weight_decay: Option<f64>) -> (Vec<MsraTerm>, Vec<MsraTerm>, Vec<u8>) {
-    let mut config = TrainConfig::default();
-    config.comparisons.temporal.pairs = 400;
-    config.comparisons.cross_sequence.pairs = 400;
-    config.comparisons.physics.pairs = 200;
-    config.optimiser.max_epochs = 6;
-    config.optimiser.batch_pairs = 256;
-    config.drl.hidden = vec![8, 8];
+    let mut config = quick_config();
     config.guard.fallback_weight_decay = fallback_weight_decay;
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("models");

@@ -65,3 +65,15 @@ pub fn in_town(n: usize) -> Vec<Sequence> {
         })
         .collect()
 }
+
+/// The defaults scaled down for a test that trains: 1,000 comparisons, 6 epochs, a 13-8-8-1 DRL.
+pub fn quick_config() -> riskscore_train::train::TrainConfig {
+    let mut config = riskscore_train::train::TrainConfig::default();
+    config.comparisons.temporal.pairs = 400;
+    config.comparisons.cross_sequence.pairs = 400;
+    config.comparisons.physics.pairs = 200;
+    config.optimiser.max_epochs = 6;
+    config.optimiser.batch_pairs = 256;
+    config.drl.hidden = vec![8, 8];
+    config
+}
