@@ -6,7 +6,7 @@ use riskscore_train::train::cv::{self, CvOptions, ExtraTrain, FoldOutcome};
 use riskscore_train::train::{GuardPolicy, Progress, TrainConfig};
 
 mod common;
-use common::{following, in_town};
+use common::{following, in_town, quick_config};
 
 /// Calm following 25 m/s faster than anything in town: speeds only a model that trained on
 /// these sequences has in its domain record.
@@ -32,13 +32,7 @@ fn cross_validate_with(
     drl_only: &[Sequence],
     adjust: impl FnOnce(&mut TrainConfig),
 ) -> Vec<FoldOutcome> {
-    let mut config = TrainConfig::default();
-    config.comparisons.temporal.pairs = 400;
-    config.comparisons.cross_sequence.pairs = 400;
-    config.comparisons.physics.pairs = 200;
-    config.optimiser.max_epochs = 6;
-    config.optimiser.batch_pairs = 256;
-    config.drl.hidden = vec![8, 8];
+    let mut config = quick_config();
     adjust(&mut config);
     let options = CvOptions {
         folds: 2,
