@@ -67,12 +67,7 @@ pub fn train_and_export(
     };
     let drl = train::train_drl(drl_train, drl_comparisons, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
-    // `[guard] fallback_weight_decay`: the DRL falls back on an MSRA of its own, trained on
-    // what the DRL trained on.
-    let fallback_msra = match config.fallback_msra_config() {
-        Some(c) => Some(train::train_msra(drl_train, drl_comparisons, &c, progress)?),
-        None => None,
-    };
+    let fallback_msra = train::train_fallback_msra(drl_train, drl_comparisons, config, progress)?;
     let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
     let obs = train::calibration_observations(drl_train, usize::MAX);
     let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;

@@ -287,17 +287,15 @@ pub fn run_fold(
     // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it,
     // or, under `[guard] fallback_weight_decay`, of one trained for it alone on the DRL's data.
     let drl_falls_back = opts.models.drl && cfg.guard.policy.uses_fallback();
-    let fallback_cfg = cfg.fallback_msra_config().filter(|_| drl_falls_back);
-    let msra = if opts.models.msra || (drl_falls_back && fallback_cfg.is_none()) {
-        Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
+    let fallback_msra = if drl_falls_back {
+        super::train_fallback_msra(drl_train, drl_comparisons, &cfg, opts.progress).map_err(terr)?
     } else {
         None
     };
-    let fallback_msra = match &fallback_cfg {
-        Some(c) => {
-            Some(super::train_msra(drl_train, drl_comparisons, c, opts.progress).map_err(terr)?)
-        }
-        None => None,
+    let msra = if opts.models.msra || (drl_falls_back && fallback_msra.is_none()) {
+        Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
+    } else {
+        None
     };
     times.msra = t0.elapsed().as_secs_f64();
 

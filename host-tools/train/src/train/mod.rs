@@ -464,6 +464,21 @@ pub fn train_drl(
     })
 }
 
+/// The DRL's own fallback MSRA, trained on the DRL's sequences and comparisons, when `[guard]
+/// fallback_weight_decay` asks for one (`TrainConfig::fallback_msra_config`); `None`: the DRL
+/// falls back on the kinematic terms of the MSRA that ships.
+pub fn train_fallback_msra(
+    drl_train: &[Sequence],
+    drl_comparisons: &PreparedComparisons,
+    config: &TrainConfig,
+    progress: Progress,
+) -> Result<Option<TrainedMsra>, TrainError> {
+    config
+        .fallback_msra_config()
+        .map(|c| train_msra(drl_train, drl_comparisons, &c, progress))
+        .transpose()
+}
+
 /// Train MSRA on prepared comparisons; input normalisation measured on `train`.
 pub fn train_msra(
     train: &[Sequence],
