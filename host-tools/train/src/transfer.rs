@@ -342,7 +342,8 @@ pub fn run_split(
 
     let mut gcfg = cfg.clone();
     gcfg.seed = seed.wrapping_mul(1000).wrapping_add(fold as u64);
-    // The GSSM family hands over to the kinematic terms of the fold's MSRA, as the DRL does.
+    // The GSSM family hands over to the kinematic terms of the fold's MSRA (the DRL too, unless
+    // `[guard] fallback_weight_decay` gives it an MSRA of its own).
     let fallback_terms = match &outcome.msra_params {
         Some(p) => Some(
             crate::export::msra_terms(p)

@@ -2,16 +2,20 @@
 //! demo write): the DRL falls back on the kinematic terms of the MSRA written beside it, or, under
 //! `[guard] fallback_weight_decay`, of an MSRA trained for it alone; `msra.rsk` is the same either
 //! way.
+use riskscore_data::events::Sequence;
 use riskscore_train::final_models::train_and_export;
 use riskscore_train::train::Progress;
 use scorer_core::model::{decode_blob, Model};
 use scorer_core::msra::MsraTerm;
 
 mod common;
-use common::{in_town, quick_config};
+use common::{following, in_town, quick_config};
 
 /// The kinematic terms of `drl.rsk`'s fallback and of `msra.rsk`, and `msra.rsk`'s bytes.
-fn trained(fallback_weight_decay: Option<f64>) -> (Vec<MsraTerm>, Vec<MsraTerm>, Vec<u8>) {
+fn trained(
+    fallback_weight_decay: Option<f64>,
+    drl_only: &[Sequence],
+) -> (Vec<MsraTerm>, Vec<MsraTerm>, Vec<u8>) {
     let mut config = quick_config();
     config.guard.fallback_weight_decay = fallback_weight_decay;
     let dir = tempfile::tempdir().unwrap();
@@ -19,7 +23,7 @@ fn trained(fallback_weight_decay: Option<f64>) -> (Vec<MsraTerm>, Vec<MsraTerm>,
     let data = in_town(24);
     train_and_export(
         &data,
-        &[],
+        drl_only,
         None,
         &config,
         &out,
@@ -45,9 +49,21 @@ fn trained(fallback_weight_decay: Option<f64>) -> (Vec<MsraTerm>, Vec<MsraTerm>,
 
 #[test]
 fn a_fallback_weight_decay_gives_the_final_drl_a_fallback_of_its_own() {
-    let (shared, msra_terms, msra) = trained(None);
+    let (shared, msra_terms, msra) = trained(None, &[]);
     assert_eq!(shared, msra_terms);
-    let (own, own_msra_terms, own_msra) = trained(Some(0.5));
+    let (own, own_msra_terms, own_msra) = trained(Some(0.5), &[]);
     assert_ne!(own, own_msra_terms);
     assert_eq!(own_msra, msra, "msra.rsk changed");
+    // The fallback MSRA trains on what the DRL trains on, DRL-only sequences included; the
+    // MSRA that ships does not see them.
+    let drl_only: Vec<Sequence> = (0..6)
+        .map(|i| {
+            let mut s = following(i, 8.0 + i as f32, 30.0, 0.0);
+            s.event_id = format!("drl-only-{}", s.event_id);
+            s
+        })
+        .collect();
+    let (own_with, _, msra_with) = trained(Some(0.5), &drl_only);
+    assert_ne!(own_with, own);
+    assert_eq!(msra_with, msra, "msra.rsk saw the DRL-only data");
 }

@@ -203,9 +203,9 @@ pub struct GuardConfig {
     pub blend_weight: f32,
     /// Under `fallback` and `blend`, opt-in: the weight decay of an MSRA trained for the DRL
     /// alone, on the DRL's training data, whose kinematic terms become the DRL's fallback; the
-    /// MSRA that ships is trained as without it. `None` (the default), or `msra.weight_decay`'s
-    /// value: the fallback is the kinematic terms of the MSRA that ships (docs/training.md,
-    /// "A decayed fallback", measured and not the default).
+    /// MSRA that ships is trained as without it. `None` (the default, a file without the key):
+    /// the fallback is the kinematic terms of the MSRA that ships (docs/training.md, "A decayed
+    /// fallback", measured and not the default).
     pub fallback_weight_decay: Option<f64>,
 }
 
@@ -467,11 +467,11 @@ impl TrainConfig {
     }
 
     /// The configuration a DRL's own fallback MSRA trains with, when `[guard]
-    /// fallback_weight_decay` asks for one apart from the MSRA that ships: this configuration
-    /// with that decay as `msra.weight_decay`. `None` when the DRL takes the shipped MSRA's terms.
+    /// fallback_weight_decay` asks for one and the policy falls back: this configuration with
+    /// that decay as `msra.weight_decay`. `None` when the DRL takes the shipped MSRA's terms.
     pub fn fallback_msra_config(&self) -> Option<TrainConfig> {
         let decay = self.guard.fallback_weight_decay?;
-        if !self.guard.policy.uses_fallback() || Some(decay) == self.msra.weight_decay {
+        if !self.guard.policy.uses_fallback() {
             return None;
         }
         let mut config = self.clone();
@@ -724,7 +724,7 @@ mod tests {
     }
 
     #[test]
-    fn a_fallback_weight_decay_trains_a_fallback_msra_only_where_one_differs() {
+    fn a_fallback_weight_decay_trains_a_fallback_msra_under_a_falling_back_policy() {
         let config =
             TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.3", "t.toml").unwrap();
         let fallback = config.fallback_msra_config().expect("a fallback MSRA");
@@ -737,15 +737,15 @@ mod tests {
             },
             config
         );
-        // No key (the default), the decay MSRA already has, or a policy without a fallback: no
-        // second MSRA.
+        // The decay MSRA has still asks for a second MSRA (it trains on the DRL's data).
+        let same =
+            TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.0001", "t.toml").unwrap();
+        assert_eq!(same.fallback_msra_config().map(|c| c.msra), Some(same.msra));
+        // No key (the default) or a policy without a fallback: no second MSRA.
         assert_eq!(TrainConfig::default().fallback_msra_config(), None);
         let mut none = config.clone();
         none.guard.fallback_weight_decay = None;
         assert_eq!(none.fallback_msra_config(), None);
-        let same =
-            TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.0001", "t.toml").unwrap();
-        assert_eq!(same.fallback_msra_config(), None);
         let mut clamp = config.clone();
         clamp.guard.policy = GuardPolicy::Clamp;
         assert_eq!(clamp.fallback_msra_config(), None);
