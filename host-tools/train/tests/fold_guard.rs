@@ -8,7 +8,7 @@ use riskscore_train::train::{GuardConfig, GuardPolicy, Progress, TrainConfig};
 use scorer_core::model::OutsidePolicy;
 
 mod common;
-use common::in_town;
+use common::{in_town, quick_config};
 
 /// The same situations 25 m/s faster: the ego's and the partner's speeds lie far outside
 /// what the training data covered, the relative kinematics inside.
@@ -38,13 +38,8 @@ fn fold_with(
     models: Models,
     adjust: impl FnOnce(&mut TrainConfig),
 ) -> FoldOutcome {
-    let mut config = TrainConfig::default();
-    config.comparisons.temporal.pairs = 400;
-    config.comparisons.cross_sequence.pairs = 400;
-    config.comparisons.physics.pairs = 200;
+    let mut config = quick_config();
     config.optimiser.max_epochs = 8;
-    config.optimiser.batch_pairs = 256;
-    config.drl.hidden = vec![8, 8];
     config.guard.policy = policy;
     adjust(&mut config);
     let options = CvOptions {
