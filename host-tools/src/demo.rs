@@ -706,11 +706,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         "msra_epochs_per_second": msra_eps,
     });
     let tp = report_dir.join("training.json");
-    fs::write(
-        &tp,
-        serde_json::to_string_pretty(&training).unwrap_or_default(),
-    )
-    .map_err(io_err(&tp))?;
+    // Renamed into place once complete: an interrupted run leaves the old file whole.
+    let mut file = riskscore_output::AtomicFile::create(&tp).map_err(io_err(&tp))?;
+    serde_json::to_writer_pretty(&mut file, &training)
+        .map_err(std::io::Error::from)
+        .and_then(|()| file.commit())
+        .map_err(io_err(&tp))?;
     files.push(tp);
 
     let summary = DemoSummary {
