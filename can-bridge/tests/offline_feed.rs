@@ -2,6 +2,7 @@
 //! `decode` route each line to its bus by the interface name and put a log of several
 //! interfaces (as `candump -L can0 can1` interleaves them) back in timestamp order within
 //! `--merge-wait-ms`.
+#![cfg(feature = "check")]
 mod common;
 #[path = "common/run.rs"]
 mod run;

@@ -4,6 +4,7 @@
 //! compared with the project DBC's single-bus log of the same folder (`riskctl
 //! events-to-candump`'s encoding): the same events warn, at nearly the same time, wherever the
 //! radar sees the partner.
+#![cfg(feature = "check")]
 mod common;
 #[path = "common/run.rs"]
 mod run;
