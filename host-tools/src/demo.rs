@@ -396,6 +396,10 @@ fn event_figures(
 pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let mut stages: Vec<(String, f64)> = Vec::new();
     let mut files: Vec<PathBuf> = Vec::new();
+    // Held for the whole run: a second demo into the same --out is refused now, not left to swap
+    // its folders in between this run's (each folder's own writer takes the lock below it).
+    let _run_lock =
+        riskscore_output::OutputLock::acquire_for_run(&opts.out).map_err(io_err(&opts.out))?;
     // Removed again (when still empty) if the run fails before writing anything into it.
     let out_folders = riskscore_output::NewFolders::create(&opts.out).map_err(io_err(&opts.out))?;
 

@@ -182,7 +182,8 @@ const WRITERS: &[Writer] = &[
         args: "demo --out OUT --config t.toml --events 12 --folds 2 --no-real --no-transfer --quiet",
         out: "demo/",
         inputs: &["t.toml"],
-        lock: "OUT/data",
+        // The whole --out, held for the run (before, only each folder as it was written).
+        lock: "OUT",
         long: None,
     },
     Writer {
