@@ -34,7 +34,7 @@ cargo test --workspace --quiet 2>&1 | tee target/test-output.txt
 
 # The VM's static bridge is built without `check`: the crate must lint, build and pass its tests
 # that way too (its tests of `check` and `decode` are cfg'd on the feature).
-step "can-bridge without its check feature: clippy + tests (cold about 1 min)"
+step "can-bridge without its check feature: clippy + tests (cold up to 2 min)"
 cargo clippy -p can-bridge --no-default-features --all-targets -- -D warnings
 cargo test -p can-bridge --no-default-features --quiet
 
