@@ -93,6 +93,9 @@ pub enum CvError {
 pub struct FoldTimes {
     pub comparisons: f64,
     pub drl: f64,
+    /// The DRL's own fallback MSRA (`[guard] fallback_weight_decay`; nothing is trained without
+    /// it). Not part of `msra`, the MSRA that is reported and exported.
+    pub fallback_msra: f64,
     pub msra: f64,
     pub quantise_export: f64,
     pub evaluate: f64,
@@ -292,6 +295,8 @@ pub fn run_fold(
     } else {
         None
     };
+    times.fallback_msra = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
     let msra = if opts.models.msra || (drl_falls_back && fallback_msra.is_none()) {
         Some(super::train_msra(&train_ts, &prepared, &cfg, opts.progress).map_err(terr)?)
     } else {
