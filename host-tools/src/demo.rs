@@ -20,7 +20,6 @@
 //!   `msra.json`;
 //! - `plots/`: `roc`, `pr`, `trajectories` and `event-1..3` (the trajectory events drawn as
 //!   `riskctl plot` draws them), SVG and PNG.
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -279,7 +278,8 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
 
 /// Simulates `cfg` into a temporary folder beside `target` ([`OutputDir`]: removed on an error
 /// or a Ctrl-C/SIGTERM), not yet in place: [`commit_staged`] swaps it in once the report that
-/// uses it is written, so a failed or interrupted run leaves an old `target` as it was.
+/// uses it is written (the demo: with all its folders), so a failed or interrupted run leaves an
+/// old `target` as it was.
 pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, DemoError> {
     let staged = OutputDir::create(target).map_err(io_err(target))?;
     sim::simulate_to_dir(staged.path(), cfg)?;
@@ -293,6 +293,45 @@ pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), 
         dir.commit().map_err(io_err(&target))?;
     }
     Ok(())
+}
+
+/// The demo's folders under `--out`, each built complete beside its target ([`OutputDir`]) and
+/// swapped in together once the whole run has succeeded ([`Staged::commit`]): a failed or
+/// interrupted run leaves every old folder as it was, not the early stages' new ones beside the
+/// late stages' old ones.
+#[derive(Default)]
+struct Staged {
+    dirs: Vec<OutputDir>,
+}
+
+impl Staged {
+    /// Stages `target` and returns the folder to write it in.
+    fn folder(&mut self, target: &Path) -> Result<PathBuf, DemoError> {
+        Ok(self.push(OutputDir::create(target).map_err(io_err(target))?))
+    }
+
+    /// Adds a folder staged elsewhere ([`simulate_staged`]); returns the folder it is written in.
+    fn push(&mut self, dir: OutputDir) -> PathBuf {
+        let path = dir.path().to_path_buf();
+        self.dirs.push(dir);
+        path
+    }
+
+    /// Where `path`, written in a staged folder, will be once it is in place.
+    fn final_path(&self, path: &Path) -> PathBuf {
+        self.dirs
+            .iter()
+            .find_map(|d| {
+                let rest = path.strip_prefix(d.path()).ok()?;
+                Some(d.target().join(rest))
+            })
+            .unwrap_or_else(|| path.to_path_buf())
+    }
+
+    /// Swaps every folder in, in the order they were staged.
+    fn commit(self) -> Result<(), DemoError> {
+        commit_staged(self.dirs)
+    }
 }
 
 /// What the demo did, measured.
@@ -402,11 +441,20 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         riskscore_output::OutputLock::acquire_for_run(&opts.out).map_err(io_err(&opts.out))?;
     // Removed again (when still empty) if the run fails before writing anything into it.
     let out_folders = riskscore_output::NewFolders::create(&opts.out).map_err(io_err(&opts.out))?;
+    // Every folder is written in its staged copy and put in place at the end, with the others.
+    // Staged first: an --out whose report, models or plots is not a folder fails now, not after
+    // the training.
+    let mut staged = Staged::default();
+    let report_dir = opts.out.join("report");
+    let model_dir = opts.out.join("models");
+    let plot_dir = opts.out.join("plots");
+    let report_stage = staged.folder(&report_dir)?;
+    let model_stage = staged.folder(&model_dir)?;
+    let plot_stage = staged.folder(&plot_dir)?;
 
     // 1. Data.
     let t0 = Instant::now();
-    // The simulated folders are staged (`simulate_staged`) and swapped in only once the report
-    // computed on them is written: an interrupted or failed run leaves an old --out's as they were.
+    // The simulated folders are staged (`simulate_staged`) with the others.
     let (data_dir, data_staged) = match &opts.data {
         Some(d) => (d.clone(), None),
         None => {
@@ -427,11 +475,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             (dir, Some(staged))
         }
     };
-    let (sim_seqs, sim_counts) = load_sequences(
-        data_staged
-            .as_ref()
-            .map_or(data_dir.as_path(), |s| s.path()),
-    )?;
+    // Where the simulated events are read from until they go in place.
+    let data_read = match data_staged {
+        Some(dir) => staged.push(dir),
+        None => data_dir.clone(),
+    };
+    let (sim_seqs, sim_counts) = load_sequences(&data_read)?;
     eprintln!(
         "      simulated events: {sim_counts}; {} sequences",
         sim_seqs.len()
@@ -452,6 +501,9 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         seqs.extend(real_seqs.iter().cloned());
     }
     let (extra_seqs, extra_counts, extra_staged) = load_extra(opts)?;
+    if let Some(dir) = extra_staged {
+        staged.push(dir);
+    }
     let (drl_only_seqs, drl_only_counts) = load_drl_only(&opts.extra.drl_only)?;
     let extra_counts = match (extra_counts, drl_only_counts) {
         (Some(a), Some(b)) => Some(format!("{a}; DRL only: {b}")),
@@ -507,7 +559,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     // 3. Report.
     let t0 = Instant::now();
     eprintln!("[3/6] writing the reports");
-    let report_dir = opts.out.join("report");
     let mut bundle = eval::bundle::cv_report_bundle(&report, &results)?;
     claims::add_to(&mut bundle, &claims, &[])?;
     // Pooled out-of-fold scores of the first seed: every event exactly once.
@@ -521,8 +572,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         eval::report::write_sequence_maxima(&pooled, w)
     })?;
     bundle.add_csv("curves.csv", |w| eval::report::write_curves_csv(&curves, w))?;
-    files.extend(bundle.write_to(&report_dir)?);
-    commit_staged(data_staged.into_iter().chain(extra_staged))?;
+    files.extend(bundle.write_to(&report_stage)?);
     stages.push(("report".into(), t0.elapsed().as_secs_f64()));
     outln!();
     outln!(
@@ -554,8 +604,8 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             cfg.mix.safe,
             dir.display()
         );
-        let staged = simulate_staged(&dir, &cfg)?;
-        let (test_sim, _) = load_sequences(staged.path())?;
+        let test_dir = staged.push(simulate_staged(&dir, &cfg)?);
+        let (test_sim, _) = load_sequences(&test_dir)?;
         // The training-only data joins the simulated training side, which every fold trains on.
         let mut train_sim = sim_seqs.clone();
         train_sim.extend(extra_seqs.iter().cloned());
@@ -577,14 +627,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             &result.folds,
             &opts.config.msra.input_names(),
         );
-        let tdir = report_dir.join("transfer");
         files.extend(write_transfer_report(
-            &tdir,
+            &report_stage.join("transfer"),
             &result,
             &transfer_claims,
             &[],
         )?);
-        commit_staged([staged])?;
         outln!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
@@ -607,7 +655,8 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             settings,
             transfer,
             &real_seqs,
-            &report_dir,
+            &report_stage,
+            &mut staged,
         )?);
         stages.push(("domain benchmark".into(), t0.elapsed().as_secs_f64()));
     }
@@ -617,7 +666,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     eprintln!("[4/6] training the final DRL and MSRA on all events, quantising, exporting");
     let mut all = seqs.clone();
     all.extend(extra_seqs.iter().cloned());
-    let model_dir = opts.out.join("models");
     let meta = json!({
         "data": data_dir.display().to_string(),
         "real": opts.real.as_ref().map(|p| p.display().to_string()),
@@ -637,7 +685,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         &drl_only_seqs,
         None,
         &opts.config,
-        &model_dir,
+        &model_stage,
         meta,
         opts.progress,
     )?;
@@ -648,14 +696,12 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     // 5. Plots.
     let t0 = Instant::now();
     eprintln!("[5/6] plots (pooled out-of-fold scores of the first seed)");
-    let plot_dir = opts.out.join("plots");
-    fs::create_dir_all(&plot_dir).map_err(io_err(&plot_dir))?;
     let plotted: Vec<(String, eval::WarningCurve)> = curves
         .iter()
         .filter(|(n, _)| n != "DRL-f32")
         .cloned()
         .collect();
-    files.extend(plots::plot_curves(&plot_dir, &plotted, POOLED_SCORES)?);
+    files.extend(plots::plot_curves(&plot_stage, &plotted, POOLED_SCORES)?);
     let traj_methods: Vec<_> = pooled
         .iter()
         .filter(|(n, _)| n != "DRL-f32")
@@ -666,8 +712,17 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         .map(|(_, s)| plots::default_trajectory_events(s, 3))
         .unwrap_or_default();
     let panels = plots::trajectory_panels(&traj_methods, &crash_ids);
-    files.extend(plots::plot_trajectories(&plot_dir, &panels, POOLED_SCORES)?);
-    files.extend(event_figures(&data_dir, &model_dir, &crash_ids, &plot_dir)?);
+    files.extend(plots::plot_trajectories(
+        &plot_stage,
+        &panels,
+        POOLED_SCORES,
+    )?);
+    files.extend(event_figures(
+        &data_read,
+        &model_stage,
+        &crash_ids,
+        &plot_stage,
+    )?);
     stages.push(("plots".into(), t0.elapsed().as_secs_f64()));
 
     // 6. Summary.
@@ -709,14 +764,15 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         "drl_epochs_per_second": drl_eps,
         "msra_epochs_per_second": msra_eps,
     });
-    let tp = report_dir.join("training.json");
-    // Renamed into place once complete: an interrupted run leaves the old file whole.
+    let tp = report_stage.join("training.json");
     let mut file = riskscore_output::AtomicFile::create(&tp).map_err(io_err(&tp))?;
     serde_json::to_writer_pretty(&mut file, &training)
         .map_err(std::io::Error::from)
         .and_then(|()| file.commit())
         .map_err(io_err(&tp))?;
     files.push(tp);
+    let files = files.iter().map(|f| staged.final_path(f)).collect();
+    staged.commit()?;
 
     let summary = DemoSummary {
         stages,
@@ -836,16 +892,18 @@ pub fn load_training_only(
 /// Stage 3c: the default rounds of `riskctl benchmark domains`, short (`settings`' folds and
 /// seeds): train without a speed band, a city or a geometry, test on it. Simulates its own two
 /// folders with the operating-domain families (the training one at the demo's seed, the test one
-/// at the transfer benchmark's seed and mix); writes `report/domains/`.
+/// at the transfer benchmark's seed and mix), staged in `staged`; writes `domains/` into
+/// `report_dir` (the staged `report/`).
 fn domain_benchmark(
     opts: &DemoOptions,
     settings: &DomainSettings,
     transfer: &TransferSettings,
     real_freeway: &[Sequence],
     report_dir: &Path,
+    staged: &mut Staged,
 ) -> Result<Vec<PathBuf>, DemoError> {
     use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
-    // Staged ([`simulate_staged`]), swapped in once `report/domains/` is written.
+    // Staged ([`simulate_staged`]), swapped in with the demo's other folders.
     let simulate =
         |folder: &str, seed: u64, mix: sim::Mix| -> Result<(Vec<Sequence>, OutputDir), DemoError> {
             let dir = opts.out.join("domains-data").join(folder);
@@ -903,7 +961,8 @@ fn domain_benchmark(
     outln!();
     outln!("{}", result.to_markdown());
     let files = result.bundle()?.write_to(&report_dir.join("domains"))?;
-    commit_staged([train_staged, test_staged])?;
+    staged.push(train_staged);
+    staged.push(test_staged);
     Ok(files)
 }
 

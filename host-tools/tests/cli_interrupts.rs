@@ -120,6 +120,21 @@ fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &s
 /// Runs riskctl `args` in `p`, sends `stop` once `last` is simulated (plus 0.5 s) and checks that
 /// the run stops within [`STOP_WITHIN`] with the signal's status and message. Returns its stderr.
 fn stopped_once_simulated(p: &Path, args: &[String], last: &str, stop: Stop) -> String {
+    let ready = || simulated(&p.join(last));
+    stopped_once(p, args, &format!("simulated {last}"), ready, 500, stop)
+}
+
+/// Runs riskctl `args` in `p`, sends `stop` `settle_ms` after `ready` holds (`what` names it) and
+/// checks that the run stops within [`STOP_WITHIN`] with the signal's status and message. Returns
+/// its stderr.
+fn stopped_once(
+    p: &Path,
+    args: &[String],
+    what: &str,
+    ready: impl Fn() -> bool,
+    settle_ms: u64,
+    stop: Stop,
+) -> String {
     let mut child = Command::new(RISKCTL)
         .current_dir(p)
         .args(args)
@@ -137,17 +152,17 @@ fn stopped_once_simulated(p: &Path, args: &[String], last: &str, stop: Stop) -> 
         all
     });
     let start = Instant::now();
-    while !simulated(&p.join(last)) {
+    while !ready() {
         if let Some(status) = child.try_wait().unwrap() {
             let all = reader.join().unwrap();
-            panic!("the run ended ({status}) before it simulated {last}: {all}");
+            panic!("the run ended ({status}) before it {what}: {all}");
         }
         if start.elapsed() > Duration::from_secs(120) {
-            kill_and_fail(child, format!("{last} not simulated within 120 s"));
+            kill_and_fail(child, format!("not {what} within 120 s"));
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    std::thread::sleep(Duration::from_millis(500));
+    std::thread::sleep(Duration::from_millis(settle_ms));
     fault_harness::send(&child, stop);
     let signalled = Instant::now();
     let status = loop {
@@ -267,9 +282,9 @@ fn sigterm_stops_demo_and_leaves_the_old_data_and_extra_data() {
 }
 
 /// The demo's benchmark stages over an old --out: the run is stopped by `stop` once `last` (under
-/// `out/`) is simulated, in the middle of the benchmark. The stages before it have put their
-/// report and data in place (each simulated folder goes in with the report computed on it); the
-/// benchmark's own folders and report must be the old ones, and no temporary is left anywhere.
+/// `out/`) is simulated, in the middle of the benchmark. The benchmark's own folders and report
+/// must be the old ones (every folder of the demo goes in at the end, together), and no temporary
+/// is left anywhere.
 fn demo_interrupted_in_a_benchmark(last: &str, kept: &[&str], stop: Stop) {
     let d = tempfile::tempdir().unwrap();
     let p = d.path();
@@ -343,6 +358,48 @@ fn sigterm_in_demo_s_transfer_benchmark_leaves_the_old_transfer_and_domains_data
     demo_interrupted_in_a_benchmark("transfer-data", &kept, Stop::Term);
 }
 
+/// Whether the demo has written its cross-validation report (`results.md`): in its staged folder
+/// beside `out/report`, or (a run that puts it in place at once) in `out/report` itself.
+fn report_written(out: &Path) -> bool {
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return false;
+    };
+    entries.flatten().any(|e| {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let results = e.path().join("results.md");
+        let staged = name.starts_with(".report.") && name.ends_with(".tmp");
+        (staged && results.is_file())
+            || (name == "report" && std::fs::read(&results).is_ok_and(|b| b != b"old report\n"))
+    })
+}
+
+#[test]
+fn sigterm_in_demo_s_final_models_leaves_every_old_folder() {
+    // Stopped once its report is written, as the final models train: before, the report and the
+    // simulated data/ and extra-data/ had gone in place beside the old models/ and plots/.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data", "extra-data"]);
+    for (file, text) in [
+        ("out/models/drl.rsk", "old model\n"),
+        ("out/plots/roc.svg", "old figure\n"),
+    ] {
+        std::fs::create_dir_all(p.join(file).parent().unwrap()).unwrap();
+        std::fs::write(p.join(file), text).unwrap();
+    }
+    let before = snapshot(p);
+    let ready = || report_written(&p.join("out"));
+    let stderr = stopped_once(p, &demo(), "wrote its report", ready, 0, Stop::Term);
+    let after = snapshot(p);
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
+    );
+}
+
 /// `riskctl ablation`, small (about 3 s in a debug build): the default simulated set into
 /// `data/`, two sources, one fraction, 3 folds.
 fn ablation() -> Vec<String> {
@@ -414,8 +471,9 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
 
 #[test]
 fn a_demo_that_fails_at_its_report_leaves_the_old_data_and_extra_data() {
-    // out/report is a file: the report after cross-validation fails, and the data/ and
-    // extra-data/ it was computed on, simulated by then, must not have gone in place.
+    // out/report is a file: the run fails at its start, where it stages its folders (before,
+    // after cross-validation, and the data/ and extra-data/ simulated by then must not have gone
+    // in place).
     let d = tempfile::tempdir().unwrap();
     let p = d.path();
     old_output(p, &["data", "extra-data"]);
