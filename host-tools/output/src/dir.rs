@@ -40,6 +40,48 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
     }
 }
 
+/// Refuses, before anything is written, a target the final swap could not rename: a symbolic
+/// link (renaming it would move the link, not the folder) or a mount point (a rename cannot move
+/// it). Found at the end instead, the whole run's output would be lost.
+fn refuse_unswappable(target: &Path) -> io::Result<()> {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(meta) = std::fs::symlink_metadata(target) else {
+        return Ok(());
+    };
+    let refuse = |why: &str| {
+        Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "{} is {why}: the output folder is swapped in as a whole, which needs a plain \
+                 folder (give the folder it leads to, or another output)",
+                target.display()
+            ),
+        ))
+    };
+    if meta.file_type().is_symlink() {
+        return refuse("a symbolic link");
+    }
+    let parent = std::fs::metadata(parent_of(target))?;
+    if meta.is_dir() && meta.dev() != parent.dev() {
+        return refuse("a mount point");
+    }
+    Ok(())
+}
+
+/// Carries every entry of the folder `old` that `new` does not have into `new` (see [`carry`]):
+/// what [`OutputDir::commit`] does for the old target, and what a caller does for a subfolder it
+/// wrote fresh inside a staged folder (an old subfolder's own notes are kept with it).
+pub fn carry_missing(old: &Path, new: &Path) -> io::Result<()> {
+    for e in std::fs::read_dir(old).map_err(|e| err(old, "cannot read", e))? {
+        let e = e.map_err(|e| err(old, "cannot read", e))?;
+        let dst = new.join(e.file_name());
+        if std::fs::symlink_metadata(&dst).is_err() {
+            carry(&e.path(), &dst).map_err(|x| err(&e.path(), "cannot keep", x))?;
+        }
+    }
+    Ok(())
+}
+
 impl OutputDir {
     /// Locks `target` and creates the new temporary folder beside it (creating missing parent
     /// folders, removed again if the run does not commit). Refuses a target that exists and is
@@ -51,6 +93,7 @@ impl OutputDir {
                 format!("{} exists and is not a folder", target.display()),
             ));
         }
+        refuse_unswappable(target)?;
         let parent = parent_of(target);
         // The lock creates the missing parent folders (removed again if the run fails).
         let lock = OutputLock::acquire(target)
@@ -87,13 +130,7 @@ impl OutputDir {
         let tmp = self.tmp.clone().expect("open until commit");
         let target = self.target.clone();
         if target.is_dir() {
-            for e in std::fs::read_dir(&target).map_err(|e| err(&target, "cannot read", e))? {
-                let e = e.map_err(|e| err(&target, "cannot read", e))?;
-                let new = tmp.join(e.file_name());
-                if std::fs::symlink_metadata(&new).is_err() {
-                    carry(&e.path(), &new).map_err(|x| err(&e.path(), "cannot keep", x))?;
-                }
-            }
+            carry_missing(&target, &tmp)?;
             if let Ok(m) = std::fs::metadata(&target) {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
             }
@@ -233,5 +270,45 @@ mod tests {
         assert!(OutputDir::create(&f.join("sub")).is_err());
         assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_symlinked_folder_is_refused_at_create_not_at_commit() {
+        // Before, the link was accepted and the final rename failed, losing the run's output.
+        let d = tempfile::tempdir().unwrap();
+        let real = d.path().join("real");
+        std::fs::create_dir(&real).unwrap();
+        std::fs::write(real.join("a.md"), "old").unwrap();
+        let link = d.path().join("link");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        let e = OutputDir::create(&link).err().expect("refused");
+        assert!(e.to_string().contains("is a symbolic link"), "{e}");
+        assert_eq!(std::fs::read_to_string(real.join("a.md")).unwrap(), "old");
+        assert_eq!(names(d.path()), ["link", "real"]);
+        // The folder it leads to is a plain folder.
+        let o = OutputDir::create(&real).unwrap();
+        std::fs::write(o.path().join("a.md"), "new").unwrap();
+        o.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(link.join("a.md")).unwrap(), "new");
+    }
+
+    #[test]
+    fn carry_missing_keeps_an_old_subfolder_s_notes() {
+        let d = tempfile::tempdir().unwrap();
+        let (old, new) = (d.path().join("old"), d.path().join("new"));
+        std::fs::create_dir_all(old.join("sub")).unwrap();
+        std::fs::create_dir(&new).unwrap();
+        std::fs::write(old.join("a.md"), "old a").unwrap();
+        std::fs::write(old.join("notes.txt"), "mine").unwrap();
+        std::fs::write(old.join("sub/x"), "x").unwrap();
+        std::fs::write(new.join("a.md"), "new a").unwrap();
+        carry_missing(&old, &new).unwrap();
+        assert_eq!(names(&new), ["a.md", "notes.txt", "sub"]);
+        assert_eq!(std::fs::read_to_string(new.join("a.md")).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(new.join("sub/x")).unwrap(), "x");
+        assert_eq!(
+            std::fs::read_to_string(old.join("notes.txt")).unwrap(),
+            "mine"
+        );
     }
 }
