@@ -302,6 +302,18 @@ pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), 
 #[derive(Default)]
 struct Staged {
     dirs: Vec<OutputDir>,
+    /// Subfolders written fresh inside a staged folder (`report/transfer/`): (written, final).
+    subfolders: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Drop for Staged {
+    /// Newest first, as they were made: a folder's temporary and lock go before its parent's
+    /// (`domains-data/test` before `domains-data/train`, whose new parent is then removed).
+    fn drop(&mut self) {
+        while let Some(dir) = self.dirs.pop() {
+            drop(dir);
+        }
+    }
 }
 
 impl Staged {
@@ -317,6 +329,13 @@ impl Staged {
         path
     }
 
+    /// `written`, a subfolder of a staged folder, goes in as `target`: at the commit it keeps the
+    /// entries of an old `target` it does not write (a user's notes), as a folder of its own would.
+    fn subfolder(&mut self, written: PathBuf, target: PathBuf) -> PathBuf {
+        self.subfolders.push((written.clone(), target));
+        written
+    }
+
     /// Where `path`, written in a staged folder, will be once it is in place.
     fn final_path(&self, path: &Path) -> PathBuf {
         self.dirs
@@ -328,9 +347,20 @@ impl Staged {
             .unwrap_or_else(|| path.to_path_buf())
     }
 
-    /// Swaps every folder in, in the order they were staged.
-    fn commit(self) -> Result<(), DemoError> {
-        commit_staged(self.dirs)
+    /// Swaps every folder in, in the order they were staged (one after another: an error or a
+    /// signal between two swaps leaves the earlier ones in, each whole).
+    fn commit(mut self) -> Result<(), DemoError> {
+        for (written, target) in &self.subfolders {
+            if target.is_dir() && written.is_dir() {
+                riskscore_output::carry_missing(target, written).map_err(io_err(target))?;
+            }
+        }
+        while !self.dirs.is_empty() {
+            let dir = self.dirs.remove(0);
+            let target = dir.target().to_path_buf();
+            dir.commit().map_err(io_err(&target))?;
+        }
+        Ok(())
     }
 }
 
@@ -435,12 +465,13 @@ fn event_figures(
 pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let mut stages: Vec<(String, f64)> = Vec::new();
     let mut files: Vec<PathBuf> = Vec::new();
-    // Held for the whole run: a second demo into the same --out is refused now, not left to swap
-    // its folders in between this run's (each folder's own writer takes the lock below it).
-    let _run_lock =
-        riskscore_output::OutputLock::acquire_for_run(&opts.out).map_err(io_err(&opts.out))?;
     // Removed again (when still empty) if the run fails before writing anything into it.
     let out_folders = riskscore_output::NewFolders::create(&opts.out).map_err(io_err(&opts.out))?;
+    // Held for the whole run (`--out/.demo.lock`, so `--out .` works): a second demo into the same
+    // --out is refused now, not left to swap its folders in between this run's.
+    let run_lock = opts.out.join("demo");
+    let _run_lock =
+        riskscore_output::OutputLock::acquire_for_run(&run_lock).map_err(io_err(&run_lock))?;
     // Every folder is written in its staged copy and put in place at the end, with the others.
     // Staged first: an --out whose report, models or plots is not a folder fails now, not after
     // the training.
@@ -627,8 +658,10 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             &result.folds,
             &opts.config.msra.input_names(),
         );
+        let transfer_dir =
+            staged.subfolder(report_stage.join("transfer"), report_dir.join("transfer"));
         files.extend(write_transfer_report(
-            &report_stage.join("transfer"),
+            &transfer_dir,
             &result,
             &transfer_claims,
             &[],
@@ -655,7 +688,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             settings,
             transfer,
             &real_seqs,
-            &report_stage,
+            (&report_stage, &report_dir),
             &mut staged,
         )?);
         stages.push(("domain benchmark".into(), t0.elapsed().as_secs_f64()));
@@ -892,14 +925,14 @@ pub fn load_training_only(
 /// Stage 3c: the default rounds of `riskctl benchmark domains`, short (`settings`' folds and
 /// seeds): train without a speed band, a city or a geometry, test on it. Simulates its own two
 /// folders with the operating-domain families (the training one at the demo's seed, the test one
-/// at the transfer benchmark's seed and mix), staged in `staged`; writes `domains/` into
-/// `report_dir` (the staged `report/`).
+/// at the transfer benchmark's seed and mix), staged in `staged`; writes `domains/` into the
+/// staged `report/` (`report_stage`, to go in as `report_dir`).
 fn domain_benchmark(
     opts: &DemoOptions,
     settings: &DomainSettings,
     transfer: &TransferSettings,
     real_freeway: &[Sequence],
-    report_dir: &Path,
+    (report_stage, report_dir): (&Path, &Path),
     staged: &mut Staged,
 ) -> Result<Vec<PathBuf>, DemoError> {
     use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
@@ -960,7 +993,8 @@ fn domain_benchmark(
     );
     outln!();
     outln!("{}", result.to_markdown());
-    let files = result.bundle()?.write_to(&report_dir.join("domains"))?;
+    let dir = staged.subfolder(report_stage.join("domains"), report_dir.join("domains"));
+    let files = result.bundle()?.write_to(&dir)?;
     staged.push(train_staged);
     staged.push(test_staged);
     Ok(files)

@@ -120,18 +120,18 @@ fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &s
 /// Runs riskctl `args` in `p`, sends `stop` once `last` is simulated (plus 0.5 s) and checks that
 /// the run stops within [`STOP_WITHIN`] with the signal's status and message. Returns its stderr.
 fn stopped_once_simulated(p: &Path, args: &[String], last: &str, stop: Stop) -> String {
-    let ready = || simulated(&p.join(last));
+    let ready = |_: &str| simulated(&p.join(last));
     stopped_once(p, args, &format!("simulated {last}"), ready, 500, stop)
 }
 
-/// Runs riskctl `args` in `p`, sends `stop` `settle_ms` after `ready` holds (`what` names it) and
-/// checks that the run stops within [`STOP_WITHIN`] with the signal's status and message. Returns
-/// its stderr.
+/// Runs riskctl `args` in `p`, sends `stop` `settle_ms` after `ready` (given the stderr so far)
+/// holds (`what` names it) and checks that the run stops within [`STOP_WITHIN`] with the signal's
+/// status and message. Returns its stderr.
 fn stopped_once(
     p: &Path,
     args: &[String],
     what: &str,
-    ready: impl Fn() -> bool,
+    ready: impl Fn(&str) -> bool,
     settle_ms: u64,
     stop: Stop,
 ) -> String {
@@ -143,16 +143,18 @@ fn stopped_once(
         .spawn()
         .unwrap();
     let stderr = child.stderr.take().unwrap();
+    let so_far = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let shared = std::sync::Arc::clone(&so_far);
     let reader = std::thread::spawn(move || {
-        let mut all = String::new();
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let mut all = shared.lock().unwrap();
             all.push_str(&line);
             all.push('\n');
         }
-        all
+        shared.lock().unwrap().clone()
     });
     let start = Instant::now();
-    while !ready() {
+    while !ready(&so_far.lock().unwrap().clone()) {
         if let Some(status) = child.try_wait().unwrap() {
             let all = reader.join().unwrap();
             panic!("the run ended ({status}) before it {what}: {all}");
@@ -163,6 +165,10 @@ fn stopped_once(
         std::thread::sleep(Duration::from_millis(20));
     }
     std::thread::sleep(Duration::from_millis(settle_ms));
+    if let Some(status) = child.try_wait().unwrap() {
+        let all = reader.join().unwrap();
+        panic!("the run ended ({status}) before the signal: {all}");
+    }
     fault_harness::send(&child, stop);
     let signalled = Instant::now();
     let status = loop {
@@ -388,8 +394,9 @@ fn sigterm_in_demo_s_final_models_leaves_every_old_folder() {
         std::fs::write(p.join(file), text).unwrap();
     }
     let before = snapshot(p);
-    let ready = || report_written(&p.join("out"));
-    let stderr = stopped_once(p, &demo(), "wrote its report", ready, 0, Stop::Term);
+    // Its report written and its final models begun: before, both had gone in place by then.
+    let ready = |stderr: &str| report_written(&p.join("out")) && stderr.contains("[4/6]");
+    let stderr = stopped_once(p, &demo(), "began its final models", ready, 0, Stop::Term);
     let after = snapshot(p);
     let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
         .filter(|k| before.get(*k) != after.get(*k))
@@ -470,7 +477,7 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
 }
 
 #[test]
-fn a_demo_that_fails_at_its_report_leaves_the_old_data_and_extra_data() {
+fn a_demo_whose_report_is_a_file_is_refused_and_leaves_the_old_data_and_extra_data() {
     // out/report is a file: the run fails at its start, where it stages its folders (before,
     // after cross-validation, and the data/ and extra-data/ simulated by then must not have gone
     // in place).
@@ -480,6 +487,20 @@ fn a_demo_that_fails_at_its_report_leaves_the_old_data_and_extra_data() {
     std::fs::remove_dir_all(p.join("out/report")).unwrap();
     std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
     failed_at(p, &demo(), "out/report");
+}
+
+#[test]
+fn a_demo_that_fails_after_simulating_leaves_every_old_folder() {
+    // Its DRL-only folder does not load, after data/ and extra-data/ are simulated and staged
+    // (report/, models/ and plots/ too): nothing may change, no temporary or folder be left.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data", "extra-data"]);
+    std::fs::create_dir_all(p.join("bad")).unwrap();
+    std::fs::write(p.join("bad/events.csv"), "not,an,event,folder\n").unwrap();
+    let mut args = demo();
+    args.extend(["--extra-drl-only", "bad"].map(String::from));
+    failed_at(p, &args, "bad");
 }
 
 #[test]

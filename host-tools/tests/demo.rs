@@ -88,7 +88,48 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         },
         progress: Progress::Hidden,
     };
+    // A previous run's --out with the user's notes in it, at the top and in report subfolders.
+    let notes = [
+        "notes.txt",
+        "report/mine.md",
+        "report/transfer/notes.txt",
+        "report/domains/notes.txt",
+    ];
+    for n in notes {
+        std::fs::create_dir_all(out.join(n).parent().unwrap()).unwrap();
+        std::fs::write(out.join(n), n).unwrap();
+    }
     let summary = demo::run(&opts).unwrap();
+    for n in notes {
+        assert_eq!(
+            std::fs::read_to_string(out.join(n)).unwrap(),
+            n,
+            "note lost"
+        );
+    }
+    // The files it names are where they went in (not its staged temporaries), and none is left.
+    let hidden = |p: &std::path::Path| {
+        p.strip_prefix(&out)
+            .unwrap()
+            .components()
+            .any(|c| c.as_os_str().to_string_lossy().starts_with('.'))
+    };
+    for f in &summary.files {
+        assert!(f.is_file() && !hidden(f), "{}", f.display());
+    }
+    fn walk(dir: &std::path::Path, into: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, into);
+            }
+            into.push(p);
+        }
+    }
+    let mut all = Vec::new();
+    walk(&out, &mut all);
+    let left: Vec<_> = all.iter().filter(|p| hidden(p)).collect();
+    assert!(left.is_empty(), "temporaries left: {left:?}");
     for f in [
         "data/events.csv",
         "data/frames.csv",

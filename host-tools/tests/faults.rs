@@ -182,8 +182,8 @@ const WRITERS: &[Writer] = &[
         args: "demo --out OUT --config t.toml --events 12 --folds 2 --no-real --no-transfer --quiet",
         out: "demo/",
         inputs: &["t.toml"],
-        // The whole --out, held for the run (before, only each folder as it was written).
-        lock: "OUT",
+        // The run's lock in --out, held for the run (before, only each folder as it was written).
+        lock: "OUT/demo",
         long: None,
     },
     Writer {

@@ -94,7 +94,8 @@ pub struct FoldTimes {
     pub comparisons: f64,
     pub drl: f64,
     /// The DRL's own fallback MSRA (`[guard] fallback_weight_decay`; nothing is trained without
-    /// it). Not part of `msra`, the MSRA that is reported and exported.
+    /// it). Not part of `msra`: the MSRA trained beside the DRL, reported and exported, or (when
+    /// the MSRA is not reported and the key is off) only the DRL's fallback.
     pub fallback_msra: f64,
     pub msra: f64,
     pub quantise_export: f64,
