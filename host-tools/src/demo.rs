@@ -286,11 +286,19 @@ pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, Demo
     Ok(staged)
 }
 
-/// Swaps every staged simulated folder ([`simulate_staged`]) in (one rename each).
+/// Swaps every staged simulated folder ([`simulate_staged`]) in (one rename each). On an error
+/// the folders not yet swapped are dropped newest first, as they were made: a folder's temporary
+/// and lock go before its parent's (`domains-data/test` before `domains-data/train`, whose new
+/// parent is then removed).
 pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), DemoError> {
-    for dir in staged {
+    let mut staged: Vec<OutputDir> = staged.into_iter().collect();
+    staged.reverse();
+    while let Some(dir) = staged.pop() {
         let target = dir.target().to_path_buf();
-        dir.commit().map_err(io_err(&target))?;
+        if let Err(e) = dir.commit() {
+            // `staged` (the rest, newest first) drops in order.
+            return Err(io_err(&target)(e));
+        }
     }
     Ok(())
 }
@@ -307,8 +315,7 @@ struct Staged {
 }
 
 impl Drop for Staged {
-    /// Newest first, as they were made: a folder's temporary and lock go before its parent's
-    /// (`domains-data/test` before `domains-data/train`, whose new parent is then removed).
+    /// Newest first, as [`commit_staged`] drops what it has not swapped.
     fn drop(&mut self) {
         while let Some(dir) = self.dirs.pop() {
             drop(dir);
@@ -355,12 +362,7 @@ impl Staged {
                 riskscore_output::carry_missing(target, written).map_err(io_err(target))?;
             }
         }
-        while !self.dirs.is_empty() {
-            let dir = self.dirs.remove(0);
-            let target = dir.target().to_path_buf();
-            dir.commit().map_err(io_err(&target))?;
-        }
-        Ok(())
+        commit_staged(std::mem::take(&mut self.dirs))
     }
 }
 
