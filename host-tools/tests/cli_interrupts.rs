@@ -38,6 +38,23 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
     map
 }
 
+/// A [`snapshot`] of before and after the run: nothing may have changed or been left (`run`:
+/// "interrupted", "failed").
+fn assert_unchanged(
+    before: &BTreeMap<PathBuf, Option<Vec<u8>>>,
+    after: &BTreeMap<PathBuf, Option<Vec<u8>>>,
+    run: &str,
+    stderr: &str,
+) {
+    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
+        .filter(|k| before.get(*k) != after.get(*k))
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "the {run} run changed or left {changed:?}; stderr: {stderr}"
+    );
+}
+
 /// The simulated folders of the benchmarks under --out.
 const BENCHMARK_FOLDERS: &[&str] = &["train-data", "test-data"];
 
@@ -79,21 +96,28 @@ fn kill_and_fail(mut child: Child, why: String) -> ! {
     panic!("{why}");
 }
 
-/// Whether the folder `folder` (e.g. `out/test-data`) has been simulated: its `events.csv` is
-/// complete, in the staged folder beside it or (a run that writes in place) in `folder` itself.
-fn simulated(folder: &Path) -> bool {
+/// Whether `file` of the folder `folder` has been written: complete in the staged folder beside
+/// it (`.NAME.*.tmp`), or (a run that writes in place) in `folder` itself with other contents than
+/// `old`.
+fn written(folder: &Path, file: &str, old: &str) -> bool {
     let name = folder.file_name().unwrap().to_string_lossy().into_owned();
     let Ok(entries) = std::fs::read_dir(folder.parent().unwrap()) else {
         return false;
     };
-    let old = old_text(&name, "events");
     entries.flatten().any(|e| {
         let entry = e.file_name().to_string_lossy().into_owned();
         let staged = entry.starts_with(&format!(".{name}.")) && entry.ends_with(".tmp");
-        let events = e.path().join("events.csv");
-        (staged && events.is_file())
-            || (entry == name && std::fs::read(&events).is_ok_and(|b| b != old.as_bytes()))
+        let path = e.path().join(file);
+        (staged && path.is_file())
+            || (entry == name && std::fs::read(&path).is_ok_and(|b| b != old.as_bytes()))
     })
+}
+
+/// Whether the folder `folder` (e.g. `out/test-data`) has been simulated: its `events.csv` is
+/// [`written`].
+fn simulated(folder: &Path) -> bool {
+    let name = folder.file_name().unwrap().to_string_lossy();
+    written(folder, "events.csv", &old_text(&name, "events"))
 }
 
 /// Runs riskctl `args` in `p` over the old output (its simulated `folders` under `out/`), sends
@@ -104,13 +128,7 @@ fn interrupted_in_training(p: &Path, args: &[String], folders: &[&str], last: &s
     let before = snapshot(p);
     let stderr = stopped_once_simulated(p, args, last, stop);
     let after = snapshot(p);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
-    );
+    assert_unchanged(&before, &after, "interrupted", &stderr);
     assert!(
         stderr.contains(&format!("out/{}", folders[0])) && stderr.contains("left as it was"),
         "the message does not name the simulated folder it left alone: {stderr}"
@@ -334,13 +352,7 @@ fn demo_interrupted_in_a_benchmark(last: &str, kept: &[&str], stop: Stop) {
         .collect();
     assert!(hidden.is_empty(), "temporaries left: {hidden:?}; {stderr}");
     let after = under(all);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
-    );
+    assert_unchanged(&before, &after, "interrupted", &stderr);
     assert!(
         stderr.contains(&format!("out/{last}")) && stderr.contains("left as it was"),
         "the message does not name the simulated folder it left alone: {stderr}"
@@ -364,21 +376,6 @@ fn sigterm_in_demo_s_transfer_benchmark_leaves_the_old_transfer_and_domains_data
     demo_interrupted_in_a_benchmark("transfer-data", &kept, Stop::Term);
 }
 
-/// Whether the demo has written its cross-validation report (`results.md`): in its staged folder
-/// beside `out/report`, or (a run that puts it in place at once) in `out/report` itself.
-fn report_written(out: &Path) -> bool {
-    let Ok(entries) = std::fs::read_dir(out) else {
-        return false;
-    };
-    entries.flatten().any(|e| {
-        let name = e.file_name().to_string_lossy().into_owned();
-        let results = e.path().join("results.md");
-        let staged = name.starts_with(".report.") && name.ends_with(".tmp");
-        (staged && results.is_file())
-            || (name == "report" && std::fs::read(&results).is_ok_and(|b| b != b"old report\n"))
-    })
-}
-
 #[test]
 fn sigterm_in_demo_s_final_models_leaves_every_old_folder() {
     // Stopped once its report is written, as the final models train: before, the report and the
@@ -395,16 +392,12 @@ fn sigterm_in_demo_s_final_models_leaves_every_old_folder() {
     }
     let before = snapshot(p);
     // Its report written and its final models begun: before, both had gone in place by then.
-    let ready = |stderr: &str| report_written(&p.join("out")) && stderr.contains("[4/6]");
+    let report = p.join("out/report");
+    let ready =
+        |stderr: &str| written(&report, "results.md", "old report\n") && stderr.contains("[4/6]");
     let stderr = stopped_once(p, &demo(), "began its final models", ready, 0, Stop::Term);
     let after = snapshot(p);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the interrupted run changed or left {changed:?}; stderr: {stderr}"
-    );
+    assert_unchanged(&before, &after, "interrupted", &stderr);
 }
 
 /// `riskctl ablation`, small (about 3 s in a debug build): the default simulated set into
@@ -453,13 +446,7 @@ fn failed_at(p: &Path, args: &[String], report: &str) {
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains(report), "{stderr}");
     let after = snapshot(p);
-    let changed: BTreeSet<&PathBuf> = (before.keys().chain(after.keys()))
-        .filter(|k| before.get(*k) != after.get(*k))
-        .collect();
-    assert!(
-        changed.is_empty(),
-        "the failed run changed or left {changed:?}; stderr: {stderr}"
-    );
+    assert_unchanged(&before, &after, "failed", &stderr);
 }
 
 #[test]
@@ -476,31 +463,39 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
     failed_at(p, &args, "out/report");
 }
 
+/// [`demo`] with `extra` arguments over an old --out (its `data/` and `extra-data/`), after
+/// `fault` has set up the test folder: it must fail naming `names` and change nothing.
+fn demo_fails(fault: impl FnOnce(&Path), extra: &[&str], names: &str) {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data", "extra-data"]);
+    fault(p);
+    let mut args = demo();
+    args.extend(extra.iter().map(|a| a.to_string()));
+    failed_at(p, &args, names);
+}
+
 #[test]
 fn a_demo_whose_report_is_a_file_is_refused_and_leaves_the_old_data_and_extra_data() {
     // out/report is a file: the run fails at its start, where it stages its folders (before,
     // after cross-validation, and the data/ and extra-data/ simulated by then must not have gone
     // in place).
-    let d = tempfile::tempdir().unwrap();
-    let p = d.path();
-    old_output(p, &["data", "extra-data"]);
-    std::fs::remove_dir_all(p.join("out/report")).unwrap();
-    std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
-    failed_at(p, &demo(), "out/report");
+    let report_a_file = |p: &Path| {
+        std::fs::remove_dir_all(p.join("out/report")).unwrap();
+        std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
+    };
+    demo_fails(report_a_file, &[], "out/report");
 }
 
 #[test]
 fn a_demo_that_fails_after_simulating_leaves_every_old_folder() {
     // Its DRL-only folder does not load, after data/ and extra-data/ are simulated and staged
     // (report/, models/ and plots/ too): nothing may change, no temporary or folder be left.
-    let d = tempfile::tempdir().unwrap();
-    let p = d.path();
-    old_output(p, &["data", "extra-data"]);
-    std::fs::create_dir_all(p.join("bad")).unwrap();
-    std::fs::write(p.join("bad/events.csv"), "not,an,event,folder\n").unwrap();
-    let mut args = demo();
-    args.extend(["--extra-drl-only", "bad"].map(String::from));
-    failed_at(p, &args, "bad");
+    let bad_drl_only = |p: &Path| {
+        std::fs::create_dir_all(p.join("bad")).unwrap();
+        std::fs::write(p.join("bad/events.csv"), "not,an,event,folder\n").unwrap();
+    };
+    demo_fails(bad_drl_only, &["--extra-drl-only", "bad"], "bad");
 }
 
 #[test]
