@@ -24,14 +24,13 @@ fn dataset(n: usize) -> Vec<Sequence> {
         .collect()
 }
 
+/// [`common::quick_config`] with more pairs and epochs: these tests check what training learns.
 fn small_config() -> TrainConfig {
-    let mut c = TrainConfig::default();
+    let mut c = common::quick_config();
     c.comparisons.temporal.pairs = 500;
     c.comparisons.cross_sequence.pairs = 500;
     c.comparisons.physics.pairs = 300;
     c.optimiser.max_epochs = 15;
-    c.optimiser.batch_pairs = 256;
-    c.drl.hidden = vec![8, 8];
     c
 }
 
