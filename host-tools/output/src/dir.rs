@@ -40,11 +40,18 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
     }
 }
 
-/// Refuses, before anything is written, a target the final swap could not rename: a symbolic
-/// link (renaming it would move the link, not the folder) or a mount point (a rename cannot move
-/// it). Found at the end instead, the whole run's output would be lost.
+/// Refuses, before anything is written, a target that is not a folder, or one the final swap
+/// could not rename: a symbolic link (renaming it would move the link, not the folder) or a mount
+/// point (a rename cannot move it). Found at the end instead, the whole run's output would be
+/// lost.
 fn refuse_unswappable(target: &Path) -> io::Result<()> {
     use std::os::unix::fs::MetadataExt;
+    if target.exists() && !target.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            format!("{} exists and is not a folder", target.display()),
+        ));
+    }
     let Ok(meta) = std::fs::symlink_metadata(target) else {
         return Ok(());
     };
@@ -85,14 +92,8 @@ pub fn carry_missing(old: &Path, new: &Path) -> io::Result<()> {
 impl OutputDir {
     /// Locks `target` and creates the new temporary folder beside it (creating missing parent
     /// folders, removed again if the run does not commit). Refuses a target that exists and is
-    /// not a folder.
+    /// not a folder, a symbolic link or a mount point.
     pub fn create(target: &Path) -> io::Result<Self> {
-        if target.exists() && !target.is_dir() {
-            return Err(io::Error::new(
-                io::ErrorKind::AlreadyExists,
-                format!("{} exists and is not a folder", target.display()),
-            ));
-        }
         refuse_unswappable(target)?;
         let parent = parent_of(target);
         // The lock creates the missing parent folders (removed again if the run fails).
