@@ -458,7 +458,7 @@ fn event_figures(
             bundle.add(&format!("event-{}.{ext}", k + 1), picture.render(format)?);
         }
     }
-    Ok(bundle.write_to(plot_dir)?)
+    Ok(bundle.write_into(plot_dir)?)
 }
 
 /// Run the demo. Prints progress on stderr and the tables on stdout as it goes; stdout through
@@ -605,7 +605,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         eval::report::write_sequence_maxima(&pooled, w)
     })?;
     bundle.add_csv("curves.csv", |w| eval::report::write_curves_csv(&curves, w))?;
-    files.extend(bundle.write_to(&report_stage)?);
+    files.extend(bundle.write_into(&report_stage)?);
     stages.push(("report".into(), t0.elapsed().as_secs_f64()));
     outln!();
     outln!(
@@ -662,12 +662,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         );
         let transfer_dir =
             staged.subfolder(report_stage.join("transfer"), report_dir.join("transfer"));
-        files.extend(write_transfer_report(
-            &transfer_dir,
-            &result,
-            &transfer_claims,
-            &[],
-        )?);
+        files.extend(transfer_report(&result, &transfer_claims, &[])?.write_into(&transfer_dir)?);
         outln!(
             "Transfer: trained on simulator seed {} + real scenario files, tested on simulator seed {} (other mix) + held-out real scenario files ({} folds x {} seeds)",
             opts.sim_seed,
@@ -800,10 +795,10 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         "msra_epochs_per_second": msra_eps,
     });
     let tp = report_stage.join("training.json");
-    let mut file = riskscore_output::AtomicFile::create(&tp).map_err(io_err(&tp))?;
-    serde_json::to_writer_pretty(&mut file, &training)
+    // Into the staged report: it goes in place with the rest, so a plain write is whole.
+    serde_json::to_vec_pretty(&training)
         .map_err(std::io::Error::from)
-        .and_then(|()| file.commit())
+        .and_then(|text| std::fs::write(&tp, text))
         .map_err(io_err(&tp))?;
     files.push(tp);
     let files = files.iter().map(|f| staged.final_path(f)).collect();
@@ -996,25 +991,24 @@ fn domain_benchmark(
     outln!();
     outln!("{}", result.to_markdown());
     let dir = staged.subfolder(report_stage.join("domains"), report_dir.join("domains"));
-    let files = result.bundle()?.write_to(&dir)?;
+    let files = result.bundle()?.write_into(&dir)?;
     staged.push(train_staged);
     staged.push(test_staged);
     Ok(files)
 }
 
-/// Write the transfer benchmark's report files into `dir`, its `claims` as `claims.md` and
-/// `claims.csv` among them, and over several simulator draws each draw's label and own claims
-/// (`per_draw`, [`claims::add_to`]). Returns the paths.
-pub fn write_transfer_report(
-    dir: &Path,
+/// The transfer benchmark's report files, its `claims` as `claims.md` and `claims.csv` among
+/// them, and over several simulator draws each draw's label and own claims (`per_draw`,
+/// [`claims::add_to`]).
+pub fn transfer_report(
     result: &riskscore_train::transfer::TransferResult,
     claims: &[Claim],
     per_draw: &[(&str, &[Claim])],
-) -> Result<Vec<PathBuf>, DemoError> {
+) -> Result<eval::bundle::ReportBundle, DemoError> {
     let mut bundle = eval::bundle::cv_report_bundle(&result.report, &result.folds)?;
     bundle.add_json("splits.json", &result.splits)?;
     claims::add_to(&mut bundle, claims, per_draw)?;
-    Ok(bundle.write_to(dir)?)
+    Ok(bundle)
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> f64 {

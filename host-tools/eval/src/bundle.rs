@@ -87,16 +87,37 @@ impl ReportBundle {
     /// complete, then swapped in (files of the old folder the bundle does not write are kept).
     /// On error the old folder is untouched. Returns the paths in bundle order.
     pub fn write_to(&self, dir: &Path) -> Result<Vec<PathBuf>, BundleError> {
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| BundleError::Io { path, source }
-        };
         let out = OutputDir::create(dir).map_err(BundleError::Folder)?;
-        for f in &self.files {
-            std::fs::write(out.path().join(&f.name), &f.bytes).map_err(io(&dir.join(&f.name)))?;
-        }
+        self.write_files(out.path(), dir)?;
         out.commit().map_err(BundleError::Folder)?;
-        Ok(self.files.iter().map(|f| dir.join(&f.name)).collect())
+        Ok(self.paths_in(dir))
+    }
+
+    /// Writes every file into `dir`, a folder that is not in place yet and goes in as a whole
+    /// later (a staged [`OutputDir`]'s folder, or a subfolder of one), creating it if missing.
+    /// [`Self::write_to`] would stage a second copy inside the first. Returns the paths written.
+    pub fn write_into(&self, dir: &Path) -> Result<Vec<PathBuf>, BundleError> {
+        std::fs::create_dir_all(dir).map_err(|source| BundleError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        self.write_files(dir, dir)?;
+        Ok(self.paths_in(dir))
+    }
+
+    /// Writes the files into `dir`; errors name each file under `shown`, where it will be.
+    fn write_files(&self, dir: &Path, shown: &Path) -> Result<(), BundleError> {
+        for f in &self.files {
+            std::fs::write(dir.join(&f.name), &f.bytes).map_err(|source| BundleError::Io {
+                path: shown.join(&f.name),
+                source,
+            })?;
+        }
+        Ok(())
+    }
+
+    fn paths_in(&self, dir: &Path) -> Vec<PathBuf> {
+        self.files.iter().map(|f| dir.join(&f.name)).collect()
     }
 }
 
@@ -149,5 +170,26 @@ mod tests {
             "a temporary file was left"
         );
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn write_into_writes_in_place_without_a_second_staging() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("staged/sub");
+        let mut bundle = ReportBundle::default();
+        bundle.add("a.md", "alpha");
+        bundle.add("b.md", "beta");
+        let written = bundle.write_into(&dir).unwrap();
+        assert_eq!(written, vec![dir.join("a.md"), dir.join("b.md")]);
+        assert_eq!(std::fs::read_to_string(dir.join("b.md")).unwrap(), "beta");
+        let names: Vec<_> = std::fs::read_dir(d.path().join("staged"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["sub"], "a temporary folder beside it");
+        let mut failing = ReportBundle::default();
+        failing.add("missing/c.csv", "nope");
+        let e = failing.write_into(&dir).unwrap_err();
+        assert!(e.to_string().contains("missing/c.csv"), "{e}");
     }
 }

@@ -500,24 +500,26 @@ pub fn trajectory_figures(
     )?))
 }
 
-/// Writes `roc.{svg,png}` and `pr.{svg,png}` into `dir`; returns the paths written.
+/// Writes `roc.{svg,png}` and `pr.{svg,png}` into `dir`, a folder that goes in place as a whole
+/// later ([`ReportBundle::write_into`]); returns the paths written.
 pub fn plot_curves(
     dir: &Path,
     curves: &[(String, WarningCurve)],
     scores: &str,
 ) -> Result<Vec<PathBuf>, PlotError> {
     let files = curve_figures(curves, scores)?;
-    Ok(ReportBundle { files }.write_to(dir)?)
+    Ok(ReportBundle { files }.write_into(dir)?)
 }
 
-/// Writes `trajectories.{svg,png}` into `dir` (one panel per event); returns the paths written.
+/// Writes `trajectories.{svg,png}` into `dir` (one panel per event), a folder that goes in place as
+/// a whole later ([`ReportBundle::write_into`]); returns the paths written.
 pub fn plot_trajectories(
     dir: &Path,
     panels: &[TrajectoryPanel],
     scores: &str,
 ) -> Result<Vec<PathBuf>, PlotError> {
     let files = trajectory_figures(panels, scores)?;
-    Ok(ReportBundle { files }.write_to(dir)?)
+    Ok(ReportBundle { files }.write_into(dir)?)
 }
 
 /// File names of every figure [`curve_figures`] and [`trajectory_figures`] produce.

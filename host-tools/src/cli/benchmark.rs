@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use host_tools::demo::{
     commit_staged, default_real_city_data, default_real_data, load_training_only, print_claims,
-    simulate_staged, write_transfer_report, DRL_ONLY_PREFIX, REAL_DATA, TRAIN_ONLY_PREFIX,
+    simulate_staged, transfer_report, DRL_ONLY_PREFIX, REAL_DATA, TRAIN_ONLY_PREFIX,
 };
 use riskscore_data::events::Sequence;
 use riskscore_data::sim::{FamilyMix, Mix, SimConfig};
@@ -427,7 +427,7 @@ fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
         .map(String::as_str)
         .zip(draw_claims.iter().copied())
         .collect();
-    write_transfer_report(&a.out.join("report"), &result, &claims, &labelled)?;
+    transfer_report(&result, &claims, &labelled)?.write_to(&a.out.join("report"))?;
     commit_staged(staged)?;
     if a.json {
         outln!(
