@@ -249,6 +249,13 @@ pub enum DemoError {
         path: String,
         source: std::io::Error,
     },
+    /// An error whose message named a staged folder's temporary, named by its target instead
+    /// (`Staged::name_targets`).
+    #[error("{0}")]
+    Staged(String),
+    /// A staged folder's own errors ([`OutputDir`]) already name the folder.
+    #[error(transparent)]
+    Output(std::io::Error),
     #[error("cross-validation: {0}")]
     Cv(#[from] cv::CvError),
     #[error(transparent)]
@@ -281,7 +288,7 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
 /// uses it is written (the demo: with all its folders), so a failed or interrupted run leaves an
 /// old `target` as it was.
 pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, DemoError> {
-    let staged = OutputDir::create(target).map_err(io_err(target))?;
+    let staged = OutputDir::create(target).map_err(DemoError::Output)?;
     sim::simulate_to_dir(staged.path(), cfg)?;
     Ok(staged)
 }
@@ -294,11 +301,8 @@ pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), 
     let mut staged: Vec<OutputDir> = staged.into_iter().collect();
     staged.reverse();
     while let Some(dir) = staged.pop() {
-        let target = dir.target().to_path_buf();
-        if let Err(e) = dir.commit() {
-            // `staged` (the rest, newest first) drops in order.
-            return Err(io_err(&target)(e));
-        }
+        // On an error `staged` (the rest, newest first) drops in order.
+        dir.commit().map_err(DemoError::Output)?;
     }
     Ok(())
 }
@@ -326,7 +330,7 @@ impl Drop for Staged {
 impl Staged {
     /// Stages `target` and returns the folder to write it in.
     fn folder(&mut self, target: &Path) -> Result<PathBuf, DemoError> {
-        Ok(self.push(OutputDir::create(target).map_err(io_err(target))?))
+        Ok(self.push(OutputDir::create(target).map_err(DemoError::Output)?))
     }
 
     /// Adds a folder staged elsewhere ([`simulate_staged`]); returns the folder it is written in.
@@ -343,6 +347,27 @@ impl Staged {
         written
     }
 
+    /// `e` with each staged folder's temporary name in its message replaced by its target's, and
+    /// said so: the temporaries are gone once the run has failed, so a message naming one would
+    /// point at nothing. An error that names no temporary is returned as it is.
+    fn name_targets(&self, e: DemoError) -> DemoError {
+        let mut text = e.to_string();
+        let mut renamed = false;
+        for d in &self.dirs {
+            let tmp = d.path().display().to_string();
+            if text.contains(&tmp) {
+                text = text.replace(&tmp, &d.target().display().to_string());
+                renamed = true;
+            }
+        }
+        if !renamed {
+            return e;
+        }
+        DemoError::Staged(format!(
+            "{text} (written in its staged copy; no folder of --out was changed)"
+        ))
+    }
+
     /// Where `path`, written in a staged folder, will be once it is in place.
     fn final_path(&self, path: &Path) -> PathBuf {
         self.dirs
@@ -356,10 +381,10 @@ impl Staged {
 
     /// Swaps every folder in, in the order they were staged (one after another: an error or a
     /// signal between two swaps leaves the earlier ones in, each whole).
-    fn commit(mut self) -> Result<(), DemoError> {
+    fn commit(&mut self) -> Result<(), DemoError> {
         for (written, target) in &self.subfolders {
             if target.is_dir() && written.is_dir() {
-                riskscore_output::carry_missing(target, written).map_err(io_err(target))?;
+                riskscore_output::carry_missing(target, written).map_err(DemoError::Output)?;
             }
         }
         commit_staged(std::mem::take(&mut self.dirs))
@@ -465,8 +490,6 @@ fn event_figures(
 /// [`crate::print_out`], so a reader that closed it (`riskctl demo | head -1`) ends the printing,
 /// not the run.
 pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
-    let mut stages: Vec<(String, f64)> = Vec::new();
-    let mut files: Vec<PathBuf> = Vec::new();
     // Removed again (when still empty) if the run fails before writing anything into it.
     let out_folders = riskscore_output::NewFolders::create(&opts.out).map_err(io_err(&opts.out))?;
     // Held for the whole run (`--out/.demo.lock`, so `--out .` works): a second demo into the same
@@ -475,9 +498,18 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     let _run_lock =
         riskscore_output::OutputLock::acquire_for_run(&run_lock).map_err(io_err(&run_lock))?;
     // Every folder is written in its staged copy and put in place at the end, with the others.
+    let mut staged = Staged::default();
+    let summary = run_stages(opts, &mut staged).map_err(|e| staged.name_targets(e))?;
+    out_folders.keep();
+    Ok(summary)
+}
+
+/// The demo's six stages, every folder written in `staged` and put in place at the end.
+fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, DemoError> {
+    let mut stages: Vec<(String, f64)> = Vec::new();
+    let mut files: Vec<PathBuf> = Vec::new();
     // Staged first: an --out whose report, models or plots is not a folder fails now, not after
     // the training.
-    let mut staged = Staged::default();
     let report_dir = opts.out.join("report");
     let model_dir = opts.out.join("models");
     let plot_dir = opts.out.join("plots");
@@ -686,7 +718,7 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
             transfer,
             &real_seqs,
             (&report_stage, &report_dir),
-            &mut staged,
+            staged,
         )?);
         stages.push(("domain benchmark".into(), t0.elapsed().as_secs_f64()));
     }
@@ -819,7 +851,6 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
         files,
     };
     print_summary(&summary, opts, &data_dir);
-    out_folders.keep();
     Ok(summary)
 }
 
@@ -1190,4 +1221,29 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
     );
     outln!();
     outln!("{}", wrap(&conclusion(s, opts), 100));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_error_names_the_target_not_the_staged_temporary() {
+        let d = tempfile::tempdir().unwrap();
+        let mut staged = Staged::default();
+        let report = staged.folder(&d.path().join("report")).unwrap();
+        let written = report.join("results.md");
+        let e = io_err(&written)(std::io::Error::other("disk full"));
+        let text = staged.name_targets(e).to_string();
+        let target = d.path().join("report/results.md");
+        assert!(
+            text.starts_with(&format!("{}: disk full", target.display())),
+            "{text}"
+        );
+        assert!(text.contains("staged copy"), "{text}");
+        assert!(!text.contains(&report.display().to_string()), "{text}");
+        // An error naming no temporary is kept as it is.
+        let other = io_err(Path::new("elsewhere.csv"))(std::io::Error::other("gone"));
+        assert!(matches!(staged.name_targets(other), DemoError::Io { .. }));
+    }
 }

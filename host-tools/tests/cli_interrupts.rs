@@ -435,7 +435,9 @@ fn sigterm_stops_ablation_and_leaves_the_old_data() {
 
 /// Runs riskctl `args` in `p` (the old output there, `report` its last output and in the way):
 /// the run must fail naming `report` and leave everything byte for byte as it was.
-fn failed_at(p: &Path, args: &[String], report: &str) {
+/// Runs `args` in `p`, expects exit 1 with `report` in the message and nothing changed; returns
+/// the message.
+fn failed_at(p: &Path, args: &[String], report: &str) -> String {
     let before = snapshot(p);
     let o = Command::new(RISKCTL)
         .current_dir(p)
@@ -447,6 +449,7 @@ fn failed_at(p: &Path, args: &[String], report: &str) {
     assert!(stderr.contains(report), "{stderr}");
     let after = snapshot(p);
     assert_unchanged(&before, &after, "failed", &stderr);
+    stderr.into_owned()
 }
 
 #[test]
@@ -465,14 +468,14 @@ fn a_run_that_fails_at_its_report_leaves_the_old_sequences_out_and_simulated_fol
 
 /// [`demo`] with `extra` arguments over an old --out (its `data/` and `extra-data/`), after
 /// `fault` has set up the test folder: it must fail naming `names` and change nothing.
-fn demo_fails(fault: impl FnOnce(&Path), extra: &[&str], names: &str) {
+fn demo_fails(fault: impl FnOnce(&Path), extra: &[&str], names: &str) -> String {
     let d = tempfile::tempdir().unwrap();
     let p = d.path();
     old_output(p, &["data", "extra-data"]);
     fault(p);
     let mut args = demo();
     args.extend(extra.iter().map(|a| a.to_string()));
-    failed_at(p, &args, names);
+    failed_at(p, &args, names)
 }
 
 #[test]
@@ -484,7 +487,9 @@ fn a_demo_whose_report_is_a_file_is_refused_and_leaves_the_old_data_and_extra_da
         std::fs::remove_dir_all(p.join("out/report")).unwrap();
         std::fs::write(p.join("out/report"), "not a folder\n").unwrap();
     };
-    demo_fails(report_a_file, &[], "out/report");
+    let stderr = demo_fails(report_a_file, &[], "out/report exists and is not a folder");
+    // Named once: the demo's error no longer repeats the path the output layer's names.
+    assert_eq!(stderr.matches("out/report").count(), 1, "{stderr}");
 }
 
 #[test]

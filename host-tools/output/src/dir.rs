@@ -10,7 +10,8 @@ use crate::lock::{hidden_name, parent_of, OutputLock};
 /// back). Files of the old folder that the run does not write (a user's notes) are carried over
 /// by hard link, so nothing the run does not own disappears. Dropped without `commit`, the
 /// temporary folder is removed and the target is untouched. The target is locked against a
-/// second process while this lives.
+/// second process while this lives. Every error it returns names the path it concerns, so a
+/// caller does not add it again.
 pub struct OutputDir {
     target: PathBuf,
     tmp: Option<PathBuf>,
@@ -68,7 +69,8 @@ fn refuse_unswappable(target: &Path) -> io::Result<()> {
     if meta.file_type().is_symlink() {
         return refuse("a symbolic link");
     }
-    let parent = std::fs::metadata(parent_of(target))?;
+    let parent = parent_of(target);
+    let parent = std::fs::metadata(parent).map_err(|e| err(parent, "cannot read", e))?;
     if meta.is_dir() && meta.dev() != parent.dev() {
         return refuse("a mount point");
     }
