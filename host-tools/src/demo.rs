@@ -391,6 +391,24 @@ impl Staged {
     }
 }
 
+/// Checks now the folders the demo simulates into only after the cross-validation (the
+/// transfer and domain benchmarks' data), so a file or a link in the place of one fails the run
+/// at its start, not minutes later ([`riskscore_output::refuse_unswappable`]).
+fn refuse_unswappable_later_folders(opts: &DemoOptions) -> Result<(), DemoError> {
+    if opts.real.is_none() || opts.transfer.is_none() {
+        return Ok(());
+    }
+    let mut later = vec![opts.out.join("transfer-data")];
+    if opts.domains.is_some() {
+        let domains = opts.out.join("domains-data");
+        later.extend([domains.join("train"), domains.join("test")]);
+    }
+    for folder in later {
+        riskscore_output::refuse_unswappable(&folder).map_err(DemoError::Output)?;
+    }
+    Ok(())
+}
+
 /// What the demo did, measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoSummary {
@@ -516,6 +534,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
     let report_stage = staged.folder(&report_dir)?;
     let model_stage = staged.folder(&model_dir)?;
     let plot_stage = staged.folder(&plot_dir)?;
+    refuse_unswappable_later_folders(opts)?;
 
     // 1. Data.
     let t0 = Instant::now();

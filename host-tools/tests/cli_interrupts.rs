@@ -493,6 +493,28 @@ fn a_demo_whose_report_is_a_file_is_refused_and_leaves_the_old_data_and_extra_da
 }
 
 #[test]
+fn a_demo_whose_transfer_data_is_a_file_is_refused_before_it_simulates() {
+    // transfer-data/ is simulated after the cross-validation; a file in its place was found
+    // only then. It is checked at the start now, with report/, models/ and plots/.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    old_output(p, &["data", "extra-data"]);
+    std::fs::write(p.join("out/transfer-data"), "not a folder\n").unwrap();
+    let args: Vec<String> = demo()
+        .into_iter()
+        .map(|a| {
+            if a == "--no-real" {
+                "--real=real".into()
+            } else {
+                a
+            }
+        })
+        .collect();
+    let stderr = failed_at(p, &args, "out/transfer-data exists and is not a folder");
+    assert!(!stderr.contains("[1/6]"), "the run started: {stderr}");
+}
+
+#[test]
 fn a_demo_that_fails_after_simulating_leaves_every_old_folder() {
     // Its DRL-only folder does not load, after data/ and extra-data/ are simulated and staged
     // (report/, models/ and plots/ too): nothing may change, no temporary or folder be left.

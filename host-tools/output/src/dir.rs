@@ -43,10 +43,18 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
 
 /// Refuses, before anything is written, a target that is not a folder, or one the final swap
 /// could not rename: a symbolic link (renaming it would move the link, not the folder) or a mount
-/// point (a rename cannot move it). Found at the end instead, the whole run's output would be
-/// lost.
-fn refuse_unswappable(target: &Path) -> io::Result<()> {
+/// point (a rename cannot move it), or one whose parent is not a folder. Found at the end
+/// instead, the whole run's output would be lost. What [`OutputDir::create`] checks; a run that
+/// stages a folder late calls it at its start.
+pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     use std::os::unix::fs::MetadataExt;
+    let parent = parent_of(target);
+    if parent.exists() && !parent.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            format!("{} exists and is not a folder", parent.display()),
+        ));
+    }
     if target.exists() && !target.is_dir() {
         return Err(io::Error::new(
             io::ErrorKind::AlreadyExists,
@@ -69,7 +77,6 @@ fn refuse_unswappable(target: &Path) -> io::Result<()> {
     if meta.file_type().is_symlink() {
         return refuse("a symbolic link");
     }
-    let parent = parent_of(target);
     let parent = std::fs::metadata(parent).map_err(|e| err(parent, "cannot read", e))?;
     if meta.is_dir() && meta.dev() != parent.dev() {
         return refuse("a mount point");
@@ -273,6 +280,19 @@ mod tests {
         assert!(OutputDir::create(&f.join("sub")).is_err());
         assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_file_parent_is_named_as_the_folder_in_the_way() {
+        let d = tempfile::tempdir().unwrap();
+        let f = d.path().join("plain");
+        std::fs::write(&f, "keep").unwrap();
+        let e = refuse_unswappable(&f.join("train")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("{} exists and is not a folder", f.display())
+        );
+        assert!(refuse_unswappable(&d.path().join("new/train")).is_ok());
     }
 
     #[test]

@@ -21,7 +21,7 @@ mod overlap;
 mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
-pub use dir::{carry_missing, OutputDir};
+pub use dir::{carry_missing, refuse_unswappable, OutputDir};
 pub use file::{open_special, AtomicFile, AtomicSet};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;
