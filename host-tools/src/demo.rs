@@ -285,8 +285,8 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError + '_ {
 
 /// Simulates `cfg` into a temporary folder beside `target` ([`OutputDir`]: removed on an error
 /// or a Ctrl-C/SIGTERM), not yet in place: [`commit_staged`] swaps it in once the report that
-/// uses it is written (the demo: with all its folders), so a failed or interrupted run leaves an
-/// old `target` as it was.
+/// uses it is written, so a failed or interrupted run leaves an old `target` as it was. For
+/// `benchmark` and `ablation`; the demo stages its folders with all the others (`Staged`).
 pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, DemoError> {
     let staged = OutputDir::create(target).map_err(DemoError::Output)?;
     sim::simulate_to_dir(staged.path(), cfg)?;
@@ -330,14 +330,24 @@ impl Drop for Staged {
 impl Staged {
     /// Stages `target` and returns the folder to write it in.
     fn folder(&mut self, target: &Path) -> Result<PathBuf, DemoError> {
-        Ok(self.push(OutputDir::create(target).map_err(DemoError::Output)?))
-    }
-
-    /// Adds a folder staged elsewhere ([`simulate_staged`]); returns the folder it is written in.
-    fn push(&mut self, dir: OutputDir) -> PathBuf {
+        let dir = OutputDir::create(target).map_err(DemoError::Output)?;
         let path = dir.path().to_path_buf();
         self.dirs.push(dir);
-        path
+        Ok(path)
+    }
+
+    /// Stages `target` and simulates `cfg` into it; returns the folder to read the events from.
+    /// Staged before it is written, so [`Self::name_targets`] names an error of the simulation by
+    /// `target`.
+    fn simulate(&mut self, target: &Path, cfg: &SimConfig) -> Result<PathBuf, DemoError> {
+        let path = self.folder(target)?;
+        sim::simulate_to_dir(&path, cfg)?;
+        Ok(path)
+    }
+
+    /// Each staged folder's temporary and its target, in the order they were staged.
+    fn renames(&self) -> impl Iterator<Item = (&Path, &Path)> {
+        self.dirs.iter().map(|d| (d.path(), d.target()))
     }
 
     /// `written`, a subfolder of a staged folder, goes in as `target`: at the commit it keeps the
@@ -347,16 +357,21 @@ impl Staged {
         written
     }
 
-    /// `e` with each staged folder's temporary name in its message replaced by its target's, and
-    /// said so: the temporaries are gone once the run has failed, so a message naming one would
-    /// point at nothing. An error that names no temporary is returned as it is.
+    /// `e` (the whole chain of causes, as `riskctl` prints it) with each staged folder's
+    /// temporary name replaced by its target's, and said so: the temporaries are gone once the run
+    /// has failed, so a message naming one would point at nothing. An error that names no
+    /// temporary is returned as it is. Only for an error before [`Self::commit`], which takes
+    /// every folder out of `self` before the first swap (its own errors name the targets).
     fn name_targets(&self, e: DemoError) -> DemoError {
-        let mut text = e.to_string();
+        let causes = std::iter::successors(Some(&e as &(dyn std::error::Error + 'static)), |c| {
+            c.source()
+        });
+        let mut text = crate::error_text(causes);
         let mut renamed = false;
-        for d in &self.dirs {
-            let tmp = d.path().display().to_string();
+        for (tmp, target) in self.renames() {
+            let tmp = tmp.display().to_string();
             if text.contains(&tmp) {
-                text = text.replace(&tmp, &d.target().display().to_string());
+                text = text.replace(&tmp, &target.display().to_string());
                 renamed = true;
             }
         }
@@ -364,18 +379,14 @@ impl Staged {
             return e;
         }
         DemoError::Staged(format!(
-            "{text} (written in its staged copy; no folder of --out was changed)"
+            "{text} (in the run's staged copy, removed with it; no folder of --out was changed)"
         ))
     }
 
     /// Where `path`, written in a staged folder, will be once it is in place.
     fn final_path(&self, path: &Path) -> PathBuf {
-        self.dirs
-            .iter()
-            .find_map(|d| {
-                let rest = path.strip_prefix(d.path()).ok()?;
-                Some(d.target().join(rest))
-            })
+        self.renames()
+            .find_map(|(tmp, target)| Some(target.join(path.strip_prefix(tmp).ok()?)))
             .unwrap_or_else(|| path.to_path_buf())
     }
 
@@ -538,7 +549,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
 
     // 1. Data.
     let t0 = Instant::now();
-    // The simulated folders are staged (`simulate_staged`) with the others.
+    // The simulated folders are staged (`Staged::simulate`) with the others.
     let (data_dir, data_staged) = match &opts.data {
         Some(d) => (d.clone(), None),
         None => {
@@ -555,15 +566,12 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
                 cfg.seed,
                 dir.display()
             );
-            let staged = simulate_staged(&dir, &cfg)?;
-            (dir, Some(staged))
+            let written = staged.simulate(&dir, &cfg)?;
+            (dir, Some(written))
         }
     };
     // Where the simulated events are read from until they go in place.
-    let data_read = match data_staged {
-        Some(dir) => staged.push(dir),
-        None => data_dir.clone(),
-    };
+    let data_read = data_staged.unwrap_or_else(|| data_dir.clone());
     let (sim_seqs, sim_counts) = load_sequences(&data_read)?;
     eprintln!(
         "      simulated events: {sim_counts}; {} sequences",
@@ -584,10 +592,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
         real_seqs = r;
         seqs.extend(real_seqs.iter().cloned());
     }
-    let (extra_seqs, extra_counts, extra_staged) = load_extra(opts)?;
-    if let Some(dir) = extra_staged {
-        staged.push(dir);
-    }
+    let (extra_seqs, extra_counts) = load_extra(opts, staged)?;
     let (drl_only_seqs, drl_only_counts) = load_drl_only(&opts.extra.drl_only)?;
     let extra_counts = match (extra_counts, drl_only_counts) {
         (Some(a), Some(b)) => Some(format!("{a}; DRL only: {b}")),
@@ -688,7 +693,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
             cfg.mix.safe,
             dir.display()
         );
-        let test_dir = staged.push(simulate_staged(&dir, &cfg)?);
+        let test_dir = staged.simulate(&dir, &cfg)?;
         let (test_sim, _) = load_sequences(&test_dir)?;
         // The training-only data joins the simulated training side, which every fold trains on.
         let mut train_sim = sim_seqs.clone();
@@ -876,16 +881,15 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
 /// Event-id prefix of the training-only simulated events (apart from the simulated default set's).
 pub const EXTRA_SIM_PREFIX: &str = "extra-sim/";
 
-/// [`load_extra`]'s sequences, counts and staged simulated folder.
-type Extra = (Vec<Sequence>, Option<String>, Option<OutputDir>);
-
 /// The recipe's training-only sequences ([`ExtraTraining`]): simulates the extra folder into
-/// `extra-data/` (staged: [`simulate_staged`]) and loads the extra real folders. Returns them,
-/// their counts (`None`: none) and the staged folder.
-fn load_extra(opts: &DemoOptions) -> Result<Extra, DemoError> {
+/// `extra-data/` (staged in `staged`: [`Staged::simulate`]) and loads the extra real folders.
+/// Returns them and their counts (`None`: none).
+fn load_extra(
+    opts: &DemoOptions,
+    staged: &mut Staged,
+) -> Result<(Vec<Sequence>, Option<String>), DemoError> {
     let mut seqs = Vec::new();
     let mut counts = Vec::new();
-    let mut staged = None;
     if let Some(extra) = &opts.extra.sim {
         let dir = opts.out.join("extra-data");
         let cfg = SimConfig {
@@ -902,9 +906,7 @@ fn load_extra(opts: &DemoOptions) -> Result<Extra, DemoError> {
             cfg.seed,
             dir.display()
         );
-        let folder = simulate_staged(&dir, &cfg)?;
-        let (mut s, c) = load_sequences(folder.path())?;
-        staged = Some(folder);
+        let (mut s, c) = load_sequences(&staged.simulate(&dir, &cfg)?)?;
         // Simulated ids restart at 000001 in every folder; training groups sequences by event id
         // (validation split, pair draws), so the extra folder's events get ids of their own.
         for seq in &mut s {
@@ -923,11 +925,7 @@ fn load_extra(opts: &DemoOptions) -> Result<Extra, DemoError> {
         counts.push(format!("real {c} ({})", dir.display()));
         seqs.extend(s);
     }
-    Ok((
-        seqs,
-        (!counts.is_empty()).then(|| counts.join(" + ")),
-        staged,
-    ))
+    Ok((seqs, (!counts.is_empty()).then(|| counts.join(" + "))))
 }
 
 /// Event-id prefix of the DRL-only training sequences (`drl-only/<folder index>/<id>`).
@@ -983,9 +981,9 @@ fn domain_benchmark(
     staged: &mut Staged,
 ) -> Result<Vec<PathBuf>, DemoError> {
     use riskscore_train::domains::{self, DomainData, EmptyRound, Round};
-    // Staged ([`simulate_staged`]), swapped in with the demo's other folders.
-    let simulate =
-        |folder: &str, seed: u64, mix: sim::Mix| -> Result<(Vec<Sequence>, OutputDir), DemoError> {
+    // Staged ([`Staged::simulate`]), swapped in with the demo's other folders.
+    let mut simulate =
+        |folder: &str, seed: u64, mix: sim::Mix| -> Result<Vec<Sequence>, DemoError> {
             let dir = opts.out.join("domains-data").join(folder);
             let cfg = SimConfig {
                 seed,
@@ -995,8 +993,7 @@ fn domain_benchmark(
                 progress: opts.progress == Progress::Bar,
                 ..SimConfig::default()
             };
-            let staged = simulate_staged(&dir, &cfg)?;
-            Ok((load_sequences(staged.path())?.0, staged))
+            Ok(load_sequences(&staged.simulate(&dir, &cfg)?)?.0)
         };
     let real_city = match &settings.real_city {
         Some(dir) => load_sequences(dir)?.0,
@@ -1014,8 +1011,8 @@ fn domain_benchmark(
         settings.folds,
         settings.seeds
     );
-    let (train, train_staged) = simulate("train", opts.sim_seed, SimConfig::default().mix)?;
-    let (test, test_staged) = simulate("test", transfer.test_seed, transfer.test_mix)?;
+    let train = simulate("train", opts.sim_seed, SimConfig::default().mix)?;
+    let test = simulate("test", transfer.test_seed, transfer.test_mix)?;
     let data = DomainData::new(train, test, real_freeway.to_vec(), real_city);
     let options = riskscore_train::transfer::TransferOptions {
         folds: settings.folds,
@@ -1041,10 +1038,7 @@ fn domain_benchmark(
     outln!();
     outln!("{}", result.to_markdown());
     let dir = staged.subfolder(report_stage.join("domains"), report_dir.join("domains"));
-    let files = result.bundle()?.write_into(&dir)?;
-    staged.push(train_staged);
-    staged.push(test_staged);
-    Ok(files)
+    Ok(result.bundle()?.write_into(&dir)?)
 }
 
 /// The transfer benchmark's report files, its `claims` as `claims.md` and `claims.csv` among
@@ -1261,6 +1255,16 @@ mod tests {
         );
         assert!(text.contains("staged copy"), "{text}");
         assert!(!text.contains(&report.display().to_string()), "{text}");
+        // A cause the message does not quote is kept (`model file X: cannot read` alone said
+        // nothing of why).
+        let blob = report.join("drl.rsk");
+        let unread = eval::model_files::ModelFile::read(&blob.display().to_string()).unwrap_err();
+        let text = staged
+            .name_targets(DemoError::ModelFile(unread))
+            .to_string();
+        assert!(text.contains("report/drl.rsk: cannot read: "), "{text}");
+        assert!(text.contains("os error 2"), "{text}");
+        assert!(text.contains("removed with it"), "{text}");
         // An error naming no temporary is kept as it is.
         let other = io_err(Path::new("elsewhere.csv"))(std::io::Error::other("gone"));
         assert!(matches!(staged.name_targets(other), DemoError::Io { .. }));

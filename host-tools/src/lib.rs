@@ -27,6 +27,26 @@ macro_rules! outln {
 pub mod demo;
 pub mod warnings;
 
+/// An error and its causes joined by `: `, each said once: many library errors already quote
+/// their source in their own message, and `{:#}` would print it a second time. What `riskctl`
+/// prints after `error:`.
+pub fn error_text<'a>(
+    causes: impl IntoIterator<Item = &'a (dyn std::error::Error + 'static)>,
+) -> String {
+    let mut text = String::new();
+    for cause in causes {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
+}
+
 /// Writes to standard output. Unlike `print!`, which panics (exit 101 and a backtrace) when the
 /// reader has gone (`riskctl demo | head -1`), a closed standard output is ignored: the run goes
 /// on and still writes its files and its exit status; any other write error is a warning on

@@ -106,21 +106,8 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// The error and its causes joined by `: `, each said once: many library errors already quote
-/// their source in their own message, and `{:#}` would print it a second time.
 fn error_text(e: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in e.chain() {
-        let part = cause.to_string();
-        if text.contains(&part) {
-            continue;
-        }
-        if !text.is_empty() {
-            text.push_str(": ");
-        }
-        text.push_str(&part);
-    }
-    text
+    host_tools::error_text(e.chain())
 }
 
 #[cfg(test)]
