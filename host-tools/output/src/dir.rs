@@ -144,7 +144,7 @@ impl OutputDir {
             if let Ok(m) = std::fs::metadata(&target) {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
             }
-            sync_dir(&tmp);
+            sync_tree(&tmp)?;
             let aside = tempfile::Builder::new()
                 .prefix(hidden_name(&target, ".")?.file_name().unwrap_or_default())
                 .suffix(".old")
@@ -169,7 +169,7 @@ impl OutputDir {
             let _ = std::fs::remove_dir_all(&aside);
             crate::cleanup::unregister(&aside);
         } else {
-            sync_dir(&tmp);
+            sync_tree(&tmp)?;
             std::fs::rename(&tmp, &target)
                 .map_err(|e| err(&target, "cannot move the new folder in", e))?;
             self.done(&tmp);
@@ -189,6 +189,26 @@ fn sync_dir(dir: &Path) {
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }
+}
+
+/// Syncs every file below `dir` (and the folders), so the folder swapped in never holds a file
+/// whose data is still in memory: a power loss right after the swap would leave it empty. Files
+/// written by an [`crate::AtomicFile`] are synced already; a second sync of them is cheap.
+fn sync_tree(dir: &Path) -> io::Result<()> {
+    for e in std::fs::read_dir(dir).map_err(|e| err(dir, "cannot read", e))? {
+        let e = e.map_err(|e| err(dir, "cannot read", e))?;
+        let path = e.path();
+        let kind = e.file_type().map_err(|x| err(&path, "cannot read", x))?;
+        if kind.is_dir() {
+            sync_tree(&path)?;
+        } else if kind.is_file() {
+            std::fs::File::open(&path)
+                .and_then(|f| f.sync_all())
+                .map_err(|x| err(&path, "cannot sync", x))?;
+        }
+    }
+    sync_dir(dir);
+    Ok(())
 }
 
 impl Drop for OutputDir {
