@@ -434,9 +434,8 @@ fn sigterm_stops_ablation_and_leaves_the_old_data() {
 }
 
 /// Runs riskctl `args` in `p` (the old output there, `report` its last output and in the way):
-/// the run must fail naming `report` and leave everything byte for byte as it was.
-/// Runs `args` in `p`, expects exit 1 with `report` in the message and nothing changed; returns
-/// the message.
+/// the run must fail (exit 1) naming `report` and leave everything byte for byte as it was.
+/// Returns the message.
 fn failed_at(p: &Path, args: &[String], report: &str) -> String {
     let before = snapshot(p);
     let o = Command::new(RISKCTL)

@@ -5,14 +5,14 @@
 //! Sans (`fonts/DejaVuSans.ttf`, unmodified, Bitstream Vera licence in `fonts/LICENSE-DejaVu.txt`,
 //! which allows redistribution inside software), so figures look the same on every machine and no
 //! system font is needed.
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Once;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::bundle::{BundleError, ReportBundle, ReportFile};
+use super::bundle::{BundleError, ReportFile};
 use super::metrics::WarningCurve;
 use super::palette::{LineStyle, MethodStyle, Palette};
 pub use super::trajectory::{
@@ -500,28 +500,6 @@ pub fn trajectory_figures(
     )?))
 }
 
-/// Writes `roc.{svg,png}` and `pr.{svg,png}` into `dir`, a folder that goes in place as a whole
-/// later ([`ReportBundle::write_into`]); returns the paths written.
-pub fn plot_curves(
-    dir: &Path,
-    curves: &[(String, WarningCurve)],
-    scores: &str,
-) -> Result<Vec<PathBuf>, PlotError> {
-    let files = curve_figures(curves, scores)?;
-    Ok(ReportBundle { files }.write_into(dir)?)
-}
-
-/// Writes `trajectories.{svg,png}` into `dir` (one panel per event), a folder that goes in place as
-/// a whole later ([`ReportBundle::write_into`]); returns the paths written.
-pub fn plot_trajectories(
-    dir: &Path,
-    panels: &[TrajectoryPanel],
-    scores: &str,
-) -> Result<Vec<PathBuf>, PlotError> {
-    let files = trajectory_figures(panels, scores)?;
-    Ok(ReportBundle { files }.write_into(dir)?)
-}
-
 /// File names of every figure [`curve_figures`] and [`trajectory_figures`] produce.
 pub const FIGURE_FILES: [&str; 6] = [
     "roc.svg",
@@ -535,6 +513,7 @@ pub const FIGURE_FILES: [&str; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bundle::ReportBundle;
     use crate::protocol::test_sequence as seq;
     use crate::protocol::EventKind;
 
@@ -546,7 +525,8 @@ mod tests {
             seq("s", EventKind::Safe, None, &[0.0, 2.5]),
         ];
         let curve = crate::warning_curve(&crate::protocol::alert_profiles(&seqs).unwrap());
-        let written = plot_curves(dir.path(), &[("M".into(), curve)], "the test's scores").unwrap();
+        let files = curve_figures(&[("M".into(), curve)], "the test's scores").unwrap();
+        let written = ReportBundle { files }.write_into(dir.path()).unwrap();
         assert_eq!(written.len(), 4);
         let svg = std::fs::read_to_string(dir.path().join("roc.svg")).unwrap();
         assert!(svg.contains("A^ROC_90"), "legend text is drawn");
