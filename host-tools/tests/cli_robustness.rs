@@ -845,6 +845,64 @@ fn export_model_over_a_checkpoint_is_refused() {
     }
 }
 
+/// `calibrate --out run/msra.json` (and `calibrate-domain`) replaced the MSRA checkpoint with a
+/// blob, and any other file too (a score table), exit 0. A file that is not a blob is refused and
+/// left as it is; a blob is still re-calibrated in place.
+#[test]
+fn calibrating_over_a_file_that_is_not_a_blob_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = trained_run(dir.path());
+    let events = dir.path().join("events");
+    let table = dir.path().join("scores.csv");
+    std::fs::write(&table, "event_id,time,DRL\n000001,0.0,1.5\n").unwrap();
+    let (blob, checkpoint) = (run.join("drl.rsk"), run.join("msra.json"));
+    let calibrate = |out: &Path| {
+        riskctl(&[
+            "calibrate",
+            "--model",
+            blob.to_str().unwrap(),
+            "--normal",
+            events.to_str().unwrap(),
+            "--false-alarm-rate",
+            "5",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let calibrate_domain = |out: &Path| {
+        riskctl(&[
+            "calibrate-domain",
+            "--model",
+            blob.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    for (out, what) in [
+        (&checkpoint, "it is a training checkpoint"),
+        (&table, "it is not a model blob"),
+    ] {
+        let before = std::fs::read(out).unwrap();
+        for o in [calibrate(out), calibrate_domain(out)] {
+            let err = common::stderr(&o);
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            assert!(err.contains(what) && err.contains("left as it is"), "{err}");
+            assert_eq!(std::fs::read(out).unwrap(), before, "{}", out.display());
+        }
+    }
+    // A blob at --out is re-calibrated in place, as before.
+    let again = dir.path().join("drl-calibrated.rsk");
+    std::fs::copy(&blob, &again).unwrap();
+    let o = calibrate(&again);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert_ne!(
+        std::fs::read(&again).unwrap(),
+        std::fs::read(&blob).unwrap()
+    );
+}
+
 /// train writes five named files into --out and leaves the rest of the folder alone, so a
 /// configuration kept in the run folder is no overlap (it was refused: "--out runs/x contains
 /// --config runs/x/cfg.toml: refusing to replace it"); a configuration at one of those five

@@ -211,13 +211,15 @@ fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
 }
 
 /// A blob rewritten from `--model` and event folders (given with `folder_flag`): `out` must not
-/// be the model, one of the folders' files or lie inside a folder.
+/// be the model, one of the folders' files or lie inside a folder, nor an existing file that is
+/// not a blob ([`super::output::refuse_replacing_a_non_blob`]).
 pub(super) fn refuse_blob_overlaps(
     model: &Path,
     folder_flag: &str,
     folders: &[PathBuf],
     out: &Path,
 ) -> anyhow::Result<()> {
+    super::output::refuse_replacing_a_non_blob("--out", out)?;
     let folders: Vec<(&str, Option<&Path>)> = folders
         .iter()
         .map(|d| (folder_flag, Some(d.as_path())))

@@ -55,17 +55,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let to_stdout = super::output::is_stdout(&args.out);
     // A checkpoint at --out (the other model's, `export-model run/drl.json --out run/msra.json`)
     // holds trained parameters no export can give back: a blob over it would lose a training run.
-    if !to_stdout
-        && std::fs::metadata(&args.out).is_ok_and(|m| m.is_file())
-        && Checkpoint::load(&args.out).is_ok()
-    {
-        anyhow::bail!(
-            "--out {} is a training checkpoint (the JSON `riskctl train` writes), not a model \
-             blob: a blob written over it would lose its trained parameters; it is left as it \
-             is. Give --out another name (conventionally *.rsk)",
-            args.out.display()
-        );
-    }
+    // Any other file that is not a blob is refused the same way.
+    super::output::refuse_replacing_a_non_blob("--out", &args.out)?;
     // What the old blob carries that a checkpoint cannot give (it holds no data).
     let lost = (!to_stdout)
         .then(|| std::fs::read(&args.out).ok())

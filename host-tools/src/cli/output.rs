@@ -205,6 +205,37 @@ pub fn refuse_overwriting_a_model(flag: &str, out: &Path, writes: &str) -> anyho
     )
 }
 
+/// Refuses an output file `out` (given with `flag`) that a model blob would replace although it
+/// is not one: a training checkpoint (its trained parameters are lost), a table, a user's notes.
+/// A blob (re-calibrating in place), an empty file, standard output and a device are written.
+pub fn refuse_replacing_a_non_blob(flag: &str, out: &Path) -> anyhow::Result<()> {
+    use riskscore_eval::model_files::{model_file_kind, ModelFileKind, KIND_HEAD_BYTES};
+    use std::io::Read;
+    if is_stdout(out) || !std::fs::metadata(out).is_ok_and(|m| m.is_file() && m.len() > 0) {
+        return Ok(());
+    }
+    let mut head = Vec::with_capacity(KIND_HEAD_BYTES);
+    let read = std::fs::File::open(out)
+        .and_then(|f| f.take(KIND_HEAD_BYTES as u64).read_to_end(&mut head));
+    if read.is_err() {
+        // Not readable: the write says why it cannot replace the file either.
+        return Ok(());
+    }
+    let what = match model_file_kind(&head) {
+        Some(ModelFileKind::Blob) => return Ok(()),
+        Some(ModelFileKind::Checkpoint) => {
+            "a training checkpoint (the JSON `riskctl train` writes): a blob written over it \
+             would lose its trained parameters"
+        }
+        None => "not a model blob: a blob written over it would lose what it holds",
+    };
+    anyhow::bail!(
+        "{flag} {}: it is {what}; it is left as it is. Give {flag} another name \
+         (conventionally *.rsk)",
+        out.display()
+    )
+}
+
 /// How a refused run's message names an output it did not write: "OUT left as it was" when it
 /// exists, "OUT not created" when it does not.
 pub fn left_alone(out: &Path) -> String {

@@ -57,6 +57,10 @@ impl Writer {
         if self.out.ends_with('/') {
             std::fs::create_dir_all(&path).unwrap();
             std::fs::write(path.join("notes.txt"), "my notes\n").unwrap();
+        } else if self.out.ends_with(".rsk") {
+            // A blob writer replaces an old blob only (anything else is refused as not one):
+            // the old output starts like one.
+            std::fs::write(&path, format!("RSKM old output of {}\n", self.name)).unwrap();
         } else {
             std::fs::write(&path, format!("old output of {}\n", self.name)).unwrap();
         }
