@@ -84,6 +84,38 @@ pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     Ok(())
 }
 
+/// Refuses a new entry whose name the old folder holds as the other kind: a folder of the user's
+/// where the run writes a file (`results.md/` holding notes) would be removed with the old folder,
+/// and a file where the run writes a folder likewise. A link counts as a file (it is replaced, not
+/// what it points to).
+fn refuse_kind_clashes(old: &Path, new: &Path) -> io::Result<()> {
+    for e in std::fs::read_dir(new).map_err(|e| err(new, "cannot read", e))? {
+        let e = e.map_err(|e| err(new, "cannot read", e))?;
+        let theirs = old.join(e.file_name());
+        let Ok(before) = std::fs::symlink_metadata(&theirs) else {
+            continue;
+        };
+        let writes_folder = e.file_type().is_ok_and(|t| t.is_dir());
+        if before.is_dir() != writes_folder {
+            let (is, writes) = if writes_folder {
+                ("a file", "folder")
+            } else {
+                ("a folder", "file")
+            };
+            return Err(io::Error::new(
+                io::ErrorKind::AlreadyExists,
+                format!(
+                    "{} is {is}, not the {writes} this run writes there: it would be lost with \
+                     the old output, so it is left as it is and nothing was put in place (move \
+                     it, or choose another output)",
+                    theirs.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Carries every entry of the folder `old` that `new` does not have into `new` (see [`carry`]):
 /// what [`OutputDir::commit`] does for the old target, and what a caller does for a subfolder it
 /// wrote fresh inside a staged folder (an old subfolder's own notes are kept with it).
@@ -140,6 +172,7 @@ impl OutputDir {
         let tmp = self.tmp.clone().expect("open until commit");
         let target = self.target.clone();
         if target.is_dir() {
+            refuse_kind_clashes(&target, &tmp)?;
             carry_missing(&target, &tmp)?;
             if let Ok(m) = std::fs::metadata(&target) {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
@@ -300,6 +333,32 @@ mod tests {
         assert!(OutputDir::create(&f.join("sub")).is_err());
         assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_user_s_folder_under_a_result_file_s_name_is_never_removed() {
+        // `evaluate --out rep` with rep/results.md/ a folder of notes: the swap removed it.
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("rep");
+        std::fs::create_dir_all(out.join("results.md")).unwrap();
+        std::fs::write(out.join("results.md/note"), "keep").unwrap();
+        std::fs::write(out.join("sub"), "a file where the run writes a folder").unwrap();
+        for (name, folder) in [("results.md", false), ("sub", true)] {
+            let o = OutputDir::create(&out).unwrap();
+            if folder {
+                std::fs::create_dir(o.path().join(name)).unwrap();
+            } else {
+                std::fs::write(o.path().join(name), "new").unwrap();
+            }
+            let e = o.commit().unwrap_err();
+            assert!(e.to_string().contains(&format!("rep/{name} is a ")), "{e}");
+            assert_eq!(
+                std::fs::read_to_string(out.join("results.md/note")).unwrap(),
+                "keep"
+            );
+            assert!(std::fs::read_to_string(out.join("sub")).is_ok());
+            assert_eq!(names(d.path()), ["rep"], "temporaries left");
+        }
     }
 
     #[test]
