@@ -903,6 +903,61 @@ fn calibrating_over_a_file_that_is_not_a_blob_is_refused() {
     );
 }
 
+/// A read-only output (a file, or an `evaluate --out` folder) was replaced by the rename whatever
+/// its mode, and the folder's old copy was left behind as `.NAME.XXXXXX.old/` where its files
+/// could not be removed. Both are refused and left as they are; evaluate says so before it
+/// computes (no table printed).
+#[test]
+fn read_only_outputs_are_refused_and_left_as_they_are() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let (table, folder) = (dir.path().join("s.csv"), dir.path().join("rep"));
+    std::fs::write(&table, "old\n").unwrap();
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::write(folder.join("notes.txt"), "mine\n").unwrap();
+    for p in [&table, &folder] {
+        let mode = if p.is_dir() { 0o555 } else { 0o444 };
+        std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
+    }
+    let blob = model("drl-default.rsk");
+    let run = |command: &str, out: &Path| {
+        riskctl(&[
+            command,
+            "--model",
+            blob.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    for (command, out) in [("score", &table), ("evaluate", &folder)] {
+        let o = run(command, out);
+        let err = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{command}: {err}");
+        assert!(
+            err.contains("is read-only") && err.contains("left as it is"),
+            "{err}"
+        );
+        assert!(o.stdout.is_empty(), "{command} computed first");
+    }
+    assert_eq!(std::fs::read_to_string(&table).unwrap(), "old\n");
+    assert_eq!(
+        std::fs::read_to_string(folder.join("notes.txt")).unwrap(),
+        "mine\n"
+    );
+    let mut left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["events", "rep", "s.csv"], "temporaries left");
+    for p in [&table, &folder] {
+        std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+}
+
 /// train writes five named files into --out and leaves the rest of the folder alone, so a
 /// configuration kept in the run folder is no overlap (it was refused: "--out runs/x contains
 /// --config runs/x/cfg.toml: refusing to replace it"); a configuration at one of those five

@@ -77,6 +77,18 @@ pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     if meta.file_type().is_symlink() {
         return refuse("a symbolic link");
     }
+    if meta.is_dir() && meta.permissions().readonly() {
+        // The swap would replace it whatever its mode, and leave its old copy behind where the
+        // files in it cannot be removed (`.NAME.XXXXXX.old/`).
+        return Err(io::Error::new(
+            io::ErrorKind::PermissionDenied,
+            format!(
+                "{} is read-only (nobody may write it): it is left as it is; make it writable \
+                 (chmod u+w) or choose another output",
+                target.display()
+            ),
+        ));
+    }
     let parent = std::fs::metadata(parent).map_err(|e| err(parent, "cannot read", e))?;
     if meta.is_dir() && meta.dev() != parent.dev() {
         return refuse("a mount point");
@@ -359,6 +371,21 @@ mod tests {
             assert!(std::fs::read_to_string(out.join("sub")).is_ok());
             assert_eq!(names(d.path()), ["rep"], "temporaries left");
         }
+    }
+
+    #[test]
+    fn a_read_only_folder_is_refused_and_left_as_it_is() {
+        use std::os::unix::fs::PermissionsExt;
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("rep");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o555)).unwrap();
+        let e = OutputDir::create(&out).err().expect("refused");
+        assert!(e.to_string().contains("rep is read-only"), "{e}");
+        assert_eq!(names(d.path()), ["rep"], "temporaries left");
+        std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o755)).unwrap();
+        assert!(OutputDir::create(&out).is_ok());
     }
 
     #[test]

@@ -83,6 +83,14 @@ impl AtomicFile {
                 "is a folder, not a file",
             ));
         }
+        if std::fs::metadata(dest).is_ok_and(|m| m.permissions().readonly()) {
+            // A rename replaces it whatever its mode; `cp` would refuse, and so do we.
+            return Err(io::Error::new(
+                io::ErrorKind::PermissionDenied,
+                "is read-only (nobody may write it): it is left as it is; make it writable \
+                 (chmod u+w) or choose another output",
+            ));
+        }
         let lock = OutputLock::acquire(dest)?;
         let (file, tmp) = temp_beside(dest)?.into_parts();
         Ok(Self {
@@ -299,6 +307,22 @@ mod tests {
         assert!(AtomicFile::create(d.path()).is_err());
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
         assert_eq!(names(d.path()), ["plain"]);
+    }
+
+    #[test]
+    fn a_read_only_file_is_refused_and_left_as_it_is() {
+        // A rename replaced it (mode kept) where `cp` would have refused.
+        use std::os::unix::fs::PermissionsExt;
+        let d = tempfile::tempdir().unwrap();
+        let file = d.path().join("s.csv");
+        std::fs::write(&file, "old").unwrap();
+        std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let e = AtomicFile::create(&file).err().expect("refused");
+        assert!(e.to_string().contains("is read-only"), "{e}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "old");
+        assert_eq!(names(d.path()), ["s.csv"]);
+        std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o644)).unwrap();
+        assert!(AtomicFile::create(&file).is_ok());
     }
 
     #[test]

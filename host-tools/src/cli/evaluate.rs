@@ -128,6 +128,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _out_lock = match &args.out {
         Some(out) => {
             refuse_output_overlaps(&files, dir, out)?;
+            // What the final swap would refuse (a file, a link, a read-only folder), said now.
+            riskscore_output::refuse_unswappable(out)?;
             Some(
                 riskscore_output::OutputLock::acquire_for_run(out)
                     .with_context(|| format!("--out {}", out.display()))?,
