@@ -578,6 +578,39 @@ fn missing_columns_and_files_are_errors() {
 }
 
 #[test]
+fn a_duplicated_column_and_an_empty_file_are_named() {
+    // A second `x_ego` of 99999 was read as if absent (the first won without a word), and a
+    // 0-byte events.csv was "missing required column `event_id`".
+    let (ev, fr) = good();
+    let mut lines = fr.lines();
+    let header = lines.next().unwrap();
+    let twice: String = std::iter::once(format!("{header},x_ego"))
+        .chain(lines.map(|l| format!("{l},99999")))
+        .map(|l| l + "\n")
+        .collect();
+    let dir = folder(&ev, &twice);
+    let e = load_events(dir.path()).unwrap_err();
+    let at = header.split(',').position(|h| h == "x_ego").unwrap() + 1;
+    let end = header.split(',').count() + 1;
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{}: line 1: column `x_ego` appears twice in the header (columns {at} and {end}): \
+             which one holds the data cannot be told",
+            dir.path().join("frames.csv").display()
+        )
+    );
+    let dir = folder("", &fr);
+    let e = load_events(dir.path()).unwrap_err();
+    assert!(matches!(e, EventsError::EmptyFile { .. }), "{e}");
+    assert!(
+        e.to_string()
+            .ends_with("events.csv: the file is empty (no header line)"),
+        "{e}"
+    );
+}
+
+#[test]
 fn columns_may_come_in_any_order_with_extras() {
     let ev = "kind,event_id,note,t_start,t_end,t_impact,length_ego,width_ego,length_sur,width_sur\nsafe,z,hello,0,2,,4,2,4,2\n";
     let mut fr = String::from(FR_HEADER);

@@ -66,17 +66,29 @@ pub(super) fn column_map(
             source,
         })?
         .clone();
+    if headers.iter().all(str::is_empty) {
+        return Err(EventsError::EmptyFile {
+            path: path.to_path_buf(),
+        });
+    }
     let cols = required
         .iter()
         .map(|&name| {
-            headers
-                .iter()
-                .position(|h| h == name)
-                .ok_or_else(|| EventsError::MissingColumn {
+            let mut at = headers.iter().enumerate().filter(|(_, h)| *h == name);
+            match (at.next(), at.next()) {
+                (Some((first, _)), None) => Ok(first),
+                (Some((first, _)), Some((second, _))) => Err(EventsError::DuplicateColumn {
+                    path: path.to_path_buf(),
+                    column: name,
+                    first: first + 1,
+                    second: second + 1,
+                }),
+                (None, _) => Err(EventsError::MissingColumn {
                     path: path.to_path_buf(),
                     column: name,
                     hint: missing_column_hint(&headers, name),
-                })
+                }),
+            }
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok((cols, headers))

@@ -61,6 +61,19 @@ pub enum EventsError {
         column: &'static str,
         hint: String,
     },
+    /// A column the loader reads appears more than once in the header: which one is meant cannot
+    /// be told (the first used to win without a word).
+    #[error("{}: line 1: column `{column}` appears twice in the header (columns {first} and {second}): which one holds the data cannot be told", path.display())]
+    DuplicateColumn {
+        path: PathBuf,
+        column: &'static str,
+        /// 1-based column numbers.
+        first: usize,
+        second: usize,
+    },
+    /// The file holds no header line (0 bytes, or only blank lines).
+    #[error("{}: the file is empty (no header line)", path.display())]
+    EmptyFile { path: PathBuf },
     /// [`stream_events`] only: the folder is valid but cannot be read one event at a time; the
     /// caller reads it whole with [`load_events`] instead.
     #[error("{}: line {line}: event `{}`: {reason}; it cannot be streamed event by event", path.display(), ShortId(event_id))]
