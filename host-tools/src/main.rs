@@ -14,7 +14,7 @@ mod cli;
 /// DRL/MSRA models from pairwise comparisons, `evaluate` them against the TTC2D/TAdv/EI baselines,
 /// `export-model` for the ECU. `demo` runs all of it on the embedded defaults.
 #[derive(Parser, Debug)]
-#[command(name = "riskctl", version, about, long_about)]
+#[command(name = "riskctl", version)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long, value_name = "DIR", required = true)]
     normal: Vec<PathBuf>,
     /// Largest share of the normal-driving sequences allowed to warn, in percent (0-100).
-    #[arg(long, value_name = "PERCENT")]
+    #[arg(long, allow_negative_numbers = true, value_name = "PERCENT")]
     false_alarm_rate: f64,
     /// Event folder of safe driving that must never warn (repeatable): the threshold goes just
     /// above its highest score when the false-alarm rule would put it lower.

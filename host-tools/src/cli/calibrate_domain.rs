@@ -67,14 +67,14 @@ pub struct Args {
     /// `--policy blend` only: the model's share of the score inside the domain (the kinematic
     /// fallback has the rest), strictly between 0 and 1 [default: the blob's own weight, else
     /// 0.7, training's default].
-    #[arg(long, value_name = "W")]
+    #[arg(long, allow_negative_numbers = true, value_name = "W")]
     blend_weight: Option<f32>,
     /// Share of the frames left outside at each end of each range, in percent (0 = min/max).
-    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.frames)]
+    #[arg(long, allow_negative_numbers = true, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.frames)]
     tail_percent: f64,
     /// Every value at least this share of the sequences reached is inside, in percent (100 =
     /// the frame quantiles alone).
-    #[arg(long, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.sequences)]
+    #[arg(long, allow_negative_numbers = true, value_name = "PERCENT", default_value_t = 100.0 * DEFAULT_TAILS.sequences)]
     sequence_percent: f64,
     /// DRL, GSSM and SSRA models: a geometry cell (where the partner is, which way it heads, how
     /// far) is inside when at least this many sequences reached it (at least 1).

@@ -34,14 +34,14 @@ pub struct Args {
     #[arg(long, default_value = "vcan0", value_parser = iface_name)]
     pub iface: String,
     /// Timestamp of the first frame, seconds since the epoch (0 to 1e10).
-    #[arg(long, default_value_t = DEFAULT_START_US as f64 / 1e6, value_parser = start_seconds)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_START_US as f64 / 1e6, value_parser = start_seconds)]
     pub start: f64,
     /// Pause between events, seconds (0 to 1e6).
-    #[arg(long, default_value_t = DEFAULT_GAP_US as f64 / 1e6, value_parser = gap_seconds)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_GAP_US as f64 / 1e6, value_parser = gap_seconds)]
     pub gap: f64,
     /// Largest share of cycles (0 to 1) that may be left out because a value is outside its
     /// signal's range before the run fails. Default 0: any left-out cycle fails the run.
-    #[arg(long, default_value_t = 0.0, value_name = "FRACTION", value_parser = fraction)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0, value_name = "FRACTION", value_parser = fraction)]
     pub max_skipped: f64,
 }
 

@@ -87,18 +87,18 @@ pub struct CommonRoadArgs {
     #[arg(value_name = "FILE_OR_DIR", required = true)]
     pub inputs: Vec<PathBuf>,
     /// Largest gap between the two boxes for a step to count as near (m).
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     pub max_gap: f32,
     /// Road users travelling the same way: largest lateral centre offset across either one's
     /// heading (m); 5 = same or adjacent lane on 3.7 m lanes.
-    #[arg(long, default_value_t = InteractionRules::default().max_lateral)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = InteractionRules::default().max_lateral)]
     pub max_lateral: f32,
     /// Crossing and oncoming road users: largest centre distance of their predicted closest
     /// approach within --horizon (m).
-    #[arg(long, default_value_t = InteractionRules::default().max_approach)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = InteractionRules::default().max_approach)]
     pub max_approach: f32,
     /// Crossing and oncoming road users: how far ahead the closest approach is predicted (s).
-    #[arg(long, default_value_t = InteractionRules::default().horizon)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = InteractionRules::default().horizon)]
     pub horizon: f32,
     /// Geometries to keep, by each event's geometry at closest approach: comma-separated
     /// `following,adjacent,crossing,oncoming`, or `all`.
@@ -106,7 +106,12 @@ pub struct CommonRoadArgs {
     pub geometry: GeometrySet,
     /// Derive the acceleration from the speed averaged over a centred window of this many
     /// seconds instead of the recorded value (0: recorded). For noisy video-tracked data.
-    #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 0.0,
+        value_name = "SECONDS"
+    )]
     pub smooth_speed: f64,
     /// Drop the pair-steps an earlier input file already holds: the same two vehicles (obstacle
     /// ids) at the same moment, as in benchmark files cut from one recording with overlapping
@@ -120,13 +125,13 @@ pub struct CommonRoadArgs {
     #[arg(long, default_value = "both", value_parser = ["both", "follower"])]
     pub ego: String,
     /// Shortest safe sequence (s).
-    #[arg(long, default_value_t = PrepareConfig::default().safe_min_duration)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PrepareConfig::default().safe_min_duration)]
     pub min_duration: f64,
     /// Longest safe sequence (s); longer calm stretches are split.
-    #[arg(long, default_value_t = PrepareConfig::default().safe_max_duration)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PrepareConfig::default().safe_max_duration)]
     pub max_duration: f64,
     /// Largest |longitudinal acceleration| of either road user in a safe sequence (m/s^2).
-    #[arg(long, default_value_t = PrepareConfig::default().safe_max_abs_acc)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PrepareConfig::default().safe_max_abs_acc)]
     pub max_acc: f32,
 }
 
