@@ -958,6 +958,40 @@ fn read_only_outputs_are_refused_and_left_as_they_are() {
     }
 }
 
+/// events-to-candump printed an event it dropped as a bare `warning: sim/frames.csv:3: ...`: no
+/// tool prefix, and nothing said the event was gone from the log.
+#[test]
+fn events_to_candump_says_which_event_it_leaves_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = simulate(dir.path());
+    let frames = events.join("frames.csv");
+    let text = std::fs::read_to_string(&frames).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let mut fields: Vec<&str> = lines[2].split(',').collect();
+    fields[2] = "abc";
+    lines[2] = fields.join(",");
+    std::fs::write(&frames, lines.join("\n") + "\n").unwrap();
+    let out = dir.path().join("d.log");
+    let o = riskctl(&[
+        "events-to-candump",
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.contains("frames.csv:3"))
+        .expect(&err);
+    assert!(line.starts_with("riskctl: warning: "), "{line}");
+    assert!(
+        line.ends_with("(the event is left out of the log)"),
+        "{line}"
+    );
+}
+
 /// train writes five named files into --out and leaves the rest of the folder alone, so a
 /// configuration kept in the run folder is no overlap (it was refused: "--out runs/x contains
 /// --config runs/x/cfg.toml: refusing to replace it"); a configuration at one of those five

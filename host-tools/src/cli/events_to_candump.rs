@@ -91,7 +91,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("loading events from {}", args.events.display()))?;
     // The loader keeps the first problems of each kind and counts the rest.
     for issue in &issues {
-        eprintln!("warning: {issue}");
+        if issue.problem.is_note() {
+            eprintln!("riskctl: note: {issue}");
+        } else {
+            eprintln!("riskctl: warning: {issue} (the event is left out of the log)");
+        }
     }
     if set.is_empty() {
         bail!(
