@@ -674,7 +674,16 @@ fn evaluate_trajectory_event_help_says_what_it_takes() {
     ]);
     let err = common::stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("no crash or near-crash sequence"), "{err}");
+    assert!(
+        err.contains("no crash or near-crash event with that id"),
+        "{err}"
+    );
+    // Refused before the folder is scored (the table used to be printed first).
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     let help = String::from_utf8_lossy(&riskctl(&["evaluate", "--help"]).stdout).into_owned();
     let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
     assert!(

@@ -137,6 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         None => None,
     };
+    refuse_unknown_trajectory_events(&args.trajectory_events, dir)?;
     // With --out, the same pass also gathers the trajectory plot's events and percentile scales.
     let trajectories = args.out.as_ref().map(|_| TrajectoryRequest {
         events: if args.trajectory_events.is_empty() {
@@ -337,6 +338,27 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
                 file,
                 "a result file of `riskctl evaluate`",
             )?;
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a `--trajectory-event` id that names no crash or near-crash row of `events.csv`, before
+/// the run (it was found after the whole folder was scored). One whose frames turn out invalid is
+/// still found at the end ([`write_outputs`]).
+fn refuse_unknown_trajectory_events(ids: &[String], dir: &Path) -> anyhow::Result<()> {
+    if ids.is_empty() {
+        return Ok(());
+    }
+    let kinds = riskscore_data::events::event_kinds(dir)
+        .with_context(|| format!("event folder {}", dir.display()))?;
+    for id in ids {
+        if !kinds.iter().any(|(k, kind)| k == id && kind.is_conflict()) {
+            bail!(
+                "--trajectory-event {id}: no crash or near-crash event with that id in {} \
+                 (nothing computed or written)",
+                dir.join("events.csv").display()
+            );
         }
     }
     Ok(())

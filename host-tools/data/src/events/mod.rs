@@ -27,9 +27,9 @@ pub use folder::{
 };
 pub use folds::{fold_group, kfold_by_event, recording_of_event_id, Folds, Labelled};
 pub use load::{
-    load_events, stream_events, EventsError, IssueProblem, LoadIssue, COARSE_POSITION_M,
-    GAP_FACTOR, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND, LENGTH_RANGE_M, MAX_POSITION_M,
-    MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
+    event_kinds, load_events, stream_events, EventsError, IssueProblem, LoadIssue,
+    COARSE_POSITION_M, GAP_FACTOR, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND, LENGTH_RANGE_M,
+    MAX_POSITION_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
 };
 pub(crate) use load::{open_csv, read_numbered_record};
 pub use prepare::{

@@ -32,6 +32,19 @@ struct Pending {
     position: usize,
 }
 
+/// The id and kind of every valid row of `dir`'s `events.csv`, in its order, without reading
+/// `frames.csv`: what a command checks its event arguments against before a long run. An event
+/// listed here can still be dropped later for its frames.
+pub fn event_kinds(dir: &Path) -> Result<Vec<(String, EventKind)>, EventsError> {
+    let folder = Folder::read_events(dir)?;
+    Ok(folder
+        .pending
+        .into_iter()
+        .filter(|p| p.ok)
+        .map(|p| (p.event.id, p.event.kind))
+        .collect())
+}
+
 /// Loads and validates the event folder `dir` (`events.csv` + `frames.csv`).
 ///
 /// Returns the valid events in `events.csv` order and one issue per problem found. Only problems
