@@ -49,10 +49,24 @@ fn interrupted_message(signal: &str, targets: &[PathBuf]) -> String {
     if targets.is_empty() {
         return format!("{program}: interrupted ({signal}): nothing was written");
     }
-    let names: Vec<String> = targets.iter().map(|t| t.display().to_string()).collect();
-    format!(
-        "{program}: interrupted ({signal}): the unfinished output was removed; {} left as it was",
+    // Said after the clean-up: an output that did not exist before the run does not exist now.
+    let (kept, new): (Vec<&PathBuf>, Vec<&PathBuf>) = targets
+        .iter()
+        .partition(|t| std::fs::symlink_metadata(t).is_ok());
+    let names = |list: &[&PathBuf]| {
+        let names: Vec<String> = list.iter().map(|t| t.display().to_string()).collect();
         names.join(", ")
+    };
+    let mut said = Vec::new();
+    if !kept.is_empty() {
+        said.push(format!("{} left as it was", names(&kept)));
+    }
+    if !new.is_empty() {
+        said.push(format!("{} not created", names(&new)));
+    }
+    format!(
+        "{program}: interrupted ({signal}): the unfinished output was removed; {}",
+        said.join("; ")
     )
 }
 
@@ -168,9 +182,21 @@ mod tests {
 
     #[test]
     fn the_interrupted_message_names_every_output_left_alone() {
-        let m = interrupted_message("SIGINT", &[PathBuf::from("out.csv"), PathBuf::from("ev")]);
+        let d = tempfile::tempdir().unwrap();
+        let (out, ev, new) = (
+            d.path().join("out.csv"),
+            d.path().join("ev"),
+            d.path().join("new"),
+        );
+        std::fs::write(&out, "old").unwrap();
+        std::fs::create_dir(&ev).unwrap();
+        let m = interrupted_message("SIGINT", &[out.clone(), ev.clone(), new.clone()]);
         assert!(m.contains("interrupted (SIGINT)"), "{m}");
-        assert!(m.contains("out.csv, ev left as it was"), "{m}");
+        let (out, ev, new) = (out.display(), ev.display(), new.display());
+        assert!(
+            m.ends_with(&format!("{out}, {ev} left as it was; {new} not created")),
+            "{m}"
+        );
         let m = interrupted_message("SIGTERM", &[]);
         assert!(
             m.ends_with("interrupted (SIGTERM): nothing was written"),
