@@ -361,6 +361,28 @@ fn a_doctype_is_refused_naming_the_declaration_and_its_line() {
     );
 }
 
+/// A file cut short (a truncated copy) was reported at line 1, where the parser puts an
+/// unexpected end; its last line is where it ends.
+#[test]
+fn a_truncated_file_is_reported_at_its_last_line() {
+    let text = scenario(&[car(1, &east(0.0, 0.0)), car(2, &east(15.0, 0.0))]);
+    let half = &text[..text.len() / 2];
+    // Cut after a tag (the root never closed) and inside one (the stream ends in it).
+    let after_tag = &half[..half.rfind('>').unwrap() + 1];
+    let in_tag = &half[..half.rfind('>').unwrap() - 1];
+    for cut in [after_tag, in_tag] {
+        let issue = parse_scenario(cut, "cut.xml", "cut").unwrap_err();
+        let last = 1 + cut.trim_end().matches('\n').count();
+        assert!(last > 5, "the test file is too short to tell");
+        assert!(
+            issue
+                .to_string()
+                .starts_with(&format!("cut.xml:{last}: not well-formed XML")),
+            "{issue}"
+        );
+    }
+}
+
 /// A trajectory whose first state repeats the initial state at the same step (files converted
 /// from OpenSCENARIO by CommonRoad's tools do this) is read once, not refused: every road user
 /// of such a file used to be skipped ("time step 0 does not follow step 0"). A first state at the

@@ -282,10 +282,18 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
                 problem: Problem::Doctype,
             };
         }
-        let pos = e.pos();
+        // A file cut short is reported at 1:1 too; where it ends is the last line.
+        let line = if matches!(
+            e,
+            roxmltree::Error::UnexpectedEndOfStream | roxmltree::Error::UnclosedRootNode
+        ) {
+            u32::try_from(1 + text.trim_end().matches('\n').count()).unwrap_or(u32::MAX)
+        } else {
+            e.pos().row
+        };
         Issue {
             file: file.to_string(),
-            line: pos.row,
+            line,
             context: String::new(),
             problem: Problem::Xml(e.to_string()),
         }
