@@ -865,30 +865,23 @@ fn calibrating_over_a_file_that_is_not_a_blob_is_refused() {
     let table = dir.path().join("scores.csv");
     std::fs::write(&table, "event_id,time,DRL\n000001,0.0,1.5\n").unwrap();
     let (blob, checkpoint) = (run.join("drl.rsk"), run.join("msra.json"));
-    let calibrate = |out: &Path| {
-        riskctl(&[
-            "calibrate",
+    // `calibrate` and `calibrate-domain` of `blob` on `events`, into `out`.
+    let blob_writer = |command: &str, folder_flag: &str, extra: &[&str], out: &Path| {
+        let (blob, events, out) = (blob.to_str(), events.to_str(), out.to_str());
+        let mut args = vec![
+            command,
             "--model",
-            blob.to_str().unwrap(),
-            "--normal",
-            events.to_str().unwrap(),
-            "--false-alarm-rate",
-            "5",
-            "--out",
-            out.to_str().unwrap(),
-        ])
+            blob.unwrap(),
+            folder_flag,
+            events.unwrap(),
+        ];
+        args.extend(extra);
+        args.extend(["--out", out.unwrap()]);
+        riskctl(&args)
     };
-    let calibrate_domain = |out: &Path| {
-        riskctl(&[
-            "calibrate-domain",
-            "--model",
-            blob.to_str().unwrap(),
-            "--events",
-            events.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-    };
+    let calibrate =
+        |out: &Path| blob_writer("calibrate", "--normal", &["--false-alarm-rate", "5"], out);
+    let calibrate_domain = |out: &Path| blob_writer("calibrate-domain", "--events", &[], out);
     for (out, what) in [
         (&checkpoint, "it is a training checkpoint"),
         (&table, "it is not a model blob"),
