@@ -908,14 +908,31 @@ fn out_files_are_replaced_together_or_not_at_all() {
         before.iter().map(|f| &f.0).collect::<Vec<_>>()
     );
 
-    // Fails after the tables and curves are written (the trajectory event is checked last):
-    // nothing changes, and no temporary file is left.
+    // Fails after the tables and curves are written: the trajectory event is a crash row of
+    // events.csv (so not refused at the start) without frames, left out under
+    // --skip-bad-events and found missing at the end. Nothing changes, no temporary is left.
     std::fs::write(&fx.model, msra_ttc_blob(-2.0)).unwrap();
-    let out = run(&["--trajectory-event", "no-such-event"]);
+    let events_csv = fx.events.join("events.csv");
+    let table = std::fs::read_to_string(&events_csv).unwrap();
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let (id_at, kind_at) = (
+        header.iter().position(|h| *h == "event_id").unwrap(),
+        header.iter().position(|h| *h == "kind").unwrap(),
+    );
+    let crash = table
+        .lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|f| f[kind_at] == "crash")
+        .unwrap();
+    let mut ghost = crash.clone();
+    ghost[id_at] = "ghost";
+    std::fs::write(&events_csv, format!("{table}{}\n", ghost.join(","))).unwrap();
+    let out = run(&["--skip-bad-events", "--trajectory-event", "ghost"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(stderr.contains("nothing written to"), "{stderr}");
     assert_eq!(snapshot(), before);
+    std::fs::write(&events_csv, table).unwrap();
 
     // The same run without the bad option replaces the results.
     let out = run(&[]);
