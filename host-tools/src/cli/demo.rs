@@ -27,10 +27,10 @@ roadside objects; seed 3) and the real city extract (data/ngsim-urban-safe). `--
 the recipe before issue #18.
 
 Everything goes under --out (default ./out): data/ (the simulated events), extra-data/ (the
-training-only simulated folder), transfer-data/ (the
-transfer test simulation), domains-data/ (the domain benchmark's simulated folders), report/
-(results.md/csv/json, folds.csv, curves.csv, training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON checkpoints), plots/ (ROC, PR,
-risk trajectories as SVG and PNG).";
+training-only simulated folder), transfer-data/ (the transfer test simulation), domains-data/
+(the domain benchmark's simulated folders), report/ (results.md/csv/json, folds.csv, curves.csv,
+training.json, transfer/, domains/), models/ (drl.rsk, drl-f32.rsk, msra.rsk and their JSON
+checkpoints), plots/ (ROC, PR, risk trajectories as SVG and PNG).";
 
 /// Simulate the default data set, add the real safe driving of the committed NGSIM US-101 extract
 /// (data/ngsim-us101-safe), train DRL and MSRA under 5-fold event-level cross-validation, print the

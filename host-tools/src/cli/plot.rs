@@ -9,15 +9,15 @@ use riskscore_eval::plots::ImageFormat;
 use riskscore_eval::Method;
 
 const ABOUT_PLOT: &str = "\
-The figure has two parts. Above: a bird's-eye view (world frame, one scale on both axes) of the ego's
-path (dark) and the partner's (red), each starting at a dot, with both boxes outlined at the first
-warning and filled at the endpoint (impact or safety-critical moment; a safe event's last frame).
-Below: one strip per method, its risk R over time exactly as `riskctl evaluate` scores it (models
-through scorer-core, DRL int8 as on the ECU; the baselines as R = -TTC2D, -TAdv, EI), with the
-threshold (dashed), the endpoint (black) and the first warning (the first frame with R >= threshold
-up to the endpoint; a vertical line and a triangle). Gaps are frames where the method sees no
-conflict (an infinite TTC2D, say). Each method has the colour and line style it has in every
-figure of `riskctl demo` and `evaluate --out`.
+The figure has two parts. Above: a bird's-eye view (world frame, one scale on both axes) of the
+ego's path (dark) and the partner's (red), each starting at a dot, with both boxes outlined at
+the first warning and filled at the endpoint (impact or safety-critical moment; a safe event's
+last frame). Below: one strip per method, its risk R over time exactly as `riskctl evaluate`
+scores it (models through scorer-core, DRL int8 as on the ECU; the baselines as R = -TTC2D,
+-TAdv, EI), with the threshold (dashed), the endpoint (black) and the first warning (the first
+frame with R >= threshold up to the endpoint; a vertical line and a triangle). Gaps are frames
+where the method sees no conflict (an infinite TTC2D, say). Each method has the colour and line
+style it has in every figure of `riskctl demo` and `evaluate --out`.
 
 The warning on the map is the first method's that warns, in the order given (models first).
 Thresholds: by default each model at its own default threshold (`riskctl inspect-model` prints it)

@@ -25,8 +25,8 @@ threshold on normal driving (`riskctl calibrate`) before using them. When no com
 can be built (physics pairs off in the configuration too), it fails and writes nothing. Without
 a safe sequence (a folder of conflicts only, or one whose safe rows were all dropped) no
 conflict-over-safe pair can be built and the models never see normal driving: that warns too. A
-folder too small to hold out validation events trains with a warning. Problems in the folder are listed
-on stderr and their events left out.";
+folder too small to hold out validation events trains with a warning. Problems in the folder are
+listed on stderr and their events left out.";
 
 /// Train DRL and MSRA on every event of a folder and write checkpoints and model blobs (see
 /// [`ABOUT_TRAIN`]).
