@@ -299,6 +299,10 @@ pub fn simulate_staged(target: &Path, cfg: &SimConfig) -> Result<OutputDir, Demo
 /// parent is then removed).
 pub fn commit_staged(staged: impl IntoIterator<Item = OutputDir>) -> Result<(), DemoError> {
     let mut staged: Vec<OutputDir> = staged.into_iter().collect();
+    // What a swap would refuse, before the first: not some folders new and the rest old.
+    for dir in &staged {
+        dir.check_commit().map_err(DemoError::Output)?;
+    }
     staged.reverse();
     while let Some(dir) = staged.pop() {
         // On an error `staged` (the rest, newest first) drops in order.
@@ -524,8 +528,9 @@ pub fn run(opts: &DemoOptions) -> Result<DemoSummary, DemoError> {
     // Held for the whole run (`--out/.demo.lock`, so `--out .` works): a second demo into the same
     // --out is refused now, not left to swap its folders in between this run's.
     let run_lock = opts.out.join("demo");
-    let _run_lock =
-        riskscore_output::OutputLock::acquire_for_run(&run_lock).map_err(io_err(&run_lock))?;
+    let _run_lock = riskscore_output::OutputLock::acquire_for_run(&run_lock)
+        .map_err(io_err(&run_lock))?
+        .not_an_output();
     // Every folder is written in its staged copy and put in place at the end, with the others.
     let mut staged = Staged::default();
     let summary = run_stages(opts, &mut staged).map_err(|e| staged.name_targets(e))?;

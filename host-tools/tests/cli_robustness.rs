@@ -942,7 +942,10 @@ fn read_only_outputs_are_refused_and_left_as_they_are() {
             err.contains("is read-only") && err.contains("left as it is"),
             "{err}"
         );
-        assert!(o.stdout.is_empty(), "{command} computed first");
+        if command == "evaluate" {
+            // It computes before it writes: refused first, no table printed.
+            assert!(o.stdout.is_empty(), "{command} computed first");
+        }
     }
     assert_eq!(std::fs::read_to_string(&table).unwrap(), "old\n");
     assert_eq!(
@@ -961,7 +964,7 @@ fn read_only_outputs_are_refused_and_left_as_they_are() {
 }
 
 /// events-to-candump printed an event it dropped as a bare `warning: sim/frames.csv:3: ...`: no
-/// tool prefix, and nothing said the event was gone from the log.
+/// tool prefix, and nothing said the event was gone from the log (now said as evaluate says it).
 #[test]
 fn events_to_candump_says_which_event_it_leaves_out() {
     let dir = tempfile::tempdir().unwrap();
@@ -988,9 +991,51 @@ fn events_to_candump_says_which_event_it_leaves_out() {
         .find(|l| l.contains("frames.csv:3"))
         .expect(&err);
     assert!(line.starts_with("riskctl: warning: "), "{line}");
+    assert!(line.ends_with("(the event is skipped)"), "{line}");
+}
+
+/// A command that computes first is told at its start: `train` over a read-only checkpoint
+/// trained and then failed to write it (the run lost), and `evaluate --out rep` with
+/// `rep/results.md/` a folder of notes scored the folder before its swap refused.
+#[test]
+fn outputs_a_run_could_not_write_are_refused_before_it_computes() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let run = trained_run(dir.path());
+    let events = dir.path().join("events");
+    let checkpoint = run.join("msra.json");
+    let before = std::fs::read(&checkpoint).unwrap();
+    std::fs::set_permissions(&checkpoint, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let config = tiny_config(dir.path());
+    let o = train_quietly(&events, &config, &run);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("msra.json: it is read-only"), "{err}");
+    assert!(!err.contains("epoch"), "it trained first: {err}");
+    assert_eq!(std::fs::read(&checkpoint).unwrap(), before);
+
+    let rep = dir.path().join("rep");
+    std::fs::create_dir_all(rep.join("results.md")).unwrap();
+    std::fs::write(rep.join("results.md/note"), "mine\n").unwrap();
+    let o = riskctl(&[
+        "evaluate",
+        "--model",
+        run.join("drl.rsk").to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--out",
+        rep.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        line.ends_with("(the event is left out of the log)"),
-        "{line}"
+        err.contains("results.md is a folder, not the file this run writes"),
+        "{err}"
+    );
+    assert!(o.stdout.is_empty(), "it scored first");
+    assert_eq!(
+        std::fs::read_to_string(rep.join("results.md/note")).unwrap(),
+        "mine\n"
     );
 }
 

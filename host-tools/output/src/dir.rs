@@ -77,7 +77,7 @@ pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     if meta.file_type().is_symlink() {
         return refuse("a symbolic link");
     }
-    if meta.is_dir() && meta.permissions().readonly() {
+    if meta.is_dir() && crate::file::is_read_only(target) {
         // The swap would replace it whatever its mode, and leave its old copy behind where the
         // files in it cannot be removed (`.NAME.XXXXXX.old/`).
         return Err(io::Error::new(
@@ -132,6 +132,7 @@ fn refuse_kind_clashes(old: &Path, new: &Path) -> io::Result<()> {
 /// what [`OutputDir::commit`] does for the old target, and what a caller does for a subfolder it
 /// wrote fresh inside a staged folder (an old subfolder's own notes are kept with it).
 pub fn carry_missing(old: &Path, new: &Path) -> io::Result<()> {
+    refuse_kind_clashes(old, new)?;
     for e in std::fs::read_dir(old).map_err(|e| err(old, "cannot read", e))? {
         let e = e.map_err(|e| err(old, "cannot read", e))?;
         let dst = new.join(e.file_name());
@@ -179,17 +180,30 @@ impl OutputDir {
         &self.target
     }
 
+    /// What [`Self::commit`] would refuse of the old folder's entries (a name the run writes as
+    /// the other kind), checked without changing anything: a caller that swaps several folders
+    /// checks them all before the first swap.
+    pub fn check_commit(&self) -> io::Result<()> {
+        match &self.tmp {
+            Some(tmp) if self.target.is_dir() => refuse_kind_clashes(&self.target, tmp),
+            _ => Ok(()),
+        }
+    }
+
     /// Swaps the complete new folder in for the old one (see the type's documentation).
     pub fn commit(mut self) -> io::Result<()> {
         let tmp = self.tmp.clone().expect("open until commit");
         let target = self.target.clone();
         if target.is_dir() {
-            refuse_kind_clashes(&target, &tmp)?;
+            // The run's own files are synced before the old folder's are carried in: those are
+            // the user's (hard links, already on disk), and one they cannot read must not fail
+            // the run at its end.
+            sync_tree(&tmp)?;
             carry_missing(&target, &tmp)?;
             if let Ok(m) = std::fs::metadata(&target) {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
             }
-            sync_tree(&tmp)?;
+            sync_dir(&tmp);
             let aside = tempfile::Builder::new()
                 .prefix(hidden_name(&target, ".")?.file_name().unwrap_or_default())
                 .suffix(".old")
@@ -371,6 +385,29 @@ mod tests {
             assert!(std::fs::read_to_string(out.join("sub")).is_ok());
             assert_eq!(names(d.path()), ["rep"], "temporaries left");
         }
+    }
+
+    #[test]
+    fn a_clash_one_level_down_is_refused_and_checked_before_a_swap() {
+        // The demo carries an old report/transfer/ into its new one: a folder of notes under a
+        // result file's name there went with the old report.
+        let d = tempfile::tempdir().unwrap();
+        let (old, new) = (d.path().join("old"), d.path().join("new"));
+        std::fs::create_dir_all(old.join("results.md")).unwrap();
+        std::fs::write(old.join("results.md/note"), "keep").unwrap();
+        std::fs::create_dir(&new).unwrap();
+        std::fs::write(new.join("results.md"), "new").unwrap();
+        let e = carry_missing(&old, &new).unwrap_err();
+        assert!(e.to_string().contains("results.md is a folder"), "{e}");
+        // check_commit says what commit would refuse, and changes nothing.
+        let out = d.path().join("rep");
+        std::fs::create_dir_all(out.join("results.md")).unwrap();
+        let o = OutputDir::create(&out).unwrap();
+        std::fs::write(o.path().join("results.md"), "new").unwrap();
+        assert!(o.check_commit().is_err());
+        assert!(out.join("results.md").is_dir());
+        drop(o);
+        assert_eq!(names(d.path()), ["new", "old", "rep"]);
     }
 
     #[test]

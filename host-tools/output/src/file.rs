@@ -38,6 +38,16 @@ pub struct AtomicFile {
     _lock: Option<Box<OutputLock>>,
 }
 
+/// True when `path` exists without any write permission (`chmod 444`, `555`): a user's sign that
+/// it must not change. Read from the mode bits, so it holds for root too (who could write it), and
+/// a symbolic link is not followed (an output replaces the link, not what it leads to). Outputs
+/// are refused on it ([`AtomicFile::create`], [`crate::OutputDir::create`]); a command that
+/// computes first checks its outputs with it at its start.
+pub fn is_read_only(path: &Path) -> bool {
+    std::fs::symlink_metadata(path)
+        .is_ok_and(|m| !m.file_type().is_symlink() && m.permissions().readonly())
+}
+
 /// Opens a device, pipe or descriptor path ([`is_special_file`]) to write into it directly.
 /// In append mode: a descriptor path (`/dev/fd/3` with the shell's `3>>log`) opens the file
 /// again, and without it the writing would start at byte 0 of `log`, over what was there.
@@ -83,7 +93,7 @@ impl AtomicFile {
                 "is a folder, not a file",
             ));
         }
-        if std::fs::metadata(dest).is_ok_and(|m| m.permissions().readonly()) {
+        if is_read_only(dest) {
             // A rename replaces it whatever its mode; `cp` would refuse, and so do we.
             return Err(io::Error::new(
                 io::ErrorKind::PermissionDenied,

@@ -22,7 +22,7 @@ mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::{carry_missing, refuse_unswappable, OutputDir};
-pub use file::{open_special, AtomicFile, AtomicSet};
+pub use file::{is_read_only, open_special, AtomicFile, AtomicSet};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;
 pub use overlap::{

@@ -127,6 +127,13 @@ impl OutputLock {
         Ok(lock)
     }
 
+    /// Leaves this lock's target out of the interrupt message ("... left as it was"): for a run
+    /// lock on a name that is no output of its own (the demo's `--out/.demo.lock`).
+    pub fn not_an_output(self) -> Self {
+        crate::cleanup::unregister_target(&self.target);
+        self
+    }
+
     /// The output was committed: the folders made for it stay.
     pub(crate) fn keep_folders(&mut self) {
         if let Some(f) = self.folders.take() {

@@ -219,10 +219,11 @@ pub(super) fn refuse_blob_overlaps(
     folders: &[PathBuf],
     out: &Path,
 ) -> anyhow::Result<()> {
-    super::output::refuse_replacing_a_non_blob("--out", out)?;
     let folders: Vec<(&str, Option<&Path>)> = folders
         .iter()
         .map(|d| (folder_flag, Some(d.as_path())))
         .collect();
-    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])
+    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])?;
+    // After the overlaps: `--out ev/events.csv` is "the same file as --normal", first.
+    super::output::refuse_replacing_a_non_blob("--out", out)
 }

@@ -292,25 +292,8 @@ pub(super) fn report_load_issues(issues: &[riskscore_data::events::LoadIssue]) {
         let total: u64 = problems.iter().map(|i| i.count()).sum();
         eprintln!("riskctl: {total} problem(s) in the event folder:");
         for issue in problems {
-            eprintln!("  {issue} ({})", left_out(issue));
+            eprintln!("  {issue} ({})", super::left_out(issue));
         }
-    }
-}
-
-/// What the loader leaves out for `issue` (not a note): rows of an event id that is not in
-/// events.csv are dropped alone, as there is no such event to skip
-/// ([`IssueProblem::UnknownEvent`](riskscore_data::events::IssueProblem::UnknownEvent)); every
-/// other problem skips the event it names, or drops its row when no event can be named.
-fn left_out(issue: &riskscore_data::events::LoadIssue) -> &'static str {
-    use riskscore_data::events::IssueProblem;
-    match &issue.problem {
-        IssueProblem::UnknownEvent { .. } => "only these rows are dropped: no event is skipped",
-        IssueProblem::MoreOfKind { .. } if issue.problem.drops_only_its_rows() => {
-            "only those rows are dropped: no event is skipped"
-        }
-        IssueProblem::MoreOfKind { .. } => "their events are skipped",
-        _ if issue.event_id.as_deref().is_some_and(|id| !id.is_empty()) => "the event is skipped",
-        _ => "the row is skipped",
     }
 }
 
@@ -332,6 +315,16 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     // a model there under another name is kept; only a result file's name is replaced. A link
     // of that name is replaced itself, never the file it points to.
     for file in &files {
+        // A folder of the user's under a result file's name would go with the old output: the
+        // swap refuses it at the end; said now, before the folder is scored.
+        if std::fs::symlink_metadata(file).is_ok_and(|m| m.is_dir()) {
+            bail!(
+                "--out {}: {} is a folder, not the file this run writes there: it would be lost \
+                 with the old output, so it is left as it is (move it, or choose another output)",
+                out.display(),
+                file.display()
+            );
+        }
         if !std::fs::symlink_metadata(file).is_ok_and(|m| m.file_type().is_symlink()) {
             super::output::refuse_overwriting_a_model(
                 "--out",

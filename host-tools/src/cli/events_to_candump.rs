@@ -94,7 +94,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if issue.problem.is_note() {
             eprintln!("riskctl: note: {issue}");
         } else {
-            eprintln!("riskctl: warning: {issue} (the event is left out of the log)");
+            eprintln!("riskctl: warning: {issue} ({})", super::left_out(issue));
         }
     }
     if set.is_empty() {

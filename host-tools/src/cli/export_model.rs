@@ -17,7 +17,8 @@ A checkpoint holds no data, so the blob carries no training domain (guard) and n
 threshold. An --out blob that carries either (the drl.rsk of a training run, a calibrated blob) is
 therefore not replaced: the run is refused and the blob left as it is, unless
 --replace-calibrated says to replace it with the bare export (a warning names what was dropped).
-An --out that is a training checkpoint (msra.json beside drl.json) is never replaced.";
+An --out that holds anything but a blob (a training checkpoint such as msra.json beside
+drl.json, a table, notes) is never replaced.";
 
 /// Write a trained checkpoint (drl.json / msra.json from `riskctl train`) as a model blob (see
 /// [`ABOUT_EXPORT`]).

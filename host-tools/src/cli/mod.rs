@@ -61,3 +61,20 @@ pub fn refuse_augmenting_with_itself(events: &Path, augment: Option<&Path>) -> a
 }
 
 pub use host_tools::warnings::load_prepared;
+
+/// What the loader leaves out for `issue` (not a note): rows of an event id that is not in
+/// events.csv are dropped alone, as there is no such event to skip
+/// ([`IssueProblem::UnknownEvent`](riskscore_data::events::IssueProblem::UnknownEvent)); every
+/// other problem skips the event it names, or drops its row when no event can be named.
+pub(crate) fn left_out(issue: &riskscore_data::events::LoadIssue) -> &'static str {
+    use riskscore_data::events::IssueProblem;
+    match &issue.problem {
+        IssueProblem::UnknownEvent { .. } => "only these rows are dropped: no event is skipped",
+        IssueProblem::MoreOfKind { .. } if issue.problem.drops_only_its_rows() => {
+            "only those rows are dropped: no event is skipped"
+        }
+        IssueProblem::MoreOfKind { .. } => "their events are skipped",
+        _ if issue.event_id.as_deref().is_some_and(|id| !id.is_empty()) => "the event is skipped",
+        _ => "the row is skipped",
+    }
+}

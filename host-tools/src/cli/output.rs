@@ -265,9 +265,21 @@ pub fn refuse_file_as_folder(flag: &str, out: &Path, writes: &str) -> anyhow::Re
     Ok(())
 }
 
-/// Refuses `outputs` that are, contain or lie inside one of `inputs` (`-` is skipped).
+/// Refuses `outputs` that are, contain or lie inside one of `inputs` (`-` is skipped), and a
+/// read-only output ([`riskscore_output::is_read_only`]): said at the start, not when a command
+/// that computes first (train, calibrate, gssm, ablation) comes to write it.
 pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
     riskscore_output::refuse_overlaps(inputs, outputs)?;
+    if let Some((flag, out)) = outputs
+        .iter()
+        .find(|(_, out)| riskscore_output::is_read_only(out))
+    {
+        anyhow::bail!(
+            "{flag} {}: it is read-only (nobody may write it): it is left as it is; make it \
+             writable (chmod u+w) or choose another output",
+            out.display()
+        );
+    }
     Ok(())
 }
 
