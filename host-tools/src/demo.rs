@@ -792,7 +792,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
         .filter(|(n, _)| n != "DRL-f32")
         .cloned()
         .collect();
-    let figures = plots::curve_figures(&plotted, POOLED_SCORES)?;
+    let mut figures = plots::curve_figures(&plotted, POOLED_SCORES)?;
     let traj_methods: Vec<_> = pooled
         .iter()
         .filter(|(n, _)| n != "DRL-f32")
@@ -803,11 +803,8 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
         .map(|(_, s)| plots::default_trajectory_events(s, 3))
         .unwrap_or_default();
     let panels = plots::trajectory_panels(&traj_methods, &crash_ids);
-    let mut bundle = eval::bundle::ReportBundle { files: figures };
-    bundle
-        .files
-        .extend(plots::trajectory_figures(&panels, POOLED_SCORES)?);
-    files.extend(bundle.write_into(&plot_stage)?);
+    figures.extend(plots::trajectory_figures(&panels, POOLED_SCORES)?);
+    files.extend(eval::bundle::ReportBundle { files: figures }.write_into(&plot_stage)?);
     files.extend(event_figures(
         &data_read,
         &model_stage,

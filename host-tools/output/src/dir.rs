@@ -49,16 +49,13 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
 pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     use std::os::unix::fs::MetadataExt;
     let parent = parent_of(target);
-    if parent.exists() && !parent.is_dir() {
+    if let Some(file) = [parent, target]
+        .into_iter()
+        .find(|p| p.exists() && !p.is_dir())
+    {
         return Err(io::Error::new(
             io::ErrorKind::AlreadyExists,
-            format!("{} exists and is not a folder", parent.display()),
-        ));
-    }
-    if target.exists() && !target.is_dir() {
-        return Err(io::Error::new(
-            io::ErrorKind::AlreadyExists,
-            format!("{} exists and is not a folder", target.display()),
+            format!("{} exists and is not a folder", file.display()),
         ));
     }
     let Ok(meta) = std::fs::symlink_metadata(target) else {
@@ -82,11 +79,7 @@ pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
         // files in it cannot be removed (`.NAME.XXXXXX.old/`).
         return Err(io::Error::new(
             io::ErrorKind::PermissionDenied,
-            format!(
-                "{} is read-only (nobody may write it): it is left as it is; make it writable \
-                 (chmod u+w) or choose another output",
-                target.display()
-            ),
+            format!("{} {}", target.display(), crate::file::READ_ONLY),
         ));
     }
     let parent = std::fs::metadata(parent).map_err(|e| err(parent, "cannot read", e))?;
@@ -103,29 +96,38 @@ pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
 fn refuse_kind_clashes(old: &Path, new: &Path) -> io::Result<()> {
     for e in std::fs::read_dir(new).map_err(|e| err(new, "cannot read", e))? {
         let e = e.map_err(|e| err(new, "cannot read", e))?;
-        let theirs = old.join(e.file_name());
-        let Ok(before) = std::fs::symlink_metadata(&theirs) else {
-            continue;
-        };
-        let writes_folder = e.file_type().is_ok_and(|t| t.is_dir());
-        if before.is_dir() != writes_folder {
-            let (is, writes) = if writes_folder {
-                ("a file", "folder")
-            } else {
-                ("a folder", "file")
-            };
-            return Err(io::Error::new(
-                io::ErrorKind::AlreadyExists,
-                format!(
-                    "{} is {is}, not the {writes} this run writes there: it would be lost with \
-                     the old output, so it is left as it is and nothing was put in place (move \
-                     it, or choose another output)",
-                    theirs.display()
-                ),
-            ));
-        }
+        refuse_kind_clash(
+            &old.join(e.file_name()),
+            e.file_type().is_ok_and(|t| t.is_dir()),
+        )?;
     }
     Ok(())
+}
+
+/// Refuses `theirs`, an entry of an old output folder, when the run writes a folder there and it
+/// is not one, or a file there and it is a folder (see [`refuse_kind_clashes`]); a missing entry
+/// is fine. What a command that knows its output names checks at its start.
+pub fn refuse_kind_clash(theirs: &Path, writes_folder: bool) -> io::Result<()> {
+    let Ok(before) = std::fs::symlink_metadata(theirs) else {
+        return Ok(());
+    };
+    if before.is_dir() == writes_folder {
+        return Ok(());
+    }
+    let (is, writes) = if writes_folder {
+        ("a file", "folder")
+    } else {
+        ("a folder", "file")
+    };
+    Err(io::Error::new(
+        io::ErrorKind::AlreadyExists,
+        format!(
+            "{} is {is}, not the {writes} this run writes there: it would be lost with the old \
+             output, so it is left as it is and nothing was put in place (move it, or choose \
+             another output)",
+            theirs.display()
+        ),
+    ))
 }
 
 /// Carries every entry of the folder `old` that `new` does not have into `new` (see [`carry`]):
@@ -194,11 +196,11 @@ impl OutputDir {
     pub fn commit(mut self) -> io::Result<()> {
         let tmp = self.tmp.clone().expect("open until commit");
         let target = self.target.clone();
+        // The run's own files are synced before an old folder's are carried in: those are the
+        // user's (hard links, already on disk), and one they cannot read must not fail the run
+        // at its end.
+        sync_tree(&tmp)?;
         if target.is_dir() {
-            // The run's own files are synced before the old folder's are carried in: those are
-            // the user's (hard links, already on disk), and one they cannot read must not fail
-            // the run at its end.
-            sync_tree(&tmp)?;
             carry_missing(&target, &tmp)?;
             if let Ok(m) = std::fs::metadata(&target) {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
@@ -228,7 +230,6 @@ impl OutputDir {
             let _ = std::fs::remove_dir_all(&aside);
             crate::cleanup::unregister(&aside);
         } else {
-            sync_tree(&tmp)?;
             std::fs::rename(&tmp, &target)
                 .map_err(|e| err(&target, "cannot move the new folder in", e))?;
             self.done(&tmp);

@@ -38,6 +38,10 @@ pub struct AtomicFile {
     _lock: Option<Box<OutputLock>>,
 }
 
+/// Why a read-only output is refused, after its name: one wording for every writer.
+pub const READ_ONLY: &str = "is read-only (nobody may write it): it is left as it is; make it \
+                             writable (chmod u+w) or choose another output";
+
 /// True when `path` exists without any write permission (`chmod 444`, `555`): a user's sign that
 /// it must not change. Read from the mode bits, so it holds for root too (who could write it), and
 /// a symbolic link is not followed (an output replaces the link, not what it leads to). Outputs
@@ -95,11 +99,7 @@ impl AtomicFile {
         }
         if is_read_only(dest) {
             // A rename replaces it whatever its mode; `cp` would refuse, and so do we.
-            return Err(io::Error::new(
-                io::ErrorKind::PermissionDenied,
-                "is read-only (nobody may write it): it is left as it is; make it writable \
-                 (chmod u+w) or choose another output",
-            ));
+            return Err(io::Error::new(io::ErrorKind::PermissionDenied, READ_ONLY));
         }
         let lock = OutputLock::acquire(dest)?;
         let (file, tmp) = temp_beside(dest)?.into_parts();

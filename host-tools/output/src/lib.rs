@@ -21,8 +21,8 @@ mod overlap;
 mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
-pub use dir::{carry_missing, refuse_unswappable, OutputDir};
-pub use file::{is_read_only, open_special, AtomicFile, AtomicSet};
+pub use dir::{carry_missing, refuse_kind_clash, refuse_unswappable, OutputDir};
+pub use file::{is_read_only, open_special, AtomicFile, AtomicSet, READ_ONLY};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;
 pub use overlap::{

@@ -317,14 +317,7 @@ fn refuse_output_overlaps(models: &[ModelFile], events: &Path, out: &Path) -> an
     for file in &files {
         // A folder of the user's under a result file's name would go with the old output: the
         // swap refuses it at the end; said now, before the folder is scored.
-        if std::fs::symlink_metadata(file).is_ok_and(|m| m.is_dir()) {
-            bail!(
-                "--out {}: {} is a folder, not the file this run writes there: it would be lost \
-                 with the old output, so it is left as it is (move it, or choose another output)",
-                out.display(),
-                file.display()
-            );
-        }
+        riskscore_output::refuse_kind_clash(file, false)?;
         if !std::fs::symlink_metadata(file).is_ok_and(|m| m.file_type().is_symlink()) {
             super::output::refuse_overwriting_a_model(
                 "--out",

@@ -275,9 +275,9 @@ pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Re
         .find(|(_, out)| riskscore_output::is_read_only(out))
     {
         anyhow::bail!(
-            "{flag} {}: it is read-only (nobody may write it): it is left as it is; make it \
-             writable (chmod u+w) or choose another output",
-            out.display()
+            "{flag} {}: it {}",
+            out.display(),
+            riskscore_output::READ_ONLY
         );
     }
     Ok(())
