@@ -1471,3 +1471,158 @@ fn a_repeated_header_line_is_noted_and_skipped() {
     );
     assert!(issues.iter().all(|i| i.problem.is_note()));
 }
+
+#[test]
+fn a_repeated_header_with_a_byte_order_mark_is_noted_and_skipped() {
+    // Two spreadsheet exports joined with `cat`: the second keeps its UTF-8 byte-order mark,
+    // and its header was an unknown event `\u{feff}event_id`.
+    let (ev, fr) = good();
+    let fr = fr.replacen("\nc1,0.5,", &format!("\n\u{feff}{FR_HEADER}c1,0.5,"), 1);
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    assert_eq!(
+        line_event_kind(&issues),
+        [(7, None, "RepeatedHeader")],
+        "{issues:#?}"
+    );
+}
+
+#[test]
+fn rows_of_empty_fields_are_blank_lines() {
+    // A spreadsheet saves a row it shows blank as `,,,,`: in events.csv each was eight
+    // problems, and a short one after a frame dropped that frame's event.
+    let (ev, fr) = good();
+    let ev = ev.replacen("\ns1,", "\n,,,,,,,,\ns1,", 1) + ",,,,,,,,\n";
+    let fr = fr + ",,,\n";
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1"]);
+    assert_eq!(set.events[1].frames.len(), 21);
+    assert!(issues.is_empty(), "{issues:#?}");
+    // A row with one value is no blank line: still a short row.
+    let (_, issues, _d) = load(&ev, &(fr_with_row(",,5,")));
+    assert_eq!(line_event_kind(&issues), [(44, Some("s1"), "RowLength")]);
+}
+
+fn fr_with_row(extra: &str) -> String {
+    let (_, fr) = good();
+    format!("{fr}{extra}\n")
+}
+
+#[test]
+fn an_id_in_another_encoding_is_named_and_never_merged() {
+    // `é01` and `è01` in Windows-1252 (one byte each, invalid UTF-8): both were read as
+    // `\u{fffd}01`, then dropped as a duplicate id; with unique ids they loaded with the id garbled.
+    let ev = format!("{EV_HEADER}\u{0}01,safe,0,2,,4.5,1.8,5,2\n\u{1}01,safe,0,2,,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\n");
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        rows("\u{0}01", 21),
+        rows("\u{1}01", 21),
+        rows("s1", 21)
+    );
+    let latin1 = |s: &str| s.replace('\u{0}', "\u{e9}").replace('\u{1}', "\u{e8}");
+    let to_cp1252 = |s: String| -> Vec<u8> { s.chars().map(|c| c as u32 as u8).collect() };
+    let dir = folder("", "");
+    std::fs::write(dir.path().join("events.csv"), to_cp1252(latin1(&ev))).unwrap();
+    std::fs::write(dir.path().join("frames.csv"), to_cp1252(latin1(&fr))).unwrap();
+    let (set, issues) = load_events(dir.path()).unwrap();
+    assert_eq!(ids(&set), ["s1"]);
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (2, Some(r"\xe901"), "NotUtf8"),
+            (3, Some(r"\xe801"), "NotUtf8")
+        ],
+        "{issues:#?}"
+    );
+    assert_eq!(issues[0].column.as_deref(), Some("event_id"));
+    assert!(
+        issues[0].to_string().contains("WINDOWS-1252"),
+        "{}",
+        issues[0]
+    );
+}
+
+#[test]
+fn positions_in_another_unit_are_noted_and_the_event_kept() {
+    // s1's ego positions in cm (its speeds add up to 20 m, its positions carry it 2,000 m); n1's
+    // partner positions in feet (3.28 times); c1's partner stands with its positions jittering
+    // by 0.5 m a frame (a path of 10 m, but it goes nowhere): no note.
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\nn1,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let scaled = |id: &str, ego: f64, partner: f64| -> String {
+        (0..21)
+            .map(|k| {
+                let t = k as f64 / 10.0;
+                format!(
+                    "{id},{t},{},0,10,0,1,0,-0.5,{},0,8,0,1,0\n",
+                    ego * 10.0 * t,
+                    partner * (30.0 + 8.0 * t)
+                )
+            })
+            .collect()
+    };
+    let fr = format!(
+        "{FR_HEADER}{}{}{}",
+        (0..21)
+            .map(|k| {
+                let t = k as f64 / 10.0;
+                let x = 30.0 + 0.5 * (k % 2) as f64;
+                format!("c1,{t},{},0,10,0,1,0,-0.5,{x},0,0,0,1,0\n", 10.0 * t)
+            })
+            .collect::<String>(),
+        scaled("s1", 100.0, 1.0),
+        scaled("n1", 1.0, 3.28)
+    );
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1", "n1"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (3, Some("s1"), "PathExceedsSpeeds"),
+            (4, Some("n1"), "PathExceedsSpeeds")
+        ],
+        "{issues:#?}"
+    );
+    assert!(issues.iter().all(|i| i.problem.is_note()));
+    let text = issues[0].to_string();
+    assert!(
+        text.contains("`x_ego`, `y_ego`: the positions carry it 2000.0 m"),
+        "{text}"
+    );
+    assert!(text.contains("100.0 times the 20.0 m"), "{text}");
+}
+
+#[test]
+fn events_of_one_or_two_frames_get_the_gap_and_impact_notes() {
+    // c1: one frame, 0.5 s before its impact (no interval to allow for); s1: two frames 3 s
+    // apart; n1: frames at 0, 0.1 and 3.1 s, a hole the upper median (3 s) hid; n2: two frames
+    // 0.1 s apart, no note.
+    let ev = format!(
+        "{EV_HEADER}c1,crash,0,2,1.0,4.5,1.8,5,2\ns1,safe,0,3,,4.5,1.8,5,2\n\
+         n1,safe,0,3.1,,4.5,1.8,5,2\nn2,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let fr = format!(
+        "{FR_HEADER}{}{}{}{}{}{}{}{}",
+        row("c1", 0.5),
+        row("s1", 0.0),
+        row("s1", 3.0),
+        row("n1", 0.0),
+        row("n1", 0.1),
+        row("n1", 3.1),
+        row("n2", 0.0),
+        row("n2", 0.1)
+    );
+    let (set, issues, _d) = load_and_stream(&ev, &fr);
+    assert_eq!(ids(&set), ["c1", "s1", "n1", "n2"], "notes drop nothing");
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (2, Some("c1"), "ImpactAfterFrames"),
+            (3, Some("s1"), "TwoFramesApart"),
+            (4, Some("n1"), "FrameGap")
+        ],
+        "{issues:#?}"
+    );
+    assert!(issues.iter().all(|i| i.problem.is_note()));
+}

@@ -144,8 +144,15 @@ pub(super) fn next_record(
     id_col: usize,
     ends: LineEnds,
 ) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
-    let line = rdr.position().line();
-    match rdr.read_byte_record(rec) {
+    let mut line = rdr.position().line();
+    let mut read = rdr.read_byte_record(rec);
+    // A row of empty fields (`,,,,`: what a spreadsheet saves for a row it shows blank) is a
+    // blank line, as the reader already treats a truly empty one: no data, nothing to report.
+    while matches!(read, Ok(true)) && rec.iter().all(<[u8]>::is_empty) {
+        line = rdr.position().line();
+        read = rdr.read_byte_record(rec);
+    }
+    match read {
         Ok(false) => Ok(None),
         Ok(true) => {
             let line = rec

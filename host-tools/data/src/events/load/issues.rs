@@ -36,6 +36,9 @@ pub const HEADING_CHECK_MIN_SPEED_M_S: f32 = 3.0;
 /// An interval between frames longer than this many times the event's median interval is a hole
 /// ([`IssueProblem::FrameGap`]).
 pub const GAP_FACTOR: f64 = 3.0;
+/// Two frames further apart than this (s) are an event with frames missing
+/// ([`IssueProblem::TwoFramesApart`]): every data source here samples at 10 Hz or faster.
+pub const TWO_FRAMES_MAX_INTERVAL_S: f64 = 1.0;
 
 /// A problem that stops a folder from being read at all.
 #[derive(Debug, thiserror::Error)]
@@ -150,6 +153,8 @@ pub enum IssueProblem {
     BadRow(String),
     #[error("empty event_id")]
     EmptyEventId,
+    #[error("not valid UTF-8: the file is in another encoding (Windows-1252 or Latin-1, as Excel's \"CSV\" writes on Windows?); event folders are UTF-8 CSV: save it as \"CSV UTF-8\" or convert it (iconv -f WINDOWS-1252 -t UTF-8)")]
+    NotUtf8,
     #[error("event_id already used on line {first_line}; both rows are dropped")]
     DuplicateEventId { first_line: u64 },
     #[error("unknown kind `{0}` (expected crash, near_crash or safe)")]
@@ -213,6 +218,12 @@ pub enum IssueProblem {
         speed_path: f64,
         path: f64,
     },
+    #[error("frames.csv `x_{vehicle}`, `y_{vehicle}`: the positions carry it {displacement:.1} m from its first frame to its last, {:.1} times the {speed_path:.1} m its speeds `vx_{vehicle}`, `vy_{vehicle}` add up to: positions in cm (100 times) or feet (3.28 times, as NGSIM's raw files), or speeds that are not the road user's (zeros for missing values)? Speeds must be m/s, times s, positions in one fixed world frame in m. The event is kept; check its units", displacement / speed_path.max(1e-9))]
+    PathExceedsSpeeds {
+        vehicle: &'static str,
+        speed_path: f64,
+        displacement: f64,
+    },
     #[error("frames.csv `hx_{vehicle}`, `hy_{vehicle}`: the heading is more than 45° off the direction of travel (`vx_{vehicle}`, `vy_{vehicle}`) on {off} of the {moving} frames moving at 3 m/s or more: an angle in degrees taken as radians, measured from north, or hx and hy swapped? The heading must be the unit vector of the box's forward axis in the world frame. The event is kept; check its headings")]
     HeadingAcrossVelocity {
         vehicle: &'static str,
@@ -221,6 +232,8 @@ pub enum IssueProblem {
     },
     #[error("t_impact {t_impact} is {:.3} s after the last frame ({last}): lead times are measured to t_impact, so each warning would count that stretch without frames; is t_impact on the frames' clock, or are the last frames missing? The event is kept", t_impact - last)]
     ImpactAfterFrames { t_impact: f64, last: f64 },
+    #[error("frames.csv `time`: the event has only two frames, at {from} and {to} s ({:.3} s apart): its sequence spans that time as if it were data; frames missing? The event is kept", to - from)]
+    TwoFramesApart { from: f64, to: f64 },
     #[error("frames.csv `time`: the frames jump from {from} to {to} s, where they are {typical:.3} s apart ({holes} such hole(s)): frames missing? Sequence lengths, derived accelerations and lead times span a hole as if it were data. The event is kept")]
     FrameGap {
         from: f64,
@@ -252,6 +265,7 @@ impl IssueProblem {
             Self::BadRow(_) => "BadRow",
             Self::EmptyEventId => "EmptyEventId",
             Self::DuplicateEventId { .. } => "DuplicateEventId",
+            Self::NotUtf8 => "NotUtf8",
             Self::UnknownKind(_) => "UnknownKind",
             Self::BadNumber(_) => "BadNumber",
             Self::NonFinite(_) => "NonFinite",
@@ -273,9 +287,11 @@ impl IssueProblem {
             Self::ImpactBeforeFrames { .. } => "ImpactBeforeFrames",
             Self::NoFinalNewline => "NoFinalNewline",
             Self::SpeedsExceedPath { .. } => "SpeedsExceedPath",
+            Self::PathExceedsSpeeds { .. } => "PathExceedsSpeeds",
             Self::HeadingAcrossVelocity { .. } => "HeadingAcrossVelocity",
             Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
             Self::FrameGap { .. } => "FrameGap",
+            Self::TwoFramesApart { .. } => "TwoFramesApart",
             Self::RepeatedHeader => "RepeatedHeader",
             Self::CoarsePositions { .. } => "CoarsePositions",
         }
@@ -309,9 +325,11 @@ fn is_note_kind(kind: &str) -> bool {
         kind,
         "NoFinalNewline"
             | "SpeedsExceedPath"
+            | "PathExceedsSpeeds"
             | "HeadingAcrossVelocity"
             | "ImpactAfterFrames"
             | "FrameGap"
+            | "TwoFramesApart"
             | "RepeatedHeader"
             | "CoarsePositions"
     )

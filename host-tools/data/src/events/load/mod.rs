@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub use issues::{
     EventsError, IssueProblem, LoadIssue, COARSE_POSITION_M, GAP_FACTOR,
     HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND, LENGTH_RANGE_M, MAX_POSITION_M, MAX_SPEED_M_S,
-    SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
+    SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, TWO_FRAMES_MAX_INTERVAL_S, WIDTH_RANGE_M,
 };
 
 use super::{derive_partner_acceleration, FRAME_COLUMNS, TIME_TOLERANCE_S};
@@ -222,12 +222,14 @@ fn event_notes<'a>(p: &'a Pending, events_path: &'a Path) -> impl Iterator<Item 
 /// Speeds integrated over time must cover about the distance the positions do: a road user whose
 /// speeds add up to more than [`SPEED_PATH_RATIO_MAX`] times its path (of at least
 /// [`SPEED_CHECK_MIN_PATH_M`]) has speeds in another unit (km/h: 3.6, mph: 2.24) or positions
-/// that are not its own. A note on the event's `events.csv` line (the event is kept), for the
+/// that are not its own; one whose path is that much longer than its speeds add up to has
+/// positions in another unit (cm: 100, feet: 3.28, as NGSIM's raw files) or speeds missing. A note on the event's `events.csv` line (the event is kept), for the
 /// ego first; the simulator and the real data shipped stay within 1 % (4 % on city tracks). An
 /// ego that never moves is an ego-centred folder (`can-bridge check --decoded-events-out`
 /// writes the partner relative to an ego at the origin): no check.
 fn speed_note(p: &Pending) -> Option<IssueProblem> {
     let frames = &p.event.frames;
+    // (speeds integrated, path, displacement from the first frame to the last)
     let paths = |state: fn(&Frame) -> &VehicleState| {
         let (mut speed_path, mut path) = (0.0f64, 0.0f64);
         for w in frames.windows(2) {
@@ -237,21 +239,39 @@ fn speed_note(p: &Pending) -> Option<IssueProblem> {
             speed_path += 0.5 * (speed(a) + speed(b)) * dt;
             path += f64::from(b.x - a.x).hypot(f64::from(b.y - a.y));
         }
-        (speed_path, path)
+        let displacement = match (frames.first(), frames.last()) {
+            (Some(a), Some(b)) => {
+                let (a, b) = (state(a), state(b));
+                f64::from(b.x - a.x).hypot(f64::from(b.y - a.y))
+            }
+            _ => 0.0,
+        };
+        (speed_path, path, displacement)
     };
     let ego = paths(|f| &f.ego);
     if ego.1 == 0.0 {
         return None;
     }
-    let check = |vehicle: &'static str, (speed_path, path): (f64, f64)| {
-        let outruns = speed_path > SPEED_PATH_RATIO_MAX * path;
-        (speed_path >= SPEED_CHECK_MIN_PATH_M && outruns).then_some(
-            IssueProblem::SpeedsExceedPath {
+    // The other way round the displacement, not the path: position noise lengthens the path of a
+    // standing road user, but cannot carry it anywhere.
+    let check = |vehicle: &'static str, (speed_path, path, displacement): (f64, f64, f64)| {
+        if speed_path >= SPEED_CHECK_MIN_PATH_M && speed_path > SPEED_PATH_RATIO_MAX * path {
+            Some(IssueProblem::SpeedsExceedPath {
                 vehicle,
                 speed_path,
                 path,
-            },
-        )
+            })
+        } else if displacement >= SPEED_CHECK_MIN_PATH_M
+            && displacement > SPEED_PATH_RATIO_MAX * speed_path
+        {
+            Some(IssueProblem::PathExceedsSpeeds {
+                vehicle,
+                speed_path,
+                displacement,
+            })
+        } else {
+            None
+        }
     };
     check("ego", ego).or_else(|| check("sur", paths(|f| &f.partner)))
 }
@@ -298,7 +318,11 @@ fn sorted_intervals(frames: &[Frame]) -> Vec<f64> {
 fn impact_note(p: &Pending, sorted_intervals: &[f64]) -> Option<IssueProblem> {
     let t_impact = p.event.t_impact?;
     let last = p.event.frames.last()?;
-    let interval = *sorted_intervals.get(sorted_intervals.len() / 2)?;
+    // A single frame has no sampling interval to allow for.
+    let interval = sorted_intervals
+        .get(sorted_intervals.len() / 2)
+        .copied()
+        .unwrap_or(0.0);
     (t_impact > last.time + interval + TIME_TOLERANCE_S).then_some(
         IssueProblem::ImpactAfterFrames {
             t_impact,
@@ -308,16 +332,22 @@ fn impact_note(p: &Pending, sorted_intervals: &[f64]) -> Option<IssueProblem> {
 }
 
 /// Frames are sampled at a constant rate: an interval more than [`GAP_FACTOR`] times the
-/// event's median interval is a hole (frames missing), which the preparation and the metrics
-/// would span as if it were data (a 2-frame "safe sequence" across 3 s, a derived acceleration
-/// across the hole). A note with the largest hole on the event's `events.csv` line (the event
-/// is kept); the simulator and the real data shipped have none.
+/// event's (lower) median interval is a hole (frames missing), which the preparation and the
+/// metrics would span as if it were data (a derived acceleration across the hole, a lead time
+/// counted over it). The lower median, so that of two intervals the shorter is the rate. An
+/// event of two frames has no rate to compare with: they are a hole when more than
+/// [`TWO_FRAMES_MAX_INTERVAL_S`] apart (a 2-frame "safe sequence" across 3 s). A note with the
+/// largest hole on the event's `events.csv` line (the event is kept); the simulator and the real
+/// data shipped have none.
 fn gap_note(p: &Pending, intervals: &[f64]) -> Option<IssueProblem> {
     let frames = &p.event.frames;
-    if intervals.len() < 2 {
-        return None;
+    if let [only] = intervals {
+        return (*only > TWO_FRAMES_MAX_INTERVAL_S).then(|| IssueProblem::TwoFramesApart {
+            from: frames[0].time,
+            to: frames[1].time,
+        });
     }
-    let typical = intervals[intervals.len() / 2];
+    let typical = *intervals.get(intervals.len().checked_sub(1)? / 2)?;
     let limit = GAP_FACTOR * typical + TIME_TOLERANCE_S;
     let holes = intervals.iter().filter(|&&d| d > limit).count();
     let at = frames
@@ -354,15 +384,23 @@ fn coarse_position_note(p: &Pending) -> Option<IssueProblem> {
 
 /// A row that repeats the header (two files joined with `cat`, each with its header): a note,
 /// the row skipped and nothing else touched (it is no frame of the events around it).
-fn repeated_header(
+fn repeated_header<'a>(
     path: &Path,
     line: u64,
-    rec: &csv::ByteRecord,
+    rec: &'a csv::ByteRecord,
     headers: &csv::StringRecord,
 ) -> Option<LoadIssue> {
+    // The second file of a `cat` keeps its UTF-8 byte-order mark, which the reader strips from
+    // the first file's header only.
+    let without_bom = |(i, field): (usize, &'a [u8])| match i {
+        0 => field.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(field),
+        _ => field,
+    };
     let same = rec.len() == headers.len()
         && rec
             .iter()
+            .enumerate()
+            .map(without_bom)
             .zip(headers.iter())
             .all(|(r, h)| r == h.as_bytes());
     same.then(|| LoadIssue {
@@ -490,7 +528,9 @@ fn read_events(
             issues.push(note);
             continue;
         }
-        let id = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b"")).into_owned();
+        // Escaped, not lossy: two ids a wrong encoding garbles must not merge into one.
+        let id_bytes = rec.get(cols[0]).unwrap_or(b"");
+        let id = field_str(id_bytes).into_owned();
         let mut f = Fields {
             path,
             line,
@@ -502,6 +542,8 @@ fn read_events(
         };
         if id.is_empty() {
             f.push(0, IssueProblem::EmptyEventId);
+        } else if std::str::from_utf8(id_bytes).is_err() {
+            f.push(0, IssueProblem::NotUtf8);
         }
         let kind = EventKind::parse(&f.raw(1));
         if kind.is_none() {
@@ -663,7 +705,7 @@ fn read_frames<E: From<EventsError>>(
             issues.push(note);
             continue;
         }
-        let id_text = String::from_utf8_lossy(rec.get(cols[0]).unwrap_or(b""));
+        let id_text = field_str(rec.get(cols[0]).unwrap_or(b""));
         let id: &str = &id_text;
         // Frames usually come grouped by event: remember the last lookup.
         let slot = match &current {
