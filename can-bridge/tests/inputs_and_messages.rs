@@ -421,3 +421,38 @@ fn a_partner_at_rest_decodes_at_rest_whatever_the_ego_speed() {
     }
     assert_eq!(rows, set.events[0].frames.len(), "{stderr}");
 }
+
+#[test]
+fn a_map_whose_warning_fields_share_a_signal_is_refused_naming_the_map_and_both_fields() {
+    // Before: exit 0, and every warning frame carried the score's bits as its track id.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let map = tmp.path().join("wtrack.toml");
+    std::fs::write(
+        &map,
+        can_bridge::map::DEFAULT_MAP
+            .replace("track_id = \"WarnTrackId\"", "track_id = \"WarnScore\""),
+    )
+    .unwrap();
+    let log = tmp.path().join("a.log");
+    std::fs::write(&log, "(1700000000.000000) can0 100#0000000000000000\n").unwrap();
+    let out = tmp.path().join("w.log");
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log.to_str().unwrap(),
+        "--map",
+        map.to_str().unwrap(),
+        "--model",
+        &m,
+        "--warnings-out",
+        out.to_str().unwrap(),
+    ]);
+    assert_ne!(code, Some(0), "{stderr}");
+    assert!(stderr.contains(map.to_str().unwrap()), "{stderr}");
+    assert!(
+        stderr.contains("warning.score") && stderr.contains("`warning.track_id`"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

@@ -155,26 +155,42 @@ impl SignalSpec {
 
     // General path for CAN FD payloads longer than 8 bytes.
     fn raw_bitwise(&self, data: &[u8]) -> u64 {
-        let bit = |pos: u32| -> u64 {
+        self.bit_positions().fold(0u64, |value, pos| {
             let byte = data.get((pos / 8) as usize).copied().unwrap_or(0);
-            u64::from((byte >> (pos % 8)) & 1)
-        };
-        let mut value = 0u64;
-        match self.byte_order {
-            ByteOrder::Intel => {
-                for i in (0..u32::from(self.size)).rev() {
-                    value = (value << 1) | bit(u32::from(self.start_bit) + i);
-                }
-            }
+            (value << 1) | u64::from((byte >> (pos % 8)) & 1)
+        })
+    }
+
+    /// The payload bits the signal occupies (`byte * 8 + bit`, bit 0 the least significant of a
+    /// byte, as DBC start bits count), most significant bit of the value first.
+    pub fn bit_positions(&self) -> impl Iterator<Item = u32> + '_ {
+        let start = u32::from(self.start_bit);
+        let size = u32::from(self.size);
+        let mut next = start;
+        (0..size).map(move |i| match self.byte_order {
+            ByteOrder::Intel => start + size - 1 - i,
+            // Big-endian: from the MSB down through its byte, then on to the next byte's bit 7.
             ByteOrder::Motorola => {
-                let mut pos = u32::from(self.start_bit);
-                for _ in 0..self.size {
-                    value = (value << 1) | bit(pos);
-                    pos = if pos % 8 == 0 { pos + 15 } else { pos - 1 };
-                }
+                let pos = next;
+                next = if pos % 8 == 0 { pos + 15 } else { pos - 1 };
+                pos
+            }
+        })
+    }
+
+    /// True when the two signals share a payload bit and can be in the same frame (signals
+    /// multiplexed on different values never are).
+    pub fn overlaps(&self, other: &SignalSpec) -> bool {
+        if let (Some(a), Some(b)) = (self.multiplexed_on, other.multiplexed_on) {
+            if a != b {
+                return false;
             }
         }
-        value
+        let mut mine: Vec<u32> = self.bit_positions().collect();
+        mine.sort_unstable();
+        other
+            .bit_positions()
+            .any(|pos| mine.binary_search(&pos).is_ok())
     }
 
     /// Raw bits interpreted per [`ValueKind`], before scale and offset.
@@ -281,19 +297,8 @@ impl SignalSpec {
                 }
             }
         };
-        match self.byte_order {
-            ByteOrder::Intel => {
-                for i in 0..u32::from(self.size) {
-                    set(u32::from(self.start_bit) + i, (raw >> i) & 1);
-                }
-            }
-            ByteOrder::Motorola => {
-                let mut pos = u32::from(self.start_bit);
-                for i in (0..u32::from(self.size)).rev() {
-                    set(pos, (raw >> i) & 1);
-                    pos = if pos % 8 == 0 { pos + 15 } else { pos - 1 };
-                }
-            }
+        for (pos, i) in self.bit_positions().zip((0..u32::from(self.size)).rev()) {
+            set(pos, (raw >> i) & 1);
         }
         Ok(())
     }
@@ -329,6 +334,38 @@ mod tests {
             f.decode(&f32::NAN.to_le_bytes()),
             Err(SignalError::NotFinite)
         );
+    }
+
+    #[test]
+    fn overlapping_bit_ranges() {
+        let intel = |start, size| sig(start, size, ByteOrder::Intel, ValueKind::Unsigned, 1.0, 0.0);
+        let moto = |start, size| {
+            sig(
+                start,
+                size,
+                ByteOrder::Motorola,
+                ValueKind::Unsigned,
+                1.0,
+                0.0,
+            )
+        };
+        // Byte 0 and byte 1 (Intel) are apart; a 12-bit Intel signal at 0 reaches into byte 1.
+        assert!(!intel(0, 8).overlaps(&intel(8, 8)));
+        assert!(intel(0, 12).overlaps(&intel(8, 8)));
+        // Motorola 16 bits with MSB at bit 7: bytes 0 and 1, so not byte 2 but byte 1.
+        assert!(moto(7, 16).overlaps(&intel(8, 4)));
+        assert!(!moto(7, 16).overlaps(&intel(16, 8)));
+        // Motorola 4 bits with MSB at bit 3: bits 3..0, clear of the high nibble.
+        assert!(!moto(3, 4).overlaps(&intel(4, 4)));
+        assert!(moto(3, 4).overlaps(&intel(0, 1)));
+        // Multiplexed on different values: never in the same frame.
+        let mut a = intel(0, 8);
+        let mut b = intel(0, 8);
+        a.multiplexed_on = Some(1);
+        b.multiplexed_on = Some(2);
+        assert!(!a.overlaps(&b));
+        b.multiplexed_on = Some(1);
+        assert!(a.overlaps(&b));
     }
 
     #[test]

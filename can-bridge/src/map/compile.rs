@@ -697,13 +697,46 @@ fn compile_warning<'a>(
     if k.size != 8 || k.start_bit % 8 != 0 {
         return Err(field_error("warning.crc", "the CRC must be one whole byte"));
     }
+    let track_id = sig("track_id", &w.track_id)?;
+    let score = sig("score", &w.score)?;
+    let level = sig("level", &w.level)?;
+    // Each field is encoded into its own bits of the frame: two fields on one signal, or on
+    // signals that share bits, overwrite each other (the CRC written into the track byte), and
+    // the receiver reads garbage that still passes the E2E check.
+    let fields = [
+        ("track_id", track_id),
+        ("score", score),
+        ("level", level),
+        ("counter", counter),
+        ("crc", crc),
+    ];
+    for (i, (field, s)) in fields.iter().enumerate() {
+        for (first, t) in &fields[..i] {
+            let (mine, theirs) = (&spec.signals[*s], &spec.signals[*t]);
+            let reason = if s == t {
+                format!(
+                    "signal `{}.{}` already feeds `warning.{first}`; one signal feeds one field",
+                    w.message, mine.name
+                )
+            } else if mine.overlaps(theirs) {
+                format!(
+                    "signal `{0}.{1}` shares bits with `{0}.{2}`, which feeds `warning.{first}`: \
+                     each would overwrite the other in the frame",
+                    w.message, mine.name, theirs.name
+                )
+            } else {
+                continue;
+            };
+            return Err(field_error(format!("warning.{field}"), reason));
+        }
+    }
     Ok((
         bus,
         WarningSlots {
             spec: spec.clone(),
-            track_id: sig("track_id", &w.track_id)?,
-            score: sig("score", &w.score)?,
-            level: sig("level", &w.level)?,
+            track_id,
+            score,
+            level,
             counter_byte: usize::from(c.start_bit / 8),
             crc_byte: usize::from(k.start_bit / 8),
             data_id: w.data_id,

@@ -129,6 +129,41 @@ mod tests {
     }
 
     #[test]
+    fn warning_fields_are_refused_on_one_signal_or_on_shared_bits() {
+        let db = Database::parse(can_codec::project::PROJECT_DBC).unwrap();
+        let compile = |map: &str, db: &Database| {
+            CompiledMap::compile(&MapFile::parse(map).unwrap(), db)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
+        // Before: both compiled, and every warning frame carried track 0 (or the CRC as track).
+        let score_as_track =
+            DEFAULT_MAP.replace("track_id = \"WarnTrackId\"", "track_id = \"WarnScore\"");
+        assert_eq!(
+            compile(&score_as_track, &db).unwrap_err(),
+            "map field `warning.score`: signal `RISK_WARNING.WarnScore` already feeds \
+             `warning.track_id`; one signal feeds one field"
+        );
+        let track_as_crc = DEFAULT_MAP.replace("crc = \"WarnCrc\"", "crc = \"WarnTrackId\"");
+        let err = compile(&track_as_crc, &db).unwrap_err();
+        assert!(
+            err.starts_with("map field `warning.crc`: signal `RISK_WARNING.WarnTrackId` already feeds `warning.track_id`"),
+            "{err}"
+        );
+        // Distinct signals whose bits overlap: the level moved into the counter's nibble.
+        let dbc = can_codec::project::PROJECT_DBC
+            .replace("SG_ WarnLevel : 12|4@1+", "SG_ WarnLevel : 10|4@1+");
+        let overlapping = Database::parse(&dbc).unwrap();
+        assert_eq!(
+            compile(DEFAULT_MAP, &overlapping).unwrap_err(),
+            "map field `warning.counter`: signal `RISK_WARNING.WarnCounter` shares bits with \
+             `RISK_WARNING.WarnLevel`, which feeds `warning.level`: each would overwrite the \
+             other in the frame"
+        );
+        compile(DEFAULT_MAP, &db).unwrap();
+    }
+
+    #[test]
     fn glob_matches_whole_names_sorted_by_id() {
         let dbc = "VERSION \"\"\n\nBU_: X\n\nBO_ 258 TRACK_A_1: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 257 TRACK_A_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 259 TRACK_B_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n";
         let db = BusDatabase::unbound(Database::parse(dbc).unwrap(), "t.dbc");
