@@ -246,10 +246,14 @@ fn warnings_out_dash_is_stdout_not_a_file_named_dash() {
     assert!(std::fs::read_to_string(tmp.path().join("e.jsonl"))
         .unwrap()
         .contains("\"warning\":true"));
-    // Frames and JSON events both on stdout would be one mixed stream: refused.
+    // Frames and JSON events both on stdout would be one mixed stream: refused, whatever name
+    // stdout goes by (`/dev/stdout` and `/proc/self/fd/1` ran with exit 0 and mixed them).
     for extra in [
         &["--warnings-out", "-"][..],
         &["--warnings-out", "-", "--events-out", "-"],
+        &["--warnings-out", "/dev/stdout"],
+        &["--warnings-out", "/proc/self/fd/1"],
+        &["--warnings-out", "-", "--events-out", "/dev/stdout"],
     ] {
         let out = run(extra);
         let stderr = String::from_utf8_lossy(&out.stderr);
@@ -264,7 +268,13 @@ fn warnings_out_dash_is_stdout_not_a_file_named_dash() {
 fn check_outputs_named_dash_are_refused_not_written_as_files_named_dash() {
     let tmp = tempfile::tempdir().unwrap();
     let model = write_model(tmp.path());
-    for flag in ["--per-event-out", "--decoded-events-out"] {
+    for (flag, name) in [
+        ("--per-event-out", "-"),
+        ("--decoded-events-out", "-"),
+        // Other names of stdout ran with exit 0, the verdicts mixed into the report.
+        ("--per-event-out", "/dev/stdout"),
+        ("--per-event-out", "/proc/self/fd/1"),
+    ] {
         let out = bridge()
             .current_dir(tmp.path())
             .args([
@@ -276,15 +286,16 @@ fn check_outputs_named_dash_are_refused_not_written_as_files_named_dash() {
                 "--model",
             ])
             .arg(&model)
-            .args([flag, "-"])
+            .args([flag, name])
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{stderr}");
         assert!(
-            stderr.contains(&format!("{flag} -: stdout carries the report")),
+            stderr.contains(&format!("{flag} {name}: stdout carries the report")),
             "{stderr}"
         );
+        assert!(out.stdout.is_empty());
         assert!(!tmp.path().join("-").exists());
     }
 }

@@ -3,25 +3,29 @@
 use std::io::Write;
 use std::path::Path;
 
-use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{is_stdout, refuse_overlaps, AtomicFile, NamedPath};
 
 use super::args::CheckArgs;
 use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
 use super::{writing, Failure, InputError, SetupError};
 use crate::check::{self, CheckReport};
-use crate::cli_values::is_std_stream;
 use crate::engine::Engine;
 use crate::losses;
 use crate::model_file::ModelFile;
 
 pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
-    // `-` would be a file or folder named `-`, not stdout (which carries the report).
+    // Stdout carries the report: `-` (which would be a file or folder named `-`), `/dev/stdout`
+    // or the file stdout is would mix the two.
     for (flag, p) in [
         ("--per-event-out", &args.per_event_out),
         ("--decoded-events-out", &args.decoded_events_out),
     ] {
-        if p.as_deref().is_some_and(is_std_stream) {
-            return Err(SetupError::NotToStdout { flag }.into());
+        if let Some(p) = p.as_deref().filter(|p| is_stdout(p)) {
+            return Err(SetupError::NotToStdout {
+                flag,
+                path: p.display().to_string(),
+            }
+            .into());
         }
     }
     let model_file = ModelFile::load(&args.scoring.model)?;

@@ -12,7 +12,7 @@ use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
 use crate::offline::LogFeed;
-use riskscore_output::{refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{is_stdout, refuse_overlaps, AtomicFile, NamedPath};
 use std::io::Write;
 use std::time::Instant;
 
@@ -37,10 +37,16 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     problems.skip_lost = true;
     let mut losses = FrameLosses::default();
-    // `-`: the frames go to stdout (then the events must go to a file).
-    let is_dash = |p: &Option<std::path::PathBuf>| p.as_deref().is_some_and(is_std_stream);
-    if is_dash(&args.warnings_out) && (args.events_out.is_none() || is_dash(&args.events_out)) {
-        return Err(SetupError::BothToStdout.into());
+    // Frames on stdout (`-`, `/dev/stdout`, the file stdout is): then the events must go
+    // elsewhere, else the two streams interleave.
+    let on_stdout = |p: &Option<std::path::PathBuf>| p.as_deref().is_some_and(is_stdout);
+    if let Some(warnings) = args.warnings_out.as_deref().filter(|p| is_stdout(p)) {
+        if args.events_out.is_none() || on_stdout(&args.events_out) {
+            return Err(SetupError::BothToStdout {
+                warnings: warnings.display().to_string(),
+            }
+            .into());
+        }
     }
     let mut warnings: Option<Sink> = match &args.warnings_out {
         Some(p) if is_std_stream(p) => Some(Sink::Stdout(std::io::stdout())),

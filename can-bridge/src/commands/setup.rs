@@ -51,10 +51,10 @@ pub enum SetupError {
     /// or the model file's default threshold (naming the file).
     #[error("{origin} must be finite, not {threshold}")]
     Threshold { threshold: f32, origin: String },
-    #[error("{flag} -: stdout carries the report; give a path (`-` is not an output here)")]
-    NotToStdout { flag: &'static str },
-    #[error("--warnings-out - and the JSON events (--events-out, stdout by default) would both go to stdout: give --events-out FILE")]
-    BothToStdout,
+    #[error("{flag} {path}: stdout carries the report; give a path (standard output is not an output here)")]
+    NotToStdout { flag: &'static str, path: String },
+    #[error("--warnings-out {warnings} and the JSON events (--events-out, stdout by default) would both go to stdout: give --events-out FILE")]
+    BothToStdout { warnings: String },
     #[error("--urgent {urgent} is below the warning threshold {threshold} ({source_of}): level 2 is only given to a warning, so every warning would be urgent; give --urgent at or above the threshold")]
     UrgentBelowThreshold {
         urgent: f32,

@@ -10,10 +10,12 @@
 //!   output's missing parent folders are made that way ([`OutputLock`], [`create_live_file`]).
 //! - [`remove_temporaries_on_signals`]: Ctrl-C and SIGTERM remove the temporaries (exit 130/143).
 //! - Devices and pipes (`/dev/null`) are written directly.
+//! - [`is_stdout`]: every name of standard output (`-`, `/dev/stdout`, the file it is).
 //!
 //! The contract is written down in `docs/outputs.md`.
 mod cleanup;
 mod dir;
+mod existing;
 mod file;
 mod folders;
 mod lock;
@@ -22,6 +24,7 @@ mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::{carry_missing, refuse_kind_clash, refuse_unswappable, OutputDir};
+pub use existing::is_stdout;
 pub use file::{is_read_only, open_special, AtomicFile, AtomicSet, READ_ONLY};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;

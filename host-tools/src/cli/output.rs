@@ -4,6 +4,7 @@
 //! command's summary then goes to stderr: [`summary`]).
 use anyhow::Context;
 use riskscore_output::is_special_file;
+pub use riskscore_output::is_stdout;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -112,32 +113,6 @@ pub fn output_name(path: &Path) -> String {
     } else {
         path.display().to_string()
     }
-}
-
-/// True when the output `path` is this process's standard output: `-`, or a path to the same
-/// file (`/dev/stdout`, `/proc/self/fd/1`, the terminal or pipe standard output is). The data
-/// then owns standard output, and a command's human-readable summary goes to stderr.
-pub fn is_stdout(path: &Path) -> bool {
-    use std::os::fd::AsFd;
-    use std::os::unix::fs::MetadataExt;
-    if is_dash(path) {
-        return true;
-    }
-    let Ok(target) = std::fs::metadata(path) else {
-        return false;
-    };
-    // Data thrown away is not a stream a summary could spoil (`--out /dev/null >/dev/null`).
-    if std::fs::metadata("/dev/null")
-        .is_ok_and(|n| n.dev() == target.dev() && n.ino() == target.ino())
-    {
-        return false;
-    }
-    let Ok(fd) = std::io::stdout().as_fd().try_clone_to_owned() else {
-        return false;
-    };
-    std::fs::File::from(fd)
-        .metadata()
-        .is_ok_and(|m| m.dev() == target.dev() && m.ino() == target.ino())
 }
 
 /// Prints a command's human-readable summary: on standard output (through
