@@ -456,3 +456,93 @@ fn a_map_whose_warning_fields_share_a_signal_is_refused_naming_the_map_and_both_
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn an_output_file_holding_a_model_or_checkpoint_is_refused_and_left_as_it_is() {
+    // Before: every one of these replaced the model copy with a log or table, exit 0.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let set = common::simulated_events(2, 1);
+    let events = tmp.path().join("events");
+    riskscore_data::events::write_events(&events, &set).unwrap();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, export(&set, &ExportOptions::default()).unwrap()).unwrap();
+    let (log, events) = (log.to_str().unwrap(), events.to_str().unwrap());
+    let copy = tmp.path().join("mcopy.rsk");
+    let checkpoint = tmp.path().join("drl.json");
+    let checkpoint_text = "{\"format\": \"riskscore-checkpoint\", \"weights\": []}\n";
+    std::fs::write(&checkpoint, checkpoint_text).unwrap();
+    let blob = std::fs::read(&m).unwrap();
+    for (target, what) in [
+        (&copy, "a model blob"),
+        (&checkpoint, "a training checkpoint"),
+    ] {
+        std::fs::write(&copy, &blob).unwrap();
+        let t = target.to_str().unwrap();
+        for (flag, args) in [
+            (
+                "--warnings-out",
+                vec![
+                    "score-log",
+                    "--log",
+                    log,
+                    "--model",
+                    &m,
+                    "--warnings-out",
+                    t,
+                ],
+            ),
+            (
+                "--events-out",
+                vec!["score-log", "--log", log, "--model", &m, "--events-out", t],
+            ),
+            ("--out", vec!["decode", "--log", log, "--out", t]),
+            (
+                "--per-event-out",
+                vec![
+                    "check",
+                    "--log",
+                    log,
+                    "--events",
+                    events,
+                    "--model",
+                    &m,
+                    "--per-event-out",
+                    t,
+                ],
+            ),
+        ] {
+            let (code, stdout, stderr) = bridge(&args);
+            assert_eq!(code, Some(1), "{args:?}: {stderr}");
+            assert!(
+                stderr.contains(&format!("{flag} {t}: it is {what}")),
+                "{args:?}: {stderr}"
+            );
+            assert!(
+                stderr.contains("writing there would replace the model; it is left as it is"),
+                "{stderr}"
+            );
+            assert!(stdout.is_empty(), "{args:?}: {stdout}");
+            assert_eq!(std::fs::read(&copy).unwrap(), blob);
+            assert_eq!(
+                std::fs::read_to_string(&checkpoint).unwrap(),
+                checkpoint_text
+            );
+        }
+    }
+    // A file of the user's that is no model is an output as before.
+    let notes = tmp.path().join("w.log");
+    std::fs::write(&notes, "previous run\n").unwrap();
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log,
+        "--model",
+        &m,
+        "--warnings-out",
+        notes.to_str().unwrap(),
+        "--events-out",
+        "/dev/null",
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+}

@@ -3,7 +3,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use riskscore_output::{is_stdout, refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{
+    is_stdout, refuse_overlaps, refuse_overwriting_a_model, AtomicFile, NamedPath,
+};
 
 use super::args::CheckArgs;
 use super::setup::{engine_config, load_map, print_inputs, scoring_inputs, summary};
@@ -55,6 +57,14 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         outputs.push(("--per-event-out", p.as_path()));
     }
     refuse_overlaps(&inputs, &outputs)?;
+    for (flag, p) in &outputs {
+        let writes = if *flag == "--per-event-out" {
+            "per-event verdicts (JSON Lines)"
+        } else {
+            "a decoded event table"
+        };
+        refuse_overwriting_a_model(flag, p, writes).map_err(SetupError::from)?;
+    }
     let (set, issues) = riskscore_data::events::load_events(&args.events).map_err(|source| {
         Failure::Input(InputError::Events {
             dir: args.events.clone(),

@@ -15,7 +15,7 @@ use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
 use crate::offline::LogFeed;
 use crate::states_out::StatesWriter;
-use riskscore_output::{refuse_overlaps, AtomicFile};
+use riskscore_output::{refuse_overlaps, refuse_overwriting_a_model, AtomicFile};
 use scorer_core::model::{BoundedVec, Model};
 use scorer_core::msra::MsraModel;
 use std::io::Write;
@@ -42,6 +42,8 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     let to_stdout = is_std_stream(&args.out);
     if !to_stdout {
         refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
+        refuse_overwriting_a_model("--out", &args.out, "a state table")
+            .map_err(super::SetupError::from)?;
     }
     let parquet = riskscore_eval::parquet_io::is_parquet(&args.out);
     let mut file = if to_stdout {

@@ -12,7 +12,9 @@ use crate::logfile;
 use crate::losses::{self, FrameLosses};
 use crate::model_file::ModelFile;
 use crate::offline::LogFeed;
-use riskscore_output::{is_stdout, refuse_overlaps, AtomicFile, NamedPath};
+use riskscore_output::{
+    is_stdout, refuse_overlaps, refuse_overwriting_a_model, AtomicFile, NamedPath,
+};
 use std::io::Write;
 use std::time::Instant;
 
@@ -33,6 +35,10 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
     .collect();
     refuse_overlaps(&inputs, &outputs)?;
+    if let Some(p) = &args.warnings_out {
+        refuse_overwriting_a_model("--warnings-out", p, "a candump log of warning frames")
+            .map_err(SetupError::from)?;
+    }
     let mut events = open_events(&args.events_out, args.all_scores, true)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     problems.skip_lost = true;

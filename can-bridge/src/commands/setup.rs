@@ -47,6 +47,9 @@ pub enum SetupError {
     },
     #[error(transparent)]
     Model(#[from] ModelFileError),
+    /// An output file holds a user's model blob or training checkpoint (riskctl's refusal).
+    #[error(transparent)]
+    WouldReplaceModel(#[from] riskscore_output::ExistingFileError),
     /// The warning threshold is NaN or infinite; `origin` says where it came from: `--threshold`,
     /// or the model file's default threshold (naming the file).
     #[error("{origin} must be finite, not {threshold}")]
@@ -264,6 +267,9 @@ pub fn open_events(
     all_scores: bool,
     atomic: bool,
 ) -> Result<EventWriter, SetupError> {
+    if let Some(p) = path {
+        riskscore_output::refuse_overwriting_a_model("--events-out", p, "JSON Lines events")?;
+    }
     let out = match path {
         // `-`: standard output, as `--log -` is standard input (not a file named `-`).
         Some(p) if is_std_stream(p) => Sink::Stdout(std::io::stdout()),

@@ -76,7 +76,7 @@ impl ModelFile {
     /// The decoded blob: the model and its metadata.
     pub fn blob(&self) -> Result<scorer_core::model::ModelBlob<'_>, ModelFileError> {
         scorer_core::model::decode_blob(&self.bytes).map_err(|source| {
-            if looks_like_checkpoint(&self.bytes) {
+            if model_file_kind(&self.bytes) == Some(ModelFileKind::Checkpoint) {
                 ModelFileError::Checkpoint {
                     path: self.path.clone(),
                 }
@@ -97,42 +97,9 @@ impl ModelFile {
     }
 }
 
-/// What a file of a user's models is, told from its first bytes ([`model_file_kind`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelFileKind {
-    /// A model blob (`*.rsk`): it starts with the blob magic, whether or not it decodes.
-    Blob,
-    /// A training checkpoint (`drl.json`, `msra.json`, the JSON `riskctl train` writes).
-    Checkpoint,
-}
-
-/// How many leading bytes of a file [`model_file_kind`] reads (more are ignored).
-pub const KIND_HEAD_BYTES: usize = 4096;
-
-/// What the file starting with `head` is, if it is a model blob or a training checkpoint; `None`
-/// for anything else. `head`: the file's first [`KIND_HEAD_BYTES`] bytes (or all, if fewer).
-pub fn model_file_kind(head: &[u8]) -> Option<ModelFileKind> {
-    if head.starts_with(&scorer_core::model::MAGIC) {
-        Some(ModelFileKind::Blob)
-    } else if looks_like_checkpoint(head) {
-        Some(ModelFileKind::Checkpoint)
-    } else {
-        None
-    }
-}
-
-/// A JSON object that names the training checkpoint format (`"format": "riskscore-checkpoint"`,
-/// `riskscore_train::export::CHECKPOINT_FORMAT`) near its start: not a blob, but the file a blob
-/// is exported from.
-fn looks_like_checkpoint(bytes: &[u8]) -> bool {
-    let head = &bytes[..bytes.len().min(KIND_HEAD_BYTES)];
-    // A UTF-8 byte-order mark (saved again by a Windows editor) is not part of the JSON.
-    let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
-    head.trim_ascii_start().starts_with(b"{")
-        && head
-            .windows(b"\"riskscore-checkpoint\"".len())
-            .any(|w| w == b"\"riskscore-checkpoint\"")
-}
+// Told apart in the output layer, where can-bridge's and riskctl's refusals to write over a
+// model ask too; re-exported for the readers of model files (riskctl, the Python module).
+pub use riskscore_output::{model_file_kind, ModelFileKind, KIND_HEAD_BYTES};
 
 /// Decodes model files and names each: its `NAME=`, else its family (`DRL`, `MSRA`, ...), with the
 /// file stem added only where two rows would share a name. A name that clashes with a baseline row

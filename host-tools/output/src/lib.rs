@@ -10,7 +10,9 @@
 //!   output's missing parent folders are made that way ([`OutputLock`], [`create_live_file`]).
 //! - [`remove_temporaries_on_signals`]: Ctrl-C and SIGTERM remove the temporaries (exit 130/143).
 //! - Devices and pipes (`/dev/null`) are written directly.
-//! - [`is_stdout`]: every name of standard output (`-`, `/dev/stdout`, the file it is).
+//! - [`is_stdout`]: every name of standard output (`-`, `/dev/stdout`, the file it is); and
+//!   [`refuse_overwriting_a_model`]: a model blob or training checkpoint is not replaced by a
+//!   command's table or log.
 //!
 //! The contract is written down in `docs/outputs.md`.
 mod cleanup;
@@ -24,7 +26,10 @@ mod writeback;
 
 pub use cleanup::remove_temporaries_on_signals;
 pub use dir::{carry_missing, refuse_kind_clash, refuse_unswappable, OutputDir};
-pub use existing::is_stdout;
+pub use existing::{
+    is_stdout, model_file_kind, refuse_overwriting_a_model, refuse_replacing_a_non_blob,
+    ExistingFileError, ModelFileKind, KIND_HEAD_BYTES,
+};
 pub use file::{is_read_only, open_special, AtomicFile, AtomicSet, READ_ONLY};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;

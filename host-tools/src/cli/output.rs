@@ -148,71 +148,19 @@ pub fn refuse_overwriting_inputs(
     Ok(())
 }
 
-/// What an existing output file holds, read from its first bytes
-/// ([`riskscore_eval::model_files::model_file_kind`]).
-enum ExistingFile {
-    /// Nothing to lose: no regular file there (missing, `-`, a pipe, a device: written into), an
-    /// empty one, or one that cannot be read (the write says why it cannot replace it either).
-    Nothing,
-    Blob,
-    Checkpoint,
-    Other,
-}
-
-fn existing_file(out: &Path) -> ExistingFile {
-    use riskscore_eval::model_files::{model_file_kind, ModelFileKind, KIND_HEAD_BYTES};
-    use std::io::Read;
-    if is_stdout(out) || !std::fs::metadata(out).is_ok_and(|m| m.is_file() && m.len() > 0) {
-        return ExistingFile::Nothing;
-    }
-    let mut head = Vec::with_capacity(KIND_HEAD_BYTES);
-    let read = std::fs::File::open(out)
-        .and_then(|f| f.take(KIND_HEAD_BYTES as u64).read_to_end(&mut head));
-    match (read, model_file_kind(&head)) {
-        (Err(_), _) => ExistingFile::Nothing,
-        (Ok(_), Some(ModelFileKind::Blob)) => ExistingFile::Blob,
-        (Ok(_), Some(ModelFileKind::Checkpoint)) => ExistingFile::Checkpoint,
-        (Ok(_), None) => ExistingFile::Other,
-    }
-}
-
-const CHECKPOINT: &str = "a training checkpoint (the JSON `riskctl train` writes)";
-
 /// Refuses an output file `out` (given with `flag`) that holds a user's model: a model blob or a
-/// training checkpoint. A table written over it would lose the model (`score --out run/drl.rsk`,
-/// one tab completion from `run/drl.csv`), and a model is never an output of the commands that
-/// call this.
+/// training checkpoint ([`riskscore_output::refuse_overwriting_a_model`], which can-bridge's
+/// outputs go through too). `writes`: what the command writes there.
 pub fn refuse_overwriting_a_model(flag: &str, out: &Path, writes: &str) -> anyhow::Result<()> {
-    let what = match existing_file(out) {
-        ExistingFile::Nothing | ExistingFile::Other => return Ok(()),
-        ExistingFile::Blob => "a model blob",
-        ExistingFile::Checkpoint => CHECKPOINT,
-    };
-    anyhow::bail!(
-        "{flag} {}: it is {what}, not {writes}: writing there would replace the model; \
-         it is left as it is. Give {flag} another name",
-        out.display()
-    )
+    Ok(riskscore_output::refuse_overwriting_a_model(
+        flag, out, writes,
+    )?)
 }
 
 /// Refuses an output file `out` (given with `flag`) that a model blob would replace although it
-/// is not one: a training checkpoint (its trained parameters are lost), a table, a user's notes.
-/// A blob (re-calibrating in place), an empty file, standard output and a device are written.
+/// is not one ([`riskscore_output::refuse_replacing_a_non_blob`]).
 pub fn refuse_replacing_a_non_blob(flag: &str, out: &Path) -> anyhow::Result<()> {
-    let what = match existing_file(out) {
-        ExistingFile::Nothing | ExistingFile::Blob => return Ok(()),
-        ExistingFile::Checkpoint => {
-            format!("{CHECKPOINT}: a blob written over it would lose its trained parameters")
-        }
-        ExistingFile::Other => {
-            "not a model blob: a blob written over it would lose what it holds".to_owned()
-        }
-    };
-    anyhow::bail!(
-        "{flag} {}: it is {what}; it is left as it is. Give {flag} another name \
-         (conventionally *.rsk)",
-        out.display()
-    )
+    Ok(riskscore_output::refuse_replacing_a_non_blob(flag, out)?)
 }
 
 /// How a refused run's message names an output it did not write: "OUT left as it was" when it
