@@ -546,3 +546,51 @@ fn an_output_file_holding_a_model_or_checkpoint_is_refused_and_left_as_it_is() {
     ]);
     assert_eq!(code, Some(0), "{stderr}");
 }
+
+#[test]
+fn a_decoded_events_folder_that_holds_the_inputs_is_refused() {
+    // Before: `--decoded-events-out proj` beside proj/drive.log and proj/sim ran with exit 0
+    // and replaced the user's proj/frames.csv and proj/events.csv.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let proj = tmp.path().join("proj");
+    let set = common::simulated_events(2, 1);
+    let events = proj.join("sim");
+    riskscore_data::events::write_events(&events, &set).unwrap();
+    let log = proj.join("drive.log");
+    std::fs::write(&log, export(&set, &ExportOptions::default()).unwrap()).unwrap();
+    let users = proj.join("frames.csv");
+    std::fs::write(&users, "the user's own table\n").unwrap();
+    let check = |out: &Path| {
+        bridge(&[
+            "check",
+            "--log",
+            log.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            "--model",
+            &m,
+            "--decoded-events-out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let (code, stdout, stderr) = check(&proj);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "--decoded-events-out {} contains --",
+            proj.display()
+        )),
+        "{stderr}"
+    );
+    assert!(stdout.is_empty(), "{stdout}");
+    assert_eq!(
+        std::fs::read_to_string(&users).unwrap(),
+        "the user's own table\n"
+    );
+    assert!(!proj.join("events.csv").exists());
+    // A folder of its own beside the inputs is written.
+    let (code, _, stderr) = check(&proj.join("decoded"));
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(proj.join("decoded").join("frames.csv").exists());
+}

@@ -42,6 +42,9 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
     let mut inputs = scoring_inputs(&args.scoring);
     inputs.push(("--log", args.log.as_path()));
     inputs.extend(event_files.iter().map(|p| ("--events", p.as_path())));
+    // After its files, whose refusal is the more precise one: nothing is written into the
+    // event folder, and no output folder may hold it (docs/outputs.md, guarantee 1).
+    inputs.push(("--events", args.events.as_path()));
     let decoded_files = args.decoded_events_out.as_ref().map(|d| {
         [
             d.join(riskscore_data::events::EVENTS_FILE),
@@ -55,6 +58,11 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
         .collect();
     if let Some(p) = &args.per_event_out {
         outputs.push(("--per-event-out", p.as_path()));
+    }
+    // The folder itself too: its two files are replaced, and a folder that holds the log or the
+    // event folder (`--decoded-events-out .` beside them) is the user's project, not an output.
+    if let Some(d) = &args.decoded_events_out {
+        outputs.push(("--decoded-events-out", d.as_path()));
     }
     refuse_overlaps(&inputs, &outputs)?;
     for (flag, p) in &outputs {
