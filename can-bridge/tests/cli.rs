@@ -338,13 +338,15 @@ fn a_late_frame_names_the_line_of_the_frame_stamped_ahead() {
 }
 
 #[test]
-fn objects_logged_on_another_bus_than_their_binding_are_named() {
+fn objects_logged_on_another_bus_than_their_binding_fail_and_leave_the_old_outputs() {
     // Ego frames on can0 (bound) decode, the object frames were logged on can1: nothing is
-    // scored, and the closing line asked only whether the ego fields were on the log.
+    // scored, and the closing line asked only whether the ego fields were on the log. Then it
+    // named the other bus but exited 0 and emptied the old outputs.
     let tmp = tempfile::tempdir().unwrap();
     let model = write_model(tmp.path());
     let db = project_db();
     let mut text = String::new();
+    let mut ego_only = String::new();
     let mut t = 1_700_000_000_000_000u64;
     for k in 0..10 {
         for (i, f) in Cycle::closing(7, 30.0 - 2.0 * k as f64)
@@ -355,25 +357,54 @@ fn objects_logged_on_another_bus_than_their_binding_are_named() {
             let iface = if i < 2 { "can0" } else { "can1" };
             can_codec::format_line(&mut text, t, iface, f);
             text.push('\n');
+            if i < 2 {
+                can_codec::format_line(&mut ego_only, t, iface, f);
+                ego_only.push('\n');
+            }
             t += 200;
         }
         t += 100_000;
     }
     let log = tmp.path().join("drive.log");
     std::fs::write(&log, text).unwrap();
-    let out = bridge()
-        .args(["score-log", "--dbc", "can0=builtin:riskscore", "--log"])
-        .arg(&log)
-        .arg("--model")
-        .arg(&model)
-        .output()
-        .unwrap();
+    let ego_log = tmp.path().join("ego.log");
+    std::fs::write(&ego_log, ego_only).unwrap();
+    let (w, e) = (tmp.path().join("w.log"), tmp.path().join("e.jsonl"));
+    let run = |log: &std::path::Path| {
+        std::fs::write(&w, "old warnings\n").unwrap();
+        std::fs::write(&e, "old events\n").unwrap();
+        bridge()
+            .args(["score-log", "--dbc", "can0=builtin:riskscore", "--log"])
+            .arg(log)
+            .arg("--model")
+            .arg(&model)
+            .arg("--warnings-out")
+            .arg(&w)
+            .arg("--events-out")
+            .arg(&e)
+            .output()
+            .unwrap()
+    };
+    let out = run(&log);
     let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(
         stderr.contains("nothing was scored: 20 mapped messages decoded")
-            && stderr.contains("frames are messages the map reads on another bus"),
+            && stderr.contains("30 frames are messages the map reads on another bus"),
         "{stderr}"
     );
+    assert_eq!(std::fs::read_to_string(&w).unwrap(), "old warnings\n");
+    assert_eq!(std::fs::read_to_string(&e).unwrap(), "old events\n");
+    // A log that really holds ego frames only is no error: a note, exit 0, outputs written.
+    let out = run(&ego_log);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("nothing was scored: 20 mapped messages decoded")
+            && !stderr.contains("another bus"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&w).unwrap(), "");
 }
 
 #[test]

@@ -311,8 +311,9 @@ pub fn summary(s: &Stats) -> String {
 /// Why a run that received frames scored nothing, if it did.
 #[derive(Debug, PartialEq)]
 pub enum NothingScored {
-    /// Not one frame was a message the map reads (a wrong `--dbc`, `--map` or bus name) or the
-    /// log held no data frame at all: an error for offline commands.
+    /// Not one frame was a message the map reads (a wrong `--dbc`, `--map` or bus name), the
+    /// log held no data frame at all, or nothing was scored while frames the map reads came on
+    /// another bus: an error for offline commands.
     NothingMapped(String),
     /// Mapped messages were decoded, but no partner update could be scored.
     NoUpdate(String),
@@ -352,17 +353,21 @@ pub fn nothing_scored(s: &Stats, unreadable: usize) -> Option<NothingScored> {
             s.unknown_ids
         )));
     }
-    let other_bus = if s.unknown_other_bus > 0 {
-        format!(
-            "; {} frames are messages the map reads on another bus: are the log's interface names those of --dbc BUS=FILE or the map's [bus]?",
-            s.unknown_other_bus
-        )
-    } else {
-        String::new()
-    };
-    Some(NothingScored::NoUpdate(format!(
-        "nothing was scored: {} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view); is every ego field the map needs on the log?{other_bus}",
+    let counts = format!(
+        "{} mapped messages decoded ({} undecodable), but no partner update could be scored ({} invalid objects, {} stale drops, {} awaiting motion, {} outside the view)",
         s.decoded, s.decode_errors, s.invalid_objects, s.stale_drops, s.motion_pending, s.outside_view
+    );
+    // Frames the map reads, but on another bus: the radar is on the log, bound to the wrong
+    // interface. That is a configuration error like a log of unmapped ids, not a drive that
+    // really held ego frames only, so it fails (and leaves the old outputs) instead of exit 0.
+    if s.unknown_other_bus > 0 {
+        return Some(NothingScored::NothingMapped(format!(
+            "nothing was scored: {counts}; {} frames are messages the map reads on another bus: the log's interface names do not match the buses of --dbc BUS=FILE or the map's [bus]",
+            s.unknown_other_bus
+        )));
+    }
+    Some(NothingScored::NoUpdate(format!(
+        "nothing was scored: {counts}; is every ego field the map needs on the log?"
     )))
 }
 
@@ -466,9 +471,10 @@ mod tests {
             unknown_other_bus: 3,
             ..Stats::default()
         };
+        // Before: NoUpdate, a note with exit 0 and the old outputs emptied.
         assert!(matches!(
             nothing_scored(&objects_on_another_bus, 0),
-            Some(NothingScored::NoUpdate(m)) if m.contains("ego field the map needs on the log?; 3 frames are messages the map reads on another bus")
+            Some(NothingScored::NothingMapped(m)) if m.contains("(0 invalid objects, 0 stale drops, 0 awaiting motion, 0 outside the view); 3 frames are messages the map reads on another bus: the log's interface names do not match")
         ));
         let scored = Stats {
             frames: 5,

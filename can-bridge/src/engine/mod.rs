@@ -328,7 +328,9 @@ impl<'m> Engine<'m> {
         }
         let Some(index) = self.map.input_index(frame.id, bus) else {
             self.stats.unknown_ids += 1;
-            if self.map.inputs.iter().any(|m| m.spec.id == frame.id) {
+            if self.map.inputs.iter().any(|m| m.spec.id == frame.id)
+                && !self.map.defined_on(frame.id, bus)
+            {
                 self.stats.unknown_other_bus += 1;
             }
             return;

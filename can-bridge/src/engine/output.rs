@@ -11,8 +11,8 @@ pub struct Stats {
     pub decoded: u64,
     pub scored: u64,
     pub unknown_ids: u64,
-    /// Of `unknown_ids`: frames whose id is a message the map reads on another bus (the log's
-    /// interface names do not match the bus bindings).
+    /// Of `unknown_ids`: frames whose id is a message the map reads on another bus and no DBC
+    /// file of their own bus defines (the log's interface names do not match the bus bindings).
     pub unknown_other_bus: u64,
     pub remote_frames: u64,
     pub decode_errors: u64,

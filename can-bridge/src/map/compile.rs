@@ -10,7 +10,7 @@ use super::file::{FlagRef, MapFile, PartnerMap, SignalRef, SlotList, TrackIdSpec
 use super::flag_expr;
 use super::validate::{check_kinematics, check_signal_use};
 use super::{field_error, MapError, DEFAULT_MAP};
-use can_codec::{Database, MessageSpec};
+use can_codec::{CanId, Database, MessageSpec};
 use std::collections::BTreeMap;
 
 /// A message of the vehicle and the bus it is on (`None`: every bus).
@@ -390,6 +390,19 @@ impl CompiledMap {
             slots,
             slot_ids: o.slots.is_some() && o.track_id.is_some(),
             warning_bus: bus_index(&buses, warning_bus),
+            defined: {
+                let mut ids: Vec<(CanId, Option<u8>)> = db
+                    .parts
+                    .iter()
+                    .flat_map(|p| {
+                        let bus = bus_index(&buses, p.bus.as_deref());
+                        p.db.messages.iter().map(move |m| (m.id, bus))
+                    })
+                    .collect();
+                ids.sort_unstable();
+                ids.dedup();
+                ids
+            },
             buses,
             accel_relative: o.accel_relative,
             fov: FieldOfView {

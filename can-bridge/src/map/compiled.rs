@@ -202,6 +202,11 @@ pub struct CompiledMap {
     pub buses: Vec<String>,
     /// The warning message's bus (`None`: unbound).
     pub warning_bus: Option<u8>,
+    /// Every id a DBC file defines, with the bus it is bound to (`None`: every bus), sorted: a
+    /// frame of an input message's id that a file of its own bus defines is that bus's message
+    /// (Toyota's 0x224 is a powertrain message on can0 and a radar track on can1), not an input
+    /// logged on the wrong bus ([`CompiledMap::defined_on`]).
+    pub defined: Vec<(CanId, Option<u8>)>,
     pub fov: FieldOfView,
     /// The object's acceleration is relative to the ego's.
     pub accel_relative: bool,
@@ -240,5 +245,14 @@ impl CompiledMap {
         self.inputs
             .iter()
             .position(|m| m.spec.id == id && (m.bus.is_none() || m.bus == bus))
+    }
+
+    /// Whether a DBC file bound to `bus` (or to every bus) defines `id`.
+    pub fn defined_on(&self, id: CanId, bus: Option<u8>) -> bool {
+        let first = self.defined.partition_point(|(i, _)| *i < id);
+        self.defined[first..]
+            .iter()
+            .take_while(|(i, _)| *i == id)
+            .any(|(_, b)| b.is_none() || *b == bus)
     }
 }

@@ -164,6 +164,40 @@ mod tests {
     }
 
     #[test]
+    fn an_id_a_file_of_the_frames_own_bus_defines_is_that_buses_message() {
+        // The radar file on can1 reuses the id of OBJECT_MOTION (0x201) for a message of its own,
+        // as Toyota's powertrain and radar files share 0x224: such a frame on can1 is can1's
+        // message, not the map's input logged on the wrong bus; on an unbound can2 it is.
+        let project = Database::parse(can_codec::project::PROJECT_DBC).unwrap();
+        let radar = Database::parse(
+            "VERSION \"\"\n\nBU_: X\n\nBO_ 513 OTHER: 8 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n",
+        )
+        .unwrap();
+        let db = BusDatabase {
+            parts: vec![
+                BusPart {
+                    bus: Some("can0".into()),
+                    origin: "project".into(),
+                    db: project.clone(),
+                },
+                BusPart {
+                    bus: Some("can1".into()),
+                    origin: "radar.dbc".into(),
+                    db: radar,
+                },
+            ],
+        };
+        let map = CompiledMap::compile_on(&MapFile::parse(DEFAULT_MAP).unwrap(), &db).unwrap();
+        let id = project.message_by_name("OBJECT_MOTION").unwrap().id;
+        assert_eq!(map.buses, ["can0", "can1"]);
+        assert!(map.defined_on(id, Some(0)));
+        assert!(map.defined_on(id, Some(1)));
+        assert!(!map.defined_on(id, None));
+        let ego = project.message_by_name("EGO_MOTION").unwrap().id;
+        assert!(!map.defined_on(ego, Some(1)));
+    }
+
+    #[test]
     fn glob_matches_whole_names_sorted_by_id() {
         let dbc = "VERSION \"\"\n\nBU_: X\n\nBO_ 258 TRACK_A_1: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 257 TRACK_A_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n\nBO_ 259 TRACK_B_0: 1 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\n";
         let db = BusDatabase::unbound(Database::parse(dbc).unwrap(), "t.dbc");
