@@ -86,17 +86,30 @@ impl LogReport {
         self.bad_by_kind.values().sum()
     }
 
-    /// When every frame of the log (two or more) carries the same timestamp and that cost track
-    /// updates (`duplicates`: dropped as a second update of a track at the same time), what to
-    /// tell the user (`scored`: the updates scored); `None` otherwise. A snapshot that scores each track once is not refused.
+    /// When the log's timestamps cannot order its track updates, what to tell the user; `None`
+    /// otherwise. `duplicates`: updates dropped as a second update of a track at the same time,
+    /// `scored`: the updates scored. Two cases: every frame (two or more) carries one timestamp
+    /// and that cost updates; or most updates were such duplicates (timestamps truncated to whole
+    /// seconds or milliseconds). Receive times of a real capture are microseconds apart, so a
+    /// duplicate is a rare glitch; when duplicates outnumber scored updates, the scores describe
+    /// a tenth of the drive, and `--max-lost` (which counts frames, not updates) cannot see it. A
+    /// snapshot that scores each track once is not refused.
     pub fn stuck_timestamps(&self, duplicates: u64, scored: u64) -> Option<String> {
         let (line, t_us) = self.first_frame?;
-        (self.frames >= 2 && !self.timestamps_advance && duplicates > 0).then(|| {
-            format!(
-                "the timestamps do not advance: all {} frames, from line {line} on, are stamped {}.{:06}, so {duplicates} track updates were dropped as second updates at the same time ({scored} scored); the bridge needs each frame's receive time (what candump -L writes): was the log converted or written without real timestamps?",
+        let advice = "the bridge needs each frame's receive time (what candump -L writes): was the log converted or written without real timestamps?";
+        if self.frames >= 2 && !self.timestamps_advance && duplicates > 0 {
+            return Some(format!(
+                "the timestamps do not advance: all {} frames, from line {line} on, are stamped {}.{:06}, so {duplicates} track updates were dropped as second updates at the same time ({scored} scored); {advice}",
                 self.frames,
                 t_us / 1_000_000,
                 t_us % 1_000_000
+            ));
+        }
+        (duplicates > scored).then(|| {
+            let updates = duplicates + scored;
+            format!(
+                "the timestamps are too coarse to order the track updates: {duplicates} of {updates} ({:.0} %) were dropped as second updates of a track at the same timestamp, {scored} scored (were the times truncated, e.g. to whole seconds?); {advice}",
+                100.0 * duplicates as f64 / updates as f64
             )
         })
     }
@@ -397,7 +410,21 @@ mod tests {
         assert_eq!(rep.stuck_timestamps(0, 1), None);
         let (rep, _) = read(b"(1.0) can0 123#00\n(1.000001) can0 123#00\n", 1 << 16);
         assert!(rep.timestamps_advance);
-        assert_eq!(rep.stuck_timestamps(5, 1), None);
+        assert_eq!(rep.stuck_timestamps(1, 5), None);
+        assert_eq!(rep.stuck_timestamps(3, 3), None);
+    }
+
+    #[test]
+    fn a_log_whose_updates_are_mostly_same_time_duplicates_is_refused() {
+        // Timestamps truncated to whole seconds: they advance, but 1865 of 2092 updates were
+        // dropped as duplicates; before, this was exit 0, even with --max-lost 0.
+        let (rep, _) = read(b"(1.0) can0 123#00\n(2.0) can0 123#00\n", 1 << 16);
+        assert!(rep.timestamps_advance);
+        let m = rep.stuck_timestamps(1865, 227).unwrap();
+        assert!(
+            m.starts_with("the timestamps are too coarse to order the track updates: 1865 of 2092 (89 %) were dropped"),
+            "{m}"
+        );
     }
 
     #[test]

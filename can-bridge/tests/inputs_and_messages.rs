@@ -594,3 +594,50 @@ fn a_decoded_events_folder_that_holds_the_inputs_is_refused() {
     assert_eq!(code, Some(0), "{stderr}");
     assert!(proj.join("decoded").join("frames.csv").exists());
 }
+
+#[test]
+fn a_log_with_timestamps_truncated_to_whole_seconds_is_refused() {
+    // Before: exit 0 (also with --max-lost 0) with most track updates dropped as duplicates;
+    // only a log whose every frame had one timestamp was refused.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let set = common::simulated_events(2, 1);
+    let coarse: String = export(&set, &ExportOptions::default())
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let dot = l.find('.').unwrap();
+            format!("{}.000000{}\n", &l[..dot], &l[l.find(')').unwrap()..])
+        })
+        .collect();
+    let log = tmp.path().join("secs.log");
+    std::fs::write(&log, &coarse).unwrap();
+    let log = log.to_str().unwrap();
+    let old = tmp.path().join("old-output");
+    std::fs::write(&old, "previous run\n").unwrap();
+    let old = old.to_str().unwrap();
+    for args in [
+        vec![
+            "score-log",
+            "--log",
+            log,
+            "--model",
+            &m,
+            "--events-out",
+            old,
+            "--max-lost",
+            "0",
+        ],
+        vec!["decode", "--log", log, "--out", old],
+    ] {
+        let (code, _, stderr) = bridge(&args);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "{log}: the timestamps are too coarse to order the track updates: "
+            )),
+            "{args:?}: {stderr}"
+        );
+        assert_eq!(std::fs::read_to_string(old).unwrap(), "previous run\n");
+    }
+}
