@@ -112,6 +112,9 @@ pub struct ProblemPrinter {
     pub limit: u64,
     pub printed: u64,
     pub suppressed: u64,
+    /// Offline: how the log's lines are named (`drive.log`, `<stdin>`,
+    /// [`crate::logfile::line_name`]), so a problem names its line as a decode error does.
+    pub log: Option<String>,
     /// Lost frames are listed by log line elsewhere ([`crate::losses`]): do not print them here.
     pub skip_lost: bool,
     pub sanity: Sanity,
@@ -123,8 +126,18 @@ impl ProblemPrinter {
             limit,
             printed: 0,
             suppressed: 0,
+            log: None,
             skip_lost: false,
             sanity: Sanity::default(),
+        }
+    }
+
+    /// `FILE:LINE: T: reason` offline (the line of the frame being processed when it happened),
+    /// `can-bridge: T: reason` live.
+    fn line(&self, t_us: u64, source: u64, reason: &crate::engine::Problem) -> String {
+        match &self.log {
+            Some(name) if source > 0 => format!("{name}:{source}: {:.6}: {reason}", seconds(t_us)),
+            _ => format!("can-bridge: {:.6}: {reason}", seconds(t_us)),
         }
     }
 
@@ -132,12 +145,18 @@ impl ProblemPrinter {
         if let Output::Scored(update) = output {
             self.sanity.observe(update);
         }
-        if let Output::Problem { t_us, reason, lost } = output {
+        if let Output::Problem {
+            t_us,
+            source,
+            reason,
+            lost,
+        } = output
+        {
             if self.skip_lost && lost.is_some() {
                 return;
             }
             if self.printed < self.limit {
-                eprintln!("can-bridge: {:.6}: {reason}", seconds(*t_us));
+                eprintln!("{}", self.line(*t_us, *source, reason));
                 self.printed += 1;
             } else {
                 self.suppressed += 1;

@@ -158,6 +158,7 @@ mod tests {
         for line in 1..=100 {
             frames.handle(&Output::Problem {
                 t_us: line,
+                source: line,
                 reason: Problem::BadState { track: line as u32 },
                 lost: Some(Lost {
                     source: line,
@@ -168,6 +169,7 @@ mod tests {
         // Not a loss: no `lost`.
         frames.handle(&Output::Problem {
             t_us: 0,
+            source: 0,
             reason: Problem::ValidFlagMissing { track: 0 },
             lost: None,
         });

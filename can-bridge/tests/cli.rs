@@ -795,3 +795,51 @@ fn line(t_us: u64, frame: &can_codec::Frame) -> String {
     s.push('\n');
     s
 }
+
+#[test]
+fn a_per_track_problem_names_the_log_line_as_a_decode_error_does() {
+    // Before: `can-bridge: 1700000000.300600: track 7: second update ...`, no file or line.
+    let tmp = tempfile::tempdir().unwrap();
+    let model = write_model(tmp.path());
+    let db = project_db();
+    let trigger = can_codec::CanId::Standard(0x201);
+    let mut lines = Vec::new();
+    let mut t = 1_700_000_000_000_000u64;
+    for k in 0..10 {
+        for f in Cycle::closing(7, 30.0 - 2.0 * k as f64).frames(&db) {
+            lines.push(line(t, &f));
+            t += 200;
+        }
+        t += 100_000;
+    }
+    // The fourth cycle's trigger twice: a second update of track 7 at the same timestamp.
+    let at = lines
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| can_codec::parse_line(l.trim_end()).unwrap().frame.id == trigger)
+        .nth(3)
+        .unwrap()
+        .0;
+    lines.insert(at + 1, lines[at].clone());
+    let stamp = lines[at][1..lines[at].find(')').unwrap()].to_string();
+    let log = tmp.path().join("drive.log");
+    std::fs::write(&log, lines.concat()).unwrap();
+    let out = bridge()
+        .args(["score-log", "--log"])
+        .arg(&log)
+        .arg("--model")
+        .arg(&model)
+        .args(["--events-out", "/dev/null"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "{}:{}: {stamp}: track 7: second update at the same timestamp",
+            log.display(),
+            at + 2
+        )),
+        "{stderr}"
+    );
+}

@@ -59,6 +59,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     let mut table_error = None;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     problems.skip_lost = true;
+    problems.log = Some(crate::logfile::line_name(&args.log));
     let mut losses = FrameLosses::default();
     let mut handle = |o: Output| {
         if let Output::Scored(u) = &o {

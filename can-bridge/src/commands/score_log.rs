@@ -42,6 +42,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     let mut events = open_events(&args.events_out, args.all_scores, true)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
     problems.skip_lost = true;
+    problems.log = Some(crate::logfile::line_name(&args.log));
     let mut losses = FrameLosses::default();
     // Frames on stdout (`-`, `/dev/stdout`, the file stdout is): then the events must go
     // elsewhere, else the two streams interleave.

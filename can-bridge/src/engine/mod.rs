@@ -190,6 +190,7 @@ impl<'m> Engine<'m> {
             Action::Late { newest_us } => {
                 self.stats.reordered += 1;
                 out(Output::Problem {
+                    source,
                     lost: Some(Lost {
                         source,
                         kind: LossKind::Late,
@@ -245,6 +246,7 @@ impl<'m> Engine<'m> {
         for (t, (f, source, _)) in dropped {
             self.stats.out_of_window += 1;
             out(Output::Problem {
+                source: *source,
                 lost: Some(Lost {
                     source: *source,
                     kind: LossKind::OffTimeline,
@@ -283,6 +285,7 @@ impl<'m> Engine<'m> {
         self.last_cleanup_us = t_us;
         self.next_expiry_us = 0;
         out(Output::Problem {
+            source: self.source,
             lost: None,
             t_us,
             reason: Problem::NewSegment { t_us },
@@ -311,6 +314,7 @@ impl<'m> Engine<'m> {
                     self.stats.bus_off += 1;
                 }
                 out(Output::Problem {
+                    source: self.source,
                     lost: None,
                     t_us,
                     reason: Problem::ErrorFrame {
@@ -350,6 +354,7 @@ impl<'m> Engine<'m> {
             Err(reason) => {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
+                    source: self.source,
                     t_us,
                     reason,
                     lost: Some(self.lost(LossKind::Decode)),
@@ -572,6 +577,7 @@ impl<'m> Engine<'m> {
             Unscored::BadState => {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
+                    source: self.source,
                     lost: Some(self.lost(LossKind::Decode)),
                     t_us,
                     reason: Problem::BadState { track },
@@ -580,6 +586,7 @@ impl<'m> Engine<'m> {
             }
         };
         out(Output::Problem {
+            source: self.source,
             lost: None,
             t_us,
             reason: problem,

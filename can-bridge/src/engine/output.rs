@@ -118,6 +118,9 @@ pub enum Output {
     /// `lost` is set when a frame was dropped and its content lost.
     Problem {
         t_us: u64,
+        /// The source (log line) of the frame being processed when it happened, as given to
+        /// [`Engine::process_from`]; 0 from [`Engine::process`] (live).
+        source: u64,
         reason: Problem,
         lost: Option<Lost>,
     },

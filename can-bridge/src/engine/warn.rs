@@ -30,6 +30,7 @@ impl Engine<'_> {
             Err(WarningError::TableFull { .. }) => {
                 self.stats.table_full += 1;
                 out(Output::Problem {
+                    source: self.source,
                     lost: None,
                     t_us,
                     reason: Problem::TableFull {
@@ -42,6 +43,7 @@ impl Engine<'_> {
             Err(e) => {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
+                    source: self.source,
                     lost: Some(self.lost(LossKind::Decode)),
                     t_us,
                     reason: Problem::Rejected(e),
@@ -117,6 +119,7 @@ impl Engine<'_> {
                 slots.unsent_reported = true;
                 self.stats.tracks_unsent += 1;
                 out(Output::Problem {
+                    source: self.source,
                     lost: None,
                     t_us,
                     reason: Problem::TrackIdDoesNotFit {
@@ -136,6 +139,7 @@ impl Engine<'_> {
             Err(cause) => {
                 self.stats.warning_frames_unsent += 1;
                 out(Output::Problem {
+                    source: self.source,
                     lost: None,
                     t_us,
                     reason: Problem::WarningFrame { track, cause },
