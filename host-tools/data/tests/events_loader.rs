@@ -445,7 +445,8 @@ fn frames_for_unknown_event_are_reported_once() {
         only_issue(&issues, "frames.csv", 44, Some("event_id")),
         &IssueProblem::UnknownEvent {
             frames: 4,
-            similar: None
+            similar: None,
+            not_utf8: false
         }
     );
     assert_eq!(issues[0].event_id.as_deref(), Some("ghost"));
@@ -1590,7 +1591,7 @@ fn positions_in_another_unit_are_noted_and_the_event_kept() {
         text.contains("`x_ego`, `y_ego`: the positions carry it 2000.0 m"),
         "{text}"
     );
-    assert!(text.contains("100.0 times the 20.0 m"), "{text}");
+    assert!(text.contains("add up to only 20.0 m"), "{text}");
 }
 
 #[test]
@@ -1625,4 +1626,77 @@ fn events_of_one_or_two_frames_get_the_gap_and_impact_notes() {
         "{issues:#?}"
     );
     assert!(issues.iter().all(|i| i.problem.is_note()));
+}
+
+/// `s` with `\u{0}` as the Windows-1252 byte of `é` (0xe9, invalid UTF-8 alone).
+fn cp1252(s: &str) -> Vec<u8> {
+    s.bytes().map(|b| if b == 0 { 0xe9 } else { b }).collect()
+}
+
+#[test]
+fn a_short_row_of_an_id_in_another_encoding_drops_no_other_event() {
+    // The row's id was read lossily where index and rejected ids are escaped: the short frame
+    // row of `\xe901` was unattributed and dropped the event before it (`a`).
+    let ev = format!(
+        "{EV_HEADER}a,safe,0,2,,4.5,1.8,5,2\n\u{0}01,safe,0,2,,4.5,1.8,5,2\nb,safe,0,2,,4.5,1.8,5,2\n"
+    );
+    let short = rows("\u{0}01", 21).replacen(",0,0,10,0,1,0,-0.5,30,0,8,0,1,0\n", ",0\n", 1);
+    let fr = format!("{FR_HEADER}{}{short}{}", rows("a", 21), rows("b", 21));
+    let dir = folder("", "");
+    std::fs::write(dir.path().join("events.csv"), cp1252(&ev)).unwrap();
+    std::fs::write(dir.path().join("frames.csv"), cp1252(&fr)).unwrap();
+    let (set, issues) = load_events(dir.path()).unwrap();
+    assert_eq!(ids(&set), ["a", "b"]);
+    assert_eq!(
+        line_event_kind(&issues),
+        [
+            (3, Some(r"\xe901"), "NotUtf8"),
+            (23, Some(r"\xe901"), "RowLength")
+        ],
+        "{issues:#?}"
+    );
+    let streamed = stream_events(dir.path(), true, |_, _| Ok::<_, EventsError>(())).unwrap();
+    assert_eq!(streamed, issues);
+}
+
+#[test]
+fn frames_in_another_encoding_than_events_csv_say_so() {
+    // events.csv in UTF-8 (`é01`), frames.csv re-saved as Windows-1252 (`\xe901`).
+    let ev = format!("{EV_HEADER}é01,safe,0,2,,4.5,1.8,5,2\ns1,safe,0,2,,4.5,1.8,5,2\n");
+    let fr = format!("{FR_HEADER}{}{}", rows("\u{0}01", 21), rows("s1", 21));
+    let dir = folder(&ev, "");
+    std::fs::write(dir.path().join("frames.csv"), cp1252(&fr)).unwrap();
+    let (set, issues) = load_events(dir.path()).unwrap();
+    assert_eq!(ids(&set), ["s1"]);
+    let unknown = issues
+        .iter()
+        .find(|i| i.problem.kind() == "UnknownEvent")
+        .expect("an UnknownEvent");
+    assert_eq!(unknown.event_id.as_deref(), Some(r"\xe901"));
+    let text = unknown.to_string();
+    assert!(
+        text.contains("not valid UTF-8: frames.csv is in another encoding"),
+        "{text}"
+    );
+}
+
+#[test]
+fn line_numbers_hold_after_rows_of_empty_fields() {
+    // A bad value after spreadsheet blank rows, in a Unix and in a Windows file.
+    let (ev, fr) = good();
+    let fr = fr.replacen("\ns1,0.2,", "\n,,,\n,,,\ns1,0.2,", 1);
+    let fr = fr.replacen("s1,0.2,2,", "s1,0.2,x,", 1);
+    for crlf in [false, true] {
+        let (ev, fr) = if crlf {
+            (ev.replace('\n', "\r\n"), fr.replace('\n', "\r\n"))
+        } else {
+            (ev.clone(), fr.clone())
+        };
+        let (_, issues, _d) = load_and_stream(&ev, &fr);
+        assert_eq!(
+            line_event_kind(&issues),
+            [(27, Some("s1"), "BadNumber")],
+            "crlf {crlf}: {issues:#?}"
+        );
+    }
 }

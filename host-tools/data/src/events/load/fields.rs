@@ -144,12 +144,11 @@ pub(super) fn next_record(
     id_col: usize,
     ends: LineEnds,
 ) -> Result<Option<Result<u64, LoadIssue>>, EventsError> {
-    let mut line = rdr.position().line();
+    let line = rdr.position().line();
     let mut read = rdr.read_byte_record(rec);
     // A row of empty fields (`,,,,`: what a spreadsheet saves for a row it shows blank) is a
     // blank line, as the reader already treats a truly empty one: no data, nothing to report.
     while matches!(read, Ok(true)) && rec.iter().all(<[u8]>::is_empty) {
-        line = rdr.position().line();
         read = rdr.read_byte_record(rec);
     }
     match read {
@@ -172,7 +171,7 @@ pub(super) fn next_record(
                 let event_id = rec
                     .get(id_col)
                     .filter(|s| id_col < broken && !s.is_empty())
-                    .map(|s| String::from_utf8_lossy(s).into_owned());
+                    .map(|s| field_str(s).into_owned());
                 return Ok(Some(Err(LoadIssue {
                     file: path.to_path_buf(),
                     line,
@@ -193,7 +192,7 @@ pub(super) fn next_record(
                     event_id: rec
                         .get(id_col)
                         .filter(|s| !s.is_empty())
-                        .map(|s| String::from_utf8_lossy(s).into_owned()),
+                        .map(|s| field_str(s).into_owned()),
                     problem: IssueProblem::RowLength {
                         found: rec.len(),
                         expected,

@@ -186,10 +186,12 @@ pub enum IssueProblem {
     #[error("... and {more} more `{kind}` {} in this file (not listed)", if is_note_kind(kind) { "notes" } else { "problems" })]
     MoreOfKind { kind: &'static str, more: u64 },
     /// `similar`: an id of events.csv that differs from this one only in leading zeros or case.
-    #[error("{frames} frame(s) for an event that is not in events.csv{}", similar.as_ref().map(|s| format!(" (events.csv has `{s}`: leading zeros or case lost, e.g. by a spreadsheet?)")).unwrap_or_default())]
+    #[error("{frames} frame(s) for an event that is not in events.csv{}{}", similar.as_ref().map(|s| format!(" (events.csv has `{s}`: leading zeros or case lost, e.g. by a spreadsheet?)")).unwrap_or_default(), if *not_utf8 { " (the id is not valid UTF-8: frames.csv is in another encoding, Windows-1252 or Latin-1 as Excel's \"CSV\" writes on Windows?; save it as \"CSV UTF-8\" or convert it: iconv -f WINDOWS-1252 -t UTF-8)" } else { "" })]
     UnknownEvent {
         frames: usize,
         similar: Option<String>,
+        /// The id's bytes are not UTF-8: the file, not the id, is what is wrong.
+        not_utf8: bool,
     },
     #[error("time {time} repeats the frame on line {previous_line}")]
     DuplicateTime { time: f64, previous_line: u64 },
@@ -218,7 +220,7 @@ pub enum IssueProblem {
         speed_path: f64,
         path: f64,
     },
-    #[error("frames.csv `x_{vehicle}`, `y_{vehicle}`: the positions carry it {displacement:.1} m from its first frame to its last, {:.1} times the {speed_path:.1} m its speeds `vx_{vehicle}`, `vy_{vehicle}` add up to: positions in cm (100 times) or feet (3.28 times, as NGSIM's raw files), or speeds that are not the road user's (zeros for missing values)? Speeds must be m/s, times s, positions in one fixed world frame in m. The event is kept; check its units", displacement / speed_path.max(1e-9))]
+    #[error("frames.csv `x_{vehicle}`, `y_{vehicle}`: the positions carry it {displacement:.1} m from its first frame to its last, but its speeds `vx_{vehicle}`, `vy_{vehicle}` add up to only {speed_path:.1} m: positions in cm (100 times the speeds' path) or feet (3.28 times, as NGSIM's raw files), or speeds that are not the road user's (zeros for missing values)? Speeds must be m/s, times s, positions in one fixed world frame in m. The event is kept; check its units")]
     PathExceedsSpeeds {
         vehicle: &'static str,
         speed_path: f64,

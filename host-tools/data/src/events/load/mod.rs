@@ -318,9 +318,9 @@ fn sorted_intervals(frames: &[Frame]) -> Vec<f64> {
 fn impact_note(p: &Pending, sorted_intervals: &[f64]) -> Option<IssueProblem> {
     let t_impact = p.event.t_impact?;
     let last = p.event.frames.last()?;
-    // A single frame has no sampling interval to allow for.
+    // The lower median, as `gap_note` takes it; a single frame has no interval to allow for.
     let interval = sorted_intervals
-        .get(sorted_intervals.len() / 2)
+        .get(sorted_intervals.len().saturating_sub(1) / 2)
         .copied()
         .unwrap_or(0.0);
     (t_impact > last.time + interval + TIME_TOLERANCE_S).then_some(
@@ -384,24 +384,23 @@ fn coarse_position_note(p: &Pending) -> Option<IssueProblem> {
 
 /// A row that repeats the header (two files joined with `cat`, each with its header): a note,
 /// the row skipped and nothing else touched (it is no frame of the events around it).
-fn repeated_header<'a>(
+fn repeated_header(
     path: &Path,
     line: u64,
-    rec: &'a csv::ByteRecord,
+    rec: &csv::ByteRecord,
     headers: &csv::StringRecord,
 ) -> Option<LoadIssue> {
     // The second file of a `cat` keeps its UTF-8 byte-order mark, which the reader strips from
     // the first file's header only.
-    let without_bom = |(i, field): (usize, &'a [u8])| match i {
-        0 => field.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(field),
-        _ => field,
-    };
+    let first = rec
+        .get(0)
+        .map(|f| f.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(f));
     let same = rec.len() == headers.len()
+        && first == headers.get(0).map(str::as_bytes)
         && rec
             .iter()
-            .enumerate()
-            .map(without_bom)
             .zip(headers.iter())
+            .skip(1)
             .all(|(r, h)| r == h.as_bytes());
     same.then(|| LoadIssue {
         file: path.to_path_buf(),
@@ -672,7 +671,8 @@ fn read_frames<E: From<EventsError>>(
     let acc_partner_col = headers.iter().position(|h| h == "acc_sur");
     let mut rec = csv::ByteRecord::new();
     // Unknown ids: first line and frame count, reported once each.
-    let mut unknown: HashMap<String, (u64, usize)> = HashMap::new();
+    // id -> (first line, frames, the id is not valid UTF-8)
+    let mut unknown: HashMap<String, (u64, usize, bool)> = HashMap::new();
     let mut current: Option<(String, usize)> = None;
     // The event of the last good row (`None` when not a loadable event).
     let mut previous_row: Option<usize> = None;
@@ -705,7 +705,8 @@ fn read_frames<E: From<EventsError>>(
             issues.push(note);
             continue;
         }
-        let id_text = field_str(rec.get(cols[0]).unwrap_or(b""));
+        let id_bytes = rec.get(cols[0]).unwrap_or(b"");
+        let id_text = field_str(id_bytes);
         let id: &str = &id_text;
         // Frames usually come grouped by event: remember the last lookup.
         let slot = match &current {
@@ -741,7 +742,7 @@ fn read_frames<E: From<EventsError>>(
                 unknown
                     .entry(id.to_owned())
                     .and_modify(|e| e.1 += 1)
-                    .or_insert((line, 1));
+                    .or_insert((line, 1, std::str::from_utf8(id_bytes).is_err()));
             }
             continue;
         };
@@ -863,7 +864,7 @@ fn read_frames<E: From<EventsError>>(
         stream.close(last, &mut pending[last], acc_partner_col.is_none())?;
     }
     let mut unknown: Vec<_> = unknown.into_iter().collect();
-    unknown.sort_by_key(|(_, (line, _))| *line);
+    unknown.sort_by_key(|(_, (line, _, _))| *line);
     // Ids that differ only in leading zeros or case (a spreadsheet's `000123` -> `123`).
     let loose = |id: &str| {
         let id = id.to_ascii_lowercase();
@@ -883,14 +884,18 @@ fn read_frames<E: From<EventsError>>(
             known.entry(loose(id)).or_insert(id);
         }
     }
-    for (id, (line, frames)) in unknown {
+    for (id, (line, frames, not_utf8)) in unknown {
         let similar = known.get(&loose(&id)).map(|s| (*s).to_owned());
         issues.push(LoadIssue {
             file: path.to_path_buf(),
             line,
             column: Some("event_id".into()),
             event_id: Some(id),
-            problem: IssueProblem::UnknownEvent { frames, similar },
+            problem: IssueProblem::UnknownEvent {
+                frames,
+                similar,
+                not_utf8,
+            },
         });
     }
     if acc_partner_col.is_none() {
