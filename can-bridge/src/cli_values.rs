@@ -9,7 +9,10 @@ pub const MAX_MS: u64 = 3_600_000;
 /// microsecond arithmetic lose meaning.
 pub const MAX_SECONDS: f64 = 1e9;
 
-/// `-` given as a path: standard input for `--log`, standard output for an output flag.
+/// `-` given as a path: standard input for `--log`, standard output for an output flag. It
+/// picks the stream a command writes through; whether an output *is* standard output under any
+/// name (`/dev/stdout`, the file it is redirected to), for the refusals, is
+/// `riskscore_output::is_stdout`.
 pub fn is_std_stream(path: &std::path::Path) -> bool {
     path.as_os_str() == "-"
 }

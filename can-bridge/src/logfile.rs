@@ -80,6 +80,9 @@ pub struct LogReport {
     pub timestamps_advance: bool,
 }
 
+/// Same-time duplicates below this never make a log "too coarse" ([`LogReport::stuck_timestamps`]).
+const COARSE_MIN_DUPLICATES: u64 = 10;
+
 impl LogReport {
     /// Lines skipped for any reason.
     pub fn bad_lines(&self) -> usize {
@@ -105,7 +108,8 @@ impl LogReport {
                 t_us % 1_000_000
             ));
         }
-        (duplicates > scored).then(|| {
+        // At least a few: one repeated line beside one scored update is a glitch, not a clock.
+        (duplicates > scored && duplicates >= COARSE_MIN_DUPLICATES).then(|| {
             let updates = duplicates + scored;
             format!(
                 "the timestamps are too coarse to order the track updates: {duplicates} of {updates} ({:.0} %) were dropped as second updates of a track at the same timestamp, {scored} scored (were the times truncated, e.g. to whole seconds?); {advice}",
@@ -412,6 +416,8 @@ mod tests {
         assert!(rep.timestamps_advance);
         assert_eq!(rep.stuck_timestamps(1, 5), None);
         assert_eq!(rep.stuck_timestamps(3, 3), None);
+        assert_eq!(rep.stuck_timestamps(2, 1), None);
+        assert!(rep.stuck_timestamps(10, 9).is_some());
     }
 
     #[test]

@@ -170,30 +170,13 @@ fn an_empty_log_is_refused_as_empty_with_no_log_segment() {
         let log = tmp.path().join(name);
         std::fs::write(&log, text).unwrap();
         let log = log.to_str().unwrap();
-        let old = tmp.path().join("old-output");
-        std::fs::write(&old, "previous run\n").unwrap();
-        let old = old.to_str().unwrap();
-        for args in [
-            vec![
-                "score-log",
-                "--log",
-                log,
-                "--model",
-                &m,
-                "--events-out",
-                old,
-            ],
-            vec!["decode", "--log", log, "--out", old],
-        ] {
-            let (code, _, stderr) = bridge(&args);
-            assert_eq!(code, Some(1), "{stderr}");
+        refused_keeping_the_old_output(tmp.path(), log, &m, &[], |stderr| {
             assert!(stderr.contains(", 0 log segments,"), "{stderr}");
             assert!(
                 stderr.contains(&format!("{log} holds no frames: the log is empty")),
                 "{stderr}"
             );
-            assert_eq!(std::fs::read_to_string(old).unwrap(), "previous run\n");
-        }
+        });
     }
     let (code, _, stderr) = bridge(&["score-log", "--log", "-", "--model", &m]);
     assert_eq!(code, Some(1), "{stderr}");
@@ -593,6 +576,24 @@ fn a_decoded_events_folder_that_holds_the_inputs_is_refused() {
     let (code, _, stderr) = check(&proj.join("decoded"));
     assert_eq!(code, Some(0), "{stderr}");
     assert!(proj.join("decoded").join("frames.csv").exists());
+    // So is a folder that holds the model: only its two files are replaced.
+    let run = tmp.path().join("run");
+    std::fs::create_dir(&run).unwrap();
+    let model_in_run = run.join("m.rsk");
+    std::fs::copy(&m, &model_in_run).unwrap();
+    let (code, _, stderr) = bridge(&[
+        "check",
+        "--log",
+        log.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--model",
+        model_in_run.to_str().unwrap(),
+        "--decoded-events-out",
+        run.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(run.join("frames.csv").exists());
 }
 
 #[test]
@@ -613,31 +614,82 @@ fn a_log_with_timestamps_truncated_to_whole_seconds_is_refused() {
     let log = tmp.path().join("secs.log");
     std::fs::write(&log, &coarse).unwrap();
     let log = log.to_str().unwrap();
-    let old = tmp.path().join("old-output");
-    std::fs::write(&old, "previous run\n").unwrap();
-    let old = old.to_str().unwrap();
-    for args in [
-        vec![
-            "score-log",
-            "--log",
-            log,
-            "--model",
-            &m,
-            "--events-out",
-            old,
-            "--max-lost",
-            "0",
-        ],
-        vec!["decode", "--log", log, "--out", old],
-    ] {
-        let (code, _, stderr) = bridge(&args);
-        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+    refused_keeping_the_old_output(tmp.path(), log, &m, &["--max-lost", "0"], |stderr| {
         assert!(
             stderr.contains(&format!(
                 "{log}: the timestamps are too coarse to order the track updates: "
             )),
-            "{args:?}: {stderr}"
+            "{stderr}"
         );
+    });
+}
+
+/// `score-log` (with `score_args` added) and `decode` of `log` both exit 1, pass `check` on
+/// their stderr, and leave an existing output as it was.
+fn refused_keeping_the_old_output(
+    dir: &std::path::Path,
+    log: &str,
+    model: &str,
+    score_args: &[&str],
+    check: impl Fn(&str),
+) {
+    let old = dir.join("old-output");
+    std::fs::write(&old, "previous run\n").unwrap();
+    let old = old.to_str().unwrap();
+    let mut score = vec![
+        "score-log",
+        "--log",
+        log,
+        "--model",
+        model,
+        "--events-out",
+        old,
+    ];
+    score.extend_from_slice(score_args);
+    for args in [score, vec!["decode", "--log", log, "--out", old]] {
+        let (code, _, stderr) = bridge(&args);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        check(&stderr);
         assert_eq!(std::fs::read_to_string(old).unwrap(), "previous run\n");
     }
+}
+
+#[test]
+fn a_new_log_segment_names_the_line_of_its_first_frame() {
+    // Before: the line of the last frame processed before the jump was confirmed, with the
+    // time of the first frame after it.
+    let tmp = tempfile::tempdir().unwrap();
+    let m = model(tmp.path());
+    let set = common::simulated_events(3, 2);
+    let text = export(&set, &ExportOptions::default()).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let half = lines.len() / 2;
+    let shifted: String = lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let close = l.find(')').unwrap();
+            let t: f64 = l[1..close].parse().unwrap();
+            let t = if i >= half { t + 600.0 } else { t };
+            format!("({t:.6}){}\n", &l[close + 1..])
+        })
+        .collect();
+    let log = tmp.path().join("two.log");
+    std::fs::write(&log, shifted).unwrap();
+    let log = log.to_str().unwrap();
+    let (code, _, stderr) = bridge(&[
+        "score-log",
+        "--log",
+        log,
+        "--model",
+        &m,
+        "--events-out",
+        "/dev/null",
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("a new log segment starts"))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(line.starts_with(&format!("{log}:{}: ", half + 1)), "{line}");
 }

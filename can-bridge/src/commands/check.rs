@@ -59,12 +59,19 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
     if let Some(p) = &args.per_event_out {
         outputs.push(("--per-event-out", p.as_path()));
     }
-    // The folder itself too: its two files are replaced, and a folder that holds the log or the
-    // event folder (`--decoded-events-out .` beside them) is the user's project, not an output.
-    if let Some(d) = &args.decoded_events_out {
-        outputs.push(("--decoded-events-out", d.as_path()));
-    }
     refuse_overlaps(&inputs, &outputs)?;
+    // The folder itself too, against the data: a folder that holds the log or the event folder
+    // (`--decoded-events-out .` beside them) is the user's project, not an output. Only its two
+    // files are replaced, so a model, DBC or map inside it is no overlap.
+    if let Some(d) = &args.decoded_events_out {
+        refuse_overlaps(
+            &[
+                ("--log", args.log.as_path()),
+                ("--events", args.events.as_path()),
+            ],
+            &[("--decoded-events-out", d.as_path())],
+        )?;
+    }
     for (flag, p) in &outputs {
         let writes = if *flag == "--per-event-out" {
             "per-event verdicts (JSON Lines)"

@@ -207,7 +207,10 @@ impl<'m> Engine<'m> {
             Action::Held => {}
             Action::Continue(held) => self.process_held(&held, out),
             Action::NewSegment(held) => {
-                self.start_segment(held[0].0, out);
+                // The segment starts at its first frame, which its problem line names.
+                let (t, (_, source, _)) = &held[0];
+                self.set_source(*t, *source);
+                self.start_segment(*t, out);
                 self.process_held(&held, out);
             }
         }

@@ -707,7 +707,13 @@ fn compile_warning<'a>(
         ));
     }
     let k = &spec.signals[crc];
-    if k.size != 8 || k.start_bit % 8 != 0 {
+    // The E2E code writes byte `start_bit / 8` whole: a Motorola signal starts at its most
+    // significant bit, so its whole byte starts at bit 7 of it (`0|8@0+` spans two bytes).
+    let whole_byte = match k.byte_order {
+        can_codec::ByteOrder::Intel => k.start_bit % 8 == 0,
+        can_codec::ByteOrder::Motorola => k.start_bit % 8 == 7,
+    };
+    if k.size != 8 || !whole_byte {
         return Err(field_error("warning.crc", "the CRC must be one whole byte"));
     }
     let track_id = sig("track_id", &w.track_id)?;

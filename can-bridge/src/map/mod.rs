@@ -160,6 +160,18 @@ mod tests {
              `RISK_WARNING.WarnLevel`, which feeds `warning.level`: each would overwrite the \
              other in the frame"
         );
+        // A Motorola CRC starting at bit 0 spans bits 0 and 15-9 while the E2E code writes byte
+        // 0 whole, over the track id moved into bits 1-7: refused as no whole byte. Starting at
+        // bit 7 it is byte 0.
+        let split =
+            can_codec::project::PROJECT_DBC.replace("SG_ WarnCrc : 0|8@1+", "SG_ WarnCrc : 0|8@0+");
+        assert_eq!(
+            compile(DEFAULT_MAP, &Database::parse(&split).unwrap()).unwrap_err(),
+            "map field `warning.crc`: the CRC must be one whole byte"
+        );
+        let motorola =
+            can_codec::project::PROJECT_DBC.replace("SG_ WarnCrc : 0|8@1+", "SG_ WarnCrc : 7|8@0+");
+        compile(DEFAULT_MAP, &Database::parse(&motorola).unwrap()).unwrap();
         compile(DEFAULT_MAP, &db).unwrap();
     }
 
