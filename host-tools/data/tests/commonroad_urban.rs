@@ -212,3 +212,37 @@ fn the_committed_urban_extract_regenerates_from_its_source() {
     let prepared = riskscore_data::events::prepare_sequences(&set, &PrepareConfig::default());
     assert_eq!(prepared.0.len(), set.len());
 }
+
+#[test]
+fn orientations_in_degrees_skip_their_road_user_with_its_line() {
+    // Car 1 heads 30° with `<orientation>` written as 30 (degrees; 30 rad is 279°), car 2 in
+    // radians. The importer builds velocities from orientations, so the event loader's heading
+    // check compared the wrong heading with a velocity as wrong as itself: nothing was said.
+    let tmp = tempfile::tempdir().unwrap();
+    let xml = scenario_xml(&[(1, 0.0, 0.0, 30.0, 10.0), (2, 0.0, 5.0, 30.0, 10.0)]);
+    let radians = format!("<exact>{}</exact></orientation>", 30f64.to_radians());
+    let first_car_end = xml.find("</dynamicObstacle>").unwrap();
+    let xml = format!(
+        "{}{}",
+        xml[..first_car_end].replace(&radians, "<exact>30</exact></orientation>"),
+        &xml[first_car_end..]
+    );
+    let input = tmp.path().join("ZAM_Degrees-1_1_T-1.xml");
+    std::fs::write(&input, xml).unwrap();
+    let summary = import_to_dir(
+        &[input],
+        &tmp.path().join("out"),
+        &InteractionRules::default(),
+    )
+    .unwrap();
+    let texts: Vec<String> = summary.issues.iter().map(ToString::to_string).collect();
+    assert_eq!(texts.len(), 1, "{texts:?}");
+    assert!(
+        texts[0].contains("ZAM_Degrees-1_1_T-1.xml:3: <dynamicObstacle id=1>")
+            && texts[0].contains("off the direction the positions move in on 30 of the 30 steps")
+            && texts[0].contains("degrees instead of radians"),
+        "{}",
+        texts[0]
+    );
+    assert_eq!(summary.road_users, 1);
+}

@@ -134,6 +134,8 @@ pub enum Problem {
     Interval,
     #[error("must be > 0, got {0}")]
     NonPositive(f64),
+    #[error("<orientation> is more than 45° off the direction the positions move in on {off} of the {moving} steps at 3 m/s or more: degrees instead of radians, or measured from north? CommonRoad orientations are radians, counter-clockwise from the x axis; the importer builds the velocity from them (road user skipped)")]
+    HeadingAcrossMotion { off: usize, moving: usize },
     #[error("a rectangle shifted or rotated against the state (<center>/<orientation>) is not supported")]
     OffsetRectangle,
     #[error("scenario id `{id}` was already imported from {first}; event ids would clash (file skipped)")]
@@ -367,7 +369,10 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
             Ok(Ok(_)) if node.attribute("id").is_none_or(|id| id.trim().is_empty()) => scenario
                 .issues
                 .push(at.issue(node, "", Problem::MissingAttribute("id"))),
-            Ok(Ok(track)) => scenario.tracks.push(track),
+            Ok(Ok(track)) => match heading_across_motion(&track, dt) {
+                Some(problem) => scenario.issues.push(at.issue(node, "", problem)),
+                None => scenario.tracks.push(track),
+            },
             Ok(Err(why)) => scenario.ignored.push((obstacle_id, why)),
             Err(issue) => scenario.issues.push(issue),
         }
@@ -381,6 +386,30 @@ pub fn parse_scenario(text: &str, file: &str, id: &str) -> Result<Scenario, Issu
         }
     }
     Ok(scenario)
+}
+
+/// A road user's orientation must point along the way its positions move (or against it,
+/// reversing): the importer builds the velocity from the orientation, so an orientation in
+/// degrees or from north gives every frame a velocity across its path, which the event loader
+/// cannot see (its heading check compares the heading with that same velocity). Checked as the
+/// loader checks headings: more than 45° off on more than half of the consecutive steps that
+/// move at [`crate::events::HEADING_CHECK_MIN_SPEED_M_S`] or faster, at least 5 of them.
+fn heading_across_motion(track: &Track, dt: f64) -> Option<Problem> {
+    let min_speed = f64::from(crate::events::HEADING_CHECK_MIN_SPEED_M_S);
+    let (mut moving, mut off) = (0usize, 0usize);
+    for w in track.states.windows(2) {
+        let span = (w[1].step - w[0].step) as f64 * dt;
+        let (dx, dy) = (w[1].x - w[0].x, w[1].y - w[0].y);
+        let distance = dx.hypot(dy);
+        if w[1].step - w[0].step != 1 || distance < min_speed * span {
+            continue;
+        }
+        moving += 1;
+        let (sin, cos) = w[0].orientation.sin_cos();
+        off +=
+            usize::from(((dx * cos + dy * sin) / distance).abs() < std::f64::consts::FRAC_1_SQRT_2);
+    }
+    (moving >= 5 && 2 * off > moving).then_some(Problem::HeadingAcrossMotion { off, moving })
 }
 
 /// Largest position coordinate (m) a scenario keeps as it is: event files and every gap computed
