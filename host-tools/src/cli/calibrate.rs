@@ -225,5 +225,5 @@ pub(super) fn refuse_blob_overlaps(
         .collect();
     super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])?;
     // After the overlaps: `--out ev/events.csv` is "the same file as --normal", first.
-    super::output::refuse_replacing_a_non_blob("--out", out)
+    Ok(super::output::refuse_replacing_a_non_blob("--out", out)?)
 }

@@ -4,7 +4,8 @@
 //! command's summary then goes to stderr: [`summary`]).
 use anyhow::Context;
 use riskscore_output::is_special_file;
-pub use riskscore_output::is_stdout;
+// Shared with can-bridge: one answer to "is this standard output?" and "is this a model?".
+pub use riskscore_output::{is_stdout, refuse_overwriting_a_model, refuse_replacing_a_non_blob};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -146,21 +147,6 @@ pub fn refuse_overwriting_inputs(
     inputs.push(("--events", events));
     riskscore_output::refuse_overlaps(&inputs, outputs)?;
     Ok(())
-}
-
-/// Refuses an output file `out` (given with `flag`) that holds a user's model: a model blob or a
-/// training checkpoint ([`riskscore_output::refuse_overwriting_a_model`], which can-bridge's
-/// outputs go through too). `writes`: what the command writes there.
-pub fn refuse_overwriting_a_model(flag: &str, out: &Path, writes: &str) -> anyhow::Result<()> {
-    Ok(riskscore_output::refuse_overwriting_a_model(
-        flag, out, writes,
-    )?)
-}
-
-/// Refuses an output file `out` (given with `flag`) that a model blob would replace although it
-/// is not one ([`riskscore_output::refuse_replacing_a_non_blob`]).
-pub fn refuse_replacing_a_non_blob(flag: &str, out: &Path) -> anyhow::Result<()> {
-    Ok(riskscore_output::refuse_replacing_a_non_blob(flag, out)?)
 }
 
 /// How a refused run's message names an output it did not write: "OUT left as it was" when it
