@@ -42,11 +42,12 @@ impl FrameLosses {
     pub fn handle(&mut self, output: &Output) {
         if let Output::Problem {
             reason,
-            lost: Some(lost),
+            source,
+            lost: Some(kind),
             ..
         } = output
         {
-            self.record(lost.source, lost.kind.as_str(), || reason.to_string());
+            self.record(*source, kind.as_str(), || reason.to_string());
         }
     }
 
@@ -150,7 +151,7 @@ pub fn verdict(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::{LossKind, Lost, Problem};
+    use crate::engine::{LossKind, Problem};
 
     #[test]
     fn losses_are_kept_per_kind_counted_and_judged_against_the_allowance() {
@@ -160,10 +161,7 @@ mod tests {
                 t_us: line,
                 source: line,
                 reason: Problem::BadState { track: line as u32 },
-                lost: Some(Lost {
-                    source: line,
-                    kind: LossKind::Decode,
-                }),
+                lost: Some(LossKind::Decode),
             });
         }
         // Not a loss: no `lost`.

@@ -45,7 +45,7 @@ mod warn;
 pub use assemble::HEADING_FROM_VELOCITY_MIN_SPEED;
 pub use config::{ConfigError, EngineConfig, MAX_TRACKS};
 pub use flags::InputFlags;
-pub use output::{LossKind, Lost, Output, ReleaseReason, ScoredUpdate, Stats};
+pub use output::{LossKind, Output, ReleaseReason, ScoredUpdate, Stats};
 pub use problem::{DecodeError, EncodeError, Problem};
 
 use crate::map::{CompiledMap, EgoField, PartnerField, EGO_FIELDS};
@@ -155,7 +155,7 @@ impl<'m> Engine<'m> {
     }
 
     /// [`Engine::process`] for a frame read from `source` (its line in a log): every
-    /// [`Output::Problem`] about the frame being dropped names it in [`Lost::source`], also when
+    /// [`Output::Problem`] about the frame being dropped names it in its `source`, also when
     /// the frame was held for a while.
     pub fn process_from(
         &mut self,
@@ -191,10 +191,7 @@ impl<'m> Engine<'m> {
                 self.stats.reordered += 1;
                 out(Output::Problem {
                     source,
-                    lost: Some(Lost {
-                        source,
-                        kind: LossKind::Late,
-                    }),
+                    lost: Some(LossKind::Late),
                     t_us,
                     reason: Problem::Late {
                         id: frame.id,
@@ -225,14 +222,6 @@ impl<'m> Engine<'m> {
         }
     }
 
-    /// What a problem about the frame being processed loses.
-    fn lost(&self, kind: LossKind) -> Lost {
-        Lost {
-            source: self.source,
-            kind,
-        }
-    }
-
     /// End of input: frames held for a jump that was never confirmed are dropped and counted;
     /// those held after a gap are processed ([`crate::timeline`]).
     pub fn finish(&mut self, out: &mut impl FnMut(Output)) {
@@ -250,10 +239,7 @@ impl<'m> Engine<'m> {
             self.stats.out_of_window += 1;
             out(Output::Problem {
                 source: *source,
-                lost: Some(Lost {
-                    source: *source,
-                    kind: LossKind::OffTimeline,
-                }),
+                lost: Some(LossKind::OffTimeline),
                 t_us: *t,
                 reason: Problem::OffTimeline {
                     id: f.id,
@@ -360,7 +346,7 @@ impl<'m> Engine<'m> {
                     source: self.source,
                     t_us,
                     reason,
-                    lost: Some(self.lost(LossKind::Decode)),
+                    lost: Some(LossKind::Decode),
                 });
             }
             Ok(decoded) => {
@@ -581,7 +567,7 @@ impl<'m> Engine<'m> {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
                     source: self.source,
-                    lost: Some(self.lost(LossKind::Decode)),
+                    lost: Some(LossKind::Decode),
                     t_us,
                     reason: Problem::BadState { track },
                 });

@@ -115,24 +115,15 @@ pub enum Output {
     },
     /// Something went wrong; `reason` says what (its text is the diagnostic; the caller
     /// rate-limits printing).
-    /// `lost` is set when a frame was dropped and its content lost.
+    /// `lost` is set when the frame `source` names was dropped and its content lost.
     Problem {
         t_us: u64,
         /// The source (log line) of the frame being processed when it happened, as given to
         /// [`Engine::process_from`]; 0 from [`Engine::process`] (live).
         source: u64,
         reason: Problem,
-        lost: Option<Lost>,
+        lost: Option<LossKind>,
     },
-}
-
-/// A frame the engine dropped: where it came from and why it is lost.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Lost {
-    /// The frame's source as given to [`Engine::process_from`] (a log line; 0 from
-    /// [`Engine::process`]).
-    pub source: u64,
-    pub kind: LossKind,
 }
 
 /// Why a frame of the input was lost. Frames the map does not use (unknown ids, remote frames)

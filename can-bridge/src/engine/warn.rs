@@ -44,7 +44,7 @@ impl Engine<'_> {
                 self.stats.decode_errors += 1;
                 out(Output::Problem {
                     source: self.source,
-                    lost: Some(self.lost(LossKind::Decode)),
+                    lost: Some(LossKind::Decode),
                     t_us,
                     reason: Problem::Rejected(e),
                 });
