@@ -8,7 +8,7 @@ use super::compiled::{
 };
 use super::file::{FlagRef, MapFile, PartnerMap, SignalRef, SlotList, TrackIdSpec, WarningMap};
 use super::flag_expr;
-use super::validate::{check_kinematics, check_signal_use};
+use super::validate::{check_kinematics, check_signal_use, signal_feeds_two_fields};
 use super::{field_error, MapError, DEFAULT_MAP};
 use can_codec::{CanId, Database, MessageSpec};
 use std::collections::BTreeMap;
@@ -392,12 +392,8 @@ impl CompiledMap {
             warning_bus: bus_index(&buses, warning_bus),
             defined: {
                 let mut ids: Vec<(CanId, Option<u8>)> = db
-                    .parts
-                    .iter()
-                    .flat_map(|p| {
-                        let bus = bus_index(&buses, p.bus.as_deref());
-                        p.db.messages.iter().map(move |m| (m.id, bus))
-                    })
+                    .messages()
+                    .map(|(bus, m)| (m.id, bus_index(&buses, bus)))
                     .collect();
                 ids.sort_unstable();
                 ids.dedup();
@@ -733,10 +729,7 @@ fn compile_warning<'a>(
         for (first, t) in &fields[..i] {
             let (mine, theirs) = (&spec.signals[*s], &spec.signals[*t]);
             let reason = if s == t {
-                format!(
-                    "signal `{}.{}` already feeds `warning.{first}`; one signal feeds one field",
-                    w.message, mine.name
-                )
+                signal_feeds_two_fields(&w.message, &mine.name, &format!("warning.{first}"))
             } else if mine.overlaps(theirs) {
                 format!(
                     "signal `{0}.{1}` shares bits with `{0}.{2}`, which feeds `warning.{first}`: \

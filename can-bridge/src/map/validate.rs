@@ -72,6 +72,11 @@ pub(super) fn check_kinematics(
 /// signals are measurements, not flags, and mapping one is a typo.
 pub const MAX_FLAG_BITS: u8 = 8;
 
+/// Why a map is refused when one signal feeds a second field (`first` feeds it already).
+pub(super) fn signal_feeds_two_fields(message: &str, signal: &str, first: &str) -> String {
+    format!("signal `{message}.{signal}` already feeds `{first}`; one signal feeds one field")
+}
+
 /// Refuses a signal that feeds two fields (or a field and the track id; a flag with an explicit
 /// condition is exempt), and a flag field read as
 /// "non-zero" from a float or from a signal wider than [`MAX_FLAG_BITS`] (a flag with an explicit
@@ -101,9 +106,10 @@ pub(super) fn check_signal_use(inputs: &[InputMessage]) -> Result<(), MapError> 
             if let Some((_, first)) = uses[..i].iter().find(|(s, _)| s == signal) {
                 return Err(MapError::Field {
                     field: field.clone(),
-                    reason: format!(
-                        "signal `{}.{}` already feeds `{first}`; one signal feeds one field",
-                        msg.spec.name, msg.spec.signals[*signal].name
+                    reason: signal_feeds_two_fields(
+                        &msg.spec.name,
+                        &msg.spec.signals[*signal].name,
+                        first,
                     ),
                 });
             }
