@@ -31,6 +31,7 @@ pub use load::{
     COARSE_POSITION_M, GAP_FACTOR, HEADING_CHECK_MIN_SPEED_M_S, KEPT_PER_KIND, LENGTH_RANGE_M,
     MAX_POSITION_M, MAX_SPEED_M_S, SPEED_CHECK_MIN_PATH_M, SPEED_PATH_RATIO_MAX, WIDTH_RANGE_M,
 };
+pub(crate) use load::{heading_mostly_off, heading_off};
 pub(crate) use load::{open_csv, read_numbered_record};
 pub use prepare::{
     cut_safe_sequences, prepare_event, prepare_owned_event, prepare_sequences, safe_rules_hold,

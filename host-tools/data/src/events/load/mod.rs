@@ -7,6 +7,7 @@
 mod fields;
 mod issues;
 
+use std::borrow::Cow;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -291,16 +292,30 @@ fn heading_note(p: &Pending) -> Option<IssueProblem> {
             if speed >= HEADING_CHECK_MIN_SPEED_M_S {
                 moving += 1;
                 let cos = (s.vx * s.hx + s.vy * s.hy) / speed;
-                off += usize::from(cos.abs() < std::f32::consts::FRAC_1_SQRT_2);
+                off += usize::from(heading_off(f64::from(cos)));
             }
         }
-        (moving >= 5 && 2 * off > moving).then_some(IssueProblem::HeadingAcrossVelocity {
+        heading_mostly_off(off, moving).then_some(IssueProblem::HeadingAcrossVelocity {
             vehicle,
             off,
             moving,
         })
     };
     check("ego", |f| &f.ego).or_else(|| check("sur", |f| &f.partner))
+}
+
+/// The rule of [`heading_note`] (and of the CommonRoad importer's check against positions): a
+/// heading more than 45° off the direction of travel (`|cos| < 1/sqrt 2`, either way) on more
+/// than half of at least 5 moving samples is in the wrong unit or convention.
+pub(crate) fn heading_mostly_off(off: usize, moving: usize) -> bool {
+    moving >= 5 && 2 * off > moving
+}
+
+/// Whether a heading whose cosine with the direction of travel is `cos` is more than 45° off
+/// that axis (either way: a road user reversing points against it).
+pub(crate) fn heading_off(cos: f64) -> bool {
+    // The f32 constant: the loader's cosines are f32, and compared with it as they always were.
+    cos.abs() < f64::from(std::f32::consts::FRAC_1_SQRT_2)
 }
 
 /// The intervals between an event's frames, sorted: the median is its sampling interval.
@@ -528,8 +543,10 @@ fn read_events(
             continue;
         }
         // Escaped, not lossy: two ids a wrong encoding garbles must not merge into one.
-        let id_bytes = rec.get(cols[0]).unwrap_or(b"");
-        let id = field_str(id_bytes).into_owned();
+        let id_text = field_str(rec.get(cols[0]).unwrap_or(b""));
+        // `field_str` owns its text only when it had to escape bytes that are not UTF-8.
+        let id_not_utf8 = matches!(id_text, Cow::Owned(_));
+        let id = id_text.into_owned();
         let mut f = Fields {
             path,
             line,
@@ -541,7 +558,7 @@ fn read_events(
         };
         if id.is_empty() {
             f.push(0, IssueProblem::EmptyEventId);
-        } else if std::str::from_utf8(id_bytes).is_err() {
+        } else if id_not_utf8 {
             f.push(0, IssueProblem::NotUtf8);
         }
         let kind = EventKind::parse(&f.raw(1));
@@ -705,8 +722,7 @@ fn read_frames<E: From<EventsError>>(
             issues.push(note);
             continue;
         }
-        let id_bytes = rec.get(cols[0]).unwrap_or(b"");
-        let id_text = field_str(id_bytes);
+        let id_text = field_str(rec.get(cols[0]).unwrap_or(b""));
         let id: &str = &id_text;
         // Frames usually come grouped by event: remember the last lookup.
         let slot = match &current {
@@ -742,7 +758,8 @@ fn read_frames<E: From<EventsError>>(
                 unknown
                     .entry(id.to_owned())
                     .and_modify(|e| e.1 += 1)
-                    .or_insert((line, 1, std::str::from_utf8(id_bytes).is_err()));
+                    // Escaped (owned) text: the id's bytes are not UTF-8.
+                    .or_insert_with(|| (line, 1, matches!(id_text, Cow::Owned(_))));
             }
             continue;
         };

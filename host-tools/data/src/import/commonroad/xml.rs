@@ -398,18 +398,17 @@ fn heading_across_motion(track: &Track, dt: f64) -> Option<Problem> {
     let min_speed = f64::from(crate::events::HEADING_CHECK_MIN_SPEED_M_S);
     let (mut moving, mut off) = (0usize, 0usize);
     for w in track.states.windows(2) {
-        let span = (w[1].step - w[0].step) as f64 * dt;
         let (dx, dy) = (w[1].x - w[0].x, w[1].y - w[0].y);
         let distance = dx.hypot(dy);
-        if w[1].step - w[0].step != 1 || distance < min_speed * span {
+        if w[1].step - w[0].step != 1 || distance < min_speed * dt {
             continue;
         }
         moving += 1;
         let (sin, cos) = w[0].orientation.sin_cos();
-        off +=
-            usize::from(((dx * cos + dy * sin) / distance).abs() < std::f64::consts::FRAC_1_SQRT_2);
+        off += usize::from(crate::events::heading_off((dx * cos + dy * sin) / distance));
     }
-    (moving >= 5 && 2 * off > moving).then_some(Problem::HeadingAcrossMotion { off, moving })
+    crate::events::heading_mostly_off(off, moving)
+        .then_some(Problem::HeadingAcrossMotion { off, moving })
 }
 
 /// Largest position coordinate (m) a scenario keeps as it is: event files and every gap computed
