@@ -204,15 +204,21 @@ fn describe(folders: &[PathBuf]) -> String {
     }
 }
 
-/// The output must not be the model, a --normal folder or lie inside one.
+/// The output must not be the model, a --normal folder or lie inside one, nor an existing file
+/// that is not a blob.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
     refuse_blob_overlaps(&args.model, "--normal", &args.normal, &args.out)?;
-    refuse_blob_overlaps(&args.model, "--never-warn", &args.never_warn, &args.out)
+    refuse_blob_overlaps(&args.model, "--never-warn", &args.never_warn, &args.out)?;
+    // After the overlaps: `--out ev/events.csv` is "the same file as --normal", first.
+    Ok(super::output::refuse_replacing_a_non_blob(
+        "--out", &args.out,
+    )?)
 }
 
 /// A blob rewritten from `--model` and event folders (given with `folder_flag`): `out` must not
-/// be the model, one of the folders' files or lie inside a folder, nor an existing file that is
-/// not a blob ([`super::output::refuse_replacing_a_non_blob`]).
+/// be the model, one of the folders' files or lie inside a folder. The caller refuses an
+/// existing `out` that is not a blob ([`super::output::refuse_replacing_a_non_blob`]) once, after
+/// all its overlaps.
 pub(super) fn refuse_blob_overlaps(
     model: &Path,
     folder_flag: &str,
@@ -223,7 +229,5 @@ pub(super) fn refuse_blob_overlaps(
         .iter()
         .map(|d| (folder_flag, Some(d.as_path())))
         .collect();
-    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])?;
-    // After the overlaps: `--out ev/events.csv` is "the same file as --normal", first.
-    Ok(super::output::refuse_replacing_a_non_blob("--out", out)?)
+    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])
 }

@@ -256,12 +256,17 @@ pub fn read_kinematic_terms(path: &std::path::Path) -> anyhow::Result<Vec<MsraTe
     Ok(msra.terms.to_vec())
 }
 
-/// The output must not be the model, an --events folder's file or lie inside one.
+/// The output must not be the model, an --events folder's file or lie inside one, nor an
+/// existing file that is not a blob.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
     super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)?;
     super::output::refuse_inputs_of(
         &[],
         &[("--fallback-from", args.fallback_from.as_deref())],
         &[("--out", &args.out)],
-    )
+    )?;
+    // After the overlaps, as calibrate: the more precise refusal first.
+    Ok(super::output::refuse_replacing_a_non_blob(
+        "--out", &args.out,
+    )?)
 }
