@@ -406,6 +406,11 @@ impl Staged {
     }
 }
 
+/// The folders under `--out` that the transfer and the domain benchmarks simulate into (named
+/// once: [`refuse_unswappable_later_folders`] checks them at the start).
+const TRANSFER_DATA: &str = "transfer-data";
+const DOMAINS_DATA: &str = "domains-data";
+
 /// Checks now the folders the demo simulates into only after the cross-validation (the
 /// transfer and domain benchmarks' data), so a file or a link in the place of one fails the run
 /// at its start, not minutes later ([`riskscore_output::refuse_unswappable`]).
@@ -413,9 +418,9 @@ fn refuse_unswappable_later_folders(opts: &DemoOptions) -> Result<(), DemoError>
     if opts.real.is_none() || opts.transfer.is_none() {
         return Ok(());
     }
-    let mut later = vec![opts.out.join("transfer-data")];
+    let mut later = vec![opts.out.join(TRANSFER_DATA)];
     if opts.domains.is_some() {
-        let domains = opts.out.join("domains-data");
+        let domains = opts.out.join(DOMAINS_DATA);
         later.extend([domains.join("train"), domains.join("test")]);
     }
     for folder in later {
@@ -682,7 +687,7 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
     let mut transfer_claims = Vec::new();
     if let (Some(settings), false) = (&opts.transfer, real_seqs.is_empty()) {
         let t0 = Instant::now();
-        let dir = opts.out.join("transfer-data");
+        let dir = opts.out.join(TRANSFER_DATA);
         let cfg = SimConfig {
             seed: settings.test_seed,
             events: settings.test_events,
@@ -986,7 +991,7 @@ fn domain_benchmark(
     // Staged ([`Staged::simulate`]), swapped in with the demo's other folders.
     let mut simulate =
         |folder: &str, seed: u64, mix: sim::Mix| -> Result<Vec<Sequence>, DemoError> {
-            let dir = opts.out.join("domains-data").join(folder);
+            let dir = opts.out.join(DOMAINS_DATA).join(folder);
             let cfg = SimConfig {
                 seed,
                 events: settings.events,
