@@ -70,27 +70,45 @@ fn interrupted_message(signal: &str, targets: &[PathBuf]) -> String {
     )
 }
 
+/// The list of undos, held while something is created and registered through it. A signal's
+/// clean-up takes the same lock (and keeps it until the process exits), so it runs either before
+/// the thing exists or after it is registered: a temporary created just as Ctrl-C arrives is
+/// never left behind unregistered.
+pub(crate) struct Registrar(MutexGuard<'static, Vec<Undo>>);
+
+impl Registrar {
+    pub(crate) fn remove(&mut self, path: &Path) {
+        self.0.push(Undo::Remove(path.to_path_buf()));
+    }
+
+    pub(crate) fn remove_empty_folder(&mut self, path: &Path) {
+        self.0.push(Undo::RemoveEmptyFolder(path.to_path_buf()));
+    }
+
+    pub(crate) fn restore(&mut self, aside: &Path, target: &Path) {
+        self.0.push(Undo::Restore {
+            aside: aside.to_path_buf(),
+            target: target.to_path_buf(),
+        });
+    }
+}
+
+/// Holds the list of undos: create, then register through it (see [`Registrar`]). Nothing that
+/// registers by itself may run while it is held (the lock is not re-entrant).
+pub(crate) fn registrar() -> Registrar {
+    Registrar(pending())
+}
+
 pub(crate) fn register(path: &Path) {
-    pending().push(Undo::Remove(path.to_path_buf()));
+    registrar().remove(path);
 }
 
 pub(crate) fn unregister(path: &Path) {
     pending().retain(|u| !matches!(u, Undo::Remove(p) if p == path));
 }
 
-pub(crate) fn register_empty_folder(path: &Path) {
-    pending().push(Undo::RemoveEmptyFolder(path.to_path_buf()));
-}
-
 pub(crate) fn unregister_empty_folder(path: &Path) {
     pending().retain(|u| !matches!(u, Undo::RemoveEmptyFolder(p) if p == path));
-}
-
-pub(crate) fn register_restore(aside: &Path, target: &Path) {
-    pending().push(Undo::Restore {
-        aside: aside.to_path_buf(),
-        target: target.to_path_buf(),
-    });
 }
 
 pub(crate) fn unregister_restore(aside: &Path) {
@@ -164,7 +182,7 @@ mod tests {
         let (aside, target) = (d.path().join(".out.old"), d.path().join("out"));
         std::fs::create_dir(&aside).unwrap();
         std::fs::write(aside.join("kept"), "old").unwrap();
-        register_restore(&aside, &target);
+        registrar().restore(&aside, &target);
         // Other tests of this process register too: undo only this test's entries.
         let mine: Vec<Undo> = {
             let mut list = pending();

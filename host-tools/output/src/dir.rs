@@ -156,6 +156,7 @@ impl OutputDir {
         let lock = OutputLock::acquire(target)
             .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", target.display())))?;
         let prefix = hidden_name(target, ".")?;
+        let mut undo = crate::cleanup::registrar();
         let tmp = tempfile::Builder::new()
             .prefix(prefix.file_name().unwrap_or_default())
             .suffix(".tmp")
@@ -164,7 +165,8 @@ impl OutputDir {
             .tempdir_in(parent)
             .map_err(|e| err(target, "cannot create a temporary folder beside it", e))?
             .keep();
-        crate::cleanup::register(&tmp);
+        undo.remove(&tmp);
+        drop(undo);
         Ok(Self {
             target: target.to_path_buf(),
             tmp: Some(tmp),
@@ -206,13 +208,15 @@ impl OutputDir {
                 let _ = std::fs::set_permissions(&tmp, m.permissions());
             }
             sync_dir(&tmp);
+            let mut undo = crate::cleanup::registrar();
             let aside = tempfile::Builder::new()
                 .prefix(hidden_name(&target, ".")?.file_name().unwrap_or_default())
                 .suffix(".old")
                 .tempdir_in(parent_of(&target))
                 .map_err(|e| err(&target, "cannot create a folder beside it", e))?
                 .keep();
-            crate::cleanup::register_restore(&aside, &target);
+            undo.restore(&aside, &target);
+            drop(undo);
             // `aside` is empty: renaming a folder over an empty folder replaces it.
             if let Err(e) = std::fs::rename(&target, &aside) {
                 crate::cleanup::unregister_restore(&aside);

@@ -65,12 +65,14 @@ pub(crate) fn temp_beside(dest: &Path) -> io::Result<NamedTempFile> {
     let prefix = prefix.file_name().unwrap_or_default().to_os_string();
     // The mode a plain `File::create` would give (0o666 less the umask), not tempfile's 0o600;
     // a file that is replaced keeps its own mode.
+    let mut undo = crate::cleanup::registrar();
     let tmp = tempfile::Builder::new()
         .prefix(&prefix)
         .suffix(".tmp")
         .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(parent_of(dest))?;
-    crate::cleanup::register(tmp.path());
+    undo.remove(tmp.path());
+    drop(undo);
     if let Ok(old) = std::fs::metadata(dest) {
         tmp.as_file().set_permissions(old.permissions())?;
     }

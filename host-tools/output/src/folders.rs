@@ -19,10 +19,11 @@ impl NewFolders {
             .take_while(|a| !a.as_os_str().is_empty() && std::fs::symlink_metadata(a).is_err())
             .map(Path::to_path_buf)
             .collect();
+        let mut undo = crate::cleanup::registrar();
         std::fs::create_dir_all(dir)?;
         // Shallowest first, so the signal handler (newest first) empties the deepest first.
         for m in missing.iter().rev() {
-            crate::cleanup::register_empty_folder(m);
+            undo.remove_empty_folder(m);
         }
         Ok(Self { created: missing })
     }

@@ -72,6 +72,8 @@ impl OutputLock {
         }
         let folders = crate::folders::parent_folders(target)?;
         for _ in 0..8 {
+            // Held from the open that may create the lock file to its registration.
+            let mut undo = crate::cleanup::registrar();
             let file = OpenOptions::new()
                 .create(true)
                 .truncate(false)
@@ -95,7 +97,8 @@ impl OutputLock {
             let ours = file.metadata()?;
             match std::fs::metadata(&path) {
                 Ok(now) if now.dev() == ours.dev() && now.ino() == ours.ino() => {
-                    crate::cleanup::register(&path);
+                    undo.remove(&path);
+                    drop(undo);
                     crate::cleanup::register_target(target);
                     return Ok(Self {
                         path,
