@@ -55,8 +55,10 @@ pub(crate) unsafe fn blob_slice(
     if blob.is_null() {
         return Err(RiskscoreStatus::NullPointer);
     }
+    // No buffer is that long (e.g. a failed read's -1 as `size_t`): more bytes than the blob has,
+    // as for any other too-long `len` (not "truncated", the opposite of what is wrong).
     if len > isize::MAX as usize {
-        return Err(RiskscoreStatus::ModelTruncated);
+        return Err(RiskscoreStatus::ModelTrailingBytes);
     }
     // SAFETY: non-null, `len` readable bytes per the contract, `len <= isize::MAX`; `u8` has
     // alignment 1. The 'static lifetime is the caller's promise that the blob outlives its use.

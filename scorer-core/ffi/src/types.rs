@@ -42,7 +42,9 @@ pub enum RiskscoreStatus {
     /// Model blob: input (feature) schema unknown to this library, or not the one its model kind
     /// reads (e.g. a DRL model of an older input encoding).
     ModelUnsupportedFeatureSchema = 13,
-    /// Model blob: bytes after the payload.
+    /// Model blob: bytes after the payload (`RiskscoreLoadInfo.found`: how many), or a `len`
+    /// above `PTRDIFF_MAX`, which no buffer has (e.g. a failed read's `-1` cast to `size_t`;
+    /// `found` is then `RISKSCORE_NONE_U32`, and the blob is not read).
     ModelTrailingBytes = 14,
     /// Model blob: payload CRC-32 mismatch (corrupted in storage or transfer).
     ModelCrcMismatch = 15,

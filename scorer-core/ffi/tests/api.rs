@@ -405,3 +405,59 @@ fn every_record_error_names_its_field() {
         (invalid, "kinematic_fallback.terms".into(), 0, none)
     );
 }
+
+/// A `len` no buffer can have (above `PTRDIFF_MAX`, e.g. a failed read's `-1` cast to `size_t`)
+/// is refused before the blob is touched, as more bytes than a blob has: it reported
+/// `RISKSCORE_STATUS_MODEL_TRUNCATED` ("model blob truncated"), the opposite of what was wrong,
+/// while any other too-long `len` gives `RISKSCORE_STATUS_MODEL_TRAILING_BYTES`. Nothing is
+/// known about the extra bytes, so `found` is `RISKSCORE_NONE_U32`; the context is unchanged.
+#[test]
+fn impossible_blob_length_is_trailing_bytes_not_truncated() {
+    let blob = test_models::drl_int8();
+    // The length one past the real blob: trailing bytes, counted.
+    let mut longer = blob.clone();
+    longer.push(0);
+    let (status, info) = load_into_fresh_context(&longer);
+    assert_eq!(
+        (status, info.found),
+        (RiskscoreStatus::ModelTrailingBytes, 1)
+    );
+    let (mut ctx, loaded) = context_with_drl();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    for len in [isize::MAX as usize + 1, usize::MAX] {
+        let mut info = std::mem::MaybeUninit::<RiskscoreLoadInfo>::uninit();
+        let mut t = 7.0f32;
+        // SAFETY: the library refuses such a length before reading any byte of the blob.
+        unsafe {
+            assert_eq!(
+                riskscore_load_model(ctx, loaded.as_ptr(), len, info.as_mut_ptr()),
+                RiskscoreStatus::ModelTrailingBytes,
+                "len {len}"
+            );
+            let info = info.assume_init();
+            assert_eq!(
+                (info.kind, info.expected, info.found),
+                (
+                    RiskscoreModelKind::None,
+                    RISKSCORE_NONE_U32,
+                    RISKSCORE_NONE_U32
+                )
+            );
+            assert_eq!(
+                riskscore_model_default_threshold(loaded.as_ptr(), len, &mut t),
+                RiskscoreStatus::ModelTrailingBytes
+            );
+        }
+        assert_eq!(t, 7.0, "threshold written on error");
+    }
+    // The DRL loaded before is still there.
+    let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
+    // SAFETY: an initialised context and valid states and output.
+    unsafe {
+        assert_eq!(
+            riskscore_score_pair(ctx, &EGO, &LEAD, r.as_mut_ptr()),
+            RiskscoreStatus::Ok
+        );
+        assert_eq!(r.assume_init().has_drl, 1);
+    }
+}
