@@ -82,8 +82,9 @@ enum RiskscoreStatus
   RISKSCORE_STATUS_NO_MODEL = 7,
   // Model blob: shorter than its header or declared payload (`RiskscoreLoadInfo.expected` /
   // `found`: the blob's bytes), or a metadata record of a version-2 blob declares more bytes
-  // than its payload has left (`expected` / `found`: the record's body length and the bytes
-  // left after its length, both less than the blob's length).
+  // than its payload has left (`expected`: the record's declared body length, any `u32`, so
+  // possibly more than the whole blob; `found`: the payload bytes left after its length, less
+  // than the blob's length).
   RISKSCORE_STATUS_MODEL_TRUNCATED = 8,
   // Model blob: does not start with "RSKM".
   RISKSCORE_STATUS_MODEL_BAD_MAGIC = 9,

@@ -461,3 +461,23 @@ fn impossible_blob_length_is_trailing_bytes_not_truncated() {
         assert_eq!(r.assume_init().has_drl, 1);
     }
 }
+
+/// A version-2 record may declare a body longer than the whole blob (its length is any `u32`
+/// varint): `RISKSCORE_STATUS_MODEL_TRUNCATED` with `expected` the declared body length, which
+/// is then larger than the blob, and `found` the payload bytes left after the length varint.
+#[test]
+fn record_longer_than_the_blob_is_truncated_with_its_declared_length() {
+    // The worked example of docs/model-format.md (DRL-f32, 25 payload bytes), then an unknown
+    // record (tag 99) declaring 1000 body bytes (varint e8 07) with none left.
+    let mut payload = vec![
+        0x01, 0x08, 0x01, 0xcd, 0xcc, 0xcc, 0x3d, 0x01, 0x00, 0x00, 0x80, 0xbf, 0x01, 0x01, 0x00,
+        0x04, 0x00, 0x00, 0x80, 0xbf, 0x04, 0x00, 0x00, 0x00, 0x3f,
+    ];
+    payload.extend_from_slice(&[99, 0xe8, 0x07]);
+    let blob = v2_blob(&payload);
+    let (status, info) = load_into_fresh_context(&blob);
+    assert_eq!(status, RiskscoreStatus::ModelTruncated);
+    assert_eq!(info.kind, RiskscoreModelKind::DrlF32);
+    assert_eq!((info.expected, info.found), (1000, 0));
+    assert!(info.expected as usize > blob.len());
+}
