@@ -369,3 +369,50 @@ fn check_guard_line(
         assert_eq!(d.score.to_bits(), drl.model.score_observation(&o).to_bits());
     }
 }
+
+/// The C example of docs/ecu.md ("The API in one page") is a compilation unit a firmware engineer
+/// can copy: it compiles against the checked-in header as strict C99 with warnings as errors. It
+/// was a fragment that went on with an unwritten `threshold` after a failed
+/// `riskscore_model_default_threshold` and switched its warning on at ONSET only (a warning also
+/// ends without a RELEASE event: stale track, reset time base).
+#[test]
+fn ecu_md_api_example_compiles() {
+    let root = repo_root();
+    let doc = std::fs::read_to_string(root.join("docs/ecu.md")).expect("docs/ecu.md");
+    let section = doc
+        .split("## The API in one page")
+        .nth(1)
+        .expect("docs/ecu.md has 'The API in one page'");
+    let example = section
+        .split("```c\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("a ```c block in 'The API in one page'");
+    assert!(
+        !example.contains("ONSET) raise_warning"),
+        "the example drives its output from the state, not from ONSET alone"
+    );
+    let out_dir = root.join("target/ffi-c");
+    std::fs::create_dir_all(&out_dir).expect("target/ffi-c");
+    let src = out_dir.join("ecu_md_example.c");
+    std::fs::write(&src, example).expect("write the example");
+    run(
+        Command::new("gcc")
+            .args([
+                "-std=c99",
+                "-O2",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-pedantic",
+            ])
+            .args(["-Wconversion", "-Wno-sign-conversion"])
+            .arg("-I")
+            .arg(root.join("scorer-core/ffi/include"))
+            .arg("-c")
+            .arg(&src)
+            .arg("-o")
+            .arg(out_dir.join("ecu_md_example.o")),
+        "compiling the C example of docs/ecu.md",
+    );
+}

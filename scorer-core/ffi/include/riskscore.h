@@ -3,7 +3,9 @@
  * Usage (see docs/ecu.md):
  *   static RiskscoreContext ctx;                      // RISKSCORE_CONTEXT_SIZE bytes, caller-owned
  *   float threshold;                                  // the blob's calibrated default
- *   riskscore_model_default_threshold(drl_blob, sizeof drl_blob, &threshold);
+ *   if (riskscore_model_default_threshold(drl_blob, sizeof drl_blob, &threshold) != 0)
+ *       return;                                       // not written: do not score (each call's
+ *                                                     // status needs checking: docs/ecu.md)
  *   RiskscoreWarningConfig cfg = { .threshold = threshold, .stale_after_us = 1000000, .latch = 0,
  *                                  .hysteresis = 0.05f, .min_on_us = 500000, .evict_when_full = 1 };
  *   riskscore_init(&ctx, sizeof ctx, &cfg);
@@ -11,6 +13,7 @@
  *   per partner and frame:
  *     riskscore_score_pair(&ctx, &ego, &partner, &result);
  *     riskscore_track_update(&ctx, partner_id, now_us, result.drl_score, &status);
+ *     set_warning(partner_id, status.warning);      // the state: a warning can end without RELEASE
  *
  * Bare-metal builds must define `void riskscore_panic(void)` that never returns (reset or safe
  * state). The library has no reachable panic path; the hook only exists as a backstop.
@@ -165,7 +168,12 @@ enum RiskscoreWarningEvent
   RISKSCORE_WARNING_EVENT_NONE = 0,
   // The warning turned on.
   RISKSCORE_WARNING_EVENT_ONSET = 1,
-  // The warning was released (live mode only).
+  // The warning was released by this update's score (live mode only). Not the only way a
+  // warning ends: a track that goes stale reads as not warning from then on and is dropped
+  // by a later update, and one restarted after a reset time base comes back with
+  // `new_track` and its warning off, neither with a RELEASE (nor in latched mode). Drive a
+  // warning output from `RiskscoreTrackStatus.warning` and `riskscore_any_warning`, not from
+  // ONSET/RELEASE alone.
   RISKSCORE_WARNING_EVENT_RELEASE = 2,
 };
 #ifndef __cplusplus
@@ -310,13 +318,16 @@ typedef struct {
   uint32_t id;
   // 1 when the warning is on (and the track is not stale at the query time).
   uint8_t warning;
-  // 1 when the track is stale at the query time (it is dropped at the next update).
+  // 1 when the track is stale at the query time: not updated for more than `stale_after_us`
+  // (dropped by the next update of any id), or last updated more than that after `now_us`, a
+  // reset time base (dropped only by its own id's next update or a remove).
   uint8_t stale;
   // Last accepted score.
   float last_score;
   uint64_t created_us;
   uint64_t last_update_us;
-  // When the current warning turned on, or `RISKSCORE_NONE_U64`.
+  // When the track's warning turned on, or `RISKSCORE_NONE_U64` while it is off. A stale
+  // track keeps the time of the warning it had, though `warning` reads 0.
   uint64_t on_since_us;
   // When the track first warned, or `RISKSCORE_NONE_U64`.
   uint64_t first_warning_us;

@@ -130,7 +130,12 @@ pub enum RiskscoreWarningEvent {
     None = 0,
     /// The warning turned on.
     Onset = 1,
-    /// The warning was released (live mode only).
+    /// The warning was released by this update's score (live mode only). Not the only way a
+    /// warning ends: a track that goes stale reads as not warning from then on and is dropped
+    /// by a later update, and one restarted after a reset time base comes back with
+    /// `new_track` and its warning off, neither with a RELEASE (nor in latched mode). Drive a
+    /// warning output from `RiskscoreTrackStatus.warning` and `riskscore_any_warning`, not from
+    /// ONSET/RELEASE alone.
     Release = 2,
 }
 
@@ -255,13 +260,16 @@ pub struct RiskscoreTrack {
     pub id: u32,
     /// 1 when the warning is on (and the track is not stale at the query time).
     pub warning: u8,
-    /// 1 when the track is stale at the query time (it is dropped at the next update).
+    /// 1 when the track is stale at the query time: not updated for more than `stale_after_us`
+    /// (dropped by the next update of any id), or last updated more than that after `now_us`, a
+    /// reset time base (dropped only by its own id's next update or a remove).
     pub stale: u8,
     /// Last accepted score.
     pub last_score: f32,
     pub created_us: u64,
     pub last_update_us: u64,
-    /// When the current warning turned on, or `RISKSCORE_NONE_U64`.
+    /// When the track's warning turned on, or `RISKSCORE_NONE_U64` while it is off. A stale
+    /// track keeps the time of the warning it had, though `warning` reads 0.
     pub on_since_us: u64,
     /// When the track first warned, or `RISKSCORE_NONE_U64`.
     pub first_warning_us: u64,

@@ -481,3 +481,82 @@ fn record_longer_than_the_blob_is_truncated_with_its_declared_length() {
     assert_eq!((info.expected, info.found), (1000, 0));
     assert!(info.expected as usize > blob.len());
 }
+
+/// A warning can end without a `RISKSCORE_WARNING_EVENT_RELEASE`: when its track goes stale
+/// (reads as not warning, then dropped by the next update) or is restarted after a reset time
+/// base, and in latched mode too. An integration that switched its warning output off only on
+/// RELEASE kept it on; the header says to follow `warning` / `riskscore_any_warning` instead.
+/// A stale track read with `riskscore_track_get` keeps the `on_since_us` of its warning while its
+/// `warning` reads 0, as the header says.
+#[test]
+fn a_warning_ends_without_release_when_its_track_is_dropped_or_restarted() {
+    for latch in [0, 1] {
+        let mut ctx = context();
+        let ctx: *mut RiskscoreContext = &mut *ctx;
+        let cfg = RiskscoreWarningConfig { latch, ..config() };
+        let mut ts = std::mem::MaybeUninit::<RiskscoreTrackStatus>::uninit();
+        let mut tr = std::mem::MaybeUninit::<RiskscoreTrack>::uninit();
+        let (mut warnings, mut held) = (9u32, 9u32);
+        // SAFETY: a fresh context and writable outputs.
+        unsafe {
+            assert_eq!(
+                riskscore_init(ctx, RISKSCORE_CONTEXT_SIZE, &cfg),
+                RiskscoreStatus::Ok
+            );
+            // Partner 1 warns at t = 0 and is not seen again for 1.5 s (stale after 1 s).
+            assert_eq!(
+                riskscore_track_update(ctx, 1, 0, 0.9, ts.as_mut_ptr()),
+                RiskscoreStatus::Ok
+            );
+            let onset = ts.assume_init();
+            assert_eq!(
+                (onset.warning, onset.event),
+                (1, RiskscoreWarningEvent::Onset)
+            );
+            assert_eq!(
+                riskscore_track_get(ctx, 1, 1_500_000, tr.as_mut_ptr()),
+                RiskscoreStatus::Ok
+            );
+            let stale = tr.assume_init();
+            assert_eq!((stale.stale, stale.warning, stale.on_since_us), (1, 0, 0));
+            assert_eq!(
+                riskscore_any_warning(ctx, 1_500_000, &mut warnings, &mut held),
+                RiskscoreStatus::Ok
+            );
+            assert_eq!((warnings, held), (0, 1));
+            // Another partner's update drops it: no event for partner 1 at all.
+            assert_eq!(
+                riskscore_track_update(ctx, 2, 1_500_000, 0.1, std::ptr::null_mut()),
+                RiskscoreStatus::Ok
+            );
+            assert_eq!(
+                riskscore_track_get(ctx, 1, 1_500_000, tr.as_mut_ptr()),
+                RiskscoreStatus::UnknownTrack
+            );
+            // Partner 1 seen again, harmless: a new track, warning off, event NONE (not RELEASE).
+            assert_eq!(
+                riskscore_track_update(ctx, 1, 1_600_000, 0.1, ts.as_mut_ptr()),
+                RiskscoreStatus::Ok
+            );
+            let back = ts.assume_init();
+            assert_eq!(
+                (back.warning, back.event, back.new_track),
+                (0, RiskscoreWarningEvent::None, 1)
+            );
+            // A reset time base: partner 2 warns at 5 000 s, then the clock restarts at 1 ms.
+            assert_eq!(
+                riskscore_track_update(ctx, 2, 5_000_000_000, 0.9, std::ptr::null_mut()),
+                RiskscoreStatus::Ok
+            );
+            assert_eq!(
+                riskscore_track_update(ctx, 2, 1_000, 0.1, ts.as_mut_ptr()),
+                RiskscoreStatus::Ok
+            );
+            let restarted = ts.assume_init();
+            assert_eq!(
+                (restarted.warning, restarted.event, restarted.new_track),
+                (0, RiskscoreWarningEvent::None, 1)
+            );
+        }
+    }
+}
