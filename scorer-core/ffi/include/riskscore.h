@@ -17,6 +17,8 @@
  *
  * Bare-metal builds must define `void riskscore_panic(void)` that never returns (reset or safe
  * state). The library has no reachable panic path; the hook only exists as a backstop.
+ * Hard-float builds (thumbv7em-none-eabihf) execute FPU instructions: enable the FPU (CPACR
+ * CP10/CP11 full access) before the first call, or riskscore_init faults (docs/ecu.md).
  */
 
 #ifndef RISKSCORE_H
