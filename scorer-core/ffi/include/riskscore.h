@@ -266,7 +266,9 @@ typedef struct {
   float features[RISKSCORE_FEATURE_COUNT];
   // Exact gap between the two boxes (m), 0 when they touch or overlap.
   float box_distance;
-  // Two-dimensional time-to-collision (s); +INFINITY = no conflict.
+  // Two-dimensional time-to-collision (s); +INFINITY = no conflict by the measure's rules,
+  // which boxes that already touch or overlap (`box_distance` 0) often get too, as in the
+  // reference implementation: +INFINITY alone does not mean "no risk".
   float ttc2d;
   // Time advantage (s); +INFINITY = no conflict.
   float tadv;

@@ -202,7 +202,9 @@ pub struct RiskscorePairResult {
     pub features: [f32; RISKSCORE_FEATURE_COUNT],
     /// Exact gap between the two boxes (m), 0 when they touch or overlap.
     pub box_distance: f32,
-    /// Two-dimensional time-to-collision (s); +INFINITY = no conflict.
+    /// Two-dimensional time-to-collision (s); +INFINITY = no conflict by the measure's rules,
+    /// which boxes that already touch or overlap (`box_distance` 0) often get too, as in the
+    /// reference implementation: +INFINITY alone does not mean "no risk".
     pub ttc2d: f32,
     /// Time advantage (s); +INFINITY = no conflict.
     pub tadv: f32,

@@ -560,3 +560,29 @@ fn a_warning_ends_without_release_when_its_track_is_dropped_or_restarted() {
         }
     }
 }
+
+/// TTC2D is +INFINITY ("no conflict") for boxes that already overlap whenever neither of its
+/// branches sees a positive gap, as in the reference implementation: the header says so, so an
+/// integration does not read an infinite `ttc2d` as "no risk". Here a partner overlapping the
+/// ego's front half, closing.
+#[test]
+fn overlapping_boxes_can_have_an_infinite_ttc2d() {
+    let (mut ctx, _blob) = context_with_drl();
+    let ctx: *mut RiskscoreContext = &mut *ctx;
+    let overlapping = RiskscoreVehicleState {
+        y: 2.0,
+        vy: 10.0,
+        ..EGO
+    };
+    let mut r = std::mem::MaybeUninit::<RiskscorePairResult>::uninit();
+    // SAFETY: an initialised context, valid states and output.
+    let r = unsafe {
+        assert_eq!(
+            riskscore_score_pair(ctx, &EGO, &overlapping, r.as_mut_ptr()),
+            RiskscoreStatus::Ok
+        );
+        r.assume_init()
+    };
+    assert_eq!(r.box_distance, 0.0);
+    assert_eq!(r.ttc2d, f32::INFINITY);
+}

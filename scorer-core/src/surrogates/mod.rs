@@ -105,7 +105,10 @@ impl SurrogateKind {
 pub struct Surrogates {
     /// Exact box-to-box distance (m), 0 when touching or overlapping.
     pub box_distance: f32,
-    /// Two-dimensional time-to-collision (s), `f32::INFINITY` = no conflict.
+    /// Two-dimensional time-to-collision (s), `f32::INFINITY` = no conflict by the measure's
+    /// rules, which boxes that already touch or overlap (`box_distance` 0) often get too, as in
+    /// the reference implementation (all 50 `overlapping` rows of
+    /// `tests/data/golden_surrogates.csv`): infinity alone does not mean "no risk".
     pub ttc2d: f32,
     /// Time advantage (s), `f32::INFINITY` = no conflict.
     pub tadv: f32,

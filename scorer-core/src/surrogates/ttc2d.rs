@@ -53,7 +53,9 @@ fn follower_leader_ttc(
 
 /// Two-dimensional time-to-collision (s) of the pair; `f32::INFINITY` = no conflict.
 ///
-/// Non-finite inputs or a zero heading give `f32::INFINITY`.
+/// Non-finite inputs or a zero heading give `f32::INFINITY`, and so do boxes that already touch
+/// or overlap whenever neither branch's gap is positive (the `s_lon > L` and `s_lat > W` tests
+/// above), as in the reference implementation: an infinite TTC2D alone does not mean "no risk".
 pub fn ttc2d(ego: &VehicleState, partner: &VehicleState) -> f32 {
     let (Some(bi), Some(bj)) = (OrientedBox::of(ego), OrientedBox::of(partner)) else {
         return f32::INFINITY;
