@@ -416,3 +416,114 @@ fn ecu_md_api_example_compiles() {
         "compiling the C example of docs/ecu.md",
     );
 }
+
+/// The same example, linked against `libscorer_ffi.a` with a harness that provides what it
+/// declares (the shipped DRL blob as `drl_model`, `log_error`, `set_warning`) and runs it: a
+/// partner closing from 150 m turns the output on, one pulling away turns it off again; a
+/// corrupted blob makes `risk_start` fail (non-zero) instead of running on.
+#[test]
+fn ecu_md_api_example_runs() {
+    let root = repo_root();
+    // The directory and library of c_program_links_staticlib_and_matches_host (one build).
+    let out_dir = root.join("target/ffi-c");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(
+        Command::new(&cargo)
+            .current_dir(&root)
+            .args(["rustc", "--quiet", "-p", "scorer-ffi", "--release", "--lib"])
+            .args(["--crate-type", "staticlib", "--target-dir"])
+            .arg(&out_dir)
+            .args(["--", "-C", "panic=abort"])
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS")
+            .env_remove("CARGO_TARGET_DIR"),
+        "building libscorer_ffi.a",
+    );
+    let doc = std::fs::read_to_string(root.join("docs/ecu.md")).expect("docs/ecu.md");
+    let example = doc
+        .split("## The API in one page")
+        .nth(1)
+        .and_then(|s| s.split("```c\n").nth(1))
+        .and_then(|rest| rest.split("```").next())
+        .expect("a ```c block in 'The API in one page'");
+    std::fs::write(out_dir.join("example.c"), example).expect("write the example");
+    let blob = model_blob(&root, "drl");
+    for corrupt in [false, true] {
+        let mut bytes = blob.clone();
+        if corrupt {
+            let last = bytes.len() - 1;
+            bytes[last] ^= 1;
+        }
+        let array: Vec<String> = bytes.iter().map(|b| b.to_string()).collect();
+        let harness = format!(
+            r#"#include "riskscore.h"
+#include <stdio.h>
+int risk_start(void);
+void risk_partner(uint32_t partner_id, uint64_t now_us, const RiskscoreVehicleState *ego,
+                  const RiskscoreVehicleState *partner);
+const uint8_t drl_model[] = {{{}}};
+const size_t drl_model_len = sizeof drl_model;
+static int on = -1, ever_on = 0;
+void log_error(const char *what, const char *why, const char *field) {{
+    printf("log %s: %s [%s]\n", what, why, field);
+}}
+void set_warning(uint32_t partner_id, int v) {{ (void)partner_id; on = v; ever_on |= v; }}
+int main(void) {{
+    if (risk_start() != 0) return 10;
+    RiskscoreVehicleState ego = {{0, 0, 25, 0, 1, 0, 0, 4.5f, 1.8f}};
+    for (int f = 0; f < 60; f++) {{
+        RiskscoreVehicleState p = {{150.0f - 2.0f * (float)f, 0, 5, 0, 1, 0, 0, 4.5f, 1.8f}};
+        risk_partner(7, (uint64_t)f * 100000u, &ego, &p);
+    }}
+    if (!ever_on) return 11;
+    for (int f = 60; f < 100; f++) {{
+        RiskscoreVehicleState p = {{200.0f + 10.0f * (float)f, 0, 40, 0, 1, 0, 0, 4.5f, 1.8f}};
+        risk_partner(7, (uint64_t)f * 100000u, &ego, &p);
+    }}
+    if (on != 0) return 12;
+    printf("ok\n");
+    return 0;
+}}
+"#,
+            array.join(",")
+        );
+        std::fs::write(out_dir.join("harness.c"), harness).expect("write the harness");
+        let exe = out_dir.join("example");
+        run(
+            Command::new("gcc")
+                .args([
+                    "-std=c99",
+                    "-O2",
+                    "-Wall",
+                    "-Wextra",
+                    "-Werror",
+                    "-pedantic",
+                ])
+                .arg("-I")
+                .arg(root.join("scorer-core/ffi/include"))
+                .arg(out_dir.join("example.c"))
+                .arg(out_dir.join("harness.c"))
+                .arg(out_dir.join("release/libscorer_ffi.a"))
+                .args([
+                    "-lgcc_s",
+                    "-lutil",
+                    "-lrt",
+                    "-lpthread",
+                    "-lm",
+                    "-ldl",
+                    "-lc",
+                ])
+                .arg("-o")
+                .arg(&exe),
+            "linking the docs/ecu.md example",
+        );
+        let out = Command::new(&exe).output().expect("run the example");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        if corrupt {
+            assert_eq!(out.status.code(), Some(10), "corrupt blob: {stdout}");
+            assert!(stdout.contains("CRC"), "the failure is logged: {stdout}");
+        } else {
+            assert_eq!(out.status.code(), Some(0), "example run: {stdout}");
+        }
+    }
+}
