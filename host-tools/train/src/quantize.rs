@@ -48,7 +48,7 @@ pub enum QuantizeError {
         "the network has {layers} layers but the calibration has ranges for {ranges} hidden layers"
     )]
     CalibrationMismatch { layers: usize, ranges: usize },
-    #[error("the network does not fit the core: {0:?}")]
+    #[error("the network does not fit the core: {0}")]
     Core(scorer_core::model::ModelError),
     #[error("tensor computation failed: {0}")]
     Candle(#[from] candle_core::Error),
@@ -244,6 +244,31 @@ impl FloatBuffers {
     }
 }
 
+/// Below this span (in standard deviations) the calibrated range of the standardised inputs is
+/// f32 round-off, not data: every input was constant on the calibration observations.
+///
+/// An input that varies is divided by its own standard deviation, so its standardised values span
+/// at least 2 (a spread is at most half the range); inputs that do not vary standardise to
+/// `x - mean`, which is 0 up to round-off (±2.4e-7 on one safe event followed at constant speed).
+/// Quantised over such a range, the int8 step (`span / 255`, 1.9e-9) folded into the
+/// standardisation gave offsets of 2.4e9, beyond the core's parameter limit, and the export
+/// failed (`NonFinite { field: "input_add", index: 0 }`). [`input_range`] widens it.
+pub const MIN_INPUT_SPAN: f32 = 1e-3;
+
+/// The range the standardised inputs are quantised over: the calibrated one, or `[-1, 1]` when
+/// that is narrower than [`MIN_INPUT_SPAN`] (constant inputs: they all quantise to the zero point
+/// either way, and the folded standardisation stays within the core's limits).
+pub fn input_range(measured: Range) -> Range {
+    if measured.max - measured.min < MIN_INPUT_SPAN {
+        Range {
+            min: -1.0,
+            max: 1.0,
+        }
+    } else {
+        measured
+    }
+}
+
 /// Quantise a float DRL network with the calibrated ranges.
 pub fn quantize(params: &DrlParams, cal: &Calibration) -> Result<QuantisedDrl, QuantizeError> {
     let n_layers = params.layers.len();
@@ -253,7 +278,8 @@ pub fn quantize(params: &DrlParams, cal: &Calibration) -> Result<QuantisedDrl, Q
             ranges: cal.hidden.len(),
         });
     }
-    let (in_scale, in_zp) = quant::asymmetric_params(cal.input.min, cal.input.max);
+    let input = input_range(cal.input);
+    let (in_scale, in_zp) = quant::asymmetric_params(input.min, input.max);
     let mut input_mul = Vec::with_capacity(FEATURE_COUNT);
     let mut input_add = Vec::with_capacity(FEATURE_COUNT);
     for k in 0..FEATURE_COUNT {

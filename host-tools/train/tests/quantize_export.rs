@@ -139,6 +139,57 @@ fn int8_network_agrees_with_float_and_round_trips_through_the_blob() {
     }
 }
 
+/// One safe event, its partner followed at a constant gap and speed (`riskctl train` on a folder
+/// of that one event): every DRL input is constant, so the calibrated input range was f32
+/// round-off (±2.4e-7) and the export failed with `the network does not fit the core:
+/// NonFinite { field: "input_add", index: 0 }`. It now quantises, exports and scores like the
+/// float network.
+#[test]
+fn a_network_trained_on_constant_inputs_quantises_and_exports() {
+    let mut s = Sequence::new("s4", EventKind::Safe, None);
+    for k in 0..60 {
+        let t = k as f64 * 0.1;
+        let x = 14.0 * t as f32;
+        s.frames.push(Frame {
+            time: t,
+            ego: car(x, 0.0, 14.0, 0.0, 4.5),
+            partner: car(x + 34.5, 0.0, 14.0, 0.0, 4.5),
+        });
+    }
+    let seqs = vec![s];
+    let cfg = TrainConfig::default();
+    let prepared = train::prepare_comparisons(&seqs, None, &cfg);
+    let drl = train::train_drl(&seqs, &prepared, &cfg, Progress::Hidden).unwrap();
+    let span = drl.calibration.input.max - drl.calibration.input.min;
+    assert!(span < quantize::MIN_INPUT_SPAN, "not the case: {span}");
+    let q = quantize::quantize(&drl.params, &drl.calibration).unwrap();
+    let ck = Checkpoint::new(
+        CheckpointModel::Drl {
+            params: drl.params.clone(),
+            calibration: drl.calibration.clone(),
+        },
+        serde_json::json!({"test": true}),
+    );
+    let (int8_blob, f32_blob) = (
+        export::export(&ck, DrlFormat::Int8).unwrap(),
+        export::export(&ck, DrlFormat::F32).unwrap(),
+    );
+    let (decoded, float) = (decode(&int8_blob).unwrap(), decode(&f32_blob).unwrap());
+    let obs = train::calibration_observations(&seqs, usize::MAX);
+    let agreement = quantize::verify(&drl.params, &q, &obs).unwrap();
+    assert!(agreement.max_abs_error < 0.05, "{agreement:?}");
+    for f in &seqs[0].frames {
+        let (int8, f32) = (
+            decoded.score(&f.ego, &f.partner),
+            float.score(&f.ego, &f.partner),
+        );
+        assert!(
+            int8.is_finite() && (int8 - f32).abs() < 0.05,
+            "{int8} vs {f32}"
+        );
+    }
+}
+
 #[test]
 fn conflicts_outscore_safe_frames_in_the_deployed_int8_path() {
     let (seqs, drl, _) = trained();
