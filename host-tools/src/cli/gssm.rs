@@ -101,6 +101,7 @@ pub struct AlignArgs {
     /// The GSSM model file to align (from `riskctl gssm fit`).
     #[arg(long, value_name = "FILE")]
     pub gssm: PathBuf,
+    /// Output model file (the SSRA); `-` writes it to standard output.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
 }
@@ -115,6 +116,7 @@ pub struct MsraArgs {
     /// Surrogates combined, `+`-separated: ttc2d, tadv, ei, gssm.
     #[arg(long, default_value = "tadv+ei+gssm")]
     pub terms: String,
+    /// Output model file (the MSRA over the GSSM); `-` writes it to standard output.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
 }
@@ -340,7 +342,23 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
     write(&a.out, &g.params.gssm_blob(GssmScore::Intensity)?)
 }
 
+/// Refuses `--normal` for a subcommand that fits no GSSM (`align`, `msra`: the GSSM is the
+/// `--gssm` file). It was accepted and ignored, even for a folder that does not exist, so a user
+/// who meant to fit on normal driving got a model that never read it.
+fn refuse_normal(common: &Common, subcommand: &str) -> anyhow::Result<()> {
+    if let Some(dir) = common.normal.first() {
+        anyhow::bail!(
+            "--normal {}: `riskctl gssm {subcommand}` fits no GSSM (it reads the one --gssm gives), \
+             so it has no use for normal driving; fit the GSSM on it with `riskctl gssm fit \
+             --normal DIR`, or run `riskctl gssm ship --normal DIR` (nothing written)",
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
 fn run_align(a: AlignArgs) -> anyhow::Result<()> {
+    refuse_normal(&a.common, "align")?;
     refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
@@ -371,6 +389,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
 }
 
 fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
+    refuse_normal(&a.common, "msra")?;
     refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
