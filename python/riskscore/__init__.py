@@ -424,7 +424,8 @@ def evaluate(
     ``{row name: number | "default" | "none"/None}`` (baselines too; other rows keep defaults).
     A folder with bad rows raises ``EventsError`` listing them unless ``skip_bad_events=True``
     (then a ``BadRowWarning`` lists them); notes, which leave no event out, warn with a
-    ``UserWarning`` of their own.
+    ``UserWarning`` of their own, and so do valid events that yield no sequence under the
+    preparation rules (left out of the metrics, as ``riskctl evaluate`` lists them on stderr).
     """
     if isinstance(thresholds, Mapping):
         every, by_name = None, {name: _choice(t, name) for name, t in thresholds.items()}
@@ -432,11 +433,24 @@ def evaluate(
         every, by_name = _choice(thresholds), {}
     with tempfile.TemporaryDirectory(prefix="riskscore-models-") as scratch:
         specs = _model_specs(models, scratch)
-        text, problems, notes, count = _riskscore.evaluate(
+        text, problems, notes, count, unprepared = _riskscore.evaluate(
             os.fspath(events), specs, every, by_name, skip_bad_events
         )
     if notes:
         _warn_notes(notes, events)
+    if unprepared:
+        # Valid events the preparation rules turn into no sequence (a safe event shorter than 2 s
+        # or never calm, a conflict without a frame up to its endpoint): left out of the metrics,
+        # as riskctl evaluate lists them on stderr.
+        import warnings
+
+        listing = "\n  ".join(unprepared)
+        warnings.warn(
+            f"event folder {os.fspath(events)}: {len(unprepared)} event(s) yield no sequence under "
+            f"the preparation rules (left out of the metrics; docs/event-format.md):\n  {listing}",
+            UserWarning,
+            stacklevel=2,
+        )
     if count:
         import warnings
 

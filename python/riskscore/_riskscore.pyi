@@ -22,7 +22,7 @@ def evaluate(
     threshold_all: Optional[_Threshold] = None,
     thresholds_by_name: Dict[str, _Threshold] = ...,
     skip_bad_events: bool = False,
-) -> Tuple[str, List[str], List[str], int]: ...
+) -> Tuple[str, List[str], List[str], int, List[str]]: ...
 
 # A pyo3 class without `subclass`: Python cannot derive from it.
 @final

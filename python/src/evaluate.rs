@@ -88,8 +88,14 @@ fn thresholds(
     Ok(chosen)
 }
 
+/// What [`evaluate`] hands to Python: the JSON text, the problems, the notes, the problem count
+/// and the events without a sequence.
+type Evaluated = (String, Vec<String>, Vec<String>, u64, Vec<String>);
+
 /// The `riskctl evaluate --json` object as JSON text, the folder's problems and notes (one line
-/// each) and how many problems there are. `models` are `[NAME=]FILE` specs as on the command line.
+/// each), how many problems there are, and the events that yield no sequence under the
+/// preparation rules (one line each, as `riskctl evaluate` lists them on stderr: they are left out
+/// of the metrics). `models` are `[NAME=]FILE` specs as on the command line.
 #[pyfunction]
 #[pyo3(signature = (events, models, threshold_all = None, thresholds_by_name = HashMap::new(), skip_bad_events = false))]
 pub fn evaluate(
@@ -99,7 +105,7 @@ pub fn evaluate(
     threshold_all: Option<Choice>,
     thresholds_by_name: HashMap<String, Choice>,
     skip_bad_events: bool,
-) -> PyResult<(String, Vec<String>, Vec<String>, u64)> {
+) -> PyResult<Evaluated> {
     let evaluated = py.detach(|| -> Result<_, Failure> {
         let files = ModelFile::read_all(&models).map_err(|e| Failure::Model(with_causes(&e)))?;
         let mut methods = named_models(&files).map_err(|e| Failure::Model(e.to_string()))?;
@@ -143,7 +149,12 @@ pub fn evaluate(
         let json = folder
             .to_json_text()
             .map_err(|e| Failure::Events(e.to_string()))?;
-        Ok((json, problems, notes, count))
+        let unprepared = folder
+            .prepare_issues
+            .iter()
+            .map(|i| i.to_string())
+            .collect();
+        Ok((json, problems, notes, count, unprepared))
     });
     evaluated.map_err(|f| f.into_py(py))
 }

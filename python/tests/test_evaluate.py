@@ -163,3 +163,34 @@ def test_a_numpy_threshold_is_taken_as_a_number(simulated):
     assert riskscore.evaluate(simulated, [DRL], thresholds=np.float32(2.5))["operating_points"] == at
     assert riskscore.evaluate(simulated, [DRL], thresholds={"DRL": np.float32(2.5)})[
         "operating_points"] == at
+
+
+def test_events_without_a_sequence_warn_as_riskctl_lists_them(riskctl, tmp_path):
+    """A valid event the preparation rules turn into no sequence (here a safe event of 0.9 s,
+    under the 2 s a safe sequence needs) is left out of the metrics. riskctl evaluate lists it on
+    stderr; evaluate said nothing of it (only the counts in `events` were one short). It warns
+    now, with riskctl's line."""
+    import warnings
+
+    import pyarrow.compute as pc
+
+    events, frames = riskscore.read_events(NGSIM_SAFE)
+    two = events.slice(0, 2)
+    first, second = two.column("event_id").to_pylist()
+    rows = pc.indices_nonzero(pc.equal(frames.column("event_id"), first)).to_pylist()
+    others = pc.indices_nonzero(pc.equal(frames.column("event_id"), second)).to_pylist()
+    folder = tmp_path / "short"
+    riskscore.write_events(folder, two, frames.take(rows + others[:10]))
+    listed = [
+        line.strip()
+        for line in riskctl("evaluate", "--events", folder, "--json").stderr.splitlines()
+        if line.startswith("  event ")
+    ]
+    assert len(listed) == 1 and f"`{second}`" in listed[0], listed
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = riskscore.evaluate(folder, [DRL])
+    assert report["events"]["safe"] == 1
+    said = [str(w.message) for w in caught if w.category is UserWarning]
+    assert len(said) == 1, [str(w.message) for w in caught]
+    assert "1 event(s) yield no sequence" in said[0] and listed[0] in said[0], said[0]
