@@ -178,10 +178,17 @@ impl AblationTables {
     /// Adds one cell to both tables; returns its console lines (one per method).
     pub fn add(&mut self, cell: &AblationCell) -> Vec<String> {
         let mut lines = Vec::new();
+        let runs = cell.report.runs;
         for m in &cell.report.methods {
+            // As the CV tables write a cell (`CvReport::to_markdown`): one defined in fewer than
+            // all runs says in how many, or its `± 0.00` would read as no spread over the runs.
             let cell_of = |metric: Metric| {
                 m.stat(metric).map_or("n/a".to_string(), |s| {
-                    format!("{:.2} ± {:.2}", s.mean, s.std)
+                    let mut c = format!("{:.2} ± {:.2}", s.mean, s.std);
+                    if s.n < runs {
+                        c.push_str(&format!(" ({}/{runs})", s.n));
+                    }
+                    c
                 })
             };
             lines.push(format!(
@@ -240,5 +247,57 @@ impl AblationTables {
             .map_err(|e| named(&self.md_path, e))?;
         set.commit()?;
         Ok((self.csv_path, self.md_path))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use riskscore_eval::report::{MethodSummary, Stat};
+
+    /// A metric defined in one of two runs (DRL's mTTI when one fold has no threshold of 90 %
+    /// precision) was written `2.79 ± 0.00` in the console line and ablation.md: no spread over
+    /// the runs, where there was one run. It carries `(1/2)` now, as the CV tables do; the CSV
+    /// has its `n` column.
+    #[test]
+    fn a_cell_defined_in_fewer_than_all_runs_says_in_how_many() {
+        let dir = tempfile::tempdir().unwrap();
+        let stat = |mean: f64, std: f64, n: usize| Some(Stat { mean, std, n });
+        let report = CvReport {
+            events: EventCounts::default(),
+            runs: 2,
+            methods: vec![MethodSummary {
+                name: "DRL".into(),
+                stats: [
+                    stat(46.47, 53.94, 2),
+                    None,
+                    stat(75.77, 19.38, 2),
+                    None,
+                    stat(2.79, 0.0, 1),
+                ],
+            }],
+        };
+        let mut tables = AblationTables::create(dir.path(), "sim", 2, &report).unwrap();
+        let lines = tables.add(&AblationCell {
+            sources: "temporal".into(),
+            fraction: 0.5,
+            report,
+            seconds: 0.0,
+            warnings: Vec::new(),
+        });
+        assert!(
+            lines[0].contains("mTTI_90 2.79 ± 0.00 (1/2)"),
+            "{}",
+            lines[0]
+        );
+        assert!(lines[0].contains("A_ROC_90 46.47 ± 53.94 "), "{}", lines[0]);
+        let (_, md) = tables.finish().unwrap();
+        let md = std::fs::read_to_string(md).unwrap();
+        assert!(
+            md.contains(
+                "| temporal | 50 % | DRL | 46.47 ± 53.94 | 75.77 ± 19.38 | 2.79 ± 0.00 (1/2) |"
+            ),
+            "{md}"
+        );
     }
 }
