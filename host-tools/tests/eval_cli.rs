@@ -783,6 +783,64 @@ fn rows_sharing_a_kind_take_their_file_stems() {
     );
 }
 
+/// Rows named by their file stems keep an `=` of the stem (a sweep's `drl_lr=0.1.rsk`), and
+/// `--threshold NAME=T` split at the first `=`: `--threshold msra_a=0.1=0.5` looked for a row
+/// `msra_a` and was refused, while `riskscore.evaluate(thresholds={"msra_a=0.1": 0.5})` reached
+/// the row. It splits at the last `=` now (a value never holds one).
+#[test]
+fn a_threshold_reaches_a_row_whose_name_holds_an_equals_sign() {
+    let fx = fixture();
+    let sweep = fx.root.join("sweep");
+    std::fs::create_dir(&sweep).unwrap();
+    let (first, second) = (sweep.join("msra_a=0.01.rsk"), sweep.join("msra_a=0.1.rsk"));
+    std::fs::write(&first, msra_ttc_blob(-1.0)).unwrap();
+    std::fs::write(&second, msra_ttc_blob(-3.0)).unwrap();
+    let out = riskctl(&[
+        "evaluate",
+        "--model",
+        p(&first),
+        "--model",
+        p(&second),
+        "--events",
+        p(&fx.events),
+        "--threshold",
+        "msra_a=0.1=0.5",
+        "--threshold",
+        "TTC2D=-1.5",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let points: Vec<(&str, f64)> = v["operating_points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| {
+            (
+                o["name"].as_str().unwrap(),
+                o["threshold"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    let default = f64::from(
+        scorer_core::model::decode_blob(&msra_ttc_blob(-1.0))
+            .unwrap()
+            .default_threshold(),
+    );
+    assert_eq!(
+        points,
+        [
+            ("msra_a=0.01", default),
+            ("msra_a=0.1", 0.5),
+            ("TTC2D", -1.5)
+        ]
+    );
+}
+
 #[test]
 fn corrupt_and_missing_models_are_refused_with_the_reason() {
     let fx = fixture();

@@ -203,7 +203,9 @@ pub(super) fn operating_thresholds(
         }
     };
     for spec in specs {
-        match spec.split_once('=') {
+        // At the last `=`: a value never holds one, a row name may (the file stem of
+        // `sweep/drl_lr=0.1.rsk` names its row `drl_lr=0.1`).
+        match spec.rsplit_once('=') {
             Some((name, text)) => {
                 let Some(row) = methods.iter().position(|m| m.name == name) else {
                     let names: Vec<&str> = methods.iter().map(|m| m.name.as_str()).collect();
