@@ -783,6 +783,50 @@ fn rows_sharing_a_kind_take_their_file_stems() {
     );
 }
 
+/// `--out`'s results.md and results.json held the metrics table alone, while the run prints the
+/// operating points (and the frames outside a training domain) too: the figure a user wants on
+/// normal driving was on the terminal only. Both files now hold exactly what the run prints,
+/// Markdown or `--json`.
+#[test]
+fn result_files_hold_what_the_run_prints_operating_points_included() {
+    let fx = fixture();
+    let run = |out: &Path, json: bool| {
+        let mut args = vec![
+            "evaluate",
+            "--model",
+            p(&fx.model),
+            "--events",
+            p(&fx.events),
+            "--threshold",
+            "TTC2D=-1.5",
+            "--out",
+            p(out),
+        ];
+        if json {
+            args.push("--json");
+        }
+        let o = riskctl(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let dir = fx.root.join("report-md");
+    let printed = run(&dir, false);
+    assert!(
+        printed.contains("| Method | threshold | kind |"),
+        "{printed}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("results.md")).unwrap(),
+        printed
+    );
+    let dir = fx.root.join("report-json");
+    let printed: serde_json::Value = serde_json::from_str(&run(&dir, true)).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    assert_eq!(written, printed);
+    assert_eq!(written["operating_points"][1]["name"], "TTC2D");
+}
+
 /// Rows named by their file stems keep an `=` of the stem (a sweep's `drl_lr=0.1.rsk`), and
 /// `--threshold NAME=T` split at the first `=`: `--threshold msra_a=0.1=0.5` looked for a row
 /// `msra_a` and was refused, while `riskscore.evaluate(thresholds={"msra_a=0.1": 0.5})` reached
