@@ -49,7 +49,8 @@ const WRITERS: &[Writer] = &[
         out: "simo/",
         inputs: &[],
         lock: "OUT/events.csv",
-        long: Some(("simulate --out OUT --events 2000000 --seed 11", Streams::Yes)),
+        // Minutes of writing, about 2 GB asked for (2,000,000 events asked for 20 GB free).
+        long: Some(("simulate --out OUT --events 200000 --seed 11", Streams::Yes)),
     },
     Writer {
         name: "import commonroad",
