@@ -50,6 +50,41 @@ fn run(cmd: &mut Command, what: &str) -> std::process::Output {
     out
 }
 
+/// `libscorer_ffi.a` built into `out_dir` exactly as a C integrator builds it; its path.
+fn build_staticlib(root: &Path, out_dir: &Path) -> PathBuf {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(
+        Command::new(&cargo)
+            .current_dir(root)
+            .args(["rustc", "--quiet", "-p", "scorer-ffi", "--release", "--lib"])
+            .args(["--crate-type", "staticlib", "--target-dir"])
+            .arg(out_dir)
+            .args(["--", "-C", "panic=abort"])
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS")
+            .env_remove("CARGO_TARGET_DIR"),
+        "building libscorer_ffi.a",
+    );
+    let lib = out_dir.join("release/libscorer_ffi.a");
+    assert!(lib.exists(), "{} missing after the build", lib.display());
+    lib
+}
+
+/// The first C block of docs/ecu.md's "The API in one page".
+fn ecu_md_example(root: &Path) -> String {
+    let doc = std::fs::read_to_string(root.join("docs/ecu.md")).expect("docs/ecu.md");
+    let section = doc
+        .split("## The API in one page")
+        .nth(1)
+        .expect("docs/ecu.md has 'The API in one page'");
+    section
+        .split("```c\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("a ```c block in 'The API in one page'")
+        .to_string()
+}
+
 fn bits(tok: &str) -> u32 {
     u32::from_str_radix(tok, 16).unwrap_or_else(|e| panic!("bad hex {tok:?}: {e}"))
 }
@@ -106,23 +141,8 @@ fn state_at(v: &[f32], o: usize) -> VehicleState {
 fn c_program_links_staticlib_and_matches_host() {
     let root = repo_root();
     let out_dir = root.join("target/ffi-c");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-
     // 1. The static library, exactly as a C integrator builds it.
-    run(
-        Command::new(&cargo)
-            .current_dir(&root)
-            .args(["rustc", "--quiet", "-p", "scorer-ffi", "--release", "--lib"])
-            .args(["--crate-type", "staticlib", "--target-dir"])
-            .arg(&out_dir)
-            .args(["--", "-C", "panic=abort"])
-            .env_remove("RUSTFLAGS")
-            .env_remove("CARGO_ENCODED_RUSTFLAGS")
-            .env_remove("CARGO_TARGET_DIR"),
-        "building libscorer_ffi.a",
-    );
-    let lib = out_dir.join("release/libscorer_ffi.a");
-    assert!(lib.exists(), "{} missing after the build", lib.display());
+    let lib = build_staticlib(&root, &out_dir);
 
     // 2. The C program (strict C11, warnings are errors).
     let exe = out_dir.join("ffi_test");
@@ -378,16 +398,7 @@ fn check_guard_line(
 #[test]
 fn ecu_md_api_example_compiles() {
     let root = repo_root();
-    let doc = std::fs::read_to_string(root.join("docs/ecu.md")).expect("docs/ecu.md");
-    let section = doc
-        .split("## The API in one page")
-        .nth(1)
-        .expect("docs/ecu.md has 'The API in one page'");
-    let example = section
-        .split("```c\n")
-        .nth(1)
-        .and_then(|rest| rest.split("```").next())
-        .expect("a ```c block in 'The API in one page'");
+    let example = ecu_md_example(&root);
     assert!(
         !example.contains("ONSET) raise_warning"),
         "the example drives its output from the state, not from ONSET alone"
@@ -426,26 +437,8 @@ fn ecu_md_api_example_runs() {
     let root = repo_root();
     // The directory and library of c_program_links_staticlib_and_matches_host (one build).
     let out_dir = root.join("target/ffi-c");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    run(
-        Command::new(&cargo)
-            .current_dir(&root)
-            .args(["rustc", "--quiet", "-p", "scorer-ffi", "--release", "--lib"])
-            .args(["--crate-type", "staticlib", "--target-dir"])
-            .arg(&out_dir)
-            .args(["--", "-C", "panic=abort"])
-            .env_remove("RUSTFLAGS")
-            .env_remove("CARGO_ENCODED_RUSTFLAGS")
-            .env_remove("CARGO_TARGET_DIR"),
-        "building libscorer_ffi.a",
-    );
-    let doc = std::fs::read_to_string(root.join("docs/ecu.md")).expect("docs/ecu.md");
-    let example = doc
-        .split("## The API in one page")
-        .nth(1)
-        .and_then(|s| s.split("```c\n").nth(1))
-        .and_then(|rest| rest.split("```").next())
-        .expect("a ```c block in 'The API in one page'");
+    let lib = build_staticlib(&root, &out_dir);
+    let example = ecu_md_example(&root);
     std::fs::write(out_dir.join("example.c"), example).expect("write the example");
     let blob = model_blob(&root, "drl");
     for corrupt in [false, true] {
@@ -503,7 +496,7 @@ int main(void) {{
                 .arg(root.join("scorer-core/ffi/include"))
                 .arg(out_dir.join("example.c"))
                 .arg(out_dir.join("harness.c"))
-                .arg(out_dir.join("release/libscorer_ffi.a"))
+                .arg(&lib)
                 .args([
                     "-lgcc_s",
                     "-lutil",
