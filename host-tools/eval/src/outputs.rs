@@ -22,17 +22,21 @@ pub enum OutputError {
     Plot(#[from] PlotError),
 }
 
-/// Every result file: the tables of `report` and `curves`, the ROC and PR figures, and the
+/// Every result file: `report` as results.csv, `json` and `markdown` as results.json and
+/// results.md (the caller's full text of the run: `riskctl evaluate` adds its operating points
+/// and domain shares to the report's), the table of `curves`, the ROC and PR figures, and the
 /// trajectory figure when `panels` is not empty.
 pub fn result_files(
     report: &EvaluationReport,
+    json: String,
+    markdown: String,
     curves: &[(String, WarningCurve)],
     panels: &[TrajectoryPanel],
 ) -> Result<ReportBundle, OutputError> {
     let mut bundle = ReportBundle::default();
     bundle.add_csv("results.csv", |w| report.write_csv(w))?;
-    bundle.add("results.json", report.to_json_string() + "\n");
-    bundle.add("results.md", report.to_markdown());
+    bundle.add("results.json", json);
+    bundle.add("results.md", markdown);
     bundle.add_csv("curves.csv", |w| write_curves_csv(curves, w))?;
     bundle.files.extend(curve_figures(curves, TABLE_SCORES)?);
     if !panels.is_empty() {

@@ -588,6 +588,17 @@ impl FolderEvaluation {
         serde_json::to_string_pretty(&json)
     }
 
+    /// The Markdown `riskctl evaluate` prints (and writes as results.md): the metrics table, the
+    /// frames outside the training domain and the operating points.
+    pub fn to_markdown(&self) -> String {
+        let mut text = self.report.to_markdown();
+        text.push_str(&crate::domain_share::markdown(&self.domain));
+        if !self.thresholds.is_empty() {
+            text.push_str(&crate::threshold::markdown(&self.thresholds));
+        }
+        text
+    }
+
     /// `Err` when the metrics would leave events or frame rows out, or have nothing to measure: no
     /// valid event, load problems other than notes (unless `skip_bad_events`; frame rows of event
     /// ids that events.csv lacks leave no event out but are refused too, as their frames would go

@@ -260,9 +260,16 @@ fn whole_folder_files(
         || default_trajectory_events(&scored[0].1, 3),
         <[String]>::to_vec,
     );
-    result_files(&report, &curves, &trajectory_panels(&scored, &ids))
-        .unwrap()
-        .files
+    let (json, markdown) = (report.to_json_string() + "\n", report.to_markdown());
+    result_files(
+        &report,
+        json,
+        markdown,
+        &curves,
+        &trajectory_panels(&scored, &ids),
+    )
+    .unwrap()
+    .files
 }
 
 fn streamed_files(
@@ -285,7 +292,18 @@ fn streamed_files(
         "{:?}",
         trajectories.unknown
     );
-    let files = result_files(&folder.report, &folder.curves, &trajectories.panels()).unwrap();
+    let (json, markdown) = (
+        folder.report.to_json_string() + "\n",
+        folder.report.to_markdown(),
+    );
+    let files = result_files(
+        &folder.report,
+        json,
+        markdown,
+        &folder.curves,
+        &trajectories.panels(),
+    )
+    .unwrap();
     (
         folder.streamed,
         trajectories.percentile_error(),

@@ -152,15 +152,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         thresholds: &thresholds,
     };
     let folder = evaluate_checked(dir, &methods, gather, args.skip_bad_events)?;
+    // Printed, and with --out also results.json and results.md: the same text.
+    let (json, md) = (folder.to_json_text()?, folder.to_markdown());
     if args.json {
-        outln!("{}", folder.to_json_text()?);
+        outln!("{json}");
     } else {
-        out!("{}", markdown(&folder));
+        out!("{md}");
     }
     let Some(out) = &args.out else {
         return Ok(());
     };
-    let written = write_outputs(out, folder)?;
+    let written = write_outputs(out, folder, json + "\n", md)?;
     eprintln!(
         "riskctl: wrote {} files to {}:",
         written.len(),
@@ -170,17 +172,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("  {}", p.display());
     }
     Ok(())
-}
-
-/// The Markdown of the run, as printed and as `results.md`: the metrics table, the frames
-/// outside the training domain and the operating points.
-fn markdown(folder: &FolderEvaluation) -> String {
-    let mut text = folder.report.to_markdown();
-    text.push_str(&riskscore_eval::domain_share::markdown(&folder.domain));
-    if !folder.thresholds.is_empty() {
-        text.push_str(&riskscore_eval::threshold::markdown(&folder.thresholds));
-    }
-    text
 }
 
 /// Crash events drawn when no --trajectory-event is given.
@@ -357,11 +348,15 @@ fn refuse_unknown_trajectory_events(ids: &[String], dir: &Path) -> anyhow::Resul
 }
 
 /// Writes the `--out` folder as a whole: a complete new folder is swapped in for the old one.
-fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<PathBuf>> {
-    // results.json and results.md hold what the run prints (`--json` or not): the metrics and
-    // also the operating points and the frames outside the training domain, which the
-    // metrics-only tables left out (the answer on a folder of normal driving only).
-    let (json, md) = (folder.to_json_text()? + "\n", markdown(&folder));
+/// `json` and `markdown` are what the run prints (`--json` or not), so results.json and
+/// results.md also hold the operating points and the frames outside the training domain (the
+/// answer on a folder of normal driving only).
+fn write_outputs(
+    out: &Path,
+    folder: FolderEvaluation,
+    json: String,
+    markdown: String,
+) -> anyhow::Result<Vec<PathBuf>> {
     let mut panels = Vec::new();
     if let Some(mut trajectories) = folder.trajectories {
         if let Some(id) = trajectories.unknown.first() {
@@ -384,13 +379,6 @@ fn write_outputs(out: &Path, folder: FolderEvaluation) -> anyhow::Result<Vec<Pat
         }
         panels = trajectories.panels();
     }
-    let mut bundle = result_files(&folder.report, &folder.curves, &panels)?;
-    for file in &mut bundle.files {
-        match file.name.as_str() {
-            "results.json" => file.bytes = json.as_bytes().to_vec(),
-            "results.md" => file.bytes = md.as_bytes().to_vec(),
-            _ => {}
-        }
-    }
+    let bundle = result_files(&folder.report, json, markdown, &folder.curves, &panels)?;
     Ok(bundle.write_to(out)?)
 }
