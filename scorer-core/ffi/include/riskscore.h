@@ -18,7 +18,8 @@
  * Bare-metal builds must define `void riskscore_panic(void)` that never returns (reset or safe
  * state). The library has no reachable panic path; the hook only exists as a backstop.
  * Hard-float builds (thumbv7em-none-eabihf) execute FPU instructions: enable the FPU (CPACR
- * CP10/CP11 full access) before the first call, or riskscore_init faults (docs/ecu.md).
+ * CP10/CP11 full access) before the first call, or the first call that handles a float
+ * (riskscore_init, for one) faults (docs/ecu.md).
  */
 
 #ifndef RISKSCORE_H
@@ -324,7 +325,8 @@ typedef struct {
   uint8_t warning;
   // 1 when the track is stale at the query time: not updated for more than `stale_after_us`
   // (dropped by the next update of any id), or last updated more than that after `now_us`, a
-  // reset time base (dropped only by its own id's next update or a remove).
+  // reset time base (dropped by its own id's next update, a remove or a re-init, or, not
+  // warning, evicted when the table is full).
   uint8_t stale;
   // Last accepted score.
   float last_score;
@@ -448,8 +450,8 @@ RiskscoreStatus riskscore_track_remove(RiskscoreContext *context, uint32_t track
 // Writes to `warning_count` the number of fresh (non-stale at `now_us`, as `riskscore_track_get`
 // judges it) tracks whose warning is on, and to `track_count` the number of tracks held (stale
 // ones included: those not updated for too long until the next update, those left ahead of
-// `now_us` by a reset time base until their own id's update or a remove). Either output may be
-// NULL.
+// `now_us` by a reset time base until their own id's update, a remove or, not warning, an
+// eviction). Either output may be NULL.
 //
 // # Safety
 // `context` must be NULL or initialised; the outputs NULL or writable.

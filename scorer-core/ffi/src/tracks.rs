@@ -109,8 +109,8 @@ pub unsafe extern "C" fn riskscore_track_remove(
 /// Writes to `warning_count` the number of fresh (non-stale at `now_us`, as `riskscore_track_get`
 /// judges it) tracks whose warning is on, and to `track_count` the number of tracks held (stale
 /// ones included: those not updated for too long until the next update, those left ahead of
-/// `now_us` by a reset time base until their own id's update or a remove). Either output may be
-/// NULL.
+/// `now_us` by a reset time base until their own id's update, a remove or, not warning, an
+/// eviction). Either output may be NULL.
 ///
 /// # Safety
 /// `context` must be NULL or initialised; the outputs NULL or writable.

@@ -264,7 +264,8 @@ pub struct RiskscoreTrack {
     pub warning: u8,
     /// 1 when the track is stale at the query time: not updated for more than `stale_after_us`
     /// (dropped by the next update of any id), or last updated more than that after `now_us`, a
-    /// reset time base (dropped only by its own id's next update or a remove).
+    /// reset time base (dropped by its own id's next update, a remove or a re-init, or, not
+    /// warning, evicted when the table is full).
     pub stale: u8,
     /// Last accepted score.
     pub last_score: f32,
