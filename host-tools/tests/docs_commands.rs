@@ -139,7 +139,7 @@ fn shown_commands(text: &str) -> Vec<Shown> {
                     .map(|w| w.split('|').filter(|s| subs.contains(s)).collect())
                     .unwrap_or_default();
                 if named.is_empty() {
-                    // `riskctl gssm ... --normal DIR`: any of its subcommands.
+                    // No subcommand named (`riskctl gssm ...`): any of its subcommands.
                     subs.iter()
                         .map(|s| vec![top.to_owned(), (*s).to_owned()])
                         .collect()

@@ -61,6 +61,18 @@ pub struct NllArgs {
     pub events: Vec<PathBuf>,
 }
 
+/// `--normal`, flattened into the subcommands that fit a GSSM (`fit`, `ship`, `cv`); `align` and
+/// `msra` read the GSSM of `--gssm`, so clap rejects the flag there.
+#[derive(clap::Args, Debug)]
+pub struct Normal {
+    /// Real normal-driving event folder: the GSSM is fitted on the safe sequences of every
+    /// `--normal` folder together (a model of normal interactions, as the original GSSM); repeat
+    /// it to cover several places, e.g. `--normal data/ngsim-us101-safe --normal
+    /// data/ngsim-urban-safe` (freeway and city). Default: the safe sequences of `--events`.
+    #[arg(long = "normal", value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+}
+
 /// Data and configuration shared by the subcommands.
 #[derive(clap::Args, Debug)]
 pub struct Common {
@@ -68,12 +80,6 @@ pub struct Common {
     /// conflicts plus real safe driving (`--events out/data --events data/ngsim-us101-safe`).
     #[arg(long, value_name = "DIR", required = true)]
     pub events: Vec<PathBuf>,
-    /// Real normal-driving event folder: the GSSM is fitted on the safe sequences of every
-    /// `--normal` folder together (a model of normal interactions, as the original GSSM); repeat
-    /// it to cover several places, e.g. `--normal data/ngsim-us101-safe --normal
-    /// data/ngsim-urban-safe` (freeway and city). Default: the safe sequences of `--events`.
-    #[arg(long, value_name = "DIR")]
-    pub normal: Vec<PathBuf>,
     /// Training configuration TOML (comparisons, objective, optimiser); defaults when absent.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -89,6 +95,8 @@ pub struct Common {
 pub struct FitArgs {
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub normal: Normal,
     /// Output model file.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
@@ -125,6 +133,8 @@ pub struct MsraArgs {
 pub struct ShipArgs {
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub normal: Normal,
     /// Folder for gssm-default.rsk, ssra-default.rsk, msra-gssm.rsk and gssm-ship.json.
     #[arg(long, value_name = "DIR")]
     pub out_dir: PathBuf,
@@ -141,6 +151,8 @@ pub struct ShipArgs {
 pub struct CvArgs {
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub normal: Normal,
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
     /// Comma-separated CV seeds (one CV run each); default: the configuration's seed.
@@ -236,11 +248,11 @@ fn load_all(dirs: &[PathBuf]) -> anyhow::Result<Vec<Sequence>> {
 
 /// The sequences the GSSM is fitted on: those of every `--normal` folder, else the training
 /// sequences.
-fn normal_sequences(common: &Common, train: &[Sequence]) -> anyhow::Result<Vec<Sequence>> {
-    if common.normal.is_empty() {
+fn normal_sequences(normal: &[PathBuf], train: &[Sequence]) -> anyhow::Result<Vec<Sequence>> {
+    if normal.is_empty() {
         Ok(train.to_vec())
     } else {
-        load_all(&common.normal)
+        load_all(normal)
     }
 }
 
@@ -273,18 +285,18 @@ fn print_weights(name: &str, weights: &[TermWeight]) {
 }
 
 /// Refuses an output file that is, or lies inside, one of the inputs of `common` (event folders,
-/// configurations) or `more`.
-fn refuse_inputs(common: &Common, more: &[(&str, &Path)], out: &Path) -> anyhow::Result<()> {
+/// configurations), the `normal` folders or `more`.
+fn refuse_inputs(
+    common: &Common,
+    normal: &[PathBuf],
+    more: &[(&str, &Path)],
+    out: &Path,
+) -> anyhow::Result<()> {
     let folders: Vec<(&str, Option<&Path>)> = common
         .events
         .iter()
         .map(|d| ("--events", Some(d.as_path())))
-        .chain(
-            common
-                .normal
-                .iter()
-                .map(|d| ("--normal", Some(d.as_path()))),
-        )
+        .chain(normal.iter().map(|d| ("--normal", Some(d.as_path()))))
         .collect();
     let mut files: Vec<(&str, Option<&Path>)> = vec![
         ("--config", common.config.as_deref()),
@@ -313,7 +325,7 @@ fn read_fallback_terms(
 }
 
 fn run_fit(a: FitArgs) -> anyhow::Result<()> {
-    refuse_inputs(&a.common, &[], &a.out)?;
+    refuse_inputs(&a.common, &a.normal.dirs, &[], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -321,7 +333,7 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
     )?;
     let seqs = load_all(&a.common.events)?;
     let g = fit_gssm(
-        &normal_sequences(&a.common, &seqs)?,
+        &normal_sequences(&a.normal.dirs, &seqs)?,
         cfg.optimiser.validation_fraction,
         cfg.seed,
         &gcfg.fit,
@@ -342,24 +354,8 @@ fn run_fit(a: FitArgs) -> anyhow::Result<()> {
     write(&a.out, &g.params.gssm_blob(GssmScore::Intensity)?)
 }
 
-/// Refuses `--normal` for a subcommand that fits no GSSM (`align`, `msra`: the GSSM is the
-/// `--gssm` file). It was accepted and ignored, even for a folder that does not exist, so a user
-/// who meant to fit on normal driving got a model that never read it.
-fn refuse_normal(common: &Common, subcommand: &str) -> anyhow::Result<()> {
-    if let Some(dir) = common.normal.first() {
-        anyhow::bail!(
-            "--normal {}: `riskctl gssm {subcommand}` fits no GSSM (it reads the one --gssm gives), \
-             so it has no use for normal driving; fit the GSSM on it with `riskctl gssm fit \
-             --normal DIR`, or run `riskctl gssm ship --normal DIR` (nothing written)",
-            dir.display()
-        );
-    }
-    Ok(())
-}
-
 fn run_align(a: AlignArgs) -> anyhow::Result<()> {
-    refuse_normal(&a.common, "align")?;
-    refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
+    refuse_inputs(&a.common, &[], &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -389,8 +385,7 @@ fn run_align(a: AlignArgs) -> anyhow::Result<()> {
 }
 
 fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
-    refuse_normal(&a.common, "msra")?;
-    refuse_inputs(&a.common, &[("--gssm", &a.gssm)], &a.out)?;
+    refuse_inputs(&a.common, &[], &[("--gssm", &a.gssm)], &a.out)?;
     let (cfg, gcfg) = load_configs(
         a.common.config.as_deref(),
         a.common.gssm_config.as_deref(),
@@ -415,7 +410,12 @@ fn run_msra(a: MsraArgs) -> anyhow::Result<()> {
 }
 
 fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
-    refuse_inputs(&a.common, &fallback_input(&a.fallback_from), &a.out_dir)?;
+    refuse_inputs(
+        &a.common,
+        &a.normal.dirs,
+        &fallback_input(&a.fallback_from),
+        &a.out_dir,
+    )?;
     super::output::refuse_file_as_folder(
         "--out-dir",
         &a.out_dir,
@@ -430,7 +430,7 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
     let seqs = load_all(&a.common.events)?;
     let shipped = ship(
         &seqs,
-        &normal_sequences(&a.common, &seqs)?,
+        &normal_sequences(&a.normal.dirs, &seqs)?,
         &cfg,
         &gcfg,
         fallback_terms.as_deref(),
@@ -443,7 +443,7 @@ fn run_ship(a: ShipArgs) -> anyhow::Result<()> {
         &msra_row_name(&shipped.kinds),
         &shipped.msra.params.weights(),
     );
-    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, &a.common.normal);
+    let summary = shipped.summary(&cfg, &gcfg, &a.common.events, &a.normal.dirs);
     let summary = serde_json::to_string_pretty(&summary)?;
     // The three models and their summary belong together: renamed into place as one set.
     let folders = riskscore_output::NewFolders::create(&a.out_dir)
@@ -473,7 +473,12 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         a.common.seed,
     )?;
     if let Some(out) = &a.out {
-        refuse_inputs(&a.common, &fallback_input(&a.fallback_from), out)?;
+        refuse_inputs(
+            &a.common,
+            &a.normal.dirs,
+            &fallback_input(&a.fallback_from),
+            out,
+        )?;
     }
     let fallback_terms = read_fallback_terms(&a.fallback_from)?;
     let names = if a.msra.is_empty() {
@@ -486,10 +491,10 @@ fn run_cv(a: CvArgs) -> anyhow::Result<()> {
         .map(|c| parse_configuration(c).map_err(anyhow::Error::msg))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seqs = load_all(&a.common.events)?;
-    let normal = if a.common.normal.is_empty() {
+    let normal = if a.normal.dirs.is_empty() {
         None
     } else {
-        Some(load_all(&a.common.normal)?)
+        Some(load_all(&a.normal.dirs)?)
     };
     let options = CvOptions {
         folds: a.folds.max(2),
