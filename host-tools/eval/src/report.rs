@@ -298,6 +298,23 @@ pub fn aggregate(events: EventCounts, folds: &[FoldResult]) -> CvReport {
     }
 }
 
+/// One `mean ± std` cell of a CV table, both to `decimals` places: `n/a` where the metric was never
+/// defined, and `(k/n)` appended where it was defined in only `k` of the `runs` runs, or its
+/// `± 0.00` would read as no spread over the runs ([`CvReport::to_markdown`], the ablation tables).
+pub fn metric_cell(stat: Option<Stat>, runs: usize, decimals: usize) -> String {
+    match stat {
+        None => "n/a".to_owned(),
+        Some(s) => {
+            let d = decimals;
+            let mut c = format!("{:.d$} ± {:.d$}", s.mean, s.std);
+            if s.n < runs {
+                c.push_str(&format!(" ({}/{runs})", s.n));
+            }
+            c
+        }
+    }
+}
+
 impl CvReport {
     /// Same shape as [`EvaluationReport::to_json`] with the means as values, plus `"runs"` and per
     /// method `"std"` and `"n"` objects keyed like the metrics.
@@ -344,17 +361,7 @@ impl CvReport {
         for m in &self.methods {
             out.push_str(&format!("| {} |", m.name));
             for (s, d) in m.stats.iter().zip(DECIMALS) {
-                let cell = match s {
-                    None => "n/a".to_owned(),
-                    Some(s) => {
-                        let mut c = format!("{:.d$} ± {:.d$}", s.mean, s.std);
-                        if s.n < self.runs {
-                            c.push_str(&format!(" ({}/{})", s.n, self.runs));
-                        }
-                        c
-                    }
-                };
-                out.push_str(&format!(" {cell} |"));
+                out.push_str(&format!(" {} |", metric_cell(*s, self.runs, d)));
             }
             out.push('\n');
         }

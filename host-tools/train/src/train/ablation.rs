@@ -180,35 +180,21 @@ impl AblationTables {
         let mut lines = Vec::new();
         let runs = cell.report.runs;
         for m in &cell.report.methods {
-            // As the CV tables write a cell (`CvReport::to_markdown`): one defined in fewer than
-            // all runs says in how many, or its `± 0.00` would read as no spread over the runs.
-            let cell_of = |metric: Metric| {
-                m.stat(metric).map_or("n/a".to_string(), |s| {
-                    let mut c = format!("{:.2} ± {:.2}", s.mean, s.std);
-                    if s.n < runs {
-                        c.push_str(&format!(" ({}/{runs})", s.n));
-                    }
-                    c
-                })
-            };
+            // Cells as the CV tables write them, to 0.01 (`(k/n)` where defined in fewer runs).
+            let [aroc, pprc, mtti] = [Metric::ARoc90, Metric::PPrc90, Metric::MTti90]
+                .map(|metric| eval::report::metric_cell(m.stat(metric), runs, 2));
             lines.push(format!(
-                "{:<40} {:>4.0}%  {:<5} A_ROC_90 {:<16} P_PRC_90 {:<16} mTTI_90 {}  ({:.0} s)",
+                "{:<40} {:>4.0}%  {:<5} A_ROC_90 {aroc:<16} P_PRC_90 {pprc:<16} mTTI_90 {mtti}  ({:.0} s)",
                 cell.sources,
                 cell.fraction * 100.0,
                 m.name,
-                cell_of(Metric::ARoc90),
-                cell_of(Metric::PPrc90),
-                cell_of(Metric::MTti90),
                 cell.seconds
             ));
             self.md.push_str(&format!(
-                "| {} | {:.0} % | {} | {} | {} | {} |\n",
+                "| {} | {:.0} % | {} | {aroc} | {pprc} | {mtti} |\n",
                 cell.sources,
                 cell.fraction * 100.0,
                 m.name,
-                cell_of(Metric::ARoc90),
-                cell_of(Metric::PPrc90),
-                cell_of(Metric::MTti90)
             ));
             for metric in Metric::ALL {
                 if let Some(s) = m.stat(metric) {
