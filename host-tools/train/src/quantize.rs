@@ -245,24 +245,25 @@ impl FloatBuffers {
 }
 
 /// Below this span (in standard deviations) the calibrated range of the standardised inputs is
-/// f32 round-off, not data: every input was constant on the calibration observations.
+/// too narrow to quantise over.
 ///
-/// An input that varies is divided by its own standard deviation, so its standardised values span
-/// at least 2 (a spread is at most half the range); inputs that do not vary standardise to
-/// `x - mean`, which is 0 up to round-off (±2.4e-7 on one safe event followed at constant speed).
+/// Inputs that do not vary standardise to `x - mean`, which is 0 up to round-off (±2.4e-7 on one
+/// safe event followed at constant speed); the range is also this narrow when the few values that
+/// do vary fall outside the `[p, 1 - p]` quantiles the calibration keeps (`clip_fraction`).
 /// Quantised over such a range, the int8 step (`span / 255`, 1.9e-9) folded into the
 /// standardisation gave offsets of 2.4e9, beyond the core's parameter limit, and the export
 /// failed (`NonFinite { field: "input_add", index: 0 }`). [`input_range`] widens it.
 pub const MIN_INPUT_SPAN: f32 = 1e-3;
 
-/// The range the standardised inputs are quantised over: the calibrated one, or `[-1, 1]` when
-/// that is narrower than [`MIN_INPUT_SPAN`] (constant inputs: they all quantise to the zero point
-/// either way, and the folded standardisation stays within the core's limits).
+/// The range the standardised inputs are quantised over: the calibrated one, or, when that is
+/// narrower than [`MIN_INPUT_SPAN`], the calibrated one widened to include `[-1, 1]`, so the
+/// folded standardisation stays within the core's limits and no calibrated value is clipped
+/// (a narrow range away from zero is kept inside, not replaced).
 pub fn input_range(measured: Range) -> Range {
     if measured.max - measured.min < MIN_INPUT_SPAN {
         Range {
-            min: -1.0,
-            max: 1.0,
+            min: measured.min.min(-1.0),
+            max: measured.max.max(1.0),
         }
     } else {
         measured
@@ -411,4 +412,43 @@ pub fn verify(
         float_std: vx.sqrt() as f32,
         correlation,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_narrow_input_range_is_widened_around_its_values_not_replaced() {
+        // Away from zero: [-1, 1] alone would clip every calibrated value to 1.
+        let narrow = Range {
+            min: 2.0,
+            max: 2.0005,
+        };
+        let widened = input_range(narrow);
+        assert_eq!(
+            widened,
+            Range {
+                min: -1.0,
+                max: 2.0005
+            }
+        );
+        assert!(widened.min <= narrow.min && narrow.max <= widened.max);
+        assert!(widened.max - widened.min >= MIN_INPUT_SPAN);
+        // Constant inputs (0 up to round-off) get [-1, 1], as before.
+        let constant = Range {
+            min: -2.4e-7,
+            max: 2.4e-7,
+        };
+        assert_eq!(
+            input_range(constant),
+            Range {
+                min: -1.0,
+                max: 1.0
+            }
+        );
+        // A range that is wide enough is kept as calibrated.
+        let wide = Range { min: 2.0, max: 2.5 };
+        assert_eq!(input_range(wide), wide);
+    }
 }
