@@ -50,6 +50,18 @@ fn run(cmd: &mut Command, what: &str) -> std::process::Output {
     out
 }
 
+/// What a C program links after `libscorer_ffi.a` on Linux: the system libraries a Rust
+/// staticlib needs.
+const STATICLIB_SYSTEM_LIBS: [&str; 7] = [
+    "-lgcc_s",
+    "-lutil",
+    "-lrt",
+    "-lpthread",
+    "-lm",
+    "-ldl",
+    "-lc",
+];
+
 /// `libscorer_ffi.a` built into `out_dir` exactly as a C integrator builds it; its path.
 fn build_staticlib(root: &Path, out_dir: &Path) -> PathBuf {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -166,16 +178,8 @@ fn c_program_links_staticlib_and_matches_host() {
             .arg(root.join("scorer-core/ffi/include"))
             .arg(root.join("tests/c/ffi_test.c"))
             .arg(&lib)
-            .args([
-                "-lgcc_s",
-                "-lutil",
-                "-lrt",
-                "-lpthread",
-                "-lm",
-                "-ldl",
-                "-lc",
-                "-o",
-            ])
+            .args(STATICLIB_SYSTEM_LIBS)
+            .arg("-o")
             .arg(&exe),
         "compiling tests/c/ffi_test.c with gcc",
     );
@@ -497,15 +501,7 @@ int main(void) {{
                 .arg(out_dir.join("example.c"))
                 .arg(out_dir.join("harness.c"))
                 .arg(&lib)
-                .args([
-                    "-lgcc_s",
-                    "-lutil",
-                    "-lrt",
-                    "-lpthread",
-                    "-lm",
-                    "-ldl",
-                    "-lc",
-                ])
+                .args(STATICLIB_SYSTEM_LIBS)
                 .arg("-o")
                 .arg(&exe),
             "linking the docs/ecu.md example",
