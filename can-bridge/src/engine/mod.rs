@@ -90,6 +90,16 @@ pub struct Engine<'m> {
 }
 
 impl<'m> Engine<'m> {
+    /// A [`Output::Problem`] about the frame being processed: it names that frame's source.
+    fn problem(&self, t_us: u64, reason: Problem, lost: Option<LossKind>) -> Output {
+        Output::Problem {
+            t_us,
+            source: self.source,
+            reason,
+            lost,
+        }
+    }
+
     /// An engine scoring with `model`: a decoded blob (with its training domain, if any) or a
     /// bare model (unguarded).
     pub fn new(
@@ -273,12 +283,7 @@ impl<'m> Engine<'m> {
         self.heading_rate = None;
         self.last_cleanup_us = t_us;
         self.next_expiry_us = 0;
-        out(Output::Problem {
-            source: self.source,
-            lost: None,
-            t_us,
-            reason: Problem::NewSegment { t_us },
-        });
+        out(self.problem(t_us, Problem::NewSegment { t_us }, None));
     }
 
     /// The source of the frame about to be processed, and of the newest frame when it is that.
@@ -302,15 +307,14 @@ impl<'m> Engine<'m> {
                 if frame.is_bus_off() {
                     self.stats.bus_off += 1;
                 }
-                out(Output::Problem {
-                    source: self.source,
-                    lost: None,
+                out(self.problem(
                     t_us,
-                    reason: Problem::ErrorFrame {
+                    Problem::ErrorFrame {
                         class,
                         bus_off: frame.is_bus_off(),
                     },
-                });
+                    None,
+                ));
                 return;
             }
             FrameKind::Remote { .. } => {
@@ -342,12 +346,7 @@ impl<'m> Engine<'m> {
         match decoded {
             Err(reason) => {
                 self.stats.decode_errors += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    t_us,
-                    reason,
-                    lost: Some(LossKind::Decode),
-                });
+                out(self.problem(t_us, reason, Some(LossKind::Decode)));
             }
             Ok(decoded) => {
                 self.stats.decoded += 1;
@@ -565,20 +564,10 @@ impl<'m> Engine<'m> {
             }
             Unscored::BadState => {
                 self.stats.decode_errors += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    lost: Some(LossKind::Decode),
-                    t_us,
-                    reason: Problem::BadState { track },
-                });
+                out(self.problem(t_us, Problem::BadState { track }, Some(LossKind::Decode)));
                 return;
             }
         };
-        out(Output::Problem {
-            source: self.source,
-            lost: None,
-            t_us,
-            reason: problem,
-        });
+        out(self.problem(t_us, problem, None));
     }
 }

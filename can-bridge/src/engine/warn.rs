@@ -29,25 +29,19 @@ impl Engine<'_> {
             Ok(s) => s,
             Err(WarningError::TableFull { .. }) => {
                 self.stats.table_full += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    lost: None,
+                out(self.problem(
                     t_us,
-                    reason: Problem::TableFull {
+                    Problem::TableFull {
                         track,
                         capacity: MAX_TRACKS,
                     },
-                });
+                    None,
+                ));
                 return;
             }
             Err(e) => {
                 self.stats.decode_errors += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    lost: Some(LossKind::Decode),
-                    t_us,
-                    reason: Problem::Rejected(e),
-                });
+                out(self.problem(t_us, Problem::Rejected(e), Some(LossKind::Decode)));
                 return;
             }
         };
@@ -118,16 +112,15 @@ impl Engine<'_> {
             if !slots.unsent_reported {
                 slots.unsent_reported = true;
                 self.stats.tracks_unsent += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    lost: None,
+                out(self.problem(
                     t_us,
-                    reason: Problem::TrackIdDoesNotFit {
+                    Problem::TrackIdDoesNotFit {
                         track,
                         signal: id_signal.name.clone(),
                         range: carried_range(id_signal),
                     },
-                });
+                    None,
+                ));
             }
             return;
         }
@@ -138,12 +131,7 @@ impl Engine<'_> {
             }
             Err(cause) => {
                 self.stats.warning_frames_unsent += 1;
-                out(Output::Problem {
-                    source: self.source,
-                    lost: None,
-                    t_us,
-                    reason: Problem::WarningFrame { track, cause },
-                })
+                out(self.problem(t_us, Problem::WarningFrame { track, cause }, None))
             }
         }
     }
