@@ -90,8 +90,7 @@ pub fn run_monitor(args: MonitorArgs) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         let inputs = scoring_inputs(&scoring);
         refuse_overlaps(&inputs[1..], &[("--out", out.as_path())])?;
-        riskscore_output::refuse_overwriting_a_model("--out", out, "a candump log")
-            .map_err(super::SetupError::from)?;
+        riskscore_output::refuse_overwriting_a_model("--out", out, "a candump log")?;
     }
     let mut out: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(std::io::BufWriter::new(

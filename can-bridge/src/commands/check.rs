@@ -51,14 +51,16 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
             d.join(riskscore_data::events::FRAMES_FILE),
         ]
     });
-    let mut outputs: Vec<NamedPath<'_>> = decoded_files
+    // Each output file with its option and what it writes.
+    let mut written: Vec<(&str, &Path, &str)> = decoded_files
         .iter()
         .flatten()
-        .map(|p| ("--decoded-events-out", p.as_path()))
+        .map(|p| ("--decoded-events-out", p.as_path(), "a decoded event table"))
         .collect();
     if let Some(p) = &args.per_event_out {
-        outputs.push(("--per-event-out", p.as_path()));
+        written.push(("--per-event-out", p, "per-event verdicts (JSON Lines)"));
     }
+    let outputs: Vec<NamedPath<'_>> = written.iter().map(|&(flag, p, _)| (flag, p)).collect();
     refuse_overlaps(&inputs, &outputs)?;
     // The folder itself too, against the data: a folder that holds the log or the event folder
     // (`--decoded-events-out .` beside them) is the user's project, not an output. Only its two
@@ -72,13 +74,8 @@ pub fn run_check(args: CheckArgs) -> Result<(), Failure> {
             &[("--decoded-events-out", d.as_path())],
         )?;
     }
-    for (flag, p) in &outputs {
-        let writes = if *flag == "--per-event-out" {
-            "per-event verdicts (JSON Lines)"
-        } else {
-            "a decoded event table"
-        };
-        refuse_overwriting_a_model(flag, p, writes).map_err(SetupError::from)?;
+    for (flag, p, writes) in written {
+        refuse_overwriting_a_model(flag, p, writes)?;
     }
     let (set, issues) = riskscore_data::events::load_events(&args.events).map_err(|source| {
         Failure::Input(InputError::Events {

@@ -42,8 +42,7 @@ pub fn run_decode(args: DecodeArgs) -> Result<(), Failure> {
     let to_stdout = is_std_stream(&args.out);
     if !to_stdout {
         refuse_overlaps(&inputs, &[("--out", args.out.as_path())])?;
-        refuse_overwriting_a_model("--out", &args.out, "a state table")
-            .map_err(super::SetupError::from)?;
+        refuse_overwriting_a_model("--out", &args.out, "a state table")?;
     }
     let parquet = riskscore_eval::parquet_io::is_parquet(&args.out);
     let mut file = if to_stdout {

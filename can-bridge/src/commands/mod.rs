@@ -147,6 +147,13 @@ impl From<SamePathError> for Failure {
     }
 }
 
+/// A model blob or checkpoint an output would replace (`riskscore_output::refuse_overwriting_a_model`).
+impl From<riskscore_output::ExistingFileError> for Failure {
+    fn from(e: riskscore_output::ExistingFileError) -> Self {
+        SetupError::from(e).into()
+    }
+}
+
 impl From<TooMuchLost> for Failure {
     fn from(e: TooMuchLost) -> Self {
         Self::Input(e.into())

@@ -36,8 +36,7 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     .collect();
     refuse_overlaps(&inputs, &outputs)?;
     if let Some(p) = &args.warnings_out {
-        refuse_overwriting_a_model("--warnings-out", p, "a candump log of warning frames")
-            .map_err(SetupError::from)?;
+        refuse_overwriting_a_model("--warnings-out", p, "a candump log of warning frames")?;
     }
     let mut events = open_events(&args.events_out, args.all_scores, true)?;
     let mut problems = ProblemPrinter::new(args.scoring.max_problems);
@@ -46,9 +45,8 @@ pub fn run_score_log(args: ScoreLogArgs) -> Result<(), Failure> {
     let mut losses = FrameLosses::default();
     // Frames on stdout (`-`, `/dev/stdout`, the file stdout is): then the events must go
     // elsewhere, else the two streams interleave.
-    let on_stdout = |p: &Option<std::path::PathBuf>| p.as_deref().is_some_and(is_stdout);
     if let Some(warnings) = args.warnings_out.as_deref().filter(|p| is_stdout(p)) {
-        if args.events_out.is_none() || on_stdout(&args.events_out) {
+        if args.events_out.as_deref().is_none_or(is_stdout) {
             return Err(SetupError::BothToStdout {
                 warnings: warnings.display().to_string(),
             }

@@ -703,12 +703,11 @@ fn compile_warning<'a>(
         ));
     }
     let k = &spec.signals[crc];
-    // The E2E code writes byte `start_bit / 8` whole: a Motorola signal starts at its most
-    // significant bit, so its whole byte starts at bit 7 of it (`0|8@0+` spans two bytes).
-    let whole_byte = match k.byte_order {
-        can_codec::ByteOrder::Intel => k.start_bit % 8 == 0,
-        can_codec::ByteOrder::Motorola => k.start_bit % 8 == 7,
-    };
+    // The E2E code writes byte `start_bit / 8` whole, so every bit of the signal must lie in it
+    // (a Motorola `0|8@0+` starts at bit 0 and runs on into the next byte).
+    let whole_byte = k
+        .bit_positions()
+        .all(|pos| pos / 8 == u32::from(k.start_bit) / 8);
     if k.size != 8 || !whole_byte {
         return Err(field_error("warning.crc", "the CRC must be one whole byte"));
     }
