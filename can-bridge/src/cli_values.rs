@@ -14,7 +14,7 @@ pub const MAX_SECONDS: f64 = 1e9;
 /// name (`/dev/stdout`, the file it is redirected to), for the refusals, is
 /// `riskscore_output::is_stdout`.
 pub fn is_std_stream(path: &std::path::Path) -> bool {
-    path.as_os_str() == "-"
+    riskscore_output::is_dash(path)
 }
 
 fn number<T: std::str::FromStr>(s: &str) -> Result<T, String> {

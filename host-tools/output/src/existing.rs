@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub fn is_stdout(path: &Path) -> bool {
     use std::os::fd::AsFd;
     use std::os::unix::fs::MetadataExt;
-    if path.as_os_str() == "-" {
+    if crate::is_dash(path) {
         return true;
     }
     let Ok(target) = std::fs::metadata(path) else {

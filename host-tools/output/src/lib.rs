@@ -34,5 +34,5 @@ pub use file::{is_read_only, open_special, AtomicFile, AtomicSet, READ_ONLY};
 pub use folders::{create_live_file, NewFolders};
 pub use lock::OutputLock;
 pub use overlap::{
-    is_special_file, lies_within, refuse_overlaps, NamedPath, Overlap, SamePathError,
+    is_dash, is_special_file, lies_within, refuse_overlaps, NamedPath, Overlap, SamePathError,
 };

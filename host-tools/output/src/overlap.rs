@@ -127,6 +127,11 @@ fn resolved(p: &Path) -> PathBuf {
     out
 }
 
+/// `-` given as a path: standard input or output, by the command-line convention.
+pub fn is_dash(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
 /// True when `path` is `folder` or lies below it, whether or not either exists yet: for an output
 /// inside a folder the run will create whole, which the inode comparison of [`refuse_overlaps`]
 /// cannot see before the folder exists.
@@ -186,13 +191,12 @@ pub fn refuse_overlaps(
         input: i.1.to_path_buf(),
         overlap,
     };
-    let dash = |p: &Path| p.as_os_str() == "-";
     for (n, o) in outputs.iter().enumerate() {
-        if is_special_file(o.1) || dash(o.1) {
+        if is_special_file(o.1) || is_dash(o.1) {
             continue;
         }
         for i in inputs {
-            if dash(i.1) || is_special_file(i.1) {
+            if is_dash(i.1) || is_special_file(i.1) {
                 continue;
             }
             if let Some(kind) = overlap(o.1, i.1) {
@@ -200,7 +204,7 @@ pub fn refuse_overlaps(
             }
         }
         for other in &outputs[..n] {
-            if dash(other.1) {
+            if is_dash(other.1) {
                 continue;
             }
             if normalised(o.1) == normalised(other.1)

@@ -5,15 +5,12 @@
 use anyhow::Context;
 use riskscore_output::is_special_file;
 // Shared with can-bridge: one answer to "is this standard output?" and "is this a model?".
-pub use riskscore_output::{is_stdout, refuse_overwriting_a_model, refuse_replacing_a_non_blob};
+pub use riskscore_output::{
+    is_dash, is_stdout, refuse_overwriting_a_model, refuse_replacing_a_non_blob,
+};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
-
-/// `-` names standard input or output.
-pub fn is_dash(p: &Path) -> bool {
-    p.as_os_str() == "-"
-}
 
 /// Run `write` on the output named by `path`: standard output for `-` (or another name of it,
 /// [`is_stdout`]), a device or pipe directly, a file through a temporary renamed into place when
