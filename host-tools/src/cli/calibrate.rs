@@ -204,30 +204,24 @@ fn describe(folders: &[PathBuf]) -> String {
     }
 }
 
-/// The output must not be the model, a --normal folder or lie inside one, nor an existing file
-/// that is not a blob.
+/// The output must not be the model, a --normal or --never-warn folder's file or lie inside such
+/// a folder, nor an existing file that is not a blob (checked last: the more precise refusal
+/// first).
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    refuse_blob_overlaps(&args.model, "--normal", &args.normal, &args.out)?;
-    refuse_blob_overlaps(&args.model, "--never-warn", &args.never_warn, &args.out)?;
+    let folders: Vec<(&str, Option<&Path>)> = args
+        .normal
+        .iter()
+        .map(|d| ("--normal", d))
+        .chain(args.never_warn.iter().map(|d| ("--never-warn", d)))
+        .map(|(flag, d)| (flag, Some(d.as_path())))
+        .collect();
+    super::output::refuse_inputs_of(
+        &folders,
+        &[("--model", Some(&args.model))],
+        &[("--out", &args.out)],
+    )?;
     // After the overlaps: `--out ev/events.csv` is "the same file as --normal", first.
     Ok(super::output::refuse_replacing_a_non_blob(
         "--out", &args.out,
     )?)
-}
-
-/// A blob rewritten from `--model` and event folders (given with `folder_flag`): `out` must not
-/// be the model, one of the folders' files or lie inside a folder. The caller refuses an
-/// existing `out` that is not a blob ([`super::output::refuse_replacing_a_non_blob`]) once, after
-/// all its overlaps.
-pub(super) fn refuse_blob_overlaps(
-    model: &Path,
-    folder_flag: &str,
-    folders: &[PathBuf],
-    out: &Path,
-) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = folders
-        .iter()
-        .map(|d| (folder_flag, Some(d.as_path())))
-        .collect();
-    super::output::refuse_inputs_of(&folders, &[("--model", Some(model))], &[("--out", out)])
 }

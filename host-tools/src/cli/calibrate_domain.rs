@@ -1,6 +1,6 @@
 //! `riskctl calibrate-domain`: attach (or refresh) a model's training-domain record, measured on
 //! the event folders it was trained on.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
@@ -259,10 +259,17 @@ pub fn read_kinematic_terms(path: &std::path::Path) -> anyhow::Result<Vec<MsraTe
 /// The output must not be the model, an --events folder's file or lie inside one, nor an
 /// existing file that is not a blob.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    super::calibrate::refuse_blob_overlaps(&args.model, "--events", &args.events, &args.out)?;
+    let folders: Vec<(&str, Option<&Path>)> = args
+        .events
+        .iter()
+        .map(|d| ("--events", Some(d.as_path())))
+        .collect();
     super::output::refuse_inputs_of(
-        &[],
-        &[("--fallback-from", args.fallback_from.as_deref())],
+        &folders,
+        &[
+            ("--model", Some(&args.model)),
+            ("--fallback-from", args.fallback_from.as_deref()),
+        ],
         &[("--out", &args.out)],
     )?;
     // After the overlaps, as calibrate: the more precise refusal first.
