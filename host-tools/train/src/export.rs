@@ -935,7 +935,7 @@ pub fn with_training_domain(
 /// How the default threshold of a blob was chosen, in words.
 pub fn threshold_rule_text(blob: &model::ModelBlob<'_>) -> String {
     let Some(op) = blob.meta.default_threshold else {
-        return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half its weight sum, \
+        return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half the sum of its weights' magnitudes, \
                 GSSM the middle of its score mode's range)"
             .to_owned();
     };

@@ -89,8 +89,8 @@ pub unsafe extern "C" fn riskscore_load_model(
 
 /// Writes the default warning threshold of the model `blob` (`len` bytes) to `*threshold`: the
 /// calibrated threshold a version-2 blob carries, else the rule of its kind (DRL 2.0, MSRA half
-/// the sum of its weights, GSSM the middle of its score mode's range: 2.918 for the intensity, 0
-/// for the logit, 0.5 for the CDF). Fill `RiskscoreWarningConfig::threshold` with it when the
+/// the sum of its weights' magnitudes, GSSM the middle of its score mode's range: 2.918 for the
+/// intensity, 0 for the logit, 0.5 for the CDF). Fill `RiskscoreWarningConfig::threshold` with it when the
 /// integration has no threshold of its own; `riskctl inspect-model` prints how it was chosen.
 /// The blob is fully decoded and validated; `*threshold` is written only on success.
 ///
