@@ -15,6 +15,7 @@ use plotters::style::FontStyle;
 use super::bundle::{BundleError, ReportFile};
 use super::metrics::WarningCurve;
 use super::palette::{LineStyle, MethodStyle, Palette};
+use super::report::fixed;
 pub use super::trajectory::{
     alert_window_scores, default_trajectory_events, percentile, trajectory_panels,
     trajectory_panels_ranked, TrajectoryPanel,
@@ -345,7 +346,7 @@ fn draw_roc<DB: DrawingBackend>(
         .iter()
         .filter_map(|(name, curve)| {
             let label = match curve.a_roc(90) {
-                Some(a) => format!("{name} (A^ROC_90 = {a:.1} %)"),
+                Some(a) => format!("{name} (A^ROC_90 = {} %)", fixed(a, 1)),
                 None => name.clone(),
             };
             Some((name.clone(), curve.roc_curve()?, label))
@@ -376,7 +377,7 @@ fn draw_pr<DB: DrawingBackend>(
         .filter_map(|(name, curve)| {
             let points = curve.pr_points();
             let label = match curve.p_prc(90) {
-                Some(p) => format!("{name} (P^PRC_90 = {p:.1} %)"),
+                Some(p) => format!("{name} (P^PRC_90 = {} %)", fixed(p, 1)),
                 None => name.clone(),
             };
             (!points.is_empty()).then_some((name.clone(), points, label))

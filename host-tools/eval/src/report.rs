@@ -185,7 +185,26 @@ impl EvaluationReport {
 }
 
 pub(crate) fn format_value(v: Option<f64>, decimals: usize) -> String {
-    v.map_or_else(|| "n/a".to_owned(), |x| format!("{x:.decimals$}"))
+    v.map_or_else(|| "n/a".to_owned(), |x| fixed(x, decimals))
+}
+
+/// Round-off below a millionth of the last printed place that [`fixed`] ignores.
+const PRINT_SNAP: f64 = 1e6;
+
+/// `x` to `decimals` places, as the value it stands for rounds: ties to even, after dropping
+/// round-off below a millionth of the last place. The metrics are ratios of counts and means of
+/// lead times read off a decimal clock, so an exact tie such as a mean lead of 23/8 = 2.875 s is
+/// common, and summing `7.6 - 4.7` in `f64` lands it at 2.874999999999999, which `{:.2}` alone
+/// prints as 2.87: the printed digit would depend on the order of a sum. Values too large to
+/// snap (never a metric) and non-finite ones are printed as `{:.N}` prints them.
+pub(crate) fn fixed(x: f64, decimals: usize) -> String {
+    let scale = 10f64.powi(i32::try_from(decimals).unwrap_or(i32::MAX));
+    let scaled = x * scale;
+    if !scaled.is_finite() || scaled.abs() * PRINT_SNAP >= 2f64.powi(52) {
+        return format!("{x:.decimals$}");
+    }
+    let snapped = (scaled * PRINT_SNAP).round() / PRINT_SNAP;
+    format!("{:.decimals$}", snapped.round_ties_even() / scale)
 }
 
 pub(crate) fn csv_cell(v: Option<f64>) -> String {
@@ -306,7 +325,7 @@ pub fn metric_cell(stat: Option<Stat>, runs: usize, decimals: usize) -> String {
         None => "n/a".to_owned(),
         Some(s) => {
             let d = decimals;
-            let mut c = format!("{:.d$} ± {:.d$}", s.mean, s.std);
+            let mut c = format!("{} ± {}", fixed(s.mean, d), fixed(s.std, d));
             if s.n < runs {
                 c.push_str(&format!(" ({}/{runs})", s.n));
             }
@@ -492,6 +511,8 @@ pub fn write_sequence_maxima<W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::protocol::{ScoredFrame, ScoredSequence};
+    use crate::scoring::evaluate_scored;
 
     #[test]
     fn stat_of_small_samples() {
@@ -525,6 +546,49 @@ mod tests {
             md.contains("| EI | 12.3 | n/a | n/a | n/a | 1.23 |"),
             "{md}"
         );
+    }
+
+    #[test]
+    fn printed_digits_round_the_exact_value_not_its_round_off() {
+        // Eight crashes, no safe sequence: seven warned 7.6 - 4.7 s and one 7.6 - 4.9 s before
+        // impact, a mean lead of exactly 23 / 8 = 2.875 s, which the f64 sum puts at
+        // 2.874999999999999.
+        let crash = |t: f64| ScoredSequence {
+            event_id: format!("c{t}"),
+            kind: EventKind::Crash,
+            endpoint: Some(7.6),
+            frames: vec![ScoredFrame {
+                time: t,
+                score: 1.0,
+            }],
+        };
+        let mut seqs: Vec<_> = (0..7).map(|_| crash(4.7)).collect();
+        seqs.push(crash(4.9));
+        let (report, _) = evaluate_scored(vec![("DRL".into(), seqs)]).unwrap();
+        let mtti = report.methods[0].metrics.mtti_90.unwrap();
+        assert!(mtti < 2.875 && 2.875 - mtti < 1e-12, "{mtti}");
+        let md = report.to_markdown();
+        assert!(
+            md.contains("| DRL | n/a | n/a | 100.0 | 100.0 | 2.88 |"),
+            "{md}"
+        );
+        // Ties go to even, as `{:.N}` rounds an exactly representable tie; a value that is not
+        // a tie keeps its digit.
+        assert_eq!(fixed(2.625, 2), "2.62");
+        assert_eq!(fixed(83.75, 1), "83.8");
+        assert_eq!(fixed(61.25, 1), "61.2");
+        assert_eq!(fixed(2.7749999999999497, 2), "2.78");
+        assert_eq!(fixed(17.999999999999993, 1), "18.0");
+        assert_eq!(fixed(2.8749, 2), "2.87");
+        assert_eq!(fixed(0.0, 2), "0.00");
+        assert_eq!(fixed(f64::INFINITY, 1), "inf");
+        // The CV cells too: a mean of 2.874999999999999 is 2.88.
+        let stat = Stat {
+            mean: mtti,
+            std: 0.0149999999999999,
+            n: 2,
+        };
+        assert_eq!(metric_cell(Some(stat), 2, 2), "2.88 ± 0.02");
     }
 
     #[test]
