@@ -30,6 +30,7 @@ use riskscore_data::events::{self, Sequence};
 use riskscore_data::sim::{self, SimConfig};
 use riskscore_eval::claims::{self, acceptance_claims, Claim};
 use riskscore_eval::metrics::Metric;
+use riskscore_eval::report::format_value;
 use riskscore_eval::{self as eval, plots, CvReport, EventCounts, ScoredSequence};
 use riskscore_output::OutputDir;
 use riskscore_train::export;
@@ -1071,10 +1072,6 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-fn fmt_opt(v: Option<f64>) -> String {
-    v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.2}"))
-}
-
 /// Print claims as `[ok]` / `[FAIL]` / `[n/a]` lines under a title, each with its run tally.
 pub fn print_claims(title: &str, claims: &[Claim]) {
     out!("{}", claims::to_text(title, claims));
@@ -1118,8 +1115,8 @@ pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
             .map(|c| {
                 format!(
                     "DRL A_ROC_90 {} vs {baseline} {}",
-                    fmt_opt(c.method_mean),
-                    fmt_opt(c.baseline_mean)
+                    format_value(c.method_mean, 2),
+                    format_value(c.baseline_mean, 2)
                 )
             })
             .unwrap_or_default()
@@ -1186,7 +1183,7 @@ fn print_summary(s: &DemoSummary, opts: &DemoOptions, data_dir: &Path) {
         for name in ["DRL-f32", "DRL"] {
             let m: Vec<String> = Metric::ALL
                 .iter()
-                .map(|&metric| fmt_opt(cv.mean(name, metric)))
+                .map(|&metric| format_value(cv.mean(name, metric), 2))
                 .collect();
             outln!(
                 "  {name:<8} A_ROC_90 {}  A_ROC_80 {}  P_PRC_90 {}  P_PRC_80 {}  mTTI_90 {} s",

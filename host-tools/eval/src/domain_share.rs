@@ -1,5 +1,6 @@
 //! How many of the scored frames each guarded model saw outside its training domain, and which
 //! input left the range first how often: the `domain` part of `riskctl evaluate`'s report.
+use crate::report::format_value;
 use scorer_core::model::geometry_coverage::GEOMETRY_INPUT_NAME;
 use scorer_core::model::{ModelKind, GEOMETRY_INPUT};
 use scorer_core::{Guarded, DRL_INPUT_NAMES, FEATURE_COUNT, FEATURE_NAMES};
@@ -121,9 +122,7 @@ pub fn markdown(shares: &[DomainShare]) -> String {
             .take(3)
             .map(|(name, n)| format!("{name} {n}"))
             .collect();
-        let percent = s
-            .outside_percent()
-            .map_or_else(|| "n/a".to_owned(), |p| format!("{p:.2}"));
+        let percent = format_value(s.outside_percent(), 2);
         out.push_str(&format!(
             "| {} | {} | {percent} | {} |\n",
             s.name,

@@ -184,7 +184,8 @@ impl EvaluationReport {
     }
 }
 
-pub(crate) fn format_value(v: Option<f64>, decimals: usize) -> String {
+/// A metric to `decimals` places by [`fixed`]; `n/a` for none.
+pub fn format_value(v: Option<f64>, decimals: usize) -> String {
     v.map_or_else(|| "n/a".to_owned(), |x| fixed(x, decimals))
 }
 
@@ -197,7 +198,7 @@ const PRINT_SNAP: f64 = 1e6;
 /// common, and summing `7.6 - 4.7` in `f64` lands it at 2.874999999999999, which `{:.2}` alone
 /// prints as 2.87: the printed digit would depend on the order of a sum. Values too large to
 /// snap (never a metric) and non-finite ones are printed as `{:.N}` prints them.
-pub(crate) fn fixed(x: f64, decimals: usize) -> String {
+pub fn fixed(x: f64, decimals: usize) -> String {
     let scale = 10f64.powi(i32::try_from(decimals).unwrap_or(i32::MAX));
     let scaled = x * scale;
     if !scaled.is_finite() || scaled.abs() * PRINT_SNAP >= 2f64.powi(52) {

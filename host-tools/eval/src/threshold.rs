@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::metrics::WarningCurve;
 use super::protocol::{AlertProfile, EventKind};
+use super::report::format_value;
 
 /// One sequence at one threshold, kept until every worker is done so that sums run in
 /// `events.csv` order (the same bits whatever the scheduling).
@@ -169,9 +170,6 @@ pub fn markdown(reports: &[ThresholdReport]) -> String {
         "\n| Method | threshold | kind | sequences | warned | not warned | recall / false-alarm rate (%) | per hour of driving | mean lead time (s) |\n\
          |---|---:|---|---:|---:|---:|---:|---:|---:|\n",
     );
-    let opt = |v: Option<f64>, digits: usize| {
-        v.map_or_else(|| "n/a".to_owned(), |x| format!("{x:.digits$}"))
-    };
     for r in reports {
         let rows = [
             ("crash", &r.crash),
@@ -183,9 +181,9 @@ pub fn markdown(reports: &[ThresholdReport]) -> String {
                 continue;
             }
             let (per_hour, lead) = if kind == "safe" {
-                (opt(t.warned_per_hour(), 2), "".to_owned())
+                (format_value(t.warned_per_hour(), 2), "".to_owned())
             } else {
-                ("".to_owned(), opt(t.mean_lead_time(), 2))
+                ("".to_owned(), format_value(t.mean_lead_time(), 2))
             };
             out.push_str(&format!(
                 "| {} | {} | {kind} | {} | {} | {} | {} | {per_hour} | {lead} |\n",
@@ -194,7 +192,7 @@ pub fn markdown(reports: &[ThresholdReport]) -> String {
                 t.sequences,
                 t.warned,
                 t.not_warned(),
-                opt(t.warned_percent(), 1),
+                format_value(t.warned_percent(), 1),
             ));
         }
     }

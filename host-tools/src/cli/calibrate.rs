@@ -139,11 +139,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     super::output::write_file_atomically(&args.out, &bytes)?;
     summaryln!(
         &args.out,
-        "{} -> {}: default threshold {} ({:.1} % of {} normal-driving sequences warn; target {} %)",
+        "{} -> {}: default threshold {} ({} % of {} normal-driving sequences warn; target {} %)",
         args.model.display(),
         super::output::output_name(&args.out),
         calibration.threshold,
-        100.0 * calibration.measured,
+        riskscore_eval::report::fixed(100.0 * calibration.measured, 1),
         calibration.sequences,
         args.false_alarm_rate
     );

@@ -935,8 +935,8 @@ pub fn with_training_domain(
 /// How the default threshold of a blob was chosen, in words.
 pub fn threshold_rule_text(blob: &model::ModelBlob<'_>) -> String {
     let Some(op) = blob.meta.default_threshold else {
-        return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half the sum of its weights' magnitudes, \
-                GSSM the middle of its score mode's range)"
+        return "no calibration stored: the kind's rule (DRL r*/2 = 2.0, MSRA half the sum of its \
+                weights' magnitudes, GSSM the middle of its score mode's range)"
             .to_owned();
     };
     let data = if op.data.is_empty() {
@@ -950,11 +950,48 @@ pub fn threshold_rule_text(blob: &model::ModelBlob<'_>) -> String {
             target,
             measured,
             sequences,
-        } => format!(
-            "calibrated: the smallest sequence maximum at which at most {:.1} % of {sequences} \
-             normal-driving sequences{data} warn; {:.1} % do",
-            100.0 * target,
-            100.0 * measured
-        ),
+        } => {
+            // The stored f32 share is k / sequences rounded; print the count's share, so a tie
+            // rounds as `riskctl calibrate` printed it from the count.
+            let warned = (f64::from(measured) * f64::from(sequences)).round();
+            let share = if sequences == 0 {
+                0.0
+            } else {
+                100.0 * warned / f64::from(sequences)
+            };
+            format!(
+                "calibrated: the smallest sequence maximum at which at most {:.1} % of {sequences} \
+                 normal-driving sequences{data} warn; {} % do",
+                100.0 * target,
+                riskscore_eval::report::fixed(share, 1)
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn calibrated_share_prints_from_its_count() {
+        // 1 of 80 sequences warn: 1.25 % exactly, a tie; the f32 share is 0.0125000002 and
+        // `{:.1}` of it alone printed 1.3 where `riskctl calibrate` printed 1.2 from the count.
+        let mut blob =
+            model::decode_blob(include_bytes!("../../../models/msra-default.rsk")).unwrap();
+        blob.meta.default_threshold = Some(model::DefaultThreshold {
+            threshold: 1.0,
+            rule: model::ThresholdRule::SafeShare {
+                target: 0.05,
+                measured: 1.0 / 80.0,
+                sequences: 80,
+            },
+            data: "",
+        });
+        let text = threshold_rule_text(&blob);
+        assert!(
+            text.ends_with("at most 5.0 % of 80 normal-driving sequences warn; 1.2 % do"),
+            "{text}"
+        );
     }
 }

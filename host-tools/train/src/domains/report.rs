@@ -9,7 +9,7 @@ use super::run::{DrawResult, RoundResult};
 use super::share::{summarise, ShareSummary, SHARE_KEY, SHARE_RECALL_PERCENT};
 use riskscore_eval::bundle::{BundleError, ReportBundle};
 use riskscore_eval::claims::{self, Claim};
-use riskscore_eval::report::write_folds_csv;
+use riskscore_eval::report::{fixed, write_folds_csv};
 
 /// What became of one round.
 #[derive(Clone, Debug)]
@@ -114,7 +114,13 @@ fn share_json(s: &ShareSummary) -> Value {
 
 fn share_cell(s: &ShareSummary) -> String {
     match s.percent {
-        Some(p) => format!("{:.1} ± {:.1} ({} of {})", p.mean, p.std, s.above, s.of),
+        Some(p) => format!(
+            "{} ± {} ({} of {})",
+            fixed(p.mean, 1),
+            fixed(p.std, 1),
+            s.above,
+            s.of
+        ),
         None if s.of == 0 => "no real safe sequences".into(),
         None => "n/a".into(),
     }
