@@ -363,10 +363,10 @@ fn real_freeway_dir(given: Option<&Path>) -> anyhow::Result<PathBuf> {
 }
 
 fn run_transfer(a: TransferArgs) -> anyhow::Result<()> {
-    let training_only: Vec<(&str, Option<&Path>)> = (a.train_only.iter())
-        .map(|d| ("--train-only", Some(d.as_path())))
-        .chain(a.drl_only.iter().map(|d| ("--drl-only", Some(d.as_path()))))
-        .collect();
+    let training_only: Vec<(&str, Option<&Path>)> =
+        super::output::repeated("--train-only", &a.train_only)
+            .chain(super::output::repeated("--drl-only", &a.drl_only))
+            .collect();
     super::output::refuse_inputs_of(
         &[
             [("--real", a.real.as_deref())].as_slice(),
@@ -470,11 +470,7 @@ fn run_domains(a: DomainsArgs) -> anyhow::Result<()> {
         Round::selection(a.rounds.as_deref()).map_err(|e| anyhow::anyhow!("--rounds: {e}"))?;
     a.sim.check_draws()?;
     let mut event_folders = vec![("--real", a.real.as_deref())];
-    event_folders.extend(
-        a.real_city
-            .iter()
-            .map(|d| ("--real-city", Some(d.as_path()))),
-    );
+    event_folders.extend(super::output::repeated("--real-city", &a.real_city));
     event_folders.extend(a.sim.event_folders());
     let mut outputs = vec![("--out", a.out.as_path())];
     if let Some(path) = &a.sequences_out {

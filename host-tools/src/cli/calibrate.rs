@@ -208,12 +208,8 @@ fn describe(folders: &[PathBuf]) -> String {
 /// a folder, nor an existing file that is not a blob (checked last: the more precise refusal
 /// first).
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = args
-        .normal
-        .iter()
-        .map(|d| ("--normal", d))
-        .chain(args.never_warn.iter().map(|d| ("--never-warn", d)))
-        .map(|(flag, d)| (flag, Some(d.as_path())))
+    let folders: Vec<(&str, Option<&Path>)> = super::output::repeated("--normal", &args.normal)
+        .chain(super::output::repeated("--never-warn", &args.never_warn))
         .collect();
     super::output::refuse_inputs_of(
         &folders,

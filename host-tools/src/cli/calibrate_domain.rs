@@ -259,11 +259,8 @@ pub fn read_kinematic_terms(path: &std::path::Path) -> anyhow::Result<Vec<MsraTe
 /// The output must not be the model, an --events folder's file or lie inside one, nor an
 /// existing file that is not a blob.
 fn refuse_overlaps(args: &Args) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = args
-        .events
-        .iter()
-        .map(|d| ("--events", Some(d.as_path())))
-        .collect();
+    let folders: Vec<(&str, Option<&Path>)> =
+        super::output::repeated("--events", &args.events).collect();
     super::output::refuse_inputs_of(
         &folders,
         &[

@@ -129,16 +129,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let extra_real: Vec<(&str, Option<&std::path::Path>)> = args
-        .extra_real
-        .iter()
-        .map(|p| ("--extra-real", Some(p.as_path())))
-        .chain(
-            args.extra_drl_only
-                .iter()
-                .map(|p| ("--extra-drl-only", Some(p.as_path()))),
-        )
-        .collect();
+    let extra_real: Vec<(&str, Option<&std::path::Path>)> =
+        super::output::repeated("--extra-real", &args.extra_real)
+            .chain(super::output::repeated(
+                "--extra-drl-only",
+                &args.extra_drl_only,
+            ))
+            .collect();
     super::output::refuse_inputs_of(
         &[
             [

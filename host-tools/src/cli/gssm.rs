@@ -292,11 +292,8 @@ fn refuse_inputs(
     more: &[(&str, &Path)],
     out: &Path,
 ) -> anyhow::Result<()> {
-    let folders: Vec<(&str, Option<&Path>)> = common
-        .events
-        .iter()
-        .map(|d| ("--events", Some(d.as_path())))
-        .chain(normal.iter().map(|d| ("--normal", Some(d.as_path()))))
+    let folders: Vec<(&str, Option<&Path>)> = super::output::repeated("--events", &common.events)
+        .chain(super::output::repeated("--normal", normal))
         .collect();
     let mut files: Vec<(&str, Option<&Path>)> = vec![
         ("--config", common.config.as_deref()),

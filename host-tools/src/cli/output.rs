@@ -189,6 +189,14 @@ pub fn refuse(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Re
     Ok(())
 }
 
+/// A repeatable path option's values as [`refuse_inputs_of`] takes them: `(flag, Some(path))`.
+pub fn repeated<'a>(
+    flag: &'a str,
+    paths: &'a [std::path::PathBuf],
+) -> impl Iterator<Item = (&'a str, Option<&'a Path>)> {
+    paths.iter().map(move |p| (flag, Some(p.as_path())))
+}
+
 /// Refuses `outputs` that are, contain or lie inside one of the inputs: the event folders (nothing
 /// is written into one; their `events.csv`/`frames.csv` are checked too, in case one is a link)
 /// and the other input `files`. Absent optional inputs are skipped.
