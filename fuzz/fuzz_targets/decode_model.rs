@@ -70,6 +70,7 @@ fn exercise(blob: &[u8]) {
         box_distance: 8.0,
         ttc2d: 3.0,
         tadv: f32::INFINITY,
+        tadv_corridor: f32::INFINITY,
         ei: f32::NEG_INFINITY,
     };
     let observation = Observation {

@@ -499,7 +499,8 @@ fn event_figures(
         .collect();
     let models = ModelFile::read_all(&specs)?;
     let mut methods = named_models(&models)?;
-    methods.extend(eval::Method::baselines());
+    let baselines = eval::Method::baselines_for(&methods);
+    methods.extend(baselines);
     let mut thresholds = models
         .iter()
         .map(|m| m.default_threshold().map(Some))

@@ -325,13 +325,14 @@ fn score_table(model: &Path, events: &Path, out: &Path) -> Vec<(String, String)>
         .collect()
 }
 
-/// The surrogates `riskctl score` wrote beside each row of the CSV `table` (TTC2D, TAdv, EI: the
-/// kinematic fallback's inputs; the box distance is not among them).
+/// The surrogates `riskctl score` wrote beside each row of the CSV `table` (TTC2D, TAdv, EI,
+/// TAdv-corridor: the kinematic fallback's inputs; the box distance is not among them).
 fn surrogate_rows(table: &Path) -> Vec<scorer_core::Surrogates> {
     let mut reader = csv::Reader::from_path(table).unwrap();
     let h = reader.headers().unwrap().clone();
     let col = |name: &str| h.iter().position(|c| c == name).unwrap();
     let (ttc2d, tadv, ei) = (col("ttc2d"), col("tadv"), col("ei"));
+    let tadv_corridor = col("tadv_corridor");
     reader
         .records()
         .map(|r| {
@@ -340,6 +341,7 @@ fn surrogate_rows(table: &Path) -> Vec<scorer_core::Surrogates> {
                 box_distance: f32::NAN,
                 ttc2d: r[ttc2d].parse().unwrap(),
                 tadv: r[tadv].parse().unwrap(),
+                tadv_corridor: r[tadv_corridor].parse().unwrap(),
                 ei: r[ei].parse().unwrap(),
             }
         })

@@ -74,6 +74,7 @@ fn every_frame_is_scored_like_the_evaluation() {
                         f.observation.surrogates.ttc2d,
                         f.observation.surrogates.tadv,
                         f.observation.surrogates.ei,
+                        f.observation.surrogates.tadv_corridor,
                     ],
                 ));
             }
@@ -98,6 +99,7 @@ fn every_frame_is_scored_like_the_evaluation() {
             "ttc2d",
             "tadv",
             "ei",
+            "tadv_corridor",
             "DRL_in_domain",
             "mine_in_domain"
         ]
@@ -112,7 +114,7 @@ fn every_frame_is_scored_like_the_evaluation() {
             assert_eq!(parse_out(&row[3 + k]).to_bits(), s.to_bits(), "{row:?}");
         }
         for (k, flag) in flags.iter().enumerate() {
-            assert_eq!(row[8 + k].parse::<u8>().unwrap(), *flag, "{row:?}");
+            assert_eq!(row[9 + k].parse::<u8>().unwrap(), *flag, "{row:?}");
         }
     }
     // Risk rises towards a crash: the DRL score at the impact frame beats the event's first frame.
@@ -170,7 +172,7 @@ fn every_frame_is_scored_like_the_evaluation() {
                 assert_eq!(got.to_bits(), s.to_bits());
             }
             for (c, flag) in flags.iter().enumerate() {
-                let got = batch.column(8 + c).as_primitive::<UInt8Type>().value(r);
+                let got = batch.column(9 + c).as_primitive::<UInt8Type>().value(r);
                 assert_eq!(got, *flag);
             }
             k += 1;

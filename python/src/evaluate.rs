@@ -109,7 +109,8 @@ pub fn evaluate(
     let evaluated = py.detach(|| -> Result<_, Failure> {
         let files = ModelFile::read_all(&models).map_err(|e| Failure::Model(with_causes(&e)))?;
         let mut methods = named_models(&files).map_err(|e| Failure::Model(e.to_string()))?;
-        methods.extend(Method::baselines());
+        let baselines = Method::baselines_for(&methods);
+        methods.extend(baselines);
         let chosen = thresholds(&files, &methods, threshold_all, &thresholds_by_name)?;
         let workers = std::thread::available_parallelism().map_or(1, usize::from);
         let gather = Gather {

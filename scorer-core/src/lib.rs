@@ -118,7 +118,9 @@ pub use encoding::{drl_inputs, DrlInputs, DRL_INPUT_COUNT, DRL_INPUT_ENCODING, D
 pub use features::{features, Features, FEATURE_COUNT, FEATURE_NAMES};
 pub use geometry::box_distance;
 pub use state::VehicleState;
-pub use surrogates::{ei, surrogates, tadv, ttc2d, SurrogateKind, Surrogates};
+pub use surrogates::{
+    ei, surrogates, tadv, tadv_corridor, ttc2d, SurrogateKind, Surrogates, STANDING_SPEED,
+};
 
 pub use domain::Guarded;
 pub use gssm::{GssmModel, GssmScore};

@@ -1,7 +1,7 @@
 //! MSRA: multi-surrogate risk aggregation `R = sum_k w_k * sigmoid(a_k * g_k(f_k) + b_k)`.
 //!
-//! Each of up to [`MAX_TERMS`] terms reads one surrogate `f_k` ([`SurrogateKind`]): TTC2D, TAdv, EI
-//! from [`Surrogates`], or GSSM (the score of the GSSM network embedded in the model, computed from
+//! Each of up to [`MAX_TERMS`] terms reads one surrogate `f_k` ([`SurrogateKind`]): TTC2D, TAdv, EI,
+//! TAdv-corridor from [`Surrogates`], or GSSM (the score of the GSSM network embedded in the model, computed from
 //! the features). The transform `g_k` ([`transform`]) is the identity clipped to the term's stored
 //! range `[lo, hi]`, with the "no conflict" values and NaN sent to the bound that means "no
 //! conflict":
@@ -10,6 +10,7 @@
 //! |-------|--------------|---------|--------|------|
 //! | TTC2D | smaller      | `hi`    | `lo`   | `hi` |
 //! | TAdv  | smaller      | `hi`    | `lo`   | `hi` |
+//! | TAdv-corridor | smaller | `hi` | `lo`   | `hi` |
 //! | EI    | larger       | `hi`    | `lo`   | `lo` |
 //! | GSSM  | larger       | `hi`    | `lo`   | `lo` |
 //!
@@ -56,7 +57,7 @@ pub struct MsraModel<'a> {
 }
 
 /// `g_k`: `raw` clipped to `[lo, hi]`; `+inf -> hi`, `-inf -> lo`, NaN -> the "no conflict" bound
-/// (`hi` for TTC2D/TAdv, `lo` for EI/GSSM). For a finite `lo <= hi` the result lies in `[lo, hi]`;
+/// (`hi` for the times, `lo` for EI/GSSM). For a finite `lo <= hi` the result lies in `[lo, hi]`;
 /// for a malformed range (never accepted by model validation) the result is still finite (0 if a
 /// bound is NaN).
 pub fn transform(kind: SurrogateKind, raw: f32, lo: f32, hi: f32) -> f32 {
@@ -181,6 +182,7 @@ mod tests {
             box_distance: 5.0,
             ttc2d,
             tadv,
+            tadv_corridor: tadv,
             ei,
         }
     }

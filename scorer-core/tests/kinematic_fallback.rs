@@ -209,7 +209,7 @@ fn bad_records_are_refused() {
         })
     );
     let mut unknown = term_to_bytes(&tadv_term()).to_vec();
-    unknown[0] = 4;
+    unknown[0] = 5;
     let unknown = KinematicFallback::new(1.0, 0.0, Vec::leak(unknown));
     assert!(matches!(
         decode(&with_fallback(&unknown)),
@@ -284,6 +284,55 @@ fn every_truncation_and_byte_flip_of_a_fallback_blob_is_handled() {
         1.25,
         &[tadv_term(), ei_term()],
     ))));
+}
+
+#[test]
+fn a_tadv_corridor_term_reads_the_corridor_rule_not_the_reference() {
+    let corridor = MsraTerm {
+        kind: SurrogateKind::TadvCorridor,
+        ..tadv_term()
+    };
+    let blob = fallback_blob(fallback_of(1.0, 0.0, &[corridor]));
+    let bytes = encode(&blob);
+    // Wire index 4 in the term's kind byte.
+    let decoded = model::decode_blob(&bytes).unwrap();
+    assert_eq!(decoded, blob);
+    let fallback = decoded.meta.kinematic_fallback.unwrap();
+    assert_eq!(
+        fallback.terms().next().unwrap().kind,
+        SurrogateKind::TadvCorridor
+    );
+    // A car parked 4 m beside the lane, 20 m ahead of an ego at 15 m/s: the reference TAdv is a
+    // near miss, the corridor rule's no conflict, and the term scores what the rule says.
+    let ego = scorer_core::VehicleState {
+        x: 0.0,
+        y: 0.0,
+        vx: 15.0,
+        vy: 0.0,
+        hx: 1.0,
+        hy: 0.0,
+        acc: 0.0,
+        length: 4.5,
+        width: 1.8,
+    };
+    let parked = scorer_core::VehicleState {
+        x: 20.0,
+        y: 4.0,
+        vx: 0.0,
+        ..ego
+    };
+    let o = Observation::of(&ego, &parked);
+    assert!(o.surrogates.tadv < 2.0, "{:?}", o.surrogates);
+    assert_eq!(o.surrogates.tadv_corridor, f32::INFINITY);
+    let by_corridor = fallback.msra(&o.surrogates);
+    let reference = fallback_of(1.0, 0.0, &[tadv_term()]).msra(&o.surrogates);
+    // Whatever the reference says.
+    let other_reference = fallback.msra(&scorer_core::Surrogates {
+        tadv: 0.01,
+        ..o.surrogates
+    });
+    assert_eq!(by_corridor.to_bits(), other_reference.to_bits());
+    assert_ne!(by_corridor, reference);
 }
 
 #[test]

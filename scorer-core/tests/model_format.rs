@@ -40,6 +40,7 @@ fn surrogates(rng: &mut Rng) -> Surrogates {
         box_distance: rng.uniform(0.0, 30.0),
         ttc2d: rng.uniform(0.0, 12.0),
         tadv: rng.uniform(0.0, 8.0),
+        tadv_corridor: rng.uniform(0.0, 8.0),
         ei: rng.uniform(-3.0, 3.0),
     }
 }

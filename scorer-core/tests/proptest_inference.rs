@@ -31,12 +31,20 @@ fn nasty_features() -> impl Strategy<Value = Features> {
 }
 
 fn nasty_surrogates() -> impl Strategy<Value = Surrogates> {
-    (nasty_f32(), nasty_f32(), nasty_f32(), nasty_f32()).prop_map(|(a, b, c, d)| Surrogates {
-        box_distance: a,
-        ttc2d: b,
-        tadv: c,
-        ei: d,
-    })
+    (
+        nasty_f32(),
+        nasty_f32(),
+        nasty_f32(),
+        nasty_f32(),
+        nasty_f32(),
+    )
+        .prop_map(|(a, b, c, d, e)| Surrogates {
+            box_distance: a,
+            ttc2d: b,
+            tadv: c,
+            tadv_corridor: e,
+            ei: d,
+        })
 }
 
 fn nasty_state() -> impl Strategy<Value = VehicleState> {
@@ -313,7 +321,7 @@ proptest! {
             let blob = wrap(kind, &bytes);
             if let Ok(m) = model::decode(&blob) {
                 let x: Features = [1.0; FEATURE_COUNT];
-                let sur = scorer_core::Surrogates { box_distance: 1.0, ttc2d: 1.0, tadv: 1.0, ei: 1.0 };
+                let sur = scorer_core::Surrogates { box_distance: 1.0, ttc2d: 1.0, tadv: 1.0, tadv_corridor: 1.0, ei: 1.0 };
                 let o = scorer_core::Observation { features: x, surrogates: sur, drl_inputs: x };
                 prop_assert!(m.score_observation(&o).is_finite());
             };
@@ -350,7 +358,7 @@ proptest! {
         if let Ok(back) = model::decode(&wrap(kind, &payload)) {
             prop_assert_eq!(back.kind() as u8, kind);
             let x: Features = [f32::NAN; FEATURE_COUNT];
-            let s = Surrogates { box_distance: 1.0, ttc2d: 2.0, tadv: f32::INFINITY, ei: f32::NEG_INFINITY };
+            let s = Surrogates { box_distance: 1.0, ttc2d: 2.0, tadv: f32::INFINITY, tadv_corridor: f32::INFINITY, ei: f32::NEG_INFINITY };
             let o = scorer_core::Observation { features: x, surrogates: s, drl_inputs: x };
             prop_assert!(back.score_observation(&o).is_finite());
         }

@@ -11,7 +11,10 @@
 use proptest::prelude::*;
 use scorer_core::geometry::boxes_overlap;
 use scorer_core::surrogates::surrogates_and_features;
-use scorer_core::{box_distance, ei, features, surrogates, tadv, ttc2d, VehicleState};
+use scorer_core::{
+    box_distance, ei, features, surrogates, tadv, tadv_corridor, ttc2d, VehicleState,
+    STANDING_SPEED,
+};
 
 /// Any f32, with the nasty values drawn often.
 fn nasty_f32() -> impl Strategy<Value = f32> {
@@ -82,6 +85,8 @@ fn check_sentinels(a: &VehicleState, b: &VehicleState) -> Result<(), TestCaseErr
     prop_assert!(t >= 0.0, "ttc2d = {t}");
     let adv = tadv(a, b);
     prop_assert!(adv >= 0.0, "tadv = {adv}");
+    let corridor = tadv_corridor(a, b);
+    prop_assert!(corridor >= 0.0, "tadv_corridor = {corridor}");
     let e = ei(a, b);
     prop_assert!(!e.is_nan() && e != f32::INFINITY, "ei = {e}");
     let all = surrogates(a, b);
@@ -89,10 +94,12 @@ fn check_sentinels(a: &VehicleState, b: &VehicleState) -> Result<(), TestCaseErr
     prop_assert_eq!(all.ttc2d.to_bits(), t.to_bits());
     prop_assert_eq!(all.tadv.to_bits(), adv.to_bits());
     prop_assert_eq!(all.ei.to_bits(), e.to_bits());
+    prop_assert_eq!(all.tadv_corridor.to_bits(), corridor.to_bits());
     // The fused form (each heading and box computed once) gives the same bits as the parts.
     let (fused, fused_features) = surrogates_and_features(a, b);
-    let bits =
-        |s: scorer_core::Surrogates| [s.box_distance, s.ttc2d, s.tadv, s.ei].map(f32::to_bits);
+    let bits = |s: scorer_core::Surrogates| {
+        [s.box_distance, s.ttc2d, s.tadv, s.ei, s.tadv_corridor].map(f32::to_bits)
+    };
     prop_assert_eq!(bits(fused), bits(all));
     prop_assert_eq!(
         fused_features.map(f32::to_bits),
@@ -102,8 +109,65 @@ fn check_sentinels(a: &VehicleState, b: &VehicleState) -> Result<(), TestCaseErr
     Ok(())
 }
 
+/// Oracle of the corridor rule's "beside": the two boxes' corners projected, in f64, on the
+/// normal of `mover`'s heading; `None` within 1e-3 m of touching (rounding decides there).
+fn beside_oracle(mover: &VehicleState, standing: &VehicleState) -> Option<bool> {
+    let corners = |s: &VehicleState| {
+        let n = (f64::from(s.hx)).hypot(f64::from(s.hy));
+        let (ax, ay) = (f64::from(s.hx) / n, f64::from(s.hy) / n);
+        let (l, w) = (f64::from(s.length) / 2.0, f64::from(s.width) / 2.0);
+        [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)].map(|(i, j)| {
+            (
+                f64::from(s.x) + i * l * ax - j * w * ay,
+                f64::from(s.y) + i * l * ay + j * w * ax,
+            )
+        })
+    };
+    let n = (f64::from(mover.hx)).hypot(f64::from(mover.hy));
+    let normal = (-f64::from(mover.hy) / n, f64::from(mover.hx) / n);
+    let span = |s: &VehicleState| {
+        corners(s)
+            .iter()
+            .map(|(x, y)| x * normal.0 + y * normal.1)
+            .fold((f64::MAX, f64::MIN), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    };
+    let ((m0, m1), (s0, s1)) = (span(mover), span(standing));
+    let gap = (s0 - m1).max(m0 - s1);
+    (gap.abs() > 1e-3).then_some(gap > 0.0)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn the_corridor_rule_changes_nothing_between_moving_road_users(
+        a in road_user(), b in road_user()
+    ) {
+        prop_assume!(a.speed() >= STANDING_SPEED && b.speed() >= STANDING_SPEED);
+        prop_assert_eq!(tadv_corridor(&a, &b).to_bits(), tadv(&a, &b).to_bits());
+    }
+
+    #[test]
+    fn a_standing_road_user_beside_the_movers_path_is_no_conflict(
+        a in road_user(), b in road_user(), slow in 0.0f32..1.0
+    ) {
+        // b moves at `slow` times the standing speed, in its own direction.
+        let scale = slow * STANDING_SPEED / b.speed().max(1e-3);
+        let b = VehicleState { vx: b.vx * scale, vy: b.vy * scale, ..b };
+        prop_assume!(b.speed() < STANDING_SPEED && a.speed() >= STANDING_SPEED);
+        let reference = tadv(&a, &b);
+        for corridor in [tadv_corridor(&a, &b), tadv_corridor(&b, &a)] {
+            match beside_oracle(&a, &b) {
+                Some(true) => prop_assert_eq!(corridor, f32::INFINITY),
+                Some(false) => prop_assert!(
+                    corridor.to_bits() == reference.to_bits()
+                        || corridor.to_bits() == tadv(&b, &a).to_bits(),
+                    "corridor {corridor}, reference {reference}"
+                ),
+                None => {}
+            }
+        }
+    }
 
     #[test]
     fn nasty_inputs_give_finite_values_or_sentinels(a in nasty_state(), b in nasty_state()) {

@@ -21,7 +21,8 @@ use std::time::{Duration, Instant};
 use scorer_core::model::{self, Model};
 use scorer_core::warning::{TrackTable, WarningConfig, WarningEvent};
 use scorer_core::{
-    box_distance, drl_inputs, ei, features, tadv, ttc2d, Observation, Surrogates, VehicleState,
+    box_distance, drl_inputs, ei, features, tadv, tadv_corridor, ttc2d, Observation, Surrogates,
+    VehicleState,
 };
 
 const EXIT_PANIC: i32 = 101;
@@ -350,7 +351,7 @@ fn firmware_on_cortex_m4f_matches_host() {
             exact_floats += usize::from(a.to_bits() == b.to_bits());
             total_floats += 1;
         }
-        let fw_s: Vec<f32> = t[at("S") + 1..at("S") + 5]
+        let fw_s: Vec<f32> = t[at("S") + 1..at("S") + 6]
             .iter()
             .map(|x| hex_f32(x, "surrogate", line))
             .collect();
@@ -358,11 +359,18 @@ fn firmware_on_cortex_m4f_matches_host() {
             box_distance: box_distance(&ego, &partner),
             ttc2d: ttc2d(&ego, &partner),
             tadv: tadv(&ego, &partner),
+            tadv_corridor: tadv_corridor(&ego, &partner),
             ei: ei(&ego, &partner),
         };
-        let names = ["box_distance", "ttc2d", "tadv", "ei"];
-        let host_sv = [host_s.box_distance, host_s.ttc2d, host_s.tadv, host_s.ei];
-        for k in 0..4 {
+        let names = ["box_distance", "ttc2d", "tadv", "ei", "tadv_corridor"];
+        let host_sv = [
+            host_s.box_distance,
+            host_s.ttc2d,
+            host_s.tadv,
+            host_s.ei,
+            host_s.tadv_corridor,
+        ];
+        for k in 0..5 {
             assert!(
                 close(fw_s[k], host_sv[k]),
                 "golden line {csv_line}: {} MCU {:e} vs host {:e}",

@@ -283,9 +283,13 @@ pub enum Baseline {
     Tadv,
     /// `R = EI` (larger evasion intensity is riskier).
     Ei,
+    /// `R = -TAdv-corridor` (TAdv under the corridor rule; not a published measure, reported
+    /// where a model reads it: [`Baseline::read_by`]).
+    TadvCorridor,
 }
 
 impl Baseline {
+    /// The published baselines every report carries and DRL must beat, in table order.
     pub const ALL: [Baseline; 3] = [Baseline::Ttc2d, Baseline::Tadv, Baseline::Ei];
 
     /// The core surrogate the baseline reads.
@@ -294,7 +298,32 @@ impl Baseline {
             Baseline::Ttc2d => scorer_core::SurrogateKind::Ttc2d,
             Baseline::Tadv => scorer_core::SurrogateKind::Tadv,
             Baseline::Ei => scorer_core::SurrogateKind::Ei,
+            Baseline::TadvCorridor => scorer_core::SurrogateKind::TadvCorridor,
         }
+    }
+
+    /// The baseline of a kinematic surrogate; `None` for GSSM (a model, not a measure).
+    pub const fn of_surrogate(kind: scorer_core::SurrogateKind) -> Option<Baseline> {
+        match kind {
+            scorer_core::SurrogateKind::Ttc2d => Some(Baseline::Ttc2d),
+            scorer_core::SurrogateKind::Tadv => Some(Baseline::Tadv),
+            scorer_core::SurrogateKind::Ei => Some(Baseline::Ei),
+            scorer_core::SurrogateKind::TadvCorridor => Some(Baseline::TadvCorridor),
+            scorer_core::SurrogateKind::Gssm => None,
+        }
+    }
+
+    /// [`Baseline::ALL`], then the baseline of every other kinematic surrogate in `read` (the
+    /// surrogates the report's models read), once each, in order: a model is reported next to
+    /// each of its inputs.
+    pub fn read_by(read: impl IntoIterator<Item = scorer_core::SurrogateKind>) -> Vec<Baseline> {
+        let mut all = Baseline::ALL.to_vec();
+        for b in read.into_iter().filter_map(Baseline::of_surrogate) {
+            if !all.contains(&b) {
+                all.push(b);
+            }
+        }
+        all
     }
 
     /// Row name in tables and JSON (the surrogate's own name).

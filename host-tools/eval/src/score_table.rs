@@ -60,7 +60,7 @@ struct Columns {
     time: Float64Builder,
     kind: StringBuilder,
     scores: Vec<Float32Builder>,
-    surrogates: [Float32Builder; 3],
+    surrogates: [Float32Builder; SURROGATE_COLUMNS.len()],
     /// One per method with a training domain: 1 inside, 0 outside.
     in_domain: Vec<UInt8Builder>,
     rows: usize,
@@ -110,6 +110,15 @@ pub fn in_domain_column(model_name: &str) -> String {
     format!("{model_name}_in_domain")
 }
 
+/// The surrogates written after the model columns, each under its key (`ttc2d`, ...): the
+/// published three, then the corridor rule's TAdv, which MSRA terms and fallbacks may read.
+const SURROGATE_COLUMNS: [SurrogateKind; 4] = [
+    SurrogateKind::Ttc2d,
+    SurrogateKind::Tadv,
+    SurrogateKind::Ei,
+    SurrogateKind::TadvCorridor,
+];
+
 /// The table's schema for these model column names (and those of the guarded models' flags).
 fn schema(model_names: &[String], guarded_names: &[String]) -> Arc<Schema> {
     let mut fields = vec![
@@ -122,10 +131,7 @@ fn schema(model_names: &[String], guarded_names: &[String]) -> Arc<Schema> {
             .iter()
             .map(|n| Field::new(n, DataType::Float32, false)),
     );
-    fields.extend(
-        [SurrogateKind::Ttc2d, SurrogateKind::Tadv, SurrogateKind::Ei]
-            .map(|kind| Field::new(kind.key(), DataType::Float32, false)),
-    );
+    fields.extend(SURROGATE_COLUMNS.map(|kind| Field::new(kind.key(), DataType::Float32, false)));
     fields.extend(
         guarded_names
             .iter()
@@ -182,8 +188,8 @@ impl<'a, 'm, W: std::io::Write + Send> ScoreTable<'a, 'm, W> {
                 }
             }
             let s = &frame.observation.surrogates;
-            for (builder, v) in columns.surrogates.iter_mut().zip([s.ttc2d, s.tadv, s.ei]) {
-                builder.append_value(v);
+            for (builder, kind) in columns.surrogates.iter_mut().zip(SURROGATE_COLUMNS) {
+                builder.append_value(kind.value_in(s));
             }
             columns.rows += 1;
             self.rows += 1;

@@ -7,7 +7,7 @@
 use scorer_core::gssm::GssmScore;
 use scorer_core::model::{Model, ModelBlob, ModelKind};
 use scorer_core::Guarded;
-use scorer_core::Observation;
+use scorer_core::{Observation, SurrogateKind};
 
 use super::metrics::{warning_curve, WarningCurve};
 use super::protocol::{
@@ -124,6 +124,26 @@ impl Scorer<'_> {
         matches!(self, Scorer::Guarded(_))
     }
 
+    /// The surrogates the scorer reads: an MSRA's terms, a blob's kinematic-fallback terms, a
+    /// baseline's own (in that order, repeats kept).
+    pub fn surrogates_read(&self) -> Vec<SurrogateKind> {
+        let terms = |m: &Model<'_>| match m {
+            Model::Msra(msra) => msra.terms.iter().map(|t| t.kind).collect(),
+            _ => Vec::new(),
+        };
+        match self {
+            Scorer::Model(m) => terms(m),
+            Scorer::Guarded(blob) => {
+                let mut kinds = terms(&blob.model);
+                if let Some(fallback) = &blob.meta.kinematic_fallback {
+                    kinds.extend(fallback.terms().map(|t| t.kind));
+                }
+                kinds
+            }
+            Scorer::Baseline(b) => vec![b.surrogate()],
+        }
+    }
+
     /// The model kind, for a model scorer.
     pub fn model_kind(&self) -> Option<ModelKind> {
         match self {
@@ -152,6 +172,16 @@ impl<'a> Method<'a> {
     /// The three surrogate baselines, in table order (TTC2D, TAdv, EI).
     pub fn baselines() -> Vec<Method<'static>> {
         Baseline::ALL.into_iter().map(Method::baseline).collect()
+    }
+
+    /// The baselines to report next to `models`: [`Method::baselines`], then one for every other
+    /// kinematic surrogate the models read ([`Scorer::surrogates_read`], e.g. TAdv-corridor), so
+    /// that each model is compared with its own inputs.
+    pub fn baselines_for(models: &[Method<'_>]) -> Vec<Method<'static>> {
+        Baseline::read_by(models.iter().flat_map(|m| m.scorer.surrogates_read()))
+            .into_iter()
+            .map(Method::baseline)
+            .collect()
     }
 }
 
@@ -210,7 +240,15 @@ pub fn row_names(models: &[(Option<String>, &str, String)]) -> Vec<String> {
 
 /// The columns of the `riskctl score` table that are not model columns: the frame's identity and
 /// the surrogates (model columns and their `<model>_in_domain` flags go between and after).
-pub const FIXED_SCORE_COLUMNS: [&str; 6] = ["event_id", "time", "class", "ttc2d", "tadv", "ei"];
+pub const FIXED_SCORE_COLUMNS: [&str; 7] = [
+    "event_id",
+    "time",
+    "class",
+    "ttc2d",
+    "tadv",
+    "ei",
+    "tadv_corridor",
+];
 
 /// Suffix of a guarded model's flag column in the score table.
 const IN_DOMAIN_SUFFIX: &str = "_in_domain";
@@ -378,6 +416,7 @@ mod tests {
                 box_distance: 5.0,
                 ttc2d: ttc,
                 tadv: f32::INFINITY,
+                tadv_corridor: f32::INFINITY,
                 ei,
             },
             drl_inputs: [0.0; scorer_core::DRL_INPUT_COUNT],

@@ -119,7 +119,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Models first: a bad model file is found before a large event folder is read.
     let files = ModelFile::read_all(&args.models)?;
     let mut methods = named_models(&files)?;
-    methods.extend(Method::baselines());
+    let baselines = Method::baselines_for(&methods);
+    methods.extend(baselines);
     let thresholds = operating_thresholds(&args.thresholds, &files, &methods)?;
 
     let dir = &args.events;

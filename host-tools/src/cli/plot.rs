@@ -69,7 +69,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     super::output::refuse_overwriting_inputs(&files, &args.events, &[("--out", &args.out)])?;
     super::output::refuse_overwriting_a_model("--out", &args.out, "an image")?;
     let mut methods: Vec<Method<'_>> = named_models(&files)?;
-    methods.extend(Method::baselines());
+    let baselines = Method::baselines_for(&methods);
+    methods.extend(baselines);
     let thresholds = super::evaluate::operating_thresholds(&args.thresholds, &files, &methods)?;
     let event = find_event(&args.events, &args.event)?;
     let frames = event.frames.len();

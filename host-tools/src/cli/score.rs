@@ -20,11 +20,16 @@ OUTPUT COLUMNS (one row per frame, events in folder order, frames in time order)
   <model>...    each model's risk score R(o), one column per --model, named like the rows of
                 `riskctl evaluate` (DRL, MSRA, GSSM, SSRA, or NAME from NAME=FILE); larger is
                 riskier. Scored exactly as on the ECU (DRL through the int8 network).
-  ttc2d tadv ei the surrogates of the frame (s, s, m/s); inf / -inf = no conflict.
+  ttc2d tadv ei the published surrogates of the frame (s, s, m/s); inf / -inf = no conflict.
+  tadv_corridor TAdv under the corridor rule (s; a road user under 0.5 m/s counts as standing,
+                and a standing one wholly beside the mover's path is no conflict: inf), which
+                MSRA terms and kinematic fallbacks may read (docs/training.md).
   <model>_in_domain
                 for each model whose blob carries a training domain (`riskctl calibrate-domain`,
                 docs/domain-guard.md): 1 when the frame lies inside the input ranges its
-                training data covered, 0 outside. Its score column is then the guarded score
+                training data covered and, where the blob records geometry cells, in a cell
+                (gap band, partner's bearing and heading) its training data covered; 0 outside
+                (`riskctl inspect-model` prints the ranges and how many cells are covered). Its score column is then the guarded score
                 (the blob's policy: flag-only scores as without the record, clamp scores the
                 inputs moved into their ranges, fallback the kinematic fallback outside; blend,
                 the shipped DRL's, also mixes that fallback into the score inside).

@@ -142,6 +142,7 @@ fn ttc_observation(ttc: f32) -> Observation {
             box_distance: 10.0,
             ttc2d: ttc,
             tadv: f32::INFINITY,
+            tadv_corridor: f32::INFINITY,
             ei: f32::NEG_INFINITY,
         },
         drl_inputs: [0.0; FEATURE_COUNT],

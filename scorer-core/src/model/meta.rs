@@ -166,21 +166,17 @@ impl<'a> ModelMeta<'a> {
         present_exactly_when(
             policy.is_some_and(OutsidePolicy::uses_fallback),
             self.kinematic_fallback.is_some(),
-            "fallback or blend policy without a kinematic-fallback record (tag 3)",
+            "the policy needs a fallback record (tag 3)",
             (
                 "kinematic_fallback",
-                "a kinematic-fallback record (tag 3) needs a training domain with the fallback \
-                 or blend policy",
+                "tag 3 needs the fallback or blend policy",
             ),
         )?;
         present_exactly_when(
             policy == Some(OutsidePolicy::Blend),
             self.blend.is_some(),
-            "blend policy without a blend record (tag 5)",
-            (
-                "blend",
-                "a blend record (tag 5) needs a training domain with the blend policy",
-            ),
+            "the policy needs a blend record (tag 5)",
+            ("blend", "tag 5 needs the blend policy"),
         )
     }
 

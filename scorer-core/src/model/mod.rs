@@ -425,7 +425,7 @@ fn meta_fits_model(model: &Model<'_>, meta: &ModelMeta<'_>) -> Result<(), ModelE
     if meta.coverage().is_some() && !model.runs_a_network() {
         return Err(ModelError::BadRecord {
             field: "geometry_coverage",
-            reason: "only DRL and GSSM blobs carry one (an MSRA's terms are kinematic)",
+            reason: "only DRL and GSSM blobs carry one",
         });
     }
     Ok(())

@@ -3,6 +3,8 @@
 //!
 //! - [`ttc2d`]: two-dimensional time-to-collision (s). `f32::INFINITY` = no conflict.
 //! - [`tadv`]: time advantage (s). `f32::INFINITY` = no conflict.
+//! - [`tadv_corridor`]: TAdv under the corridor rule (s): not a reference measure; standing road
+//!   users beside the mover's path are no conflict. `f32::INFINITY` = no conflict.
 //! - [`ei`]: emergency index (m/s). `f32::NEG_INFINITY` = no conflict.
 //! - [`box_distance`](crate::geometry::box_distance): exact gap between the boxes (m).
 //!
@@ -18,10 +20,12 @@ mod angle;
 mod ei;
 mod guard;
 mod tadv;
+mod tadv_corridor;
 mod ttc2d;
 
 pub use ei::ei;
 pub use tadv::tadv;
+pub use tadv_corridor::{tadv_corridor, STANDING_SPEED};
 pub use ttc2d::ttc2d;
 
 /// Which surrogate an MSRA term (or a baseline) reads.
@@ -39,15 +43,19 @@ pub enum SurrogateKind {
     /// riskier; dimensionless, in the range of its [`GssmScore`](crate::gssm::GssmScore) mode); not a kinematic measure, so not in [`Surrogates`].
     /// Wire index 3.
     Gssm = 3,
+    /// TAdv under the corridor rule ([`tadv_corridor`], s; smaller is riskier, `+inf` = no
+    /// conflict): a standing road user beside the mover's path is no conflict. Wire index 4.
+    TadvCorridor = 4,
 }
 
 impl SurrogateKind {
     /// Every kind, in wire order.
-    pub const ALL: [SurrogateKind; 4] = [
+    pub const ALL: [SurrogateKind; 5] = [
         SurrogateKind::Ttc2d,
         SurrogateKind::Tadv,
         SurrogateKind::Ei,
         SurrogateKind::Gssm,
+        SurrogateKind::TadvCorridor,
     ];
 
     /// The name reports and tables print (`TTC2D`, `TAdv`, `EI`, `GSSM`).
@@ -57,16 +65,18 @@ impl SurrogateKind {
             SurrogateKind::Tadv => "TAdv",
             SurrogateKind::Ei => "EI",
             SurrogateKind::Gssm => "GSSM",
+            SurrogateKind::TadvCorridor => "TAdv-corridor",
         }
     }
 
-    /// The key configuration and model files use (`ttc2d`, `tadv`, `ei`, `gssm`).
+    /// The key configuration and model files use (`ttc2d`, `tadv`, `ei`, `gssm`, `tadv_corridor`).
     pub const fn key(self) -> &'static str {
         match self {
             SurrogateKind::Ttc2d => "ttc2d",
             SurrogateKind::Tadv => "tadv",
             SurrogateKind::Ei => "ei",
             SurrogateKind::Gssm => "gssm",
+            SurrogateKind::TadvCorridor => "tadv_corridor",
         }
     }
 
@@ -77,9 +87,9 @@ impl SurrogateKind {
         if text.eq_ignore_ascii_case("ttc") {
             return Some(SurrogateKind::Ttc2d);
         }
-        SurrogateKind::ALL
-            .into_iter()
-            .find(|kind| text.eq_ignore_ascii_case(kind.key()))
+        SurrogateKind::ALL.into_iter().find(|kind| {
+            text.eq_ignore_ascii_case(kind.key()) || text.eq_ignore_ascii_case(kind.name())
+        })
     }
 
     /// True where a larger value means more risk (EI, GSSM); TTC2D and TAdv are riskier when
@@ -96,6 +106,7 @@ impl SurrogateKind {
             SurrogateKind::Tadv => surrogates.tadv,
             SurrogateKind::Ei => surrogates.ei,
             SurrogateKind::Gssm => f32::NAN,
+            SurrogateKind::TadvCorridor => surrogates.tadv_corridor,
         }
     }
 }
@@ -112,6 +123,9 @@ pub struct Surrogates {
     pub ttc2d: f32,
     /// Time advantage (s), `f32::INFINITY` = no conflict.
     pub tadv: f32,
+    /// Time advantage under the corridor rule (s, [`tadv_corridor`]), `f32::INFINITY` = no
+    /// conflict.
+    pub tadv_corridor: f32,
     /// Emergency index (m/s), `f32::NEG_INFINITY` = no conflict.
     pub ei: f32,
 }
@@ -125,6 +139,7 @@ impl Surrogates {
             SurrogateKind::Tadv => Some(self.tadv),
             SurrogateKind::Ei => Some(self.ei),
             SurrogateKind::Gssm => None,
+            SurrogateKind::TadvCorridor => Some(self.tadv_corridor),
         }
     }
 }
@@ -208,15 +223,18 @@ fn surrogates_from(
             box_distance: f32::INFINITY,
             ttc2d: f32::INFINITY,
             tadv: f32::INFINITY,
+            tadv_corridor: f32::INFINITY,
             ei: f32::NEG_INFINITY,
         };
     };
     let boxes = BoxPair::new(&bi, &bj);
     let box_distance = boxes.gap();
+    let tadv = tadv::tadv_of_pair(&boxes, ego, partner, speeds, || box_distance);
     Surrogates {
         box_distance,
         ttc2d: ttc2d::ttc2d_of_boxes(&boxes.a, &boxes.b, boxes.b_in_a.0 < 0.0, ego, partner),
-        tadv: tadv::tadv_of_pair(&boxes, ego, partner, speeds, || box_distance),
+        tadv,
+        tadv_corridor: tadv_corridor::tadv_corridor_of_pair(&boxes, speeds, tadv),
         ei: ei::ei_of_pair(&boxes, ego, partner, speeds, distance, || {
             heading_angle.unwrap_or_else(|| libm::atan2f(boxes.sin, boxes.cos))
         }),
@@ -266,7 +284,12 @@ mod tests {
             &test_car(0.0, 0.0, -10.0, 0.0, -1.0, 0.0),
             &test_car(0.0, 50.0, 0.0, 10.0, 0.0, 1.0),
         );
-        for kind in [SurrogateKind::Ttc2d, SurrogateKind::Tadv, SurrogateKind::Ei] {
+        for kind in [
+            SurrogateKind::Ttc2d,
+            SurrogateKind::Tadv,
+            SurrogateKind::Ei,
+            SurrogateKind::TadvCorridor,
+        ] {
             let v = kind.value_in(&far);
             assert!(v.is_infinite(), "{kind:?}: {v}");
             assert_eq!(kind.larger_is_riskier(), v < 0.0, "{kind:?}");

@@ -16,7 +16,7 @@
 //! - `SIZES context_used=.. context_reserved=.. track=.. table_base=.. max_tracks=.. macs=..
 //!   inputs=.. drl_blob=.. msra_blob=..` and, with `stack`, `STAGESTACK <stage>=<bytes> ...`
 //! - `CONFIG <threshold x> <hysteresis x> <min_on_us> <stale_after_us>` (live mode, evict when full)
-//! - per input: `R <csv line> I <18 x> F <13 x> S <4 x> X <13 x> D <x> M <x> W <id> <now_us> <warning>
+//! - per input: `R <csv line> I <18 x> F <13 x> S <5 x> X <13 x> D <x> M <x> W <id> <now_us> <warning>
 //!   <event> <new> <evicted|-> C <c-api-agrees 0/1> P <pipeline-agrees 0/1>`
 //! - `STACK total=.. pipeline=.. painted_bottom_reached=0/1`, `DONE <n>`, then exit code 0.
 #![no_std]
@@ -35,8 +35,8 @@ use scorer_core::geometry_cell::geometry_cell;
 use scorer_core::model::{self, Model, ModelBlob, OutsidePolicy};
 use scorer_core::warning::{Track, TrackTable, WarningConfig, WarningEvent};
 use scorer_core::{
-    box_distance, drl_inputs, ei, features, tadv, ttc2d, DrlInputs, Observation, Surrogates,
-    VehicleState,
+    box_distance, drl_inputs, ei, features, tadv, tadv_corridor, ttc2d, DrlInputs, Observation,
+    Surrogates, VehicleState,
 };
 use scorer_ffi::{
     RiskscoreContext, RiskscorePairResult, RiskscoreStatus, RiskscoreTrackStatus,
@@ -170,12 +170,15 @@ fn main() -> ! {
         let t2 = black_box(ttc2d(black_box(&ego), black_box(&partner)));
         probe::probe_tadv();
         let ta = black_box(tadv(black_box(&ego), black_box(&partner)));
+        probe::probe_tadv_corridor();
+        let tc = black_box(tadv_corridor(black_box(&ego), black_box(&partner)));
         probe::probe_ei();
         let e = black_box(ei(black_box(&ego), black_box(&partner)));
         let s = Surrogates {
             box_distance: bd,
             ttc2d: t2,
             tadv: ta,
+            tadv_corridor: tc,
             ei: e,
         };
         probe::probe_drl_inputs();
@@ -261,7 +264,7 @@ fn main() -> ! {
             out.str(" ").f32(v);
         }
         out.str(" S");
-        for v in [bd, t2, ta, e] {
+        for v in [bd, t2, ta, e, tc] {
             out.str(" ").f32(v);
         }
         out.str(" X");
@@ -318,7 +321,7 @@ fn main() -> ! {
 
 /// Worst stack depth of each stage over the first `n` inputs (`STAGESTACK` line, bytes).
 fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
-    let mut worst = [0usize; 10];
+    let mut worst = [0usize; 11];
     let mut table =
         match TrackTable::<RISKSCORE_MAX_TRACKS>::new(WarningConfig::live(0.0, 0.0, 0, 1)) {
             Ok(t) => t,
@@ -331,10 +334,12 @@ fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
         let (t2, d2) = stack::depth_of(|| ttc2d(&ego, &p));
         let (ta, d3) = stack::depth_of(|| tadv(&ego, &p));
         let (e, d4) = stack::depth_of(|| ei(&ego, &p));
+        let (tc, d10) = stack::depth_of(|| tadv_corridor(&ego, &p));
         let s = Surrogates {
             box_distance: bd,
             ttc2d: t2,
             tadv: ta,
+            tadv_corridor: tc,
             ei: e,
         };
         let (x, d9) = stack::depth_of(|| drl_inputs(&ego, &p));
@@ -349,7 +354,7 @@ fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
         let (_, d8) = stack::depth_of(|| drl.score(&ego, &p));
         for (w, d) in worst
             .iter_mut()
-            .zip([d0, d1, d2, d3, d4, d5, d6, d7, d8, d9])
+            .zip([d0, d1, d2, d3, d4, d5, d6, d7, d8, d9, d10])
         {
             *w = (*w).max(d);
         }
@@ -366,6 +371,7 @@ fn stage_stacks(out: &mut Out, drl: &Model<'_>, msra: &Model<'_>, n: usize) {
         "warning_update",
         "drl_score",
         "drl_inputs",
+        "tadv_corridor",
     ];
     for (name, w) in names.iter().zip(worst) {
         out.str(" ").str(name).str("=").u32(w as u32);

@@ -38,4 +38,5 @@ probes! {
     probe_idle = 11;
     probe_drl_inputs = 12;
     probe_guard = 13;
+    probe_tadv_corridor = 14;
 }

@@ -113,7 +113,7 @@ impl Default for DrlConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MsraConfig {
-    /// Surrogates combined, by name: `ttc2d`, `tadv`, `ei`.
+    /// Surrogates combined, by name: `ttc2d`, `tadv`, `ei`, `tadv_corridor`.
     pub surrogates: Vec<String>,
     /// Overrides `optimiser.learning_rate` when set (MSRA has few parameters and tolerates more).
     pub learning_rate: Option<f64>,
@@ -164,9 +164,9 @@ impl MsraConfig {
 
     /// Clip range `[lo, hi]` of surrogate `kind`'s transform under this configuration.
     pub fn range(&self, kind: SurrogateKind) -> (f32, f32) {
-        use scorer_core::SurrogateKind::{Tadv, Ttc2d};
+        use scorer_core::SurrogateKind::{Tadv, TadvCorridor, Ttc2d};
         match kind {
-            Ttc2d | Tadv => (0.0, self.time_clip),
+            Ttc2d | Tadv | TadvCorridor => (0.0, self.time_clip),
             other => super::msra::default_range(other),
         }
     }

@@ -367,7 +367,8 @@ pub fn run_fold(
         });
     }
     if opts.baselines {
-        methods.extend(Method::baselines());
+        let baselines = Method::baselines_for(&methods);
+        methods.extend(baselines);
     }
     let (report, runs) = eval::evaluate_methods(&observed, &methods)
         .map_err(|source| CvError::Eval { fold, source })?;

@@ -16,16 +16,16 @@ use riskscore_data::events::Sequence;
 
 use crate::comparisons::ObservationTable;
 
-/// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`; case-insensitive, see
+/// A geometric surrogate by name (`ttc2d`, `tadv`, `ei`, `tadv_corridor`; case-insensitive, see
 /// [`SurrogateKind::parse`]). GSSM is not one: it is a learned model, trained by `gssm`.
 pub fn parse_surrogate(name: &str) -> Option<SurrogateKind> {
     SurrogateKind::parse(name).filter(|&kind| kind != SurrogateKind::Gssm)
 }
 
-/// Clip range `[lo, hi]` of the transform of each surrogate (TTC2D and TAdv in s, EI in m/s).
+/// Clip range `[lo, hi]` of the transform of each surrogate (the times in s, EI in m/s).
 pub fn default_range(kind: SurrogateKind) -> (f32, f32) {
     match kind {
-        SurrogateKind::Ttc2d | SurrogateKind::Tadv => (0.0, 10.0),
+        SurrogateKind::Ttc2d | SurrogateKind::Tadv | SurrogateKind::TadvCorridor => (0.0, 10.0),
         SurrogateKind::Ei => (0.0, 20.0),
         SurrogateKind::Gssm => (0.0, 1.0),
     }
@@ -39,7 +39,7 @@ pub fn transformed(kind: SurrogateKind, raw: f32, lo: f32, hi: f32) -> f32 {
 /// One MSRA term's float parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MsraTermParams {
-    /// `ttc2d`, `tadv` or `ei`.
+    /// `ttc2d`, `tadv`, `ei` or `tadv_corridor`.
     pub surrogate: String,
     pub lo: f32,
     pub hi: f32,
