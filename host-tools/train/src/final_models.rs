@@ -67,7 +67,12 @@ pub fn train_and_export(
     };
     let drl = train::train_drl(drl_train, drl_comparisons, config, progress)?;
     let msra = train::train_msra(train, &prepared, config, progress)?;
-    let fallback_msra = train::train_fallback_msra(drl_train, drl_comparisons, config, progress)?;
+    let fallback_msra = train::train_fallback_msra(
+        (drl_train, drl_comparisons),
+        (train, &prepared),
+        config,
+        progress,
+    )?;
     let q = quantize::quantize(&drl.params, &drl.calibration).map_err(ExportError::from)?;
     let obs = train::calibration_observations(drl_train, usize::MAX);
     let agreement = quantize::verify(&drl.params, &q, &obs).map_err(ExportError::from)?;

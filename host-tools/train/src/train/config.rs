@@ -194,7 +194,7 @@ impl Default for QuantisationConfig {
 
 /// The training-domain record training attaches to every model it exports (final models and the
 /// fold models of cross-validation and the benchmarks): `docs/domain-guard.md`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GuardConfig {
     pub policy: GuardPolicy,
@@ -207,6 +207,21 @@ pub struct GuardConfig {
     /// the fallback is the kinematic terms of the MSRA that ships (docs/training.md, "A decayed
     /// fallback", measured and not the default).
     pub fallback_weight_decay: Option<f64>,
+    /// Under `fallback` and `blend`, opt-in: the surrogates (as `msra.surrogates`) of an MSRA
+    /// whose kinematic terms become the DRL's fallback, trained on the shipped MSRA's data with
+    /// its settings (or, with `fallback_weight_decay`, on the DRL's); the MSRA that ships keeps
+    /// `msra.surrogates`. E.g. `["tadv", "ei"]` keeps the reference TAdv in the DRL's blend while
+    /// MSRA reads `tadv_corridor`. `None` (the default): the fallback reads `msra.surrogates`.
+    pub fallback_surrogates: Option<Vec<String>>,
+}
+
+/// The sequences and comparisons a DRL's own fallback MSRA trains on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FallbackData {
+    /// The DRL's (with its own extra folders).
+    Drl,
+    /// The shipped MSRA's.
+    Msra,
 }
 
 /// The network's share under `blend` by default: measured on the held-out rounds against 0.5
@@ -219,6 +234,7 @@ impl Default for GuardConfig {
             policy: GuardPolicy::default(),
             blend_weight: DEFAULT_BLEND_WEIGHT,
             fallback_weight_decay: None,
+            fallback_surrogates: None,
         }
     }
 }
@@ -336,8 +352,17 @@ pub enum InvalidConfig {
     Beta,
     #[error("msra.surrogates: 1 to 4 names")]
     SurrogateCount,
-    #[error("msra.surrogates: unknown surrogate {0:?} (expected ttc2d, tadv or ei)")]
+    #[error(
+        "msra.surrogates: unknown surrogate {0:?} (expected ttc2d, tadv, ei or tadv_corridor)"
+    )]
     UnknownSurrogate(String),
+    #[error("guard.fallback_surrogates: 1 to 4 names")]
+    FallbackSurrogateCount,
+    #[error(
+        "guard.fallback_surrogates: unknown surrogate {0:?} (expected ttc2d, tadv, ei or \
+         tadv_corridor)"
+    )]
+    UnknownFallbackSurrogate(String),
     #[error("guard.blend_weight = {0}: must lie strictly between 0 and 1")]
     BlendWeight(f32),
 }
@@ -466,17 +491,27 @@ impl TrainConfig {
         optimiser
     }
 
-    /// The configuration a DRL's own fallback MSRA trains with, when `[guard]
-    /// fallback_weight_decay` asks for one and the policy falls back: this configuration with
-    /// that decay as `msra.weight_decay`. `None` when the DRL takes the shipped MSRA's terms.
-    pub fn fallback_msra_config(&self) -> Option<TrainConfig> {
-        let decay = self.guard.fallback_weight_decay?;
+    /// The configuration a DRL's own fallback MSRA trains with, and on whose data, when `[guard]
+    /// fallback_weight_decay` or `fallback_surrogates` asks for one and the policy falls back:
+    /// this configuration with that decay as `msra.weight_decay` (on the DRL's data) and those
+    /// surrogates as `msra.surrogates` (on the shipped MSRA's data unless a decay is set too).
+    /// `None` when the DRL takes the shipped MSRA's terms.
+    pub fn fallback_msra_config(&self) -> Option<(TrainConfig, FallbackData)> {
         if !self.guard.policy.uses_fallback() {
             return None;
         }
         let mut config = self.clone();
-        config.msra.weight_decay = Some(decay);
-        Some(config)
+        if let Some(surrogates) = &self.guard.fallback_surrogates {
+            config.msra.surrogates = surrogates.clone();
+        }
+        match self.guard.fallback_weight_decay {
+            Some(decay) => {
+                config.msra.weight_decay = Some(decay);
+                Some((config, FallbackData::Drl))
+            }
+            None if self.guard.fallback_surrogates.is_some() => Some((config, FallbackData::Msra)),
+            None => None,
+        }
     }
 
     /// Parse TOML text; `origin` names the file in errors.
@@ -592,6 +627,16 @@ impl TrainConfig {
         for s in &self.msra.surrogates {
             if super::msra::parse_surrogate(s).is_none() {
                 return Err(InvalidConfig::UnknownSurrogate(s.clone()));
+            }
+        }
+        if let Some(surrogates) = &self.guard.fallback_surrogates {
+            if surrogates.is_empty() || surrogates.len() > 4 {
+                return Err(InvalidConfig::FallbackSurrogateCount);
+            }
+            for s in surrogates {
+                if super::msra::parse_surrogate(s).is_none() {
+                    return Err(InvalidConfig::UnknownFallbackSurrogate(s.clone()));
+                }
             }
         }
         let w = self.guard.blend_weight;
@@ -727,7 +772,8 @@ mod tests {
     fn a_fallback_weight_decay_trains_a_fallback_msra_under_a_falling_back_policy() {
         let config =
             TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.3", "t.toml").unwrap();
-        let fallback = config.fallback_msra_config().expect("a fallback MSRA");
+        let (fallback, data) = config.fallback_msra_config().expect("a fallback MSRA");
+        assert_eq!(data, FallbackData::Drl);
         assert_eq!(fallback.msra_optimiser().weight_decay, 0.3);
         // Only MSRA's decay differs from the run's configuration.
         assert_eq!(
@@ -740,7 +786,10 @@ mod tests {
         // The decay MSRA has still asks for a second MSRA (it trains on the DRL's data).
         let same =
             TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.0001", "t.toml").unwrap();
-        assert_eq!(same.fallback_msra_config().map(|c| c.msra), Some(same.msra));
+        assert_eq!(
+            same.fallback_msra_config().map(|(c, _)| c.msra),
+            Some(same.msra)
+        );
         // No key (the default) or a policy without a fallback: no second MSRA.
         assert_eq!(TrainConfig::default().fallback_msra_config(), None);
         let mut none = config.clone();
@@ -749,5 +798,53 @@ mod tests {
         let mut clamp = config.clone();
         clamp.guard.policy = GuardPolicy::Clamp;
         assert_eq!(clamp.fallback_msra_config(), None);
+    }
+
+    #[test]
+    fn fallback_surrogates_train_a_fallback_msra_on_the_shipped_msras_data() {
+        let config = TrainConfig::from_toml(
+            "[msra]\nsurrogates = [\"tadv_corridor\", \"ei\"]\n[guard]\nfallback_surrogates = [\"tadv\", \"ei\"]",
+            "t.toml",
+        )
+        .unwrap();
+        let (fallback, data) = config.fallback_msra_config().expect("a fallback MSRA");
+        assert_eq!(data, FallbackData::Msra);
+        assert_eq!(fallback.msra.surrogates, ["tadv", "ei"]);
+        // Only the surrogates differ; the shipped MSRA keeps its own.
+        assert_eq!(
+            TrainConfig {
+                msra: config.msra.clone(),
+                ..fallback.clone()
+            },
+            config
+        );
+        assert_eq!(config.msra.input_names(), ["TAdv-corridor", "EI"]);
+        // With a decay too, the DRL's data.
+        let mut decayed = config.clone();
+        decayed.guard.fallback_weight_decay = Some(0.3);
+        let (both, data) = decayed.fallback_msra_config().unwrap();
+        assert_eq!(data, FallbackData::Drl);
+        assert_eq!(both.msra.surrogates, ["tadv", "ei"]);
+        assert_eq!(both.msra.weight_decay, Some(0.3));
+        // Bad lists are refused with the key.
+        for (text, expected) in [
+            (
+                "fallback_surrogates = []",
+                "guard.fallback_surrogates: 1 to 4 names",
+            ),
+            (
+                "fallback_surrogates = [\"tadv\", \"ttc3d\"]",
+                "unknown surrogate \"ttc3d\"",
+            ),
+            (
+                "fallback_surrogates = [\"gssm\"]",
+                "unknown surrogate \"gssm\"",
+            ),
+        ] {
+            let err = TrainConfig::from_toml(&format!("[guard]\n{text}"), "t.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(expected), "{err}");
+        }
     }
 }

@@ -289,10 +289,17 @@ pub fn run_fold(
     times.drl = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     // The DRL's fallback outside its domain is the kinematic part of the MSRA trained beside it,
-    // or, under `[guard] fallback_weight_decay`, of one trained for it alone on the DRL's data.
+    // or, under `[guard] fallback_weight_decay` or `fallback_surrogates`, of one trained for it
+    // alone.
     let drl_falls_back = opts.models.drl && cfg.guard.policy.uses_fallback();
     let fallback_msra = if drl_falls_back {
-        super::train_fallback_msra(drl_train, drl_comparisons, &cfg, opts.progress).map_err(terr)?
+        super::train_fallback_msra(
+            (drl_train, drl_comparisons),
+            (&train_ts, &prepared),
+            &cfg,
+            opts.progress,
+        )
+        .map_err(terr)?
     } else {
         None
     };

@@ -34,7 +34,7 @@ use riskscore_data::events::Sequence;
 
 use crate::comparisons::{self, ComparisonSet, ObservationTable};
 use crate::nn::trainer::{adamw, EarlyStopping, EpochOutcome};
-pub use config::{GuardConfig, GuardPolicy, TrainConfig, DEFAULT_BLEND_WEIGHT};
+pub use config::{FallbackData, GuardConfig, GuardPolicy, TrainConfig, DEFAULT_BLEND_WEIGHT};
 use config::{ObjectiveConfig, OptimiserConfig};
 pub use model::RiskModel;
 pub use objective::LossParts;
@@ -464,18 +464,25 @@ pub fn train_drl(
     })
 }
 
-/// The DRL's own fallback MSRA, trained on the DRL's sequences and comparisons, when `[guard]
-/// fallback_weight_decay` asks for one (`TrainConfig::fallback_msra_config`); `None`: the DRL
-/// falls back on the kinematic terms of the MSRA that ships.
+/// The DRL's own fallback MSRA, when `[guard] fallback_weight_decay` or `fallback_surrogates`
+/// asks for one (`TrainConfig::fallback_msra_config`), trained on the DRL's sequences and
+/// comparisons (`drl`) or on the shipped MSRA's (`msra`) as that says; `None`: the DRL falls back
+/// on the kinematic terms of the MSRA that ships.
 pub fn train_fallback_msra(
-    drl_train: &[Sequence],
-    drl_comparisons: &PreparedComparisons,
+    drl: (&[Sequence], &PreparedComparisons),
+    msra: (&[Sequence], &PreparedComparisons),
     config: &TrainConfig,
     progress: Progress,
 ) -> Result<Option<TrainedMsra>, TrainError> {
     config
         .fallback_msra_config()
-        .map(|c| train_msra(drl_train, drl_comparisons, &c, progress))
+        .map(|(c, data)| {
+            let (train, comparisons) = match data {
+                FallbackData::Drl => drl,
+                FallbackData::Msra => msra,
+            };
+            train_msra(train, comparisons, &c, progress)
+        })
         .transpose()
 }
 
