@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use riskscore_eval::domain_ranges::{Tails, DEFAULT_TAILS};
 use riskscore_eval::model_files::ModelFile;
-use scorer_core::model::{Blend, Model, ModelBlob, OutsidePolicy};
+use scorer_core::model::{
+    Blend, KinematicFallback, Model, ModelBlob, ModelMeta, OutsidePolicy, ThresholdRule,
+    TrainingDomain,
+};
 use scorer_core::msra::MsraTerm;
 
 const ABOUT_DOMAIN: &str = "\
@@ -183,16 +186,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         riskscore_train::export::policy_text(args.policy)
     );
     super::output::summary(&args.out, format_args!("{summary}"));
-    // The blend moves every score inside the domain: a threshold chosen on the old scores no
-    // longer has the false-alarm rate its record states.
-    if blend.is_some() && blend != blob.meta.blend && blob.meta.default_threshold.is_some() {
+    // A threshold calibrated on the old scores no longer has the false-alarm rate its record
+    // states once the guard scores differently (another policy, ranges, cells, fallback or
+    // blend); the kind's rule of thumb claims no rate.
+    let new = scorer_core::model::decode_blob(&bytes)
+        .map_err(|e| anyhow::anyhow!("the new blob does not decode: {e}"))?;
+    let calibrated = blob
+        .meta
+        .default_threshold
+        .is_some_and(|t| matches!(t.rule, ThresholdRule::SafeShare { .. }));
+    if calibrated && scoring_records(&blob.meta) != scoring_records(&new.meta) {
         eprintln!(
-            "riskctl: {}: the stored default threshold was chosen on scores the blend has \
-             changed; run `riskctl calibrate` on it again",
+            "riskctl: {}: the stored default threshold was calibrated on scores this guard \
+             changes (its policy, ranges, cells, fallback or blend); run `riskctl calibrate` on \
+             it again",
             args.out.display()
         );
     }
     Ok(())
+}
+
+/// The records that move a blob's scores: none without a training domain or under flag-only
+/// (which scores as unguarded).
+fn scoring_records<'m>(
+    meta: &ModelMeta<'m>,
+) -> Option<(
+    TrainingDomain<'m>,
+    Option<KinematicFallback<'m>>,
+    Option<Blend>,
+)> {
+    let domain = meta
+        .training_domain
+        .filter(|d| d.policy != OutsidePolicy::FlagOnly)?;
+    Some((domain, meta.kinematic_fallback, meta.blend))
 }
 
 /// The MSRA terms of `--fallback-from` under `--policy fallback` or `blend` (for a DRL or GSSM
