@@ -56,7 +56,7 @@ pub struct Args {
     out: PathBuf,
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     if !(0.0..=100.0).contains(&args.false_alarm_rate) {
         bail!(
             "--false-alarm-rate {}: must be a percentage from 0 to 100",
@@ -65,6 +65,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let file = ModelFile::read(&args.model.display().to_string())?;
     refuse_overlaps(&args)?;
+    // A folder named twice would count its sequences twice (in the share and the blob's record).
+    args.normal = distinct_folders("--normal", &args.normal);
+    args.never_warn = distinct_folders("--never-warn", &args.never_warn);
     let methods = named_models(std::slice::from_ref(&file))?;
     let mut maxima = Vec::new();
     for dir in &args.normal {
@@ -174,12 +177,35 @@ fn curve_of(
         ),
         refusal => refusal.with_context(|| format!("event folder {}", dir.display()))?,
     }
+    super::evaluate::report_issues(
+        "event(s) yield no sequence under the preparation rules",
+        &folder.prepare_issues,
+    );
     Ok(folder
         .curves
         .into_iter()
         .next()
         .context("no model row was evaluated")?
         .1)
+}
+
+/// `folders` with each folder once (the same canonical path named twice, as `d` and `./d/`, is
+/// read once, with a note); a folder that cannot be resolved is kept (reading it names the error).
+fn distinct_folders(flag: &str, folders: &[PathBuf]) -> Vec<PathBuf> {
+    // (canonical path, as given) of each folder kept.
+    let mut kept: Vec<(PathBuf, &PathBuf)> = Vec::new();
+    for dir in folders {
+        let key = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.clone());
+        match kept.iter().find(|(k, _)| *k == key) {
+            Some((_, first)) => eprintln!(
+                "riskctl: note: {flag} {} is {} again; it is read once",
+                dir.display(),
+                first.display()
+            ),
+            None => kept.push((key, dir)),
+        }
+    }
+    kept.into_iter().map(|(_, dir)| dir.clone()).collect()
 }
 
 fn workers() -> usize {
