@@ -290,6 +290,109 @@ fn calibrate_domain_help_examples_name_real_paths_and_run() {
     }
 }
 
+/// `calibrate-domain` warned about a calibrated threshold only when it added or changed a blend
+/// weight: a policy change or a refitted fallback left "5.0 % do" in the blob, silently, with
+/// 14.7 % of the same sequences warning. Now any change of what the guard scores warns; a guard
+/// that scores as before (flag-only, like no record) does not.
+#[test]
+fn calibrate_domain_warns_when_it_changes_the_scores_a_calibrated_threshold_was_chosen_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let events = repo().join("data/ngsim-us101-safe");
+    let run = |model: &Path, extra: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let mut args = vec![
+            "calibrate-domain",
+            "--model",
+            model.to_str().unwrap(),
+            "--events",
+            events.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = riskctl(&args);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        (out, err.contains("run `riskctl calibrate` on it again"))
+    };
+    let shipped = shipped_model("drl-default.rsk");
+    let msra = shipped_model("msra-default.rsk");
+    // Blend -> flag-only: the scores change.
+    let (flag_only, warned) = run(&shipped, &[], "flag-only.rsk");
+    assert!(warned, "blend -> flag-only");
+    // Blend at the same weight, the fallback refitted on other frames: they change too.
+    let reblend = [
+        "--policy",
+        "blend",
+        "--fallback-from",
+        msra.to_str().unwrap(),
+    ];
+    assert!(
+        run(&shipped, &reblend, "reblend.rsk").1,
+        "refitted fallback"
+    );
+    // Flag-only again (new ranges, same scores: those of the bare network): no warning.
+    assert!(
+        !run(&flag_only, &[], "again.rsk").1,
+        "flag-only -> flag-only"
+    );
+}
+
+/// `calibrate` counted a folder named twice (`d` and `d/`) twice, in the share and in the blob's
+/// record ("d + d"), and said nothing of safe events that yield no sequence, which the threshold
+/// is then chosen without (`evaluate` lists them).
+#[test]
+fn calibrate_reads_a_repeated_folder_once_and_lists_events_without_a_sequence() {
+    use riskscore_data::events::EventWriter;
+    let dir = tempfile::tempdir().unwrap();
+    let normal = dir.path().join("normal");
+    let mut w = EventWriter::create(&normal).unwrap();
+    for k in 0..6 {
+        w.write_event(&common::calm_following(
+            format!("calm-{k}"),
+            10.0 + k as f32,
+            10.0,
+        ))
+        .unwrap();
+    }
+    // Three frames, 0.2 s: too short for a safe sequence.
+    let mut short = common::calm_following("short".into(), 12.0, 10.0);
+    short.frames.truncate(3);
+    short.t_end = 0.2;
+    w.write_event(&short).unwrap();
+    w.finish().unwrap();
+    let out = dir.path().join("msra.rsk");
+    let again = format!("{}/", normal.display());
+    let o = riskctl(&[
+        "calibrate",
+        "--model",
+        shipped_model("msra-default.rsk").to_str().unwrap(),
+        "--normal",
+        normal.to_str().unwrap(),
+        "--normal",
+        &again,
+        "--false-alarm-rate",
+        "50",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains(&format!("note: --normal {again} is")), "{err}");
+    assert!(err.contains("it is read once"), "{err}");
+    assert!(
+        err.contains("1 event(s) yield no sequence under the preparation rules")
+            && err.contains("event `short`"),
+        "{err}"
+    );
+    let text = String::from_utf8_lossy(&riskctl(&["inspect-model", out.to_str().unwrap()]).stdout)
+        .to_string();
+    assert!(
+        text.contains("of 6 normal-driving sequences of normal warn"),
+        "{text}"
+    );
+}
+
 /// The shipped blobs' row names, one for each method (`model_row_name`, the only row namer): an
 /// MSRA blob with a GSSM term is `MSRA-GSSM`, and `riskctl evaluate` prints that row.
 #[test]
