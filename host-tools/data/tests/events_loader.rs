@@ -579,6 +579,54 @@ fn missing_columns_and_files_are_errors() {
 }
 
 #[test]
+fn the_optional_acc_sur_column_twice_or_in_other_case_is_an_error() {
+    // Both were read silently: a second `acc_sur` as if the first were the only one, `Acc_Sur` as
+    // an extra column (its data dropped, the partner acceleration derived instead).
+    let (ev, fr) = good();
+    let mut lines = fr.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows: Vec<String> = lines.map(String::from).collect();
+    let with = |extra: &str| -> String {
+        std::iter::once(format!("{header},{extra}"))
+            .chain(
+                rows.iter()
+                    .map(|l| format!("{l},{}", vec!["0.1"; extra.split(',').count()].join(","))),
+            )
+            .map(|l| l + "\n")
+            .collect()
+    };
+    // Exactly spelled once: read.
+    assert!(load_events(folder(&ev, &with("acc_sur")).path()).is_ok());
+    let dir = folder(&ev, &with("acc_sur,acc_sur"));
+    match load_events(dir.path()) {
+        Err(EventsError::DuplicateColumn { column, path, .. }) => {
+            assert_eq!(column, "acc_sur");
+            assert!(path.ends_with("frames.csv"));
+        }
+        other => panic!("{other:?}"),
+    }
+    let dir = folder(&ev, &with("Acc_Sur"));
+    let e = load_events(dir.path()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            EventsError::MiscasedColumn {
+                column: "acc_sur",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string().ends_with(
+            "frames.csv: line 1: column `Acc_Sur` is `acc_sur` in other case: column names are \
+             lower case, spelled exactly"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
 fn a_duplicated_column_and_an_empty_file_are_named() {
     // A second `x_ego` of 99999 was read as if absent (the first won without a word), and a
     // 0-byte events.csv was "missing required column `event_id`".
@@ -743,10 +791,27 @@ fn safe_sequences_follow_the_rules() {
     assert!(s.endpoint.is_none() && s.alert_frames().len() == 25);
     // Too short: 20 frames span 1.9 s.
     let short = event("t", EventKind::Safe, 20, None, |_| 0.0);
-    assert!(matches!(
-        prepare_event(&short, &cfg),
-        Err(PrepareIssue::SafeTooShort { .. })
-    ));
+    let err = prepare_event(&short, &cfg).unwrap_err();
+    assert!(matches!(err, PrepareIssue::SafeTooShort { .. }));
+    // The message says what cut it short: here the event's own length, not the acceleration.
+    assert!(
+        err.to_string()
+            .ends_with("(the event itself lasts 1.90 s over 20 frames)"),
+        "{err}"
+    );
+    // Braking every third frame: the ego's acceleration, named with its count and peak.
+    let jerky = event("j", EventKind::Safe, 30, None, |k| {
+        if k % 3 == 0 {
+            -3.0
+        } else {
+            0.0
+        }
+    });
+    let err = prepare_event(&jerky, &cfg).unwrap_err().to_string();
+    assert!(
+        err.ends_with("(|acc| above the limit on 10 of 30 frames for the ego (up to 3.00 m/s^2))"),
+        "{err}"
+    );
     let exactly = event("x", EventKind::Safe, 21, None, |_| 0.0);
     assert!(prepare_event(&exactly, &cfg).is_ok());
     let (seqs, issues) = prepare_sequences(
@@ -1620,12 +1685,23 @@ fn events_of_one_or_two_frames_get_the_gap_and_impact_notes() {
         line_event_kind(&issues),
         [
             (2, Some("c1"), "ImpactAfterFrames"),
+            (2, Some("c1"), "OneFrame"),
             (3, Some("s1"), "TwoFramesApart"),
             (4, Some("n1"), "FrameGap")
         ],
         "{issues:#?}"
     );
     assert!(issues.iter().all(|i| i.problem.is_note()));
+    // A conflict event of one frame was kept without a word (a crash of 0-2 s with one frame).
+    let one = issues
+        .iter()
+        .find(|i| i.problem.kind() == "OneFrame")
+        .unwrap();
+    assert!(
+        one.to_string()
+            .contains("the event (0 to 2 s) has one frame, at 0.5 s"),
+        "{one}"
+    );
 }
 
 /// `s` with `\u{0}` as the Windows-1252 byte of `é` (0xe9, invalid UTF-8 alone).

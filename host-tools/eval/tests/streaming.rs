@@ -154,9 +154,20 @@ fn frames_split_or_out_of_order_are_not_streamed() {
     assert_eq!((events, issues), (whole.events, whole_issues));
     // ... but not in events.csv order.
     match streamed(dir.path(), true) {
-        Err(EventsError::NotStreamable { line, event_id, .. }) => {
+        Err(EventsError::NotStreamable {
+            line,
+            event_id,
+            reason,
+            ..
+        }) => {
             assert_eq!(event_id, first);
             assert_eq!(line, rest.len() as u64 + 2);
+            // The first event of events.csv comes last in frames.csv (the text said "before
+            // those of an event listed earlier").
+            assert_eq!(
+                reason,
+                "its frames come after those of an event listed later in events.csv"
+            );
         }
         other => panic!("expected NotStreamable, got {other:?}"),
     }

@@ -103,12 +103,15 @@ impl Sequence {
 pub enum PrepareIssue {
     #[error("event `{0}`: no frame at or before the endpoint inside the conflict window")]
     NoAlertFrames(String),
-    #[error("event `{id}`: longest stretch with |acc| <= {max_acc} m/s^2 lasts {duration:.2} s < {min} s")]
+    /// `why` says what cut the stretch short: the event's own length, or which vehicle's
+    /// acceleration on how many frames.
+    #[error("event `{id}`: longest stretch with |acc| <= {max_acc} m/s^2 lasts {duration:.2} s < {min} s ({why})")]
     SafeTooShort {
         id: String,
         duration: f64,
         max_acc: f32,
         min: f64,
+        why: String,
     },
 }
 
@@ -190,11 +193,59 @@ fn sequence_window(
                     duration,
                     max_acc: cfg.safe_max_abs_acc,
                     min: cfg.safe_min_duration,
+                    why: why_not_calm(&ev.frames, cfg),
                 });
             }
             Ok((a..b, None))
         }
     }
+}
+
+/// What keeps an event from a calm stretch long enough: its own length, or the frames where each
+/// vehicle's |acc| is above the limit (the partner's is derived from its velocity when the folder
+/// has no `acc_sur`, so noise in the velocities shows there).
+fn why_not_calm(frames: &[Frame], cfg: &PrepareConfig) -> String {
+    let span = match (frames.first(), frames.last()) {
+        (Some(a), Some(b)) => b.time - a.time,
+        _ => 0.0,
+    };
+    let over = |acc: &dyn Fn(&Frame) -> f32| {
+        let above: Vec<f32> = frames
+            .iter()
+            .map(|f| acc(f).abs())
+            .filter(|a| *a > cfg.safe_max_abs_acc)
+            .collect();
+        (above.len(), above.into_iter().fold(0.0f32, f32::max))
+    };
+    let (ego, ego_max) = over(&|f| f.ego.acc);
+    let (partner, partner_max) = over(&|f| f.partner.acc);
+    if ego == 0 && partner == 0 {
+        return format!(
+            "the event itself lasts {span:.2} s over {} frames",
+            frames.len()
+        );
+    }
+    let vehicle = |name: &str, n: usize, max: f32| {
+        (n > 0).then(|| {
+            format!(
+                "{n} of {} frames for the {name} (up to {max:.2} m/s^2)",
+                frames.len()
+            )
+        })
+    };
+    let parts: Vec<String> = [
+        vehicle("ego", ego, ego_max),
+        vehicle("partner", partner, partner_max),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let source = if partner > 0 {
+        "; the partner's is acc_sur, or derived from its velocity when frames.csv has no acc_sur"
+    } else {
+        ""
+    };
+    format!("|acc| above the limit on {}{source}", parts.join(" and "))
 }
 
 /// Half-open index range of the longest run of calm frames (first one on ties).

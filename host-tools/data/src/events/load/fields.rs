@@ -74,24 +74,54 @@ pub(super) fn column_map(
     let cols = required
         .iter()
         .map(|&name| {
-            let mut at = headers.iter().enumerate().filter(|(_, h)| *h == name);
-            match (at.next(), at.next()) {
-                (Some((first, _)), None) => Ok(first),
-                (Some((first, _)), Some((second, _))) => Err(EventsError::DuplicateColumn {
-                    path: path.to_path_buf(),
-                    column: name,
-                    first: first + 1,
-                    second: second + 1,
-                }),
-                (None, _) => Err(EventsError::MissingColumn {
-                    path: path.to_path_buf(),
-                    column: name,
-                    hint: missing_column_hint(&headers, name),
-                }),
-            }
+            find_column(path, &headers, name)?.ok_or_else(|| EventsError::MissingColumn {
+                path: path.to_path_buf(),
+                column: name,
+                hint: missing_column_hint(&headers, name),
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok((cols, headers))
+}
+
+/// The 0-based position of the optional column `name`, `None` when the header lacks it; like a
+/// required column, twice is [`EventsError::DuplicateColumn`], and a column that is `name` in
+/// other case is [`EventsError::MiscasedColumn`] (ignored as an extra column, it would silently
+/// drop the data it holds).
+pub(super) fn optional_column(
+    path: &Path,
+    headers: &csv::StringRecord,
+    name: &'static str,
+) -> Result<Option<usize>, EventsError> {
+    let at = find_column(path, headers, name)?;
+    if at.is_none() {
+        if let Some(found) = headers.iter().find(|h| h.eq_ignore_ascii_case(name)) {
+            return Err(EventsError::MiscasedColumn {
+                path: path.to_path_buf(),
+                column: name,
+                found: found.to_string(),
+            });
+        }
+    }
+    Ok(at)
+}
+
+/// The 0-based position of the column spelled exactly `name`; two of them is an error.
+fn find_column(
+    path: &Path,
+    headers: &csv::StringRecord,
+    name: &'static str,
+) -> Result<Option<usize>, EventsError> {
+    let mut at = headers.iter().enumerate().filter(|(_, h)| *h == name);
+    match (at.next(), at.next()) {
+        (Some((first, _)), Some((second, _))) => Err(EventsError::DuplicateColumn {
+            path: path.to_path_buf(),
+            column: name,
+            first: first + 1,
+            second: second + 1,
+        }),
+        (first, _) => Ok(first.map(|(i, _)| i)),
+    }
 }
 
 /// Why a header may lack `name`: a file separated by something else than commas (the header

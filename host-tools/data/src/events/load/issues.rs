@@ -74,6 +74,14 @@ pub enum EventsError {
         first: usize,
         second: usize,
     },
+    /// An optional column the loader reads (`acc_sur`) is in the header in other case: read as an
+    /// extra column, its data would be dropped without a word.
+    #[error("{}: line 1: column `{found}` is `{column}` in other case: column names are lower case, spelled exactly", path.display())]
+    MiscasedColumn {
+        path: PathBuf,
+        column: &'static str,
+        found: String,
+    },
     /// The file holds no header line (0 bytes, or only blank lines).
     #[error("{}: the file is empty (no header line)", path.display())]
     EmptyFile { path: PathBuf },
@@ -236,6 +244,8 @@ pub enum IssueProblem {
     ImpactAfterFrames { t_impact: f64, last: f64 },
     #[error("frames.csv `time`: the event has only two frames, at {from} and {to} s ({:.3} s apart): its sequence spans that time as if it were data; frames missing? The event is kept", to - from)]
     TwoFramesApart { from: f64, to: f64 },
+    #[error("frames.csv `time`: the event ({t_start} to {t_end} s) has one frame, at {time} s: its sequence is that one frame, with no history to warn from; frames missing? The event is kept")]
+    OneFrame { time: f64, t_start: f64, t_end: f64 },
     #[error("frames.csv `time`: the frames jump from {from} to {to} s, where they are {typical:.3} s apart ({holes} such hole(s)): frames missing? Sequence lengths, derived accelerations and lead times span a hole as if it were data. The event is kept")]
     FrameGap {
         from: f64,
@@ -294,6 +304,7 @@ impl IssueProblem {
             Self::ImpactAfterFrames { .. } => "ImpactAfterFrames",
             Self::FrameGap { .. } => "FrameGap",
             Self::TwoFramesApart { .. } => "TwoFramesApart",
+            Self::OneFrame { .. } => "OneFrame",
             Self::RepeatedHeader => "RepeatedHeader",
             Self::CoarsePositions { .. } => "CoarsePositions",
         }
@@ -332,6 +343,7 @@ fn is_note_kind(kind: &str) -> bool {
             | "ImpactAfterFrames"
             | "FrameGap"
             | "TwoFramesApart"
+            | "OneFrame"
             | "RepeatedHeader"
             | "CoarsePositions"
     )

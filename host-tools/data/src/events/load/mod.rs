@@ -351,11 +351,19 @@ fn impact_note(p: &Pending, sorted_intervals: &[f64]) -> Option<IssueProblem> {
 /// metrics would span as if it were data (a derived acceleration across the hole, a lead time
 /// counted over it). The lower median, so that of two intervals the shorter is the rate. An
 /// event of two frames has no rate to compare with: they are a hole when more than
-/// [`TWO_FRAMES_MAX_INTERVAL_S`] apart (a 2-frame "safe sequence" across 3 s). A note with the
+/// [`TWO_FRAMES_MAX_INTERVAL_S`] apart (a 2-frame "safe sequence" across 3 s), and an event of
+/// one frame always gets its own note ([`IssueProblem::OneFrame`]). A note with the
 /// largest hole on the event's `events.csv` line (the event is kept); the simulator and the real
 /// data shipped have none.
 fn gap_note(p: &Pending, intervals: &[f64]) -> Option<IssueProblem> {
     let frames = &p.event.frames;
+    if let [one] = frames.as_slice() {
+        return Some(IssueProblem::OneFrame {
+            time: one.time,
+            t_start: p.event.t_start,
+            t_end: p.event.t_end,
+        });
+    }
     if let [only] = intervals {
         return (*only > TWO_FRAMES_MAX_INTERVAL_S).then(|| IssueProblem::TwoFramesApart {
             from: frames[0].time,
@@ -463,7 +471,7 @@ impl<E: From<EventsError>> Stream<'_, E> {
         let reason = if self.closed[slot] {
             "its frames are not one run of consecutive rows"
         } else if opens_run && self.in_events_order && self.last_opened.is_some_and(|l| slot < l) {
-            "its frames come before those of an event listed earlier in events.csv"
+            "its frames come after those of an event listed later in events.csv"
         } else {
             if opens_run {
                 self.last_opened = Some(slot);
@@ -685,7 +693,7 @@ fn read_frames<E: From<EventsError>>(
 ) -> Result<(), E> {
     let (mut rdr, ends) = open(path)?;
     let (cols, headers) = column_map(path, &mut rdr, &FRAME_COLUMNS)?;
-    let acc_partner_col = headers.iter().position(|h| h == "acc_sur");
+    let acc_partner_col = fields::optional_column(path, &headers, "acc_sur")?;
     let mut rec = csv::ByteRecord::new();
     // Unknown ids: first line and frame count, reported once each.
     // id -> (first line, frames, the id is not valid UTF-8)
