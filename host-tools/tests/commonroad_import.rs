@@ -260,7 +260,34 @@ fn a_malformed_road_user_is_skipped_with_file_line_obstacle_and_element() {
         )
     );
 
-    let cases: [(&str, &str, Problem); 4] = [
+    let cases: [(&str, &str, Problem); 6] = [
+        // Values the event folder refuses (a broken export): the road user was imported and then
+        // every event it was in was refused by the loader.
+        (
+            "<state><position><point><x>3</x><y>8</y></point></position>\
+             <orientation><exact>0</exact></orientation><time><exact>3</exact></time>\
+             <velocity><exact>1e30</exact></velocity></state>",
+            "<state> #3 <velocity> <exact>: 1000000000000000000000000000000 m/s is outside the \
+             physical range [-100, 100] m/s an event folder accepts",
+            Problem::Unphysical {
+                value: 1e30,
+                min: -100.0,
+                max: 100.0,
+                unit: "m/s",
+            },
+        ),
+        (
+            "<state><position><point><x>3e9</x><y>8</y></point></position>\
+             <orientation><exact>0</exact></orientation><time><exact>3</exact></time>\
+             <velocity><exact>10</exact></velocity></state>",
+            "<state> #3 <position> <point> <x>: 3000000000 m is outside",
+            Problem::Unphysical {
+                value: 3e9,
+                min: -1e8,
+                max: 1e8,
+                unit: "m",
+            },
+        ),
         (
             "<state><position><point><x>3O</x><y>8</y></point></position>\
              <orientation><exact>0</exact></orientation><time><exact>3</exact></time>\
@@ -305,6 +332,36 @@ fn a_malformed_road_user_is_skipped_with_file_line_obstacle_and_element() {
         );
         assert!(text.contains(message), "{text} lacks {message}");
     }
+}
+
+/// A 35 m long "car" was imported, and every event it was in refused by the loader later.
+#[test]
+fn a_road_user_of_unphysical_size_is_skipped() {
+    let text = two_obstacles(
+        "<state><position><point><x>3</x><y>8</y></point></position>\
+         <orientation><exact>0</exact></orientation><time><exact>3</exact></time>\
+         <velocity><exact>10</exact></velocity></state>",
+    )
+    .replacen("<length>4</length>", "<length>35</length>", 1);
+    let s = parse_scenario(&text, "f.xml", "f").unwrap();
+    let ids: Vec<&str> = s.tracks.iter().map(|t| t.id.as_str()).collect();
+    assert_eq!(ids, ["42"], "the good obstacle is kept");
+    assert_eq!(
+        s.issues[0].problem,
+        Problem::Unphysical {
+            value: 35.0,
+            min: 0.5,
+            max: 30.0,
+            unit: "m"
+        }
+    );
+    let issue = s.issues[0].to_string();
+    assert!(
+        issue.starts_with("f.xml:")
+            && issue
+                .contains("<dynamicObstacle id=41> <shape> <rectangle> <length>: 35 m is outside"),
+        "{issue}"
+    );
 }
 
 #[test]
@@ -482,6 +539,13 @@ fn cli_filters_by_geometry_counts_each_and_refuses_an_unknown_one() {
     assert!(!o.status.success());
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("(not kept: --geometry)"), "{stdout}");
+    // The 4 following sequences passed every rule: the summary said they failed the acceleration
+    // or length rule.
+    assert!(
+        stdout.contains("found 0 safe sequences")
+            && stdout.contains("; 4 more of the geometries --geometry leaves out)"),
+        "{stdout}"
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("no safe sequence found"), "{stderr}");
     assert_eq!(load_events(&dir).unwrap().0.len(), 4);

@@ -289,8 +289,19 @@ fn print_summary(s: &ImportSummary, a: &CommonRoadArgs) {
         format!(" to {}", a.out.display())
     };
     let verb = if c.sequences == 0 { "found" } else { "wrote" };
+    // Sequences of a geometry --geometry leaves out passed every rule: not "the rest".
+    let left_out: usize = Geometry::ALL
+        .into_iter()
+        .filter(|g| !a.geometry.contains(*g))
+        .map(|g| c.sequences_by_geometry[geometry_index(g)])
+        .sum();
+    let left_out = if left_out > 0 {
+        format!("; {left_out} more of the geometries --geometry leaves out")
+    } else {
+        String::new()
+    };
     outln!(
-        "{verb} {} safe sequences with {} frames{destination} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length)",
+        "{verb} {} safe sequences with {} frames{destination} (the rest failed |acc| <= {} m/s^2 or the {}-{} s length{left_out})",
         c.sequences,
         c.frames,
         a.max_acc,

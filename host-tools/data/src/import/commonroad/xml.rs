@@ -134,6 +134,15 @@ pub enum Problem {
     Interval,
     #[error("must be > 0, got {0}")]
     NonPositive(f64),
+    /// A value no road user has (a broken export's `1e30`, a 35 m "car"): the event folder would
+    /// refuse every event of the road user ([`crate::events::LENGTH_RANGE_M`] and the others).
+    #[error("{value} {unit} is outside the physical range [{min}, {max}] {unit} an event folder accepts")]
+    Unphysical {
+        value: f64,
+        min: f64,
+        max: f64,
+        unit: &'static str,
+    },
     #[error("<orientation> is more than 45° off the direction the positions move in on {off} of the {moving} steps at 3 m/s or more: degrees instead of radians, or measured from north? CommonRoad orientations are radians, counter-clockwise from the x axis; the importer builds the velocity from them (road user skipped)")]
     HeadingAcrossMotion { off: usize, moving: usize },
     #[error("a rectangle shifted or rotated against the state (<center>/<orientation>) is not supported")]
@@ -517,8 +526,8 @@ fn read_obstacle(node: Node, dt: f64, at: &Locator) -> Result<Result<Track, Igno
         [r] if r.tag_name().name() == "rectangle" => *r,
         _ => return Ok(Err(Ignored::NotRectangle)),
     };
-    let length = positive(rect, "length", "<shape> <rectangle>", at)?;
-    let width = positive(rect, "width", "<shape> <rectangle>", at)?;
+    let length = dimension(rect, "length", crate::events::LENGTH_RANGE_M, at)?;
+    let width = dimension(rect, "width", crate::events::WIDTH_RANGE_M, at)?;
     let shifted = child(rect, "center").is_some_and(|c| {
         ["x", "y"]
             .iter()
@@ -575,6 +584,58 @@ fn read_obstacle(node: Node, dt: f64, at: &Locator) -> Result<Result<Track, Igno
         width: width as f32,
         states: states.into_iter().map(|(s, _)| s).collect(),
     }))
+}
+
+/// A box dimension (m): positive, and within `range` (inclusive).
+fn dimension(
+    node: Node,
+    name: &'static str,
+    range: (f32, f32),
+    at: &Locator,
+) -> Result<f64, Issue> {
+    let path = "<shape> <rectangle>";
+    let v = positive(node, name, path, at)?;
+    let (min, max) = (f64::from(range.0), f64::from(range.1));
+    if (min..=max).contains(&v) {
+        Ok(v)
+    } else {
+        let c = child(node, name).unwrap_or(node);
+        Err(at.issue(
+            c,
+            &format!("{path} <{name}>"),
+            Problem::Unphysical {
+                value: v,
+                min,
+                max,
+                unit: "m",
+            },
+        ))
+    }
+}
+
+/// `value` of the element `node` when `|value| <= max`, else an [`Problem::Unphysical`] issue.
+fn within(
+    node: Node,
+    value: f64,
+    max: f64,
+    unit: &'static str,
+    path: &str,
+    at: &Locator,
+) -> Result<f64, Issue> {
+    if value.abs() <= max {
+        Ok(value)
+    } else {
+        Err(at.issue(
+            node,
+            path,
+            Problem::Unphysical {
+                value,
+                min: -max,
+                max,
+                unit,
+            },
+        ))
+    }
 }
 
 fn positive(node: Node, name: &'static str, path: &str, at: &Locator) -> Result<f64, Issue> {
@@ -638,7 +699,16 @@ fn read_state(s: Node, path: &str, at: &Locator) -> Result<(TrackState, bool), I
     let coord = |k: &'static str| -> Result<f64, Issue> {
         let p = format!("{path} <position> <point>");
         let c = child(point, k).ok_or_else(|| at.issue(point, &p, Problem::Missing(k)))?;
-        number(c, c.text().unwrap_or("").trim(), &format!("{p} <{k}>"), at)
+        let at_k = format!("{p} <{k}>");
+        let v = number(c, c.text().unwrap_or("").trim(), &at_k, at)?;
+        within(
+            c,
+            v,
+            f64::from(crate::events::MAX_POSITION_M),
+            "m",
+            &at_k,
+            at,
+        )
     };
     let (x, y) = (coord("x")?, coord("y")?);
     let required = |name: &'static str| -> Result<f64, Issue> {
@@ -648,6 +718,16 @@ fn read_state(s: Node, path: &str, at: &Locator) -> Result<(TrackState, bool), I
     };
     let orientation = required("orientation")?;
     let speed = required("velocity")?;
+    if let Some((node, _)) = exact(s, "velocity", path, at)? {
+        within(
+            node,
+            speed,
+            f64::from(crate::events::MAX_SPEED_M_S),
+            "m/s",
+            &format!("{path} <velocity> <exact>"),
+            at,
+        )?;
+    }
     let (time_node, time_text) =
         exact(s, "time", path, at)?.ok_or_else(|| at.issue(s, path, Problem::Missing("time")))?;
     let step = time_text.parse::<i64>().map_err(|_| {
