@@ -1066,3 +1066,24 @@ fn train_keeps_a_configuration_that_lives_in_its_output_folder() {
     assert!(err.contains("is the same file as --config"), "{err}");
     assert_eq!(std::fs::read(&at_a_model).unwrap(), before);
 }
+
+/// `--out -` for a folder output made a folder literally named `-` (and `evaluate --out -`
+/// merged its report into it): `-` is standard output everywhere else. Now refused before
+/// anything runs; `./-` still names such a folder.
+#[test]
+fn a_dash_is_not_a_folder_to_write() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        ["simulate", "--out", "-", "--events", "3"].as_slice(),
+        ["roadside-passes", "--out", "-"].as_slice(),
+    ] {
+        let o = common::riskctl_in(dir.path(), args);
+        let err = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("cannot hold a folder"), "{args:?}: {err}");
+        assert!(!dir.path().join("-").exists(), "{args:?} made a folder `-`");
+    }
+    let o = common::riskctl_in(dir.path(), &["simulate", "--out", "./-", "--events", "3"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(dir.path().join("-/events.csv").is_file());
+}

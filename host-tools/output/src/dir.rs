@@ -41,13 +41,14 @@ fn carry(src: &Path, dst: &Path) -> io::Result<()> {
     }
 }
 
-/// Refuses, before anything is written, a target that is not a folder, or one the final swap
-/// could not rename: a symbolic link (renaming it would move the link, not the folder) or a mount
-/// point (a rename cannot move it), or one whose parent is not a folder. Found at the end
-/// instead, the whole run's output would be lost. What [`OutputDir::create`] checks; a run that
+/// Refuses, before anything is written, `-` (standard output), a target that is not a folder, or
+/// one the final swap could not rename: a symbolic link (renaming it would move the link, not the
+/// folder) or a mount point (a rename cannot move it), or one whose parent is not a folder. Found
+/// at the end instead, the whole run's output would be lost. What [`OutputDir::create`] checks; a run that
 /// stages a folder late calls it at its start.
 pub fn refuse_unswappable(target: &Path) -> io::Result<()> {
     use std::os::unix::fs::MetadataExt;
+    crate::overlap::refuse_dash_folder(target)?;
     let parent = parent_of(target);
     if let Some(file) = [parent, target]
         .into_iter()

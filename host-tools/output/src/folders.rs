@@ -14,6 +14,7 @@ pub struct NewFolders {
 impl NewFolders {
     /// Creates `dir` and its missing parents, remembering which were missing.
     pub fn create(dir: &Path) -> io::Result<Self> {
+        crate::overlap::refuse_dash_folder(dir)?;
         let missing: Vec<PathBuf> = dir
             .ancestors()
             .take_while(|a| !a.as_os_str().is_empty() && std::fs::symlink_metadata(a).is_err())

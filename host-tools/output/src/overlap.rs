@@ -132,6 +132,18 @@ pub fn is_dash(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
+/// Refuses `-` as a folder to write: by the command-line convention it is standard output,
+/// which cannot hold a folder (a folder of that name is `./-`).
+pub fn refuse_dash_folder(target: &Path) -> std::io::Result<()> {
+    if is_dash(target) {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "`-` (standard output) cannot hold a folder; write `./-` for a folder of that name",
+        ));
+    }
+    Ok(())
+}
+
 /// True when `path` is `folder` or lies below it, whether or not either exists yet: for an output
 /// inside a folder the run will create whole, which the inode comparison of [`refuse_overlaps`]
 /// cannot see before the folder exists.
