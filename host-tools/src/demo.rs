@@ -585,10 +585,17 @@ fn run_stages(opts: &DemoOptions, staged: &mut Staged) -> Result<DemoSummary, De
     // Where the simulated events are read from until they go in place.
     let data_read = data_staged.unwrap_or_else(|| data_dir.clone());
     let (sim_seqs, sim_counts) = load_sequences(&data_read)?;
-    eprintln!(
-        "      simulated events: {sim_counts}; {} sequences",
-        sim_seqs.len()
-    );
+    match &opts.data {
+        Some(d) => eprintln!(
+            "[1/6] events of {}: {sim_counts}; {} sequences",
+            d.display(),
+            sim_seqs.len()
+        ),
+        None => eprintln!(
+            "      simulated events: {sim_counts}; {} sequences",
+            sim_seqs.len()
+        ),
+    }
     let mut seqs = sim_seqs.clone();
     let mut real_seqs = Vec::new();
     let mut counts = sim_counts;
@@ -1123,9 +1130,10 @@ pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
             .unwrap_or_default()
     };
     let mut text = format!(
-        "Conclusion: on {} ({} sequences), 5-fold event-level CV x {} seeds: {} ({}).",
+        "Conclusion: on {} ({} sequences), {}-fold event-level CV x {} seeds: {} ({}).",
         s.events,
         s.sequences,
+        opts.folds,
         opts.seeds.max(1),
         count(&s.claims),
         figure(&s.claims, "TAdv")
@@ -1146,7 +1154,9 @@ pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
             figure(&s.transfer_claims, "TAdv")
         ));
     }
-    if opts.real.is_some() {
+    if opts.data.is_some() {
+        // The recorded run's figures are of the simulated default set, not of the user's data.
+    } else if opts.real.is_some() {
         text.push_str(&format!(
             " How much of the win rests on the real normal driving: {WITHOUT_REAL_FIGURES} (quoted from \
              the recorded run, docs/benchmarks.md)."

@@ -306,7 +306,8 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
     // The closing paragraph: what was shown on which data, with the measured caveats.
     let text = demo::conclusion(&summary, &opts);
     assert!(text.starts_with("Conclusion: on "), "{text}");
-    assert!(text.contains("5-fold event-level CV x 1 seeds"), "{text}");
+    // The run's own fold count (the text said "5-fold" whatever --folds was).
+    assert!(text.contains("3-fold event-level CV x 1 seeds"), "{text}");
     assert!(text.contains("held out by file"), "transfer caveat: {text}");
     assert!(text.contains(demo::WITHOUT_REAL_FIGURES), "{text}");
     let ok = summary.claims.iter().filter(|c| c.verdict == "ok").count();
@@ -315,8 +316,19 @@ fn tiny_demo_runs_end_to_end_and_writes_everything() {
         "{text}"
     );
     assert!(text.contains("training-only sequences"), "{text}");
-    let no_real = DemoOptions { real: None, ..opts };
+    let no_real = DemoOptions {
+        real: None,
+        ..opts.clone()
+    };
     assert!(demo::conclusion(&summary, &no_real).contains(demo::WITH_REAL_FIGURES));
+    // On the user's own --data the recorded run's figures, of the simulated set, are not quoted.
+    let own = DemoOptions {
+        data: Some(dir.path().join("mine")),
+        ..opts
+    };
+    let text = demo::conclusion(&summary, &own);
+    assert!(!text.contains(demo::WITHOUT_REAL_FIGURES), "{text}");
+    assert!(!text.contains("recorded run"), "{text}");
 }
 
 fn stage_names_of(summary: &demo::DemoSummary) -> Vec<&str> {
