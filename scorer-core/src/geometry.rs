@@ -189,15 +189,15 @@ impl BoxPair {
 
     /// True when the boxes share no extent across the first box's axis (`across_first`) or
     /// across the second's: one lies wholly beside the band the other sweeps along its heading
-    /// (touching counts as sharing). The negation of the lateral separating-axis test of
-    /// [`Self::intersects`] on that box, term for term.
+    /// (touching counts as sharing). The lateral separating-axis test of [`Self::intersects`] on
+    /// that box, term for term, reversed (boxes are built from finite states: no NaN).
     pub(crate) fn apart_across(&self, across_first: bool) -> bool {
         let ((ha, wa), (hb, wb)) = self.half_extents();
         let (c, s) = (libm::fabsf(self.cos), libm::fabsf(self.sin));
         if across_first {
-            !(libm::fabsf(self.b_in_a.1) <= wa * self.a.axis.norm2() + (hb * s + wb * c))
+            libm::fabsf(self.b_in_a.1) > wa * self.a.axis.norm2() + (hb * s + wb * c)
         } else {
-            !(libm::fabsf(self.a_in_b.1) <= (ha * s + wa * c) + wb * self.b.axis.norm2())
+            libm::fabsf(self.a_in_b.1) > (ha * s + wa * c) + wb * self.b.axis.norm2()
         }
     }
 
