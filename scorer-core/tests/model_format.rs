@@ -904,6 +904,7 @@ fn enum_wire_indices_are_pinned() {
         (SurrogateKind::Tadv, 1),
         (SurrogateKind::Ei, 2),
         (SurrogateKind::Gssm, 3),
+        (SurrogateKind::TadvCorridor, 4),
     ] {
         let t = MsraTerm {
             kind,

@@ -13,7 +13,7 @@ use super::plots::{
     caption_height, captioned, draw_legend_strip, draw_styled, render, DrawResult, Picture,
 };
 use super::plots::{ImageFormat, PlotError};
-use super::protocol::{first_alert, NO_CONFLICT_RISK};
+use super::protocol::{first_alert, Baseline, NO_CONFLICT_RISK};
 use super::scoring::{observe_frames, Method, ObservedSequence};
 use riskscore_data::events::{Event, EventKind};
 use scorer_core::VehicleState;
@@ -339,11 +339,10 @@ fn draw_strip<DB: DrawingBackend>(
 
 /// The y-axis name of a method: the baselines' risk is a negated time or an intensity.
 fn axis_name(name: &str) -> String {
-    match name {
-        "TTC2D" => "R = -TTC2D (s)".to_owned(),
-        "TAdv" => "R = -TAdv (s)".to_owned(),
-        "EI" => "R = EI (m/s)".to_owned(),
-        _ => "R".to_owned(),
+    match Baseline::named(name) {
+        Some(b) if b.surrogate().larger_is_riskier() => format!("R = {} (m/s)", b.name()),
+        Some(b) => format!("R = -{} (s)", b.name()),
+        None => "R".to_owned(),
     }
 }
 
@@ -368,8 +367,8 @@ fn time_range(ev: &Event) -> (f64, f64) {
 /// A strip's y range: the finite risks and the threshold, with a little room. Time-type
 /// baselines are cut at -10 s, so one far-away moment does not flatten the rest.
 fn risk_range(trace: &MethodTrace) -> (f64, f64) {
-    let floor = match trace.name.as_str() {
-        "TTC2D" | "TAdv" => -10.0,
+    let floor = match Baseline::named(&trace.name) {
+        Some(b) if !b.surrogate().larger_is_riskier() => -10.0,
         _ => f64::NEG_INFINITY,
     };
     let values = trace

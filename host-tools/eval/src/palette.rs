@@ -41,7 +41,7 @@ const fn dashed(rgb: (u8, u8, u8)) -> MethodStyle {
 
 /// The fixed styles: learned scores solid, surrogate baselines dashed; colours from the
 /// colour-blind-safe Okabe-Ito set (EI's yellow darkened to stay readable on white).
-pub const CANONICAL: [(&str, MethodStyle); 8] = [
+pub const CANONICAL: [(&str, MethodStyle); 9] = [
     ("DRL", solid((0, 114, 178))),
     ("MSRA", solid((213, 94, 0))),
     ("SSRA", solid((0, 158, 115))),
@@ -50,6 +50,7 @@ pub const CANONICAL: [(&str, MethodStyle); 8] = [
     ("TTC2D", dashed((86, 180, 233))),
     ("TAdv", dashed((0, 0, 0))),
     ("EI", dashed((170, 150, 0))),
+    ("TAdv-corridor", dashed((100, 100, 100))),
 ];
 
 /// Colours of the extras, distinct from the canonical ones, reused cyclically.
@@ -138,6 +139,7 @@ mod tests {
             "TTC2D",
             "TAdv",
             "EI",
+            "TAdv-corridor",
             "a",
             "b",
             "c",

@@ -313,6 +313,19 @@ impl Baseline {
         }
     }
 
+    /// Every baseline: [`Baseline::ALL`] and those reported only where a model reads them.
+    pub const EVERY: [Baseline; 4] = [
+        Baseline::Ttc2d,
+        Baseline::Tadv,
+        Baseline::Ei,
+        Baseline::TadvCorridor,
+    ];
+
+    /// The baseline whose row is named `name` (exactly, as reports name it).
+    pub fn named(name: &str) -> Option<Baseline> {
+        Baseline::EVERY.into_iter().find(|b| b.name() == name)
+    }
+
     /// [`Baseline::ALL`], then the baseline of every other kinematic surrogate in `read` (the
     /// surrogates the report's models read), once each, in order: a model is reported next to
     /// each of its inputs.

@@ -254,12 +254,12 @@ pub const FIXED_SCORE_COLUMNS: [&str; 7] = [
 const IN_DOMAIN_SUFFIX: &str = "_in_domain";
 
 /// Why a model may not take the row (and column) name `name`, if it may not: it equals,
-/// case-insensitively, a baseline row (TTC2D, TAdv, EI, which the evaluation reports next to the
-/// models) or a fixed column of the score table ([`FIXED_SCORE_COLUMNS`]), or it ends in
+/// case-insensitively, a baseline row (TTC2D, TAdv, EI, TAdv-corridor, which the evaluation reports
+/// next to the models) or a fixed column of the score table ([`FIXED_SCORE_COLUMNS`]), or it ends in
 /// `_in_domain` (a guarded model's flag column). Otherwise the report would hold two rows, or the
 /// table two columns, of one name.
 pub fn reserved_name_clash(name: &str) -> Option<String> {
-    if let Some(b) = Baseline::ALL
+    if let Some(b) = Baseline::EVERY
         .into_iter()
         .find(|b| b.name().eq_ignore_ascii_case(name))
     {
