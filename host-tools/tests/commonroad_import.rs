@@ -362,6 +362,18 @@ fn a_road_user_of_unphysical_size_is_skipped() {
                 .contains("<dynamicObstacle id=41> <shape> <rectangle> <length>: 35 m is outside"),
         "{issue}"
     );
+    // The bounds themselves are physical, as the event folder has them (0.3 m wide, in f32).
+    let narrow = text
+        .replacen("<length>35</length>", "<length>4</length>", 1)
+        .replacen("<width>2</width>", "<width>0.3</width>", 1);
+    let s = parse_scenario(&narrow, "f.xml", "f").unwrap();
+    assert_eq!(s.tracks.len(), 2, "{:?}", s.issues);
+    let wide = narrow.replacen("<width>0.3</width>", "<width>0.29</width>", 1);
+    let issue = parse_scenario(&wide, "f.xml", "f").unwrap().issues[0].to_string();
+    assert!(
+        issue.contains("0.29 m is outside the physical range [0.3, 5] m"),
+        "{issue}"
+    );
 }
 
 #[test]

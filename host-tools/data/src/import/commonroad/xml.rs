@@ -595,10 +595,13 @@ fn dimension(
 ) -> Result<f64, Issue> {
     let path = "<shape> <rectangle>";
     let v = positive(node, name, path, at)?;
-    let (min, max) = (f64::from(range.0), f64::from(range.1));
-    if (min..=max).contains(&v) {
+    // Compared as the event folder compares it (in f32, where 0.3 is the width's bound), and
+    // printed as written (not 0.30000001192092896).
+    if (range.0..=range.1).contains(&(v as f32)) {
         Ok(v)
     } else {
+        let decimal = |x: f32| x.to_string().parse::<f64>().unwrap_or(f64::from(x));
+        let (min, max) = (decimal(range.0), decimal(range.1));
         let c = child(node, name).unwrap_or(node);
         Err(at.issue(
             c,
