@@ -336,6 +336,45 @@ fn calibrate_domain_warns_when_it_changes_the_scores_a_calibrated_threshold_was_
         !run(&flag_only, &[], "again.rsk").1,
         "flag-only -> flag-only"
     );
+    // The DRL's own fallback terms (the reference TAdv) come from the DRL blob itself; the
+    // shipped MSRA's read TAdv-corridor.
+    let own = [
+        "--policy",
+        "blend",
+        "--fallback-from",
+        shipped.to_str().unwrap(),
+    ];
+    let (own, _) = run(&shipped, &own, "own.rsk");
+    let text = |p: &Path| {
+        String::from_utf8_lossy(&riskctl(&["inspect-model", p.to_str().unwrap()]).stdout)
+            .to_string()
+    };
+    let own_text = text(&own);
+    assert!(own_text.contains("fallback term 0 TAdv:"), "{own_text}");
+    let msra_text = text(&dir.path().join("reblend.rsk"));
+    assert!(
+        msra_text.contains("fallback term 0 TAdv-corridor:"),
+        "{msra_text}"
+    );
+    // A blob with neither MSRA terms nor a fallback record is refused, named.
+    let o = riskctl(&[
+        "calibrate-domain",
+        "--model",
+        shipped.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--policy",
+        "blend",
+        "--fallback-from",
+        flag_only.to_str().unwrap(),
+        "--out",
+        dir.path().join("y.rsk").to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(
+        err.contains("flag-only.rsk: a DRL blob without a kinematic fallback"),
+        "{err}"
+    );
 }
 
 /// `calibrate` counted a folder named twice (`d` and `d/`) twice, in the share and in the blob's
@@ -381,8 +420,10 @@ fn calibrate_reads_a_repeated_folder_once_and_lists_events_without_a_sequence() 
     assert!(err.contains(&format!("note: --normal {again} is")), "{err}");
     assert!(err.contains("it is read once"), "{err}");
     assert!(
-        err.contains("1 event(s) yield no sequence under the preparation rules")
-            && err.contains("event `short`"),
+        err.contains(&format!(
+            "1 event(s) of {} yield no sequence under the preparation rules",
+            normal.display()
+        )) && err.contains("event `short`"),
         "{err}"
     );
     let text = String::from_utf8_lossy(&riskctl(&["inspect-model", out.to_str().unwrap()]).stdout)

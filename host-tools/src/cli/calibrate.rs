@@ -178,7 +178,10 @@ fn curve_of(
         refusal => refusal.with_context(|| format!("event folder {}", dir.display()))?,
     }
     super::evaluate::report_issues(
-        "event(s) yield no sequence under the preparation rules",
+        &format!(
+            "event(s) of {} yield no sequence under the preparation rules",
+            dir.display()
+        ),
         &folder.prepare_issues,
     );
     Ok(folder

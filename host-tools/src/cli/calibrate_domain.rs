@@ -26,8 +26,9 @@ kept (format version 2).
 
 Policies: flag-only scores as an unguarded model does and reports the flag; clamp moves each input
 into its range first, so the model never extrapolates; fallback (DRL, GSSM and SSRA) scores a
-kinematic MSRA outside instead of the model: the TTC2D/TAdv/EI terms of the --fallback-from MSRA
-blob, mapped to the model's scale by the affine map that matches the mean and spread of its
+kinematic MSRA outside instead of the model: the kinematic terms of the --fallback-from blob (an
+MSRA's terms, or the fallback record of a blob that has one: the shipped DRL's reads the reference
+TAdv and EI, the shipped MSRA TAdv-corridor and EI), mapped to the model's scale by the affine map that matches the mean and spread of its
 scores on the frames of the --events folders inside the new record (docs/domain-guard.md); blend
 (DRL only, the training default) does the same outside and, inside, scores --blend-weight of the
 model plus the rest of that fallback, so a network that extrapolates between what it saw keeps a
@@ -47,7 +48,7 @@ the real freeway driving shipped in data/, two of the folders the shipped DRL wa
                            --fallback-from models/msra-default.rsk --out drl-fallback.rsk
   riskctl calibrate-domain --model models/drl-default.rsk --events sim \\
                            --events data/ngsim-us101-safe --policy blend --blend-weight 0.7 \\
-                           --fallback-from models/msra-default.rsk --out drl-blend.rsk";
+                           --fallback-from models/drl-default.rsk --out drl-blend.rsk";
 
 /// Attach a model's training domain (the input ranges of its training data and the policy
 /// outside) to its blob.
@@ -63,8 +64,8 @@ pub struct Args {
     /// What scoring does outside the domain: flag-only, clamp, fallback or blend.
     #[arg(long, value_name = "POLICY", default_value = "flag-only", value_parser = parse_policy)]
     policy: OutsidePolicy,
-    /// MSRA blob whose kinematic terms are the fallback (required by, and only with,
-    /// `--policy fallback` and `--policy blend`).
+    /// MSRA blob whose kinematic terms are the fallback, or a blob whose fallback record's terms
+    /// are (required by, and only with, `--policy fallback` and `--policy blend`).
     #[arg(long, value_name = "FILE")]
     fallback_from: Option<PathBuf>,
     /// `--policy blend` only: the model's share of the score inside the domain (the kinematic
@@ -273,13 +274,22 @@ fn blend(args: &Args, blob: &ModelBlob<'_>) -> anyhow::Result<Option<Blend>> {
     Ok(Some(blend))
 }
 
-/// The terms of the MSRA blob of `--fallback-from` (the fallback keeps its kinematic ones).
+/// The terms of `--fallback-from` (the fallback keeps the kinematic ones): an MSRA blob's, or the
+/// kinematic-fallback record's of any other blob (a DRL's own fallback, refitted: the shipped
+/// DRL's reads the reference TAdv, which the shipped MSRA does not).
 pub fn read_kinematic_terms(path: &std::path::Path) -> anyhow::Result<Vec<MsraTerm>> {
     let source = ModelFile::read(&path.display().to_string())?;
-    let Model::Msra(msra) = source.blob()?.model else {
-        bail!("--fallback-from {}: not an MSRA model", path.display());
-    };
-    Ok(msra.terms.to_vec())
+    let blob = source.blob()?;
+    match (&blob.model, &blob.meta.kinematic_fallback) {
+        (Model::Msra(msra), _) => Ok(msra.terms.to_vec()),
+        (_, Some(fallback)) => Ok(fallback.terms().collect()),
+        (model, None) => bail!(
+            "--fallback-from {}: a {} blob without a kinematic fallback; give an MSRA blob or one \
+             that carries a fallback",
+            path.display(),
+            riskscore_eval::scoring::model_row_name(model)
+        ),
+    }
 }
 
 /// The output must not be the model, an --events folder's file or lie inside one, nor an
