@@ -1154,9 +1154,11 @@ pub fn conclusion(s: &DemoSummary, opts: &DemoOptions) -> String {
             figure(&s.transfer_claims, "TAdv")
         ));
     }
+    // The recorded run's figures are of the simulated default set, not of a user's --data.
     if opts.data.is_some() {
-        // The recorded run's figures are of the simulated default set, not of the user's data.
-    } else if opts.real.is_some() {
+        return text;
+    }
+    if opts.real.is_some() {
         text.push_str(&format!(
             " How much of the win rests on the real normal driving: {WITHOUT_REAL_FIGURES} (quoted from \
              the recorded run, docs/benchmarks.md)."

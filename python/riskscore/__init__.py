@@ -418,7 +418,8 @@ def evaluate(
 
     ``models``: model files (paths or loaded ``Model``s; a ``{name: path}`` dict names the rows
     like ``--model NAME=FILE``). A ``Model`` is evaluated from the blob it holds (also one made
-    with ``from_bytes`` or unpickled), not re-read from its file. The TTC2D, TAdv and EI baselines follow. ``thresholds`` sets the
+    with ``from_bytes`` or unpickled), not re-read from its file. The TTC2D, TAdv and EI baselines follow,
+    then TAdv-corridor when a model reads it (the shipped MSRA does). ``thresholds`` sets the
     operating points like ``--threshold``: ``"default"`` (each model at its own default
     threshold), a number (every model at it), ``"none"``/None (no operating points), or a dict
     ``{row name: number | "default" | "none"/None}`` (baselines too; other rows keep defaults).

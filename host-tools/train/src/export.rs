@@ -685,8 +685,13 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
             for (k, t) in m.terms.iter().enumerate() {
                 let _ = writeln!(
                     s,
-                    "  term {k}          {:?}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
-                    t.kind, t.weight, t.a, t.b, t.lo, t.hi
+                    "  term {k}          {}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
+                    t.kind.name(),
+                    t.weight,
+                    t.a,
+                    t.b,
+                    t.lo,
+                    t.hi
                 );
             }
             let _ = writeln!(s, "  embedded GSSM   {}", m.gssm.is_some());

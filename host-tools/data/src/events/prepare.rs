@@ -209,22 +209,25 @@ fn why_not_calm(frames: &[Frame], cfg: &PrepareConfig) -> String {
         (Some(a), Some(b)) => b.time - a.time,
         _ => 0.0,
     };
+    let whole = || {
+        format!(
+            "the event itself lasts {span:.2} s over {} frames",
+            frames.len()
+        )
+    };
+    if span + EPS < cfg.safe_min_duration {
+        return whole();
+    }
+    // Frames not calm by the rule's own test (a NaN acceleration is not calm), and the largest.
     let over = |acc: &dyn Fn(&Frame) -> f32| {
-        let above: Vec<f32> = frames
+        frames
             .iter()
             .map(|f| acc(f).abs())
-            .filter(|a| *a > cfg.safe_max_abs_acc)
-            .collect();
-        (above.len(), above.into_iter().fold(0.0f32, f32::max))
+            .filter(|a| a.is_nan() || *a > cfg.safe_max_abs_acc)
+            .fold((0usize, 0.0f32), |(n, max), a| (n + 1, max.max(a)))
     };
     let (ego, ego_max) = over(&|f| f.ego.acc);
     let (partner, partner_max) = over(&|f| f.partner.acc);
-    if ego == 0 && partner == 0 {
-        return format!(
-            "the event itself lasts {span:.2} s over {} frames",
-            frames.len()
-        );
-    }
     let vehicle = |name: &str, n: usize, max: f32| {
         (n > 0).then(|| {
             format!(
@@ -240,6 +243,9 @@ fn why_not_calm(frames: &[Frame], cfg: &PrepareConfig) -> String {
     .into_iter()
     .flatten()
     .collect();
+    if parts.is_empty() {
+        return whole();
+    }
     let source = if partner > 0 {
         "; the partner's is acc_sur, or derived from its velocity when frames.csv has no acc_sur"
     } else {

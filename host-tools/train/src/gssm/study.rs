@@ -79,18 +79,21 @@ fn evaluate_blobs(
     blobs: &[(String, Vec<u8>)],
     baselines: bool,
 ) -> Result<(Vec<riskscore_eval::report::MethodResult>, Vec<MethodRun>), GssmError> {
-    let mut methods: Vec<Method<'_>> = if baselines {
-        Method::baselines()
-    } else {
-        Vec::new()
-    };
+    let mut models = Vec::new();
     for (name, blob) in blobs {
         // Scored as the ECU and `riskctl evaluate` score the exported file.
-        methods.push(Method {
+        models.push(Method {
             name: name.clone(),
             scorer: Scorer::of_blob(scorer_core::model::decode_blob(blob)?),
         });
     }
+    // The baselines first (this study's table order), each model's inputs among them.
+    let mut methods = if baselines {
+        Method::baselines_for(&models)
+    } else {
+        Vec::new()
+    };
+    methods.extend(models);
     let (report, runs) = evaluate_methods(observed, &methods)?;
     Ok((report.methods, runs))
 }
