@@ -432,3 +432,84 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod baseline_rows {
+    use super::*;
+    use scorer_core::msra::{MsraModel, MsraTerm};
+
+    fn msra_over(kinds: &[SurrogateKind]) -> Method<'static> {
+        let terms: Vec<MsraTerm> = kinds
+            .iter()
+            .map(|&kind| MsraTerm {
+                kind,
+                weight: 1.0,
+                a: -1.0,
+                b: 0.0,
+                lo: 0.0,
+                hi: 5.0,
+            })
+            .collect();
+        Method {
+            name: "MSRA".into(),
+            scorer: Scorer::Model(Model::Msra(MsraModel {
+                terms: scorer_core::bounded::BoundedVec::from_slice(&terms).unwrap(),
+                gssm: None,
+            })),
+        }
+    }
+
+    fn names(methods: &[Method<'_>]) -> Vec<String> {
+        methods.iter().map(|m| m.name.clone()).collect()
+    }
+
+    #[test]
+    fn a_model_is_reported_beside_each_of_its_inputs_once() {
+        // The published three always; TAdv-corridor where a model reads it, once.
+        assert_eq!(names(&Method::baselines_for(&[])), ["TTC2D", "TAdv", "EI"]);
+        let reference = msra_over(&[SurrogateKind::Tadv, SurrogateKind::Ei]);
+        assert_eq!(
+            names(&Method::baselines_for(std::slice::from_ref(&reference))),
+            ["TTC2D", "TAdv", "EI"]
+        );
+        let corridor = msra_over(&[SurrogateKind::TadvCorridor, SurrogateKind::Ei]);
+        let both = [corridor.clone(), corridor, reference];
+        assert_eq!(
+            names(&Method::baselines_for(&both)),
+            ["TTC2D", "TAdv", "EI", "TAdv-corridor"]
+        );
+        // GSSM is a model, not a baseline.
+        assert_eq!(
+            Baseline::read_by([SurrogateKind::Gssm, SurrogateKind::TadvCorridor]),
+            [
+                Baseline::Ttc2d,
+                Baseline::Tadv,
+                Baseline::Ei,
+                Baseline::TadvCorridor
+            ]
+        );
+        // The row scores TAdv-corridor's own value, not the reference's.
+        let o = scorer_core::Observation::of(
+            &scorer_core::VehicleState {
+                vx: 15.0,
+                hx: 1.0,
+                length: 4.5,
+                width: 1.8,
+                ..Default::default()
+            },
+            &scorer_core::VehicleState {
+                x: 20.0,
+                y: 4.0,
+                hx: 1.0,
+                length: 4.5,
+                width: 1.8,
+                ..Default::default()
+            },
+        );
+        assert_eq!(
+            Baseline::TadvCorridor.risk(&o.surrogates),
+            crate::protocol::NO_CONFLICT_RISK
+        );
+        assert!(Baseline::Tadv.risk(&o.surrogates) > -2.0);
+    }
+}
