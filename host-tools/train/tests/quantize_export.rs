@@ -655,7 +655,7 @@ fn inspect_reports_structure_and_detects_corruption() {
     );
     let mtext = export::inspect(&export::msra_blob(&msra.params).unwrap()).unwrap();
     assert!(
-        mtext.contains("msra") && mtext.contains("Tadv") && mtext.contains("Ei"),
+        mtext.contains("msra") && mtext.contains("TAdv") && mtext.contains("EI"),
         "{mtext}"
     );
 }
