@@ -61,7 +61,7 @@ fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
         arg(&models),
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("MSRA(TAdv+EI+GSSM)"), "{stdout}");
+    assert!(stdout.contains("MSRA(TAdv-corridor+EI+GSSM)"), "{stdout}");
     for file in ["gssm-default.rsk", "ssra-default.rsk", "msra-gssm.rsk"] {
         let bytes = std::fs::read(models.join(file)).unwrap();
         scorer_core::model::decode(&bytes).unwrap();
@@ -71,7 +71,7 @@ fn gssm_ship_writes_three_models_and_a_summary_of_its_inputs() {
     assert_eq!(summary["events"][0], arg(&events));
     assert_eq!(summary["normal"], serde_json::json!([]));
     assert_eq!(summary["seed"], 1);
-    assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
+    assert_eq!(summary["msra"]["configuration"], "TAdv-corridor+EI+GSSM");
 }
 
 /// `N + M` of "GSSM ...: N safe observations (M validation)" in `riskctl gssm fit`'s report: every

@@ -121,8 +121,8 @@ pub struct MsraArgs {
     /// The GSSM model file the GSSM term reads (embedded in the output).
     #[arg(long, value_name = "FILE")]
     pub gssm: PathBuf,
-    /// Surrogates combined, `+`-separated: ttc2d, tadv, ei, gssm.
-    #[arg(long, default_value = "tadv+ei+gssm")]
+    /// Surrogates combined, `+`-separated: ttc2d, tadv, ei, tadv_corridor, gssm.
+    #[arg(long, default_value = "tadv_corridor+ei+gssm")]
     pub terms: String,
     /// Output model file (the MSRA over the GSSM); `-` writes it to standard output.
     #[arg(long, value_name = "FILE")]

@@ -1,6 +1,7 @@
 //! The final models' fallback (`final_models::train_and_export`, what `riskctl train` and the
 //! demo write): the DRL falls back on the kinematic terms of the MSRA written beside it, or, under
-//! `[guard] fallback_weight_decay`, of an MSRA trained for it alone; `msra.rsk` is the same either
+//! `[guard] fallback_weight_decay` or `fallback_surrogates` (by default the reference TAdv and EI
+//! while MSRA reads TAdv-corridor), of an MSRA trained for it alone; `msra.rsk` is the same either
 //! way.
 use riskscore_data::events::Sequence;
 use riskscore_train::final_models::train_and_export;
@@ -12,12 +13,16 @@ mod common;
 use common::{following, in_town, quick_config};
 
 /// The kinematic terms of `drl.rsk`'s fallback and of `msra.rsk`, and `msra.rsk`'s bytes.
+/// `fallback_surrogates` `None`: those of the shipped MSRA.
 fn trained(
     fallback_weight_decay: Option<f64>,
+    fallback_surrogates: Option<&[&str]>,
     drl_only: &[Sequence],
 ) -> (Vec<MsraTerm>, Vec<MsraTerm>, Vec<u8>) {
     let mut config = quick_config();
     config.guard.fallback_weight_decay = fallback_weight_decay;
+    config.guard.fallback_surrogates =
+        fallback_surrogates.map(|s| s.iter().map(|k| k.to_string()).collect());
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("models");
     let data = in_town(24);
@@ -49,9 +54,9 @@ fn trained(
 
 #[test]
 fn a_fallback_weight_decay_gives_the_final_drl_a_fallback_of_its_own() {
-    let (shared, msra_terms, msra) = trained(None, &[]);
+    let (shared, msra_terms, msra) = trained(None, None, &[]);
     assert_eq!(shared, msra_terms);
-    let (own, own_msra_terms, own_msra) = trained(Some(0.5), &[]);
+    let (own, own_msra_terms, own_msra) = trained(Some(0.5), None, &[]);
     assert_ne!(own, own_msra_terms);
     assert_eq!(own_msra, msra, "msra.rsk changed");
     // The fallback MSRA trains on what the DRL trains on, DRL-only sequences included; the
@@ -63,7 +68,20 @@ fn a_fallback_weight_decay_gives_the_final_drl_a_fallback_of_its_own() {
             s
         })
         .collect();
-    let (own_with, _, msra_with) = trained(Some(0.5), &drl_only);
+    let (own_with, _, msra_with) = trained(Some(0.5), None, &drl_only);
     assert_ne!(own_with, own);
     assert_eq!(msra_with, msra, "msra.rsk saw the DRL-only data");
+}
+
+#[test]
+fn the_default_fallback_reads_the_reference_tadv_while_msra_reads_tadv_corridor() {
+    use scorer_core::SurrogateKind::{Ei, Tadv, TadvCorridor};
+    let kinds = |terms: &[MsraTerm]| terms.iter().map(|t| t.kind).collect::<Vec<_>>();
+    let (shared, msra_terms, msra) = trained(None, None, &[]);
+    assert_eq!(kinds(&msra_terms), [TadvCorridor, Ei]);
+    assert_eq!(kinds(&shared), [TadvCorridor, Ei]);
+    let (own, own_msra_terms, own_msra) = trained(None, Some(&["tadv", "ei"]), &[]);
+    assert_eq!(kinds(&own), [Tadv, Ei]);
+    assert_eq!(own_msra_terms, msra_terms);
+    assert_eq!(own_msra, msra, "msra.rsk changed");
 }

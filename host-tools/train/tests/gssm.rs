@@ -528,7 +528,7 @@ fn ship_writes_three_decodable_models_on_a_simulated_folder() {
     }
     assert_eq!(names, ["GSSM", "SSRA", "MSRA-GSSM"]);
     let summary = shipped.summary(&config, &gssm_config, std::slice::from_ref(&events), &[]);
-    assert_eq!(summary["msra"]["configuration"], "TAdv+EI+GSSM");
+    assert_eq!(summary["msra"]["configuration"], "TAdv-corridor+EI+GSSM");
     assert_eq!(summary["seed"], 1);
     assert_eq!(summary["events"][0], events.display().to_string());
     assert_eq!(summary["normal"], serde_json::json!([]));

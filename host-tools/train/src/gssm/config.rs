@@ -124,7 +124,8 @@ impl SsraConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MsraGssmConfig {
-    /// Configurations, each a `+`-separated list of `ttc2d`, `tadv`, `ei`, `gssm` (at most 4).
+    /// Configurations, each a `+`-separated list of `ttc2d`, `tadv`, `ei`, `tadv_corridor`,
+    /// `gssm` (at most 4).
     pub configurations: Vec<String>,
     /// The configuration exported as `msra-gssm.rsk` by `riskctl gssm ship`.
     pub shipped: String,
@@ -136,11 +137,11 @@ impl Default for MsraGssmConfig {
         MsraGssmConfig {
             configurations: vec![
                 "ei+gssm".into(),
-                "tadv+ei+gssm".into(),
+                "tadv_corridor+ei+gssm".into(),
                 "ttc2d+gssm".into(),
                 "ttc2d+ei+gssm".into(),
             ],
-            shipped: "tadv+ei+gssm".into(),
+            shipped: "tadv_corridor+ei+gssm".into(),
             learning_rate: 3e-2,
         }
     }
@@ -187,7 +188,7 @@ pub const MAX_FIT_BATCH: usize = 1_000_000;
 /// An MSRA-over-GSSM configuration name that does not parse.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ConfigurationError {
-    #[error("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, gssm)")]
+    #[error("configuration {text:?}: unknown surrogate {part:?} (expected ttc2d, tadv, ei, tadv_corridor, gssm)")]
     UnknownSurrogate { text: String, part: String },
     #[error("configuration {text:?}: {part:?} appears twice")]
     Repeated { text: String, part: String },

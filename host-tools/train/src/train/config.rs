@@ -135,8 +135,10 @@ pub struct MsraConfig {
 impl Default for MsraConfig {
     fn default() -> Self {
         MsraConfig {
+            // TAdv under the corridor rule: a standing road user beside the path is no conflict
+            // (docs/training.md, "TAdv-corridor").
             surrogates: vec![
-                SurrogateKind::Tadv.key().into(),
+                SurrogateKind::TadvCorridor.key().into(),
                 SurrogateKind::Ei.key().into(),
             ],
             learning_rate: Some(3e-2),
@@ -204,14 +206,14 @@ pub struct GuardConfig {
     /// Under `fallback` and `blend`, opt-in: the weight decay of an MSRA trained for the DRL
     /// alone, on the DRL's training data, whose kinematic terms become the DRL's fallback; the
     /// MSRA that ships is trained as without it. `None` (the default, a file without the key):
-    /// the fallback is the kinematic terms of the MSRA that ships (docs/training.md, "A decayed
-    /// fallback", measured and not the default).
+    /// no decayed MSRA (docs/training.md, "A decayed fallback", measured and not the default).
     pub fallback_weight_decay: Option<f64>,
-    /// Under `fallback` and `blend`, opt-in: the surrogates (as `msra.surrogates`) of an MSRA
-    /// whose kinematic terms become the DRL's fallback, trained on the shipped MSRA's data with
-    /// its settings (or, with `fallback_weight_decay`, on the DRL's); the MSRA that ships keeps
-    /// `msra.surrogates`. E.g. `["tadv", "ei"]` keeps the reference TAdv in the DRL's blend while
-    /// MSRA reads `tadv_corridor`. `None` (the default): the fallback reads `msra.surrogates`.
+    /// Under `fallback` and `blend`: the surrogates (as `msra.surrogates`) of an MSRA whose
+    /// kinematic terms become the DRL's fallback, trained on the shipped MSRA's data with its
+    /// settings (or, with `fallback_weight_decay`, on the DRL's); the MSRA that ships keeps
+    /// `msra.surrogates`. The default `["tadv", "ei"]` keeps the reference TAdv in the DRL's
+    /// blend while MSRA reads `tadv_corridor`; the same list as `msra.surrogates` (or `None`
+    /// through the Rust API) makes the fallback the shipped MSRA's terms.
     pub fallback_surrogates: Option<Vec<String>>,
 }
 
@@ -234,7 +236,12 @@ impl Default for GuardConfig {
             policy: GuardPolicy::default(),
             blend_weight: DEFAULT_BLEND_WEIGHT,
             fallback_weight_decay: None,
-            fallback_surrogates: None,
+            // The reference TAdv in the DRL's blend: the corridor rule there cost DRL on unseen
+            // draws (docs/training.md, "TAdv-corridor").
+            fallback_surrogates: Some(vec![
+                SurrogateKind::Tadv.key().into(),
+                SurrogateKind::Ei.key().into(),
+            ]),
         }
     }
 }
@@ -501,7 +508,20 @@ impl TrainConfig {
             return None;
         }
         let mut config = self.clone();
-        if let Some(surrogates) = &self.guard.fallback_surrogates {
+        // Other surrogates than the shipped MSRA's (the same kinds, however spelt, train the
+        // same MSRA).
+        let kinds = |names: &[String]| -> Vec<_> {
+            names
+                .iter()
+                .map(|n| super::msra::parse_surrogate(n))
+                .collect()
+        };
+        let other = self
+            .guard
+            .fallback_surrogates
+            .as_ref()
+            .filter(|s| kinds(s) != kinds(&self.msra.surrogates));
+        if let Some(surrogates) = other {
             config.msra.surrogates = surrogates.clone();
         }
         match self.guard.fallback_weight_decay {
@@ -509,7 +529,7 @@ impl TrainConfig {
                 config.msra.weight_decay = Some(decay);
                 Some((config, FallbackData::Drl))
             }
-            None if self.guard.fallback_surrogates.is_some() => Some((config, FallbackData::Msra)),
+            None if other.is_some() => Some((config, FallbackData::Msra)),
             None => None,
         }
     }
@@ -783,21 +803,45 @@ mod tests {
             },
             config
         );
-        // The decay MSRA has still asks for a second MSRA (it trains on the DRL's data).
+        // The decay MSRA has still asks for a second MSRA (it trains on the DRL's data), over the
+        // default fallback surrogates.
         let same =
             TrainConfig::from_toml("[guard]\nfallback_weight_decay = 0.0001", "t.toml").unwrap();
+        let (fallback, _) = same.fallback_msra_config().unwrap();
+        assert_eq!(fallback.msra.surrogates, ["tadv", "ei"]);
         assert_eq!(
-            same.fallback_msra_config().map(|(c, _)| c.msra),
-            Some(same.msra)
+            (fallback.msra.weight_decay, fallback.msra.learning_rate),
+            (same.msra.weight_decay, same.msra.learning_rate)
         );
-        // No key (the default) or a policy without a fallback: no second MSRA.
-        assert_eq!(TrainConfig::default().fallback_msra_config(), None);
+        // Without a decay and with the fallback's surrogates those of the shipped MSRA, or under
+        // a policy without a fallback: no second MSRA.
         let mut none = config.clone();
         none.guard.fallback_weight_decay = None;
+        none.guard.fallback_surrogates = Some(none.msra.surrogates.clone());
+        assert_eq!(none.fallback_msra_config(), None);
+        none.guard.fallback_surrogates = None;
         assert_eq!(none.fallback_msra_config(), None);
         let mut clamp = config.clone();
         clamp.guard.policy = GuardPolicy::Clamp;
         assert_eq!(clamp.fallback_msra_config(), None);
+    }
+
+    #[test]
+    fn the_default_msra_reads_tadv_corridor_and_the_drls_fallback_the_reference() {
+        let config = TrainConfig::default();
+        assert_eq!(config.msra.surrogates, ["tadv_corridor", "ei"]);
+        let (fallback, data) = config.fallback_msra_config().expect("a fallback MSRA");
+        assert_eq!(fallback.msra.surrogates, ["tadv", "ei"]);
+        assert_eq!(data, FallbackData::Msra);
+        // configs/train.toml says the same.
+        let file =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/train.toml");
+        let shipped = TrainConfig::load(&file).unwrap();
+        assert_eq!(shipped.msra.surrogates, config.msra.surrogates);
+        assert_eq!(
+            shipped.guard.fallback_surrogates,
+            config.guard.fallback_surrogates
+        );
     }
 
     #[test]

@@ -75,5 +75,8 @@ pub fn quick_config() -> riskscore_train::train::TrainConfig {
     config.optimiser.max_epochs = 6;
     config.optimiser.batch_pairs = 256;
     config.drl.hidden = vec![8, 8];
+    // The DRL falls back on the terms of the MSRA trained beside it (the default's separate
+    // reference-TAdv MSRA is final_fallback.rs's subject).
+    config.guard.fallback_surrogates = None;
     config
 }
