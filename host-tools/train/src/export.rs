@@ -593,6 +593,19 @@ pub fn write_set(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<(), ExportE
     })
 }
 
+/// One MSRA term as `inspect` prints it: `TAdv-corridor: w = .., a = .., b = .., clip [lo, hi]`.
+fn term_text(t: &scorer_core::msra::MsraTerm) -> String {
+    format!(
+        "{}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
+        t.kind.name(),
+        t.weight,
+        t.a,
+        t.b,
+        t.lo,
+        t.hi
+    )
+}
+
 /// Decode a blob (header, CRC, payload, validation) and describe it for humans.
 pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
     let header = model::decode_header(blob)?;
@@ -683,16 +696,7 @@ pub fn inspect(blob: &[u8]) -> Result<String, ModelError> {
         Model::Msra(m) => {
             let _ = writeln!(s, "  terms           {}", m.terms.len());
             for (k, t) in m.terms.iter().enumerate() {
-                let _ = writeln!(
-                    s,
-                    "  term {k}          {}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
-                    t.kind.name(),
-                    t.weight,
-                    t.a,
-                    t.b,
-                    t.lo,
-                    t.hi
-                );
+                let _ = writeln!(s, "  term {k}          {}", term_text(t));
             }
             let _ = writeln!(s, "  embedded GSSM   {}", m.gssm.is_some());
         }
@@ -748,16 +752,7 @@ pub fn training_domain_text(blob: &model::ModelBlob<'_>) -> String {
             fallback.len()
         );
         for (k, t) in fallback.terms().enumerate() {
-            let _ = writeln!(
-                s,
-                "  fallback term {k} {}: w = {:.4}, a = {:.4}, b = {:.4}, clip [{}, {}]",
-                t.kind.name(),
-                t.weight,
-                t.a,
-                t.b,
-                t.lo,
-                t.hi
-            );
+            let _ = writeln!(s, "  fallback term {k} {}", term_text(&t));
         }
     }
     if let Some(blend) = &blob.meta.blend {
