@@ -70,7 +70,8 @@ fn exercise(blob: &[u8]) {
         box_distance: 8.0,
         ttc2d: 3.0,
         tadv: f32::INFINITY,
-        tadv_corridor: f32::INFINITY,
+        // Finite, unlike TAdv here: a term that reads it goes through the clip.
+        tadv_corridor: 2.5,
         ei: f32::NEG_INFINITY,
     };
     let observation = Observation {

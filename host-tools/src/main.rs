@@ -30,7 +30,7 @@ enum Command {
     Train(cli::train::Args),
     /// Score an event folder with model files and the baselines; print the metrics table.
     Evaluate(cli::evaluate::Args),
-    /// Per-frame risk scores of every event under each model, with TTC2D/TAdv/EI (CSV/Parquet).
+    /// Per-frame risk scores of every event under each model, with the surrogates (CSV/Parquet).
     #[cfg(feature = "parquet")]
     Score(cli::score::Args),
     /// Train on each comparison source alone and in combination, over training fractions.

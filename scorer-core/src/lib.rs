@@ -11,7 +11,8 @@
 //! - [`encoding`]: the DRL input encoding (versioned, trig-free transform of the two states).
 //! - [`geometry_cell`]: bearing, relative heading and distance band of a pair, from its DRL inputs.
 //! - [`observation`]: features + surrogates + DRL inputs of a pair, computed once ([`Observation`]).
-//! - [`mod@surrogates`]: surrogate safety measures TTC2D, TAdv and EI.
+//! - [`mod@surrogates`]: surrogate safety measures TTC2D, TAdv and EI, and TAdv under the corridor
+//!   rule.
 //! - [`quant`]: fixed-point requantisation shared by the int8 network and the host quantiser.
 //! - [`mlp`]: the DRL network, int8 (deployed) and f32 (parity) paths over one structure.
 //! - [`msra`]: the multi-surrogate risk aggregation `R = sum_k w_k sigmoid(a_k g_k(f_k) + b_k)`.

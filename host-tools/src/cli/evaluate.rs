@@ -17,7 +17,8 @@ use riskscore_eval::Method;
 /// What `riskctl evaluate --help` explains after the options.
 const ABOUT_EVALUATION: &str = "\
 Every sequence is scored frame by frame exactly as on the ECU (DRL through the int8 network, MSRA
-through the core's transforms, baselines TTC2D, TAdv, EI through the core's surrogates). A sequence
+through the core's transforms, baselines TTC2D, TAdv, EI, and TAdv-corridor where a model reads it,
+through the core's surrogates). A sequence
 is warned at threshold T at its first frame with R >= T up to and including its endpoint; over all
 thresholds (the distinct sequence maxima) this gives A^ROC_90/80 (%), P^PRC_90/80 (%) and mTTI^90_p
 (s). Formulas and edge cases: docs/evaluation.md.
@@ -54,7 +55,8 @@ Examples:
   riskctl evaluate --model models/drl-default.rsk --events data/ngsim-us101-safe \\
                    --threshold 2.0 --json        # false alarms on real driving at T = 2.0";
 
-/// Score an event folder with model files and the TTC2D, TAdv and EI baselines.
+/// Score an event folder with model files and the TTC2D, TAdv and EI baselines (and TAdv-corridor
+/// where a model reads it).
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = ABOUT_EVALUATION)]
 pub struct Args {

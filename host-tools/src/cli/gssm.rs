@@ -139,7 +139,7 @@ pub struct ShipArgs {
     #[arg(long, value_name = "DIR")]
     pub out_dir: PathBuf,
     /// MSRA blob (e.g. the `msra.rsk` trained on the same data by `riskctl train`) whose
-    /// TTC2D/TAdv/EI terms GSSM and SSRA hand over to outside the normal driving the GSSM was
+    /// kinematic terms GSSM and SSRA hand over to outside the normal driving the GSSM was
     /// fitted on (`[guard] policy` `fallback`, or the default `blend`, which the GSSM family is
     /// written with as `fallback`; docs/domain-guard.md). Without it the three models carry a
     /// flag-only record.
@@ -169,7 +169,7 @@ pub struct CvArgs {
     /// output, and the report then goes to stderr.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// MSRA blob whose TTC2D/TAdv/EI terms every fold's GSSM and SSRA hand over to outside the
+    /// MSRA blob whose kinematic terms every fold's GSSM and SSRA hand over to outside the
     /// normal driving the fold's GSSM was fitted on, as `gssm ship --fallback-from` ships them
     /// (docs/domain-guard.md, "The GSSM family"). Without it the fold models are unguarded.
     #[arg(long, value_name = "FILE")]

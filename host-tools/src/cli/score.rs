@@ -51,7 +51,8 @@ EXAMPLES:
                 --events data/sim --out scores.csv
   riskctl score --model MINE=run/drl.rsk --events data/sim --out scores.parquet";
 
-/// Write every frame's risk score under each model, with TTC2D/TAdv/EI, to a CSV or Parquet table.
+/// Write every frame's risk score under each model, with TTC2D/TAdv/EI/TAdv-corridor, to a CSV or
+/// Parquet table.
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = AFTER_LONG_HELP)]
 pub struct Args {

@@ -1,5 +1,5 @@
 //! Fitting a model's kinematic fallback (record tag 3, `docs/domain-guard.md`): the kinematic
-//! terms of an MSRA (TTC2D, TAdv, EI; a GSSM term is dropped: GSSM is learned and has a domain of
+//! terms of an MSRA (TTC2D, TAdv, EI, TAdv-corridor; a GSSM term is dropped: GSSM is learned and has a domain of
 //! its own), put on the model's score scale by the affine map `scale * R + offset` that matches
 //! the mean and the spread of the model's own scores on the training frames inside its domain
 //! (the standardised major axis of the two scores: `scale = sd(model) / sd(R)`, the line through

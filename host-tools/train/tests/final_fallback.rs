@@ -80,6 +80,11 @@ fn the_default_fallback_reads_the_reference_tadv_while_msra_reads_tadv_corridor(
     let (shared, msra_terms, msra) = trained(None, None, &[]);
     assert_eq!(kinds(&msra_terms), [TadvCorridor, Ei]);
     assert_eq!(kinds(&shared), [TadvCorridor, Ei]);
+    // The default's list (quick_config clears it to share the MSRA's terms).
+    assert_eq!(
+        riskscore_train::train::GuardConfig::default().fallback_surrogates,
+        Some(vec!["tadv".to_string(), "ei".to_string()])
+    );
     let (own, own_msra_terms, own_msra) = trained(None, Some(&["tadv", "ei"]), &[]);
     assert_eq!(kinds(&own), [Tadv, Ei]);
     assert_eq!(own_msra_terms, msra_terms);

@@ -1,7 +1,7 @@
 //! The kinematic-fallback record (tag 3 of a version-2 blob): the score a model hands over to
 //! outside its training domain under [`OutsidePolicy::Fallback`](super::OutsidePolicy::Fallback).
 //!
-//! The fallback is an MSRA over kinematic surrogates only (TTC2D, TAdv, EI: no GSSM, which is a
+//! The fallback is an MSRA over kinematic surrogates only (TTC2D, TAdv, EI, TAdv-corridor: no GSSM, which is a
 //! learned model with a domain of its own), put on the model's own score scale by an affine map:
 //! `score = scale * sum_k w_k sigmoid(a_k g_k(f_k) + b_k) + offset`, each term exactly an
 //! [`MsraTerm`] ([`MsraTerm::value`]). One threshold then serves both the model inside its domain

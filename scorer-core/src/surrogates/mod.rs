@@ -58,7 +58,7 @@ impl SurrogateKind {
         SurrogateKind::TadvCorridor,
     ];
 
-    /// The name reports and tables print (`TTC2D`, `TAdv`, `EI`, `GSSM`).
+    /// The name reports and tables print (`TTC2D`, `TAdv`, `EI`, `GSSM`, `TAdv-corridor`).
     pub const fn name(self) -> &'static str {
         match self {
             SurrogateKind::Ttc2d => "TTC2D",
@@ -131,7 +131,7 @@ pub struct Surrogates {
 }
 
 impl Surrogates {
-    /// The value of a kinematic surrogate (TTC2D, TAdv, EI); `None` for GSSM, which is a model's
+    /// The value of a kinematic surrogate (TTC2D, TAdv, EI, TAdv-corridor); `None` for GSSM, which is a model's
     /// score and not computed here.
     pub fn kinematic(&self, kind: SurrogateKind) -> Option<f32> {
         match kind {

@@ -40,7 +40,7 @@ pub struct Shipped {
 
 /// Fits the GSSM on `normal` (safe sequences are used), aligns SSRA and trains MSRA over it on the
 /// comparisons of `train`; every blob carries the training domain of `normal` under
-/// `config.guard.policy` ([`guard_blobs`]), with `fallback_terms` (an MSRA's, the TTC2D/TAdv/EI
+/// `config.guard.policy` ([`guard_blobs`]), with `fallback_terms` (an MSRA's, the kinematic
 /// ones are kept) as the kinematic fallback; without them a `fallback` policy is written as
 /// `flag-only`.
 pub fn ship(

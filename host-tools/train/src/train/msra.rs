@@ -1,4 +1,5 @@
-//! MSRA: `R = sum_k w_k * sigmoid(a_k * g_k(f_k) + b_k)` over surrogates `f_k` (TTC2D, TAdv, EI),
+//! MSRA: `R = sum_k w_k * sigmoid(a_k * g_k(f_k) + b_k)` over surrogates `f_k` (TTC2D, TAdv, EI,
+//! TAdv-corridor),
 //! where `g_k = scorer_core::msra::transform` is the core's finite transform with clip range
 //! `[lo_k, hi_k]` (so `+inf` TTC and `-inf` EI never reach the arithmetic).
 //!
