@@ -409,13 +409,14 @@ fn fallback_scores_the_kinematic_terms_outside_and_the_model_inside() {
         inside > 0 && changed > 0,
         "{inside} inside, {changed} changed"
     );
-    // The policy and --fallback-from go together, the source must be an MSRA, and it may not be
-    // the output; nothing is written when refused.
+    // The policy and --fallback-from go together, the source must be an MSRA or carry a fallback
+    // record (the bare network has neither), and it may not be the output; nothing is written
+    // when refused.
     let bad = dir.path().join("bad.rsk");
     for a in [
         args("fallback", None, &bad),
         args("clamp", Some(&msra), &bad),
-        args("fallback", Some(&drl), &bad),
+        args("fallback", Some(&unguarded), &bad),
     ] {
         assert!(!run(a.clone()).status.success(), "{a:?}");
         assert!(!bad.exists());

@@ -208,13 +208,27 @@ fn gssm_ship_and_cv_hand_the_gssm_over_to_the_fallback_of_the_given_msra() {
     let guarded = gssm_row(&common);
     let unguarded = gssm_row(&common[..common.len() - 2]);
     assert_ne!(guarded, unguarded);
+    // A source with neither MSRA terms nor a fallback record of its own (the GSSM without its
+    // guard) is refused; the guarded one's fallback terms would be taken.
+    let bytes = std::fs::read(models.join("gssm-default.rsk")).unwrap();
+    let mut bare = scorer_core::model::decode_blob(&bytes).unwrap();
+    bare.meta.training_domain = None;
+    bare.meta.kinematic_fallback = None;
+    let mut buf = vec![0u8; scorer_core::model::encoded_blob_len(&bare).unwrap()];
+    let n = scorer_core::model::encode_blob(&bare, &mut buf).unwrap();
+    let bare_path = models.join("gssm-bare.rsk");
+    std::fs::write(&bare_path, &buf[..n]).unwrap();
     let refused = Command::new(env!("CARGO_BIN_EXE_riskctl"))
         .args(["gssm", "cv", "--events", arg(&events), "--fallback-from"])
-        .arg(models.join("gssm-default.rsk"))
+        .arg(&bare_path)
         .output()
         .unwrap();
     assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("not an MSRA model"));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("a GSSM blob without a kinematic fallback"),
+        "{err}"
+    );
 }
 
 /// `gssm align` and `gssm msra` read the GSSM of `--gssm` and fit none, yet took `--normal` (from
