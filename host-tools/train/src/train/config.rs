@@ -217,6 +217,25 @@ pub struct GuardConfig {
     pub fallback_surrogates: Option<Vec<String>>,
 }
 
+/// An MSRA's surrogate list: 1 to 4 names (`count` otherwise), each a geometric surrogate
+/// (`unknown` with the first that is not).
+fn check_surrogates(
+    names: &[String],
+    count: InvalidConfig,
+    unknown: fn(String) -> InvalidConfig,
+) -> Result<(), InvalidConfig> {
+    if names.is_empty() || names.len() > 4 {
+        return Err(count);
+    }
+    match names
+        .iter()
+        .find(|s| super::msra::parse_surrogate(s).is_none())
+    {
+        Some(s) => Err(unknown(s.clone())),
+        None => Ok(()),
+    }
+}
+
 /// The sequences and comparisons a DRL's own fallback MSRA trains on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FallbackData {
@@ -641,23 +660,17 @@ impl TrainConfig {
                 return Err(InvalidConfig::Beta);
             }
         }
-        if self.msra.surrogates.is_empty() || self.msra.surrogates.len() > 4 {
-            return Err(InvalidConfig::SurrogateCount);
-        }
-        for s in &self.msra.surrogates {
-            if super::msra::parse_surrogate(s).is_none() {
-                return Err(InvalidConfig::UnknownSurrogate(s.clone()));
-            }
-        }
+        check_surrogates(
+            &self.msra.surrogates,
+            InvalidConfig::SurrogateCount,
+            InvalidConfig::UnknownSurrogate,
+        )?;
         if let Some(surrogates) = &self.guard.fallback_surrogates {
-            if surrogates.is_empty() || surrogates.len() > 4 {
-                return Err(InvalidConfig::FallbackSurrogateCount);
-            }
-            for s in surrogates {
-                if super::msra::parse_surrogate(s).is_none() {
-                    return Err(InvalidConfig::UnknownFallbackSurrogate(s.clone()));
-                }
-            }
+            check_surrogates(
+                surrogates,
+                InvalidConfig::FallbackSurrogateCount,
+                InvalidConfig::UnknownFallbackSurrogate,
+            )?;
         }
         let w = self.guard.blend_weight;
         // The blob's own rule (0 < w < 1), checked even when another policy leaves it unused: a

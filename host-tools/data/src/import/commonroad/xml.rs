@@ -714,23 +714,23 @@ fn read_state(s: Node, path: &str, at: &Locator) -> Result<(TrackState, bool), I
         )
     };
     let (x, y) = (coord("x")?, coord("y")?);
-    let required = |name: &'static str| -> Result<f64, Issue> {
+    // The value of a required `<name><exact>`, with its node and its path for issues.
+    let required = |name: &'static str| -> Result<(f64, Node, String), Issue> {
         let (node, text) =
             exact(s, name, path, at)?.ok_or_else(|| at.issue(s, path, Problem::Missing(name)))?;
-        number(node, text, &format!("{path} <{name}> <exact>"), at)
+        let element = format!("{path} <{name}> <exact>");
+        Ok((number(node, text, &element, at)?, node, element))
     };
-    let orientation = required("orientation")?;
-    let speed = required("velocity")?;
-    if let Some((node, _)) = exact(s, "velocity", path, at)? {
-        within(
-            node,
-            speed,
-            f64::from(crate::events::MAX_SPEED_M_S),
-            "m/s",
-            &format!("{path} <velocity> <exact>"),
-            at,
-        )?;
-    }
+    let (orientation, _, _) = required("orientation")?;
+    let (speed, speed_node, speed_element) = required("velocity")?;
+    let speed = within(
+        speed_node,
+        speed,
+        f64::from(crate::events::MAX_SPEED_M_S),
+        "m/s",
+        &speed_element,
+        at,
+    )?;
     let (time_node, time_text) =
         exact(s, "time", path, at)?.ok_or_else(|| at.issue(s, path, Problem::Missing("time")))?;
     let step = time_text.parse::<i64>().map_err(|_| {
